@@ -1,0 +1,128 @@
+"""The registry: which messages exist, their ids, versions, keys and derived schemas.
+
+Each row of :data:`MESSAGES` ties one declaration of :mod:`bus_schemas.messages` to a
+message id, a schema version and the key suffix it is published under
+(``fowt/<turbine>/<suffix>``). The binary codec, the MCAP JSON Schema and (later) the CAN
+database are all generated from that row; bump ``version`` whenever a declaration changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import msgspec
+
+from bus_schemas.codec import Codec, DecodeError, HeaderError
+from bus_schemas.messages import (
+    ActuatorCommand,
+    ControllerStatus,
+    CycleTiming,
+    PlantState,
+    SensorFrame,
+    TimingSummary,
+)
+
+KEY_PREFIX = "fowt"
+
+
+@dataclass(frozen=True)
+class MessageType:
+    """One registered message: declaration, id, version, key suffix and codec."""
+
+    cls: type[msgspec.Struct]
+    message_id: int
+    version: int
+    key_suffix: str
+    codec: Codec[Any]
+
+    @property
+    def name(self) -> str:
+        return self.cls.__name__
+
+    def key(self, turbine: str) -> str:
+        """Zenoh key expression for ``turbine``, e.g. ``fowt/t1/sensors``."""
+        return f"{KEY_PREFIX}/{turbine}/{self.key_suffix}"
+
+    def json_schema(self) -> dict[str, Any]:
+        """Flat JSON Schema (draft 2020-12) of the message, units in descriptions.
+
+        Flat (no ``$ref``) so Foxglove can plot every field directly.
+        """
+        props: dict[str, Any] = {}
+        for f in self.codec.fields:
+            props[f.name] = {
+                "type": "number" if f.is_float else "integer",
+                "description": f"{f.description} [{f.unit}]",
+                "minimum": f.minimum,
+                "maximum": f.maximum,
+            }
+        return {
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": f"fowt.{self.name}",
+            "description": (self.cls.__doc__ or "").strip().splitlines()[0],
+            "type": "object",
+            "properties": props,
+            "required": [f.name for f in self.codec.fields],
+            "x-fowt-version": self.version,
+        }
+
+
+def _mt(cls: type[msgspec.Struct], mid: int, version: int, suffix: str) -> MessageType:
+    return MessageType(cls, mid, version, suffix, Codec(cls, mid, version))
+
+
+MESSAGES: tuple[MessageType, ...] = (
+    _mt(SensorFrame, 1, 1, "sensors"),
+    _mt(ActuatorCommand, 2, 1, "command"),
+    _mt(PlantState, 3, 1, "truth"),
+    _mt(ControllerStatus, 4, 1, "controller/status"),
+    _mt(CycleTiming, 5, 1, "timing/cycle"),
+    _mt(TimingSummary, 6, 1, "timing/summary"),
+)
+
+BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in MESSAGES}
+BY_ID: dict[int, MessageType] = {m.message_id: m for m in MESSAGES}
+BY_SUFFIX: dict[str, MessageType] = {m.key_suffix: m for m in MESSAGES}
+
+SENSORS = BY_CLASS[SensorFrame]
+COMMAND = BY_CLASS[ActuatorCommand]
+TRUTH = BY_CLASS[PlantState]
+CONTROLLER_STATUS = BY_CLASS[ControllerStatus]
+CYCLE_TIMING = BY_CLASS[CycleTiming]
+TIMING_SUMMARY = BY_CLASS[TimingSummary]
+
+
+def identify(payload: bytes | bytearray | memoryview) -> MessageType:
+    """The registered type of a payload from its header (raises :class:`DecodeError`)."""
+    if len(payload) < 4:
+        raise HeaderError(f"payload of {len(payload)} bytes has no header")
+    mt = BY_ID.get(payload[1])
+    if mt is None or payload[0] != 0xF7:
+        raise HeaderError(f"unknown message id {payload[1]} / magic {payload[0]:#x}")
+    return mt
+
+
+def decode_any(payload: bytes | bytearray | memoryview) -> tuple[MessageType, msgspec.Struct]:
+    """Identify and decode a payload of any registered type."""
+    mt = identify(payload)
+    return mt, mt.codec.decode(payload)
+
+
+__all__ = [
+    "BY_CLASS",
+    "BY_ID",
+    "BY_SUFFIX",
+    "COMMAND",
+    "CONTROLLER_STATUS",
+    "CYCLE_TIMING",
+    "KEY_PREFIX",
+    "MESSAGES",
+    "SENSORS",
+    "TIMING_SUMMARY",
+    "TRUTH",
+    "DecodeError",
+    "MessageType",
+    "decode_any",
+    "identify",
+]

@@ -1,0 +1,1 @@
+"""The bench around plant and controller: bus, nodes, launcher, recorder and review."""

@@ -1,0 +1,5 @@
+"""``python -m hil``: the ``fowt`` command."""
+
+from hil.cli import main
+
+main()

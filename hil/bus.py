@@ -1,0 +1,149 @@
+"""Zenoh transport for the bench's nodes, loopback-only unless a config file says otherwise.
+
+Defaults follow DESIGN.md: peer mode, explicit endpoints (``tcp/127.0.0.1:<port>`` or a
+unix socket), multicast scouting off, and the low-latency unicast transport (with QoS off,
+as it requires) which measured the lowest round trip here. A process only listens on the
+endpoints it is given; with none it listens nowhere. Multi-host use goes through a Zenoh
+JSON5 config file (router, TLS, access control), never through defaults that open the host.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+import socket
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+
+class BusConfigError(ValueError):
+    """An endpoint or config that the bench refuses to use."""
+
+
+def _check_loopback(endpoint: str) -> None:
+    """Raise unless ``endpoint`` is on loopback (tcp/udp on 127.0.0.0/8 or ::1) or unix."""
+    proto, _, rest = endpoint.partition("/")
+    if proto == "unixsock-stream":
+        return
+    if proto not in ("tcp", "udp", "quic", "tls"):
+        raise BusConfigError(
+            f"endpoint {endpoint!r}: expected tcp/<addr>:<port> or unixsock-stream/<path>"
+        )
+    host = rest.rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return
+    try:
+        addr = ipaddress.ip_address(host)
+    except ValueError as exc:
+        raise BusConfigError(f"endpoint {endpoint!r}: host must be a loopback IP address") from exc
+    if not addr.is_loopback:
+        raise BusConfigError(
+            f"endpoint {endpoint!r} is not loopback; use --zenoh-config FILE for multi-host setups"
+        )
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    """Where a node listens and connects.
+
+    Parameters
+    ----------
+    listen, connect : tuple of str
+        Zenoh endpoints such as ``tcp/127.0.0.1:7447``; must be loopback or unix sockets.
+    lowlatency : bool
+        Zenoh's low-latency unicast transport (QoS off); must match on both sides.
+    config_file : Path or None
+        A Zenoh JSON5 config replacing these defaults (multi-host: router, TLS, ACL).
+        Endpoints given here are then added to it and not checked for loopback.
+    """
+
+    listen: tuple[str, ...] = ()
+    connect: tuple[str, ...] = ()
+    lowlatency: bool = True
+    config_file: Path | None = None
+    extra: tuple[tuple[str, str], ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        if self.config_file is None:
+            for ep in (*self.listen, *self.connect):
+                _check_loopback(ep)
+
+    def zenoh_config(self) -> zenoh.Config:
+        """Build the ``zenoh.Config`` for this node."""
+        if self.config_file is not None:
+            conf = zenoh.Config.from_file(str(self.config_file))
+        else:
+            conf = zenoh.Config()
+            conf.insert_json5("mode", '"peer"')
+            conf.insert_json5("scouting/multicast/enabled", "false")
+            # Gossip would make peers dial locators they learn from each other; every link
+            # here is configured explicitly instead.
+            conf.insert_json5("scouting/gossip/enabled", "false")
+            if self.lowlatency:
+                conf.insert_json5("transport/unicast/lowlatency", "true")
+                conf.insert_json5("transport/unicast/qos/enabled", "false")
+            conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        if self.config_file is not None and self.listen:
+            conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        if self.connect:
+            conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+        for key, value in self.extra:
+            conf.insert_json5(key, value)
+        return conf
+
+
+def free_tcp_endpoint() -> str:
+    """A free ``tcp/127.0.0.1:<port>`` endpoint (the OS picks the port)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    return f"tcp/127.0.0.1:{port}"
+
+
+class Bus:
+    """One Zenoh session with typed publish and raw subscribe helpers."""
+
+    def __init__(self, config: BusConfig) -> None:
+        self.config = config
+        self.session = zenoh.open(config.zenoh_config())
+        self._publishers: dict[str, Any] = {}
+        self._subscribers: list[Any] = []
+
+    def publisher(self, key: str) -> Any:
+        """Declare (once) an express publisher on ``key`` (no batching: lowest latency)."""
+        pub = self._publishers.get(key)
+        if pub is None:
+            pub = self.session.declare_publisher(key, express=True)
+            self._publishers[key] = pub
+        return pub
+
+    def put(self, key: str, payload: bytes) -> None:
+        """Publish ``payload`` on ``key``."""
+        self.publisher(key).put(payload)
+
+    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
+        """Call ``callback(key, payload)`` for each sample on ``key`` (in Zenoh's thread)."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            callback(str(sample.key_expr), sample.payload.to_bytes())
+
+        self._subscribers.append(self.session.declare_subscriber(key, on_sample))
+
+    def peer_count(self) -> int:
+        """Number of peers this session is connected to."""
+        return len(list(self.session.info.peers_zid()))
+
+    def close(self) -> None:
+        """Undeclare everything and close the session (idempotent)."""
+        for sub in self._subscribers:
+            try:
+                sub.undeclare()
+            except Exception:
+                pass
+        self._subscribers.clear()
+        if not self.session.is_closed():
+            self.session.close()

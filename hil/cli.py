@@ -1,0 +1,217 @@
+"""The ``fowt`` command: run, plant, controller, record, review, scenarios."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from hil.scenario import Scenario, ScenarioError, load_scenario, scenario_text, shipped_scenarios
+
+app = typer.Typer(
+    help="fowt-hil: floating-wind controller-in-the-loop bench.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+
+ScenarioArg = Annotated[
+    str, typer.Argument(help="Shipped scenario name (see `fowt scenarios`) or a TOML file.")
+]
+DurationOpt = Annotated[
+    float | None, typer.Option("--duration", help="Simulated seconds (overrides the scenario).")
+]
+ListenOpt = Annotated[
+    list[str] | None, typer.Option("--listen", help="Zenoh endpoint to listen on (repeatable).")
+]
+ConnectOpt = Annotated[
+    list[str] | None, typer.Option("--connect", help="Zenoh endpoint to connect to (repeatable).")
+]
+ZenohConfigOpt = Annotated[
+    Path | None,
+    typer.Option("--zenoh-config", help="Zenoh JSON5 config for multi-host use (router, TLS, ACL)."),
+]
+
+
+def _scenario(ref: str, duration: float | None) -> Scenario:
+    try:
+        return load_scenario(ref).with_duration(duration)
+    except ScenarioError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+
+
+def _bus(listen: list[str] | None, connect: list[str] | None, zenoh_config: Path | None) -> object:
+    from hil.bus import BusConfig, BusConfigError
+
+    try:
+        return BusConfig(
+            listen=tuple(listen or ()), connect=tuple(connect or ()), config_file=zenoh_config
+        )
+    except BusConfigError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+
+
+@app.command()
+def run(
+    scenario: ScenarioArg = "default",
+    mode: Annotated[
+        str, typer.Option(help="realtime | lockstep | inprocess")
+    ] = "realtime",
+    speed: Annotated[float, typer.Option(help="Real-time factor (realtime mode).")] = 1.0,
+    duration: DurationOpt = None,
+    transport: Annotated[str, typer.Option(help="Bus between processes: zenoh.")] = "zenoh",
+    out: Annotated[Path | None, typer.Option("--out", help="Output folder.")] = None,
+    plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
+) -> None:
+    """Launch plant, controller and recorder as separate processes, then review the run."""
+    from hil.launch import RunFailed, RunRequest, launch
+
+    if mode not in ("realtime", "lockstep", "inprocess"):
+        console.print(f"[red]error:[/] --mode must be realtime, lockstep or inprocess, not {mode!r}")
+        raise typer.Exit(2)
+    if not speed > 0:
+        console.print(f"[red]error:[/] --speed must be > 0, got {speed}")
+        raise typer.Exit(2)
+    if transport != "zenoh":
+        console.print(f"[red]error:[/] --transport {transport!r} is not available yet (zenoh only)")
+        raise typer.Exit(2)
+    _scenario(scenario, duration)  # validate before launching anything
+    req = RunRequest(
+        scenario=scenario,
+        mode=mode,  # type: ignore[arg-type]  # checked just above
+        speed=speed,
+        duration_s=duration,
+        transport=transport,
+        out_dir=out,
+        plots=plots,
+    )
+    try:
+        launch(req, console)
+    except RunFailed as exc:
+        console.print(f"[red]run failed:[/] {exc}")
+        raise typer.Exit(1) from exc
+
+
+@app.command()
+def plant(
+    scenario: ScenarioArg = "default",
+    mode: Annotated[str, typer.Option(help="realtime | lockstep")] = "realtime",
+    speed: Annotated[float, typer.Option(help="Real-time factor.")] = 1.0,
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    require: Annotated[
+        str, typer.Option(help="Comma-separated nodes to wait for before starting.")
+    ] = "controller",
+) -> None:
+    """Run the plant process alone (the controller runs elsewhere)."""
+    from hil.plant_node import run_plant_node
+
+    sc = _scenario(scenario, duration)
+    if mode not in ("realtime", "lockstep"):
+        console.print(f"[red]error:[/] the plant runs realtime or lockstep, not {mode!r}")
+        raise typer.Exit(2)
+    bus = _bus(listen or ["tcp/127.0.0.1:7447"], connect, zenoh_config)
+    try:
+        result = run_plant_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            mode=mode,  # type: ignore[arg-type]
+            speed=speed,
+            require=tuple(r for r in require.split(",") if r),
+        )
+    except TimeoutError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(1) from exc
+    if result.aborted and result.aborted != "stopped by signal":
+        raise typer.Exit(1)
+
+
+@app.command()
+def controller(
+    scenario: ScenarioArg = "default",
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+) -> None:
+    """Run the controller process alone (serves until the plant finishes or Ctrl-C)."""
+    from hil.controller_node import run_controller_node
+
+    sc = _scenario(scenario, duration)
+    bus = _bus(
+        listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config
+    )
+    run_controller_node(sc, bus)  # type: ignore[arg-type]
+
+
+@app.command()
+def record(
+    scenario: ScenarioArg = "default",
+    out: Annotated[Path, typer.Option("--out", help="MCAP file to write.")] = Path("run.mcap"),
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    run_info: Annotated[str, typer.Option(help="JSON object stored as run metadata.")] = "{}",
+) -> None:
+    """Record every fowt/<turbine>/** message to an MCAP file until the run ends."""
+    from hil.recorder import run_recorder_node
+
+    sc = _scenario(scenario, duration)
+    bus = _bus(
+        listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config
+    )
+    text, _ = scenario_text(scenario)
+    info = {str(k): str(v) for k, v in json.loads(run_info).items()}
+    run_recorder_node(sc, bus, out, run_info=info, scenario_toml=text)  # type: ignore[arg-type]
+
+
+@app.command("review")
+def review_cmd(
+    mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for summary and plots.")] = None,
+    plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+) -> None:
+    """Summarise a recorded run: KPIs and timing from the MCAP file alone, plus plots."""
+    from hil.review import render_summary, review
+
+    if not mcap.is_file():
+        console.print(f"[red]error:[/] {mcap} is not a file")
+        raise typer.Exit(2)
+    summary = review(mcap, out, plots=plots)
+    if as_json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+    else:
+        render_summary(summary, console)
+
+
+@app.command()
+def scenarios() -> None:
+    """List the shipped scenarios."""
+    table = Table("name", "turbine", "controller", "duration s", "description")
+    for name in shipped_scenarios():
+        sc = load_scenario(name)
+        table.add_row(
+            name,
+            sc.turbine,
+            f"{sc.controller.kind}/{sc.controller.preset}",
+            f"{sc.duration_s:g}",
+            sc.description,
+        )
+    console.print(table)
+
+
+def main() -> None:
+    """Entry point of ``python -m hil``."""
+    app()

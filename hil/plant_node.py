@@ -1,0 +1,413 @@
+"""The plant process: owns simulated time, the wall clock and the deadline of every cycle.
+
+One control cycle k (period T, speed factor s, wall period T/s):
+
+1. sample the state x_k: publish the true :class:`PlantState` and the noisy
+   :class:`SensorFrame` (``seq`` = k), noting the wall time the frame left;
+2. obtain the command answering frame k:
+
+   * ``lockstep``: wait for it (no deadline consequence: deterministic, for CI/batch);
+   * ``realtime``: sleep to the next tick; a command that arrived within the deadline
+     (T/s wall) takes effect when it arrived, at the plant step's resolution (rounded to
+     the nearest step); one that did not is a deadline miss, the last command is held and
+     the late one, if it comes, is dropped and counted;
+   * ``inprocess``: call the controller directly (no bus; fastest);
+
+3. integrate x_{k+1} and publish this cycle's :class:`CycleTiming` (latency on the plant's
+   own clock, so it holds across hosts); a :class:`TimingSummary` every simulated second
+   and a final one (``final`` = 1) that tells the other processes the run is over.
+
+Latency histograms: :class:`hil.timing.LatencyHistogram` (p50/p99/p99.9/max).
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import msgspec
+
+from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
+from bus_schemas.registry import COMMAND, CYCLE_TIMING, SENSORS, TIMING_SUMMARY, TRUTH, MessageType
+from hil.bus import Bus, BusConfig
+from hil.scenario import RampWindSpec, Scenario, SteadyWindSpec, StepWindSpec
+from hil.timing import LatencyHistogram, Pacer
+from plant.simulator import PlantConfig, PlantSimulator
+from plant.turbine import load_turbine
+from plant.wind import RampWind, SteadyWind, StepWind, WindSpec
+from sensors import NoiseSpec
+
+Mode = Literal["realtime", "lockstep", "inprocess"]
+Publish = Callable[[MessageType, msgspec.Struct], None]
+
+
+def wind_from_scenario(spec: SteadyWindSpec | StepWindSpec | RampWindSpec) -> WindSpec:
+    """The plant's wind model for a scenario's ``[wind]`` section."""
+    if isinstance(spec, SteadyWindSpec):
+        return SteadyWind(speed_m_s=spec.speed_m_s)
+    if isinstance(spec, StepWindSpec):
+        return StepWind(initial_m_s=spec.initial_m_s, final_m_s=spec.final_m_s, time_s=spec.time_s)
+    return RampWind(
+        initial_m_s=spec.initial_m_s,
+        final_m_s=spec.final_m_s,
+        start_s=spec.start_s,
+        end_s=spec.end_s,
+    )
+
+
+def plant_config(scenario: Scenario) -> PlantConfig:
+    """Build the plant's configuration from a scenario."""
+    s = scenario.sensors
+    noise = {
+        "generator_speed_measured_rad_s": NoiseSpec(std=s.generator_speed_std_rad_s),
+        "blade_pitch_measured_rad": NoiseSpec(std=s.blade_pitch_std_rad),
+        "generator_torque_measured_nm": NoiseSpec(std=s.generator_torque_std_nm),
+        "electrical_power_measured_w": NoiseSpec(std=s.electrical_power_std_w),
+        "wind_speed_measured_m_s": NoiseSpec(std=s.wind_speed_std_m_s),
+    }
+    return PlantConfig(
+        turbine=load_turbine(scenario.turbine),
+        wind=wind_from_scenario(scenario.wind),
+        plant_step_s=scenario.timing.plant_step_s,
+        steps_per_cycle=scenario.steps_per_cycle,
+        sensor_noise=noise,
+        sensor_seed=s.seed,
+    )
+
+
+@dataclass
+class PlantRunResult:
+    """What a plant run did."""
+
+    cycles: int = 0
+    deadline_misses: int = 0
+    commands_held: int = 0
+    commands_rejected: int = 0
+    commands_late: int = 0
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+    aborted: str = ""
+    rejected: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second."""
+        return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+class PlantLoop:
+    """Cycle bookkeeping shared by every mode: sampling, applying commands, timing."""
+
+    def __init__(self, scenario: Scenario, publish: Publish, speed: float = 1.0) -> None:
+        self.scenario = scenario
+        self.sim = PlantSimulator(plant_config(scenario))
+        self.publish = publish
+        self.speed = speed
+        self.period_ns = round(scenario.timing.control_period_s * 1e9)
+        self.wall_period_ns = max(1, round(self.period_ns / speed))
+        self.x = self.sim.initial_state()
+        self.applied = (self.x[1], self.x[2])  # hold the initial actuator positions
+        self.k = 0
+        self.hist = LatencyHistogram()
+        self.result = PlantRunResult()
+        self.summary_seq = 0
+        self.frame_sent_ns = 0
+        self.start_wall_ns = time.monotonic_ns()
+
+    @property
+    def t_ns(self) -> int:
+        return self.k * self.period_ns
+
+    def sample(self) -> SensorFrame:
+        """Publish truth and sensor frame of the current state; return the frame."""
+        now = time.monotonic_ns()
+        truth = self.sim.truth(self.k, self.t_ns, self.x, self.applied, now)
+        frame = self.sim.sensor_frame(self.k, truth, now)
+        self.publish(TRUTH, truth)
+        self.frame_sent_ns = time.monotonic_ns()
+        self.publish(SENSORS, frame)
+        return frame
+
+    def finish_cycle(
+        self,
+        command: ActuatorCommand | None,
+        latency_ns: int,
+        tick_lateness_ns: int = 0,
+    ) -> None:
+        """Apply ``command`` (None: deadline missed, hold), integrate, publish timing."""
+        t0 = time.monotonic_ns()
+        missed = command is None
+        previous = self.applied
+        switch = 0
+        if command is not None:
+            new = (command.blade_pitch_commanded_rad, command.generator_torque_commanded_nm)
+            latency_sim_s = latency_ns * 1e-9 * self.speed
+            switch = min(self.sim.n, round(latency_sim_s / self.sim.h)) if self.speed > 0 else 0
+            self.hist.record(latency_ns)
+        else:
+            new = previous
+            self.result.deadline_misses += 1
+            self.result.commands_held += 1
+        self.x = self.sim.advance(self.t_ns * 1e-9, self.x, previous, new, switch)
+        self.applied = new
+        compute = time.monotonic_ns() - t0
+        self.publish(
+            CYCLE_TIMING,
+            CycleTiming(
+                seq=self.k,
+                sample_time_ns=self.t_ns,
+                publish_time_ns=time.monotonic_ns(),
+                latency_ns=latency_ns,
+                deadline_missed=int(missed),
+                command_held=int(missed),
+                safe_state=0,
+                plant_compute_ns=compute,
+                tick_lateness_ns=tick_lateness_ns,
+            ),
+        )
+        self.k += 1
+        self.result.cycles = self.k
+        if self.k % max(1, round(1e9 / self.period_ns)) == 0:
+            self.publish_summary(final=False)
+
+    def publish_summary(self, final: bool) -> TimingSummary:
+        """Publish the running (or final) timing summary."""
+        r = self.result
+        wall_s = (time.monotonic_ns() - self.start_wall_ns) * 1e-9
+        r.wall_s, r.sim_s = wall_s, self.t_ns * 1e-9
+        summary = TimingSummary(
+            seq=self.summary_seq,
+            sample_time_ns=self.t_ns,
+            publish_time_ns=time.monotonic_ns(),
+            cycles=r.cycles,
+            deadline_misses=r.deadline_misses,
+            commands_held=r.commands_held,
+            commands_rejected=r.commands_rejected,
+            commands_late=r.commands_late,
+            safe_state=0,
+            final=int(final),
+            latency_p50_us=self.hist.percentile_us(50),
+            latency_p99_us=self.hist.percentile_us(99),
+            latency_p999_us=self.hist.percentile_us(99.9),
+            latency_max_us=self.hist.max_ns / 1e3,
+            sim_seconds_per_wall_second=min(1e9, r.sim_s / wall_s) if wall_s > 0 else 0.0,
+        )
+        self.summary_seq += 1
+        self.publish(TIMING_SUMMARY, summary)
+        return summary
+
+
+class CommandInbox:
+    """Receives command payloads in Zenoh's thread; the plant loop reads them."""
+
+    def __init__(self) -> None:
+        self.cond = threading.Condition()
+        self.latest: tuple[ActuatorCommand, int] | None = None
+        self.rejected: Counter[str] = Counter()
+        self.last_answered = -1
+        self.late = 0  # commands that answered an older frame than the one awaited
+
+    def _drop_older(self, seq: int) -> None:
+        if self.latest is not None and self.latest[0].answered_seq < seq:
+            self.late += 1
+            self.latest = None
+
+    def on_payload(self, _key: str, payload: bytes) -> None:
+        arrival = time.monotonic_ns()
+        try:
+            command = COMMAND.codec.decode(payload)
+        except DecodeError as exc:
+            with self.cond:
+                self.rejected[exc.reason] += 1
+            return
+        with self.cond:
+            if command.answered_seq <= self.last_answered:
+                self.rejected["duplicate_or_reordered"] += 1
+                return
+            self.last_answered = command.answered_seq
+            self.latest = (command, arrival)
+            self.cond.notify_all()
+
+    def take(self, seq: int) -> tuple[ActuatorCommand, int] | None:
+        """The command answering ``seq`` if it has arrived (consumed), else None."""
+        with self.cond:
+            self._drop_older(seq)
+            if self.latest is not None and self.latest[0].answered_seq == seq:
+                got, self.latest = self.latest, None
+                return got
+            return None
+
+    def wait_for(self, seq: int, timeout_s: float) -> tuple[ActuatorCommand, int] | None:
+        """Block until the command answering ``seq`` arrives, or ``timeout_s`` passes."""
+        deadline = time.monotonic() + timeout_s
+        with self.cond:
+            self._drop_older(seq)
+            while self.latest is None or self.latest[0].answered_seq != seq:
+                self._drop_older(seq)
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self.cond.wait(remaining)
+            got, self.latest = self.latest, None
+            return got
+
+
+def wait_for_peers(bus: Bus, turbine_id: str, required: tuple[str, ...], timeout_s: float) -> None:
+    """Block until every ``required`` node (e.g. controller, recorder) has announced itself.
+
+    Nodes declare a liveliness token ``fowt/<turbine>/alive/<name>`` after their
+    subscribers, so once the token is seen their subscriptions are in place too.
+    """
+    deadline = time.monotonic() + timeout_s
+    missing = set(required)
+    while missing:
+        replies = bus.session.liveliness().get(f"fowt/{turbine_id}/alive/*", timeout=1.0)
+        for reply in replies:
+            if reply.ok is not None:
+                missing.discard(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+        if not missing:
+            break
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"no {sorted(missing)} after {timeout_s:.0f} s; is it running?")
+        time.sleep(0.05)
+
+
+def run_plant_node(
+    scenario: Scenario,
+    bus_config: BusConfig,
+    mode: Mode = "realtime",
+    speed: float = 1.0,
+    require: tuple[str, ...] = ("controller",),
+    peer_timeout_s: float = 30.0,
+    lockstep_timeout_s: float = 10.0,
+    log: Callable[[str], None] = print,
+) -> PlantRunResult:
+    """Run the plant as its own process on the bus in ``realtime`` or ``lockstep`` mode."""
+    if mode not in ("realtime", "lockstep"):
+        raise ValueError(f"the plant node runs realtime or lockstep, not {mode!r}")
+    if not speed > 0:
+        raise ValueError(f"speed factor must be > 0, got {speed}")
+    bus = Bus(bus_config)
+    tid = scenario.turbine_id
+    publishers = {
+        mt.key_suffix: bus.publisher(mt.key(tid))
+        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY)
+    }
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        publishers[mt.key_suffix].put(mt.codec.encode(msg))
+
+    inbox = CommandInbox()
+    bus.subscribe(COMMAND.key(tid), inbox.on_payload)
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/plant")
+    loop: PlantLoop | None = None
+    try:
+        log(
+            f"plant waiting for {list(require)} (listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
+        )
+        wait_for_peers(bus, tid, require, peer_timeout_s)
+        loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+        cycles = scenario.cycles
+        log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
+        if mode == "lockstep":
+            _run_lockstep(loop, inbox, cycles, lockstep_timeout_s, stop)
+        else:
+            _run_realtime(loop, inbox, cycles, stop)
+        if stop.is_set() and not loop.result.aborted:
+            loop.result.aborted = "stopped by signal"
+    except TimeoutError as exc:
+        if loop is None:
+            raise
+        loop.result.aborted = str(exc)
+    finally:
+        if loop is not None:
+            loop.result.commands_rejected = sum(inbox.rejected.values())
+            loop.result.rejected = dict(inbox.rejected)
+            loop.publish_summary(final=True)
+            time.sleep(0.2)  # let the final summary reach the recorder before the link goes
+        token.undeclare()
+        bus.close()
+    assert loop is not None
+    r = loop.result
+    log(
+        f"plant done: {r.cycles} cycles, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
+        f"({r.speed:.1f}x), deadline misses {r.deadline_misses}"
+        + (f", aborted: {r.aborted}" if r.aborted else "")
+    )
+    return r
+
+
+def _run_lockstep(
+    loop: PlantLoop, inbox: CommandInbox, cycles: int, timeout_s: float, stop: threading.Event
+) -> None:
+    for _ in range(cycles):
+        if stop.is_set():
+            return
+        frame = loop.sample()
+        got = inbox.wait_for(frame.seq, timeout_s)
+        if got is None:
+            raise TimeoutError(
+                f"controller did not answer frame {frame.seq} within {timeout_s:g} s"
+            )
+        command, arrival = got
+        loop.finish_cycle(command, arrival - loop.frame_sent_ns)
+
+
+def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threading.Event) -> None:
+    pacer = Pacer(loop.wall_period_ns)
+    loop.start_wall_ns = pacer.start_ns
+    lateness = 0
+    for _ in range(cycles):
+        if stop.is_set():
+            return
+        frame = loop.sample()
+        sent = loop.frame_sent_ns
+        # Block on the inbox until the command or the next tick, whichever first (blocking,
+        # not spinning, leaves the CPU to the controller on a 2-core machine) ...
+        remaining_s = (pacer.deadline_ns(pacer.k + 1) - time.monotonic_ns()) / 1e9
+        got = inbox.wait_for(frame.seq, remaining_s) if remaining_s > 0 else inbox.take(frame.seq)
+        if got is not None and got[1] - sent > loop.wall_period_ns:
+            got = None  # it came, but later than its control period: a miss
+            loop.result.commands_late += 1
+        # ... then pace precisely to the tick.
+        lateness_next = pacer.wait_tick()
+        if got is None:
+            loop.finish_cycle(None, 0, lateness)
+        else:
+            loop.finish_cycle(got[0], got[1] - sent, lateness)
+        lateness = lateness_next
+    loop.result.commands_late += inbox.late
+
+
+def run_inprocess(
+    scenario: Scenario,
+    publish: Publish,
+    step_controller: Callable[[SensorFrame], ActuatorCommand | None],
+) -> PlantRunResult:
+    """Run plant and controller in one process, no bus: the fastest mode (campaigns).
+
+    ``step_controller`` is the controller runtime's cycle; the order of operations is the
+    lock-step order, so a seeded in-process run reproduces a lock-step run exactly.
+    """
+    loop = PlantLoop(scenario, publish)
+    for _ in range(scenario.cycles):
+        frame = loop.sample()
+        t0 = time.monotonic_ns()
+        command = step_controller(frame)
+        latency = time.monotonic_ns() - t0
+        loop.finish_cycle(command, latency)
+    loop.publish_summary(final=True)
+    return loop.result
