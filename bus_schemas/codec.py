@@ -130,9 +130,7 @@ class Codec(Generic[T]):
 
     def encode(self, msg: T) -> bytes:
         """Pack ``msg``; raises ``struct.error`` if an integer does not fit its wire type."""
-        return self._struct.pack(
-            MAGIC, self.message_id, self.version, *[getattr(msg, n) for n in self._names]
-        )
+        return self._struct.pack(MAGIC, self.message_id, self.version, *msgspec.structs.astuple(msg))
 
     def decode(self, payload: bytes | bytearray | memoryview) -> T:
         """Unpack and validate a payload.

@@ -24,15 +24,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import msgspec
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from bus_schemas import ActuatorCommand, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, TIMING_SUMMARY, MessageType
+from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, TIMING_SUMMARY
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
 from hil.controller_node import ControllerRuntime
-from hil.mcap_log import RunLog
+from hil.log_writer import BackgroundRunLog
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
@@ -103,18 +102,12 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
 
 
 def _run_inprocess(scenario: Scenario, mcap_path: Path, info: dict[str, str], toml_text: str) -> None:
-    log = RunLog(mcap_path, scenario.turbine_id)
-    log.add_metadata("scenario", scenario_metadata(scenario, toml_text))
-    log.add_metadata("run", info)
-    tid = scenario.turbine_id
-    keys: dict[str, str] = {}
-
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        key = keys.get(mt.key_suffix)
-        if key is None:
-            key = keys[mt.key_suffix] = mt.key(tid)
-        log.write(key, msg)
-
+    log = BackgroundRunLog(
+        mcap_path,
+        scenario.turbine_id,
+        {"scenario": scenario_metadata(scenario, toml_text), "run": info},
+    )
+    publish = log.publish
     runtime = ControllerRuntime(scenario)
 
     def step(frame: SensorFrame) -> ActuatorCommand | None:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+import msgspec
 import orjson
 from mcap.exceptions import McapError
 from mcap.records import Channel, DataEnd, Message, Metadata, Schema
@@ -98,8 +99,8 @@ class RunLog:
         entry = self._channels.get(key)
         if entry is None:
             raise KeyError(f"no channel registered for key {key!r}")
-        channel_id, mt = entry
-        data = orjson.dumps(mt.codec.to_builtins(msg))
+        channel_id, _mt = entry
+        data = msgspec.json.encode(msg)
         seq = self._seq.get(channel_id, 0)
         self._seq[channel_id] = seq + 1
         log_time = self.start_unix_ns + int(msg.sample_time_ns)
@@ -108,6 +109,24 @@ class RunLog:
             log_time=log_time,
             data=data,
             publish_time=receive_unix_ns if receive_unix_ns is not None else time.time_ns(),
+            sequence=seq,
+        )
+        self.count += 1
+        self.maybe_flush()
+
+    def write_json(self, key: str, sample_time_ns: int, data: bytes, receive_unix_ns: int) -> None:
+        """Write one message already encoded as JSON (the background writer's path)."""
+        entry = self._channels.get(key)
+        if entry is None:
+            raise KeyError(f"no channel registered for key {key!r}")
+        channel_id = entry[0]
+        seq = self._seq.get(channel_id, 0)
+        self._seq[channel_id] = seq + 1
+        self._writer.add_message(
+            channel_id=channel_id,
+            log_time=self.start_unix_ns + sample_time_ns,
+            data=data,
+            publish_time=receive_unix_ns,
             sequence=seq,
         )
         self.count += 1

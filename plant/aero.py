@@ -97,6 +97,7 @@ class PerformanceTable:
     _tsr_list: list[float] = field(init=False, repr=False, compare=False)
     _pitch_list: list[float] = field(init=False, repr=False, compare=False)
     _cells: list[tuple[float, ...]] = field(init=False, repr=False, compare=False)
+    _cq_cells: list[tuple[float, ...]] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         pitch = _as_float_array("pitch_rad", self.pitch_rad, 1)
@@ -143,7 +144,9 @@ class PerformanceTable:
         set_(self, "wind_speeds_m_s", winds)
         set_(self, "_tsr_list", [float(v) for v in tsr])
         set_(self, "_pitch_list", [float(v) for v in pitch])
-        set_(self, "_cells", _bilinear_cells(tsr, pitch, mats["cp"], mats["ct"], mats["cq"]))
+        cells = _bilinear_cells(tsr, pitch, mats["cp"], mats["ct"], mats["cq"])
+        set_(self, "_cells", cells)
+        set_(self, "_cq_cells", [c[8:] for c in cells])
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, PerformanceTable):
@@ -211,6 +214,46 @@ class PerformanceTable:
             q0 + a * q1 + b * (q2 + a * q3),
         )
 
+    def torque_coefficient(self, tsr: float, pitch_rad: float) -> float:
+        """Bilinear lookup of Cq alone (same interpolation and clamping as :meth:`coefficients`).
+
+        Parameters
+        ----------
+        tsr : float
+            Tip-speed ratio λ (-).
+        pitch_rad : float
+            Collective blade pitch θ (rad).
+
+        Returns
+        -------
+        float
+            Cq(λ, θ) (-); the aerodynamic torque is Q = ½ ρ π R³ U² Cq.
+        """
+        xs = self._tsr_list
+        ys = self._pitch_list
+        if tsr <= xs[0]:
+            i = 0
+            a = 0.0
+        elif tsr >= xs[-1]:
+            i = len(xs) - 2
+            a = 1.0
+        else:
+            i = bisect_right(xs, tsr) - 1
+            x0 = xs[i]
+            a = (tsr - x0) / (xs[i + 1] - x0)
+        if pitch_rad <= ys[0]:
+            j = 0
+            b = 0.0
+        elif pitch_rad >= ys[-1]:
+            j = len(ys) - 2
+            b = 1.0
+        else:
+            j = bisect_right(ys, pitch_rad) - 1
+            y0 = ys[j]
+            b = (pitch_rad - y0) / (ys[j + 1] - y0)
+        q0, q1, q2, q3 = self._cq_cells[i * (len(ys) - 1) + j]
+        return q0 + a * q1 + b * (q2 + a * q3)
+
     # ------------------------------------------------------------------ offline helpers
     def evaluate(
         self, tsr: npt.ArrayLike, pitch_rad: npt.ArrayLike
@@ -260,11 +303,12 @@ class PerformanceTable:
         i, j = np.unravel_index(int(np.argmax(self.cp)), self.cp.shape)
         return float(self.cp[i, j]), float(self.tsr[i]), float(self.pitch_rad[j])
 
-    def optimal_tsr(self, pitch_rad: float = 0.0, resolution: int = 2001) -> tuple[float, float]:
-        """Tip-speed ratio that maximizes the interpolated Cp(λ, θ) at a fixed pitch.
+    def optimal_tsr(self, pitch_rad: float = 0.0, resolution: int = 2001) -> float:
+        """Tip-speed ratio that maximizes the interpolated power coefficient at a fixed pitch.
 
         λ* = argmax_λ Cp(λ, θ), searched on ``resolution`` evenly spaced λ over the table range
         (bilinear interpolation, so the maximum lies on a grid row unless θ is between columns).
+        ``coefficients(λ*, θ)[0]`` gives the corresponding Cp.
 
         Parameters
         ----------
@@ -275,13 +319,12 @@ class PerformanceTable:
 
         Returns
         -------
-        tuple of float
-            (λ* (-), Cp(λ*, θ) (-)).
+        float
+            λ* (-).
         """
         lam = np.linspace(self.tsr[0], self.tsr[-1], resolution)
         cp, _, _ = self.evaluate(lam, pitch_rad)
-        k = int(np.argmax(cp))
-        return float(lam[k]), float(cp[k])
+        return float(lam[int(np.argmax(cp))])
 
 
 def _locate(grid: FloatArray, v: FloatArray) -> tuple[npt.NDArray[np.intp], FloatArray]:

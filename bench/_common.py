@@ -1,0 +1,55 @@
+"""Shared helpers of the benchmark scripts: run a scenario through the launcher, save JSON."""
+
+from __future__ import annotations
+
+import json
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def machine() -> dict[str, Any]:
+    """Where the figures were measured."""
+    try:
+        import os
+
+        cores = os.cpu_count()
+    except Exception:  # noqa: BLE001 - informational only
+        cores = None
+    return {"python": sys.version.split()[0], "platform": platform.platform(), "cpus": cores}
+
+
+def run_fowt(scenario: str, mode: str, duration_s: float, extra: list[str] | None = None) -> dict[str, Any]:
+    """Run ``fowt run`` as a user would (separate processes), return its summary.json."""
+    with tempfile.TemporaryDirectory(prefix="fowt-bench-") as tmp:
+        out = Path(tmp) / "run"
+        cmd = [
+            sys.executable, "-m", "hil", "run", scenario, "--mode", mode,
+            "--duration", str(duration_s), "--out", str(out), "--no-plots", *(extra or []),
+        ]
+        t0 = time.monotonic()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        wall = time.monotonic() - t0
+        if proc.returncode != 0:
+            raise SystemExit(f"fowt run failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}")
+        summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
+        summary["bench_command_wall_s"] = wall
+        return summary
+
+
+def save(name: str, result: dict[str, Any]) -> Path:
+    """Print and save one benchmark's JSON."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    result = {"benchmark": name, "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+              "machine": machine(), **result}
+    path = RESULTS / f"{name}.json"
+    path.write_text(json.dumps(result, indent=2))
+    print(json.dumps(result, indent=2))
+    print(f"saved {path}")
+    return path

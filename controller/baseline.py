@@ -1,0 +1,942 @@
+"""Reference baseline controller (variable-speed, collective-pitch), as a pure core.
+
+Source of the algorithm
+-----------------------
+The NREL 5 MW baseline controller of J. Jonkman, S. Butterfield, W. Musial and G. Scott,
+*Definition of a 5-MW Reference Wind Turbine for Offshore System Development*,
+NREL/TP-500-38060 (2009), section 7 and the DISCON source listed in its appendix. The
+implementation follows that algorithm step by step (written from the published equations,
+not copied from any source code):
+
+1. **Generator-speed filter.** First order (the original):
+
+   .. math:: \\alpha = e^{-\\Delta t\\, 2\\pi f_c},\\qquad
+             \\omega_f[k] = (1-\\alpha)\\,\\omega[k] + \\alpha\\,\\omega_f[k-1]
+
+   with :math:`f_c` = 0.25 Hz, initialised to the first measurement. A second-order
+   option (:math:`\\omega_n^2/(s^2 + 2\\zeta\\omega_n s + \\omega_n^2)`, bilinear/Tustin
+   discretisation without prewarping, re-derived every call from ``dt_s``) serves the IEA
+   15 MW preset, whose DISCON uses ``F_LPFType = 2``.
+
+2. **Generator torque** (high-speed shaft), from the filtered speed :math:`\\omega_f` and the
+   *previous* pitch command :math:`\\theta_{k-1}`:
+
+   * region 3 if :math:`\\omega_f \\ge \\omega_{rt}` (``VS_RtGnSp``, the end of region 2.5) or
+     :math:`\\theta_{k-1} \\ge \\theta_{3}` (``VS_Rgn3MP``): :math:`T = P_{rt}/\\omega_f`
+     (constant power), or :math:`T = T_{rt}` (constant torque option);
+   * region 1 if :math:`\\omega_f \\le \\omega_{ci}`: :math:`T = 0`;
+   * region 1.5 if :math:`\\omega_f < \\omega_2`:
+     :math:`T = \\frac{K\\omega_2^2}{\\omega_2-\\omega_{ci}}(\\omega_f-\\omega_{ci})`;
+   * region 2 if :math:`\\omega_f < \\omega_{tr}`: :math:`T = K\\omega_f^2`;
+   * region 2.5 otherwise: :math:`T = s_{25}(\\omega_f-\\omega_{sy})`, with the synchronous
+     speed :math:`\\omega_{sy} = \\omega_{rt}/(1+\\sigma/100)` (slip :math:`\\sigma` in %),
+     :math:`s_{25} = (P_{rt}/\\omega_{rt})/(\\omega_{rt}-\\omega_{sy})` and the transition speed
+     :math:`\\omega_{tr} = \\big(s_{25} - \\sqrt{s_{25}(s_{25}-4K\\omega_{sy})}\\big)/(2K)`
+     where the line meets :math:`K\\omega^2`.
+
+   then :math:`T \\leftarrow \\min(T, T_{max})` and the rate limit
+   :math:`|T_k - T_{k-1}| \\le \\dot T_{max}\\,\\Delta t`.
+
+   Option ``region25_mode = "pi"`` (used by the IEA 15 MW preset, in the spirit of ROSCO's
+   ``VS_ControlMode = 1``): below region 3 the torque is a PI on
+   :math:`e_T = \\omega_f - \\omega_{rt}`, :math:`T = K_{P,T} e_T + K_{I,T}\\int e_T\\,dt`,
+   saturated between the region-1/1.5/2 law (floor) and :math:`T_{rt}` (ceiling), with
+   back-calculation anti-windup (the integrator is reset so the PI output equals the
+   saturated torque). Region 3 is then entered on the pitch criterion only.
+
+3. **Blade pitch** (collective): gain schedule from the previous command,
+   :math:`G_K = 1/(1+\\theta_{k-1}/\\theta_K)` (or a table of :math:`K_P(\\theta)`,
+   :math:`K_I(\\theta)` with linear interpolation, end values held); speed error
+   :math:`e = \\omega_f - \\omega_{ref}`; integrator :math:`I \\mathrel{+}= e\\,\\Delta t`,
+   clamped to :math:`[\\theta_{min}/(G_K K_I),\\ \\theta_{max}/(G_K K_I)]` (anti-windup);
+   :math:`\\theta = G_K (K_P e + K_I I)` clamped to :math:`[\\theta_{min}, \\theta_{max}]`,
+   then rate limited: :math:`|\\theta_k - \\theta_{k-1}| \\le \\dot\\theta_{max}\\Delta t`.
+   On the first call :math:`\\theta_{k-1}` is the measured pitch (clamped to the limits) and
+   :math:`I = \\theta_{k-1}/(G_K K_I)`, so that the PI output equals the measured pitch when
+   the speed error is zero.
+
+Sign convention: error = measured (filtered) speed − reference, with **positive** gains for
+a normal pitch-to-feather controller. ROSCO's DISCON.IN uses error = reference − speed with
+negative gains; the IEA 15 MW preset stores ROSCO's gains negated.
+
+Deviations from the original DISCON, each deliberate:
+
+* one rate ``dt_s`` for filter, torque and pitch (DISCON can run them at different rates);
+* the pitch rate limit acts against the previous *command* (DISCON limits against the
+  measured pitch ``BlPitch``), so consecutive commands never exceed the rate limit;
+* on the first call the torque is rate limited against the measured torque (clamped to
+  ``[0, max torque]``) instead of being passed unlimited, and the pitch against the
+  measured pitch: the first command is bumpless with respect to the actuators;
+* constant-power region 3 at :math:`\\omega_f \\le 0` gives zero torque (regime 0) instead
+  of dividing by zero; for :math:`0 < \\omega_f \\le P_{rt}/T_{max}` it gives :math:`T_{max}`
+  (same as DISCON's saturation).
+
+The hot path uses plain Python floats (no numpy) and allocates two small frozen structs per
+call.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from dataclasses import dataclass, field, fields
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import msgspec
+
+from bus_schemas.messages import SensorFrame
+from controller.core import (
+    REGIME_REGION_1,
+    REGIME_REGION_1_5,
+    REGIME_REGION_2,
+    REGIME_REGION_2_5,
+    REGIME_REGION_3,
+    ControlOutput,
+)
+
+__all__ = [
+    "BaselineController",
+    "BaselineParams",
+    "BaselineState",
+    "available_presets",
+    "load_baseline",
+]
+
+RPM_TO_RAD_S = math.pi / 30.0
+"""1 rpm in rad/s."""
+DEG_TO_RAD = math.pi / 180.0
+"""1 degree in rad."""
+
+_PRESET_PACKAGE = "controller.presets"
+
+
+def _check_finite(name: str, value: float, unit: str) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise TypeError(f"BaselineParams.{name} must be a number in {unit}, got {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"BaselineParams.{name} must be finite ({unit}), got {value!r}")
+
+
+def _check_positive(name: str, value: float, unit: str) -> None:
+    _check_finite(name, value, unit)
+    if value <= 0.0:
+        raise ValueError(f"BaselineParams.{name} must be > 0 {unit}, got {value!r}")
+
+
+def _check_nonnegative(name: str, value: float, unit: str) -> None:
+    _check_finite(name, value, unit)
+    if value < 0.0:
+        raise ValueError(f"BaselineParams.{name} must be >= 0 {unit}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class BaselineParams:
+    """Parameters of the baseline controller, SI units in the field names.
+
+    All speeds are generator (high-speed shaft) speeds; all torques are generator torques.
+    Validation happens on construction; messages name the field and its expected unit.
+
+    Attributes
+    ----------
+    name : str
+        Preset name (informational).
+    gearbox_ratio : float
+        Gearbox ratio, generator/rotor speed [-] (informational: the controller works on the
+        generator side only).
+    generator_efficiency_percent : float
+        Generator efficiency [%] (informational; ``rated_mechanical_power_w`` is mechanical).
+    generator_speed_lpf_order : int
+        1 (NREL: first order, :math:`\\alpha = e^{-\\Delta t\\,\\omega_c}`) or 2 (second order,
+        Tustin).
+    generator_speed_lpf_corner_rad_s : float
+        Filter corner frequency :math:`\\omega_c = 2\\pi f_c` [rad/s] (NREL: 2π·0.25 Hz).
+    generator_speed_lpf_damping : float
+        Damping ratio of the second-order filter [-] (ignored for order 1).
+    cut_in_generator_speed_rad_s : float
+        :math:`\\omega_{ci}` (``VS_CtInSp``): torque is zero at or below it [rad/s].
+    region2_start_generator_speed_rad_s : float
+        :math:`\\omega_2` (``VS_Rgn2Sp``): end of region 1.5, start of region 2 [rad/s].
+    region2_gain_nm_per_rad_s2 : float
+        :math:`K` (``VS_Rgn2K``) of :math:`T = K\\omega^2` [N m/(rad/s)^2].
+    region25_end_generator_speed_rad_s : float
+        :math:`\\omega_{rt}` (``VS_RtGnSp``): end of region 2.5; in ``"pi"`` mode the
+        reference speed of the torque PI [rad/s].
+    region25_mode : {"linear_slip", "pi"}
+        NREL induction-generator-like line (``"linear_slip"``) or torque PI (``"pi"``).
+    region25_slip_percent : float
+        Slip :math:`\\sigma` of the region-2.5 line [%] (``"linear_slip"`` only).
+    torque_pi_kp_nm_s_per_rad : float
+        Proportional gain of the torque PI [N m/(rad/s)] (``"pi"`` only; sign convention
+        error = speed − reference).
+    torque_pi_ki_nm_per_rad : float
+        Integral gain of the torque PI [N m/rad] (``"pi"`` only).
+    rated_mechanical_power_w : float
+        :math:`P_{rt}` (``VS_RtPwr``), mechanical power held in constant-power region 3 [W].
+    rated_generator_torque_nm : float or None
+        :math:`T_{rt}`: region-3 torque in constant-torque mode and the end torque of region
+        2.5 [N m]. If None: :math:`P_{rt}/\\omega_{rt}` (NREL).
+    region3_mode : {"constant_power", "constant_torque"}
+        Torque law in region 3.
+    region3_min_pitch_rad : float
+        :math:`\\theta_3` (``VS_Rgn3MP``): region 3 when the previous pitch command reaches it
+        [rad].
+    max_generator_torque_nm : float
+        :math:`T_{max}` (``VS_MaxTq``) [N m].
+    max_generator_torque_rate_nm_s : float
+        :math:`\\dot T_{max}` (``VS_MaxRat``) [N m/s].
+    pitch_reference_generator_speed_rad_s : float
+        :math:`\\omega_{ref}` (``PC_RefSpd``) [rad/s].
+    min_pitch_rad, max_pitch_rad : float
+        Pitch command limits (``PC_MinPit``, ``PC_MaxPit``) [rad].
+    max_pitch_rate_rad_s : float
+        :math:`\\dot\\theta_{max}` (``PC_MaxRat``) [rad/s].
+    pitch_kp_s : float or None
+        :math:`K_P` at zero pitch [s] (i.e. rad per rad/s); with ``pitch_ki_dimensionless`` and
+        ``pitch_gain_schedule_theta_k_rad`` for the NREL schedule.
+    pitch_ki_dimensionless : float or None
+        :math:`K_I` at zero pitch [-] (rad per rad).
+    pitch_gain_schedule_theta_k_rad : float or None
+        :math:`\\theta_K` of :math:`G_K = 1/(1+\\theta/\\theta_K)` [rad] (NREL: 6.302336 deg).
+    pitch_gs_angles_rad, pitch_gs_kp_s, pitch_gs_ki_dimensionless : tuple of float
+        Alternative gain schedule: table of pitch angles [rad] (strictly increasing) and the
+        gains there (same units as above; positive :math:`K_I`); linear interpolation, end
+        values held. Exactly one of the two schedules must be given.
+    """
+
+    generator_speed_lpf_corner_rad_s: float
+    cut_in_generator_speed_rad_s: float
+    region2_start_generator_speed_rad_s: float
+    region2_gain_nm_per_rad_s2: float
+    region25_end_generator_speed_rad_s: float
+    rated_mechanical_power_w: float
+    region3_min_pitch_rad: float
+    max_generator_torque_nm: float
+    max_generator_torque_rate_nm_s: float
+    pitch_reference_generator_speed_rad_s: float
+    min_pitch_rad: float
+    max_pitch_rad: float
+    max_pitch_rate_rad_s: float
+    name: str = "custom"
+    gearbox_ratio: float = 1.0
+    generator_efficiency_percent: float = 100.0
+    generator_speed_lpf_order: int = 1
+    generator_speed_lpf_damping: float = 0.7
+    region25_mode: Literal["linear_slip", "pi"] = "linear_slip"
+    region25_slip_percent: float = 10.0
+    torque_pi_kp_nm_s_per_rad: float = 0.0
+    torque_pi_ki_nm_per_rad: float = 0.0
+    rated_generator_torque_nm: float | None = None
+    region3_mode: Literal["constant_power", "constant_torque"] = "constant_power"
+    pitch_kp_s: float | None = None
+    pitch_ki_dimensionless: float | None = None
+    pitch_gain_schedule_theta_k_rad: float | None = None
+    pitch_gs_angles_rad: tuple[float, ...] = field(default_factory=tuple)
+    pitch_gs_kp_s: tuple[float, ...] = field(default_factory=tuple)
+    pitch_gs_ki_dimensionless: tuple[float, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        """Validate every field; raise ``ValueError``/``TypeError`` naming field and unit."""
+        _check_positive("gearbox_ratio", self.gearbox_ratio, "(-)")
+        _check_positive("generator_efficiency_percent", self.generator_efficiency_percent, "%")
+        if self.generator_efficiency_percent > 100.0:
+            raise ValueError(
+                "BaselineParams.generator_efficiency_percent must be <= 100 %, "
+                f"got {self.generator_efficiency_percent!r}"
+            )
+        if self.generator_speed_lpf_order not in (1, 2):
+            raise ValueError(
+                "BaselineParams.generator_speed_lpf_order must be 1 or 2 (-), "
+                f"got {self.generator_speed_lpf_order!r}"
+            )
+        _check_positive(
+            "generator_speed_lpf_corner_rad_s", self.generator_speed_lpf_corner_rad_s, "rad/s"
+        )
+        _check_positive("generator_speed_lpf_damping", self.generator_speed_lpf_damping, "(-)")
+        _check_nonnegative(
+            "cut_in_generator_speed_rad_s", self.cut_in_generator_speed_rad_s, "rad/s"
+        )
+        _check_positive(
+            "region2_start_generator_speed_rad_s",
+            self.region2_start_generator_speed_rad_s,
+            "rad/s",
+        )
+        if self.region2_start_generator_speed_rad_s <= self.cut_in_generator_speed_rad_s:
+            raise ValueError(
+                "BaselineParams.region2_start_generator_speed_rad_s must be > "
+                f"cut_in_generator_speed_rad_s ({self.cut_in_generator_speed_rad_s!r} rad/s), "
+                f"got {self.region2_start_generator_speed_rad_s!r} rad/s"
+            )
+        _check_positive(
+            "region2_gain_nm_per_rad_s2", self.region2_gain_nm_per_rad_s2, "N m/(rad/s)^2"
+        )
+        _check_positive(
+            "region25_end_generator_speed_rad_s", self.region25_end_generator_speed_rad_s, "rad/s"
+        )
+        if self.region25_end_generator_speed_rad_s <= self.region2_start_generator_speed_rad_s:
+            raise ValueError(
+                "BaselineParams.region25_end_generator_speed_rad_s must be > "
+                "region2_start_generator_speed_rad_s "
+                f"({self.region2_start_generator_speed_rad_s!r} rad/s), "
+                f"got {self.region25_end_generator_speed_rad_s!r} rad/s"
+            )
+        _check_positive("rated_mechanical_power_w", self.rated_mechanical_power_w, "W")
+        if self.rated_generator_torque_nm is not None:
+            _check_positive("rated_generator_torque_nm", self.rated_generator_torque_nm, "N m")
+        if self.region3_mode not in ("constant_power", "constant_torque"):
+            raise ValueError(
+                "BaselineParams.region3_mode must be 'constant_power' or 'constant_torque', "
+                f"got {self.region3_mode!r}"
+            )
+        _check_finite("region3_min_pitch_rad", self.region3_min_pitch_rad, "rad")
+        _check_positive("max_generator_torque_nm", self.max_generator_torque_nm, "N m")
+        if self.rated_torque_nm > self.max_generator_torque_nm:
+            raise ValueError(
+                "BaselineParams.max_generator_torque_nm must be >= the rated torque "
+                f"({self.rated_torque_nm!r} N m), got {self.max_generator_torque_nm!r} N m"
+            )
+        _check_positive(
+            "max_generator_torque_rate_nm_s", self.max_generator_torque_rate_nm_s, "N m/s"
+        )
+        _check_positive(
+            "pitch_reference_generator_speed_rad_s",
+            self.pitch_reference_generator_speed_rad_s,
+            "rad/s",
+        )
+        _check_finite("min_pitch_rad", self.min_pitch_rad, "rad")
+        _check_finite("max_pitch_rad", self.max_pitch_rad, "rad")
+        if self.max_pitch_rad <= self.min_pitch_rad:
+            raise ValueError(
+                f"BaselineParams.max_pitch_rad must be > min_pitch_rad ({self.min_pitch_rad!r} "
+                f"rad), got {self.max_pitch_rad!r} rad"
+            )
+        _check_positive("max_pitch_rate_rad_s", self.max_pitch_rate_rad_s, "rad/s")
+
+        if self.region25_mode == "linear_slip":
+            _check_positive("region25_slip_percent", self.region25_slip_percent, "%")
+            _, _, w_tr = self._region25_line()
+            if not (
+                self.region2_start_generator_speed_rad_s
+                <= w_tr
+                < self.region25_end_generator_speed_rad_s
+            ):
+                raise ValueError(
+                    "BaselineParams: the region-2.5 line (region25_slip_percent, "
+                    "region25_end_generator_speed_rad_s, rated torque) meets K*omega^2 at "
+                    f"{w_tr!r} rad/s, outside [region2_start_generator_speed_rad_s, "
+                    "region25_end_generator_speed_rad_s); use region25_mode = 'pi' or adjust"
+                )
+        elif self.region25_mode == "pi":
+            _check_positive(
+                "torque_pi_kp_nm_s_per_rad", self.torque_pi_kp_nm_s_per_rad, "N m s/rad"
+            )
+            _check_positive("torque_pi_ki_nm_per_rad", self.torque_pi_ki_nm_per_rad, "N m/rad")
+        else:
+            raise ValueError(
+                "BaselineParams.region25_mode must be 'linear_slip' or 'pi', "
+                f"got {self.region25_mode!r}"
+            )
+
+        theta_k_given = (
+            self.pitch_kp_s is not None
+            or self.pitch_ki_dimensionless is not None
+            or self.pitch_gain_schedule_theta_k_rad is not None
+        )
+        table_given = bool(
+            self.pitch_gs_angles_rad or self.pitch_gs_kp_s or self.pitch_gs_ki_dimensionless
+        )
+        if theta_k_given == table_given:
+            raise ValueError(
+                "BaselineParams: give exactly one pitch gain schedule, either pitch_kp_s [s], "
+                "pitch_ki_dimensionless [-] and pitch_gain_schedule_theta_k_rad [rad], or the "
+                "table pitch_gs_angles_rad [rad], pitch_gs_kp_s [s], pitch_gs_ki_dimensionless [-]"
+            )
+        if theta_k_given:
+            for name, unit in (
+                ("pitch_kp_s", "s"),
+                ("pitch_ki_dimensionless", "(-)"),
+                ("pitch_gain_schedule_theta_k_rad", "rad"),
+            ):
+                value = getattr(self, name)
+                if value is None:
+                    raise ValueError(f"BaselineParams.{name} [{unit}] is required with theta_K")
+                _check_positive(name, value, unit)
+            theta_k = self.pitch_gain_schedule_theta_k_rad
+            assert theta_k is not None
+            if self.min_pitch_rad <= -theta_k:
+                raise ValueError(
+                    "BaselineParams.min_pitch_rad must be > -pitch_gain_schedule_theta_k_rad "
+                    f"({-theta_k!r} rad) for a finite gain schedule, got {self.min_pitch_rad!r} rad"
+                )
+        else:
+            n = len(self.pitch_gs_angles_rad)
+            if n < 1 or len(self.pitch_gs_kp_s) != n or len(self.pitch_gs_ki_dimensionless) != n:
+                raise ValueError(
+                    "BaselineParams.pitch_gs_angles_rad [rad], pitch_gs_kp_s [s] and "
+                    "pitch_gs_ki_dimensionless [-] must be non-empty and of equal length, got "
+                    f"{n}, {len(self.pitch_gs_kp_s)}, {len(self.pitch_gs_ki_dimensionless)}"
+                )
+            for i, a in enumerate(self.pitch_gs_angles_rad):
+                _check_finite(f"pitch_gs_angles_rad[{i}]", a, "rad")
+                if i and a <= self.pitch_gs_angles_rad[i - 1]:
+                    raise ValueError(
+                        "BaselineParams.pitch_gs_angles_rad must be strictly increasing (rad), "
+                        f"entry {i} is {a!r}"
+                    )
+            for i, kp in enumerate(self.pitch_gs_kp_s):
+                _check_finite(f"pitch_gs_kp_s[{i}]", kp, "s")
+            for i, ki in enumerate(self.pitch_gs_ki_dimensionless):
+                _check_positive(f"pitch_gs_ki_dimensionless[{i}]", ki, "(-)")
+            object.__setattr__(self, "pitch_gs_angles_rad", tuple(self.pitch_gs_angles_rad))
+            object.__setattr__(self, "pitch_gs_kp_s", tuple(self.pitch_gs_kp_s))
+            object.__setattr__(
+                self, "pitch_gs_ki_dimensionless", tuple(self.pitch_gs_ki_dimensionless)
+            )
+
+    # --- derived quantities -------------------------------------------------------------
+
+    @property
+    def rated_torque_nm(self) -> float:
+        """Rated generator torque :math:`T_{rt}` [N m]: the given value or P_rt/ω_rt (NREL)."""
+        if self.rated_generator_torque_nm is not None:
+            return self.rated_generator_torque_nm
+        return self.rated_mechanical_power_w / self.region25_end_generator_speed_rad_s
+
+    @property
+    def region15_slope_nm_s_per_rad(self) -> float:
+        """Region-1.5 slope :math:`K\\omega_2^2/(\\omega_2-\\omega_{ci})` [N m/(rad/s)]."""
+        w2 = self.region2_start_generator_speed_rad_s
+        return self.region2_gain_nm_per_rad_s2 * w2 * w2 / (w2 - self.cut_in_generator_speed_rad_s)
+
+    def _region25_line(self) -> tuple[float, float, float]:
+        w_rt = self.region25_end_generator_speed_rad_s
+        w_sy = w_rt / (1.0 + 0.01 * self.region25_slip_percent)
+        s25 = self.rated_torque_nm / (w_rt - w_sy)
+        k = self.region2_gain_nm_per_rad_s2
+        disc = s25 * (s25 - 4.0 * k * w_sy)
+        w_tr = (s25 - math.sqrt(disc)) / (2.0 * k) if disc >= 0.0 else math.inf
+        return s25, w_sy, w_tr
+
+    @property
+    def region25_slope_nm_s_per_rad(self) -> float:
+        """Region-2.5 slope :math:`s_{25} = T_{rt}/(\\omega_{rt}-\\omega_{sy})` [N m/(rad/s)]."""
+        return self._region25_line()[0]
+
+    @property
+    def synchronous_generator_speed_rad_s(self) -> float:
+        """:math:`\\omega_{sy} = \\omega_{rt}/(1+\\sigma/100)` (``VS_SySp``) [rad/s]."""
+        return self._region25_line()[1]
+
+    @property
+    def transition_generator_speed_rad_s(self) -> float:
+        """Region 2 → 2.5 speed :math:`\\omega_{tr}` (``VS_TrGnSp``) [rad/s].
+
+        In ``"pi"`` mode it is :math:`\\omega_{rt}` (the PI takes over smoothly).
+        """
+        if self.region25_mode == "pi":
+            return self.region25_end_generator_speed_rad_s
+        return self._region25_line()[2]
+
+
+class BaselineState(msgspec.Struct, frozen=True, gc=False):
+    """Immutable state of :class:`BaselineController` between two steps.
+
+    Attributes
+    ----------
+    first_call : bool
+        True before the first step; the first step initialises from the measurement.
+    lpf_z1, lpf_z2 : float
+        Generator-speed filter states [rad/s] (order 1: ``lpf_z1`` is the last output).
+    generator_speed_filtered_rad_s : float
+        Last filtered generator speed [rad/s].
+    pitch_speed_error_integral_rad : float
+        :math:`I = \\int (\\omega_f-\\omega_{ref})\\,dt` of the pitch PI [rad].
+    torque_speed_error_integral_rad : float
+        :math:`\\int (\\omega_f-\\omega_{rt})\\,dt` of the torque PI [rad] (``"pi"`` mode).
+    blade_pitch_commanded_rad : float
+        Last pitch command [rad].
+    generator_torque_commanded_nm : float
+        Last torque command [N m].
+    """
+
+    first_call: bool
+    lpf_z1: float
+    lpf_z2: float
+    generator_speed_filtered_rad_s: float
+    pitch_speed_error_integral_rad: float
+    torque_speed_error_integral_rad: float
+    blade_pitch_commanded_rad: float
+    generator_torque_commanded_nm: float
+
+
+_INITIAL_STATE = BaselineState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+class BaselineController:
+    """NREL-style baseline torque + gain-scheduled collective-pitch PI controller.
+
+    Immutable: all constants are derived once from :class:`BaselineParams` at construction;
+    :meth:`step` is a pure function of its arguments.
+
+    Parameters
+    ----------
+    params : BaselineParams
+        Validated controller parameters.
+    """
+
+    __slots__ = ("_k", "params")
+
+    params: BaselineParams
+    _k: tuple[Any, ...]
+
+    def __init__(self, params: BaselineParams) -> None:
+        p = params
+        s25, w_sy, w_tr = p._region25_line()
+        table = bool(p.pitch_gs_angles_rad)
+        if table:
+            kp0 = ki0 = 0.0
+            theta_k = 1.0
+            ki_ref = p.pitch_gs_ki_dimensionless[0]
+        else:
+            assert p.pitch_kp_s is not None
+            assert p.pitch_ki_dimensionless is not None
+            assert p.pitch_gain_schedule_theta_k_rad is not None
+            kp0 = p.pitch_kp_s
+            ki0 = p.pitch_ki_dimensionless
+            theta_k = p.pitch_gain_schedule_theta_k_rad
+            ki_ref = ki0
+        pi_mode = p.region25_mode == "pi"
+        k = (
+            p.generator_speed_lpf_order == 2,
+            p.generator_speed_lpf_corner_rad_s,
+            p.generator_speed_lpf_damping,
+            p.cut_in_generator_speed_rad_s,
+            p.region2_start_generator_speed_rad_s,
+            p.region2_gain_nm_per_rad_s2,
+            p.region15_slope_nm_s_per_rad,
+            # In PI mode the speed criterion for region 3 is disabled (pitch criterion only).
+            math.inf if pi_mode else p.region25_end_generator_speed_rad_s,
+            math.inf if pi_mode else w_tr,
+            s25,
+            w_sy,
+            pi_mode,
+            p.region25_end_generator_speed_rad_s,
+            p.torque_pi_kp_nm_s_per_rad,
+            p.torque_pi_ki_nm_per_rad,
+            p.region3_mode == "constant_torque",
+            p.rated_mechanical_power_w,
+            p.rated_torque_nm,
+            p.region3_min_pitch_rad,
+            p.max_generator_torque_nm,
+            p.max_generator_torque_rate_nm_s,
+            p.pitch_reference_generator_speed_rad_s,
+            p.min_pitch_rad,
+            p.max_pitch_rad,
+            p.max_pitch_rate_rad_s,
+            table,
+            kp0,
+            ki0,
+            theta_k,
+            p.pitch_gs_angles_rad,
+            p.pitch_gs_kp_s,
+            p.pitch_gs_ki_dimensionless,
+            1.0 / ki_ref,
+            p.rated_mechanical_power_w / p.max_generator_torque_nm,
+        )
+        object.__setattr__(self, "params", params)
+        object.__setattr__(self, "_k", k)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"{type(self).__name__} is immutable")
+
+    def __repr__(self) -> str:
+        return f"BaselineController(params={self.params!r})"
+
+    def initial_state(self) -> BaselineState:
+        """State before the first call; the first :meth:`step` initialises it from data."""
+        return _INITIAL_STATE
+
+    def pitch_gains(self, pitch_rad: float) -> tuple[float, float, float]:
+        """Scheduled pitch gains at ``pitch_rad`` [rad].
+
+        Returns
+        -------
+        kp_s, ki, factor : float
+            Effective :math:`G_K K_P` [s], :math:`G_K K_I` [-] and the schedule factor
+            :math:`G_K` [-] (table mode: :math:`K_I(\\theta)/K_I(\\theta_0)`).
+        """
+        k = self._k
+        if k[25]:
+            return _table_gains(k[29], k[30], k[31], pitch_rad, k[32])
+        gk = 1.0 / (1.0 + pitch_rad / k[28])
+        return gk * k[26], gk * k[27], gk
+
+    def step(
+        self, state: BaselineState, measurement: SensorFrame, dt_s: float
+    ) -> tuple[BaselineState, ControlOutput]:
+        """Advance the controller by one sample.
+
+        Parameters
+        ----------
+        state : BaselineState
+            State returned by the previous call (or :meth:`initial_state`).
+        measurement : SensorFrame
+            Uses ``generator_speed_measured_rad_s`` [rad/s], and on the first call
+            ``blade_pitch_measured_rad`` [rad] and ``generator_torque_measured_nm`` [N m].
+        dt_s : float
+            Time since the previous call [s], > 0.
+
+        Returns
+        -------
+        state : BaselineState
+            New state.
+        output : ControlOutput
+            Pitch and torque commands and controller internals.
+
+        Raises
+        ------
+        ValueError
+            If ``dt_s`` is not a finite positive number.
+        """
+        if not 0.0 < dt_s < math.inf:
+            raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
+        (
+            order2,
+            w_c,
+            zeta,
+            w_ci,
+            w_2,
+            K,
+            slope15,
+            w_rt,
+            w_tr,
+            slope25,
+            w_sy,
+            pi_mode,
+            w_tq_ref,
+            kp_t,
+            ki_t,
+            const_torque,
+            power_rated,
+            tq_rated,
+            theta_3,
+            tq_max,
+            tq_rate,
+            w_ref,
+            th_min,
+            th_max,
+            th_rate,
+            table,
+            kp0,
+            ki0,
+            theta_k,
+            gs_ang,
+            gs_kp,
+            gs_ki,
+            inv_ki_ref,
+            w_pmax,
+        ) = self._k
+        w = measurement.generator_speed_measured_rad_s
+
+        # --- generator-speed low-pass filter --------------------------------------------
+        if order2:
+            # Tustin discretisation of w_c^2 / (s^2 + 2 zeta w_c s + w_c^2), DF-II transposed.
+            c = 2.0 / dt_s
+            c2 = c * c
+            wc2 = w_c * w_c
+            cz = 2.0 * zeta * w_c * c
+            inv_a0 = 1.0 / (c2 + cz + wc2)
+            b0 = wc2 * inv_a0
+            a1 = 2.0 * (wc2 - c2) * inv_a0
+            a2 = (c2 - cz + wc2) * inv_a0
+            if state.first_call:
+                z1 = (1.0 - b0) * w
+                z2 = (b0 - a2) * w
+            else:
+                z1 = state.lpf_z1
+                z2 = state.lpf_z2
+            w_f = b0 * w + z1
+            z1 = 2.0 * b0 * w - a1 * w_f + z2
+            z2 = b0 * w - a2 * w_f
+        else:
+            alpha = math.exp(-dt_s * w_c)
+            prev = w if state.first_call else state.lpf_z1
+            w_f = (1.0 - alpha) * w + alpha * prev
+            z1 = w_f
+            z2 = 0.0
+
+        # --- previous commands (first call: from the actuator measurements) ----------------
+        if state.first_call:
+            th_prev = min(max(measurement.blade_pitch_measured_rad, th_min), th_max)
+            tq_prev = min(max(measurement.generator_torque_measured_nm, 0.0), tq_max)
+        else:
+            th_prev = state.blade_pitch_commanded_rad
+            tq_prev = state.generator_torque_commanded_nm
+
+        # --- pitch gain schedule (from the previous pitch command) ------------------------
+        if table:
+            kp_eff, ki_eff, gk = _table_gains(gs_ang, gs_kp, gs_ki, th_prev, inv_ki_ref)
+        else:
+            gk = 1.0 / (1.0 + th_prev / theta_k)
+            kp_eff = gk * kp0
+            ki_eff = gk * ki0
+
+        # --- generator torque -------------------------------------------------------------
+        i_t = state.torque_speed_error_integral_rad
+        if w_f >= w_rt or th_prev >= theta_3:
+            if const_torque:
+                tq = tq_rated
+                regime = REGIME_REGION_3
+            elif w_f > w_pmax:
+                tq = power_rated / w_f
+                regime = REGIME_REGION_3
+            elif w_f > 0.0:
+                tq = tq_max
+                regime = REGIME_REGION_3
+            else:
+                tq = 0.0
+                regime = REGIME_REGION_1
+            if pi_mode:  # keep the torque PI bumpless for the way back
+                i_t = (tq - kp_t * (w_f - w_tq_ref)) / ki_t
+        else:
+            if w_f <= w_ci:
+                tq = 0.0
+                regime = REGIME_REGION_1
+            elif w_f < w_2:
+                tq = slope15 * (w_f - w_ci)
+                regime = REGIME_REGION_1_5
+            elif w_f < w_tr:
+                tq = K * w_f * w_f
+                regime = REGIME_REGION_2
+            else:
+                tq = slope25 * (w_f - w_sy)
+                regime = REGIME_REGION_2_5
+            if pi_mode:
+                if tq > tq_rated:  # the region-2 law never exceeds the rated torque here
+                    tq = tq_rated
+                    regime = REGIME_REGION_2_5
+                e_t = w_f - w_tq_ref
+                if state.first_call:
+                    i_t = tq_prev / ki_t
+                i_t += e_t * dt_s
+                u = kp_t * e_t + ki_t * i_t
+                if u <= tq:  # floor: region 1 / 1.5 / 2 law
+                    i_t = (tq - kp_t * e_t) / ki_t
+                elif u >= tq_rated:
+                    tq = tq_rated
+                    regime = REGIME_REGION_2_5
+                    i_t = (tq_rated - kp_t * e_t) / ki_t
+                else:
+                    tq = u
+                    regime = REGIME_REGION_2_5
+        tq = min(tq, tq_max)
+        d_tq = tq - tq_prev
+        lim = tq_rate * dt_s
+        if d_tq > lim:
+            tq = tq_prev + lim
+        elif d_tq < -lim:
+            tq = tq_prev - lim
+
+        # --- blade pitch --------------------------------------------------------------------
+        err = w_f - w_ref
+        integ = th_prev / ki_eff if state.first_call else state.pitch_speed_error_integral_rad
+        integ += err * dt_s
+        lo = th_min / ki_eff
+        hi = th_max / ki_eff
+        if integ < lo:
+            integ = lo
+        elif integ > hi:
+            integ = hi
+        i_term = ki_eff * integ
+        th = kp_eff * err + i_term
+        if th < th_min:
+            th = th_min
+        elif th > th_max:
+            th = th_max
+        dth = th - th_prev
+        lim = th_rate * dt_s
+        if dth > lim:
+            th = th_prev + lim
+        elif dth < -lim:
+            th = th_prev - lim
+
+        return (
+            BaselineState(False, z1, z2, w_f, integ, i_t, th, tq),
+            ControlOutput(th, tq, regime, w_f, i_term, gk),
+        )
+
+
+def _table_gains(
+    angles: tuple[float, ...],
+    kps: tuple[float, ...],
+    kis: tuple[float, ...],
+    theta: float,
+    inv_ki_ref: float,
+) -> tuple[float, float, float]:
+    """Linear interpolation of (K_P, K_I) in a pitch table, end values held."""
+    n = len(angles)
+    if theta <= angles[0]:
+        kp, ki = kps[0], kis[0]
+    elif theta >= angles[n - 1]:
+        kp, ki = kps[n - 1], kis[n - 1]
+    else:
+        j = bisect_right(angles, theta)
+        a0 = angles[j - 1]
+        f = (theta - a0) / (angles[j] - a0)
+        kp = kps[j - 1] + f * (kps[j] - kps[j - 1])
+        ki = kis[j - 1] + f * (kis[j] - kis[j - 1])
+    return kp, ki, ki * inv_ki_ref
+
+
+# --- presets ------------------------------------------------------------------------------
+
+
+class _PresetFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Schema of a baseline preset TOML file.
+
+    Quantities may be given in the SI unit of :class:`BaselineParams` or in the published
+    unit (rpm, deg, Hz, N m/rpm^2); exactly one spelling per quantity.
+    """
+
+    name: str | None = None
+    source: str | None = None
+    gearbox_ratio: float | None = None
+    generator_efficiency_percent: float | None = None
+    generator_speed_lpf_order: int | None = None
+    generator_speed_lpf_corner_rad_s: float | None = None
+    generator_speed_lpf_corner_hz: float | None = None
+    generator_speed_lpf_damping: float | None = None
+    cut_in_generator_speed_rad_s: float | None = None
+    cut_in_generator_speed_rpm: float | None = None
+    region2_start_generator_speed_rad_s: float | None = None
+    region2_start_generator_speed_rpm: float | None = None
+    region2_gain_nm_per_rad_s2: float | None = None
+    region2_gain_nm_per_rpm2: float | None = None
+    region25_end_generator_speed_rad_s: float | None = None
+    region25_end_generator_speed_rpm: float | None = None
+    region25_mode: Literal["linear_slip", "pi"] | None = None
+    region25_slip_percent: float | None = None
+    torque_pi_kp_nm_s_per_rad: float | None = None
+    torque_pi_ki_nm_per_rad: float | None = None
+    rated_mechanical_power_w: float | None = None
+    rated_generator_torque_nm: float | None = None
+    region3_mode: Literal["constant_power", "constant_torque"] | None = None
+    region3_min_pitch_rad: float | None = None
+    region3_min_pitch_deg: float | None = None
+    max_generator_torque_nm: float | None = None
+    max_generator_torque_rate_nm_s: float | None = None
+    pitch_reference_generator_speed_rad_s: float | None = None
+    pitch_reference_generator_speed_rpm: float | None = None
+    min_pitch_rad: float | None = None
+    min_pitch_deg: float | None = None
+    max_pitch_rad: float | None = None
+    max_pitch_deg: float | None = None
+    max_pitch_rate_rad_s: float | None = None
+    max_pitch_rate_deg_s: float | None = None
+    pitch_kp_s: float | None = None
+    pitch_ki_dimensionless: float | None = None
+    pitch_gain_schedule_theta_k_rad: float | None = None
+    pitch_gain_schedule_theta_k_deg: float | None = None
+    pitch_gs_angles_rad: list[float] | None = None
+    pitch_gs_angles_deg: list[float] | None = None
+    pitch_gs_kp_s: list[float] | None = None
+    pitch_gs_ki_dimensionless: list[float] | None = None
+
+
+# Alternative spellings: field of BaselineParams -> ((toml key, factor to SI), ...).
+_UNIT_ALIASES: dict[str, tuple[tuple[str, float], ...]] = {
+    "generator_speed_lpf_corner_rad_s": (("generator_speed_lpf_corner_hz", 2.0 * math.pi),),
+    "cut_in_generator_speed_rad_s": (("cut_in_generator_speed_rpm", RPM_TO_RAD_S),),
+    "region2_start_generator_speed_rad_s": (("region2_start_generator_speed_rpm", RPM_TO_RAD_S),),
+    "region2_gain_nm_per_rad_s2": (("region2_gain_nm_per_rpm2", 1.0 / RPM_TO_RAD_S**2),),
+    "region25_end_generator_speed_rad_s": (("region25_end_generator_speed_rpm", RPM_TO_RAD_S),),
+    "region3_min_pitch_rad": (("region3_min_pitch_deg", DEG_TO_RAD),),
+    "pitch_reference_generator_speed_rad_s": (
+        ("pitch_reference_generator_speed_rpm", RPM_TO_RAD_S),
+    ),
+    "min_pitch_rad": (("min_pitch_deg", DEG_TO_RAD),),
+    "max_pitch_rad": (("max_pitch_deg", DEG_TO_RAD),),
+    "max_pitch_rate_rad_s": (("max_pitch_rate_deg_s", DEG_TO_RAD),),
+    "pitch_gain_schedule_theta_k_rad": (("pitch_gain_schedule_theta_k_deg", DEG_TO_RAD),),
+    "pitch_gs_angles_rad": (("pitch_gs_angles_deg", DEG_TO_RAD),),
+}
+
+
+def _params_from_file(data: _PresetFile, origin: str, default_name: str) -> BaselineParams:
+    raw = {k: v for k, v in msgspec.structs.asdict(data).items() if v is not None}
+    raw.pop("source", None)
+    kwargs: dict[str, Any] = {"name": default_name}
+    for f in fields(BaselineParams):
+        spellings = ((f.name, 1.0), *_UNIT_ALIASES.get(f.name, ()))
+        given = [(key, factor) for key, factor in spellings if key in raw]
+        if len(given) > 1:
+            keys = " and ".join(key for key, _ in given)
+            raise ValueError(f"{origin}: {keys} give the same quantity; keep one")
+        if not given:
+            continue
+        key, factor = given[0]
+        value = raw[key]
+        if isinstance(value, list):
+            kwargs[f.name] = tuple(float(v) * factor for v in value)
+        elif factor != 1.0:
+            kwargs[f.name] = float(value) * factor
+        else:
+            kwargs[f.name] = value
+    try:
+        return BaselineParams(**kwargs)
+    except TypeError as exc:  # a required quantity is missing, or of the wrong type
+        raise ValueError(f"{origin}: {exc}") from exc
+    except ValueError as exc:
+        raise ValueError(f"{origin}: {exc}") from exc
+
+
+def available_presets() -> tuple[str, ...]:
+    """Names of the baseline presets shipped in ``controller/presets``."""
+    root = resources.files(_PRESET_PACKAGE)
+    return tuple(
+        sorted(p.name[: -len(".toml")] for p in root.iterdir() if p.name.endswith(".toml"))
+    )
+
+
+def load_baseline(name_or_path: str | Path) -> BaselineParams:
+    """Load baseline parameters from a shipped preset name or a TOML file path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped preset name (``"nrel5mw_baseline"``, ``"iea15mw_baseline"``, with or
+        without ``.toml``) or the path to a user TOML file of the same schema.
+
+    Returns
+    -------
+    BaselineParams
+        Validated parameters, converted to SI units.
+
+    Raises
+    ------
+    ValueError
+        Unknown preset, unknown key (named), duplicated quantity, missing or invalid value.
+    """
+    path = Path(name_or_path)
+    is_path = isinstance(name_or_path, Path) or len(path.parts) > 1
+    if is_path or (path.suffix == ".toml" and path.exists()):
+        if not path.is_file():
+            raise ValueError(f"baseline preset file not found: {path}")
+        text = path.read_bytes()
+        origin = str(path)
+    else:
+        stem = str(name_or_path).removesuffix(".toml")
+        resource = resources.files(_PRESET_PACKAGE) / f"{stem}.toml"
+        if not resource.is_file():
+            raise ValueError(
+                f"unknown baseline preset {stem!r}; shipped presets: "
+                f"{', '.join(available_presets())} (or give a path to a .toml file)"
+            )
+        text = resource.read_bytes()
+        origin = f"preset {stem}"
+    try:
+        data = msgspec.toml.decode(text, type=_PresetFile)
+    except msgspec.DecodeError as exc:
+        raise ValueError(f"{origin}: {exc}") from exc
+    return _params_from_file(data, origin, path.stem)
