@@ -20,18 +20,31 @@ def machine() -> dict[str, Any]:
         import os
 
         cores = os.cpu_count()
-    except Exception:  # noqa: BLE001 - informational only
+    except Exception:
         cores = None
     return {"python": sys.version.split()[0], "platform": platform.platform(), "cpus": cores}
 
 
-def run_fowt(scenario: str, mode: str, duration_s: float, extra: list[str] | None = None) -> dict[str, Any]:
+def run_fowt(
+    scenario: str, mode: str, duration_s: float, extra: list[str] | None = None
+) -> dict[str, Any]:
     """Run ``fowt run`` as a user would (separate processes), return its summary.json."""
     with tempfile.TemporaryDirectory(prefix="fowt-bench-") as tmp:
         out = Path(tmp) / "run"
         cmd = [
-            sys.executable, "-m", "hil", "run", scenario, "--mode", mode,
-            "--duration", str(duration_s), "--out", str(out), "--no-plots", *(extra or []),
+            sys.executable,
+            "-m",
+            "hil",
+            "run",
+            scenario,
+            "--mode",
+            mode,
+            "--duration",
+            str(duration_s),
+            "--out",
+            str(out),
+            "--no-plots",
+            *(extra or []),
         ]
         t0 = time.monotonic()
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
@@ -46,8 +59,12 @@ def run_fowt(scenario: str, mode: str, duration_s: float, extra: list[str] | Non
 def save(name: str, result: dict[str, Any]) -> Path:
     """Print and save one benchmark's JSON."""
     RESULTS.mkdir(parents=True, exist_ok=True)
-    result = {"benchmark": name, "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-              "machine": machine(), **result}
+    result = {
+        "benchmark": name,
+        "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "machine": machine(),
+        **result,
+    }
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps(result, indent=2))
     print(json.dumps(result, indent=2))

@@ -130,7 +130,9 @@ class Codec(Generic[T]):
 
     def encode(self, msg: T) -> bytes:
         """Pack ``msg``; raises ``struct.error`` if an integer does not fit its wire type."""
-        return self._struct.pack(MAGIC, self.message_id, self.version, *msgspec.structs.astuple(msg))
+        return self._struct.pack(
+            MAGIC, self.message_id, self.version, *msgspec.structs.astuple(msg)
+        )
 
     def decode(self, payload: bytes | bytearray | memoryview) -> T:
         """Unpack and validate a payload.
@@ -171,7 +173,9 @@ class Codec(Generic[T]):
                 f"{name}: header magic/id {magic:#x}/{mid} is not {MAGIC:#x}/{self.message_id}"
             )
         if version != self.version:
-            raise VersionError(f"{name}: schema version {version}, this build speaks {self.version}")
+            raise VersionError(
+                f"{name}: schema version {version}, this build speaks {self.version}"
+            )
 
     def to_builtins(self, msg: T) -> dict[str, Any]:
         """Plain dict of the message (for JSON logging)."""

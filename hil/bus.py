@@ -9,6 +9,7 @@ JSON5 config file (router, TLS, access control), never through defaults that ope
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import json
 import socket
@@ -140,10 +141,8 @@ class Bus:
     def close(self) -> None:
         """Undeclare everything and close the session (idempotent)."""
         for sub in self._subscribers:
-            try:
+            with contextlib.suppress(Exception):  # the session may already be going away
                 sub.undeclare()
-            except Exception:
-                pass
         self._subscribers.clear()
         if not self.session.is_closed():
             self.session.close()

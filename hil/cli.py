@@ -35,7 +35,9 @@ ConnectOpt = Annotated[
 ]
 ZenohConfigOpt = Annotated[
     Path | None,
-    typer.Option("--zenoh-config", help="Zenoh JSON5 config for multi-host use (router, TLS, ACL)."),
+    typer.Option(
+        "--zenoh-config", help="Zenoh JSON5 config for multi-host use (router, TLS, ACL)."
+    ),
 ]
 
 
@@ -62,9 +64,7 @@ def _bus(listen: list[str] | None, connect: list[str] | None, zenoh_config: Path
 @app.command()
 def run(
     scenario: ScenarioArg = "default",
-    mode: Annotated[
-        str, typer.Option(help="realtime | lockstep | inprocess")
-    ] = "realtime",
+    mode: Annotated[str, typer.Option(help="realtime | lockstep | inprocess")] = "realtime",
     speed: Annotated[float, typer.Option(help="Real-time factor (realtime mode).")] = 1.0,
     duration: DurationOpt = None,
     transport: Annotated[str, typer.Option(help="Bus between processes: zenoh.")] = "zenoh",
@@ -72,10 +72,12 @@ def run(
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run."""
-    from hil.launch import RunFailed, RunRequest, launch
+    from hil.launch import RunFailedError, RunRequest, launch
 
     if mode not in ("realtime", "lockstep", "inprocess"):
-        console.print(f"[red]error:[/] --mode must be realtime, lockstep or inprocess, not {mode!r}")
+        console.print(
+            f"[red]error:[/] --mode must be realtime, lockstep or inprocess, not {mode!r}"
+        )
         raise typer.Exit(2)
     if not speed > 0:
         console.print(f"[red]error:[/] --speed must be > 0, got {speed}")
@@ -95,7 +97,7 @@ def run(
     )
     try:
         launch(req, console)
-    except RunFailed as exc:
+    except RunFailedError as exc:
         console.print(f"[red]run failed:[/] {exc}")
         raise typer.Exit(1) from exc
 
@@ -148,9 +150,7 @@ def controller(
     from hil.controller_node import run_controller_node
 
     sc = _scenario(scenario, duration)
-    bus = _bus(
-        listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config
-    )
+    bus = _bus(listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config)
     run_controller_node(sc, bus)  # type: ignore[arg-type]
 
 
@@ -168,9 +168,7 @@ def record(
     from hil.recorder import run_recorder_node
 
     sc = _scenario(scenario, duration)
-    bus = _bus(
-        listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config
-    )
+    bus = _bus(listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config)
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
     run_recorder_node(sc, bus, out, run_info=info, scenario_toml=text)  # type: ignore[arg-type]

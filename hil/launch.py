@@ -51,7 +51,7 @@ class RunRequest:
     plots: bool = True
 
 
-class RunFailed(RuntimeError):
+class RunFailedError(RuntimeError):
     """A process of the run failed; the message names it and its log."""
 
 
@@ -101,7 +101,9 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     return summary
 
 
-def _run_inprocess(scenario: Scenario, mcap_path: Path, info: dict[str, str], toml_text: str) -> None:
+def _run_inprocess(
+    scenario: Scenario, mcap_path: Path, info: dict[str, str], toml_text: str
+) -> None:
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
@@ -152,16 +154,38 @@ def _run_processes(
     logs = out / "logs"
     logs.mkdir(exist_ok=True)
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    ref = str(Path(req.scenario).resolve()) if Path(req.scenario).suffix == ".toml" else req.scenario
+    ref = (
+        str(Path(req.scenario).resolve()) if Path(req.scenario).suffix == ".toml" else req.scenario
+    )
     cmds = {
         "recorder": _node_cmd(
-            "record", ref, scenario, "--out", str(mcap_path), "--connect", plant_ep,
-            "--connect", ctrl_ep, "--run-info", json.dumps(info),
+            "record",
+            ref,
+            scenario,
+            "--out",
+            str(mcap_path),
+            "--connect",
+            plant_ep,
+            "--connect",
+            ctrl_ep,
+            "--run-info",
+            json.dumps(info),
         ),
-        "controller": _node_cmd("controller", ref, scenario, "--listen", ctrl_ep, "--connect", plant_ep),
+        "controller": _node_cmd(
+            "controller", ref, scenario, "--listen", ctrl_ep, "--connect", plant_ep
+        ),
         "plant": _node_cmd(
-            "plant", ref, scenario, "--listen", plant_ep, "--mode", req.mode,
-            "--speed", repr(req.speed), "--require", "controller,recorder",
+            "plant",
+            ref,
+            scenario,
+            "--listen",
+            plant_ep,
+            "--mode",
+            req.mode,
+            "--speed",
+            repr(req.speed),
+            "--require",
+            "controller,recorder",
         ),
     }
     procs: dict[str, subprocess.Popen[bytes]] = {}
@@ -174,7 +198,7 @@ def _run_processes(
         _follow(procs, scenario, plant_ep, console)
         rc = procs["plant"].wait()
         if rc != 0:
-            raise RunFailed(f"plant exited with {rc}; see {logs / 'plant.log'}")
+            raise RunFailedError(f"plant exited with {rc}; see {logs / 'plant.log'}")
         for name, timeout in (("recorder", 15.0), ("controller", 5.0)):
             try:
                 procs[name].wait(timeout)
@@ -182,7 +206,9 @@ def _run_processes(
                 procs[name].terminate()
                 procs[name].wait(5.0)
         if procs["recorder"].returncode != 0:
-            raise RunFailed(f"recorder exited with {procs['recorder'].returncode}; see {logs / 'recorder.log'}")
+            raise RunFailedError(
+                f"recorder exited with {procs['recorder'].returncode}; see {logs / 'recorder.log'}"
+            )
     finally:
         for p in procs.values():
             if p.poll() is None:
@@ -204,7 +230,7 @@ def _follow(
     def on_summary(_key: str, payload: bytes) -> None:
         try:
             s = TIMING_SUMMARY.codec.decode(payload)
-        except Exception:  # noqa: BLE001 - progress display only
+        except Exception:
             return
         latest["sim_s"] = s.sample_time_ns / 1e9
         latest["misses"] = float(s.deadline_misses)
@@ -226,7 +252,7 @@ def _follow(
                 for name in ("controller", "recorder"):
                     rc = procs[name].poll()
                     if rc is not None and rc != 0:
-                        raise RunFailed(f"{name} exited with {rc} during the run")
+                        raise RunFailedError(f"{name} exited with {rc} during the run")
                 progress.update(task, completed=latest["sim_s"], misses=latest["misses"])
                 time.sleep(0.1)
             progress.update(task, completed=max(latest["sim_s"], scenario.duration_s))

@@ -23,7 +23,9 @@ from hil.mcap_log import RunLog
 _BATCH = 4096
 
 
-def _writer_main(conn: Connection, path: str, turbine: str, metadata: dict[str, dict[str, str]]) -> None:
+def _writer_main(
+    conn: Connection, path: str, turbine: str, metadata: dict[str, dict[str, str]]
+) -> None:
     log = RunLog(Path(path), turbine)
     keys = {mid: mt.key(turbine) for mid, mt in BY_ID.items()}
     decoder = msgspec.msgpack.Decoder(list[tuple[int, int, bytes, int]])

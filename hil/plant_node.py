@@ -325,7 +325,8 @@ def run_plant_node(
     loop: PlantLoop | None = None
     try:
         log(
-            f"plant waiting for {list(require)} (listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
+            f"plant waiting for {list(require)} "
+            f"(listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
         )
         wait_for_peers(bus, tid, require, peer_timeout_s)
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)

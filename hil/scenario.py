@@ -31,13 +31,17 @@ class _Section(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=
     pass
 
 
-class SteadyWindSpec(_Section, tag="steady", tag_field="kind"):
+class SteadyWindSpec(
+    _Section, frozen=True, forbid_unknown_fields=True, kw_only=True, tag="steady", tag_field="kind"
+):
     """Constant hub-height wind."""
 
     speed_m_s: WindSpeed
 
 
-class StepWindSpec(_Section, tag="step", tag_field="kind"):
+class StepWindSpec(
+    _Section, frozen=True, forbid_unknown_fields=True, kw_only=True, tag="step", tag_field="kind"
+):
     """A step from ``initial_m_s`` to ``final_m_s`` at ``time_s``."""
 
     initial_m_s: WindSpeed
@@ -45,7 +49,9 @@ class StepWindSpec(_Section, tag="step", tag_field="kind"):
     time_s: NonNegative
 
 
-class RampWindSpec(_Section, tag="ramp", tag_field="kind"):
+class RampWindSpec(
+    _Section, frozen=True, forbid_unknown_fields=True, kw_only=True, tag="ramp", tag_field="kind"
+):
     """A linear ramp from ``initial_m_s`` at ``start_s`` to ``final_m_s`` at ``end_s``."""
 
     initial_m_s: WindSpeed
@@ -57,7 +63,7 @@ class RampWindSpec(_Section, tag="ramp", tag_field="kind"):
 WindSpecSection = SteadyWindSpec | StepWindSpec | RampWindSpec
 
 
-class TimingSection(_Section):
+class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Rates of the loop.
 
     ``control_period_s`` is both the sensor frame period and the command deadline;
@@ -68,7 +74,7 @@ class TimingSection(_Section):
     plant_step_s: Positive = 0.01
 
 
-class SensorSection(_Section):
+class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """White measurement noise (standard deviations) and the noise seed."""
 
     seed: int = 1
@@ -79,14 +85,14 @@ class SensorSection(_Section):
     wind_speed_std_m_s: NonNegative = 0.0
 
 
-class ControllerSection(_Section):
+class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Which controller runs and with which parameter preset."""
 
     kind: Literal["baseline"] = "baseline"
     preset: str = "nrel5mw_baseline"
 
 
-class Scenario(_Section):
+class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """One run of the bench."""
 
     name: str
@@ -131,7 +137,7 @@ class Scenario(_Section):
 
     def to_toml_dict(self) -> dict[str, object]:
         """Plain dict of the scenario (JSON-able), tags included."""
-        return msgspec.to_builtins(self)  # type: ignore[no-any-return]
+        return msgspec.to_builtins(self)
 
 
 _UNIT_SUFFIX = re.compile(r"_(s|ms|us|ns|m_s|km_h|rad|deg|rad_s|rpm|nm|n|w|kw|mw|m|hz)$")

@@ -20,7 +20,7 @@ P = TypeVar("P")
 X = TypeVar("X", bound=tuple[float, ...])
 
 
-def rk4_step(  # noqa: PLR0917  the textbook (f, t, x, u, h, params) signature
+def rk4_step(
     f: Callable[[float, Any, Any, P], Sequence[float]],
     t: float,
     x: X,
@@ -89,7 +89,7 @@ def rk4_step(  # noqa: PLR0917  the textbook (f, t, x, u, h, params) signature
     )
 
 
-def simulate(  # noqa: PLR0917  same argument list as rk4_step
+def simulate(
     f: Callable[[float, Any, Any, P], Sequence[float]],
     x0: Sequence[float],
     u_of_t: Callable[[float], Sequence[float]],

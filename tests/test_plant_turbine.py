@@ -255,7 +255,7 @@ def test_simulate_rejects_bad_steps_and_returns_shapes() -> None:
     wind=st.floats(-100.0, 100.0) | st.sampled_from([0.0, 1e-3, 1.0000001e-3, 1e-300, 5e-324]),
     preset=st.sampled_from([NREL, IEA]),
 )
-def test_f_and_outputs_are_finite_for_finite_inputs(  # noqa: PLR0917  hypothesis strategies
+def test_f_and_outputs_are_finite_for_finite_inputs(
     omega: float,
     pitch: float,
     torque: float,
