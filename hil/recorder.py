@@ -87,7 +87,7 @@ def run_recorder_node(
     Returns the number of messages written.
     """
     run_log = RunLog(out, scenario.turbine_id)
-    run_log.add_metadata("scenario", _scenario_metadata(scenario, scenario_toml))
+    run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
     if run_info:
         run_log.add_metadata("run", run_info)
     recorder = Recorder(run_log)
@@ -126,14 +126,10 @@ def run_recorder_node(
     return written
 
 
-def _scenario_metadata(scenario: Scenario, toml_text: str) -> dict[str, str]:
+def scenario_metadata(scenario: Scenario, toml_text: str) -> dict[str, str]:
+    """The ``scenario`` metadata record written into every run's MCAP file."""
     return {
         "name": scenario.name,
         "json": json.dumps(scenario.to_toml_dict()),
         "toml": toml_text,
     }
-
-
-def scenario_metadata(scenario: Scenario, toml_text: str) -> dict[str, str]:
-    """The ``scenario`` metadata record written into every run's MCAP file."""
-    return _scenario_metadata(scenario, toml_text)
