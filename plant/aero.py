@@ -163,6 +163,32 @@ class PerformanceTable:
     __hash__ = None  # type: ignore[assignment]  # holds arrays: equal-by-value, not hashable
 
     # ------------------------------------------------------------------ hot path
+    def _cell(self, tsr: float, pitch_rad: float) -> tuple[int, float, float]:
+        """Index of the grid cell holding (λ, θ) and the fractions (a, b) inside it, clamped."""
+        xs = self._tsr_list
+        ys = self._pitch_list
+        if tsr <= xs[0]:
+            i = 0
+            a = 0.0
+        elif tsr >= xs[-1]:
+            i = len(xs) - 2
+            a = 1.0
+        else:
+            i = bisect_right(xs, tsr) - 1
+            x0 = xs[i]
+            a = (tsr - x0) / (xs[i + 1] - x0)
+        if pitch_rad <= ys[0]:
+            j = 0
+            b = 0.0
+        elif pitch_rad >= ys[-1]:
+            j = len(ys) - 2
+            b = 1.0
+        else:
+            j = bisect_right(ys, pitch_rad) - 1
+            y0 = ys[j]
+            b = (pitch_rad - y0) / (ys[j + 1] - y0)
+        return i * (len(ys) - 1) + j, a, b
+
     def coefficients(self, tsr: float, pitch_rad: float) -> tuple[float, float, float]:
         """Bilinear lookup of (Cp, Ct, Cq) at one operating point, for the real-time loop.
 
@@ -185,29 +211,8 @@ class PerformanceTable:
         tuple of float
             (Cp, Ct, Cq), all dimensionless.
         """
-        xs = self._tsr_list
-        ys = self._pitch_list
-        if tsr <= xs[0]:
-            i = 0
-            a = 0.0
-        elif tsr >= xs[-1]:
-            i = len(xs) - 2
-            a = 1.0
-        else:
-            i = bisect_right(xs, tsr) - 1
-            x0 = xs[i]
-            a = (tsr - x0) / (xs[i + 1] - x0)
-        if pitch_rad <= ys[0]:
-            j = 0
-            b = 0.0
-        elif pitch_rad >= ys[-1]:
-            j = len(ys) - 2
-            b = 1.0
-        else:
-            j = bisect_right(ys, pitch_rad) - 1
-            y0 = ys[j]
-            b = (pitch_rad - y0) / (ys[j + 1] - y0)
-        p0, p1, p2, p3, t0, t1, t2, t3, q0, q1, q2, q3 = self._cells[i * (len(ys) - 1) + j]
+        cell, a, b = self._cell(tsr, pitch_rad)
+        p0, p1, p2, p3, t0, t1, t2, t3, q0, q1, q2, q3 = self._cells[cell]
         return (
             p0 + a * p1 + b * (p2 + a * p3),
             t0 + a * t1 + b * (t2 + a * t3),
@@ -229,29 +234,8 @@ class PerformanceTable:
         float
             Cq(λ, θ) (-); the aerodynamic torque is Q = ½ ρ π R³ U² Cq.
         """
-        xs = self._tsr_list
-        ys = self._pitch_list
-        if tsr <= xs[0]:
-            i = 0
-            a = 0.0
-        elif tsr >= xs[-1]:
-            i = len(xs) - 2
-            a = 1.0
-        else:
-            i = bisect_right(xs, tsr) - 1
-            x0 = xs[i]
-            a = (tsr - x0) / (xs[i + 1] - x0)
-        if pitch_rad <= ys[0]:
-            j = 0
-            b = 0.0
-        elif pitch_rad >= ys[-1]:
-            j = len(ys) - 2
-            b = 1.0
-        else:
-            j = bisect_right(ys, pitch_rad) - 1
-            y0 = ys[j]
-            b = (pitch_rad - y0) / (ys[j + 1] - y0)
-        q0, q1, q2, q3 = self._cq_cells[i * (len(ys) - 1) + j]
+        cell, a, b = self._cell(tsr, pitch_rad)
+        q0, q1, q2, q3 = self._cq_cells[cell]
         return q0 + a * q1 + b * (q2 + a * q3)
 
     # ------------------------------------------------------------------ offline helpers

@@ -239,28 +239,32 @@ def f(t: float, x: State, u: Input, params: TurbineParams) -> State:
         t_aero = 0.0
     d_omega = (t_aero - p.gearbox_ratio * torque) * p.inv_inertia
 
-    if theta_cmd < p.pitch_min_rad:
-        theta_cmd = p.pitch_min_rad
-    elif theta_cmd > p.pitch_max_rad:
-        theta_cmd = p.pitch_max_rad
-    d_theta = (theta_cmd - theta) * p.inv_pitch_tau
-    rate = p.pitch_rate_max_rad_s
-    if d_theta > rate:
-        d_theta = rate
-    elif d_theta < -rate:
-        d_theta = -rate
-
-    if torque_cmd < 0.0:
-        torque_cmd = 0.0
-    elif torque_cmd > p.torque_max_nm:
-        torque_cmd = p.torque_max_nm
-    d_torque = (torque_cmd - torque) * p.inv_torque_tau
-    rate = p.torque_rate_max_nm_s
-    if d_torque > rate:
-        d_torque = rate
-    elif d_torque < -rate:
-        d_torque = -rate
+    d_theta = _actuator_rate(
+        theta_cmd, theta, p.pitch_min_rad, p.pitch_max_rad, p.inv_pitch_tau, p.pitch_rate_max_rad_s
+    )
+    d_torque = _actuator_rate(
+        torque_cmd, torque, 0.0, p.torque_max_nm, p.inv_torque_tau, p.torque_rate_max_nm_s
+    )
     return (d_omega, d_theta, d_torque)
+
+
+def _actuator_rate(
+    demand: float, position: float, lo: float, hi: float, inv_tau: float, rate_max: float
+) -> float:
+    """First-order actuator with position and rate limits.
+
+    dy/dt = clip((clip(y_d, lo, hi) - y) / tau, -r_max, r_max), in the actuator's unit per s.
+    """
+    if demand < lo:
+        demand = lo
+    elif demand > hi:
+        demand = hi
+    rate = (demand - position) * inv_tau
+    if rate > rate_max:
+        return rate_max
+    if rate < -rate_max:
+        return -rate_max
+    return rate
 
 
 def outputs(t: float, x: State, u: Input, params: TurbineParams) -> TurbineOutputs:
