@@ -1,0 +1,872 @@
+"""Floating platform, flexible tower and rotor of a floating wind turbine, as one ``f(t, x, u, p)``.
+
+Degrees of freedom (all about the platform reference point at the still-water line, the WAMIT
+and OpenFAST convention; x downwind, z up, pitch positive when the tower top moves downwind)::
+
+    q = (x, z, φ, s)     platform surge (m), heave (m), pitch (rad),
+                         first tower fore-aft mode, generalised coordinate s = tower-top
+                         displacement along the tower-fixed x axis (m)
+
+State, input and dynamics (SI)::
+
+    x = (q, q̇, ω, θ, T_g, ξ)   ξ: radiation-memory states of surge, heave, pitch
+    u = (θ_c, T_c, U, F_x^w, F_z^w, M_φ^w)   pitch and torque demands, hub-height wind (m/s),
+                                              wave excitation surge force (N), heave force (N),
+                                              pitch moment (N m) about the reference point
+
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w
+    dξ/dt = A_r ξ + B_r v,   μ = C_r ξ,   v = (ẋ, ż, φ̇)
+
+* ``M_s``: rigid-body mass matrix of platform + tower + rotor-nacelle assembly (RNA) with the
+  tower mode, from the linearised kinematics of every mass element: a point at body-frame
+  position (a, h) moves with Ẋ = ẋ + h φ̇ + ψ ṡ, Ż = ż − a φ̇ (tower elements: ψ = ψ(η);
+  RNA points, at (a, c) from the tower top: Ẋ = ẋ + (h_t + c) φ̇ + (1 + c κ) ṡ,
+  Ż = ż − a (φ̇ + κ ṡ), κ = ψ'(1)/L the tower-top slope per metre of s), so that
+  M_s = Σ m (J_xᵀJ_x + J_zᵀJ_z) + I J_rᵀJ_r.
+* ``K``: hydrostatics (WAMIT ``.hst``, which excludes gravity), the gravity terms of the
+  second-order expansion of the potential m g Z (the destabilising −m g h φ²/2 of every mass,
+  the tower/pitch coupling −g φ s ∫ψ dm and the geometric softening of the tower by the weight
+  above each section), the tower modal stiffness ∫EI ψ''² dh and any additional linear
+  stiffness of the deck. ``F_0``: buoyancy ρ g V₀ minus the total weight, the moment of the
+  weight of masses off the tower axis, and the deck's additional preload.
+* ``F_m``: quasi-static mooring, see :class:`MooringTable` (nonlinear in surge, first order in
+  heave and pitch, derived from a potential so it is conservative).
+* ``D``: linear damping (additional linear damping of the deck, tower structural damping
+  2 ζ √(k m) of the fixed-base mode); ``B_q``: additional quadratic drag (OpenFAST
+  ``AddBQuad``: F = −B_q (v∘|v|), element-wise product).
+* Rotor: :func:`plant.turbine.f` with the relative wind at the hub
+  U_rel = U − (ẋ + h_hub φ̇ + (1 + c_hub κ) ṡ) = U − J_h·q̇; the thrust T = ½ρπR²U_rel²Ct(λ, θ)
+  acts along x at the hub: generalised force J_h T, J_h = (1, 0, h_hub, 1 + c_hub κ).
+
+The potential energy is V(q) = ½ qᵀ K q − F_0ᵀq + V_m(q), so with D, B_q, radiation, aero and
+waves off, E = ½ q̇ᵀ(M_s + A_∞)q̇ + V(q) + ½ J ω² is conserved (:func:`energy`).
+
+What is hand-written here and why
+---------------------------------
+``f`` runs four times per RK4 step in a 100 Hz loop: the 4x4 mass-matrix inverse, stiffness and
+damping are stored as tuples of Python floats and multiplied unrolled (a numpy call costs more
+than the whole 4x4 product on floats); only the radiation block, whose size depends on the fit,
+is one numpy product of a precomputed block matrix [[A_r, B_r], [C_r, 0]]. The rotor reuses
+:func:`plant.turbine.f` and :class:`plant.aero.PerformanceTable`.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from importlib.resources.abc import Traversable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import msgspec
+import numpy as np
+import numpy.typing as npt
+
+from plant import turbine as _turbine
+from plant.turbine import WIND_MIN_M_S, TurbineParams, load_turbine
+
+if TYPE_CHECKING:
+    from plant.hydro.radiation import RadiationSS
+    from plant.hydro.wamit import HydroData
+
+__all__ = [
+    "DOF_NAMES",
+    "N_DOF",
+    "N_MECH_STATES",
+    "FloatingParams",
+    "MooringTable",
+    "conservative",
+    "energy",
+    "f",
+    "mooring_force",
+    "relative_wind",
+    "rotor_thrust",
+    "state_names",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Structural degrees of freedom, in state order.
+DOF_NAMES = ("surge", "heave", "pitch", "tower_fore_aft")
+N_DOF = 4
+#: Positions, velocities and the three turbine states (ω, θ, T_g); radiation states follow.
+N_MECH_STATES = 2 * N_DOF + 3
+
+
+def _matrix(owner: str, name: str, value: object, shape: tuple[int, ...], unit: str) -> FloatArray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{owner}.{name}: expected an array of numbers in {unit} ({exc})") from exc
+    if arr.shape != shape:
+        raise ValueError(f"{owner}.{name}: expected shape {shape} in {unit}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{owner}.{name}: non-finite entries (expected {unit})")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class MooringTable:
+    """Quasi-static mooring restoring force, tabulated in surge, first order in heave and pitch.
+
+    With F_x(x), F_z(x), M_φ(x) the mooring surge force (N), heave force (N) and pitch moment
+    (N m, about the reference point) at surge offset x and zero heave and pitch (a
+    precomputed catenary solution), and K_zφ the 2x2 mooring stiffness in (heave, pitch) at zero
+    offset, the force is the gradient of the potential
+
+        V_m(x, z, φ) = V_0(x) − z F_z(x) − φ M_φ(x) + ½ (z, φ) K_zφ (z, φ)ᵀ,  V_0' = −F_x,
+
+    i.e. F_x = F_x(x) + z F_z'(x) + φ M_φ'(x), (F_z, M_φ) = (F_z(x), M_φ(x)) − K_zφ (z, φ).
+    Tables are interpolated linearly (extrapolated linearly beyond the grid), so V_0 is exact
+    piecewise quadratic and the model conserves energy.
+
+    Parameters
+    ----------
+    surge_m : array_like, shape (n,)
+        Surge offsets (m), strictly increasing, n >= 2.
+    force_surge_n, force_heave_n : array_like, shape (n,)
+        Mooring force on the platform along x and z (N), z up (negative: lines pull down).
+    moment_pitch_nm : array_like, shape (n,)
+        Mooring moment about the y axis through the reference point (N m), positive pitch sense.
+    stiffness_heave_pitch : array_like, shape (2, 2)
+        K_zφ: [[N/m, N/rad], [N m/m, N m/rad]], symmetrised.
+    """
+
+    surge_m: FloatArray
+    force_surge_n: FloatArray
+    force_heave_n: FloatArray
+    moment_pitch_nm: FloatArray
+    stiffness_heave_pitch: FloatArray
+    _x: list[float] = field(init=False, repr=False)
+    _seg: list[tuple[float, ...]] = field(init=False, repr=False)
+    _k: tuple[float, float, float] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        owner = "MooringTable"
+        x = _matrix(owner, "surge_m", self.surge_m, np.shape(self.surge_m), "m")
+        n = x.size
+        if x.ndim != 1 or n < 2 or not np.all(np.diff(x) > 0.0):
+            raise ValueError(f"{owner}.surge_m: expected >= 2 strictly increasing offsets in m")
+        fx = _matrix(owner, "force_surge_n", self.force_surge_n, (n,), "N")
+        fz = _matrix(owner, "force_heave_n", self.force_heave_n, (n,), "N")
+        my = _matrix(owner, "moment_pitch_nm", self.moment_pitch_nm, (n,), "N m")
+        k = _matrix(owner, "stiffness_heave_pitch", self.stiffness_heave_pitch, (2, 2), "N/m..")
+        k = 0.5 * (k + k.T)
+        k.setflags(write=False)
+        set_ = object.__setattr__
+        for name, val in (
+            ("surge_m", x),
+            ("force_surge_n", fx),
+            ("force_heave_n", fz),
+            ("moment_pitch_nm", my),
+            ("stiffness_heave_pitch", k),
+        ):
+            set_(self, name, val)
+        # Potential V_0 at the knots, zero at x = 0 (or at the nearest knot to 0).
+        v0 = np.concatenate([[0.0], np.cumsum(-0.5 * (fx[1:] + fx[:-1]) * np.diff(x))])
+        v0 -= float(np.interp(0.0, x, v0))
+        seg = []
+        for i in range(n - 1):
+            dx = float(x[i + 1] - x[i])
+            seg.append(
+                (
+                    float(x[i]),
+                    float(fx[i]),
+                    float(fx[i + 1] - fx[i]) / dx,
+                    float(fz[i]),
+                    float(fz[i + 1] - fz[i]) / dx,
+                    float(my[i]),
+                    float(my[i + 1] - my[i]) / dx,
+                    float(v0[i]),
+                )
+            )
+        set_(self, "_x", [float(v) for v in x])
+        set_(self, "_seg", seg)
+        set_(self, "_k", (float(k[0, 0]), float(k[0, 1]), float(k[1, 1])))
+
+    def segment(self, surge_m: float) -> tuple[float, ...]:
+        """(x_i, F_x,i, F_x', F_z,i, F_z', M_i, M', V_0,i) of the segment holding ``surge_m``."""
+        i = bisect_right(self._x, surge_m) - 1
+        if i < 0:
+            i = 0
+        elif i > len(self._seg) - 1:
+            i = len(self._seg) - 1
+        return self._seg[i]
+
+    def stiffness_at(self, surge_m: float) -> float:
+        """Surge stiffness −dF_x/dx at ``surge_m`` (N/m), of the interpolated table."""
+        return -self.segment(surge_m)[2]
+
+
+def mooring_force(
+    table: MooringTable, surge_m: float, heave_m: float, pitch_rad: float
+) -> tuple[float, float, float]:
+    """Mooring (surge force N, heave force N, pitch moment N m) at a platform position.
+
+    F_x = F_x(x) + z F_z'(x) + φ M_φ'(x);  F_z = F_z(x) − k_zz z − k_zφ φ;
+    M_φ = M_φ(x) − k_zφ z − k_φφ φ  (see :class:`MooringTable`).
+    """
+    x0, fx0, dfx, fz0, dfz, my0, dmy, _ = table.segment(surge_m)
+    d = surge_m - x0
+    kzz, kzp, kpp = table._k
+    return (
+        fx0 + dfx * d + heave_m * dfz + pitch_rad * dmy,
+        fz0 + dfz * d - kzz * heave_m - kzp * pitch_rad,
+        my0 + dmy * d - kzp * heave_m - kpp * pitch_rad,
+    )
+
+
+def _mooring_potential(
+    table: MooringTable, surge_m: float, heave_m: float, pitch_rad: float
+) -> float:
+    x0, fx0, dfx, fz0, dfz, my0, dmy, v0 = table.segment(surge_m)
+    d = surge_m - x0
+    kzz, kzp, kpp = table._k
+    fz = fz0 + dfz * d
+    my = my0 + dmy * d
+    return (
+        v0
+        - (fx0 * d + 0.5 * dfx * d * d)
+        - heave_m * fz
+        - pitch_rad * my
+        + 0.5 * (kzz * heave_m * heave_m + 2.0 * kzp * heave_m * pitch_rad + kpp * pitch_rad**2)
+    )
+
+
+def _tuple2(a: npt.NDArray[np.floating]) -> tuple[tuple[float, ...], ...]:
+    return tuple(tuple(float(v) for v in row) for row in a)
+
+
+@dataclass(frozen=True, eq=False)
+class FloatingParams:
+    """Validated, frozen parameters of the coupled floating-turbine model (SI units).
+
+    Matrices are in DOF order (surge m, heave m, pitch rad, tower-top displacement m), so their
+    entries have the mixed units of the product of the two DOFs (e.g. mass kg, kg m, kg m²).
+
+    Parameters
+    ----------
+    name : str
+    turbine : TurbineParams
+        Rotor, drivetrain, actuators, Cp/Ct/Cq table.
+    mass_matrix : (4, 4) array
+        M_s + A_∞: structural mass with the infinite-frequency added mass (kg, kg m, kg m²),
+        symmetric positive definite.
+    stiffness : (4, 4) array
+        K: hydrostatic + gravity + tower modal + additional linear stiffness (N/m, N/rad, N m/m,
+        N m/rad), excluding the mooring. Symmetric.
+    static_force : (4,) array
+        F_0 at q = 0 (N, N, N m, N): buoyancy − weight, moments of off-axis weights, preload.
+    linear_damping : (4, 4) array
+        D (N s/m, N s, N m s/rad ...).
+    quadratic_damping : (3, 3) array
+        B_q of (surge, heave, pitch): N/(m/s)², N m/(rad/s)² ...
+    hub_lever : (4,) array
+        J_h = (1, 0, h_hub m, 1 + c_hub κ): hub velocity along x per unit DOF rate (-, -, m, -).
+    mooring : MooringTable
+    radiation_a, radiation_b, radiation_c : arrays (n, n), (n, 3), (3, n)
+        Radiation memory state space of (surge, heave, pitch): dξ/dt = A ξ + B v, μ = C ξ
+        (μ in N, N, N m); n = 0 for none.
+    aero : bool, optional
+        Rotor loads on (default). False: no thrust and no aerodynamic torque (energy checks).
+    """
+
+    name: str
+    turbine: TurbineParams
+    mass_matrix: FloatArray
+    stiffness: FloatArray
+    static_force: FloatArray
+    linear_damping: FloatArray
+    quadratic_damping: FloatArray
+    hub_lever: FloatArray
+    mooring: MooringTable
+    radiation_a: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    radiation_b: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    radiation_c: FloatArray = field(default_factory=lambda: np.zeros((3, 0)))
+    aero: bool = True
+    # Precomputed for f(): Python-float tuples and the radiation block matrix.
+    _minv: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
+    _k: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
+    _d: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
+    _bq: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
+    _f0: tuple[float, ...] = field(init=False, repr=False)
+    _jh: tuple[float, ...] = field(init=False, repr=False)
+    _rad: FloatArray = field(init=False, repr=False)
+    n_radiation: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        owner = "FloatingParams"
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"{owner}.name: expected a non-empty string")
+        if not isinstance(self.turbine, TurbineParams):
+            raise ValueError(f"{owner}.turbine: expected TurbineParams")
+        if not isinstance(self.mooring, MooringTable):
+            raise ValueError(f"{owner}.mooring: expected a MooringTable")
+        set_ = object.__setattr__
+        m = _matrix(owner, "mass_matrix", self.mass_matrix, (4, 4), "kg, kg m, kg m^2")
+        if not np.allclose(m, m.T, rtol=1e-9, atol=1e-6 * float(np.max(np.abs(m)))):
+            raise ValueError(f"{owner}.mass_matrix: expected a symmetric matrix (kg, kg m, kg m^2)")
+        if np.min(np.linalg.eigvalsh(m)) <= 0.0:
+            raise ValueError(f"{owner}.mass_matrix: expected positive definite (kg, kg m, kg m^2)")
+        k = _matrix(owner, "stiffness", self.stiffness, (4, 4), "N/m, N/rad, N m/rad")
+        f0 = _matrix(owner, "static_force", self.static_force, (4,), "N, N m")
+        d = _matrix(owner, "linear_damping", self.linear_damping, (4, 4), "N s/m, N m s/rad")
+        bq = _matrix(owner, "quadratic_damping", self.quadratic_damping, (3, 3), "N s^2/m^2")
+        jh = _matrix(owner, "hub_lever", self.hub_lever, (4,), "-, -, m, -")
+        a = np.array(self.radiation_a, dtype=np.float64)
+        nr = a.shape[0] if a.ndim == 2 else -1
+        ra = _matrix(owner, "radiation_a", a, (nr, nr), "1/s")
+        rb = _matrix(owner, "radiation_b", self.radiation_b, (nr, 3), "state per (m/s)")
+        rc = _matrix(owner, "radiation_c", self.radiation_c, (3, nr), "N per state")
+        if nr and np.max(np.linalg.eigvals(ra).real) >= 0.0:
+            raise ValueError(f"{owner}.radiation_a: expected a stable matrix (eigenvalues < 0 1/s)")
+        for name, val in (
+            ("mass_matrix", m),
+            ("stiffness", k),
+            ("static_force", f0),
+            ("linear_damping", d),
+            ("quadratic_damping", bq),
+            ("hub_lever", jh),
+            ("radiation_a", ra),
+            ("radiation_b", rb),
+            ("radiation_c", rc),
+        ):
+            set_(self, name, val)
+        set_(self, "_minv", _tuple2(np.linalg.inv(m)))
+        set_(self, "_k", _tuple2(k))
+        set_(self, "_d", _tuple2(d))
+        set_(self, "_bq", _tuple2(bq))
+        set_(self, "_f0", tuple(float(v) for v in f0))
+        set_(self, "_jh", tuple(float(v) for v in jh))
+        block = np.zeros((nr + 3, nr + 3))
+        block[:nr, :nr] = ra
+        block[:nr, nr:] = rb
+        block[nr:, :nr] = rc
+        set_(self, "_rad", block)
+        set_(self, "n_radiation", nr)
+
+    @property
+    def n_states(self) -> int:
+        """Length of the state vector: 11 mechanical/turbine states + radiation states."""
+        return N_MECH_STATES + self.n_radiation
+
+
+def state_names(params: FloatingParams) -> list[str]:
+    """Names (with units) of the state vector entries, in order."""
+    names = [f"{d}_{u}" for d, u in zip(DOF_NAMES, ("m", "m", "rad", "m"), strict=True)]
+    names += [
+        f"{d}_rate_{u}" for d, u in zip(DOF_NAMES, ("m_s", "m_s", "rad_s", "m_s"), strict=True)
+    ]
+    names += ["rotor_speed_rad_s", "blade_pitch_rad", "generator_torque_nm"]
+    names += [f"radiation_{i}" for i in range(params.n_radiation)]
+    return names
+
+
+def relative_wind(
+    x: tuple[float, ...] | FloatArray, wind_m_s: float, params: FloatingParams
+) -> float:
+    """Wind relative to the moving hub, U_rel = U − J_h·q̇ (m/s)."""
+    jh = params._jh
+    return wind_m_s - (x[4] + jh[2] * x[6] + jh[3] * x[7])
+
+
+def rotor_thrust(
+    rotor_speed_rad_s: float, pitch_rad: float, wind_rel_m_s: float, tp: TurbineParams
+) -> float:
+    """Quasi-steady thrust T = ½ρπR² U_rel² Ct(λ, θ), λ = ωR/U_rel (N); 0 for U_rel <= 0."""
+    if wind_rel_m_s <= WIND_MIN_M_S:
+        return 0.0
+    tsr = (rotor_speed_rad_s if rotor_speed_rad_s > 0.0 else 0.0) * tp.rotor_radius_m / wind_rel_m_s
+    ct = tp.table.coefficients(tsr, pitch_rad)[1]
+    return tp.k_thrust * wind_rel_m_s * wind_rel_m_s * ct
+
+
+def f(
+    t: float, x: tuple[float, ...], u: tuple[float, ...], params: FloatingParams
+) -> tuple[float, ...]:
+    """Time derivative of the floating-turbine state (equations in the module docstring).
+
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + J_h T(U_rel) + F^w;
+    dξ/dt = A_r ξ + B_r v; rotor states from :func:`plant.turbine.f` at U_rel = U − J_h·q̇.
+
+    Parameters
+    ----------
+    t : float
+        Time (s); unused (time-invariant), kept for the ``f(t, x, u, p)`` form.
+    x : sequence of float, length ``params.n_states``
+        (surge m, heave m, pitch rad, tower-top m, their rates, ω rad/s, θ rad, T_g N m,
+        radiation states).
+    u : sequence of float, length 6
+        (θ_c rad, T_c N m, U m/s, wave surge force N, wave heave force N, wave pitch moment N m).
+    params : FloatingParams
+
+    Returns
+    -------
+    tuple of float
+        dx/dt, same length as ``x``.
+    """
+    p = params
+    q0, q1, q2, q3, v0, v1, v2, v3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7]
+    omega, theta, torque = x[8], x[9], x[10]
+    jh = p._jh
+    # Aero off: zero wind into the rotor (turbine.f gives zero aero torque below WIND_MIN_M_S).
+    u_rel = u[2] - (v0 + jh[2] * v2 + jh[3] * v3) if p.aero else 0.0
+    tp = p.turbine
+    d_rotor = _turbine.f(t, (omega, theta, torque), (u[0], u[1], u_rel), tp)
+    thrust = rotor_thrust(omega, theta, u_rel, tp)
+
+    fmx, fmz, fmp = mooring_force(p.mooring, q0, q1, q2)
+    f0 = p._f0
+    k = p._k
+    d = p._d
+    bq = p._bq
+    a0 = v0 * abs(v0)
+    a1 = v1 * abs(v1)
+    a2 = v2 * abs(v2)
+    g = [
+        f0[0] + fmx + u[3] + thrust,
+        f0[1] + fmz + u[4],
+        f0[2] + fmp + u[5] + jh[2] * thrust,
+        f0[3] + jh[3] * thrust,
+    ]
+    for i in range(4):
+        ki = k[i]
+        di = d[i]
+        g[i] -= (
+            ki[0] * q0
+            + ki[1] * q1
+            + ki[2] * q2
+            + ki[3] * q3
+            + di[0] * v0
+            + di[1] * v1
+            + di[2] * v2
+            + di[3] * v3
+        )
+    for i in range(3):
+        bi = bq[i]
+        g[i] -= bi[0] * a0 + bi[1] * a1 + bi[2] * a2
+    nr = p.n_radiation
+    if nr:
+        z = p._rad @ np.array([*x[N_MECH_STATES:], v0, v1, v2])
+        rad = z.tolist()
+        g[0] -= rad[nr]
+        g[1] -= rad[nr + 1]
+        g[2] -= rad[nr + 2]
+        d_rad: list[float] = rad[:nr]
+    else:
+        d_rad = []
+    mi = p._minv
+    acc = [mi[i][0] * g[0] + mi[i][1] * g[1] + mi[i][2] * g[2] + mi[i][3] * g[3] for i in range(4)]
+    return (v0, v1, v2, v3, acc[0], acc[1], acc[2], acc[3], *d_rotor, *d_rad)
+
+
+def energy(x: tuple[float, ...] | FloatArray, params: FloatingParams) -> float:
+    """Mechanical energy of the conservative part (J).
+
+    E = ½ q̇ᵀ(M_s + A_∞)q̇ + ½ qᵀKq − F_0ᵀq + V_m(q) + ½ J ω². Conserved by :func:`f` when
+    damping, drag, radiation, aero (U = 0), generator torque and waves are off (see
+    :func:`conservative`).
+    """
+    q = np.array([float(v) for v in x[:4]])
+    v = np.array([float(v) for v in x[4:8]])
+    p = params
+    kin = 0.5 * float(v @ p.mass_matrix @ v)
+    pot = 0.5 * float(q @ p.stiffness @ q) - float(p.static_force @ q)
+    pot += _mooring_potential(p.mooring, float(q[0]), float(q[1]), float(q[2]))
+    rot = 0.5 * p.turbine.drivetrain_inertia_kg_m2 * float(x[8]) ** 2
+    return kin + pot + rot
+
+
+def conservative(params: FloatingParams) -> FloatingParams:
+    """Copy without linear damping, quadratic drag, radiation memory and rotor loads."""
+    return replace(
+        params,
+        name=params.name + " (conservative)",
+        linear_damping=np.zeros((4, 4)),
+        quadratic_damping=np.zeros((3, 3)),
+        radiation_a=np.zeros((0, 0)),
+        radiation_b=np.zeros((0, 3)),
+        radiation_c=np.zeros((3, 0)),
+        aero=False,
+    )
+
+
+# ====================================================================== presets (offline)
+class FloatingPreset(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Physical description of a floating turbine as a preset TOML holds it (SI, keys with units).
+
+    Heights are above the still-water line (the platform reference point); RNA positions are
+    relative to the tower top (x downwind, z up). See ``plant/presets/README.md`` for sources.
+    """
+
+    name: str
+    turbine: str
+    hydro_file: str
+    mooring_file: str
+    gravity_m_s2: float
+    water_density_kg_m3: float
+    water_depth_m: float
+    displaced_volume_m3: float
+    platform_mass_kg: float
+    platform_pitch_inertia_kg_m2: float
+    platform_cm_x_m: float
+    platform_cm_z_m: float
+    tower_base_height_m: float
+    tower_top_height_m: float
+    tower_height_fraction: list[float]
+    tower_mass_density_kg_m: list[float]
+    tower_fore_aft_stiffness_n_m2: list[float]
+    tower_mode_shape_coefficients: list[float]
+    tower_damping_ratio: float
+    yaw_bearing_mass_kg: float
+    nacelle_mass_kg: float
+    nacelle_cm_x_m: float
+    nacelle_cm_z_m: float
+    hub_mass_kg: float
+    rotor_apex_x_m: float
+    rotor_apex_z_m: float
+    blade_count: int
+    blade_mass_kg: float
+    blade_cm_axial_m: float
+    blade_second_moment_kg_m2: float
+    additional_force_n: list[float]
+    additional_linear_stiffness: list[list[float]]
+    additional_linear_damping: list[list[float]]
+    additional_quadratic_damping: list[list[float]]
+    radiation_max_order: int = 8
+    radiation_tolerance: float = 0.02
+    radiation_omega_max_rad_s: float = 0.0
+
+
+class MooringFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
+    """Mooring data file (JSON): quasi-static tables of :class:`MooringTable`, and their source."""
+
+    source: str
+    surge_m: list[float]
+    force_surge_n: list[float]
+    force_heave_n: list[float]
+    moment_pitch_nm: list[float]
+    stiffness_heave_pitch: list[list[float]]
+    stiffness_6x6_at_zero: list[list[float]]
+    lines: list[dict[str, float | str]] = []
+
+
+@dataclass(frozen=True)
+class TowerModal:
+    """First fore-aft tower mode integrals (SI), see :func:`tower_modal`.
+
+    Attributes
+    ----------
+    tower_mass_kg, modal_mass_kg, modal_stiffness_elastic_n_m, modal_stiffness_gravity_n_m,
+    first_moment_kg_m (∫ψ dm), height_moment_kg_m (∫h ψ dm), tower_cm_height_m,
+    tower_height_inertia_kg_m2 (∫h² dm), slope_per_m (κ = ψ'(1)/L, rad per m of s),
+    slope_integral_per_m (∫ψ'² dh, 1/m), fixed_base_frequency_hz.
+    """
+
+    tower_mass_kg: float
+    modal_mass_kg: float
+    modal_stiffness_elastic_n_m: float
+    modal_stiffness_gravity_n_m: float
+    first_moment_kg_m: float
+    height_moment_kg_m: float
+    tower_cm_height_m: float
+    tower_height_inertia_kg_m2: float
+    slope_per_m: float
+    slope_integral_per_m: float
+    rna_mass_kg: float
+    fixed_base_frequency_hz: float
+
+
+def _rna_points(p: FloatingPreset) -> list[tuple[float, float, float, float]]:
+    """RNA masses as (m kg, a m, c m, I_y kg m²) relative to the tower top."""
+    blades = p.blade_count * p.blade_mass_kg
+    # Rotor inertia about the lateral axis through the apex: half the polar inertia of the blades
+    # (n ∫r² dm / 2 for n >= 3 equally spaced blades).
+    i_rotor = 0.5 * p.blade_count * p.blade_second_moment_kg_m2
+    return [
+        (p.yaw_bearing_mass_kg, 0.0, 0.0, 0.0),
+        (p.nacelle_mass_kg, p.nacelle_cm_x_m, p.nacelle_cm_z_m, 0.0),
+        (p.hub_mass_kg, p.rotor_apex_x_m, p.rotor_apex_z_m, 0.0),
+        (blades, p.rotor_apex_x_m + p.blade_cm_axial_m, p.rotor_apex_z_m, i_rotor),
+    ]
+
+
+def tower_modal(p: FloatingPreset, n_points: int = 401) -> TowerModal:
+    """Generalised mass and stiffness of the first fore-aft tower mode (Rayleigh-Ritz).
+
+    Mode shape ψ(η) = Σ_k c_k η^k (k = 2..6, ElastoDyn ``TwFAM1Sh``), η = (h − h_b)/L, normalised
+    so ψ(1) = 1 and s is the tower-top displacement. With μ(h) the mass density and EI(h) the
+    fore-aft bending stiffness, linearly interpolated between the stations, trapezoidal rule on
+    ``n_points`` nodes:
+
+        m_t = ∫ μ ψ² dh + m_RNA   (fixed-base modal mass incl. the RNA as a tower-top point mass)
+        k_e = ∫ EI (ψ'')² dh,   k_g = −g ∫ (N(h) + m_RNA) ψ'² dh,  N(h) = ∫_h^top μ dh'
+        f_fb = √((k_e + k_g)/m_t) / 2π   (fixed-base frequency, as ElastoDyn forms it)
+    """
+    L = p.tower_top_height_m - p.tower_base_height_m
+    eta = np.linspace(0.0, 1.0, n_points)
+    h = p.tower_base_height_m + L * eta
+    mu = np.interp(eta, p.tower_height_fraction, p.tower_mass_density_kg_m)
+    ei = np.interp(eta, p.tower_height_fraction, p.tower_fore_aft_stiffness_n_m2)
+    c = p.tower_mode_shape_coefficients
+    zero = np.zeros_like(eta)
+    psi = zero + sum(ck * eta ** (k + 2) for k, ck in enumerate(c))
+    d1 = (zero + sum((k + 2) * ck * eta ** (k + 1) for k, ck in enumerate(c))) / L
+    d2 = (zero + sum((k + 2) * (k + 1) * ck * eta**k for k, ck in enumerate(c))) / L**2
+    trap = np.trapezoid
+    m_tower = float(trap(mu, h))
+    above = m_tower - np.concatenate([[0.0], np.cumsum(0.5 * (mu[1:] + mu[:-1]) * np.diff(h))])
+    m_rna = sum(m for m, *_ in _rna_points(p))
+    g = p.gravity_m_s2
+    modal_mass = float(trap(mu * psi**2, h)) + m_rna
+    k_e = float(trap(ei * d2**2, h))
+    k_g = -g * float(trap((above + m_rna) * d1**2, h))
+    return TowerModal(
+        tower_mass_kg=m_tower,
+        modal_mass_kg=modal_mass,
+        modal_stiffness_elastic_n_m=k_e,
+        modal_stiffness_gravity_n_m=k_g,
+        first_moment_kg_m=float(trap(mu * psi, h)),
+        height_moment_kg_m=float(trap(mu * psi * h, h)),
+        tower_cm_height_m=float(trap(mu * h, h)) / m_tower,
+        tower_height_inertia_kg_m2=float(trap(mu * h * h, h)),
+        slope_per_m=float(d1[-1]),
+        slope_integral_per_m=float(trap(d1**2, h)),
+        rna_mass_kg=m_rna,
+        fixed_base_frequency_hz=math.sqrt(max(k_e + k_g, 0.0) / modal_mass) / (2.0 * math.pi),
+    )
+
+
+@dataclass(frozen=True)
+class StructuralMatrices:
+    """Structural mass, gravity/elastic stiffness, static force and hub lever (no hydro, mooring).
+
+    Units as in :class:`FloatingParams`; ``tower_damping`` is the tower modal damping (N s/m).
+    """
+
+    mass: FloatArray
+    stiffness: FloatArray
+    static_force: FloatArray
+    hub_lever: FloatArray
+    tower_damping_n_s_m: float
+    total_mass_kg: float
+    modal: TowerModal
+
+
+def structural_matrices(p: FloatingPreset) -> StructuralMatrices:
+    """Assemble M_s, the gravity + tower stiffness and the static weight forces (module docstring).
+
+    Each mass element contributes m (J_xᵀJ_x + J_zᵀJ_z) + I J_rᵀJ_r to M_s and, from the
+    second-order expansion of m g Z, −m g h_e to K_φφ (h_e the element height above the
+    reference point), with the tower/pitch coupling −g ∫ψ dm − g Σ m_RNA (1 + c κ), the tower
+    softening of :func:`tower_modal` and −m g c κ² of the RNA; F_0 gets −m g (heave) and
+    m g a (pitch, and m g a κ on the tower DOF) for masses at a ≠ 0 downwind of the tower axis.
+    """
+    tm = tower_modal(p)
+    g = p.gravity_m_s2
+    ht = p.tower_top_height_m
+    kap = tm.slope_per_m
+    M = np.zeros((4, 4))
+    K = np.zeros((4, 4))
+    F = np.zeros(4)
+
+    def add_point(m: float, a: float, h: float, sx: float, sr: float, inertia: float) -> None:
+        jx = np.array([1.0, 0.0, h, sx])
+        jz = np.array([0.0, 1.0, -a, -a * sr])
+        jr = np.array([0.0, 0.0, 1.0, sr])
+        M[:, :] += m * (np.outer(jx, jx) + np.outer(jz, jz)) + inertia * np.outer(jr, jr)
+
+    # Platform rigid body (inertia given about its own CM).
+    mp, xp, zp = p.platform_mass_kg, p.platform_cm_x_m, p.platform_cm_z_m
+    add_point(mp, xp, zp, 0.0, 0.0, p.platform_pitch_inertia_kg_m2)
+    K[2, 2] += -mp * g * zp
+    F[1] -= mp * g
+    F[2] += mp * g * xp
+    # Tower (on the axis a = 0): integrals of tower_modal.
+    mt = tm.tower_mass_kg
+    M[0, 0] += mt
+    M[1, 1] += mt
+    M[0, 2] += mt * tm.tower_cm_height_m
+    M[2, 2] += tm.tower_height_inertia_kg_m2
+    M[0, 3] += tm.first_moment_kg_m
+    M[2, 3] += tm.height_moment_kg_m
+    M[3, 3] += tm.modal_mass_kg - tm.rna_mass_kg
+    M[2, 0] = M[0, 2]
+    M[3, 0] = M[0, 3]
+    M[3, 2] = M[2, 3]
+    K[2, 2] += -g * mt * tm.tower_cm_height_m
+    K[2, 3] += -g * tm.first_moment_kg_m
+    K[3, 3] += tm.modal_stiffness_elastic_n_m + tm.modal_stiffness_gravity_n_m
+    F[1] -= mt * g
+    # RNA: the tower-top point masses (the RNA share of the tower softening is in tower_modal).
+    for m, a, c, inertia in _rna_points(p):
+        add_point(m, a, ht + c, 1.0 + c * kap, kap, inertia)
+        K[2, 2] += -m * g * (ht + c)
+        K[2, 3] += -m * g * (1.0 + c * kap)
+        K[3, 3] += -m * g * c * kap * kap
+        F[1] -= m * g
+        F[2] += m * g * a
+        F[3] += m * g * a * kap
+    K[3, 2] = K[2, 3]
+    k_fb = tm.modal_stiffness_elastic_n_m + tm.modal_stiffness_gravity_n_m
+    c_tower = 2.0 * p.tower_damping_ratio * math.sqrt(max(k_fb, 0.0) * tm.modal_mass_kg)
+    hub_lever = np.array([1.0, 0.0, ht + p.rotor_apex_z_m, 1.0 + p.rotor_apex_z_m * kap])
+    total = mp + mt + tm.rna_mass_kg
+    return StructuralMatrices(M, K, F, hub_lever, c_tower, total, tm)
+
+
+def _resolve(base: Path | None, name: str) -> Path | Traversable:
+    if base is None or name.startswith(_PRESET_PREFIX):
+        return resources.files(_PRESET_PACKAGE).joinpath(
+            *name.removeprefix(_PRESET_PREFIX).split("/")
+        )
+    return base / name
+
+
+_PRESET_PACKAGE = "plant.presets"
+_PRESET_PREFIX = "preset:"
+_FLOATING_PRESETS = ("iea15mw_volturnus",)
+
+
+def read_floating_preset(name_or_path: str | Path) -> tuple[FloatingPreset, Path | None, str]:
+    """Decode a floating preset TOML: (preset, folder for relative files or None, source text)."""
+    key = str(name_or_path)
+    if not isinstance(name_or_path, Path) and key in _FLOATING_PRESETS:
+        data = resources.files(_PRESET_PACKAGE).joinpath("floating", f"{key}.toml").read_bytes()
+        base: Path | None = None
+        source = f"floating preset {key!r}"
+    elif isinstance(name_or_path, Path) or "/" in key or key.endswith(".toml"):
+        path = Path(name_or_path)
+        data = path.read_bytes()
+        base = path.parent
+        source = str(path)
+    else:
+        raise ValueError(
+            f"unknown floating preset {key!r}; shipped: {', '.join(_FLOATING_PRESETS)} "
+            "(or give a path to a .toml file)"
+        )
+    try:
+        return msgspec.toml.decode(data, type=FloatingPreset), base, source
+    except (msgspec.ValidationError, msgspec.DecodeError) as exc:
+        raise ValueError(f"{source}: {exc}") from exc
+
+
+def read_mooring_file(path: Path | Traversable) -> MooringFile:
+    """Decode a mooring JSON file written by :func:`plant.openfast_import.write_preset`."""
+    try:
+        return msgspec.json.decode(path.read_bytes(), type=MooringFile)
+    except (msgspec.ValidationError, msgspec.DecodeError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+
+
+def build_floating_params(
+    preset: FloatingPreset,
+    turbine: TurbineParams,
+    hydro: HydroData,
+    mooring: MooringFile,
+    radiation: RadiationSS | None,
+) -> FloatingParams:
+    """Assemble :class:`FloatingParams` from a preset, its hydro data, mooring and radiation fit.
+
+    M = M_s + A_∞[surge, heave, pitch]; K = K_s + C_hst + C_add; F_0 = F_s + ρ g V₀ e_z + F_add;
+    D = B_add (platform block) + tower modal damping; B_q = AddBQuad (platform block).
+    """
+    s = structural_matrices(preset)
+    idx = [0, 2, 4]
+    pos = [hydro.dofs.index(i) for i in idx]
+    rad = hydro.radiation
+    M = s.mass.copy()
+    M[:3, :3] += rad.added_mass_inf[np.ix_(pos, pos)]
+    K = s.stiffness.copy()
+    K[:3, :3] += hydro.hydrostatic_stiffness[np.ix_(pos, pos)]
+    K[:3, :3] += np.array(preset.additional_linear_stiffness)[np.ix_(idx, idx)]
+    F = s.static_force.copy()
+    F[1] += preset.water_density_kg_m3 * preset.gravity_m_s2 * preset.displaced_volume_m3
+    F[:3] += np.array(preset.additional_force_n)[idx]
+    D = np.zeros((4, 4))
+    D[:3, :3] = np.array(preset.additional_linear_damping)[np.ix_(idx, idx)]
+    D[3, 3] = s.tower_damping_n_s_m
+    bq = np.array(preset.additional_quadratic_damping)[np.ix_(idx, idx)]
+    table = MooringTable(
+        surge_m=np.array(mooring.surge_m),
+        force_surge_n=np.array(mooring.force_surge_n),
+        force_heave_n=np.array(mooring.force_heave_n),
+        moment_pitch_nm=np.array(mooring.moment_pitch_nm),
+        stiffness_heave_pitch=np.array(mooring.stiffness_heave_pitch),
+    )
+    if radiation is None:
+        ra, rb, rc = np.zeros((0, 0)), np.zeros((0, 3)), np.zeros((3, 0))
+    else:
+        if tuple(radiation.dofs) != (0, 2, 4):
+            raise ValueError(f"radiation: expected dofs (0, 2, 4), got {radiation.dofs}")
+        ra, rb, rc = radiation.A, radiation.B, radiation.C
+    return FloatingParams(
+        name=preset.name,
+        turbine=turbine,
+        mass_matrix=0.5 * (M + M.T),
+        stiffness=0.5 * (K + K.T),
+        static_force=F,
+        linear_damping=D,
+        quadratic_damping=bq,
+        hub_lever=s.hub_lever,
+        mooring=table,
+        radiation_a=ra,
+        radiation_b=rb,
+        radiation_c=rc,
+    )
+
+
+def load_floating(name_or_path: str | Path, radiation: bool = True) -> FloatingParams:
+    """Load a floating turbine from a shipped preset name or a preset TOML path (offline).
+
+    Reads the turbine preset, the hydrodynamic npz (:class:`plant.hydro.wamit.HydroData`), the
+    mooring JSON, and fits the radiation memory of surge, heave and pitch with
+    :func:`plant.hydro.radiation.fit_radiation` (``radiation=False``: no memory states).
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        ``"iea15mw_volturnus"`` or a path to a ``.toml`` written by
+        :func:`plant.openfast_import.write_preset`.
+    radiation : bool, optional
+        Fit and include the radiation memory (default True).
+
+    Returns
+    -------
+    FloatingParams
+    """
+    from plant.hydro.radiation import fit_radiation  # noqa: PLC0415  offline only
+    from plant.hydro.wamit import HydroData  # noqa: PLC0415
+
+    preset, base, source = read_floating_preset(name_or_path)
+    turbine_ref = preset.turbine
+    if (
+        base is not None
+        and not turbine_ref.startswith(_PRESET_PREFIX)
+        and ("/" in turbine_ref or turbine_ref.endswith(".toml"))
+    ):
+        turbine = load_turbine(base / turbine_ref)
+    else:
+        turbine = load_turbine(turbine_ref.removeprefix(_PRESET_PREFIX))
+    with resources.as_file(_resolve(base, preset.hydro_file)) as hydro_path:
+        hydro = HydroData.load_npz(hydro_path)
+    mooring = read_mooring_file(_resolve(base, preset.mooring_file))
+    ss = None
+    if radiation:
+        omega_range = None
+        if preset.radiation_omega_max_rad_s > 0.0:
+            omega_range = (0.0, preset.radiation_omega_max_rad_s)
+        ss = fit_radiation(
+            hydro.radiation,
+            dofs=(0, 2, 4),
+            max_order=preset.radiation_max_order,
+            tol=preset.radiation_tolerance,
+            omega_range_rad_s=omega_range,
+        )
+    try:
+        return build_floating_params(preset, turbine, hydro, mooring, ss)
+    except ValueError as exc:
+        raise ValueError(f"{source}: {exc}") from exc

@@ -1,0 +1,1 @@
+"""Shipped floating-turbine presets (TOML + mooring JSON); sources in ../README.md."""
