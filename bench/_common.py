@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import platform
+import re
 import subprocess
 import sys
 import tempfile
@@ -70,3 +71,28 @@ def save(name: str, result: dict[str, Any]) -> Path:
     print(json.dumps(result, indent=2))
     print(f"saved {path}")
     return path
+
+
+def scenario_variant(
+    scenario: str, control_period_s: float, plant_step_s: float | None = None
+) -> Path:
+    """A copy of a shipped scenario with another control period (and plant step).
+
+    The copy goes to a temporary file that lives as long as the process; the TOML text is
+    edited line by line so everything else (seeds, sea state, controller) stays as shipped.
+    """
+    from hil.scenario import scenario_text
+
+    text, _source = scenario_text(scenario)
+    step = plant_step_s if plant_step_s is not None else control_period_s
+    text, n1 = re.subn(
+        r"(?m)^control_period_s\s*=\s*[0-9.eE+-]+", f"control_period_s = {control_period_s!r}", text
+    )
+    text, n2 = re.subn(r"(?m)^plant_step_s\s*=\s*[0-9.eE+-]+", f"plant_step_s = {step!r}", text)
+    if n1 != 1 or n2 != 1:
+        raise SystemExit(f"scenario {scenario!r} has no single [timing] control period/plant step")
+    hz = round(1.0 / control_period_s)
+    fd, name = tempfile.mkstemp(prefix=f"fowt-bench-{scenario}-{hz}hz-", suffix=".toml")
+    with open(fd, "w") as fh:
+        fh.write(text)
+    return Path(name)

@@ -51,6 +51,46 @@ def M(unit: str, lo: float, hi: float, doc: str) -> msgspec.Meta:  # noqa: N802 
     return msgspec.Meta(ge=lo, le=hi, description=doc, extra={"unit": unit, "wire": "f64"})
 
 
+#: Bits of :attr:`SensorFrame.valid_mask`: bit set = the field holds a fresh, valid sample.
+#: A channel that is absent (a bottom-fixed plant has no platform motion) or whose sample
+#: was lost (dropout) has its bit cleared and its field set to 0.0, never to an older value.
+VALID_GENERATOR_SPEED = 1 << 0
+VALID_ROTOR_SPEED = 1 << 1
+VALID_PITCH = 1 << 2
+VALID_TORQUE = 1 << 3
+VALID_POWER = 1 << 4
+VALID_WIND = 1 << 5
+VALID_NACELLE_ACC = 1 << 6
+VALID_PLATFORM_PITCH = 1 << 7
+VALID_PLATFORM_PITCH_RATE = 1 << 8
+VALID_PLATFORM_SURGE = 1 << 9
+VALID_WAVE_GAUGE = 1 << 10
+#: SensorFrame field of each valid bit.
+VALID_BITS: dict[str, int] = {
+    "generator_speed_measured_rad_s": VALID_GENERATOR_SPEED,
+    "rotor_speed_measured_rad_s": VALID_ROTOR_SPEED,
+    "blade_pitch_measured_rad": VALID_PITCH,
+    "generator_torque_measured_nm": VALID_TORQUE,
+    "electrical_power_measured_w": VALID_POWER,
+    "wind_speed_measured_m_s": VALID_WIND,
+    "nacelle_acc_fore_aft_measured_m_s2": VALID_NACELLE_ACC,
+    "platform_pitch_measured_rad": VALID_PLATFORM_PITCH,
+    "platform_pitch_rate_measured_rad_s": VALID_PLATFORM_PITCH_RATE,
+    "platform_surge_measured_m": VALID_PLATFORM_SURGE,
+    "wave_elevation_gauge_measured_m": VALID_WAVE_GAUGE,
+}
+
+#: Bits of :attr:`ControllerStatus.estimates_valid_mask` (which optional estimates are set).
+EST_WIND_SPEED = 1 << 0
+EST_PLATFORM_PITCH = 1 << 1
+EST_PLATFORM_PITCH_RATE = 1 << 2
+EST_PLATFORM_SURGE = 1 << 3
+EST_PLATFORM_SURGE_VELOCITY = 1 << 4
+EST_TOWER_TOP_VELOCITY = 1 << 5
+EST_WAVE_FORECAST = 1 << 6
+EST_FEEDFORWARD = 1 << 7
+
+
 class SensorFrame(msgspec.Struct, frozen=True, kw_only=True):
     """Noisy sensor readings published by the plant every control period.
 
@@ -107,7 +147,30 @@ class ActuatorCommand(msgspec.Struct, frozen=True, kw_only=True):
 
 
 class PlantState(msgspec.Struct, frozen=True, kw_only=True):
-    """True plant state and loads, for logging and review only (never to a controller)."""
+    """True plant state and loads, for logging and review only (never to a controller).
+
+    Version 2 adds the floating platform (all 0 for a bottom-fixed plant), the wave
+    elevations and the loads. Sign conventions: x downwind, z up, platform pitch positive
+    when the tower top moves downwind; displacements about the platform reference point at
+    the still-water line.
+
+    Tower-base fore-aft bending moment (about the lateral axis through the tower base at
+    height h_b above the still-water line, in the platform frame, small angles; positive
+    bending the tower downwind), from the rotor thrust T at the hub lever h_hub and the
+    gravity and d'Alembert inertia forces of every mass above the base:
+
+        M_tb = T (h_hub - h_b) + Σ_j m_j [g d_j - a_j (h_j - h_b)] - Σ_j I_j (φ̈ + κ_j s̈)
+
+    with d_j the fore-aft offset of mass j from the tower axis at the base (its overhang
+    plus (h_j - h_b) φ plus its tower-mode displacement ψ_j s), a_j = ẍ + h_j φ̈ + ψ_j s̈
+    its fore-aft acceleration, I_j its pitch inertia (the rotor) and κ_j its slope per
+    metre of s; the tower's own masses enter through the integrals ∫(h - h_b) dm,
+    ∫h (h - h_b) dm, ∫ψ dm and ∫ψ (h - h_b) dm of the mode shape ψ (vertical accelerations
+    neglected). Bottom-fixed plant: M_tb = T (h_hub - 0) (no tower model, base at 0).
+
+    Low-speed-shaft torque: rigid drivetrain with the inertia lumped on the rotor side,
+    T_lss = N T_g (the generator reaction referred to the LSS; generator inertia neglected).
+    """
 
     seq: Seq
     sample_time_ns: TimeNs
@@ -132,10 +195,50 @@ class PlantState(msgspec.Struct, frozen=True, kw_only=True):
     generator_torque_applied_nm: Annotated[
         float, M("N m", -1e6, 1e8, "torque demand applied this cycle")
     ]
+    floating: Flag = 0
+    platform_surge_m: Annotated[float, M("m", -500.0, 500.0, "platform surge")] = 0.0
+    platform_heave_m: Annotated[float, M("m", -100.0, 100.0, "platform heave")] = 0.0
+    platform_pitch_rad: Annotated[float, M("rad", -1.5, 1.5, "platform pitch")] = 0.0
+    platform_surge_velocity_m_s: Annotated[
+        float, M("m/s", -50.0, 50.0, "platform surge velocity")
+    ] = 0.0
+    platform_heave_velocity_m_s: Annotated[
+        float, M("m/s", -50.0, 50.0, "platform heave velocity")
+    ] = 0.0
+    platform_pitch_rate_rad_s: Annotated[float, M("rad/s", -5.0, 5.0, "platform pitch rate")] = 0.0
+    tower_top_displacement_m: Annotated[
+        float, M("m", -50.0, 50.0, "tower-top fore-aft deflection (first mode)")
+    ] = 0.0
+    tower_top_velocity_m_s: Annotated[
+        float, M("m/s", -50.0, 50.0, "tower-top fore-aft deflection rate")
+    ] = 0.0
+    nacelle_acc_fore_aft_m_s2: Annotated[
+        float, M("m/s^2", -100.0, 100.0, "nacelle fore-aft kinematic acceleration")
+    ] = 0.0
+    wave_elevation_platform_m: Annotated[
+        float, M("m", -50.0, 50.0, "wave elevation at the platform")
+    ] = 0.0
+    wave_elevation_gauge_m: Annotated[
+        float, M("m", -50.0, 50.0, "wave elevation at the upstream gauge")
+    ] = 0.0
+    wave_force_surge_n: Annotated[float, M("N", -1e10, 1e10, "wave excitation surge force")] = 0.0
+    wave_moment_pitch_nm: Annotated[
+        float, M("N m", -1e12, 1e12, "wave excitation pitch moment")
+    ] = 0.0
+    tower_base_moment_nm: Annotated[
+        float, M("N m", -1e11, 1e11, "tower-base fore-aft bending moment")
+    ] = 0.0
+    shaft_torque_nm: Annotated[float, M("N m", -1e9, 1e9, "low-speed-shaft torque")] = 0.0
 
 
 class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
-    """Controller internals published every cycle beside the command."""
+    """Controller internals published every cycle beside the command.
+
+    Version 2 adds the estimates, forecast and feedforward of an advanced controller. They
+    default to 0; ``estimates_valid_mask`` says which hold a value (bits ``EST_*`` of this
+    module); the baseline sets none. ``estimator_degraded`` = 1 when an estimator runs on
+    missing or invalid measurements.
+    """
 
     seq: Seq
     answered_seq: Seq
@@ -149,6 +252,36 @@ class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     ]
     pitch_integrator_rad: Annotated[float, M("rad", -10.0, 10.0, "pitch PI integral term")]
     gain_schedule_factor: Annotated[float, M("1", 0.0, 100.0, "pitch gain-schedule factor")]
+    estimates_valid_mask: Count = 0
+    estimator_degraded: Flag = 0
+    wind_speed_estimated_m_s: Annotated[
+        float, M("m/s", -80.0, 80.0, "rotor-effective wind speed estimate")
+    ] = 0.0
+    platform_pitch_estimated_rad: Annotated[
+        float, M("rad", -1.5, 1.5, "platform pitch estimate")
+    ] = 0.0
+    platform_pitch_rate_estimated_rad_s: Annotated[
+        float, M("rad/s", -5.0, 5.0, "platform pitch rate estimate")
+    ] = 0.0
+    platform_surge_estimated_m: Annotated[
+        float, M("m", -500.0, 500.0, "platform surge estimate")
+    ] = 0.0
+    platform_surge_velocity_estimated_m_s: Annotated[
+        float, M("m/s", -50.0, 50.0, "platform surge velocity estimate")
+    ] = 0.0
+    tower_top_velocity_estimated_m_s: Annotated[
+        float, M("m/s", -50.0, 50.0, "tower-top fore-aft velocity estimate")
+    ] = 0.0
+    wave_elevation_forecast_m: Annotated[
+        float, M("m", -50.0, 50.0, "forecast wave elevation at the platform")
+    ] = 0.0
+    wave_forecast_time_ns: TimeNs = 0
+    feedforward_pitch_rad: Annotated[
+        float, M("rad", -2.0, 2.0, "feedforward part of the pitch demand")
+    ] = 0.0
+    feedforward_torque_nm: Annotated[
+        float, M("N m", -1e8, 1e8, "feedforward part of the torque demand (HSS)")
+    ] = 0.0
 
 
 class CycleTiming(msgspec.Struct, frozen=True, kw_only=True):

@@ -75,8 +75,8 @@ def _mt(cls: type[msgspec.Struct], mid: int, version: int, suffix: str) -> Messa
 MESSAGES: tuple[MessageType, ...] = (
     _mt(SensorFrame, 1, 1, "sensors"),
     _mt(ActuatorCommand, 2, 1, "command"),
-    _mt(PlantState, 3, 1, "truth"),
-    _mt(ControllerStatus, 4, 1, "controller/status"),
+    _mt(PlantState, 3, 2, "truth"),
+    _mt(ControllerStatus, 4, 2, "controller/status"),
     _mt(CycleTiming, 5, 1, "timing/cycle"),
     _mt(TimingSummary, 6, 1, "timing/summary"),
 )

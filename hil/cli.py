@@ -1,4 +1,4 @@
-"""The ``fowt`` command: run, plant, controller, record, review, scenarios."""
+"""The ``fowt`` command: run, plant, controller, record, review, scenarios, analyze, preset."""
 
 from __future__ import annotations
 
@@ -197,17 +197,88 @@ def review_cmd(
 @app.command()
 def scenarios() -> None:
     """List the shipped scenarios."""
-    table = Table("name", "turbine", "controller", "duration s", "description")
+    table = Table("name", "turbine", "platform", "controller", "duration s", "description")
     for name in shipped_scenarios():
         sc = load_scenario(name)
         table.add_row(
             name,
             sc.turbine,
+            sc.platform or "-",
             f"{sc.controller.kind}/{sc.controller.preset}",
             f"{sc.duration_s:g}",
             sc.description,
         )
     console.print(table)
+
+
+analyze_app = typer.Typer(help="Offline analysis of plant presets.", no_args_is_help=True)
+preset_app = typer.Typer(help="Plant presets: import from other tools.", no_args_is_help=True)
+app.add_typer(analyze_app, name="analyze")
+app.add_typer(preset_app, name="preset")
+
+
+@analyze_app.command("modes")
+def analyze_modes(
+    preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
+    wind: Annotated[
+        float, typer.Option("--wind", help="Steady hub-height wind of the linearisation, m/s.")
+    ] = 5.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
+) -> None:
+    """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
+
+    Linearises the floating model about its steady operating point at ``--wind``
+    (:func:`plant.modes.natural_modes`): period T = 2π/ω_d, damping ratio ζ = −Re λ/|λ|.
+    """
+    from plant.modes import natural_modes
+
+    if not wind > 0:
+        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
+        raise typer.Exit(2)
+    try:
+        modes = natural_modes(preset, wind)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    if as_json:
+        out = {"preset": preset, "wind_m_s": wind, "modes": [m.as_dict() for m in modes]}
+        sys.stdout.write(json.dumps(out, indent=2) + "\n")
+        return
+    table = Table(title=f"Natural modes of {preset} at {wind:g} m/s")
+    table.add_column("mode")
+    table.add_column("damped period [s]", justify="right")
+    table.add_column("damping ratio [-]", justify="right")
+    for m in modes:
+        table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
+    console.print(table)
+
+
+@preset_app.command("import-openfast")
+def preset_import_openfast(
+    fst_file: Annotated[Path, typer.Argument(help="The OpenFAST deck's .fst file.")],
+    out: Annotated[Path, typer.Option("--out", help="Folder for the preset files.")] = Path(
+        "presets"
+    ),
+    name: Annotated[
+        str | None, typer.Option("--name", help="File stem / preset name (default: deck title).")
+    ] = None,
+    turbine: Annotated[
+        str, typer.Option("--turbine", help="Turbine preset the platform carries.")
+    ] = "iea15mw",
+) -> None:
+    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data)."""
+    from plant.openfast_import import import_openfast, write_preset
+
+    if not fst_file.is_file():
+        console.print(f"[red]error:[/] {fst_file} is not a file")
+        raise typer.Exit(2)
+    try:
+        deck = import_openfast(fst_file, turbine=turbine, name=name)
+        path = write_preset(deck, out, stem=name)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)')
 
 
 def main() -> None:

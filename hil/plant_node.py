@@ -22,13 +22,15 @@ Latency histograms: :class:`hil.timing.LatencyHistogram` (p50/p99/p99.9/max).
 
 from __future__ import annotations
 
+import importlib.resources
 import math
 import signal
 import threading
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any, Literal
 
 import msgspec
@@ -36,48 +38,191 @@ import msgspec
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
 from bus_schemas.registry import COMMAND, CYCLE_TIMING, SENSORS, TIMING_SUMMARY, TRUTH, MessageType
 from hil.bus import Bus, BusConfig
-from hil.scenario import RampWindSpec, Scenario, SteadyWindSpec, StepWindSpec
+from hil.scenario import (
+    JonswapWavesSpec,
+    PiersonMoskowitzWavesSpec,
+    RampWindSpec,
+    Scenario,
+    SteadyWindSpec,
+    StepWindSpec,
+    StillWavesSpec,
+    TurbulentWindSpec,
+    WavesSection,
+    WindSpecSection,
+)
 from hil.timing import LatencyHistogram, Pacer
-from plant.simulator import PlantConfig, PlantSimulator
-from plant.turbine import load_turbine
-from plant.wind import RampWind, SteadyWind, StepWind, WindSpec
-from sensors import NoiseSpec
+from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator, TowerBaseLoads
+from plant.turbine import TurbineParams, load_turbine
+from plant.waves import (
+    IsscSpectrum,
+    JonswapSpectrum,
+    PiersonMoskowitzSpectrum,
+    WaveField,
+    excitation_force,
+    still_water,
+    synthesize,
+)
+from plant.wind import GustWind, RampWind, SteadyWind, StepWind, TurbulentWind, WindSpec
+from sensors import ChannelSpec, NoiseSpec, default_floating_suite
 
 Mode = Literal["realtime", "lockstep", "inprocess"]
 Publish = Callable[[MessageType, msgspec.Struct], None]
 
 
-def wind_from_scenario(spec: SteadyWindSpec | StepWindSpec | RampWindSpec) -> WindSpec:
-    """The plant's wind model for a scenario's ``[wind]`` section."""
+def wind_from_scenario(
+    spec: WindSpecSection,
+    turbine: TurbineParams | None = None,
+    duration_s: float = 600.0,
+    dt_s: float = 0.05,
+) -> WindSpec:
+    """The plant's wind model for a scenario's ``[wind]`` section.
+
+    A turbulent record is synthesised for the run (``duration_s`` long, sampled every
+    ``dt_s``, rotor-averaged over the ``turbine``'s rotor at its hub height); a gust uses
+    the turbine's rotor diameter and hub height.
+    """
     if isinstance(spec, SteadyWindSpec):
         return SteadyWind(speed_m_s=spec.speed_m_s)
     if isinstance(spec, StepWindSpec):
         return StepWind(initial_m_s=spec.initial_m_s, final_m_s=spec.final_m_s, time_s=spec.time_s)
-    return RampWind(
-        initial_m_s=spec.initial_m_s,
-        final_m_s=spec.final_m_s,
+    if isinstance(spec, RampWindSpec):
+        return RampWind(
+            initial_m_s=spec.initial_m_s,
+            final_m_s=spec.final_m_s,
+            start_s=spec.start_s,
+            end_s=spec.end_s,
+        )
+    hub = turbine.hub_height_m if turbine is not None else 90.0
+    radius = turbine.rotor_radius_m if turbine is not None else 63.0
+    if isinstance(spec, TurbulentWindSpec):
+        return TurbulentWind(
+            mean_m_s=spec.mean_m_s,
+            turbulence_class=spec.turbulence_class,
+            seed=spec.seed,
+            hub_height_m=hub,
+            rotor_radius_m=radius,
+            duration_s=duration_s,
+            dt_s=dt_s,
+        )
+    return GustWind(
+        hub_speed_m_s=spec.hub_speed_m_s,
         start_s=spec.start_s,
-        end_s=spec.end_s,
+        turbine_class=spec.turbine_class,
+        turbulence_class=spec.turbulence_class,
+        rotor_diameter_m=2.0 * radius,
+        hub_height_m=hub,
+        period_s=spec.period_s,
+    )
+
+
+def waves_from_scenario(spec: WavesSection | None, depth_m: float) -> WaveField:
+    """The wave field of a scenario's ``[waves]`` section (None or ``still``: still water).
+
+    Depth: ``depth_m`` of the section if given, else the platform preset's water depth.
+    """
+    if spec is None:
+        return still_water(depth_m)
+    depth = spec.depth_m if spec.depth_m is not None else depth_m
+    spectrum: JonswapSpectrum | PiersonMoskowitzSpectrum | IsscSpectrum
+    if isinstance(spec, StillWavesSpec):
+        return still_water(depth)
+    if isinstance(spec, JonswapWavesSpec):
+        spectrum = JonswapSpectrum(hs_m=spec.hs_m, tp_s=spec.tp_s, gamma=spec.gamma)
+    elif isinstance(spec, PiersonMoskowitzWavesSpec):
+        spectrum = PiersonMoskowitzSpectrum(hs_m=spec.hs_m, tp_s=spec.tp_s)
+    else:
+        spectrum = IsscSpectrum(hs_m=spec.hs_m, t1_s=spec.t1_s)
+    return synthesize(
+        spectrum,
+        depth_m=depth,
+        seed=spec.seed,
+        omega_min_rad_s=spec.omega_min_rad_s,
+        omega_max_rad_s=spec.omega_max_rad_s,
+        n_components=spec.n_components,
+    )
+
+
+def floating_plant(scenario: Scenario) -> FloatingPlant:
+    """Load the platform preset and build the waves and their excitation (offline, ~1 s)."""
+    from plant.hydro.wamit import HydroData  # noqa: PLC0415
+    from plant.platform import (  # noqa: PLC0415
+        load_floating,
+        read_floating_preset,
+    )
+
+    assert scenario.platform is not None
+    params = load_floating(scenario.platform)
+    preset, base, _ = read_floating_preset(scenario.platform)
+    hydro_ref = preset.hydro_file
+    if hydro_ref.startswith("preset:"):
+        res = importlib.resources.files("plant.presets").joinpath(
+            *hydro_ref.removeprefix("preset:").split("/")
+        )
+        with importlib.resources.as_file(res) as path:
+            hydro = HydroData.load_npz(path)
+    else:
+        hydro = HydroData.load_npz((base or Path(".")) / hydro_ref)
+    field = waves_from_scenario(scenario.waves, preset.water_depth_m)
+    exc = hydro.excitation.select((0, 2, 4), heading_deg=0.0)
+    force = excitation_force(field, exc.omega_rad_s, exc.force[:, 0, :])
+    gauge = scenario.waves.gauge_distance_m if scenario.waves is not None else 450.0
+    hub = float(params.hub_lever[2])
+    return FloatingPlant(
+        params=params,
+        loads=TowerBaseLoads.from_preset(preset, hub),
+        waves=field,
+        excitation_transfer=force.transfer,
+        gauge_distance_m=gauge,
     )
 
 
 def plant_config(scenario: Scenario) -> PlantConfig:
-    """Build the plant's configuration from a scenario."""
+    """Build the plant's configuration from a scenario.
+
+    Sensors: a bottom-fixed scenario without ``[sensors.channels]`` keeps the foundation's
+    noise-only sensors; otherwise every channel is a full model
+    (:class:`sensors.ChannelSpec`): :func:`sensors.default_floating_suite` for a floating
+    plant, the five noise-only turbine channels for a bottom-fixed one, then the
+    ``*_std_*`` keys that are set, then the per-channel tables.
+    """
     s = scenario.sensors
+    std = s.std_overrides()
     noise = {
-        "generator_speed_measured_rad_s": NoiseSpec(std=s.generator_speed_std_rad_s),
-        "blade_pitch_measured_rad": NoiseSpec(std=s.blade_pitch_std_rad),
-        "generator_torque_measured_nm": NoiseSpec(std=s.generator_torque_std_nm),
-        "electrical_power_measured_w": NoiseSpec(std=s.electrical_power_std_w),
-        "wind_speed_measured_m_s": NoiseSpec(std=s.wind_speed_std_m_s),
+        name: NoiseSpec(std=std.get(name, 0.0))
+        for name in (
+            "generator_speed_measured_rad_s",
+            "blade_pitch_measured_rad",
+            "generator_torque_measured_nm",
+            "electrical_power_measured_w",
+            "wind_speed_measured_m_s",
+        )
     }
+    turbine = load_turbine(scenario.turbine)
+    floating = floating_plant(scenario) if scenario.floating else None
+    channels: dict[str, ChannelSpec] | None = None
+    if floating is not None or s.channels:
+        if floating is not None:
+            channels = dict(default_floating_suite(scenario.timing.control_period_s))
+            for name, value in std.items():
+                channels[name] = replace(channels[name], std=value)
+        else:
+            channels = {name: ChannelSpec(name=name, std=n.std) for name, n in noise.items()}
+        for name, table in s.channels.items():
+            channels[name] = ChannelSpec.from_table(name, table, channels.get(name))
     return PlantConfig(
-        turbine=load_turbine(scenario.turbine),
-        wind=wind_from_scenario(scenario.wind),
+        turbine=turbine,
+        wind=wind_from_scenario(
+            scenario.wind,
+            turbine,
+            duration_s=scenario.duration_s + 1.0,
+            dt_s=scenario.timing.plant_step_s,
+        ),
         plant_step_s=scenario.timing.plant_step_s,
         steps_per_cycle=scenario.steps_per_cycle,
         sensor_noise=noise,
         sensor_seed=s.seed,
+        floating=floating,
+        sensor_channels=channels,
     )
 
 
@@ -112,7 +257,7 @@ class PlantLoop:
         self.period_ns = round(scenario.timing.control_period_s * 1e9)
         self.wall_period_ns = max(1, round(self.period_ns / speed))
         self.x = self.sim.initial_state()
-        self.applied = (self.x[1], self.x[2])  # hold the initial actuator positions
+        self.applied = self.sim.initial_applied(self.x)  # hold the initial actuator positions
         self.k = 0
         self.hist = LatencyHistogram()
         self.result = PlantRunResult()
@@ -149,8 +294,14 @@ class PlantLoop:
         command: ActuatorCommand | None,
         latency_ns: int,
         tick_lateness_ns: int = 0,
+        at_arrival: bool = True,
     ) -> None:
-        """Apply ``command`` (None: deadline missed, hold), integrate, publish timing."""
+        """Apply ``command`` (None: deadline missed, hold), integrate, publish timing.
+
+        ``at_arrival``: the command takes effect ``latency_ns`` into the period (real time);
+        False (lock-step, in-process): at the start of the period, whatever the latency, so
+        those modes stay deterministic on a loaded machine.
+        """
         t0 = time.monotonic_ns()
         missed = command is None
         previous = self.applied
@@ -158,7 +309,8 @@ class PlantLoop:
         if command is not None:
             new = (command.blade_pitch_commanded_rad, command.generator_torque_commanded_nm)
             latency_sim_s = latency_ns * 1e-9 * self.speed
-            switch = min(self.sim.n, round(latency_sim_s / self.sim.h)) if self.speed > 0 else 0
+            if at_arrival and self.speed > 0:
+                switch = min(self.sim.n, round(latency_sim_s / self.sim.h))
             self.hist.record(latency_ns)
         else:
             new = previous
@@ -373,7 +525,7 @@ def _run_lockstep(
                 f"controller did not answer frame {frame.seq} within {timeout_s:g} s"
             )
         command, arrival = got
-        loop.finish_cycle(command, arrival - loop.frame_sent_ns)
+        loop.finish_cycle(command, arrival - loop.frame_sent_ns, at_arrival=False)
 
 
 def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threading.Event) -> None:
@@ -418,6 +570,6 @@ def run_inprocess(
         t0 = time.monotonic_ns()
         command = step_controller(frame)
         latency = time.monotonic_ns() - t0
-        loop.finish_cycle(command, latency)
+        loop.finish_cycle(command, latency, at_arrival=False)
     loop.publish_summary(final=True)
     return loop.result

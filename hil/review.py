@@ -19,10 +19,16 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``mean_power_w`` [W], ``rotor_speed_mean_rad_s``, ``rotor_speed_std_rad_s`` [rad/s],
     ``pitch_travel_deg_s`` [deg/s] (truth ``blade_pitch_rad`` vs ``sample_time_ns``),
     ``generator_torque_mean_nm`` [N m, HSS], ``thrust_mean_n``, ``thrust_max_n`` [N],
-    ``shaft_del_nm`` [N m] damage-equivalent range of ``aero_torque_nm`` (LSS) with Wöhler
-    exponent m = ``shaft_del_wohler_m`` = 4 at f_eq = ``del_n_eq_hz`` = 1 Hz,
-    ``thrust_del_n`` [N] the same for rotor thrust (m = 4, tower-base load proxy),
-    ``platform_pitch_std_deg`` [deg] of the measured platform pitch (sensors).
+    ``shaft_del_nm`` [N m] damage-equivalent range of the low-speed-shaft torque
+    ``shaft_torque_nm`` (truth), ``tower_base_del_nm`` [N m] the same for the tower-base
+    fore-aft bending moment ``tower_base_moment_nm``, both by rainflow counting with Wöhler
+    exponent m = ``shaft_del_wohler_m`` = 4 at f_eq = ``del_n_eq_hz`` = 1 Hz over the record:
+    DEL = (Σ n_i S_i^m / (f_eq T))^(1/m), T the record length (the issue's "1 Hz equivalent,
+    600 s" is this with T = 600 s for a 600 s load case; shorter records give the same
+    damage rate, so DELs of runs of different lengths compare),
+    ``thrust_del_n`` [N] the same for rotor thrust (m = 4),
+    ``platform_pitch_mean_deg``, ``platform_pitch_std_deg`` [deg], ``surge_mean_m``,
+    ``surge_std_m`` [m] of the true platform motion (truth; 0 for a bottom-fixed plant).
 ``run``
     the ``"run"`` metadata record (strings) plus ``turbine``, ``duration_s`` [s] (span of
     ``sample_time_ns`` over all topics), ``messages`` (count per topic suffix),
@@ -44,6 +50,7 @@ import numpy.typing as npt
 from rich.table import Table
 from scipy.signal import welch
 
+from bus_schemas.messages import VALID_WAVE_GAUGE
 from hil import kpi
 from hil.mcap_log import RunData, read_run
 
@@ -183,6 +190,10 @@ def _kpis(run: RunData) -> dict[str, Any]:
     sensors = run.topic("sensors")
     t = _t_s(truth)
     rotor = _col(truth, "rotor_speed_rad_s")
+    platform_pitch = _col(truth, "platform_pitch_rad")
+    if truth and not np.isfinite(platform_pitch).all():  # a log of PlantState version 1
+        platform_pitch = _col(sensors, "platform_pitch_measured_rad")
+    surge = _col(truth, "platform_surge_m")
     return {
         "mean_power_w": kpi.mean_power_w(_col(truth, "electrical_power_w")),
         "rotor_speed_mean_rad_s": kpi.mean(rotor),
@@ -192,16 +203,21 @@ def _kpis(run: RunData) -> dict[str, Any]:
         "thrust_mean_n": kpi.mean(_col(truth, "rotor_thrust_n")),
         "thrust_max_n": kpi.maximum(_col(truth, "rotor_thrust_n")),
         "shaft_del_nm": kpi.damage_equivalent_load(
-            _col(truth, "aero_torque_nm"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
+            _col(truth, "shaft_torque_nm"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
+        ),
+        "tower_base_del_nm": kpi.damage_equivalent_load(
+            _col(truth, "tower_base_moment_nm"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
         ),
         "thrust_del_n": kpi.damage_equivalent_load(
             _col(truth, "rotor_thrust_n"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
         ),
         "shaft_del_wohler_m": SHAFT_WOHLER_M,
         "del_n_eq_hz": DEL_N_EQ_HZ,
-        "platform_pitch_std_deg": math.degrees(
-            kpi.std(_col(sensors, "platform_pitch_measured_rad"))
-        ),
+        "platform_pitch_mean_deg": math.degrees(kpi.mean(platform_pitch)),
+        "platform_pitch_std_deg": math.degrees(kpi.std(platform_pitch)),
+        "surge_mean_m": kpi.mean(surge),
+        "surge_std_m": kpi.std(surge),
+        "tower_base_moment_mean_nm": kpi.mean(_col(truth, "tower_base_moment_nm")),
     }
 
 
@@ -293,7 +309,7 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
 
     # --- time series
     tt, ts, tc = _t_s(truth), _t_s(sensors), _t_s(command)
-    fig, axes = plt.subplots(5, 1, figsize=(11, 12), sharex=True)
+    fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True)
     ax = axes[0]
     if truth:
         ax.plot(tt, _col(truth, "wind_speed_m_s"), label="hub wind (truth)")
@@ -341,6 +357,30 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
     if truth:
         ax.plot(tt, _col(truth, "electrical_power_w") / 1e6, label="truth")
     ax.set_ylabel("electrical power [MW]")
+    floating = bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
+    ax = axes[5]
+    if floating:
+        ax.plot(tt, np.degrees(_col(truth, "platform_pitch_rad")), label="truth")
+    if floating and sensors:
+        ax.plot(
+            ts, np.degrees(_col(sensors, "platform_pitch_measured_rad")), label="measured", lw=0.7
+        )
+    ax.set_ylabel("platform pitch [deg]")
+    ax = axes[6]
+    if floating:
+        ax.plot(tt, _col(truth, "platform_surge_m"), label="truth")
+    if floating and sensors:
+        ax.plot(ts, _col(sensors, "platform_surge_measured_m"), label="measured", lw=0.7)
+    ax.set_ylabel("platform surge [m]")
+    ax = axes[7]
+    if floating:
+        ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform")
+        ax.plot(tt, _col(truth, "wave_elevation_gauge_m"), label="at the gauge (truth)", lw=0.8)
+    if floating and sensors:
+        gauge = _col(sensors, "wave_elevation_gauge_measured_m")
+        valid = (_col(sensors, "valid_mask").astype(np.int64) & VALID_WAVE_GAUGE) > 0
+        ax.plot(ts, np.where(valid, gauge, np.nan), label="gauge (measured)", lw=0.6)
+    ax.set_ylabel("wave elevation [m]")
     ax.set_xlabel("simulated time [s]")
     for a in axes:
         if a.lines:
@@ -495,7 +535,12 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
             "kN m",
         ),
         ("thrust DEL (m=4)", k.get("thrust_del_n"), 1e-3, "kN"),
+        ("tower-base moment mean", k.get("tower_base_moment_mean_nm"), 1e-6, "MN m"),
+        ("tower-base DEL (m=4)", k.get("tower_base_del_nm"), 1e-6, "MN m"),
+        ("platform pitch mean", k.get("platform_pitch_mean_deg"), 1.0, "deg"),
         ("platform pitch std", k.get("platform_pitch_std_deg"), 1.0, "deg"),
+        ("surge mean", k.get("surge_mean_m"), 1.0, "m"),
+        ("surge std", k.get("surge_std_m"), 1.0, "m"),
     ]
     for name, v, scale, unit in rows:
         t.add_row(name, _fmt(v, scale), unit)

@@ -60,7 +60,106 @@ class RampWindSpec(
     end_s: NonNegative
 
 
-WindSpecSection = SteadyWindSpec | StepWindSpec | RampWindSpec
+TurbulenceClass = Literal["A+", "A", "B", "C"]
+
+
+class TurbulentWindSpec(
+    _Section,
+    frozen=True,
+    forbid_unknown_fields=True,
+    kw_only=True,
+    tag="turbulent",
+    tag_field="kind",
+):
+    """Rotor-effective turbulent wind: mean ``mean_m_s`` plus IEC Kaimal turbulence.
+
+    σ₁ = I_ref (0.75 U + 5.6) of the IEC ``turbulence_class`` (A: I_ref = 0.16, B: 0.14,
+    C: 0.12), rotor-averaged over the turbine's rotor, seeded (:class:`plant.wind.TurbulentWind`).
+    """
+
+    mean_m_s: Annotated[float, msgspec.Meta(gt=0.0, le=70.0)]
+    turbulence_class: TurbulenceClass = "B"
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
+
+
+class GustWindSpec(
+    _Section, frozen=True, forbid_unknown_fields=True, kw_only=True, tag="gust", tag_field="kind"
+):
+    """IEC 61400-1 extreme operating gust of period ``period_s`` starting at ``start_s``."""
+
+    hub_speed_m_s: WindSpeed
+    start_s: NonNegative = 10.0
+    turbine_class: Literal["I", "II", "III"] = "I"
+    turbulence_class: TurbulenceClass = "B"
+    period_s: Positive = 10.5
+
+
+WindSpecSection = SteadyWindSpec | StepWindSpec | RampWindSpec | TurbulentWindSpec | GustWindSpec
+
+
+class _WavesCommon(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Keys every irregular sea state takes (see :func:`plant.waves.synthesize`)."""
+
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
+    gauge_distance_m: NonNegative = 450.0
+    n_components: Annotated[int, msgspec.Meta(ge=1, le=5000)] = 200
+    omega_min_rad_s: Positive = 0.1
+    omega_max_rad_s: Positive = 3.0
+    depth_m: Positive | None = None
+
+    def check(self) -> None:
+        """Cross-field checks (frequency band)."""
+        if not self.omega_max_rad_s > self.omega_min_rad_s:
+            raise ValueError(
+                f"waves.omega_max_rad_s = {self.omega_max_rad_s} rad/s must be > "
+                f"waves.omega_min_rad_s = {self.omega_min_rad_s} rad/s"
+            )
+
+
+class JonswapWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="jonswap", tag_field="kind"):
+    """JONSWAP spectrum: height ``hs_m``, peak period ``tp_s``, peak factor ``gamma``."""
+
+    hs_m: Positive
+    tp_s: Positive
+    gamma: Annotated[float, msgspec.Meta(ge=1.0, le=10.0)] = 3.3
+
+
+class PiersonMoskowitzWavesSpec(
+    _WavesCommon, frozen=True, kw_only=True, tag="pierson_moskowitz", tag_field="kind"
+):
+    """Pierson-Moskowitz spectrum (JONSWAP with γ = 1): ``hs_m``, peak period ``tp_s``."""
+
+    hs_m: Positive
+    tp_s: Positive
+
+
+class IsscWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="issc", tag_field="kind"):
+    """ISSC spectrum (casanovas-2014 eq. 3.1): ``hs_m``, mean period ``t1_s``."""
+
+    hs_m: Positive
+    t1_s: Positive
+
+
+class StillWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="still", tag_field="kind"):
+    """Still water: no waves (the gauge reads 0)."""
+
+
+WavesSection = JonswapWavesSpec | PiersonMoskowitzWavesSpec | IsscWavesSpec | StillWavesSpec
+
+#: Sensor channels a scenario may configure (SensorFrame measured fields;
+#: ``rotor_speed_measured_rad_s`` is derived from the generator speed).
+SENSOR_CHANNELS = (
+    "generator_speed_measured_rad_s",
+    "blade_pitch_measured_rad",
+    "generator_torque_measured_nm",
+    "electrical_power_measured_w",
+    "wind_speed_measured_m_s",
+    "nacelle_acc_fore_aft_measured_m_s2",
+    "platform_pitch_measured_rad",
+    "platform_pitch_rate_measured_rad_s",
+    "platform_surge_measured_m",
+    "wave_elevation_gauge_measured_m",
+)
 
 
 class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -75,14 +174,52 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
 
 
 class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """White measurement noise (standard deviations) and the noise seed."""
+    """Sensor models and their seed.
+
+    ``*_std_*``: white noise standard deviations (the foundation's keys; unset = 0 for a
+    bottom-fixed plant, the channel default for a floating one). ``channels``: per-channel
+    tables ``[sensors.channels.<name>]`` with any of ``std``, ``bias``, ``resolution``,
+    ``delay_s``, ``sample_period_s``, ``dropout_probability``, ``range_min``, ``range_max``
+    (units of the channel), applied on top of :func:`sensors.default_floating_suite` for a
+    floating plant, on top of the noise-only channels for a bottom-fixed one.
+    """
 
     seed: int = 1
-    generator_speed_std_rad_s: NonNegative = 0.0
-    blade_pitch_std_rad: NonNegative = 0.0
-    generator_torque_std_nm: NonNegative = 0.0
-    electrical_power_std_w: NonNegative = 0.0
-    wind_speed_std_m_s: NonNegative = 0.0
+    generator_speed_std_rad_s: NonNegative | None = None
+    blade_pitch_std_rad: NonNegative | None = None
+    generator_torque_std_nm: NonNegative | None = None
+    electrical_power_std_w: NonNegative | None = None
+    wind_speed_std_m_s: NonNegative | None = None
+    channels: dict[str, dict[str, float]] = msgspec.field(default_factory=dict)
+
+    def std_overrides(self) -> dict[str, float]:
+        """Channel name -> noise std of the ``*_std_*`` keys that are set."""
+        keys = {
+            "generator_speed_measured_rad_s": self.generator_speed_std_rad_s,
+            "blade_pitch_measured_rad": self.blade_pitch_std_rad,
+            "generator_torque_measured_nm": self.generator_torque_std_nm,
+            "electrical_power_measured_w": self.electrical_power_std_w,
+            "wind_speed_measured_m_s": self.wind_speed_std_m_s,
+        }
+        return {k: v for k, v in keys.items() if v is not None}
+
+    def check(self, control_period_s: float) -> None:
+        """Validate the channel tables (names and keys) by building their specs."""
+        from sensors import ChannelSpec, default_floating_suite  # noqa: PLC0415
+
+        base = default_floating_suite(control_period_s)
+        for name, table in self.channels.items():
+            if name not in SENSOR_CHANNELS:
+                close = difflib.get_close_matches(name, SENSOR_CHANNELS, n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise ValueError(
+                    f"sensors.channels: unknown channel {name!r}{hint} "
+                    f"(channels: {', '.join(SENSOR_CHANNELS)})"
+                )
+            try:
+                ChannelSpec.from_table(name, table, base.get(name))
+            except ValueError as exc:
+                raise ValueError(f"sensors.channels.{name}: {exc}") from exc
 
 
 class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -98,6 +235,8 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     name: str
     turbine: str
     wind: WindSpecSection
+    platform: str | None = None
+    waves: WavesSection | None = None
     description: str = ""
     turbine_id: Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z0-9_-]+$")] = "t1"
     duration_s: Positive = 60.0
@@ -118,6 +257,27 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
             )
         if isinstance(self.wind, RampWindSpec) and self.wind.end_s < self.wind.start_s:
             raise ValueError("wind.end_s must be >= wind.start_s")
+        if self.platform is not None:
+            shipped = shipped_platforms()
+            ref = self.platform
+            if not (ref in shipped or ref.endswith(".toml")):
+                raise ValueError(
+                    f"platform = {ref!r}: expected a floating preset ({', '.join(shipped)}) "
+                    "or a path to a preset .toml"
+                )
+        if self.waves is not None:
+            if self.platform is None:
+                raise ValueError(
+                    "waves: a [waves] section needs a floating plant (platform = "
+                    '"iea15mw_volturnus"); a bottom-fixed turbine has no platform'
+                )
+            self.waves.check()
+        self.sensors.check(self.timing.control_period_s)
+
+    @property
+    def floating(self) -> bool:
+        """True when the plant is a floating turbine (``platform`` given)."""
+        return self.platform is not None
 
     @property
     def steps_per_cycle(self) -> int:
@@ -162,15 +322,13 @@ def _known_fields(path: str) -> list[str]:
         "controller": ControllerSection,
     }
     if parts:
-        if parts[0] == "wind":
-            return sorted(
-                {
-                    f
-                    for c in (SteadyWindSpec, StepWindSpec, RampWindSpec)
-                    for f in c.__struct_fields__
-                }
-                | {"kind"}
+        if parts[0] in ("wind", "waves"):
+            classes: tuple[type[msgspec.Struct], ...] = (
+                (SteadyWindSpec, StepWindSpec, RampWindSpec, TurbulentWindSpec, GustWindSpec)
+                if parts[0] == "wind"
+                else (JonswapWavesSpec, PiersonMoskowitzWavesSpec, IsscWavesSpec, StillWavesSpec)
             )
+            return sorted({f for c in classes for f in c.__struct_fields__} | {"kind"})
         cls = sections.get(parts[0], Scenario)
     return list(cls.__struct_fields__)
 
@@ -202,6 +360,12 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         if at:
             msg = f"key {at.group(1)!r}: {msg[: at.start()]}"
         raise ScenarioError(f"{source}: {msg}") from exc
+
+
+def shipped_platforms() -> list[str]:
+    """Names of the floating platform presets shipped with the plant."""
+    root = importlib.resources.files("plant.presets") / "floating"
+    return sorted(p.name.removesuffix(".toml") for p in root.iterdir() if p.name.endswith(".toml"))
 
 
 def shipped_scenarios() -> list[str]:

@@ -30,6 +30,7 @@ from pathlib import Path
 import msgspec
 import numpy as np
 
+from plant.hydro.radiation import RadiationModel, fit_reduced_radiation
 from plant.hydro.wamit import HydroData, import_wamit
 from plant.platform import FloatingPreset, MooringFile, tower_modal
 
@@ -40,6 +41,7 @@ __all__ = [
     "import_openfast",
     "read_keyed_file",
     "write_preset",
+    "write_radiation",
 ]
 
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eEdD][-+]?\d+)?$")
@@ -419,6 +421,10 @@ def import_openfast(
         additional_linear_stiffness=add_c,
         additional_linear_damping=add_b,
         additional_quadratic_damping=add_bq,
+        # Radiation fit (write_radiation): orders up to 12 over 0..2 rad/s, below the
+        # high-frequency ripple of semi-submersible data that no low order follows.
+        radiation_max_order=12,
+        radiation_omega_max_rad_s=2.0,
     )
     tm = tower_modal(preset)
     notes = [
@@ -469,10 +475,48 @@ def _toml_lines(data: dict[str, object]) -> str:
     return "".join(f"{key} = {_toml_value(value)}\n" for key, value in data.items())
 
 
-def write_preset(deck: ImportedDeck, out_dir: Path, stem: str | None = None) -> Path:
-    """Write ``<stem>.toml``, ``<stem>_hydro.npz`` and ``<stem>_mooring.json`` into ``out_dir``.
+def write_radiation(preset: FloatingPreset, hydro: HydroData, path: Path) -> RadiationModel:
+    """Fit, stack and reduce the radiation memory of surge, heave and pitch once; write its npz.
 
-    The TOML's ``hydro_file`` and ``mooring_file`` name the data files relative to it, so
+    Uses :func:`plant.hydro.radiation.fit_reduced_radiation` with the preset's
+    ``radiation_max_order``, ``radiation_tolerance`` and ``radiation_omega_max_rad_s`` (0: the
+    whole band of the data); heave and pitch decide the reduced order.
+
+    Parameters
+    ----------
+    preset : FloatingPreset
+    hydro : HydroData
+    path : Path
+        The ``.npz`` to write (:meth:`plant.hydro.radiation.RadiationModel.save_npz`).
+
+    Returns
+    -------
+    RadiationModel
+    """
+    band = None
+    if preset.radiation_omega_max_rad_s > 0.0:
+        band = (0.0, preset.radiation_omega_max_rad_s)
+    model = fit_reduced_radiation(
+        hydro.radiation,
+        dofs=(0, 2, 4),
+        max_order=preset.radiation_max_order,
+        tol=preset.radiation_tolerance,
+        omega_range_rad_s=band,
+        checked_dofs=(2, 4),
+        source=f"Perez-Fossen fits of the WAMIT data of {preset.name!r}, stacked, "
+        "reduced by balanced truncation, diagonal kernels made passive with Re K >= 0.5 B at "
+        "the data (plant.openfast_import.write_radiation)",
+    )
+    model.save_npz(path)
+    return model
+
+
+def write_preset(deck: ImportedDeck, out_dir: Path, stem: str | None = None) -> Path:
+    """Write ``<stem>.toml``, ``<stem>_hydro.npz``, ``<stem>_mooring.json`` and
+    ``<stem>_radiation.npz`` (:func:`write_radiation`) into ``out_dir``.
+
+    The TOML's ``hydro_file``, ``mooring_file`` and ``radiation_file`` name the data files
+    relative to it, so
     ``plant.platform.load_floating(out_dir / f"{stem}.toml")`` reads the preset back.
 
     Parameters
@@ -493,10 +537,15 @@ def write_preset(deck: ImportedDeck, out_dir: Path, stem: str | None = None) -> 
     stem = stem or re.sub(r"[^a-z0-9]+", "_", deck.preset.name.lower()).strip("_")[:40]
     hydro_name = f"{stem}_hydro.npz"
     moor_name = f"{stem}_mooring.json"
+    rad_name = f"{stem}_radiation.npz"
     deck.hydro.save_npz(out_dir / hydro_name)
     (out_dir / moor_name).write_bytes(msgspec.json.format(msgspec.json.encode(deck.mooring)))
-    preset = msgspec.structs.replace(deck.preset, hydro_file=hydro_name, mooring_file=moor_name)
-    header = "".join(f"# {n}\n" for n in deck.notes)
+    model = write_radiation(deck.preset, deck.hydro, out_dir / rad_name)
+    preset = msgspec.structs.replace(
+        deck.preset, hydro_file=hydro_name, mooring_file=moor_name, radiation_file=rad_name
+    )
+    notes = [*deck.notes, *(f"radiation {line}" for line in model.describe())]
+    header = "".join(f"# {n}\n" for n in notes)
     body = _toml_lines(msgspec.structs.asdict(preset))
     path = out_dir / f"{stem}.toml"
     path.write_text(

@@ -64,11 +64,10 @@ import msgspec
 import numpy as np
 import numpy.typing as npt
 
-from plant import turbine as _turbine
 from plant.turbine import WIND_MIN_M_S, TurbineParams, load_turbine
 
 if TYPE_CHECKING:
-    from plant.hydro.radiation import RadiationSS
+    from plant.hydro.radiation import RadiationModel, RadiationSS
     from plant.hydro.wamit import HydroData
 
 __all__ = [
@@ -84,6 +83,7 @@ __all__ = [
     "relative_wind",
     "rotor_thrust",
     "state_names",
+    "step_floating",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -295,6 +295,7 @@ class FloatingParams:
     _f0: tuple[float, ...] = field(init=False, repr=False)
     _jh: tuple[float, ...] = field(init=False, repr=False)
     _rad: FloatArray = field(init=False, repr=False)
+    _step_cache: dict[float, _StepMatrices] = field(init=False, repr=False)
     n_radiation: int = field(init=False)
 
     def __post_init__(self) -> None:
@@ -346,6 +347,7 @@ class FloatingParams:
         block[:nr, nr:] = rb
         block[nr:, :nr] = rc
         set_(self, "_rad", block)
+        set_(self, "_step_cache", {})
         set_(self, "n_radiation", nr)
 
     @property
@@ -384,6 +386,108 @@ def rotor_thrust(
     return tp.k_thrust * wind_rel_m_s * wind_rel_m_s * ct
 
 
+def _mech(
+    x: tuple[float, ...] | list[float],
+    u: tuple[float, ...],
+    mu0: float,
+    mu1: float,
+    mu2: float,
+    p: FloatingParams,
+) -> tuple[float, ...]:
+    """Derivative of the 11 mechanical + rotor states with the radiation memory force μ given.
+
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w and the rotor
+    of :func:`plant.turbine.f` (one Cp/Ct/Cq cell lookup for thrust and torque), in plain
+    floats with the precomputed tuples of :class:`FloatingParams` (no numpy).
+    """
+    q0, q1, q2, q3, v0, v1, v2, v3, omega, theta, torque = x[:11]
+    jh = p._jh
+    tp = p.turbine
+    # Aero off: zero wind into the rotor (no aerodynamic torque or thrust).
+    u_rel = u[2] - (v0 + jh[2] * v2 + jh[3] * v3) if p.aero else 0.0
+    if u_rel > WIND_MIN_M_S:
+        tsr = (omega if omega > 0.0 else 0.0) * tp.rotor_radius_m / u_rel
+        _, ct, cq = tp.table.coefficients(tsr, theta)
+        uu = u_rel * u_rel
+        thrust = tp.k_thrust * uu * ct
+        t_aero = tp.k_torque * uu * cq
+    else:
+        thrust = 0.0
+        t_aero = 0.0
+    d_omega = (t_aero - tp.gearbox_ratio * torque) * tp.inv_inertia
+    # Actuators: dy/dt = clip((clip(y_d, lo, hi) − y)/τ, ±r_max) (as plant.turbine.f).
+    dem = u[0]
+    dem = tp.pitch_min_rad if dem < tp.pitch_min_rad else dem
+    dem = tp.pitch_max_rad if dem > tp.pitch_max_rad else dem
+    d_theta = (dem - theta) * tp.inv_pitch_tau
+    r = tp.pitch_rate_max_rad_s
+    d_theta = r if d_theta > r else (-r if d_theta < -r else d_theta)
+    dem = u[1]
+    dem = 0.0 if dem < 0.0 else dem
+    dem = tp.torque_max_nm if dem > tp.torque_max_nm else dem
+    d_torque = (dem - torque) * tp.inv_torque_tau
+    r = tp.torque_rate_max_nm_s
+    d_torque = r if d_torque > r else (-r if d_torque < -r else d_torque)
+
+    fmx, fmz, fmp = mooring_force(p.mooring, q0, q1, q2)
+    f0 = p._f0
+    k0, k1, k2, k3 = p._k
+    d0, d1, d2, d3 = p._d
+    b0, b1, b2 = p._bq
+    a0 = v0 * abs(v0)
+    a1 = v1 * abs(v1)
+    a2 = v2 * abs(v2)
+    g0 = (
+        f0[0]
+        + fmx
+        + u[3]
+        + thrust
+        - mu0
+        - (k0[0] * q0 + k0[1] * q1 + k0[2] * q2 + k0[3] * q3)
+        - (d0[0] * v0 + d0[1] * v1 + d0[2] * v2 + d0[3] * v3)
+        - (b0[0] * a0 + b0[1] * a1 + b0[2] * a2)
+    )
+    g1 = (
+        f0[1]
+        + fmz
+        + u[4]
+        - mu1
+        - (k1[0] * q0 + k1[1] * q1 + k1[2] * q2 + k1[3] * q3)
+        - (d1[0] * v0 + d1[1] * v1 + d1[2] * v2 + d1[3] * v3)
+        - (b1[0] * a0 + b1[1] * a1 + b1[2] * a2)
+    )
+    g2 = (
+        f0[2]
+        + fmp
+        + u[5]
+        + jh[2] * thrust
+        - mu2
+        - (k2[0] * q0 + k2[1] * q1 + k2[2] * q2 + k2[3] * q3)
+        - (d2[0] * v0 + d2[1] * v1 + d2[2] * v2 + d2[3] * v3)
+        - (b2[0] * a0 + b2[1] * a1 + b2[2] * a2)
+    )
+    g3 = (
+        f0[3]
+        + jh[3] * thrust
+        - (k3[0] * q0 + k3[1] * q1 + k3[2] * q2 + k3[3] * q3)
+        - (d3[0] * v0 + d3[1] * v1 + d3[2] * v2 + d3[3] * v3)
+    )
+    m0, m1, m2, m3 = p._minv
+    return (
+        v0,
+        v1,
+        v2,
+        v3,
+        m0[0] * g0 + m0[1] * g1 + m0[2] * g2 + m0[3] * g3,
+        m1[0] * g0 + m1[1] * g1 + m1[2] * g2 + m1[3] * g3,
+        m2[0] * g0 + m2[1] * g1 + m2[2] * g2 + m2[3] * g3,
+        m3[0] * g0 + m3[1] * g1 + m3[2] * g2 + m3[3] * g3,
+        d_omega,
+        d_theta,
+        d_torque,
+    )
+
+
 def f(
     t: float, x: tuple[float, ...], u: tuple[float, ...], params: FloatingParams
 ) -> tuple[float, ...]:
@@ -409,58 +513,123 @@ def f(
         dx/dt, same length as ``x``.
     """
     p = params
-    q0, q1, q2, q3, v0, v1, v2, v3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7]
-    omega, theta, torque = x[8], x[9], x[10]
-    jh = p._jh
-    # Aero off: zero wind into the rotor (turbine.f gives zero aero torque below WIND_MIN_M_S).
-    u_rel = u[2] - (v0 + jh[2] * v2 + jh[3] * v3) if p.aero else 0.0
-    tp = p.turbine
-    d_rotor = _turbine.f(t, (omega, theta, torque), (u[0], u[1], u_rel), tp)
-    thrust = rotor_thrust(omega, theta, u_rel, tp)
+    nr = p.n_radiation
+    if not nr:
+        return _mech(x, u, 0.0, 0.0, 0.0, p)
+    z = (p._rad @ np.array([*x[N_MECH_STATES:], x[4], x[5], x[6]])).tolist()
+    return (*_mech(x, u, z[nr], z[nr + 1], z[nr + 2], p), *z[:nr])
 
-    fmx, fmz, fmp = mooring_force(p.mooring, q0, q1, q2)
-    f0 = p._f0
-    k = p._k
-    d = p._d
-    bq = p._bq
-    a0 = v0 * abs(v0)
-    a1 = v1 * abs(v1)
-    a2 = v2 * abs(v2)
-    g = [
-        f0[0] + fmx + u[3] + thrust,
-        f0[1] + fmz + u[4],
-        f0[2] + fmp + u[5] + jh[2] * thrust,
-        f0[3] + jh[3] * thrust,
-    ]
-    for i in range(4):
-        ki = k[i]
-        di = d[i]
-        g[i] -= (
-            ki[0] * q0
-            + ki[1] * q1
-            + ki[2] * q2
-            + ki[3] * q3
-            + di[0] * v0
-            + di[1] * v1
-            + di[2] * v2
-            + di[3] * v3
-        )
-    for i in range(3):
-        bi = bq[i]
-        g[i] -= bi[0] * a0 + bi[1] * a1 + bi[2] * a2
+
+@dataclass(frozen=True, eq=False)
+class _StepMatrices:
+    """Exact discretisation of the radiation block for one step h (see :func:`step_floating`).
+
+    ``pre`` (6 + n, n_x) acts on the whole state x: rows (μ0, μ̇0, Φ ξ0 + (Γ0 − Γ1) v0);
+    ``post`` (n, 3) = Γ1 multiplies v1.
+    """
+
+    pre: FloatArray
+    post: FloatArray
+
+
+def _step_matrices(p: FloatingParams, h: float) -> _StepMatrices:
+    import scipy.linalg  # noqa: PLC0415  once per (params, h)
+
+    a, b, c = p.radiation_a, p.radiation_b, p.radiation_c
+    n = a.shape[0]
+    blk = np.zeros((n + 6, n + 6))
+    blk[:n, :n] = a * h
+    blk[:n, n : n + 3] = b * h
+    blk[n : n + 3, n + 3 :] = np.eye(3)
+    e = scipy.linalg.expm(blk)
+    phi, g0, g1 = e[:n, :n], e[:n, n : n + 3], e[:n, n + 3 :]
+    m = N_MECH_STATES
+    pre = np.zeros((6 + n, m + n))
+    pre[:3, m:] = c
+    pre[3:6, m:] = c @ a
+    pre[3:6, 4:7] = c @ b
+    pre[6:, m:] = phi
+    pre[6:, 4:7] = g0 - g1
+    return _StepMatrices(pre=pre, post=np.ascontiguousarray(g1))
+
+
+def step_floating(
+    t: float, x: tuple[float, ...], u: tuple[float, ...], h: float, params: FloatingParams
+) -> tuple[float, ...]:
+    """Advance the floating turbine by one step ``h`` (s) with the input ``u`` held.
+
+    The integrator the simulator should use (pure: no clock, no I/O). The state is split into
+    the 11 mechanical + rotor states y and the linear radiation states ξ:
+
+    1. Radiation force over the step, from the state at t: μ(t + τ) ≈ μ0 + τ μ̇0 with
+       μ0 = C ξ0 and μ̇0 = C (A ξ0 + B v0) (v = surge, heave, pitch rates).
+    2. y by classic RK4 of the mechanical part of :func:`f` with that μ (inputs held).
+    3. ξ exactly for a velocity that varies linearly over the step (first-order hold between
+       v0 and v1 = v(t + h)):
+
+           ξ1 = Φ ξ0 + Γ0 v0 + Γ1 (v1 − v0),  Φ = e^{Ah},  Γ0 = ∫₀ʰ e^{A(h−τ)} dτ B,
+           Γ1 = ∫₀ʰ e^{A(h−τ)} (τ/h) dτ B,
+
+       all from one matrix exponential of [[A h, B h, 0], [0, 0, I], [0, 0, 0]] (Van Loan),
+       computed once per (params, h) and cached.
+
+    Without radiation states this is plain RK4 of :func:`f`. The split removes the radiation
+    states from the four RK4 stages (one numpy product each side instead of four) and is exact
+    for the linear block, so stiff radiation poles never limit the step.
+
+    Parameters
+    ----------
+    t : float
+        Time at the start of the step (s); unused (time-invariant).
+    x : sequence of float, length ``params.n_states``
+        State at t (layout of :func:`f`).
+    u : sequence of float, length 6
+        Input held over the step (layout of :func:`f`).
+    h : float
+        Step (s), > 0.
+    params : FloatingParams
+
+    Returns
+    -------
+    tuple of float
+        State at t + h.
+    """
+    p = params
     nr = p.n_radiation
     if nr:
-        z = p._rad @ np.array([*x[N_MECH_STATES:], v0, v1, v2])
-        rad = z.tolist()
-        g[0] -= rad[nr]
-        g[1] -= rad[nr + 1]
-        g[2] -= rad[nr + 2]
-        d_rad: list[float] = rad[:nr]
+        sm = p._step_cache.get(h)
+        if sm is None:
+            if not h > 0.0:
+                raise ValueError(f"step_floating: h must be > 0 s, got {h}")
+            sm = p._step_cache[h] = _step_matrices(p, h)
+        z = sm.pre @ np.array(x)
+        m0, m1, m2, r0, r1, r2 = z[:6].tolist()
     else:
-        d_rad = []
-    mi = p._minv
-    acc = [mi[i][0] * g[0] + mi[i][1] * g[1] + mi[i][2] * g[2] + mi[i][3] * g[3] for i in range(4)]
-    return (v0, v1, v2, v3, acc[0], acc[1], acc[2], acc[3], *d_rotor, *d_rad)
+        m0 = m1 = m2 = r0 = r1 = r2 = 0.0
+    h2 = 0.5 * h
+    y = x[:N_MECH_STATES]
+    k1 = _mech(y, u, m0, m1, m2, p)
+    ma, mb, mc = m0 + h2 * r0, m1 + h2 * r1, m2 + h2 * r2
+    k2 = _mech([a + h2 * b for a, b in zip(y, k1)], u, ma, mb, mc, p)  # noqa: B905
+    k3 = _mech([a + h2 * b for a, b in zip(y, k2)], u, ma, mb, mc, p)  # noqa: B905
+    k4 = _mech(
+        [a + h * b for a, b in zip(y, k3)],  # noqa: B905
+        u,
+        m0 + h * r0,
+        m1 + h * r1,
+        m2 + h * r2,
+        p,
+    )
+    h6 = h / 6.0
+    y_next = [
+        a + h6 * (b1 + 2.0 * (b2 + b3) + b4)
+        for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)  # noqa: B905
+    ]
+    if not nr:
+        return tuple(y_next)
+    assert sm is not None
+    xi = (z[6:] + sm.post @ y_next[4:7]).tolist()
+    return (*y_next, *xi)
 
 
 def energy(x: tuple[float, ...] | FloatArray, params: FloatingParams) -> float:
@@ -539,6 +708,9 @@ class FloatingPreset(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     radiation_max_order: int = 8
     radiation_tolerance: float = 0.02
     radiation_omega_max_rad_s: float = 0.0
+    #: Shipped radiation state space (:class:`plant.hydro.radiation.RadiationModel` npz);
+    #: empty: fit the kernels when loading (slow, 0.3-0.6 s).
+    radiation_file: str = ""
 
 
 class MooringFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
@@ -767,7 +939,7 @@ def build_floating_params(
     turbine: TurbineParams,
     hydro: HydroData,
     mooring: MooringFile,
-    radiation: RadiationSS | None,
+    radiation: RadiationSS | RadiationModel | None,
 ) -> FloatingParams:
     """Assemble :class:`FloatingParams` from a preset, its hydro data, mooring and radiation fit.
 
@@ -823,7 +995,9 @@ def load_floating(name_or_path: str | Path, radiation: bool = True) -> FloatingP
     """Load a floating turbine from a shipped preset name or a preset TOML path (offline).
 
     Reads the turbine preset, the hydrodynamic npz (:class:`plant.hydro.wamit.HydroData`), the
-    mooring JSON, and fits the radiation memory of surge, heave and pitch with
+    mooring JSON and the radiation memory of surge, heave and pitch: the shipped state space
+    of ``radiation_file`` (:class:`plant.hydro.radiation.RadiationModel`, fitted and reduced
+    once by the importer), or, for a preset without one, a fit at load with
     :func:`plant.hydro.radiation.fit_radiation` (``radiation=False``: no memory states).
 
     Parameters
@@ -838,7 +1012,7 @@ def load_floating(name_or_path: str | Path, radiation: bool = True) -> FloatingP
     -------
     FloatingParams
     """
-    from plant.hydro.radiation import fit_radiation  # noqa: PLC0415  offline only
+    from plant.hydro.radiation import RadiationModel, fit_radiation  # noqa: PLC0415  offline
     from plant.hydro.wamit import HydroData  # noqa: PLC0415
 
     preset, base, source = read_floating_preset(name_or_path)
@@ -854,8 +1028,11 @@ def load_floating(name_or_path: str | Path, radiation: bool = True) -> FloatingP
     with resources.as_file(_resolve(base, preset.hydro_file)) as hydro_path:
         hydro = HydroData.load_npz(hydro_path)
     mooring = read_mooring_file(_resolve(base, preset.mooring_file))
-    ss = None
-    if radiation:
+    ss: RadiationSS | RadiationModel | None = None
+    if radiation and preset.radiation_file:
+        with resources.as_file(_resolve(base, preset.radiation_file)) as rad_path:
+            ss = RadiationModel.load_npz(rad_path)
+    elif radiation:
         omega_range = None
         if preset.radiation_omega_max_rad_s > 0.0:
             omega_range = (0.0, preset.radiation_omega_max_rad_s)

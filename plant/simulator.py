@@ -1,34 +1,62 @@
-"""The plant process's core: turbine dynamics, wind and sensors, one control period at a time.
+"""The plant process's core: turbine (bottom-fixed or floating), wind, waves and sensors.
 
-:class:`PlantSimulator` advances the pure dynamics ``f(t, x, u, params)`` of
-:mod:`plant.turbine` with fixed-step RK4 over one control period, with the demand switching
-from the previous command to the new one after ``switch_step`` internal steps (so a
-real-time run applies a command when it arrived, at the plant step's resolution), and turns
-the state into the messages of :mod:`bus_schemas`: the noisy :class:`SensorFrame` a
-controller sees and the true :class:`PlantState` for the log. It holds no clock and does no
-I/O; the node layer (``hil.plant_node``) owns time and the bus.
+:class:`PlantSimulator` advances the plant over one control period with fixed-step RK4, the
+demand switching from the previous command to the new one after ``switch_step`` internal
+steps (so a real-time run applies a command when it arrived, at the plant step's
+resolution), and turns the state into the messages of :mod:`bus_schemas`: the noisy
+:class:`SensorFrame` a controller sees and the true :class:`PlantState` for the log. It
+holds no clock and does no I/O; the node layer (``hil.plant_node``) owns time and the bus.
+
+Two plants
+----------
+* Bottom-fixed (``PlantConfig.floating is None``): :func:`plant.turbine.f`, state
+  (ω, θ, T_g), RK4 of :func:`plant.integrate.rk4_step` with the wind held at mid-step.
+* Floating (:class:`FloatingPlant`): :func:`plant.platform.f`, state (surge, heave, pitch,
+  tower-top, their rates, ω, θ, T_g, radiation states), input u = (θ_c, T_c, U, F_x^w,
+  F_z^w, M_φ^w). The wave excitation and the elevations at the platform and at the gauge
+  come from one :class:`plant.waves.PhasorStepper` over the same wave field (outputs: the
+  three excitation components and the two elevations), built with Δt = h/2 so that RK4
+  gets its stage inputs exactly: k1 at t, k2 and k3 at t + h/2, k4 at t + h (the wind too;
+  the pitch and torque demands are held over the step). This is the choice for the RK4
+  mid-step: a stepper at h/2 (two complex multiplies per component per step, no
+  trigonometry) rather than direct evaluation (a cosine per component per stage). If
+  :mod:`plant.platform` provides ``step_floating(t, x, u, h, params)`` (one integrator
+  step with the input held), it is used with the mid-step inputs u(t + h/2).
+
+Loads in :class:`PlantState` (formulas in :class:`bus_schemas.messages.PlantState`): the
+tower-base fore-aft bending moment from thrust, gravity and inertia of the masses above the
+base (:class:`TowerBaseLoads`), and the low-speed-shaft torque N T_g.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from bus_schemas import PlantState, SensorFrame
+from bus_schemas.messages import (
+    VALID_BITS,
+    VALID_GENERATOR_SPEED,
+    VALID_PITCH,
+    VALID_POWER,
+    VALID_ROTOR_SPEED,
+    VALID_TORQUE,
+    VALID_WIND,
+)
+from plant import platform as _platform
 from plant.integrate import rk4_step
+from plant.platform import FloatingParams, FloatingPreset, relative_wind, tower_modal
 from plant.turbine import TurbineParams, f, outputs
-from plant.wind import WindSpec, wind_speed
-from sensors import NoiseSpec, SensorSuite
+from plant.waves import PhasorStepper, WaveField
+from plant.wind import WindSpec, make_wind_function, wind_speed
+from sensors import ChannelSpec, ChannelSuite, NoiseSpec, SensorSuite
 
-State = tuple[float, float, float]
+State = tuple[float, ...]
 
 # Bits of SensorFrame.valid_mask for the channels a bottom-fixed turbine has.
-VALID_GENERATOR_SPEED = 1 << 0
-VALID_ROTOR_SPEED = 1 << 1
-VALID_PITCH = 1 << 2
-VALID_TORQUE = 1 << 3
-VALID_POWER = 1 << 4
-VALID_WIND = 1 << 5
 TURBINE_ONLY_MASK = (
     VALID_GENERATOR_SPEED
     | VALID_ROTOR_SPEED
@@ -37,6 +65,126 @@ TURBINE_ONLY_MASK = (
     | VALID_POWER
     | VALID_WIND
 )
+
+#: SensorFrame measured fields filled from channels (the rotor speed is derived).
+MEASURED_FIELDS = tuple(k for k in VALID_BITS if k != "rotor_speed_measured_rad_s")
+
+_step_floating: Callable[..., State] | None = getattr(_platform, "step_floating", None)
+
+
+@dataclass(frozen=True)
+class TowerBaseLoads:
+    """Constants of the tower-base fore-aft bending moment (SI; see ``PlantState``).
+
+    M_tb = T (h_hub − h_b) + g [Σ m a + φ c_φ + s c_s] − ẍ c_φ − φ̈ c_φφ − s̈ c_ss, with
+
+    * c_φ = ∫(h − h_b) dm_tower + Σ_RNA m (h − h_b)             (kg m)
+    * c_s = ∫ψ dm_tower + Σ_RNA m (1 + c κ)                      (kg)
+    * c_φφ = ∫h (h − h_b) dm_tower + Σ_RNA m h (h − h_b) + Σ I    (kg m²)
+    * c_ss = ∫ψ (h − h_b) dm_tower + Σ_RNA m (1 + c κ)(h − h_b) + Σ I κ  (kg m)
+
+    h heights above the still-water line, h_b the tower base, ψ the tower mode shape
+    (ψ = 1 at the top), a the RNA masses' overhangs (x downwind), c their heights above the
+    tower top, κ the tower-top slope per metre of s, I the rotor pitch inertia.
+    """
+
+    hub_arm_m: float
+    overhang_moment_kg_m: float
+    c_phi_kg_m: float
+    c_s_kg: float
+    c_phiphi_kg_m2: float
+    c_ss_kg_m: float
+    nacelle_height_m: float
+    gravity_m_s2: float
+
+    @classmethod
+    def from_preset(cls, preset: FloatingPreset, hub_height_m: float) -> TowerBaseLoads:
+        """Integrals of the tower (:func:`plant.platform.tower_modal`) and the RNA points."""
+        tm = tower_modal(preset)
+        hb, ht = preset.tower_base_height_m, preset.tower_top_height_m
+        kap = tm.slope_per_m
+        mt = tm.tower_mass_kg
+        c_phi = mt * (tm.tower_cm_height_m - hb)
+        c_s = tm.first_moment_kg_m
+        c_pp = tm.tower_height_inertia_kg_m2 - hb * mt * tm.tower_cm_height_m
+        c_ss = tm.height_moment_kg_m - hb * tm.first_moment_kg_m
+        blades = preset.blade_count * preset.blade_mass_kg
+        rna = [  # (m kg, a m, c m, I kg m²) relative to the tower top
+            (preset.yaw_bearing_mass_kg, 0.0, 0.0, 0.0),
+            (preset.nacelle_mass_kg, preset.nacelle_cm_x_m, preset.nacelle_cm_z_m, 0.0),
+            (preset.hub_mass_kg, preset.rotor_apex_x_m, preset.rotor_apex_z_m, 0.0),
+            (
+                blades,
+                preset.rotor_apex_x_m + preset.blade_cm_axial_m,
+                preset.rotor_apex_z_m,
+                0.5 * preset.blade_count * preset.blade_second_moment_kg_m2,
+            ),
+        ]
+        overhang = 0.0
+        for m, a, c, inertia in rna:
+            h = ht + c
+            lever = 1.0 + c * kap
+            overhang += m * a
+            c_phi += m * (h - hb)
+            c_s += m * lever
+            c_pp += m * h * (h - hb) + inertia
+            c_ss += m * lever * (h - hb) + inertia * kap
+        return cls(
+            hub_arm_m=hub_height_m - hb,
+            overhang_moment_kg_m=overhang,
+            c_phi_kg_m=c_phi,
+            c_s_kg=c_s,
+            c_phiphi_kg_m2=c_pp,
+            c_ss_kg_m=c_ss,
+            nacelle_height_m=ht,
+            gravity_m_s2=preset.gravity_m_s2,
+        )
+
+    def moment_nm(
+        self,
+        thrust_n: float,
+        pitch_rad: float,
+        tower_top_m: float,
+        surge_acc_m_s2: float,
+        pitch_acc_rad_s2: float,
+        tower_acc_m_s2: float,
+    ) -> float:
+        """Tower-base fore-aft bending moment M_tb (N m), class docstring formula."""
+        g = self.gravity_m_s2
+        return (
+            thrust_n * self.hub_arm_m
+            + g
+            * (self.overhang_moment_kg_m + pitch_rad * self.c_phi_kg_m + tower_top_m * self.c_s_kg)
+            - surge_acc_m_s2 * self.c_phi_kg_m
+            - pitch_acc_rad_s2 * self.c_phiphi_kg_m2
+            - tower_acc_m_s2 * self.c_ss_kg_m
+        )
+
+
+@dataclass(frozen=True)
+class FloatingPlant:
+    """What a floating plant adds to :class:`PlantConfig`.
+
+    Parameters
+    ----------
+    params : FloatingParams
+        Coupled platform-tower-rotor model.
+    loads : TowerBaseLoads
+        Constants of the tower-base moment.
+    waves : WaveField
+        Incident long-crested waves (:func:`plant.waves.still_water` for none).
+    excitation_transfer : ndarray, shape (N, 3), complex
+        X(ω_i) of surge force (N/m), heave force (N/m), pitch moment (N m/m) at the field's
+        component frequencies (per metre of wave amplitude, e^{+iωt}).
+    gauge_distance_m : float
+        Distance of the wave gauge up-wave of the platform (m).
+    """
+
+    params: FloatingParams
+    loads: TowerBaseLoads
+    waves: WaveField
+    excitation_transfer: np.ndarray
+    gauge_distance_m: float = 450.0
 
 
 @dataclass(frozen=True)
@@ -48,15 +196,20 @@ class PlantConfig:
     turbine : TurbineParams
         Rotor, drivetrain, generator and actuators.
     wind : WindSpec
-        Hub-height wind over time.
+        Hub-height (rotor-effective) wind over time.
     plant_step_s : float
         Fixed RK4 step, s.
     steps_per_cycle : int
         Plant steps per control period.
     sensor_noise : dict of str to NoiseSpec
-        Noise of the measured channels (keys: SensorFrame field names).
+        Noise-only sensors (keys: SensorFrame field names), used when ``sensor_channels``
+        is None.
     sensor_seed : int
-        Seed of the sensor noise streams.
+        Seed of the sensor streams.
+    floating : FloatingPlant, optional
+        The floating platform and waves (None: bottom-fixed).
+    sensor_channels : mapping of str to ChannelSpec, optional
+        Full channel models (noise, bias, quantization, delay, sample-and-hold, dropout).
     """
 
     turbine: TurbineParams
@@ -65,6 +218,8 @@ class PlantConfig:
     steps_per_cycle: int
     sensor_noise: dict[str, NoiseSpec]
     sensor_seed: int = 1
+    floating: FloatingPlant | None = None
+    sensor_channels: Mapping[str, ChannelSpec] | None = field(default=None)
 
     def __post_init__(self) -> None:
         if not (self.plant_step_s > 0 and math.isfinite(self.plant_step_s)):
@@ -75,6 +230,31 @@ class PlantConfig:
             raise ValueError(f"steps_per_cycle must be >= 1, got {self.steps_per_cycle}")
 
 
+def _rk4_varying(
+    t: float,
+    x: State,
+    u0: tuple[float, ...],
+    um: tuple[float, ...],
+    u1: tuple[float, ...],
+    h: float,
+    p: FloatingParams,
+) -> State:
+    """Classic RK4 with stage inputs: k1 at (t, u0), k2 and k3 at (t + h/2, um), k4 at u1."""
+    fl = _platform.f
+    h2 = 0.5 * h
+    k1 = fl(t, x, u0, p)
+    k2 = fl(t + h2, tuple([a + h2 * b for a, b in zip(x, k1, strict=True)]), um, p)
+    k3 = fl(t + h2, tuple([a + h2 * b for a, b in zip(x, k2, strict=True)]), um, p)
+    k4 = fl(t + h, tuple([a + h * b for a, b in zip(x, k3, strict=True)]), u1, p)
+    h6 = h / 6.0
+    return tuple(
+        [
+            a + h6 * (b1 + 2.0 * (b2 + b3) + b4)
+            for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)
+        ]
+    )
+
+
 class PlantSimulator:
     """Integrates the plant over control periods and produces its messages."""
 
@@ -83,15 +263,56 @@ class PlantSimulator:
         self.params = config.turbine
         self.h = config.plant_step_s
         self.n = config.steps_per_cycle
+        self.floating = config.floating
+        self._wind = make_wind_function(config.wind)
+        self.channels: ChannelSuite | None = None
+        if config.sensor_channels is not None:
+            self.channels = ChannelSuite(config.sensor_channels, config.sensor_seed)
         self.sensors = SensorSuite(config.sensor_noise, config.sensor_seed)
+        self._stepper: PhasorStepper | None = None
+        self._wave_now: list[float] = [0.0] * 5
+        if self.floating is not None and self.floating.waves.n_components:
+            self._reset_waves(0.0)
 
+    # ------------------------------------------------------------------ waves
+    def _reset_waves(self, t_s: float) -> None:
+        """(Re)build the wave stepper at ``t_s`` with Δt = h/2 (module docstring)."""
+        fp = self.floating
+        assert fp is not None
+        w = fp.waves
+        gx, gy = w.up_wave_point(fp.gauge_distance_m)
+        proj = gx * math.cos(w.heading_rad) + gy * math.sin(w.heading_rad)
+        coeff = np.vstack(
+            [
+                np.asarray(fp.excitation_transfer, dtype=np.complex128).T,
+                np.ones((1, w.n_components), dtype=np.complex128),
+                np.exp(-1j * w.wavenumber_rad_m * proj)[None, :],
+            ]
+        )
+        phasor0 = w.amplitude_m * np.exp(1j * w.phase_rad)
+        self._stepper = PhasorStepper(w.omega_rad_s, phasor0, coeff, t_s, 0.5 * self.h)
+        self._wave_now = self._stepper.values().tolist()
+
+    def wave_values(self) -> tuple[float, float, float, float, float]:
+        """Current (F_x N, F_z N, M_φ N m, η platform m, η gauge m) at the last step's end."""
+        v = self._wave_now
+        return (v[0], v[1], v[2], v[3], v[4])
+
+    # ------------------------------------------------------------------ initial state
     def initial_state(self) -> State:
         """Operating point at t = 0: the steady state the baseline would settle to.
 
         Rotor speed at the optimal tip-speed ratio, capped at rated; above rated, the pitch
         at which aerodynamic power equals rated mechanical power at rated speed; generator
         torque balancing the aerodynamic torque, so the run starts without a transient.
+        Floating: the same rotor point and the static platform equilibrium under its mean
+        thrust (:func:`plant.modes.operating_point`), at rest, radiation states zero.
         """
+        if self.floating is not None:
+            from plant.modes import operating_point  # noqa: PLC0415  scipy, once at start
+
+            u0 = max(0.5, self._wind(0.0))
+            return tuple(operating_point(self.floating.params, u0).state)
         p = self.params
         u = wind_speed(0.0, self.config.wind)
         tsr_opt = p.table.optimal_tsr()
@@ -118,6 +339,13 @@ class PlantSimulator:
         torque = max(0.0, min(p.torque_max_nm, out.aero_torque_nm / p.gearbox_ratio))
         return (omega, pitch, torque)
 
+    def initial_applied(self, x: State) -> tuple[float, float]:
+        """(pitch rad, torque N m) demand that holds the actuators of state ``x``."""
+        if self.floating is not None:
+            return (x[9], x[10])
+        return (x[1], x[2])
+
+    # ------------------------------------------------------------------ integration
     def advance(
         self,
         t_s: float,
@@ -133,27 +361,71 @@ class PlantSimulator:
         t_s : float
             Simulated time at the start of the period, s.
         x : State
-            (rotor speed rad/s, blade pitch rad, generator torque N m).
+            Bottom-fixed: (rotor speed rad/s, blade pitch rad, generator torque N m);
+            floating: the state of :func:`plant.platform.f`.
         previous, command : (pitch rad, torque N m)
             Demand held before the new command arrived, and the new command.
         switch_step : int
             Plant steps during which ``previous`` still applies (0: ``command`` at once).
         """
-        h, p, wind = self.h, self.params, self.config.wind
+        if self.floating is not None:
+            return self._advance_floating(t_s, x, previous, command, switch_step)
+        h, p, wind = self.h, self.params, self._wind
         for i in range(self.n):
             t = t_s + i * h
             demand = previous if i < switch_step else command
-            u = (demand[0], demand[1], wind_speed(t + 0.5 * h, wind))
+            u = (demand[0], demand[1], wind(t + 0.5 * h))
             x = rk4_step(f, t, x, u, h, p)
         return x
 
+    def _advance_floating(
+        self,
+        t_s: float,
+        x: State,
+        previous: tuple[float, float],
+        command: tuple[float, float],
+        switch_step: int,
+    ) -> State:
+        fp = self.floating
+        assert fp is not None
+        h, p, wind = self.h, fp.params, self._wind
+        st = self._stepper
+        if st is not None and abs(st.t_s - t_s) > 0.25 * h:
+            self._reset_waves(t_s)  # called out of sequence: resynchronise the waves
+            st = self._stepper
+        w0 = self._wave_now
+        for i in range(self.n):
+            t = t_s + i * h
+            d = previous if i < switch_step else command
+            if st is not None:
+                st.advance()
+                wm = st.values().tolist()
+                st.advance()
+                w1 = st.values().tolist()
+            else:
+                wm = w1 = w0
+            um = (d[0], d[1], wind(t + 0.5 * h), wm[0], wm[1], wm[2])
+            if _step_floating is not None:
+                x = _step_floating(t, x, um, h, p)
+            else:
+                u0 = (d[0], d[1], wind(t), w0[0], w0[1], w0[2])
+                u1 = (d[0], d[1], wind(t + h), w1[0], w1[1], w1[2])
+                x = _rk4_varying(t, x, u0, um, u1, h, p)
+            w0 = w1
+        self._wave_now = w0
+        return x
+
+    # ------------------------------------------------------------------ messages
     def truth(
         self, seq: int, t_ns: int, x: State, applied: tuple[float, float], publish_ns: int
     ) -> PlantState:
         """The true state and loads at ``t_ns`` (for the log, never for a controller)."""
+        if self.floating is not None:
+            return self._truth_floating(seq, t_ns, x, applied, publish_ns)
         t = t_ns * 1e-9
-        u_wind = wind_speed(t, self.config.wind)
-        out = outputs(t, x, (applied[0], applied[1], u_wind), self.params)
+        u_wind = self._wind(t)
+        p = self.params
+        out = outputs(t, (x[0], x[1], x[2]), (applied[0], applied[1], u_wind), p)
         return PlantState(
             seq=seq,
             sample_time_ns=t_ns,
@@ -172,10 +444,108 @@ class PlantSimulator:
             thrust_coefficient=out.ct,
             blade_pitch_applied_rad=applied[0],
             generator_torque_applied_nm=applied[1],
+            tower_base_moment_nm=out.rotor_thrust_n * p.hub_height_m,
+            shaft_torque_nm=p.gearbox_ratio * x[2],
+        )
+
+    def _truth_floating(
+        self, seq: int, t_ns: int, x: State, applied: tuple[float, float], publish_ns: int
+    ) -> PlantState:
+        fp = self.floating
+        assert fp is not None
+        p = fp.params
+        tp = p.turbine
+        t = t_ns * 1e-9
+        u_wind = self._wind(t)
+        w = self._wave_now
+        u = (applied[0], applied[1], u_wind, w[0], w[1], w[2])
+        dx = _platform.f(t, x, u, p)
+        u_rel = relative_wind(x, u_wind, p)
+        omega, theta, torque = x[8], x[9], x[10]
+        out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
+        loads = fp.loads
+        tbm = loads.moment_nm(out.rotor_thrust_n, x[2], x[3], dx[4], dx[6], dx[7])
+        nacelle_acc = dx[4] + loads.nacelle_height_m * dx[6] + dx[7]
+        return PlantState(
+            seq=seq,
+            sample_time_ns=t_ns,
+            publish_time_ns=publish_ns,
+            rotor_speed_rad_s=omega,
+            generator_speed_rad_s=out.generator_speed_rad_s,
+            blade_pitch_rad=theta,
+            generator_torque_nm=torque,
+            aero_torque_nm=out.aero_torque_nm,
+            rotor_thrust_n=out.rotor_thrust_n,
+            wind_speed_m_s=u_wind,
+            relative_wind_speed_m_s=u_rel,
+            electrical_power_w=out.electrical_power_w,
+            tip_speed_ratio=out.tip_speed_ratio,
+            power_coefficient=out.cp,
+            thrust_coefficient=out.ct,
+            blade_pitch_applied_rad=applied[0],
+            generator_torque_applied_nm=applied[1],
+            floating=1,
+            platform_surge_m=x[0],
+            platform_heave_m=x[1],
+            platform_pitch_rad=x[2],
+            platform_surge_velocity_m_s=x[4],
+            platform_heave_velocity_m_s=x[5],
+            platform_pitch_rate_rad_s=x[6],
+            tower_top_displacement_m=x[3],
+            tower_top_velocity_m_s=x[7],
+            nacelle_acc_fore_aft_m_s2=nacelle_acc,
+            wave_elevation_platform_m=w[3],
+            wave_elevation_gauge_m=w[4],
+            wave_force_surge_n=w[0],
+            wave_moment_pitch_nm=w[2],
+            tower_base_moment_nm=tbm,
+            shaft_torque_nm=tp.gearbox_ratio * torque,
         )
 
     def sensor_frame(self, seq: int, truth: PlantState, publish_ns: int) -> SensorFrame:
-        """Noisy measurements of ``truth`` (each channel with its own seeded stream)."""
+        """Measured values of ``truth``, each channel with its own seeded streams.
+
+        With channel models, a channel whose sample is missing (dropout, or a channel the
+        plant does not have) reports 0.0 with its ``valid_mask`` bit cleared; the rotor
+        speed is the generator-speed reading over the gearbox ratio and shares its bit.
+        The anemometer sits on the moving nacelle and reads the relative wind; the IMU
+        gives the nacelle's kinematic fore-aft acceleration (gravity not included).
+        """
+        if self.channels is None:
+            return self._noise_frame(seq, truth, publish_ns)
+        truths = {
+            "generator_speed_measured_rad_s": truth.generator_speed_rad_s,
+            "blade_pitch_measured_rad": truth.blade_pitch_rad,
+            "generator_torque_measured_nm": truth.generator_torque_nm,
+            "electrical_power_measured_w": truth.electrical_power_w,
+            "wind_speed_measured_m_s": truth.relative_wind_speed_m_s,
+            "nacelle_acc_fore_aft_measured_m_s2": truth.nacelle_acc_fore_aft_m_s2,
+            "platform_pitch_measured_rad": truth.platform_pitch_rad,
+            "platform_pitch_rate_measured_rad_s": truth.platform_pitch_rate_rad_s,
+            "platform_surge_measured_m": truth.platform_surge_m,
+            "wave_elevation_gauge_measured_m": truth.wave_elevation_gauge_m,
+        }
+        readings = self.channels.step(truth.sample_time_ns, truths)
+        values = dict.fromkeys(MEASURED_FIELDS, 0.0)
+        mask = 0
+        for name, (value, ok) in readings.items():
+            if ok and name in values:
+                values[name] = value
+                mask |= VALID_BITS[name]
+        rotor = 0.0
+        if mask & VALID_GENERATOR_SPEED:
+            rotor = values["generator_speed_measured_rad_s"] / self.params.gearbox_ratio
+            mask |= VALID_ROTOR_SPEED
+        return SensorFrame(
+            seq=seq,
+            sample_time_ns=truth.sample_time_ns,
+            publish_time_ns=publish_ns,
+            valid_mask=mask,
+            rotor_speed_measured_rad_s=rotor,
+            **values,
+        )
+
+    def _noise_frame(self, seq: int, truth: PlantState, publish_ns: int) -> SensorFrame:
         m = self.sensors.measure
         gen_speed = m("generator_speed_measured_rad_s", truth.generator_speed_rad_s)
         return SensorFrame(

@@ -151,6 +151,9 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "thrust_coefficient",
         "gain_schedule_factor",
         "sim_seconds_per_wall_second",
+        "floating",
+        "estimates_valid_mask",
+        "estimator_degraded",
     }
     for mt in MESSAGES:
         for f in mt.codec.fields:
@@ -160,3 +163,75 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
 def test_ids_keys_and_sizes_are_unique() -> None:
     assert len({m.message_id for m in MESSAGES}) == len(MESSAGES)
     assert len({m.key_suffix for m in MESSAGES}) == len(MESSAGES)
+
+
+def test_floating_fields_round_trip_and_appear_in_the_json_schema() -> None:
+    from bus_schemas import ControllerStatus, PlantState
+    from bus_schemas.messages import EST_WAVE_FORECAST, EST_WIND_SPEED
+    from bus_schemas.registry import CONTROLLER_STATUS, TRUTH
+
+    truth = PlantState(
+        seq=3,
+        sample_time_ns=75_000_000,
+        publish_time_ns=1,
+        rotor_speed_rad_s=0.7,
+        generator_speed_rad_s=0.7,
+        blade_pitch_rad=0.1,
+        generator_torque_nm=1.9e7,
+        aero_torque_nm=1.9e7,
+        rotor_thrust_n=2.0e6,
+        wind_speed_m_s=12.0,
+        relative_wind_speed_m_s=11.8,
+        electrical_power_w=1.5e7,
+        tip_speed_ratio=9.0,
+        power_coefficient=0.45,
+        thrust_coefficient=0.7,
+        blade_pitch_applied_rad=0.1,
+        generator_torque_applied_nm=1.9e7,
+        floating=1,
+        platform_surge_m=18.5,
+        platform_heave_m=-0.4,
+        platform_pitch_rad=0.07,
+        platform_surge_velocity_m_s=0.3,
+        platform_heave_velocity_m_s=-0.01,
+        platform_pitch_rate_rad_s=0.004,
+        tower_top_displacement_m=0.3,
+        tower_top_velocity_m_s=0.05,
+        nacelle_acc_fore_aft_m_s2=0.2,
+        wave_elevation_platform_m=1.1,
+        wave_elevation_gauge_m=-0.8,
+        wave_force_surge_n=3.0e6,
+        wave_moment_pitch_nm=-4.0e7,
+        tower_base_moment_nm=3.1e8,
+        shaft_torque_nm=1.9e7,
+    )
+    assert TRUTH.version == 2
+    assert TRUTH.codec.decode(TRUTH.codec.encode(truth)) == truth
+    status = ControllerStatus(
+        seq=1,
+        answered_seq=1,
+        sample_time_ns=25_000_000,
+        publish_time_ns=2,
+        compute_time_ns=10_000,
+        regime=2,
+        rejected_frames=0,
+        generator_speed_filtered_rad_s=0.7,
+        pitch_integrator_rad=0.0,
+        gain_schedule_factor=1.0,
+        estimates_valid_mask=EST_WIND_SPEED | EST_WAVE_FORECAST,
+        wind_speed_estimated_m_s=11.9,
+        wave_elevation_forecast_m=0.6,
+        wave_forecast_time_ns=10_025_000_000,
+        feedforward_torque_nm=-1.0e5,
+    )
+    assert CONTROLLER_STATUS.version == 2
+    assert CONTROLLER_STATUS.codec.decode(CONTROLLER_STATUS.codec.encode(status)) == status
+    # Baseline defaults: every optional estimate 0 and flagged invalid.
+    bare = msgspec.structs.replace(status, estimates_valid_mask=0)
+    assert bare.platform_pitch_estimated_rad == 0.0 and bare.estimator_degraded == 0
+    props = TRUTH.json_schema()["properties"]
+    for name in ("platform_surge_m", "tower_base_moment_nm", "wave_elevation_gauge_m"):
+        assert name in props
+    assert "N m" in json.dumps(props["tower_base_moment_nm"])
+    sprops = CONTROLLER_STATUS.json_schema()["properties"]
+    assert "wave_forecast_time_ns" in sprops and "feedforward_pitch_rad" in sprops

@@ -59,6 +59,7 @@ def test_round_trip_gives_the_shipped_figures(deck, tmp_path: Path) -> None:  # 
             **{k: getattr(deck.preset, k) for k in deck.preset.__struct_fields__},
             "hydro_file": "volturnus_hydro.npz",
             "mooring_file": "volturnus_mooring.json",
+            "radiation_file": "volturnus_radiation.npz",
         }
     )
     loaded = load_floating(toml, radiation=False)

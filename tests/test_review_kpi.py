@@ -118,3 +118,21 @@ def test_settling_time_and_overshoot_of_second_order_step() -> None:
     assert math.pi / wd < ts < 4 / (zeta * wn)
     assert np.all(np.abs(y[t >= ts] - 1.0) <= 0.02)
     assert np.abs(y[t < ts][-1] - 1.0) > 0.02
+
+
+def test_del_of_sine_at_1hz_equivalent_over_600_s() -> None:
+    """The summary's DEL definition on an analytic signal.
+
+    A sine of amplitude S_a at frequency f over T seconds has f T full cycles of range 2 S_a,
+    so DEL = (f T (2 S_a)^m / (f_eq T))^(1/m) = 2 S_a (f / f_eq)^(1/m): with m = 4,
+    f = 0.1 Hz, f_eq = 1 Hz, DEL = 2 S_a 0.1^(1/4) = 1.1247 S_a, whatever T (600 s here).
+    Tolerance 0.5 %: the partial half cycles at the ends of the record.
+    """
+    s_a = 2.0e7  # N m
+    f_hz = 0.1
+    t = np.arange(0.0, 600.0 + 1e-9, 0.025)
+    x = 3.0e8 + s_a * np.sin(2 * np.pi * f_hz * t)
+    expected = 2.0 * s_a * (f_hz / 1.0) ** 0.25
+    assert kpi.damage_equivalent_load(x, t, wohler_m=4.0, n_eq_hz=1.0) == pytest.approx(
+        expected, rel=0.005
+    )

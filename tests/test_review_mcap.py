@@ -74,6 +74,7 @@ def _write_run(path: Path) -> Written:
     aero = 4.0e6 + AERO_AMPLITUDE_NM * np.sin(2 * np.pi * AERO_FREQ_HZ * t_s)
     wind = 11.0 + rng.normal(0.0, 0.5, N)
     platform = np.radians(2.0) + rng.normal(0.0, np.radians(0.5), N)
+    surge = 10.0 + 0.5 * np.sin(2 * np.pi * 0.01 * t_s)
     latency = rng.lognormal(np.log(300e3), 0.3, N).astype(np.int64) + 1
     missed = rng.random(N) < 0.01
     missed[N // 3] = True  # at least one miss before the 60 % cut
@@ -158,6 +159,11 @@ def _write_run(path: Path) -> Written:
                 thrust_coefficient=0.75,
                 blade_pitch_applied_rad=float(pitch[i]),
                 generator_torque_applied_nm=float(gen_torque[i]),
+                floating=1,
+                platform_pitch_rad=float(platform[i]),
+                platform_surge_m=float(surge[i]),
+                shaft_torque_nm=float(aero[i]),
+                tower_base_moment_nm=float(2.0 * aero[i]),
             ),
         )
         log.write(
@@ -256,6 +262,13 @@ def test_summary_kpis_match_written(reviewed: tuple[dict, Path], written: Writte
     assert k["platform_pitch_std_deg"] == pytest.approx(
         math.degrees(written.platform_pitch_rad.std()), rel=1e-9
     )
+    assert k["platform_pitch_mean_deg"] == pytest.approx(
+        math.degrees(written.platform_pitch_rad.mean()), rel=1e-9
+    )
+    # The tower-base moment was written as twice the shaft torque: the DEL is linear in scale.
+    assert k["tower_base_del_nm"] == pytest.approx(2.0 * k["shaft_del_nm"], rel=1e-12)
+    assert k["surge_mean_m"] == pytest.approx(10.0, abs=0.5)
+    assert k["surge_std_m"] > 0.0
 
 
 def test_summary_run_and_scenario(reviewed: tuple[dict, Path], written: Written) -> None:

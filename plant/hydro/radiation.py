@@ -34,7 +34,10 @@ Identification, per kernel:
 4. Realisation in controllable canonical form (``D = 0``).
 
 When no order is given, the lowest ``n ≥ 2`` whose fit error is below the tolerance is chosen.
-Passivity (``Re K̂(jω) ≥ 0``) is checked on a wide frequency grid and reported, not enforced.
+Passivity (``Re K̂(jω) ≥ 0``) is checked on a wide frequency grid and reported; with
+``passive_floor`` it is enforced on the diagonal kernels (step 3b: the numerator re-fit becomes
+a least-squares problem with linear inequality constraints, :func:`_lsi`), and after a model
+reduction :func:`enforce_passivity` restores it by the smallest correction of ``C``.
 
 No maintained Python package fits radiation kernels (the reference implementations are the
 MATLAB FDI toolbox and OpenFAST's SS_Fitting, also MATLAB), so this module is written by hand on
@@ -221,11 +224,19 @@ def _weighted_lstsq(M: ComplexArray, rhs: ComplexArray, w: FloatArray) -> FloatA
 
 
 def _fit_normalised(
-    x: FloatArray, H: ComplexArray, w: FloatArray, n: int, iterations: int = 40
+    x: FloatArray,
+    H: ComplexArray,
+    w: FloatArray,
+    n: int,
+    iterations: int = 40,
+    real_floor: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, int]:
     """Fit ``H(jx) ≈ P(jx)/Q(jx)``, ``deg P = n-2``, ``Q`` monic of degree ``n``, stable.
 
-    Returns ``(p, q, reflected)`` with coefficients in descending powers.
+    With ``real_floor`` (one value per data point), the final numerator fit is constrained to
+    ``Re(jx P(jx)/Q(jx)) ≥ real_floor`` at the data and ``≥ 0`` on a log grid from
+    ``x_min/100`` to ``100 x_max`` and asymptotically (the passivity of a diagonal kernel,
+    :func:`_lsi`). Returns ``(p, q, reflected)`` with coefficients in descending powers.
     """
     jx = 1j * x
     # Vandermonde columns, descending powers.
@@ -255,6 +266,35 @@ def _fit_normalised(
     # Re-fit the numerator with Q fixed: min Σ w^2 |P/Q - H|^2.
     Qv = np.polyval(q, jx)
     p = _weighted_lstsq(Vp / Qv[:, None], H, w)
+    if real_floor is None:
+        return p, q, reflected
+    m = (w[:, None] * Vp) / Qv[:, None]
+    m_real = np.vstack([m.real, m.imag])
+    rhs = np.concatenate([(w * H).real, (w * H).imag])
+    grid = np.logspace(np.log10(x[0] / 100.0), np.log10(x[-1] * 100.0), 2000)
+    jg = 1j * np.concatenate([x, grid])
+    rows = (jg[:, None] * np.vander(jg, n - 1) / np.polyval(q, jg)[:, None]).real
+    lower = np.concatenate([real_floor, np.zeros(grid.size)])
+    # Re K̂(jx) → −(p_0 q_1 − p_1)/x² as x → ∞ (P = p_0 s^{n-2} + p_1 s^{n-3} + …, Q monic).
+    tail = np.zeros(n - 1)
+    tail[0] = q[1]
+    if n > 2:
+        tail[1] = -1.0
+    rows = np.vstack([rows, tail])
+    lower = np.concatenate([lower, [0.0]])
+    ok = rows @ p >= lower
+    if np.all(ok):
+        return p, q, reflected
+    active = ~ok
+    for _ in range(10):
+        p_new, feasible = _lsi(m_real, rhs, rows[active], lower[active])
+        if not feasible:
+            break
+        p = p_new
+        ok = rows @ p >= lower - 1e-12 * float(np.max(np.abs(rhs)))
+        if np.all(ok):
+            break
+        active |= ~ok
     return p, q, reflected
 
 
@@ -265,13 +305,15 @@ def _single_fit(
     n: int,
     weights: FloatArray,
     tol: float,
+    passive_floor: float | None = None,
 ) -> KernelFit:
     k_max = float(np.max(np.abs(K)))
     alpha = 1.0 / k_max
     w_scale = float(omega[int(np.argmax(np.abs(K)))])
     x = omega / w_scale
     H = alpha * K / (1j * x)
-    p, q, reflected = _fit_normalised(x, H, weights, n)
+    floor = None if passive_floor is None else alpha * passive_floor * K.real.clip(0.0)
+    p, q, reflected = _fit_normalised(x, H, weights, n, real_floor=floor)
     # Back to s = w_scale σ:  K̂(s) = (1/α) σ P(σ) / Q(σ),  σ = s / w_scale.
     # Q_s(s) = w_scale^n Q(s / w_scale) is monic with coefficient of s^k equal to q_k w_scale^{n-k}.
     powers_q = w_scale ** np.arange(0, n + 1)  # descending index i -> power s^{n-i}: w_scale^i
@@ -312,6 +354,7 @@ def fit_kernel(
     max_order: int = 8,
     tol: float = 0.02,
     weights: FloatArray | None = None,
+    passive_floor: float | None = None,
 ) -> KernelFit:
     """Fit ``K̂(s) = s P'(s)/Q(s)`` to ``K(jω) = B(ω) + jω (A(ω) - A_∞)`` (Perez-Fossen).
 
@@ -336,6 +379,11 @@ def fit_kernel(
         relative errors defined in :class:`KernelFit`.
     weights : (m,) float or None
         Non-negative least-squares weights per frequency (default 1).
+    passive_floor : float or None
+        For a diagonal kernel: constrain the final numerator fit (``Q`` fixed) to
+        ``Re K̂(jω) ≥ passive_floor · B(ω)`` at the data and ``Re K̂ ≥ 0`` on a log grid
+        ``ω_min/100 .. 100 ω_max`` and as ω → ∞ (linear inequalities on the numerator, solved
+        exactly as a least-squares problem with inequality constraints). None: unconstrained.
 
     Returns
     -------
@@ -370,7 +418,7 @@ def fit_kernel(
         raise ValueError(f"fit_kernel: {w.size} frequencies are too few for order {max(orders)}")
     best: KernelFit | None = None
     for n in orders:
-        fit = _single_fit(w, K, added_mass_inf, n, wt, tol)
+        fit = _single_fit(w, K, added_mass_inf, n, wt, tol, passive_floor)
         if fit.meets_tol:
             return fit
         if best is None or fit.fit_error < best.fit_error:
@@ -598,6 +646,7 @@ def fit_radiation(
     omega_range_rad_s: tuple[float, float] | None = None,
     negligible: float = 1e-3,
     weights: FloatArray | None = None,
+    passive_floor: float | None = None,
 ) -> RadiationSS:
     """Fit every kernel ``K_ij`` of ``dofs`` and stack them into one :class:`RadiationSS`.
 
@@ -609,6 +658,8 @@ def fit_radiation(
         0-based WAMIT modes, default ``(0, 2, 4)`` surge, heave, pitch.
     order, max_order, tol, weights
         As in :func:`fit_kernel`, applied to every kernel (``weights`` over the band used).
+    passive_floor : float or None
+        As in :func:`fit_kernel`, applied to the diagonal kernels.
     omega_range_rad_s : (lo, hi) or None
         Fit only frequencies in ``[lo, hi]`` (e.g. below the irregular frequencies).
     negligible : float
@@ -664,6 +715,7 @@ def fit_radiation(
                     max_order=max_order,
                     tol=tol,
                     weights=weights,
+                    passive_floor=passive_floor if i == j else None,
                 )
             )
             pairs.append((i, j))
@@ -673,4 +725,515 @@ def fit_radiation(
         pairs=tuple(pairs),
         fits=tuple(fits),
         skipped=tuple(skipped),
+    )
+
+
+# ------------------------------------------------------------------ reduced, shipped model
+RADIATION_NPZ_FORMAT_VERSION = 1
+
+
+def _real_modal_form(
+    a: FloatArray, b: FloatArray, c: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Similar realisation with A in real block-diagonal (modal) form.
+
+    The stacked Perez-Fossen fits are controllable canonical forms whose coefficients span many
+    decades; the Lyapunov equations of balanced truncation are well conditioned only in a
+    modal basis. With ``A V = V Λ`` (distinct poles), a complex pair ``λ = σ ± jω`` with
+    eigenvector ``v`` contributes the real columns ``(Re v, Im v)`` of ``T``, and
+    ``(T⁻¹ A T, T⁻¹ B, C T)`` is the same system.
+    """
+    lam, vec = np.linalg.eig(a)
+    cols: list[FloatArray] = []
+    done = np.zeros(lam.size, dtype=bool)
+    for k in np.argsort(-lam.real, kind="stable"):
+        if done[k]:
+            continue
+        done[k] = True
+        v = vec[:, k]
+        if abs(lam[k].imag) > 1e-12 * max(abs(lam[k]), 1.0):
+            mate = int(np.argmin(np.where(done, np.inf, np.abs(lam - np.conj(lam[k])))))
+            done[mate] = True
+            cols += [v.real, v.imag]
+        else:
+            cols.append(v.real)
+    t = np.column_stack(cols)
+    ti = np.linalg.inv(t)
+    return ti @ a @ t, ti @ b, c @ t
+
+
+def balanced_truncation(
+    a: FloatArray, b: FloatArray, c: FloatArray, order: int
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Reduce a stable state space ``(A, B, C)`` to ``order`` states (square-root method).
+
+    Gramians ``A W_c + W_c Aᵀ + B Bᵀ = 0`` and ``Aᵀ W_o + W_o A + Cᵀ C = 0`` with factors
+    ``W_c = L_c L_cᵀ``, ``W_o = L_o L_oᵀ``; ``L_oᵀ L_c = U Σ Vᵀ`` gives the Hankel singular
+    values ``σ_i`` (diagonal of Σ) and the balancing projections ``T = L_c V_r Σ_r^{-1/2}``,
+    ``T_i = Σ_r^{-1/2} U_rᵀ L_oᵀ`` (first ``r`` columns). The reduced ``(T_i A T, T_i B, C T)``
+    is stable and ``‖G − G_r‖_∞ ≤ 2 Σ_{i>r} σ_i`` (Moore 1981; Antoulas 2005, ch. 7).
+
+    Parameters
+    ----------
+    a, b, c : arrays (n, n), (n, m), (p, n)
+        Stable system (units: 1/s, state per input, output per state).
+    order : int
+        Reduced order r, 1 <= r <= n.
+
+    Returns
+    -------
+    a_r, b_r, c_r : arrays (r, r), (r, m), (p, r)
+    hankel_singular_values : array (n,)
+        All σ_i, descending (units of the output per input).
+    """
+    n = a.shape[0]
+    if not 1 <= order <= n:
+        raise ValueError(f"balanced_truncation: order must be in 1..{n}, got {order}")
+    am, bm, cm = _real_modal_form(a, b, c)
+    wc = scipy.linalg.solve_continuous_lyapunov(am, -bm @ bm.T)
+    wo = scipy.linalg.solve_continuous_lyapunov(am.T, -cm.T @ cm)
+
+    def factor(w: FloatArray) -> FloatArray:
+        s, u = np.linalg.eigh(0.5 * (w + w.T))
+        return np.asarray(u * np.sqrt(np.clip(s, 0.0, None)), dtype=np.float64)
+
+    lc, lo = factor(wc), factor(wo)
+    u, hsv, vt = np.linalg.svd(lo.T @ lc)
+    r = order
+    s_half = 1.0 / np.sqrt(hsv[:r])
+    t = lc @ vt[:r].T * s_half
+    ti = (u[:, :r] * s_half).T @ lo.T
+    return ti @ am @ t, ti @ bm, cm @ t, np.asarray(hsv, dtype=np.float64)
+
+
+def _kernel_errors(
+    a: FloatArray,
+    b: FloatArray,
+    c: FloatArray,
+    omega: FloatArray,
+    added_mass: FloatArray,
+    damping: FloatArray,
+    added_mass_inf: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """Relative errors (d, d) of ``Â(ω)`` and ``B̂(ω)`` of ``C (jωI − A)⁻¹ B`` (as KernelFit)."""
+    n = a.shape[0]
+    eye = np.eye(n)
+    k_hat = np.stack([c @ np.linalg.solve(1j * w * eye - a, b) for w in omega])
+    a_hat = added_mass_inf + k_hat.imag / omega[:, None, None]
+    da = added_mass - added_mass_inf
+    err_a = np.max(np.abs(a_hat - added_mass), axis=0) / np.maximum(
+        np.max(np.abs(da), axis=0), 1e-300
+    )
+    err_b = np.max(np.abs(k_hat.real - damping), axis=0) / np.maximum(
+        np.max(np.abs(damping), axis=0), 1e-300
+    )
+    return np.asarray(err_a, dtype=np.float64), np.asarray(err_b, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class RadiationModel:
+    """The radiation memory a preset ships: one (reduced) state space for all DOFs.
+
+    ``dξ/dt = A ξ + B v``, ``μ = C ξ`` (v: body velocities of ``dofs`` in m/s, rad/s; μ: memory
+    force in N, N m; the force on the body is −μ). Built once, offline, by
+    :func:`fit_reduced_radiation` and stored with :meth:`save_npz`, so loading a preset does no
+    fitting.
+
+    Parameters
+    ----------
+    dofs : tuple of int
+        0-based WAMIT modes.
+    A, B, C : arrays (n, n), (n, d), (d, n)
+        State space (1/s; state per m/s; N or N m per state).
+    error_added_mass, error_damping : arrays (d, d)
+        ``max_ω |Â − A| / max_ω |A − A_∞|`` and ``max_ω |B̂ − B| / max_ω |B|`` of every kernel
+        against the hydrodynamic data over ``omega_range_rad_s``.
+    omega_range_rad_s : (float, float)
+        Band of the fit and of the errors (rad/s).
+    fitted_order : int
+        Number of states of the stacked per-kernel fits before reduction.
+    hankel_singular_values : array (fitted_order,)
+        Of the scaled stacked system (dimensionless, see :func:`fit_reduced_radiation`).
+    source : str
+        Where the hydrodynamic data came from and how the model was made.
+    """
+
+    dofs: tuple[int, ...]
+    A: FloatArray
+    B: FloatArray
+    C: FloatArray
+    error_added_mass: FloatArray
+    error_damping: FloatArray
+    omega_range_rad_s: tuple[float, float]
+    fitted_order: int
+    hankel_singular_values: FloatArray
+    source: str
+
+    def __post_init__(self) -> None:
+        d = len(self.dofs)
+        n = self.A.shape[0] if self.A.ndim == 2 else -1
+        for name, arr, shape in (
+            ("A", self.A, (n, n)),
+            ("B", self.B, (n, d)),
+            ("C", self.C, (d, n)),
+            ("error_added_mass", self.error_added_mass, (d, d)),
+            ("error_damping", self.error_damping, (d, d)),
+        ):
+            if arr.shape != shape or not np.all(np.isfinite(arr)):
+                raise ValueError(f"RadiationModel.{name}: expected finite shape {shape}")
+        if n and np.max(np.linalg.eigvals(self.A).real) >= 0.0:
+            raise ValueError("RadiationModel.A: expected stable poles (Re < 0 1/s)")
+
+    @property
+    def order(self) -> int:
+        """Number of states."""
+        return int(self.A.shape[0])
+
+    def frequency_response(self, omega_rad_s: FloatArray) -> ComplexArray:
+        """``K̂(jω) = C (jωI − A)⁻¹ B`` as (m, d, d) (N s/m, N s, N m s/rad)."""
+        w = np.atleast_1d(np.asarray(omega_rad_s, dtype=np.float64))
+        eye = np.eye(self.order)
+        return np.stack([self.C @ np.linalg.solve(1j * x * eye - self.A, self.B) for x in w])
+
+    def describe(self) -> list[str]:
+        """One line per diagonal kernel (errors) and the orders."""
+        lines = [
+            f"order {self.order} (stacked fits {self.fitted_order}), band "
+            f"{self.omega_range_rad_s[0]:g}..{self.omega_range_rad_s[1]:g} rad/s"
+        ]
+        for i, dof in enumerate(self.dofs):
+            lines.append(
+                f"{DOF_NAMES[dof]}: error A {self.error_added_mass[i, i]:.3%}, "
+                f"B {self.error_damping[i, i]:.3%}"
+            )
+        return lines
+
+    def save_npz(self, path: str | Path) -> None:
+        """Write plain arrays (no pickles); :meth:`load_npz` reads them back."""
+        np.savez_compressed(
+            Path(path),
+            format_version=np.array(RADIATION_NPZ_FORMAT_VERSION),
+            dofs=np.array(self.dofs, dtype=np.int64),
+            A=self.A,
+            B=self.B,
+            C=self.C,
+            error_added_mass=self.error_added_mass,
+            error_damping=self.error_damping,
+            omega_range_rad_s=np.array(self.omega_range_rad_s, dtype=np.float64),
+            fitted_order=np.array(self.fitted_order),
+            hankel_singular_values=self.hankel_singular_values,
+            source=np.array(self.source),
+        )
+
+    @classmethod
+    def load_npz(cls, path: str | Path) -> RadiationModel:
+        """Read a file written by :meth:`save_npz` (``allow_pickle=False``)."""
+        with np.load(Path(path), allow_pickle=False) as z:
+            try:
+                if int(z["format_version"]) != RADIATION_NPZ_FORMAT_VERSION:
+                    raise ValueError(f"{path}: unsupported format_version")
+                lo, hi = (float(v) for v in z["omega_range_rad_s"])
+                return cls(
+                    dofs=tuple(int(d) for d in z["dofs"]),
+                    A=np.asarray(z["A"], dtype=np.float64),
+                    B=np.asarray(z["B"], dtype=np.float64),
+                    C=np.asarray(z["C"], dtype=np.float64),
+                    error_added_mass=np.asarray(z["error_added_mass"], dtype=np.float64),
+                    error_damping=np.asarray(z["error_damping"], dtype=np.float64),
+                    omega_range_rad_s=(lo, hi),
+                    fitted_order=int(z["fitted_order"]),
+                    hankel_singular_values=np.asarray(
+                        z["hankel_singular_values"], dtype=np.float64
+                    ),
+                    source=str(z["source"]),
+                )
+            except KeyError as exc:
+                raise ValueError(f"{path}: npz lacks array {exc}") from None
+
+
+# ---------------------------------------------------------------- passivity enforcement
+@dataclass(frozen=True)
+class PassivityReport:
+    """What :func:`enforce_passivity` did (per DOF of the model, in ``dofs`` order).
+
+    Attributes
+    ----------
+    real_part_min_before, real_part_min_after : arrays (d,)
+        ``min_ω Re K̂_ii(jω) / max_ω |K_ii|`` on the dense check grid (dimensionless).
+    floor_ratio_min_after : arrays (d,)
+        ``min Re K̂_ii(ω_k) / B_ii(ω_k)`` over the data frequencies where ``B_ii > 0``.
+    change_rms : float
+        RMS over the band of ``|ΔK̂_ij| / √(p_i p_j)`` (response change, relative to the
+        kernel peaks ``p_i = max|K_ii|``).
+    constraints : int
+        Number of constraint points that ended up in the final least-squares problem.
+    """
+
+    real_part_min_before: FloatArray
+    real_part_min_after: FloatArray
+    floor_ratio_min_after: FloatArray
+    change_rms: float
+    constraints: int
+
+
+def _lsi(m: FloatArray, r: FloatArray, g: FloatArray, h: FloatArray) -> tuple[FloatArray, bool]:
+    """``min ‖M c − r‖`` subject to ``G c ≥ h`` (Lawson & Hanson 1974, ch. 23: LSI → LDP → NNLS).
+
+    With ``M = Q R`` (R invertible), ``z = R c − Qᵀ r``: ``min ‖z‖`` s.t. ``E z ≥ f``,
+    ``E = G R⁻¹``, ``f = h − E Qᵀ r``; the least-distance problem is solved through the
+    non-negative least squares ``min ‖[Eᵀ; fᵀ] u − e‖, u ≥ 0`` (``e`` the last unit vector):
+    ``z = −ρ_{1..n} / ρ_{n+1}`` with ``ρ`` its residual. Returns ``(c, feasible)``.
+    """
+    from scipy.optimize import nnls  # noqa: PLC0415  offline only
+
+    q, rr = np.linalg.qr(m)
+    d = q.T @ r
+    e = np.linalg.solve(rr.T, g.T).T  # G R⁻¹
+    fvec = h - e @ d
+    n = m.shape[1]
+    big = np.vstack([e.T, fvec[None, :]])
+    rhs = np.zeros(n + 1)
+    rhs[-1] = 1.0
+    u, _ = nnls(big, rhs, maxiter=50 * big.shape[1])
+    rho = big @ u - rhs
+    if abs(rho[-1]) < 1e-12:
+        return np.linalg.solve(rr, d), False
+    z = -rho[:n] / rho[-1]
+    return np.asarray(np.linalg.solve(rr, z + d), dtype=np.float64), True
+
+
+def enforce_passivity(
+    a: FloatArray,
+    b: FloatArray,
+    c: FloatArray,
+    omega: FloatArray,
+    damping: FloatArray,
+    peaks: FloatArray,
+    floor: float = 0.5,
+    grid: tuple[float, float, int] = (1e-4, 1e3, 1200),
+    max_rounds: int = 8,
+) -> tuple[FloatArray, PassivityReport]:
+    """Correct ``C`` so that every diagonal kernel is passive, changing the response least.
+
+    The poles (``A``) and input map (``B``) are kept; the response ``K̂(jω) = C G(jω)``,
+    ``G = (jωI − A)⁻¹ B``, is linear in ``C`` and each output row ``i`` only depends on row
+    ``c_i`` of ``C``. Per row, a least-squares problem with linear inequality constraints
+    (solved exactly by :func:`_lsi`):
+
+    .. math::
+
+        \\min_{Δc_i} \\sum_j \\sum_k \\frac{|Δc_i G_{·j}(jω_k)|^2}{p_i p_j}
+        \\quad\\text{s.t.}\\quad
+        \\operatorname{Re} (c_i + Δc_i) G_{·i}(jω) \\ge
+        \\begin{cases} β B_{ii}(ω) & ω \\text{ a data frequency} \\\\
+        0 & ω \\text{ on a log grid } 10^{-4}..10^{3} \\text{ rad/s} \\end{cases}
+
+    and ``−(c_i + Δc_i) A B_{·i} ≥ 0`` (the sign of ``Re K̂_ii ≈ −C A B / ω²`` as ω → ∞),
+    i.e. the smallest change of all kernels of row ``i`` over the data band ``ω_k`` (relative
+    to the kernel peaks ``p``) that makes the diagonal kernel passive (``Re K̂_ii ≥ 0``,
+    Ogilvie: ``B_ii(ω) ≥ 0`` for a body radiating energy) and keeps at least the fraction
+    β (``floor``) of the data's own damping ``B_ii(ω_k)`` at the data frequencies, where the
+    platform's natural frequencies lie. The floor matters where ``B_ii`` is tiny next to its
+    peak (the heave resonance of a semi-submersible: ``B_33`` there is 0.14 % of its peak,
+    well inside a 1 % fit error, and a sign flip makes the heave mode unstable). The
+    constraints are imposed where they are violated on ``grid`` or on a 16x denser check
+    grid, and re-checked (``max_rounds``); the realisation stays stable (``A``
+    is unchanged).
+
+    Parameters
+    ----------
+    a, b, c : arrays (n, n), (n, d), (d, n)
+        Stable radiation state space (1/s; state per m/s; N per state).
+    omega : (m,) array
+        Data frequencies of the band (rad/s).
+    damping : (m, d, d) array
+        ``B(ω)`` of the data (N s/m, N s, N m s/rad).
+    peaks : (d,) array
+        ``p_i = max_ω |K_ii(jω)|`` (units of ``B_ii``).
+    floor : float
+        β in [0, 1).
+    grid : (lo rad/s, hi rad/s, points)
+        Log grid of the passivity constraint outside the data.
+    max_rounds : int
+        Constraint-refinement rounds.
+
+    Returns
+    -------
+    c_new : array (d, n)
+    report : PassivityReport
+    """
+    if not 0.0 <= floor < 1.0:
+        raise ValueError(f"enforce_passivity: floor must be in [0, 1), got {floor}")
+    n, d = b.shape
+    eye = np.eye(n)
+
+    def transfer(w: FloatArray) -> ComplexArray:
+        return np.stack([np.linalg.solve(1j * x * eye - a, b) for x in w])  # (m, n, d)
+
+    g_band = transfer(omega)
+    lo, hi, npts = grid
+    check = np.logspace(np.log10(lo), np.log10(hi), 16 * npts)
+    g_check = transfer(check)
+    g_grid = g_check[::16]
+    cab = -(a @ b)  # (n, d): −A B, so −c A b_i = c · cab[:, i]
+    c_new = c.copy()
+    before = np.zeros(d)
+    after = np.zeros(d)
+    ratio = np.zeros(d)
+    used = 0
+    for i in range(d):
+        before[i] = float(np.min((g_check[:, :, i] @ c[i]).real)) / peaks[i]
+        # Objective: response change of row i over the band, all columns, scaled.
+        # A small ridge on Δc (scaled by the column norms, 1e-6) keeps it well conditioned.
+        mc = np.vstack([g_band[:, :, j] / np.sqrt(peaks[i] * peaks[j]) for j in range(d)])
+        m_real = np.vstack([mc.real, mc.imag])
+        m_real = np.vstack([m_real, 1e-6 * np.diag(np.linalg.norm(m_real, axis=0))])
+        rhs = np.zeros(m_real.shape[0])
+        # Candidate constraint rows: data frequencies (floor), log grid (0), asymptote (0).
+        b_ii = damping[:, i, i]
+        rows = np.vstack([g_band[:, :, i].real, g_grid[:, :, i].real, cab[:, i][None, :]])
+        lower = np.concatenate([floor * np.maximum(b_ii, 0.0), np.zeros(len(g_grid) + 1)])
+        scale = peaks[i]
+        active = np.zeros(rows.shape[0], dtype=bool)
+        ci = c[i].copy()
+        for _ in range(max_rounds):
+            viol = rows @ ci < lower - PASSIVITY_SLACK * scale
+            dense_bad = float(np.min((g_check[:, :, i] @ ci).real)) < -PASSIVITY_SLACK * scale
+            if not viol.any() and not dense_bad:
+                break
+            if dense_bad:
+                k = int(np.argmin((g_check[:, :, i] @ ci).real))
+                rows = np.vstack([rows, g_check[k, :, i].real[None, :]])
+                lower = np.concatenate([lower, [0.0]])
+                active = np.concatenate([active, [False]])
+                viol = np.concatenate([viol, [True]])
+            active |= viol
+            gmat = rows[active] / scale
+            target = lower[active] / scale
+            # Unknown Δc (scaled by the kernel peak for conditioning): c = c_i + Δc.
+            dc, ok = _lsi(m_real, rhs, gmat, target - gmat @ c[i])
+            if not ok:
+                raise ValueError(f"enforce_passivity: constraints of DOF {i} are infeasible")
+            ci = c[i] + dc
+        c_new[i] = ci
+        used += int(np.count_nonzero(active))
+        after[i] = float(np.min((g_check[:, :, i] @ ci).real)) / peaks[i]
+        pos = b_ii > 0.0
+        ratio[i] = float(np.min((g_band[pos, :, i] @ ci).real / b_ii[pos])) if pos.any() else 0.0
+    dk = np.einsum("in,mnj->mij", c_new - c, g_band)
+    norm = np.sqrt(np.outer(peaks, peaks))
+    change = float(np.sqrt(np.mean(np.abs(dk / norm) ** 2)))
+    return c_new, PassivityReport(before, after, ratio, change, used)
+
+
+def fit_reduced_radiation(
+    radiation: RadiationData,
+    dofs: Sequence[int] = (0, 2, 4),
+    max_order: int = 10,
+    tol: float = 0.02,
+    omega_range_rad_s: tuple[float, float] | None = None,
+    checked_dofs: Sequence[int] = (2, 4),
+    source: str = "",
+    passive_floor: float | None = 0.5,
+) -> RadiationModel:
+    """Fit every kernel (:func:`fit_radiation`), stack, and reduce by balanced truncation.
+
+    The kernel fits use least-squares weights 1/ω: the platform's natural frequencies lie low in
+    the band, where B(ω) is small and an unweighted fit can turn its sign (negative damping of
+    the heave and pitch modes). With ``passive_floor`` β (default 0.5) the diagonal kernel
+    fits are constrained to ``Re K̂_ii ≥ β B_ii`` at the data and ``≥ 0`` everywhere
+    (:func:`fit_kernel`), and after the reduction :func:`enforce_passivity` restores that
+    by the smallest correction of ``C`` (balanced truncation does not preserve passivity);
+    if the correction pushes the errors over the limit, the next order is tried.
+
+    The stacked system is scaled to unit kernel peaks, ``K'_ij = K_ij / √(p_i p_j)`` with
+    ``p_i = max_ω |K_ii|`` (``B' = B P^{-1/2}``, ``C' = P^{-1/2} C``), so that the Hankel
+    singular values weigh all DOFs alike; it is reduced by :func:`balanced_truncation` to the
+    smallest order r whose diagonal-kernel errors of ``Â`` and ``B̂`` for ``checked_dofs`` stay
+    within ``max(tol, error of the unreduced stack)`` over the band, then scaled back.
+
+    Parameters
+    ----------
+    radiation : RadiationData
+    dofs : sequence of int
+        WAMIT modes of the model (default surge, heave, pitch).
+    max_order, tol, omega_range_rad_s
+        As in :func:`fit_radiation`.
+    checked_dofs : sequence of int
+        WAMIT modes whose errors decide the order (default heave and pitch).
+    source : str
+        Provenance text stored with the model.
+    passive_floor : float or None
+        β of :func:`enforce_passivity`; None: no passivity enforcement (the former method).
+
+    Returns
+    -------
+    RadiationModel
+    """
+    rad = radiation.select(dofs)
+    w = rad.omega_rad_s
+    if omega_range_rad_s is not None:
+        keep = (w >= omega_range_rad_s[0]) & (w <= omega_range_rad_s[1])
+    else:
+        keep = np.ones(w.size, dtype=bool)
+    w = w[keep]
+    ss = fit_radiation(
+        radiation,
+        dofs=dofs,
+        max_order=max_order,
+        tol=tol,
+        omega_range_rad_s=omega_range_rad_s,
+        weights=1.0 / w,
+        passive_floor=passive_floor,
+    )
+    am, bd, a_inf = rad.added_mass[keep], rad.damping[keep], rad.added_mass_inf
+    k = kernel_response
+    peak = np.array(
+        [
+            np.max(np.abs(k(w, am[:, i, i], bd[:, i, i], float(a_inf[i, i]))))
+            for i in range(len(dofs))
+        ]
+    )
+    root = np.sqrt(peak)
+    b_s = ss.B / root
+    c_s = ss.C / root[:, None]
+    idx = [list(rad.dofs).index(d) for d in checked_dofs]
+
+    def errors(a: FloatArray, b: FloatArray, c: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return _kernel_errors(a, b * root, c * root[:, None], w, am, bd, a_inf)
+
+    ea_full, eb_full = errors(*_real_modal_form(ss.A, b_s, c_s))
+    limit = {i: max(tol, ea_full[i, i], eb_full[i, i]) for i in idx}
+    n = ss.n_states
+    for r in range(1, n + 1):
+        a_r, b_r, c_r, hsv = balanced_truncation(ss.A, b_s, c_s, r)
+        if np.max(np.linalg.eigvals(a_r).real) >= 0.0:
+            continue
+        ea, eb = errors(a_r, b_r, c_r)
+        if not all(
+            ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
+        ):
+            continue
+        if passive_floor is not None:
+            c_p, _ = enforce_passivity(
+                a_r, b_r * root, c_r * root[:, None], w, bd, peak, floor=passive_floor
+            )
+            c_r = c_p / root[:, None]
+            ea, eb = errors(a_r, b_r, c_r)
+            if not all(
+                ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
+            ):
+                continue
+        break
+    return RadiationModel(
+        dofs=tuple(rad.dofs),
+        A=a_r,
+        B=b_r * root,
+        C=c_r * root[:, None],
+        error_added_mass=ea,
+        error_damping=eb,
+        omega_range_rad_s=(float(w[0]), float(w[-1])),
+        fitted_order=n,
+        hankel_singular_values=hsv,
+        source=source or "Perez-Fossen kernel fits, stacked, balanced truncation",
     )

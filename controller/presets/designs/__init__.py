@@ -1,0 +1,1 @@
+"""Shipped controller design artefacts (written by controller.design.design)."""

@@ -1,0 +1,76 @@
+"""LQRI runtime core: import boundary, regimes, limits, anti-windup."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import pytest
+
+from controller.lqri import LqriController, LqriMeasurement, load_lqri_design
+
+
+@pytest.fixture(scope="module")
+def ctrl() -> LqriController:
+    return LqriController(load_lqri_design("iea15mw_volturnus"))
+
+
+def _meas(wind: float, omega: float, pitch: float = 0.0) -> LqriMeasurement:
+    return LqriMeasurement(
+        wind_speed_estimate_m_s=wind, rotor_speed_rad_s=omega, blade_pitch_rad=pitch
+    )
+
+
+def test_runtime_never_imports_plant() -> None:
+    code = "import sys, controller.lqri as m; m.load_lqri_design(); print('plant' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_below_rated_uses_the_torque_law(ctrl: LqriController) -> None:
+    d = ctrl.design
+    st = ctrl.initial_state()
+    for _ in range(10):
+        st, out = ctrl.step(st, _meas(7.0, 0.5), 0.025)
+    assert out.regime == 2
+    assert out.blade_pitch_commanded_rad == pytest.approx(d.pitch_min_rad)
+    assert out.generator_torque_commanded_nm == pytest.approx(d.torque_gain_nm_s2 * 0.25, rel=1e-6)
+
+
+def test_above_rated_limits_and_hysteresis(ctrl: LqriController) -> None:
+    d = ctrl.design
+    st = ctrl.initial_state()
+    prev = 0.0
+    for _ in range(400):  # large overspeed: pitch rises at the rate limit, never beyond
+        st, out = ctrl.step(st, _meas(18.0, 1.2 * d.rated_rotor_speed_rad_s, prev), 0.025)
+        assert out.regime == 4
+        assert out.blade_pitch_commanded_rad - prev <= d.pitch_rate_max_rad_s * 0.025 + 1e-12
+        assert d.pitch_min_rad <= out.blade_pitch_commanded_rad <= d.pitch_max_rad
+        prev = out.blade_pitch_commanded_rad
+    # Anti-windup: the integrator follows the applied command, so it recovers at once.
+    st, out = ctrl.step(st, _meas(18.0, d.rated_rotor_speed_rad_s, prev), 0.025)
+    assert abs(out.blade_pitch_commanded_rad - prev) <= d.pitch_rate_max_rad_s * 0.025 + 1e-12
+    # Inside the hysteresis band the regime holds.
+    st, out = ctrl.step(st, _meas(d.switch_wind_m_s - 0.4 * d.hysteresis_m_s, 0.79, prev), 0.025)
+    assert out.regime == 4
+    assert math.isfinite(out.pitch_integrator_rad)
+
+
+def test_steady_rated_point_holds_the_operating_pitch(ctrl: LqriController) -> None:
+    d = ctrl.design
+    i = d.wind_m_s.index(15.0)
+    x = d.x_op[i]
+    m = LqriMeasurement(
+        wind_speed_estimate_m_s=15.0,
+        rotor_speed_rad_s=d.rated_rotor_speed_rad_s,
+        blade_pitch_rad=d.theta_op[i],
+        platform_surge_m=x[0],
+        platform_pitch_rad=x[1],
+        tower_top_deflection_m=x[2],
+    )
+    st = ctrl.initial_state()
+    for _ in range(200):
+        st, out = ctrl.step(st, m, 0.025)
+    assert out.blade_pitch_commanded_rad == pytest.approx(d.theta_op[i], abs=1e-6)
+    assert out.generator_torque_commanded_nm == pytest.approx(d.rated_torque_nm, rel=1e-6)
