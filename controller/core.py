@@ -71,7 +71,27 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
     pitch_integrator_rad : float
         Integral term of the pitch PI, :math:`G_K K_I \\int e\\,dt` [rad].
     gain_schedule_factor : float
-        Pitch gain-schedule factor :math:`G_K` [-] (1 at the reference pitch).
+        Pitch gain-schedule factor :math:`G_K` [-] (1 at the reference pitch); the LQRI
+        reports its scheduling wind [m/s] here.
+    estimates_valid_mask : int
+        Which of the optional estimates below hold a value (``EST_*`` bits of
+        :mod:`bus_schemas.messages`); 0 for the baseline.
+    estimator_degraded : int
+        1 when an estimator runs on missing or rejected measurements.
+    wind_speed_estimated_m_s : float
+        Rotor-effective wind estimate [m/s].
+    platform_pitch_estimated_rad, platform_pitch_rate_estimated_rad_s : float
+        Platform pitch [rad] and pitch rate [rad/s] estimates.
+    platform_surge_estimated_m, platform_surge_velocity_estimated_m_s : float
+        Platform surge [m] and surge velocity [m/s] estimates.
+    tower_top_velocity_estimated_m_s : float
+        Tower-top fore-aft (first-mode) velocity estimate [m/s].
+    wave_elevation_forecast_m : float
+        Forecast wave elevation at the platform [m] for ``wave_forecast_time_ns``.
+    wave_forecast_time_ns : int
+        Sample time the forecast is for [ns] (sample time + horizon).
+    feedforward_pitch_rad, feedforward_torque_nm : float
+        Feedforward parts of the pitch [rad] and torque [N m, HSS] demands.
     """
 
     blade_pitch_commanded_rad: float
@@ -80,6 +100,18 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
     generator_speed_filtered_rad_s: float
     pitch_integrator_rad: float
     gain_schedule_factor: float
+    estimates_valid_mask: int = 0
+    estimator_degraded: int = 0
+    wind_speed_estimated_m_s: float = 0.0
+    platform_pitch_estimated_rad: float = 0.0
+    platform_pitch_rate_estimated_rad_s: float = 0.0
+    platform_surge_estimated_m: float = 0.0
+    platform_surge_velocity_estimated_m_s: float = 0.0
+    tower_top_velocity_estimated_m_s: float = 0.0
+    wave_elevation_forecast_m: float = 0.0
+    wave_forecast_time_ns: int = 0
+    feedforward_pitch_rad: float = 0.0
+    feedforward_torque_nm: float = 0.0
 
 
 StateT = TypeVar("StateT")
@@ -101,18 +133,37 @@ class Controller(Protocol[StateT]):
 
 def available_controllers() -> tuple[str, ...]:
     """Names accepted by :func:`make_controller` as ``kind``."""
-    return ("baseline",)
+    return ("baseline", "lqri", "lqri_ff")
 
 
-def make_controller(kind: str, preset: str) -> Controller[Any]:
+def make_controller(
+    kind: str,
+    preset: str,
+    *,
+    control_period_s: float = 0.025,
+    forecaster: str | None = None,
+    feedforward: str | None = None,
+    gauge_distance_m: float | None = None,
+) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
     Parameters
     ----------
     kind : str
-        Controller family; only ``"baseline"`` (NREL-style baseline) exists so far.
+        ``"baseline"`` (NREL-style baseline, :mod:`controller.baseline`), ``"lqri"`` (observers
+        + wave forecast + LQRI, :mod:`controller.runtime`) or ``"lqri_ff"`` (the same plus the
+        wave feedforward).
     preset : str
-        Shipped preset name (e.g. ``"nrel5mw_baseline"``) or path to a TOML preset.
+        Shipped preset name (e.g. ``"nrel5mw_baseline"``, ``"iea15mw_advanced"``) or path to a
+        TOML preset.
+    control_period_s : float
+        Control period [s] (the advanced controller discretises its observer at it).
+    forecaster : str or None
+        ``"dispersion"``, ``"ar"`` or ``"esprit"`` (advanced kinds; None: the preset's).
+    feedforward : str or None
+        ``"balanced"`` or ``"max_performance"`` for ``"lqri_ff"`` (None: ``"balanced"``).
+    gauge_distance_m : float or None
+        Distance of the wave gauge up-wave of the platform [m] (None: the preset's).
 
     Returns
     -------
@@ -128,6 +179,17 @@ def make_controller(kind: str, preset: str) -> Controller[Any]:
         from controller.baseline import BaselineController, load_baseline  # noqa: PLC0415
 
         return BaselineController(load_baseline(preset))
+    if kind in ("lqri", "lqri_ff"):
+        from controller.runtime import AdvancedController, load_advanced_settings  # noqa: PLC0415
+
+        ff = "off" if kind == "lqri" else (feedforward or "balanced")
+        return AdvancedController(
+            load_advanced_settings(preset),
+            control_period_s,
+            forecaster=forecaster,  # type: ignore[arg-type]
+            gauge_distance_m=gauge_distance_m,
+            feedforward=ff,  # type: ignore[arg-type]
+        )
     raise ValueError(
         f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
     )

@@ -253,6 +253,90 @@ def analyze_modes(
     console.print(table)
 
 
+@app.command("design")
+def design_cmd(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.")
+    ] = "iea15mw_volturnus",
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", help="Folder for the artefacts (default: the shipped designs)."),
+    ] = None,
+) -> None:
+    """Offline controller design: the LQRI gain schedule and the platform-observer models.
+
+    Calls :func:`controller.design.design` (LQRI, ``<preset>_lqri.npz/.json``) and
+    :func:`controller.design.observer.design_observer` (``<preset>_observer.npz/.json``).
+    """
+    from controller.design import design
+    from controller.design.observer import design_observer
+
+    try:
+        paths = {**design(preset, out), **design_observer(preset, out)}
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    for key, path in paths.items():
+        console.print(f"{key}: {path}")
+
+
+@analyze_app.command("linear")
+def analyze_linear(
+    preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
+    wind: Annotated[float, typer.Option("--wind", help="Steady wind of the model, m/s.")] = 15.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+) -> None:
+    """Design-model poles (with their modes) and the LQRI closed-loop poles at ``--wind``."""
+    from controller.design import linear_report
+
+    if not wind > 0:
+        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
+        raise typer.Exit(2)
+    try:
+        report = linear_report(preset, wind)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    if as_json:
+        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        return
+    table = Table(title=f"Design model of {preset} at {wind:g} m/s")
+    table.add_column("mode")
+    table.add_column("damped period [s]", justify="right")
+    table.add_column("damping ratio [-]", justify="right")
+    for m in report["modes"]:  # type: ignore[attr-defined]
+        table.add_row(str(m["name"]), f"{m['period_s']:.2f}", f"{m['damping_ratio']:.4f}")
+    console.print(table)
+    console.print(
+        f"closed-loop spectral radius (z): {report['closed_loop_spectral_radius']:.5f}; "
+        f"rotor pole {report['rotor_pole_1_s']:.4f} 1/s"
+    )
+
+
+@analyze_app.command("forecast")
+def analyze_forecast(
+    hs: Annotated[float, typer.Option("--hs", help="JONSWAP significant height, m.")] = 2.2,
+    tp: Annotated[float, typer.Option("--tp", help="JONSWAP peak period, s.")] = 8.0,
+    distance: Annotated[
+        float, typer.Option("--distance", help="Gauge distance up-wave, m.")
+    ] = 450.0,
+    horizon: Annotated[float, typer.Option("--horizon", help="Forecast horizon, s.")] = 10.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+) -> None:
+    """VAF of each wave forecaster (dispersion, AR, ESPRIT) on a seeded sea, runtime code."""
+    from hil.analyze_forecast import forecast_report
+
+    try:
+        report = forecast_report(hs_m=hs, tp_s=tp, distance_m=distance, horizon_s=horizon)
+    except ValueError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    if as_json:
+        sys.stdout.write(json.dumps(report, indent=2, default=str) + "\n")
+    else:
+        console.print_json(json.dumps(report, default=str))
+
+
 @preset_app.command("import-openfast")
 def preset_import_openfast(
     fst_file: Annotated[Path, typer.Argument(help="The OpenFAST deck's .fst file.")],

@@ -18,6 +18,7 @@ This module never imports ``plant``: the controller speaks only ``bus_schemas``.
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 import time
@@ -32,6 +33,15 @@ from controller.core import make_controller
 from hil.bus import Bus, BusConfig
 from hil.scenario import Scenario
 
+#: Float fields of a sensor frame (checked finite before a frame may reach the core).
+_FLOAT_FIELDS = tuple(
+    name
+    for name, typ in zip(
+        SensorFrame.__struct_fields__, SensorFrame.__annotations__.values(), strict=True
+    )
+    if "float" in str(typ)
+)
+
 
 class ControllerRuntime:
     """Validation, sequencing and message building around a controller core.
@@ -45,7 +55,16 @@ class ControllerRuntime:
     """
 
     def __init__(self, scenario: Scenario, clock: Callable[[], int] = time.monotonic_ns) -> None:
-        self.controller = make_controller(scenario.controller.kind, scenario.controller.preset)
+        c = scenario.controller
+        waves = scenario.waves
+        self.controller = make_controller(
+            c.kind,
+            c.preset,
+            control_period_s=scenario.timing.control_period_s,
+            forecaster=c.forecaster,
+            feedforward=c.feedforward,
+            gauge_distance_m=waves.gauge_distance_m if waves is not None else None,
+        )
         self.state: Any = self.controller.initial_state()
         self.dt_s = scenario.timing.control_period_s
         self.clock = clock
@@ -74,13 +93,19 @@ class ControllerRuntime:
 
         A frame whose ``seq`` is not newer than the last one (duplicate, replay, reordered)
         or whose sample time goes backwards is rejected: a controller must never step twice
-        on one sample or on an older one.
+        on one sample or on an older one. A frame with a non-finite value is rejected too
+        (the bus codec already refuses them; this guards the in-process path). The status
+        carries the core's estimates and ``compute_time_ns``, the injected clock's time
+        around the core's step [ns].
         """
         if frame.seq <= self.last_seq:
             self.rejected["duplicate_or_reordered"] += 1
             return None
         if frame.sample_time_ns <= self.last_sample_time_ns:
             self.rejected["stale"] += 1
+            return None
+        if not all(math.isfinite(getattr(frame, name)) for name in _FLOAT_FIELDS):
+            self.rejected["non_finite"] += 1  # the codec refuses these; in-process frames too
             return None
         t0 = self.clock()
         self.state, out = self.controller.step(self.state, frame, self.dt_s)
@@ -108,6 +133,18 @@ class ControllerRuntime:
             generator_speed_filtered_rad_s=out.generator_speed_filtered_rad_s,
             pitch_integrator_rad=out.pitch_integrator_rad,
             gain_schedule_factor=out.gain_schedule_factor,
+            estimates_valid_mask=out.estimates_valid_mask,
+            estimator_degraded=out.estimator_degraded,
+            wind_speed_estimated_m_s=out.wind_speed_estimated_m_s,
+            platform_pitch_estimated_rad=out.platform_pitch_estimated_rad,
+            platform_pitch_rate_estimated_rad_s=out.platform_pitch_rate_estimated_rad_s,
+            platform_surge_estimated_m=out.platform_surge_estimated_m,
+            platform_surge_velocity_estimated_m_s=out.platform_surge_velocity_estimated_m_s,
+            tower_top_velocity_estimated_m_s=out.tower_top_velocity_estimated_m_s,
+            wave_elevation_forecast_m=out.wave_elevation_forecast_m,
+            wave_forecast_time_ns=out.wave_forecast_time_ns,
+            feedforward_pitch_rad=out.feedforward_pitch_rad,
+            feedforward_torque_nm=out.feedforward_torque_nm,
         )
         self.command_seq += 1
         return command, status

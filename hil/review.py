@@ -35,6 +35,17 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``truncated`` and ``error`` (what the reader stopped on).
 ``scenario``
     ``name`` and ``config`` (the record's ``json`` parsed), ``null`` fields when absent.
+``estimator``
+    Advanced controllers (``controller/status`` estimates against ``truth`` at the same
+    sample time): ``wind_speed_error_mean_pct`` [%] 100 mean(Û − U)/mean(U),
+    ``wind_speed_error_rms_m_s`` [m/s], ``platform_pitch_rate_error_rms_rad_s`` [rad/s],
+    ``platform_surge_velocity_error_rms_m_s`` [m/s], ``degraded_fraction`` [-] of cycles with
+    ``estimator_degraded``; ``null`` when no estimate was published.
+``forecast``
+    ``vaf_pct`` [%] of the published wave forecast against the true platform elevation at the
+    time each forecast is for, 100 (1 − var(η − η̂)/var(η)); ``samples`` [1] distinct forecasts.
+``controller``
+    ``compute_us.{p50,p99,max}`` [us] of the status ``compute_time_ns`` (as in ``timing``).
 """
 
 from __future__ import annotations
@@ -50,7 +61,13 @@ import numpy.typing as npt
 from rich.table import Table
 from scipy.signal import welch
 
-from bus_schemas.messages import VALID_WAVE_GAUGE
+from bus_schemas.messages import (
+    EST_PLATFORM_PITCH_RATE,
+    EST_PLATFORM_SURGE_VELOCITY,
+    EST_WAVE_FORECAST,
+    EST_WIND_SPEED,
+    VALID_WAVE_GAUGE,
+)
 from hil import kpi
 from hil.mcap_log import RunData, read_run
 
@@ -221,6 +238,88 @@ def _kpis(run: RunData) -> dict[str, Any]:
     }
 
 
+def _estimates(run: RunData) -> dict[str, Any]:
+    """Estimator, forecast and compute-time KPIs of an advanced controller's status messages.
+
+    The truth (``truth`` channel) is linearly interpolated to each status sample time.
+    Wind: error e = Û − U (rotor-effective wind, ``wind_speed_m_s``) over the cycles whose
+    status sets ``EST_WIND_SPEED``: mean 100 mean(e)/mean(U) [%] and RMS [m/s]. Forecast: each
+    distinct (``wave_forecast_time_ns``, forecast) pair with ``EST_WAVE_FORECAST`` set is
+    compared with the true platform elevation ``wave_elevation_platform_m`` at the time it is
+    a forecast for; VAF = 100 (1 − var(η − η̂)/var(η)) [%] over the pairs inside the record.
+    """
+    status = run.topic("controller/status")
+    truth = run.topic("truth")
+    nan = math.nan
+    est: dict[str, Any] = {
+        "wind_speed_error_mean_pct": nan,
+        "wind_speed_error_rms_m_s": nan,
+        "platform_pitch_rate_error_rms_rad_s": nan,
+        "platform_surge_velocity_error_rms_m_s": nan,
+        "degraded_fraction": nan,
+    }
+    fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
+    compute = kpi.percentiles(
+        _col(status, "compute_time_ns") / 1e3, [50.0, 99.0], ["p50", "p99", "max"]
+    )
+    out = {"estimator": est, "forecast": fc, "controller": {"compute_us": compute}}
+    if not status or not truth:
+        return out
+    mask = _col(status, "estimates_valid_mask")
+    if not np.isfinite(mask).all():  # a log of ControllerStatus version 1
+        return out
+    m = mask.astype(np.int64)
+    ts = _col(status, "sample_time_ns")
+    tt = _col(truth, "sample_time_ns")
+    inside = (ts >= tt[0]) & (ts <= tt[-1])
+    est["degraded_fraction"] = float(np.mean(_col(status, "estimator_degraded") > 0))
+
+    def _err(bit: int, est_name: str, truth_name: str) -> FloatArray:
+        sel = inside & ((m & bit) != 0)
+        ref = np.interp(ts[sel], tt, _col(truth, truth_name))
+        err: FloatArray = _col(status, est_name)[sel] - ref
+        return err
+
+    wind_sel = inside & ((m & EST_WIND_SPEED) != 0)
+    if wind_sel.any():
+        u_true = np.interp(ts[wind_sel], tt, _col(truth, "wind_speed_m_s"))
+        e = _col(status, "wind_speed_estimated_m_s")[wind_sel] - u_true
+        est["wind_speed_error_mean_pct"] = float(100.0 * np.mean(e) / np.mean(u_true))
+        est["wind_speed_error_rms_m_s"] = float(np.sqrt(np.mean(e * e)))
+    for key, bit, name, tname in (
+        (
+            "platform_pitch_rate_error_rms_rad_s",
+            EST_PLATFORM_PITCH_RATE,
+            "platform_pitch_rate_estimated_rad_s",
+            "platform_pitch_rate_rad_s",
+        ),
+        (
+            "platform_surge_velocity_error_rms_m_s",
+            EST_PLATFORM_SURGE_VELOCITY,
+            "platform_surge_velocity_estimated_m_s",
+            "platform_surge_velocity_m_s",
+        ),
+    ):
+        e = _err(bit, name, tname)
+        if e.size:
+            est[key] = float(np.sqrt(np.mean(e * e)))
+    f_sel = (m & EST_WAVE_FORECAST) != 0
+    if f_sel.any():
+        f_t = _col(status, "wave_forecast_time_ns")[f_sel]
+        f_v = _col(status, "wave_elevation_forecast_m")[f_sel]
+        keep = np.ones(f_t.size, dtype=bool)
+        keep[1:] = f_t[1:] != f_t[:-1]  # a forecast is held between forecaster calls
+        f_t, f_v = f_t[keep], f_v[keep]
+        ok = (f_t >= tt[0]) & (f_t <= tt[-1])
+        if ok.sum() >= 2:
+            eta = np.interp(f_t[ok], tt, _col(truth, "wave_elevation_platform_m"))
+            fc["samples"] = int(ok.sum())
+            var = float(np.var(eta))
+            if var > 0.0:
+                fc["vaf_pct"] = float(100.0 * (1.0 - np.var(eta - f_v[ok]) / var))
+    return out
+
+
 def _scenario(run: RunData) -> dict[str, Any]:
     rec = run.metadata.get("scenario", {})
     out: dict[str, Any] = {"name": rec.get("name"), "config": None}
@@ -272,6 +371,7 @@ def summarize(run: RunData) -> dict[str, Any]:
         "kpi": _kpis(run),
         "run": _run_info(run),
         "scenario": _scenario(run),
+        **_estimates(run),
     }
     cleaned: dict[str, Any] = _clean(summary)
     return cleaned

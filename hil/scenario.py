@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import importlib.resources
+import importlib.util
 import re
 import tomllib
 from pathlib import Path
@@ -223,10 +224,20 @@ class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
 
 
 class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """Which controller runs and with which parameter preset."""
+    """Which controller runs and with which parameter preset.
 
-    kind: Literal["baseline"] = "baseline"
+    ``kind``: ``"baseline"`` (preset e.g. ``"nrel5mw_baseline"``), ``"lqri"`` (observers, wave
+    forecast and LQRI; preset e.g. ``"iea15mw_advanced"``) or ``"lqri_ff"`` (the same plus
+    the wave feedforward). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
+    ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
+    ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
+    ``[waves] gauge_distance_m``.
+    """
+
+    kind: Literal["baseline", "lqri", "lqri_ff"] = "baseline"
     preset: str = "nrel5mw_baseline"
+    forecaster: Literal["dispersion", "ar", "esprit"] | None = None
+    feedforward: Literal["balanced", "max_performance"] = "balanced"
 
 
 class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -273,6 +284,11 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
+        if self.controller.kind != "baseline" and self.platform is None:
+            raise ValueError(
+                f"controller.kind = {self.controller.kind!r} needs a floating plant "
+                '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'
+            )
 
     @property
     def floating(self) -> bool:
@@ -363,9 +379,19 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
 
 
 def shipped_platforms() -> list[str]:
-    """Names of the floating platform presets shipped with the plant."""
-    root = importlib.resources.files("plant.presets") / "floating"
-    return sorted(p.name.removesuffix(".toml") for p in root.iterdir() if p.name.endswith(".toml"))
+    """Names of the floating platform presets shipped with the plant.
+
+    The preset folder is found with ``importlib.util.find_spec`` on the top-level ``plant``
+    package, which locates it without importing it: the controller process validates the
+    same scenario file and must never import ``plant`` (the two sides speak only
+    ``bus_schemas``).
+    """
+    spec = importlib.util.find_spec("plant")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    if not locations:
+        return []
+    root = Path(locations[0]) / "presets" / "floating"
+    return sorted(p.name.removesuffix(".toml") for p in root.glob("*.toml"))
 
 
 def shipped_scenarios() -> list[str]:

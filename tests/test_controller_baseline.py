@@ -516,7 +516,7 @@ def test_make_controller_registry() -> None:
     _, out = ctrl.step(ctrl.initial_state(), frame(100.0), 0.01)
     assert isinstance(out, ControlOutput)
     with pytest.raises(ValueError, match="unknown controller kind"):
-        make_controller("lqri", "nrel5mw_baseline")
+        make_controller("no-such-kind", "nrel5mw_baseline")
 
 
 def test_controller_does_not_import_plant() -> None:

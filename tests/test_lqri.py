@@ -74,3 +74,49 @@ def test_steady_rated_point_holds_the_operating_pitch(ctrl: LqriController) -> N
         st, out = ctrl.step(st, m, 0.025)
     assert out.blade_pitch_commanded_rad == pytest.approx(d.theta_op[i], abs=1e-6)
     assert out.generator_torque_commanded_nm == pytest.approx(d.rated_torque_nm, rel=1e-6)
+
+
+def test_wave_feedforward_enters_torque_below_and_pitch_above() -> None:
+    from controller.lqri import load_wave_ff_design
+
+    d = load_lqri_design("iea15mw_volturnus")
+    ff = load_wave_ff_design("iea15mw_volturnus")
+    off = LqriController(d)
+    on = LqriController(d, ff, "balanced")
+    with pytest.raises(ValueError):
+        LqriController(d, None, "balanced")
+    # Below 17 m/s: torque = K w^2 + u_ff (before the limits), pitch untouched.
+    s_off, s_on = off.initial_state(), on.initial_state()
+    for k in range(200):
+        eta = math.sin(0.8 * k * 0.025)
+        m = LqriMeasurement(
+            wind_speed_estimate_m_s=7.0,
+            rotor_speed_rad_s=0.5,
+            blade_pitch_rad=0.0,
+            wave_elevation_forecast_m=eta,
+        )
+        s_off, o_off = off.step(s_off, m, 0.025)
+        s_on, o_on = on.step(s_on, m, 0.025)
+    assert s_on.feedforward_pitch_rad == 0.0
+    assert s_on.feedforward_torque_nm != 0.0
+    assert o_on.blade_pitch_commanded_rad == o_off.blade_pitch_commanded_rad
+    assert o_on.generator_torque_commanded_nm == pytest.approx(
+        o_off.generator_torque_commanded_nm + s_on.feedforward_torque_nm, rel=1e-9
+    )
+    # Above 17 m/s: pitch FF, within the pitch limits; NaN forecast gives no FF.
+    st = on.initial_state()
+    prev = d.theta_op[d.wind_m_s.index(20.0)]
+    for k in range(200):
+        m = LqriMeasurement(
+            wind_speed_estimate_m_s=20.0,
+            rotor_speed_rad_s=d.rated_rotor_speed_rad_s,
+            blade_pitch_rad=prev,
+            wave_elevation_forecast_m=2.0 * math.sin(0.8 * k * 0.025),
+        )
+        st, out = on.step(st, m, 0.025)
+        assert abs(out.blade_pitch_commanded_rad - prev) <= d.pitch_rate_max_rad_s * 0.025 + 1e-12
+        prev = out.blade_pitch_commanded_rad
+    assert st.feedforward_torque_nm == 0.0
+    assert st.feedforward_pitch_rad != 0.0
+    st, out = on.step(st, _meas(20.0, d.rated_rotor_speed_rad_s, prev), 0.025)
+    assert st.feedforward_pitch_rad == 0.0

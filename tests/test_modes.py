@@ -70,8 +70,11 @@ def test_platform_periods_match_openfast(
 
 @pytest.mark.xfail(
     strict=False,
-    reason="tower fore-aft mode: 1.93 s here vs 2.23 s in lin_00 (a 2021 WEIS deck whose tower "
-    "properties may differ from the rosco 2.10.6 deck the preset comes from); not tuned by hand",
+    reason="tower fore-aft mode: 1.93 s here vs 2.23 s in lin_00. lin_00's tower column of A is "
+    "0.745 of ours (sqrt(1/0.745) x 1.93 s = 2.23 s); its static heave -0.021 m vs ours -0.356 m "
+    "means about 150 t less weight; lin_00 came from a Feb 2021 WEIS deck, while our deck's "
+    "tower weighs 1467 t (rosco 2.10.6) vs 1263 t in the VolturnUS-S report: the linearisation "
+    "was made with another tower. Not tuned by hand (see plant/modes.py)",
 )
 def test_tower_period_matches_openfast(
     modes: dict[str, Mode], openfast_modes: dict[str, Mode]

@@ -66,3 +66,48 @@ def test_step_rejects_bad_step(params: FloatingParams) -> None:
     op = operating_point(params, 8.0)
     with pytest.raises(ValueError, match="h must be > 0 s"):
         step_floating(0.0, op.state, op.inputs, 0.0, params)
+
+
+def test_step_reuses_its_radiation_output_only_for_the_same_state(params: FloatingParams) -> None:
+    """Continuing from the returned tuple (cached μ0, μ̇0) equals starting from a copy of it."""
+    op = operating_point(params, 8.0)
+    u = _wave_inputs(3.0, op.inputs)
+    x1 = step_floating(0.0, op.state, u, 0.0125, params)
+    x1 = step_floating(0.0125, x1, u, 0.0125, params)
+    cached = step_floating(0.025, x1, u, 0.0125, params)
+    fresh = step_floating(0.025, tuple(list(x1)), u, 0.0125, params)
+    assert np.allclose(cached, fresh, rtol=1e-12, atol=1e-9)
+    # Another state in between (a second user of the same params) does not confuse the cache.
+    other = tuple(v * 1.01 for v in x1)
+    step_floating(0.0, other, u, 0.0125, params)
+    again = step_floating(0.025, x1, u, 0.0125, params)
+    assert np.allclose(again, fresh, rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("wind", "omega_scale", "pitch_rad"),
+    [(3.0, 3.0, 0.0), (12.0, 0.1, 0.0), (12.0, 1.0, 0.7), (25.0, 1.0, -0.2)],
+)
+def test_step_outside_the_aero_grid_is_rk4_of_f(
+    params: FloatingParams, wind: float, omega_scale: float, pitch_rad: float
+) -> None:
+    """Clamped Ct/Cq lookups (λ or θ off the table) and mooring segments match f exactly."""
+    from dataclasses import replace
+
+    p = replace(
+        params,
+        radiation_a=np.zeros((0, 0)),
+        radiation_b=np.zeros((0, 3)),
+        radiation_c=np.zeros((3, 0)),
+    )
+    op = operating_point(p, 8.0)
+    x = list(op.state)
+    x[0] = 7.999999  # next to a mooring-table knot
+    x[8] *= omega_scale
+    x[9] = pitch_rad
+    u = (pitch_rad, op.inputs[1], wind, 1e5, -2e5, 3e6)
+    for _ in range(3):
+        a = step_floating(0.0, tuple(x), u, 0.0125, p)
+        b = rk4_step(f, 0.0, tuple(x), u, 0.0125, p)
+        assert np.allclose(a, b, rtol=1e-11, atol=1e-12)
+        x = list(a)

@@ -1,0 +1,90 @@
+"""The advanced controller (observers + wave forecast + LQRI) in closed loop, in process.
+
+Issue 4's comparison above rated: IEA 15 MW on VolturnUS-S, 15 m/s turbulent wind (IEC class
+B), JONSWAP Hs 3 m, Tp 9.5 s, the same seeds for both controllers (the shipped scenarios
+``iea15mw-lqri-15`` and ``iea15mw-baseline-15``), run in process for ``DURATION_S`` (200 s
+here to keep the suite fast; ``bench/advanced_controller.py`` runs the full 600 s and saves
+its figures). Statistics skip the first ``SETTLE_S`` seconds.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import msgspec
+import numpy as np
+
+from bus_schemas import ActuatorCommand, ControllerStatus, PlantState, SensorFrame
+from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
+from hil.controller_node import ControllerRuntime
+from hil.plant_node import run_inprocess
+from hil.scenario import load_scenario
+
+DURATION_S = 200.0
+SETTLE_S = 30.0
+
+
+@lru_cache(maxsize=4)
+def _run(name: str) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    scenario = load_scenario(name).with_duration(DURATION_S)
+    truth: list[PlantState] = []
+    status: list[ControllerStatus] = []
+    runtime = ControllerRuntime(scenario)
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if mt is TRUTH:
+            assert isinstance(msg, PlantState)
+            truth.append(msg)
+
+    def step(frame: SensorFrame) -> ActuatorCommand | None:
+        result = runtime.handle_frame(frame)
+        if result is None:
+            return None
+        status.append(result[1])
+        _ = CONTROLLER_STATUS
+        return result[0]
+
+    run_inprocess(scenario, publish, step)
+
+    def cols(msgs: list[PlantState] | list[ControllerStatus]) -> dict[str, np.ndarray]:
+        names = type(msgs[0]).__struct_fields__
+        return {n: np.array([getattr(m, n) for m in msgs]) for n in names}
+
+    return cols(truth), cols(status)
+
+
+def _after(t: dict[str, np.ndarray], name: str) -> np.ndarray:
+    keep = t["sample_time_ns"] >= SETTLE_S * 1e9
+    values: np.ndarray = t[name][keep]
+    return values
+
+
+def test_lqri_beats_baseline_above_rated() -> None:
+    """Rotor-speed and power std lower with LQRI; platform pitch std not higher (5 % margin
+    for run-to-run sampling of a 170 s window).
+
+    Measured (200 s, seeds of the shipped scenarios): see the assertion messages; the 600 s
+    figures are in ``bench/results/advanced_controller.json``.
+    """
+    lq, _ = _run("iea15mw-lqri-15")
+    bl, _ = _run("iea15mw-baseline-15")
+    figures = {
+        name: (float(np.std(_after(lq, name))), float(np.std(_after(bl, name))))
+        for name in ("rotor_speed_rad_s", "electrical_power_w", "platform_pitch_rad")
+    }
+    msg = f"(lqri std, baseline std): {figures}"
+    assert figures["rotor_speed_rad_s"][0] < figures["rotor_speed_rad_s"][1], msg
+    assert figures["electrical_power_w"][0] < figures["electrical_power_w"][1], msg
+    assert figures["platform_pitch_rad"][0] <= 1.05 * figures["platform_pitch_rad"][1], msg
+
+
+def test_status_carries_estimates_close_to_the_truth() -> None:
+    """The published wind estimate tracks the rotor-effective wind (mean error within 3 %,
+    the EKF's Cp table equals the plant's) and the regime is region 3 above rated."""
+    truth, status = _run("iea15mw-lqri-15")
+    t_s = _after(status, "sample_time_ns")
+    u_true = np.interp(t_s, truth["sample_time_ns"], truth["wind_speed_m_s"])
+    err = _after(status, "wind_speed_estimated_m_s") - u_true
+    assert abs(np.mean(err) / np.mean(u_true)) < 0.03, np.mean(err)
+    assert np.mean(_after(status, "regime") == 4) > 0.9
+    assert np.all(_after(status, "compute_time_ns") > 0)
