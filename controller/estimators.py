@@ -930,10 +930,29 @@ class PlatformKF:
 
     def __init__(self, config: PlatformKFConfig) -> None:
         self.config = config
-        self._n = config.F.shape[0]
-        self._p = config.H.shape[0]
-        self._eye = np.eye(self._n)
+        c = config
+        n, p = c.F.shape[0], c.H.shape[0]
+        self._n = n
+        self._p = p
+        self._eye = np.eye(n)
         self._eye.setflags(write=False)
+        # Transposes stored contiguous once, so that no cycle builds a transposed copy.
+        self._Ft = np.ascontiguousarray(c.F.T)
+        self._Ht = np.ascontiguousarray(c.H.T)
+        self._gate = c.gate
+        # Per subset of accepted channels (bit i of the key = channel i): the index array, the
+        # flat indices of S_aa in S, H_a and R_a, built once (2^p subsets, p = 4 here: 15).
+        self._subsets: dict[
+            int, tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], int, FloatArray, FloatArray]
+        ] = {}
+        for key in range(1, 1 << p):
+            idx = np.array([i for i in range(p) if key >> i & 1], dtype=np.intp)
+            flat = (idx[:, None] * p + idx[None, :]).ravel()
+            h_a = np.ascontiguousarray(c.H[idx])
+            r_a = np.ascontiguousarray(c.R[np.ix_(idx, idx)])
+            for arr in (idx, flat, h_a, r_a):
+                arr.setflags(write=False)
+            self._subsets[key] = (idx, flat, idx.size, h_a, r_a)
 
     def initial_state(self) -> PlatformKFState:
         """State before the first cycle: ``x0``, ``P0``, counters zero."""
@@ -947,6 +966,8 @@ class PlatformKF:
         """Time update :math:`\\hat x \\leftarrow F\\hat x + Bu`, :math:`P \\leftarrow FPF^T + Q`.
 
         ``dt_s`` is rounded to a whole number of model steps (1 to ``max_predict_steps``).
+        :math:`P` is not re-symmetrised here: :math:`F P F^T` of a symmetric :math:`P` is
+        symmetric up to rounding, and :meth:`update` symmetrises after its Joseph step.
 
         Parameters
         ----------
@@ -962,13 +983,13 @@ class PlatformKF:
         """
         c = self.config
         steps = min(max(round(dt_s / c.dt_s), 1), c.max_predict_steps)
-        uu = np.asarray(u, dtype=np.float64)
-        bu = c.B @ uu
+        bu = c.B @ np.asarray(u, dtype=np.float64)
+        F, Ft, Q = c.F, self._Ft, c.Q
         x, P = state.x, state.P
         for _ in range(steps):
-            x = c.F @ x + bu
-            P = c.F @ P @ c.F.T + c.Q
-        return state._replace(x=x, P=0.5 * (P + P.T))
+            x = F @ x + bu
+            P = F @ P @ Ft + Q
+        return state._replace(x=x, P=P)
 
     def update(
         self,
@@ -978,6 +999,14 @@ class PlatformKF:
         u: npt.ArrayLike | None = None,
     ) -> PlatformKFState:
         """Gated measurement update of the valid channels, Joseph form (module docstring).
+
+        Cost is fixed and small: the gate uses the prior innovation covariance
+        :math:`S = H P H^T + R` of all channels (one product), the accepted subset a picks
+        :math:`H_a`, :math:`R_a` precomputed per subset and :math:`S_{aa}`,
+        :math:`P H_a^T` by index, then :math:`K = P H_a^T S_{aa}^{-1}` (one 1x1 to 4x4
+        inverse), :math:`\\hat x \\leftarrow \\hat x + K y_a` and
+        :math:`P \\leftarrow A P A^T + K R_{aa} K^T`, :math:`A = I - K H_a`, symmetrised:
+        about 20 small numpy operations.
 
         Parameters
         ----------
@@ -994,26 +1023,28 @@ class PlatformKF:
         PlatformKFState
         """
         c = self.config
+        p = self._p
         x, P = state.x, state.P
         y = np.asarray(z, dtype=np.float64) - c.H @ x
         if u is not None:
             y -= c.D @ np.asarray(u, dtype=np.float64)
-        PHt = P @ c.H.T
+        PHt = P @ self._Ht
         S = c.H @ PHt + c.R
-        nis_all = (y * y / np.diag(S)).tolist()
-        ok = [True] * self._p if valid is None else [bool(v) for v in valid]  # type: ignore[union-attr]
+        ys = y.tolist()
+        ss = S.diagonal().tolist()
+        gate = self._gate
         misses = list(state.consecutive_misses)
         skipped = list(state.skipped)
         rejected = list(state.rejected)
         accepted = list(state.accepted)
-        nis = [math.nan] * self._p
-        use: list[int] = []
-        for i in range(self._p):
-            e = nis_all[i]
-            if not (ok[i] and math.isfinite(e)):
+        nis = [math.nan] * p
+        key = 0
+        for i in range(p):
+            e = ys[i] * ys[i] / ss[i]
+            if not ((valid is None or valid[i]) and math.isfinite(e)):  # type: ignore[index]
                 skipped[i] += 1
                 misses[i] += 1
-            elif e > c.gate[i]:
+            elif e > gate[i]:
                 nis[i] = e
                 rejected[i] += 1
                 misses[i] += 1
@@ -1021,23 +1052,16 @@ class PlatformKF:
                 nis[i] = e
                 accepted[i] += 1
                 misses[i] = 0
-                use.append(i)
-        if use:
-            if len(use) < self._p:
-                H, R, y, PHt, S = (
-                    c.H[use],
-                    c.R[np.ix_(use, use)],
-                    y[use],
-                    PHt[:, use],
-                    S[np.ix_(use, use)],
-                )
-            else:
-                H, R = c.H, c.R
-            K = np.linalg.solve(S, PHt.T).T
+                key |= 1 << i
+        if key:
+            idx, flat, k, H, R = self._subsets[key]
+            if k < p:
+                y, PHt, S = y[idx], PHt[:, idx], S.take(flat).reshape(k, k)
+            K = PHt @ np.linalg.inv(S)
             x = x + K @ y
             A = self._eye - K @ H
             P = A @ P @ A.T + K @ R @ K.T
-            P = 0.5 * (P + P.T)
+        P = 0.5 * (P + P.T)
         degraded = max(misses) > c.max_consecutive_misses
         return PlatformKFState(
             x,

@@ -102,6 +102,13 @@ def _positive(owner: str, name: str, value: object, unit: str) -> float:
     return v
 
 
+def _nonnegative(owner: str, name: str, value: object, unit: str) -> float:
+    v = _number(owner, name, value, unit)
+    if not (math.isfinite(v) and v >= 0.0):
+        raise ValueError(f"{owner}: {name} = {value!r}, expected a finite value >= 0 {unit}")
+    return v
+
+
 def _int_at_least(owner: str, name: str, value: object, low: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         raise ValueError(f"{owner}: {name} = {value!r}, expected an integer >= {low}")
@@ -247,10 +254,7 @@ class DispersionConfig:
         o = "DispersionConfig"
         set_ = object.__setattr__
         set_(self, "distance_m", _positive(o, "distance_m", self.distance_m, "m"))
-        td = _number(o, "horizon_s", self.horizon_s, "s")
-        if not (math.isfinite(td) and td >= 0.0):
-            raise ValueError(f"{o}: horizon_s = {self.horizon_s!r}, expected a finite value >= 0 s")
-        set_(self, "horizon_s", td)
+        set_(self, "horizon_s", _nonnegative(o, "horizon_s", self.horizon_s, "s"))
         set_(self, "dt_s", _positive(o, "dt_s", self.dt_s, "s"))
         set_(self, "n_taps", _int_at_least(o, "n_taps", self.n_taps, 16))
         d = _number(o, "depth_m", self.depth_m, "m")
@@ -369,14 +373,17 @@ class ForecasterState:
             setattr(c, name, v.copy() if isinstance(v, np.ndarray) else v)
         return c
 
-    def _take(self, sample_m: float, valid: bool) -> float:
-        """Apply the hold rule to one call's sample; return the value to use (m)."""
+    def _take(self, sample_m: float, valid: bool) -> bool:
+        """Apply the hold rule to one call's sample (the value to use is then ``held_m``).
+
+        Returns whether the sample was taken (valid and finite); False: dropped, held.
+        """
         self.calls += 1
         if valid and math.isfinite(sample_m):
             self.held_m = float(sample_m)
-            return self.held_m
+            return True
         self.dropped += 1
-        return self.held_m
+        return False
 
     def _push(self, value_m: float, was_dropped: bool) -> None:
         """Append one model sample to the ring buffer (O(1), no allocation)."""
@@ -410,7 +417,22 @@ class Forecaster(Protocol):
     def step(
         self, state: ForecasterState, sample_m: float, valid: bool = True
     ) -> tuple[ForecasterState, float]:
-        """Take one sample η(t) (m); return the (in-place updated) state and η̂(t + horizon) (m)."""
+        """Take one sample η(t) (m); return the (in-place updated) state and η̂(t + horizon) (m).
+
+        Parameters
+        ----------
+        state : ForecasterState
+            From :meth:`init_state` or the previous call; updated in place.
+        sample_m : float
+            Elevation sample (m).
+        valid : bool, optional
+            False for a dropped sample: the last valid one is held and counted.
+
+        Returns
+        -------
+        tuple of (ForecasterState, float)
+            The state and the forecast (m) for time t + horizon_s.
+        """
         ...
 
 
@@ -560,23 +582,10 @@ class DispersionPredictor:
     ) -> tuple[ForecasterState, float]:
         """Take the gauge elevation η_A(t) (m); return η̂_B(t + t_d) (m) at the platform.
 
-        Parameters
-        ----------
-        state : ForecasterState
-            From :meth:`init_state` or the previous call; updated in place.
-        sample_m : float
-            Gauge elevation (m).
-        valid : bool, optional
-            False for a dropped sample: the last valid one is held and counted.
-
-        Returns
-        -------
-        tuple of (ForecasterState, float)
-            The state and the forecast (m) for time t + horizon_s.
+        Parameters and result as :meth:`Forecaster.step` (``sample_m``: the gauge elevation).
         """
-        ok = valid and math.isfinite(sample_m)
-        value = state._take(sample_m, valid)
-        state._push(value, not ok)
+        ok = state._take(sample_m, valid)
+        state._push(state.held_m, not ok)
         return state, float(np.dot(self._fir, state.window))
 
 
@@ -643,18 +652,8 @@ class ArConfig:
         set_ = object.__setattr__
         set_(self, "order", _int_at_least(o, "order", self.order, 1))
         set_(self, "n_train", _int_at_least(o, "n_train", self.n_train, self.order))
-        set_(self, "sample_period_s", _positive(o, "sample_period_s", self.sample_period_s, "s"))
-        set_(self, "dt_s", _positive(o, "dt_s", self.dt_s, "s"))
-        _ratio(o, self.sample_period_s, self.dt_s)
-        h = _number(o, "horizon_s", self.horizon_s, "s")
-        if not (math.isfinite(h) and h >= 0.0):
-            raise ValueError(f"{o}: horizon_s = {self.horizon_s!r}, expected a finite value >= 0 s")
-        set_(self, "horizon_s", h)
-        set_(self, "retrain_every", _int_at_least(o, "retrain_every", self.retrain_every, 1))
-        r = _number(o, "ridge", self.ridge, "(-)")
-        if not (math.isfinite(r) and r >= 0.0):
-            raise ValueError(f"{o}: ridge = {self.ridge!r}, expected a finite value >= 0 (-)")
-        set_(self, "ridge", r)
+        _check_decimation(o, self)
+        set_(self, "ridge", _nonnegative(o, "ridge", self.ridge, "(-)"))
         set_(self, "max_weight_norm", _positive(o, "max_weight_norm", self.max_weight_norm, "(-)"))
 
 
@@ -708,15 +707,18 @@ class EspritConfig:
         if not 0.0 < e < 1.0:
             raise ValueError(f"{o}: epsilon = {self.epsilon!r}, expected in (0, 1) (-)")
         set_(self, "epsilon", e)
-        set_(self, "sample_period_s", _positive(o, "sample_period_s", self.sample_period_s, "s"))
-        set_(self, "dt_s", _positive(o, "dt_s", self.dt_s, "s"))
-        _ratio(o, self.sample_period_s, self.dt_s)
-        h = _number(o, "horizon_s", self.horizon_s, "s")
-        if not (math.isfinite(h) and h >= 0.0):
-            raise ValueError(f"{o}: horizon_s = {self.horizon_s!r}, expected a finite value >= 0 s")
-        set_(self, "horizon_s", h)
-        set_(self, "retrain_every", _int_at_least(o, "retrain_every", self.retrain_every, 1))
+        _check_decimation(o, self)
         set_(self, "max_weight_norm", _positive(o, "max_weight_norm", self.max_weight_norm, "(-)"))
+
+
+def _check_decimation(o: str, config: ArConfig | EspritConfig) -> None:
+    """Check and normalise the fields AR and ESPRIT share (periods, horizon, retraining)."""
+    set_ = object.__setattr__
+    set_(config, "sample_period_s", _positive(o, "sample_period_s", config.sample_period_s, "s"))
+    set_(config, "dt_s", _positive(o, "dt_s", config.dt_s, "s"))
+    _ratio(o, config.sample_period_s, config.dt_s)
+    set_(config, "horizon_s", _nonnegative(o, "horizon_s", config.horizon_s, "s"))
+    set_(config, "retrain_every", _int_at_least(o, "retrain_every", config.retrain_every, 1))
 
 
 class _DecimatedForecaster:
@@ -732,12 +734,13 @@ class _DecimatedForecaster:
 
     __slots__ = ("_decim", "_dt", "_horizon", "_n", "_retrain", "_steps_ahead")
 
-    def __init__(self, n: int, dt_s: float, sample_period_s: float, horizon_s: float, retrain: int):
+    def __init__(self, n: int, config: ArConfig | EspritConfig):
+        dt_s, sample_period_s, horizon_s = config.dt_s, config.sample_period_s, config.horizon_s
         self._n = n
         self._dt = dt_s
         self._horizon = horizon_s
         self._decim = _ratio(type(self).__name__, sample_period_s, dt_s)
-        self._retrain = retrain
+        self._retrain = config.retrain_every
         self._steps_ahead: FloatArray = np.asarray(
             (np.arange(self._decim) * dt_s + horizon_s) / sample_period_s, np.float64
         )
@@ -764,25 +767,13 @@ class _DecimatedForecaster:
     ) -> tuple[ForecasterState, float]:
         """Take the local elevation η(t) (m); return η̂(t + horizon_s) (m).
 
-        Parameters
-        ----------
-        state : ForecasterState
-            From :meth:`init_state` or the previous call; updated in place.
-        sample_m : float
-            Elevation sample (m).
-        valid : bool, optional
-            False for a dropped sample: the last valid one is held and counted.
-
-        Returns
-        -------
-        tuple of (ForecasterState, float)
-            The state and the forecast (m), 0 until the model is first trained.
+        Parameters and result as :meth:`Forecaster.step`; the forecast is 0 m until the model
+        is first trained.
         """
-        ok = valid and math.isfinite(sample_m)
-        value = state._take(sample_m, valid)
+        ok = state._take(sample_m, valid)
         tick = (state.calls - 1) % self._decim == 0
         if tick:
-            state._push(value, not ok)
+            state._push(state.held_m, not ok)
             state.phase = 0
             if state.filled and (not state.trained or (state.count - self._n) % self._retrain == 0):
                 self._train(state)
@@ -818,13 +809,7 @@ class ArForecaster(_DecimatedForecaster):
 
     def __init__(self, config: ArConfig) -> None:
         self._config = config
-        super().__init__(
-            config.order + config.n_train,
-            config.dt_s,
-            config.sample_period_s,
-            config.horizon_s,
-            config.retrain_every,
-        )
+        super().__init__(config.order + config.n_train, config)
 
     @property
     def config(self) -> ArConfig:
@@ -905,13 +890,7 @@ class EspritForecaster(_DecimatedForecaster):
 
     def __init__(self, config: EspritConfig) -> None:
         self._config = config
-        super().__init__(
-            2 * config.n_half,
-            config.dt_s,
-            config.sample_period_s,
-            config.horizon_s,
-            config.retrain_every,
-        )
+        super().__init__(2 * config.n_half, config)
 
     @property
     def config(self) -> EspritConfig:

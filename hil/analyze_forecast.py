@@ -174,26 +174,19 @@ def forecast_report(
                 "band_rad_s": [float(b) for b in fc.band_rad_s],
                 "truncated_energy_fraction": float(fc.truncated_energy_fraction),
             }
-        elif kind == "ar":
-            cfg_a = ArConfig(sample_period_s=model_period_s, dt_s=dt_s, horizon_s=local_h)
-            fc = make_forecaster("ar", cfg_a)
+        else:  # "ar" or "esprit": the platform elevation from its own past
+            config_type = ArConfig if kind == "ar" else EspritConfig
+            cfg = config_type(sample_period_s=model_period_s, dt_s=dt_s, horizon_s=local_h)
+            fc = make_forecaster(kind, cfg)
             series, h = plat_meas, local_h
             entry = {
                 "input": "platform elevation, own past",
                 "sample_period_s": float(model_period_s),
-                "order": cfg_a.order,
-                "n_train": cfg_a.n_train,
             }
-        else:
-            cfg_e = EspritConfig(sample_period_s=model_period_s, dt_s=dt_s, horizon_s=local_h)
-            fc = make_forecaster("esprit", cfg_e)
-            series, h = plat_meas, local_h
-            entry = {
-                "input": "platform elevation, own past",
-                "sample_period_s": float(model_period_s),
-                "n_half": cfg_e.n_half,
-                "pencil": cfg_e.pencil,
-            }
+            if isinstance(cfg, ArConfig):
+                entry.update(order=cfg.order, n_train=cfg.n_train)
+            else:
+                entry.update(n_half=cfg.n_half, pencil=cfg.pencil)
         state = fc.init_state()
         forecast = np.empty(n)
         t0 = time.perf_counter()

@@ -19,6 +19,7 @@ This module never imports ``plant``: the controller speaks only ``bus_schemas``.
 from __future__ import annotations
 
 import math
+import operator
 import signal
 import threading
 import time
@@ -41,6 +42,7 @@ _FLOAT_FIELDS = tuple(
     )
     if "float" in str(typ)
 )
+_float_values = operator.attrgetter(*_FLOAT_FIELDS)
 
 
 class ControllerRuntime:
@@ -104,7 +106,9 @@ class ControllerRuntime:
         if frame.sample_time_ns <= self.last_sample_time_ns:
             self.rejected["stale"] += 1
             return None
-        if not all(math.isfinite(getattr(frame, name)) for name in _FLOAT_FIELDS):
+        # One C-level sum instead of a check per field: a sum of finite floats of at most
+        # ~1e8 each is finite, and any NaN or infinity makes it NaN or infinite.
+        if not math.isfinite(sum(_float_values(frame))):
             self.rejected["non_finite"] += 1  # the codec refuses these; in-process frames too
             return None
         t0 = self.clock()

@@ -480,7 +480,8 @@ def write_radiation(preset: FloatingPreset, hydro: HydroData, path: Path) -> Rad
 
     Uses :func:`plant.hydro.radiation.fit_reduced_radiation` with the preset's
     ``radiation_max_order``, ``radiation_tolerance`` and ``radiation_omega_max_rad_s`` (0: the
-    whole band of the data); heave and pitch decide the reduced order.
+    whole band of the data; :meth:`plant.platform.FloatingPreset.radiation_fit_options`);
+    heave and pitch decide the reduced order.
 
     Parameters
     ----------
@@ -493,15 +494,9 @@ def write_radiation(preset: FloatingPreset, hydro: HydroData, path: Path) -> Rad
     -------
     RadiationModel
     """
-    band = None
-    if preset.radiation_omega_max_rad_s > 0.0:
-        band = (0.0, preset.radiation_omega_max_rad_s)
     model = fit_reduced_radiation(
         hydro.radiation,
-        dofs=(0, 2, 4),
-        max_order=preset.radiation_max_order,
-        tol=preset.radiation_tolerance,
-        omega_range_rad_s=band,
+        **preset.radiation_fit_options(),
         checked_dofs=(2, 4),
         source=f"Perez-Fossen fits of the WAMIT data of {preset.name!r}, stacked, "
         "reduced by balanced truncation, diagonal kernels made passive with Re K >= 0.5 B at "

@@ -62,7 +62,7 @@ from dataclasses import dataclass, field, replace
 from importlib import resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 import msgspec
 import numpy as np
@@ -83,6 +83,7 @@ __all__ = [
     "conservative",
     "energy",
     "f",
+    "inverse_mass_matrix",
     "mooring_force",
     "relative_wind",
     "rotor_thrust",
@@ -244,6 +245,21 @@ def _tuple2(a: npt.NDArray[np.floating]) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in a)
 
 
+def inverse_mass_matrix(mass: FloatArray, locked_dofs: Sequence[int] = ()) -> FloatArray:
+    """Inverse of the mass matrix with DOFs locked: M_ff⁻¹ on the free DOFs, 0 elsewhere.
+
+    With ``F`` the free and ``L`` the locked DOFs, the constrained equations of motion are
+    M_FF q̈_F = g_F (the forces g_L on the locked DOFs are taken by the constraint) and
+    q̈_L = 0, so the map from generalised forces to accelerations is the matrix returned
+    (kg⁻¹, 1/(kg m), 1/(kg m²) entries). Without locked DOFs it is M⁻¹.
+    """
+    m = np.asarray(mass, dtype=np.float64)
+    free = [i for i in range(m.shape[0]) if i not in set(locked_dofs)]
+    out = np.zeros_like(m)
+    out[np.ix_(free, free)] = np.linalg.inv(m[np.ix_(free, free)])
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class FloatingParams:
     """Validated, frozen parameters of the coupled floating-turbine model (SI units).
@@ -276,6 +292,17 @@ class FloatingParams:
         (μ in N, N, N m); n = 0 for none.
     aero : bool, optional
         Rotor loads on (default). False: no thrust and no aerodynamic torque (energy checks).
+    locked_dofs : tuple of int, optional
+        Structural DOFs held fixed (indices into :data:`DOF_NAMES`: 0 surge, 1 heave, 2 pitch,
+        3 tower fore-aft), e.g. ``(1, 2, 3)`` for the surge + rotor model of a TLP
+        (casanovas-2014). The state layout is unchanged; the inverse mass matrix used by
+        :func:`f` and :func:`step_floating` is that of the free DOFs, zero in the rows and
+        columns of the locked ones,
+
+            q̈_free = M_ff⁻¹ g_free,  q̈_locked = 0,
+
+        i.e. the motion of the constrained system (the constraint forces take up the rest):
+        a locked DOF keeps its initial position and rate (start it at rest).
     """
 
     name: str
@@ -291,6 +318,7 @@ class FloatingParams:
     radiation_b: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     radiation_c: FloatArray = field(default_factory=lambda: np.zeros((3, 0)))
     aero: bool = True
+    locked_dofs: tuple[int, ...] = ()
     # Precomputed for f(): Python-float tuples and the radiation block matrix.
     _minv: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _k: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
@@ -340,7 +368,16 @@ class FloatingParams:
             ("radiation_c", rc),
         ):
             set_(self, name, val)
-        set_(self, "_minv", _tuple2(np.linalg.inv(m)))
+        locked = tuple(sorted({int(i) for i in self.locked_dofs}))
+        if len(locked) != len(tuple(self.locked_dofs)) or any(not 0 <= i < N_DOF for i in locked):
+            raise ValueError(
+                f"{owner}.locked_dofs: expected distinct DOF indices in 0..{N_DOF - 1}, "
+                f"got {self.locked_dofs}"
+            )
+        if len(locked) == N_DOF:
+            raise ValueError(f"{owner}.locked_dofs: at least one DOF must be free")
+        set_(self, "locked_dofs", locked)
+        set_(self, "_minv", _tuple2(inverse_mass_matrix(m, locked)))
         set_(self, "_k", _tuple2(k))
         set_(self, "_d", _tuple2(d))
         set_(self, "_bq", _tuple2(bq))
@@ -608,7 +645,7 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
     radiation accelerations of the next step (reused when the next call continues from this
     call's result, i.e. the same tuple object).
     """
-    minv: FloatArray = np.linalg.inv(p.mass_matrix).astype(np.float64)
+    minv: FloatArray = np.array(p._minv, dtype=np.float64)  # with locked DOFs zeroed
     tp = p.turbine
     table = tp.table
     aero = p.aero
@@ -955,6 +992,37 @@ class FloatingPreset(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     #: Shipped radiation state space (:class:`plant.hydro.radiation.RadiationModel` npz);
     #: empty: fit the kernels when loading (slow, 0.3-0.6 s).
     radiation_file: str = ""
+    #: Structural DOFs held fixed (names of :data:`DOF_NAMES`), e.g. ``["heave", "pitch",
+    #: "tower_fore_aft"]`` for a surge + rotor model (:attr:`FloatingParams.locked_dofs`).
+    #: The hydrodynamic data and radiation model may then omit the locked platform DOFs.
+    locked_dofs: list[str] = []
+
+    def radiation_fit_options(self) -> RadiationFitOptions:
+        """Keyword arguments of the radiation fits of this preset (surge, heave and pitch).
+
+        For :func:`plant.hydro.radiation.fit_radiation` and
+        :func:`plant.hydro.radiation.fit_reduced_radiation`: ``radiation_max_order``,
+        ``radiation_tolerance`` and the band up to ``radiation_omega_max_rad_s`` (0: the whole
+        band of the data).
+        """
+        band = None
+        if self.radiation_omega_max_rad_s > 0.0:
+            band = (0.0, self.radiation_omega_max_rad_s)
+        return {
+            "dofs": (0, 2, 4),
+            "max_order": self.radiation_max_order,
+            "tol": self.radiation_tolerance,
+            "omega_range_rad_s": band,
+        }
+
+
+class RadiationFitOptions(TypedDict):
+    """What :meth:`FloatingPreset.radiation_fit_options` returns."""
+
+    dofs: tuple[int, int, int]
+    max_order: int
+    tol: float
+    omega_range_rad_s: tuple[float, float] | None
 
 
 class MooringFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
@@ -1144,7 +1212,7 @@ def _resolve(base: Path | None, name: str) -> Path | Traversable:
 
 _PRESET_PACKAGE = "plant.presets"
 _PRESET_PREFIX = "preset:"
-_FLOATING_PRESETS = ("iea15mw_volturnus",)
+_FLOATING_PRESETS = ("iea15mw_volturnus", "nrel5mw_tlp")
 
 
 def read_floating_preset(name_or_path: str | Path) -> tuple[FloatingPreset, Path | None, str]:
@@ -1189,15 +1257,27 @@ def build_floating_params(
 
     M = M_s + A_∞[surge, heave, pitch]; K = K_s + C_hst + C_add; F_0 = F_s + ρ g V₀ e_z + F_add;
     D = B_add (platform block) + tower modal damping; B_q = AddBQuad (platform block).
+    With ``preset.locked_dofs``, the hydrodynamic data and the radiation model may lack the
+    locked platform DOFs (their A_∞, C_hst and memory are then zero).
     """
     s = structural_matrices(preset)
     idx = [0, 2, 4]
-    pos = [hydro.dofs.index(i) for i in idx]
+    unknown = [n for n in preset.locked_dofs if n not in DOF_NAMES]
+    if unknown:
+        raise ValueError(f"locked_dofs: unknown {unknown}; expected names of {DOF_NAMES}")
+    locked = tuple(DOF_NAMES.index(n) for n in preset.locked_dofs)
+    for k, wamit in enumerate(idx):
+        if wamit not in hydro.dofs and k not in locked:
+            raise ValueError(
+                f"hydro data lack the {DOF_NAMES[k]} DOF; lock it (locked_dofs) or give its data"
+            )
+    have = [k for k, wamit in enumerate(idx) if wamit in hydro.dofs]
+    pos = [hydro.dofs.index(idx[k]) for k in have]
     rad = hydro.radiation
     M = s.mass.copy()
-    M[:3, :3] += rad.added_mass_inf[np.ix_(pos, pos)]
+    M[np.ix_(have, have)] += rad.added_mass_inf[np.ix_(pos, pos)]
     K = s.stiffness.copy()
-    K[:3, :3] += hydro.hydrostatic_stiffness[np.ix_(pos, pos)]
+    K[np.ix_(have, have)] += hydro.hydrostatic_stiffness[np.ix_(pos, pos)]
     K[:3, :3] += np.array(preset.additional_linear_stiffness)[np.ix_(idx, idx)]
     F = s.static_force.copy()
     F[1] += preset.water_density_kg_m3 * preset.gravity_m_s2 * preset.displaced_volume_m3
@@ -1216,9 +1296,20 @@ def build_floating_params(
     if radiation is None:
         ra, rb, rc = np.zeros((0, 0)), np.zeros((0, 3)), np.zeros((3, 0))
     else:
-        if tuple(radiation.dofs) != (0, 2, 4):
-            raise ValueError(f"radiation: expected dofs (0, 2, 4), got {radiation.dofs}")
-        ra, rb, rc = radiation.A, radiation.B, radiation.C
+        rdofs = tuple(radiation.dofs)
+        if rdofs != (0, 2, 4) and not (
+            set(rdofs) <= set(idx)
+            and all(k in locked for k, wamit in enumerate(idx) if wamit not in rdofs)
+        ):
+            raise ValueError(
+                f"radiation: expected dofs (0, 2, 4) (or those of the free DOFs), got {rdofs}"
+            )
+        ra = radiation.A
+        rb = np.zeros((ra.shape[0], 3))
+        rc = np.zeros((3, ra.shape[0]))
+        for j, wamit in enumerate(rdofs):
+            rb[:, idx.index(wamit)] = radiation.B[:, j]
+            rc[idx.index(wamit), :] = radiation.C[j, :]
     return FloatingParams(
         name=preset.name,
         turbine=turbine,
@@ -1232,6 +1323,7 @@ def build_floating_params(
         radiation_a=ra,
         radiation_b=rb,
         radiation_c=rc,
+        locked_dofs=locked,
     )
 
 
@@ -1277,16 +1369,7 @@ def load_floating(name_or_path: str | Path, radiation: bool = True) -> FloatingP
         with resources.as_file(_resolve(base, preset.radiation_file)) as rad_path:
             ss = RadiationModel.load_npz(rad_path)
     elif radiation:
-        omega_range = None
-        if preset.radiation_omega_max_rad_s > 0.0:
-            omega_range = (0.0, preset.radiation_omega_max_rad_s)
-        ss = fit_radiation(
-            hydro.radiation,
-            dofs=(0, 2, 4),
-            max_order=preset.radiation_max_order,
-            tol=preset.radiation_tolerance,
-            omega_range_rad_s=omega_range,
-        )
+        ss = fit_radiation(hydro.radiation, **preset.radiation_fit_options())
     try:
         return build_floating_params(preset, turbine, hydro, mooring, ss)
     except ValueError as exc:

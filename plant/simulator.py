@@ -71,6 +71,9 @@ MEASURED_FIELDS = tuple(k for k in VALID_BITS if k != "rotor_speed_measured_rad_
 
 _step_floating: Callable[..., State] | None = getattr(_platform, "step_floating", None)
 
+#: Platform and tower positions and rates (state order) reported by a bottom-fixed plant.
+_NO_PLATFORM: State = (0.0,) * 8
+
 
 @dataclass(frozen=True)
 class TowerBaseLoads:
@@ -419,53 +422,33 @@ class PlantSimulator:
     def truth(
         self, seq: int, t_ns: int, x: State, applied: tuple[float, float], publish_ns: int
     ) -> PlantState:
-        """The true state and loads at ``t_ns`` (for the log, never for a controller)."""
-        if self.floating is not None:
-            return self._truth_floating(seq, t_ns, x, applied, publish_ns)
-        t = t_ns * 1e-9
-        u_wind = self._wind(t)
-        p = self.params
-        out = outputs(t, (x[0], x[1], x[2]), (applied[0], applied[1], u_wind), p)
-        return PlantState(
-            seq=seq,
-            sample_time_ns=t_ns,
-            publish_time_ns=publish_ns,
-            rotor_speed_rad_s=x[0],
-            generator_speed_rad_s=out.generator_speed_rad_s,
-            blade_pitch_rad=x[1],
-            generator_torque_nm=x[2],
-            aero_torque_nm=out.aero_torque_nm,
-            rotor_thrust_n=out.rotor_thrust_n,
-            wind_speed_m_s=u_wind,
-            relative_wind_speed_m_s=u_wind,
-            electrical_power_w=out.electrical_power_w,
-            tip_speed_ratio=out.tip_speed_ratio,
-            power_coefficient=out.cp,
-            thrust_coefficient=out.ct,
-            blade_pitch_applied_rad=applied[0],
-            generator_torque_applied_nm=applied[1],
-            tower_base_moment_nm=out.rotor_thrust_n * p.hub_height_m,
-            shaft_torque_nm=p.gearbox_ratio * x[2],
-        )
+        """The true state and loads at ``t_ns`` (for the log, never for a controller).
 
-    def _truth_floating(
-        self, seq: int, t_ns: int, x: State, applied: tuple[float, float], publish_ns: int
-    ) -> PlantState:
-        fp = self.floating
-        assert fp is not None
-        p = fp.params
-        tp = p.turbine
+        A bottom-fixed plant reports its platform, tower and wave fields as 0 (``floating=0``).
+        """
         t = t_ns * 1e-9
         u_wind = self._wind(t)
-        w = self._wave_now
-        u = (applied[0], applied[1], u_wind, w[0], w[1], w[2])
-        dx = _platform.f(t, x, u, p)
-        u_rel = relative_wind(x, u_wind, p)
-        omega, theta, torque = x[8], x[9], x[10]
-        out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
-        loads = fp.loads
-        tbm = loads.moment_nm(out.rotor_thrust_n, x[2], x[3], dx[4], dx[6], dx[7])
-        nacelle_acc = dx[4] + loads.nacelle_height_m * dx[6] + dx[7]
+        w = self._wave_now  # zeros without waves
+        fp = self.floating
+        if fp is None:
+            tp = self.params
+            q = _NO_PLATFORM
+            omega, theta, torque = x[0], x[1], x[2]
+            u_rel = u_wind
+            out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
+            tbm = out.rotor_thrust_n * tp.hub_height_m
+            nacelle_acc = 0.0
+        else:
+            p = fp.params
+            tp = p.turbine
+            q = x
+            dx = _platform.f(t, x, (applied[0], applied[1], u_wind, w[0], w[1], w[2]), p)
+            u_rel = relative_wind(x, u_wind, p)
+            omega, theta, torque = x[8], x[9], x[10]
+            out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
+            loads = fp.loads
+            tbm = loads.moment_nm(out.rotor_thrust_n, x[2], x[3], dx[4], dx[6], dx[7])
+            nacelle_acc = dx[4] + loads.nacelle_height_m * dx[6] + dx[7]
         return PlantState(
             seq=seq,
             sample_time_ns=t_ns,
@@ -484,15 +467,15 @@ class PlantSimulator:
             thrust_coefficient=out.ct,
             blade_pitch_applied_rad=applied[0],
             generator_torque_applied_nm=applied[1],
-            floating=1,
-            platform_surge_m=x[0],
-            platform_heave_m=x[1],
-            platform_pitch_rad=x[2],
-            platform_surge_velocity_m_s=x[4],
-            platform_heave_velocity_m_s=x[5],
-            platform_pitch_rate_rad_s=x[6],
-            tower_top_displacement_m=x[3],
-            tower_top_velocity_m_s=x[7],
+            floating=0 if fp is None else 1,
+            platform_surge_m=q[0],
+            platform_heave_m=q[1],
+            platform_pitch_rad=q[2],
+            platform_surge_velocity_m_s=q[4],
+            platform_heave_velocity_m_s=q[5],
+            platform_pitch_rate_rad_s=q[6],
+            tower_top_displacement_m=q[3],
+            tower_top_velocity_m_s=q[7],
             nacelle_acc_fore_aft_m_s2=nacelle_acc,
             wave_elevation_platform_m=w[3],
             wave_elevation_gauge_m=w[4],

@@ -5,35 +5,17 @@ from __future__ import annotations
 import subprocess
 import sys
 
-import msgspec
 import numpy as np
 import pytest
+from _helpers import run_closed_loop
 
-from bus_schemas import ActuatorCommand, PlantState, SensorFrame
-from bus_schemas.registry import TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from bus_schemas import PlantState
 from hil.scenario import load_scenario, parse_scenario, scenario_text
 from plant.turbine import load_turbine
 
 
 def _run(scenario_text: str) -> list[PlantState]:
-    scenario = parse_scenario(scenario_text)
-    truth: list[PlantState] = []
-
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        if mt is TRUTH:
-            assert isinstance(msg, PlantState)
-            truth.append(msg)
-
-    runtime = ControllerRuntime(scenario)
-
-    def step(frame: SensorFrame) -> ActuatorCommand | None:
-        result = runtime.handle_frame(frame)
-        return None if result is None else result[0]
-
-    result = run_inprocess(scenario, publish, step)
-    assert result.cycles == scenario.cycles
+    result, truth, _ = run_closed_loop(parse_scenario(scenario_text))
     assert result.deadline_misses == 0
     return truth
 

@@ -15,10 +15,10 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from _helpers import sensor_frame
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bus_schemas.messages import SensorFrame
 from controller.baseline import (
     BaselineController,
     BaselineParams,
@@ -55,26 +55,6 @@ THETA_K = 6.302336 * DEG
 MAX_PITCH_RATE = 8.0 * DEG
 
 
-def frame(speed_rad_s: float, pitch_rad: float = 0.0, torque_nm: float = 0.0) -> SensorFrame:
-    return SensorFrame(
-        seq=0,
-        sample_time_ns=0,
-        publish_time_ns=0,
-        valid_mask=0,
-        generator_speed_measured_rad_s=speed_rad_s,
-        rotor_speed_measured_rad_s=0.0,
-        blade_pitch_measured_rad=pitch_rad,
-        generator_torque_measured_nm=torque_nm,
-        electrical_power_measured_w=0.0,
-        wind_speed_measured_m_s=0.0,
-        nacelle_acc_fore_aft_measured_m_s2=0.0,
-        platform_pitch_measured_rad=0.0,
-        platform_pitch_rate_measured_rad_s=0.0,
-        platform_surge_measured_m=0.0,
-        wave_elevation_gauge_measured_m=0.0,
-    )
-
-
 @pytest.fixture(scope="module")
 def nrel() -> BaselineParams:
     return load_baseline("nrel5mw_baseline")
@@ -83,7 +63,7 @@ def nrel() -> BaselineParams:
 def first_torque(params: BaselineParams, speed: float, pitch: float = 0.0) -> ControlOutput:
     """Torque law at a filtered speed: first call (filter = measurement), no rate limit."""
     ctrl = BaselineController(replace(params, max_generator_torque_rate_nm_s=1e15))
-    _, out = ctrl.step(ctrl.initial_state(), frame(speed, pitch), 0.01)
+    _, out = ctrl.step(ctrl.initial_state(), sensor_frame(speed, pitch), 0.01)
     assert out.generator_speed_filtered_rad_s == pytest.approx(speed, rel=1e-15)
     return out
 
@@ -209,10 +189,10 @@ def test_region_1_5_to_2_value_at_871_rpm(nrel: BaselineParams) -> None:
 def test_torque_rate_limit_acts(nrel: BaselineParams) -> None:
     ctrl = BaselineController(nrel)
     dt = 0.01
-    s, out = ctrl.step(ctrl.initial_state(), frame(1000 * RPM, 0.0, 0.0), dt)
+    s, out = ctrl.step(ctrl.initial_state(), sensor_frame(1000 * RPM, 0.0, 0.0), dt)
     # From 0 N m measured, one sample may move at most 15 000 N m/s * 0.01 s = 150 N m.
     assert out.generator_torque_commanded_nm == pytest.approx(150.0, rel=1e-12)
-    s, out = ctrl.step(s, frame(1000 * RPM), dt)
+    s, out = ctrl.step(s, sensor_frame(1000 * RPM), dt)
     assert out.generator_torque_commanded_nm == pytest.approx(300.0, rel=1e-12)
 
 
@@ -224,7 +204,7 @@ def _run_filter(params: BaselineParams, signal, n: int, dt: float) -> list[float
     s = ctrl.initial_state()
     out = []
     for k in range(n):
-        s, o = ctrl.step(s, frame(signal(k * dt)), dt)
+        s, o = ctrl.step(s, sensor_frame(signal(k * dt)), dt)
         out.append(o.generator_speed_filtered_rad_s)
     return out
 
@@ -265,7 +245,7 @@ def test_gain_factor_half_at_theta_k(nrel: BaselineParams) -> None:
 def test_first_call_pi_output_equals_measured_pitch(nrel: BaselineParams) -> None:
     ctrl = BaselineController(nrel)
     theta = 0.2
-    _, out = ctrl.step(ctrl.initial_state(), frame(RATED_SPEED, theta, 40_000.0), 0.01)
+    _, out = ctrl.step(ctrl.initial_state(), sensor_frame(RATED_SPEED, theta, 40_000.0), 0.01)
     # Zero speed error: the PI output is the measured pitch (1e-12 relative).
     assert out.blade_pitch_commanded_rad == pytest.approx(theta, rel=1e-12)
     assert out.pitch_integrator_rad == pytest.approx(theta, rel=1e-12)
@@ -278,12 +258,12 @@ def test_pitch_pi_one_step_closed_form(nrel: BaselineParams) -> None:
     dt = 0.01
     th0 = 0.1
     w = RATED_SPEED + 1.0
-    s, o1 = ctrl.step(ctrl.initial_state(), frame(w, th0, 40_000.0), dt)
+    s, o1 = ctrl.step(ctrl.initial_state(), sensor_frame(w, th0, 40_000.0), dt)
     gk0 = 1 / (1 + th0 / THETA_K)
     integ = th0 / (gk0 * KI) + 1.0 * dt
     expected1 = min(gk0 * (KP * 1.0 + KI * integ), th0 + MAX_PITCH_RATE * dt)
     assert o1.blade_pitch_commanded_rad == pytest.approx(expected1, rel=1e-12)
-    s, o2 = ctrl.step(s, frame(w), dt)
+    s, o2 = ctrl.step(s, sensor_frame(w), dt)
     gk1 = 1 / (1 + expected1 / THETA_K)
     integ += 1.0 * dt
     expected2 = min(gk1 * (KP * 1.0 + KI * integ), expected1 + MAX_PITCH_RATE * dt)
@@ -297,12 +277,12 @@ def test_anti_windup_leaves_min_pitch_within_one_sample(nrel: BaselineParams) ->
     s = ctrl.initial_state()
     low, high = RATED_SPEED - 15.0, RATED_SPEED + 5.0
     for _ in range(60_000):  # 600 s saturated at minimum pitch
-        s, o = ctrl.step(s, frame(low), dt)
+        s, o = ctrl.step(s, sensor_frame(low), dt)
         assert o.blade_pitch_commanded_rad == 0.0
         assert o.pitch_integrator_rad >= -1e-12  # integrator held at PC_MinPit / (GK KI)
     errors, pitches = [], []
     for _ in range(500):
-        s, o = ctrl.step(s, frame(high), dt)
+        s, o = ctrl.step(s, sensor_frame(high), dt)
         errors.append(o.generator_speed_filtered_rad_s - RATED_SPEED)
         pitches.append(o.blade_pitch_commanded_rad)
     k = next(i for i, e in enumerate(errors) if e > 0.0)
@@ -337,7 +317,7 @@ def test_rate_limits_bounds_and_finiteness(
     th_prev = min(max(seq[0][1], params.min_pitch_rad), params.max_pitch_rad)
     t_prev = min(max(seq[0][2], 0.0), params.max_generator_torque_nm)
     for speed, pitch, torque, dt in seq:
-        s, o = ctrl.step(s, frame(speed, pitch, torque), dt)
+        s, o = ctrl.step(s, sensor_frame(speed, pitch, torque), dt)
         values = [
             o.blade_pitch_commanded_rad,
             o.generator_torque_commanded_nm,
@@ -432,13 +412,13 @@ def test_iea_torque_pi_region_2_5() -> None:
     ctrl = BaselineController(replace(p, max_generator_torque_rate_nm_s=1e15))
     # Region 2 well below rated speed: K w^2 (the PI sits on the floor).
     w = 0.7
-    _, o = ctrl.step(ctrl.initial_state(), frame(w, 0.0, 0.0), 0.01)
+    _, o = ctrl.step(ctrl.initial_state(), sensor_frame(w, 0.0, 0.0), 0.01)
     assert o.regime == 2
     assert o.generator_torque_commanded_nm == pytest.approx(p.region2_gain_nm_per_rad_s2 * w * w)
     # Above VS_RefSpd with pitch at fine pitch: PI drives torque to VS_RtTq, never beyond.
     s = ctrl.initial_state()
     for _ in range(200):
-        s, o = ctrl.step(s, frame(0.80, 0.0, 1.5e7), 0.01)
+        s, o = ctrl.step(s, sensor_frame(0.80, 0.0, 1.5e7), 0.01)
         assert o.generator_torque_commanded_nm <= p.rated_torque_nm * (1 + 1e-12)
     assert o.generator_torque_commanded_nm == pytest.approx(p.rated_torque_nm, rel=1e-12)
 
@@ -498,7 +478,7 @@ def test_step_rejects_bad_dt(nrel: BaselineParams) -> None:
     ctrl = BaselineController(nrel)
     for dt in (0.0, -0.01, math.nan, math.inf):
         with pytest.raises(ValueError, match="dt_s"):
-            ctrl.step(ctrl.initial_state(), frame(100.0), dt)
+            ctrl.step(ctrl.initial_state(), sensor_frame(100.0), dt)
 
 
 def test_controller_and_state_are_immutable(nrel: BaselineParams) -> None:
@@ -513,7 +493,7 @@ def test_controller_and_state_are_immutable(nrel: BaselineParams) -> None:
 
 def test_make_controller_registry() -> None:
     ctrl = make_controller("baseline", "nrel5mw_baseline")
-    _, out = ctrl.step(ctrl.initial_state(), frame(100.0), 0.01)
+    _, out = ctrl.step(ctrl.initial_state(), sensor_frame(100.0), 0.01)
     assert isinstance(out, ControlOutput)
     with pytest.raises(ValueError, match="unknown controller kind"):
         make_controller("no-such-kind", "nrel5mw_baseline")

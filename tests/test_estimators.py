@@ -19,9 +19,9 @@ from functools import lru_cache
 import numpy as np
 import numpy.typing as npt
 import pytest
+from _helpers import sensor_frame
 from scipy.linalg import expm, solve_discrete_are
 
-from bus_schemas.messages import SensorFrame
 from controller.baseline import BaselineController, load_baseline
 from controller.estimators import (
     CpTable,
@@ -49,26 +49,6 @@ ENCODER_RES = 2.0 * math.pi / (4096 * DT)  # quantisation (rad/s, HSS) at 100 Hz
 
 
 # ============================================================================ wind EKF
-def _frame(k: int, gen_speed: float, pitch: float, torque: float) -> SensorFrame:
-    return SensorFrame(
-        seq=k,
-        sample_time_ns=k,
-        publish_time_ns=k,
-        valid_mask=0xFFFF,
-        generator_speed_measured_rad_s=gen_speed,
-        rotor_speed_measured_rad_s=0.0,
-        blade_pitch_measured_rad=pitch,
-        generator_torque_measured_nm=torque,
-        electrical_power_measured_w=0.0,
-        wind_speed_measured_m_s=0.0,
-        nacelle_acc_fore_aft_measured_m_s2=0.0,
-        platform_pitch_measured_rad=0.0,
-        platform_pitch_rate_measured_rad_s=0.0,
-        platform_surge_measured_m=0.0,
-        wave_elevation_gauge_measured_m=0.0,
-    )
-
-
 @lru_cache(maxsize=1)
 def _nrel() -> plant_turbine.TurbineParams:
     return plant_turbine.load_turbine("nrel5mw")
@@ -120,7 +100,9 @@ def _run_ekf(
         )
         pitch = x[1] + 2e-4 * rng.standard_normal()
         torque = x[2] + 100.0 * rng.standard_normal()
-        cstate, cmd = ctrl.step(cstate, _frame(k, gen, pitch, torque), DT)
+        cstate, cmd = ctrl.step(
+            cstate, sensor_frame(gen, pitch, torque, seq=k, valid_mask=0xFFFF), DT
+        )
         meas = WindEKFMeasurement(gen / n_gear, pitch, torque)
         if estate is None:
             estate = ekf.initial_state(meas.rotor_speed_rad_s, pitch, torque)
@@ -571,3 +553,35 @@ def test_config_validation_names_the_problem() -> None:
         CpTable(np.array([0.0, 90.0]), np.array([1.0, 2.0]), np.ones((2, 2)))
     with pytest.raises(ValueError, match="probability"):
         chi2_gate(0.0)
+
+
+def test_kf_subset_updates_match_the_textbook_joint_update() -> None:
+    """For every subset a of the 4 channels (the others invalid), the update with the
+    precomputed subset matrices equals the textbook joint update
+    :math:`K = P H_a^T (H_a P H_a^T + R_a)^{-1}`, :math:`\\hat x + K y_a`, Joseph form
+    (rtol 1e-9); a NaN in a channel counts as invalid."""
+    design = _design(0.025, 0.05)
+    kf, state = _steady_kf(design)
+    cfg = design.config
+    rng = np.random.default_rng(7)
+    u = np.array([0.01, -0.002])
+    prior = kf.predict(state, u, cfg.dt_s)
+    for key in range(16):
+        use = [i for i in range(4) if key >> i & 1]
+        z = 0.3 * rng.standard_normal(4) * np.sqrt(np.diag(cfg.R))
+        valid = [bool(key >> i & 1) for i in range(4)]
+        z_nan = np.where(valid, z, np.nan)
+        got = kf.update(prior, z_nan, None, u)
+        x, P = prior.x, prior.P
+        if use:
+            H, R = cfg.H[use], cfg.R[np.ix_(use, use)]
+            y = (z - cfg.H @ x - cfg.D @ u)[use]
+            K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
+            A = np.eye(x.size) - K @ H
+            x, P = x + K @ y, A @ P @ A.T + K @ R @ K.T
+        np.testing.assert_allclose(got.x, x, rtol=1e-9, atol=1e-14)
+        np.testing.assert_allclose(got.P, 0.5 * (P + P.T), rtol=1e-9, atol=1e-18)
+        assert [a - b for a, b in zip(got.accepted, prior.accepted, strict=True)] == valid
+        assert [a - b for a, b in zip(got.skipped, prior.skipped, strict=True)] == [
+            not v for v in valid
+        ]

@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import math
 
-import msgspec
 import numpy as np
 import pytest
+from _helpers import run_closed_loop
 
-from bus_schemas import ActuatorCommand, PlantState, SensorFrame
+from bus_schemas import PlantState, SensorFrame
 from bus_schemas.messages import VALID_PLATFORM_SURGE, VALID_WAVE_GAUGE
-from bus_schemas.registry import SENSORS, TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import PlantLoop, run_inprocess
+from hil.plant_node import PlantLoop
 from hil.scenario import parse_scenario
 from plant.turbine import load_turbine
 
@@ -43,26 +41,7 @@ preset = "iea15mw_baseline"
 
 
 def _run(text: str) -> tuple[list[PlantState], list[SensorFrame]]:
-    scenario = parse_scenario(text)
-    truth: list[PlantState] = []
-    frames: list[SensorFrame] = []
-
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        if mt is TRUTH:
-            assert isinstance(msg, PlantState)
-            truth.append(msg)
-        elif mt is SENSORS:
-            assert isinstance(msg, SensorFrame)
-            frames.append(msg)
-
-    runtime = ControllerRuntime(scenario)
-
-    def step(frame: SensorFrame) -> ActuatorCommand | None:
-        result = runtime.handle_frame(frame)
-        return None if result is None else result[0]
-
-    result = run_inprocess(scenario, publish, step)
-    assert result.cycles == scenario.cycles
+    _, truth, frames = run_closed_loop(parse_scenario(text))
     return truth, frames
 
 

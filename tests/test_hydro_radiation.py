@@ -303,7 +303,37 @@ def test_shipped_model_diagonal_kernels_are_passive_with_damping_floor() -> None
     for i in range(3):
         b = rad.damping[band, i, i]
         assert np.all(kd[:, i, i].real >= 0.5 * b - 1e-9 * np.max(b)), i
-    # Accuracy after the passivity correction (heave, pitch within the 2 % of the issue).
-    for i in (1, 2):
-        assert model.error_added_mass[i, i] < 0.02
-        assert model.error_damping[i, i] < 0.02
+    # Accuracy after the passivity correction: surge, heave and pitch within the 2 % of the
+    # issue over 0.05..2 rad/s, recomputed here from the response (not the stored figures).
+    wb = rad.omega_rad_s[band]
+    for i in range(3):
+        a, b, a_inf = rad.added_mass[band, i, i], rad.damping[band, i, i], rad.added_mass_inf[i, i]
+        err_a = np.max(np.abs(a_inf + kd[:, i, i].imag / wb - a)) / np.max(np.abs(a - a_inf))
+        err_b = np.max(np.abs(kd[:, i, i].real - b)) / np.max(np.abs(b))
+        assert err_a < 0.02 and err_b < 0.02, (i, err_a, err_b)
+        assert model.error_added_mass[i, i] == pytest.approx(err_a, rel=1e-6)
+        assert model.error_damping[i, i] == pytest.approx(err_b, rel=1e-6)
+    assert np.max(np.linalg.eigvals(model.A).real) < 0.0
+
+
+def test_diagonal_max_order_raises_only_the_kernels_that_need_it() -> None:
+    """Semi surge misses 2 % at order 12 (column-interference ripple); up to 30 it meets it."""
+    rad = load_hydro_preset("iea15mw_volturnus").radiation
+    w = rad.omega_rad_s[rad.omega_rad_s <= 2.0]
+    kwargs = {"dofs": (0, 2, 4), "max_order": 12, "omega_range_rad_s": (0.0, 2.0)}
+    low = fit_radiation(rad, weights=1.0 / w, passive_floor=0.5, **kwargs)  # type: ignore[arg-type]
+    high = fit_radiation(
+        rad,
+        weights=1.0 / w,
+        passive_floor=0.5,
+        diagonal_max_order=30,
+        **kwargs,  # type: ignore[arg-type]
+    )
+    surge_low = low.fits[low.pairs.index((0, 0))]
+    surge_high = high.fits[high.pairs.index((0, 0))]
+    assert not surge_low.meets_tol and surge_low.order == 12
+    assert surge_high.meets_tol and 12 < surge_high.order <= 30
+    assert surge_high.passive
+    # Heave and off-diagonal kernels are untouched.
+    for pair in ((1, 1), (0, 2), (2, 0)):
+        assert low.fits[low.pairs.index(pair)].order == high.fits[high.pairs.index(pair)].order

@@ -323,7 +323,9 @@ def load_hydro_preset(name: str) -> HydroData:
     """Load a shipped data set from ``plant/presets/hydro/<name>.npz``.
 
     Shipped: ``"iea15mw_volturnus"`` (IEA 15 MW on UMaine VolturnUS-S, 6 DOF, all headings) and
-    ``"nrel5mw_tlp_buoy"`` (the R 4.75 m, T 30 m TLP buoy at 100 m depth, surge only). Sources:
+    ``"nrel5mw_tlp_buoy"`` (the R 4.75 m, T 30 m TLP buoy at 100 m depth, surge only, from the
+    reference CSV) and ``"nrel5mw_tlp_buoy_bem"`` (the same buoy computed by
+    :mod:`plant.hydro.bem`, the data of the ``nrel5mw_tlp`` floating preset). Sources:
     ``plant/presets/hydro/README.md``.
     """
     ref = resources.files("plant.presets.hydro") / f"{name}.npz"

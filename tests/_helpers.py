@@ -1,0 +1,74 @@
+"""Helpers shared by several test modules.
+
+Imported as ``from _helpers import ...``: pytest puts ``tests/`` on ``sys.path`` (no package).
+"""
+
+from __future__ import annotations
+
+import msgspec
+
+from bus_schemas import ActuatorCommand, PlantState, SensorFrame
+from bus_schemas.registry import SENSORS, TRUTH, MessageType
+from hil.controller_node import ControllerRuntime
+from hil.plant_node import PlantRunResult, run_inprocess
+from hil.scenario import Scenario
+
+
+def run_closed_loop(
+    scenario: Scenario,
+) -> tuple[PlantRunResult, list[PlantState], list[SensorFrame]]:
+    """Run ``scenario`` in process with its controller; collect the truth and the sensor frames.
+
+    Checks that every cycle ran; returns the run result (for its timing) and the messages.
+    """
+    truth: list[PlantState] = []
+    frames: list[SensorFrame] = []
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if mt is TRUTH:
+            assert isinstance(msg, PlantState)
+            truth.append(msg)
+        elif mt is SENSORS:
+            assert isinstance(msg, SensorFrame)
+            frames.append(msg)
+
+    runtime = ControllerRuntime(scenario)
+
+    def step(frame: SensorFrame) -> ActuatorCommand | None:
+        result = runtime.handle_frame(frame)
+        return None if result is None else result[0]
+
+    result = run_inprocess(scenario, publish, step)
+    assert result.cycles == scenario.cycles
+    return result, truth, frames
+
+
+def sensor_frame(
+    generator_speed_rad_s: float,
+    blade_pitch_rad: float = 0.0,
+    generator_torque_nm: float = 0.0,
+    *,
+    seq: int = 0,
+    valid_mask: int = 0,
+) -> SensorFrame:
+    """A sensor frame with the turbine readings given and every other reading 0.
+
+    ``seq`` is also the frame's sample and publish time (ns).
+    """
+    return SensorFrame(
+        seq=seq,
+        sample_time_ns=seq,
+        publish_time_ns=seq,
+        valid_mask=valid_mask,
+        generator_speed_measured_rad_s=generator_speed_rad_s,
+        rotor_speed_measured_rad_s=0.0,
+        blade_pitch_measured_rad=blade_pitch_rad,
+        generator_torque_measured_nm=generator_torque_nm,
+        electrical_power_measured_w=0.0,
+        wind_speed_measured_m_s=0.0,
+        nacelle_acc_fore_aft_measured_m_s2=0.0,
+        platform_pitch_measured_rad=0.0,
+        platform_pitch_rate_measured_rad_s=0.0,
+        platform_surge_measured_m=0.0,
+        wave_elevation_gauge_measured_m=0.0,
+    )
