@@ -1,7 +1,11 @@
 r"""Gain-scheduled LQRI pitch controller with torque look-up below rated (runtime core).
 
-Loads the design artefact written by :func:`controller.design.design` (npz + json in
-``controller/presets/designs/``); never imports ``plant``.
+Loads the design artefacts written by :func:`controller.design.design` (npz + json named
+``<preset>_lqri_dt<T_s>`` and ``<preset>_waveff_dt<T_s>``, e.g. ``iea15mw_volturnus_lqri_dt0p025``)
+for the control period T_s in use, from the shipped ``controller/presets/designs/`` or the user
+design cache (``$FOWT_DESIGN_DIR``, default ``~/.cache/fowt-hil/designs``; see
+:func:`find_design`); never imports ``plant``. A missing artefact raises
+:class:`DesignNotFoundError` naming the ``fowt design`` command that writes it.
 
 Per step (dt = T_s), with U the estimated wind speed used for scheduling:
 
@@ -17,7 +21,7 @@ Per step (dt = T_s), with U the estimated wind speed used for scheduling:
 4. θ_c saturated to [θ_min, θ_max] and rate limited |Δθ_c| ≤ θ'_max T_s; anti-windup by
    back-calculation: when the limited command differs from the LQRI output, z is reset so
    that the LQRI output equals the applied command (also on entering the pitch regime).
-5. Optional wave feedforward (al-2019 ch. 4; artefact ``<preset>_waveff.npz`` written by
+5. Optional wave feedforward (al-2019 ch. 4; artefact ``<preset>_waveff_dt<T_s>.npz`` written by
    :func:`controller.design.wave_ff.write_wave_ff_artefact`), kind ∈ {"off", "balanced",
    "max_performance"}: a discrete filter per scheduled wind driven by the forecast
    η̂₀(t + t_d) (m),
@@ -42,9 +46,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from bisect import bisect_right
 from dataclasses import dataclass
 from importlib import resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 from typing import Any
 
@@ -54,14 +60,26 @@ import numpy as np
 from controller.core import REGIME_REGION_2, REGIME_REGION_3, ControlOutput
 
 __all__ = [
+    "DESIGN_DIR_ENV",
     "FEEDFORWARD_KINDS",
+    "PERIOD_DEPENDENT_KINDS",
+    "SHIPPED_CONTROL_PERIOD_S",
+    "DesignNotFoundError",
     "LqriController",
     "LqriDesign",
     "LqriMeasurement",
     "LqriState",
     "WaveFfDesign",
+    "artefact_period_s",
+    "artefact_stem",
+    "design_command",
+    "design_search_path",
+    "find_design",
+    "load_design_artefact",
     "load_lqri_design",
     "load_wave_ff_design",
+    "period_tag",
+    "user_design_dir",
 ]
 
 #: Accepted wave-feedforward settings (per scenario).
@@ -69,28 +87,221 @@ FEEDFORWARD_KINDS = ("off", "balanced", "max_performance")
 
 _DESIGN_PACKAGE = "controller.presets.designs"
 
+#: Control period of the default design when none is given [s] (40 Hz, the IEA 15 MW deck).
+SHIPPED_CONTROL_PERIOD_S = 0.025
 
-def _load_artefact(
-    name_or_path: str | Path, suffix: str, what: str
+
+#: Environment variable naming the user design cache (see :func:`user_design_dir`).
+DESIGN_DIR_ENV = "FOWT_DESIGN_DIR"
+
+#: Artefact kinds whose content depends on the control period (discrete gains and filters);
+#: the observer artefact holds continuous models and is discretised at run time.
+PERIOD_DEPENDENT_KINDS = ("lqri", "waveff")
+
+_WHAT = {"lqri": "LQRI design", "waveff": "wave-FF design", "observer": "observer design"}
+
+
+def period_tag(control_period_s: float) -> str:
+    """File-name tag of a control period: ``0.025 -> "dt0p025"``, ``0.01 -> "dt0p01"``.
+
+    Parameters
+    ----------
+    control_period_s : float
+        Control period [s], > 0.
+
+    Returns
+    -------
+    str
+        ``"dt"`` followed by the period in seconds (9 significant digits, ``.`` as ``p``).
+    """
+    if not 0.0 < control_period_s < math.inf:
+        raise ValueError(f"control_period_s = {control_period_s!r}: expected a finite value > 0")
+    return "dt" + f"{control_period_s:.9g}".replace(".", "p").replace("-", "m").replace("+", "")
+
+
+def artefact_stem(name: str, kind: str, control_period_s: float) -> str:
+    """File stem of a design artefact (``<name>_<kind>[_dt<period>]``, no suffix).
+
+    Parameters
+    ----------
+    name : str
+        Design name: the stem of the plant preset it was designed for
+        (e.g. ``"iea15mw_volturnus"``).
+    kind : {"lqri", "waveff", "observer"}
+        Artefact kind; the period-dependent kinds (:data:`PERIOD_DEPENDENT_KINDS`) carry
+        :func:`period_tag`, the observer (continuous models) does not.
+    control_period_s : float
+        Control period [s].
+
+    Returns
+    -------
+    str
+        E.g. ``"iea15mw_volturnus_lqri_dt0p025"`` or ``"iea15mw_volturnus_observer"``.
+    """
+    if kind not in _WHAT:
+        raise ValueError(f"unknown design artefact kind {kind!r}; known: {', '.join(_WHAT)}")
+    if kind in PERIOD_DEPENDENT_KINDS:
+        return f"{name}_{kind}_{period_tag(control_period_s)}"
+    return f"{name}_{kind}"
+
+
+def user_design_dir() -> Path:
+    """The user design cache: ``$FOWT_DESIGN_DIR``, else ``$XDG_CACHE_HOME/fowt-hil/designs``
+    (``~/.cache/fowt-hil/designs`` when ``XDG_CACHE_HOME`` is unset)."""
+    env = os.environ.get(DESIGN_DIR_ENV, "").strip()
+    if env:
+        return Path(env).expanduser()
+    cache = os.environ.get("XDG_CACHE_HOME", "").strip()
+    base = Path(cache).expanduser() if cache else Path.home() / ".cache"
+    return base / "fowt-hil" / "designs"
+
+
+def design_search_path(design_dir: str | Path | None = None) -> list[Path | Traversable]:
+    """Folders searched for a design artefact, in order.
+
+    The shipped designs (``controller/presets/designs``), then ``design_dir`` when given, then
+    the user design cache (:func:`user_design_dir`).
+    """
+    out: list[Path | Traversable] = [resources.files(_DESIGN_PACKAGE)]
+    if design_dir is not None:
+        out.append(Path(design_dir))
+    cache = user_design_dir()
+    if design_dir is None or Path(design_dir).resolve() != cache.resolve():
+        out.append(cache)
+    return out
+
+
+def design_command(name: str, control_period_s: float) -> str:
+    """The command that writes the artefacts of ``name`` at ``control_period_s``."""
+    return (
+        f"fowt design {name} --control-period {control_period_s:.9g} "
+        f"--out {user_design_dir()}"
+    )
+
+
+class DesignNotFoundError(ValueError):
+    """A design artefact for the requested control period is in none of the searched folders.
+
+    Attributes
+    ----------
+    name, kind : str
+        Design name and artefact kind (``"lqri"``, ``"waveff"`` or ``"observer"``).
+    control_period_s : float
+        The control period asked for [s].
+    searched : tuple of str
+        The folders looked in.
+    """
+
+    def __init__(
+        self, name: str, kind: str, control_period_s: float, searched: tuple[str, ...]
+    ) -> None:
+        self.name, self.kind, self.control_period_s = name, kind, control_period_s
+        self.searched = searched
+        stem = artefact_stem(name, kind, control_period_s)
+        super().__init__(
+            f"no {_WHAT[kind]} {stem}.npz for control period {control_period_s:.9g} s "
+            f"(looked in {', '.join(searched)}); run `{design_command(name, control_period_s)}` "
+            f"(or set {DESIGN_DIR_ENV} to the folder holding it)"
+        )
+
+
+def find_design(
+    name: str, kind: str, control_period_s: float, design_dir: str | Path | None = None
+) -> Path | Traversable:
+    """The ``.npz`` of a design artefact for ``control_period_s`` (first hit on the search path).
+
+    Parameters
+    ----------
+    name : str
+        Design name (plant preset stem).
+    kind : {"lqri", "waveff", "observer"}
+    control_period_s : float
+        Control period [s].
+    design_dir : str or Path, optional
+        Extra folder searched after the shipped designs (:func:`design_search_path`).
+
+    Returns
+    -------
+    Path or Traversable
+        The npz; its ``.json`` metadata lies beside it.
+
+    Raises
+    ------
+    DesignNotFoundError
+        If no searched folder holds both the npz and its json.
+    """
+    stem = artefact_stem(name, kind, control_period_s)
+    folders = design_search_path(design_dir)
+    for folder in folders:
+        npz, js = folder / f"{stem}.npz", folder / f"{stem}.json"
+        if npz.is_file() and js.is_file():
+            return npz
+    searched = tuple(
+        "controller/presets/designs" if i == 0 else str(f) for i, f in enumerate(folders)
+    )
+    raise DesignNotFoundError(name, kind, control_period_s, searched)
+
+
+def artefact_period_s(meta: dict[str, Any]) -> float | None:
+    """Control period an artefact was designed for [s] (None for continuous models)."""
+    value = meta.get("control_period_s", meta.get("settings", {}).get("control_period_s"))
+    return None if value is None else float(value)
+
+
+def load_design_artefact(
+    name_or_path: str | Path,
+    kind: str,
+    control_period_s: float | None = None,
+    design_dir: str | Path | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Arrays of ``<name>_<suffix>.npz`` and the parsed ``.json`` beside it.
+    """Arrays of a design artefact's ``.npz`` and the parsed ``.json`` beside it.
 
-    ``name_or_path``: a shipped design name (in :data:`_DESIGN_PACKAGE`) or a path to the npz.
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A design name, looked up with :func:`find_design`, or a path to the npz.
+    kind : {"lqri", "waveff", "observer"}
+    control_period_s : float, optional
+        The runtime's control period [s]; None takes the shipped 0.025 s design for a name
+        and skips the check for a path.
+    design_dir : str or Path, optional
+        Extra folder searched (:func:`design_search_path`).
+
+    Returns
+    -------
+    arrays : dict of ndarray
+    meta : dict
+
+    Raises
+    ------
+    DesignNotFoundError
+        If a named artefact is missing for the period.
+    ValueError
+        If the artefact was designed for another control period than ``control_period_s``
+        (discrete gains and filters are only valid at their design period).
     """
     if isinstance(name_or_path, Path) or str(name_or_path).endswith(".npz"):
-        npz = Path(name_or_path)
-        meta_text = npz.with_suffix(".json").read_text()
-        with np.load(npz, allow_pickle=False) as z:
-            arrays = {k: np.array(v) for k, v in z.items()}
-    else:
-        base = resources.files(_DESIGN_PACKAGE)
-        ref = base / f"{name_or_path}_{suffix}.npz"
+        ref: Path | Traversable = Path(name_or_path)
         if not ref.is_file():
-            raise ValueError(f"no {what} {name_or_path!r} in {_DESIGN_PACKAGE}; run `fowt design`")
-        with resources.as_file(ref) as path, np.load(path, allow_pickle=False) as z:
-            arrays = {k: np.array(v) for k, v in z.items()}
-        meta_text = (base / f"{name_or_path}_{suffix}.json").read_text()
-    return arrays, json.loads(meta_text)
+            raise ValueError(f"{_WHAT[kind]} {name_or_path} does not exist")
+    else:
+        dt = SHIPPED_CONTROL_PERIOD_S if control_period_s is None else control_period_s
+        ref = find_design(str(name_or_path), kind, dt, design_dir)
+    with resources.as_file(ref) as path, np.load(path, allow_pickle=False) as z:
+        arrays = {k: np.array(v) for k, v in z.items()}
+        meta: dict[str, Any] = json.loads(path.with_suffix(".json").read_text())
+    period = artefact_period_s(meta)
+    if (
+        control_period_s is not None
+        and period is not None
+        and abs(period - control_period_s) > 1e-9 * max(1.0, control_period_s)
+    ):
+        raise ValueError(
+            f"{_WHAT[kind]} {name_or_path} was designed for a control period of {period:.9g} s, "
+            f"the controller runs at {control_period_s:.9g} s; run "
+            f"`{design_command(str(meta.get('preset', name_or_path)), control_period_s)}`"
+        )
+    return arrays, meta
 
 
 class LqriMeasurement(msgspec.Struct, frozen=True, kw_only=True):
@@ -169,9 +380,35 @@ class LqriDesign:
     metadata: dict[str, object]
 
 
-def load_lqri_design(name_or_path: str | Path = "iea15mw_volturnus") -> LqriDesign:
-    """Load ``<name>_lqri.npz`` + ``.json`` (shipped name or a path to the npz)."""
-    arrays, meta = _load_artefact(name_or_path, "lqri", "LQRI design")
+def load_lqri_design(
+    name_or_path: str | Path = "iea15mw_volturnus",
+    control_period_s: float | None = None,
+    design_dir: str | Path | None = None,
+) -> LqriDesign:
+    """Load the LQRI gain schedule ``<name>_lqri_dt<T_s>.npz`` + ``.json``.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        Design name (looked up on :func:`design_search_path`) or a path to the npz.
+    control_period_s : float, optional
+        The runtime's control period [s] (None: the shipped 0.025 s design; a path is then
+        not checked).
+    design_dir : str or Path, optional
+        Extra folder searched after the shipped designs.
+
+    Returns
+    -------
+    LqriDesign
+
+    Raises
+    ------
+    DesignNotFoundError
+        If no artefact for ``control_period_s`` is found.
+    ValueError
+        If the artefact was designed for another period.
+    """
+    arrays, meta = load_design_artefact(name_or_path, "lqri", control_period_s, design_dir)
     s = meta["settings"]
     sc = meta["scalars"]
     return LqriDesign(
@@ -235,9 +472,16 @@ class WaveFfDesign:
         return (1.0 - w) * g[i] + w * g[min(i + 1, len(g) - 1)]
 
 
-def load_wave_ff_design(name_or_path: str | Path = "iea15mw_volturnus") -> WaveFfDesign:
-    """Load ``<name>_waveff.npz`` + ``.json`` (shipped name or a path to the npz)."""
-    arrays, meta = _load_artefact(name_or_path, "waveff", "wave-FF design")
+def load_wave_ff_design(
+    name_or_path: str | Path = "iea15mw_volturnus",
+    control_period_s: float | None = None,
+    design_dir: str | Path | None = None,
+) -> WaveFfDesign:
+    """Load the wave-FF filters ``<name>_waveff_dt<T_s>.npz`` + ``.json``.
+
+    Parameters and errors as :func:`load_lqri_design`.
+    """
+    arrays, meta = load_design_artefact(name_or_path, "waveff", control_period_s, design_dir)
     st = meta["settings"]
     table = {
         k: (tuple(float(x) for x in v["wind_m_s"]), tuple(float(x) for x in v["g"]))

@@ -101,9 +101,12 @@ from controller.estimators import (
 )
 from controller.forecast import ArConfig, DispersionConfig, EspritConfig, make_forecaster
 from controller.lqri import (
+    DesignNotFoundError,
     LqriController,
     LqriMeasurement,
     LqriState,
+    find_design,
+    load_design_artefact,
     load_lqri_design,
     load_wave_ff_design,
 )
@@ -116,6 +119,8 @@ __all__ = [
     "discretize",
     "load_advanced_settings",
     "load_observer_design",
+    "missing_designs",
+    "required_designs",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -232,25 +237,27 @@ class ObserverDesign:
     state_names: tuple[str, ...]
 
 
-def load_observer_design(name_or_path: str = "iea15mw_volturnus") -> ObserverDesign:
-    """Load ``<name>_observer.npz`` + ``.json`` (shipped name or a path to the npz)."""
-    import json  # noqa: PLC0415
+def load_observer_design(
+    name_or_path: str = "iea15mw_volturnus", design_dir: str | Path | None = None
+) -> ObserverDesign:
+    """Load ``<name>_observer.npz`` + ``.json`` (design name or a path to the npz).
 
-    if str(name_or_path).endswith(".npz"):
-        npz = Path(name_or_path)
-        meta = json.loads(npz.with_suffix(".json").read_text())
-        with np.load(npz, allow_pickle=False) as z:
-            arr = {k: np.array(v, dtype=np.float64) for k, v in z.items()}
-    else:
-        base = resources.files(_DESIGN_PACKAGE)
-        ref = base / f"{name_or_path}_observer.npz"
-        if not ref.is_file():
-            raise ValueError(
-                f"no observer design {name_or_path!r} in {_DESIGN_PACKAGE}; run `fowt design`"
-            )
-        with resources.as_file(ref) as p, np.load(p, allow_pickle=False) as z:
-            arr = {k: np.array(v, dtype=np.float64) for k, v in z.items()}
-        meta = json.loads((base / f"{name_or_path}_observer.json").read_text())
+    The observer artefact holds continuous models, discretised at the runtime's control
+    period (:func:`discretize`), so one file serves every period and its name carries none.
+
+    Parameters
+    ----------
+    name_or_path : str
+        Design name (looked up with :func:`controller.lqri.find_design`) or a path to the npz.
+    design_dir : str or Path, optional
+        Extra folder searched after the shipped designs.
+
+    Returns
+    -------
+    ObserverDesign
+    """
+    arr, meta = load_design_artefact(name_or_path, "observer", None, design_dir)
+    arr = {k: np.asarray(v, dtype=np.float64) for k, v in arr.items()}
     s = meta["settings"]
     return ObserverDesign(
         wind_m_s=arr["wind_m_s"],
@@ -266,6 +273,57 @@ def load_observer_design(name_or_path: str = "iea15mw_volturnus") -> ObserverDes
         degraded_after_s=float(s["degraded_after_s"]),
         state_names=tuple(meta["state_names"]),
     )
+
+
+def required_designs(
+    settings: AdvancedSettings, feedforward: FeedforwardName | None = None
+) -> list[tuple[str, str]]:
+    """The (design name, artefact kind) pairs a controller with these settings loads.
+
+    Parameters
+    ----------
+    settings : AdvancedSettings
+        Preset (:func:`load_advanced_settings`).
+    feedforward : {"off", "balanced", "max_performance"}, optional
+        Overrides ``settings.feedforward`` (the controller kind's setting).
+
+    Returns
+    -------
+    list of (str, str)
+        ``(name_or_path, kind)`` with kind ``"observer"``, ``"lqri"`` and, with feedforward
+        on, ``"waveff"``.
+    """
+    ff = settings.feedforward if feedforward is None else feedforward
+    out = [(settings.observer_design, "observer"), (settings.lqri_design, "lqri")]
+    if ff != "off":
+        out.append((settings.lqri_design, "waveff"))
+    return out
+
+
+def missing_designs(
+    settings: AdvancedSettings,
+    control_period_s: float,
+    feedforward: FeedforwardName | None = None,
+    design_dir: str | Path | None = None,
+) -> list[DesignNotFoundError]:
+    """The artefacts of :func:`required_designs` that no searched folder holds for the period.
+
+    Artefacts given as paths to an npz are not looked up (loading reports them).
+
+    Returns
+    -------
+    list of DesignNotFoundError
+        One per missing artefact (``name``, ``kind``, ``control_period_s``, ``searched``).
+    """
+    out = []
+    for name, kind in required_designs(settings, feedforward):
+        if name.endswith(".npz"):
+            continue
+        try:
+            find_design(name, kind, control_period_s, design_dir)
+        except DesignNotFoundError as exc:
+            out.append(exc)
+    return out
 
 
 def discretize(
@@ -341,12 +399,20 @@ class AdvancedController:
         Overrides ``settings.forecast.kind``.
     gauge_distance_m : float or None
         Overrides ``settings.forecast.gauge_distance_m`` (the scenario's gauge position).
+    feedforward : {"off", "balanced", "max_performance"} or None
+        Overrides ``settings.feedforward``.
+    design_dir : str or Path, optional
+        Folder searched for the design artefacts after the shipped ones and before the user
+        design cache (:func:`controller.lqri.design_search_path`).
 
     Raises
     ------
+    DesignNotFoundError
+        If the LQRI (or wave-FF) artefact for ``control_period_s`` or the observer artefact
+        is missing (the message names the ``fowt design`` command that writes it).
     ValueError
-        For an AR/ESPRIT forecaster with a gauge that is not at the platform, or missing
-        design artefacts. With feedforward on, the forecast horizon is the wave-FF design's
+        For an AR/ESPRIT forecaster with a gauge that is not at the platform, or an
+        artefact designed for another control period. With feedforward on, the forecast horizon is the wave-FF design's
         preview :math:`t_d` (``delay_s`` of its artefact).
     """
 
@@ -357,6 +423,7 @@ class AdvancedController:
         forecaster: ForecasterName | None = None,
         gauge_distance_m: float | None = None,
         feedforward: FeedforwardName | None = None,
+        design_dir: str | Path | None = None,
     ) -> None:
         if not 0.0 < control_period_s <= 1.0:
             raise ValueError(f"control_period_s = {control_period_s!r}: expected (0, 1] s")
@@ -385,7 +452,7 @@ class AdvancedController:
                 rotor_speed_noise_std_rad_s=sigma,
             )
         )
-        obs = load_observer_design(s.observer_design)
+        obs = load_observer_design(s.observer_design, design_dir)
         self.observer = obs
         k_miss = max(1, math.ceil(obs.degraded_after_s / h))
         self.kfs: list[PlatformKF] = []
@@ -417,13 +484,12 @@ class AdvancedController:
         self._wind_grid = [float(v) for v in obs.wind_m_s]
         self._k_miss = k_miss
         fc = s.forecast
+        lqri_design = load_lqri_design(s.lqri_design, control_period_s, design_dir)
         if s.feedforward == "off":
-            self.lqri = LqriController(load_lqri_design(s.lqri_design))
+            self.lqri = LqriController(lqri_design)
         else:
-            wave_ff = load_wave_ff_design(s.lqri_design)
-            self.lqri = LqriController(
-                load_lqri_design(s.lqri_design), wave_ff, feedforward=s.feedforward
-            )
+            wave_ff = load_wave_ff_design(s.lqri_design, control_period_s, design_dir)
+            self.lqri = LqriController(lqri_design, wave_ff, feedforward=s.feedforward)
             # the FF filters expect the forecast t_d ahead that they were designed for
             fc = msgspec.structs.replace(fc, horizon_s=wave_ff.delay_s)
         kind = forecaster or fc.kind

@@ -239,6 +239,8 @@ class PlantRunResult:
     sim_s: float = 0.0
     aborted: str = ""
     rejected: dict[str, int] = field(default_factory=dict)
+    safe_state_entries: int = 0
+    safe_state_cycles: int = 0
 
     @property
     def speed(self) -> float:
@@ -265,6 +267,16 @@ class PlantLoop:
         self.frame_sent_ns = 0
         self.start_wall_ns = time.monotonic_ns()
         self._pending_timing: CycleTiming | None = None
+        # Watchdog (see hil.scenario.TimingSection): consecutive misses, safe state, and
+        # the run of on-time commands counted towards recovery.
+        self.watchdog_misses = scenario.timing.watchdog_misses
+        self.watchdog_recover = scenario.timing.watchdog_recover_cycles
+        self.consecutive_misses = 0
+        self.on_time_run = 0
+        self.safe_state = False
+        turbine = self.sim.config.turbine
+        self.safe_demand = (turbine.pitch_max_rad, 0.0)
+        self.log: Callable[[str], None] = lambda _msg: None
 
     @property
     def t_ns(self) -> int:
@@ -316,6 +328,7 @@ class PlantLoop:
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
+        new = self._watchdog(missed, new)
         self.x = self.sim.advance(self.t_ns * 1e-9, self.x, previous, new, switch)
         self.applied = new
         compute = time.monotonic_ns() - t0
@@ -326,7 +339,7 @@ class PlantLoop:
             latency_ns=latency_ns,
             deadline_missed=int(missed),
             command_held=int(missed),
-            safe_state=0,
+            safe_state=int(self.safe_state),
             plant_compute_ns=compute,
             tick_lateness_ns=tick_lateness_ns,
         )
@@ -334,6 +347,38 @@ class PlantLoop:
         self.result.cycles = self.k
         if self.k % max(1, round(1e9 / self.period_ns)) == 0:
             self.publish_summary(final=False)
+
+    def _watchdog(self, missed: bool, demand: tuple[float, float]) -> tuple[float, float]:
+        """The demand to apply this cycle after the watchdog's rule (see TimingSection)."""
+        if missed:
+            self.consecutive_misses += 1
+            self.on_time_run = 0
+        else:
+            self.consecutive_misses = 0
+            self.on_time_run += 1
+        if (
+            not self.safe_state
+            and self.watchdog_misses > 0
+            and self.consecutive_misses >= self.watchdog_misses
+        ):
+            self.safe_state = True
+            self.result.safe_state_entries += 1
+            self.on_time_run = 0
+            self.log(
+                f"plant SAFE STATE at t = {self.t_ns * 1e-9:.3f} s after "
+                f"{self.consecutive_misses} consecutive missed deadlines: pitch to feather, "
+                "torque ramp-down"
+            )
+        elif self.safe_state and 0 < self.watchdog_recover <= self.on_time_run:
+            self.safe_state = False
+            self.log(
+                f"plant leaves the safe state at t = {self.t_ns * 1e-9:.3f} s after "
+                f"{self.on_time_run} on-time commands"
+            )
+        if self.safe_state:
+            self.result.safe_state_cycles += 1
+            return self.safe_demand
+        return demand
 
     def publish_summary(self, final: bool) -> TimingSummary:
         """Publish the running (or final) timing summary."""
@@ -351,7 +396,7 @@ class PlantLoop:
             commands_held=r.commands_held,
             commands_rejected=r.commands_rejected,
             commands_late=r.commands_late,
-            safe_state=0,
+            safe_state=int(self.safe_state),
             final=int(final),
             latency_p50_us=self.hist.percentile_us(50),
             latency_p99_us=self.hist.percentile_us(99),
@@ -482,6 +527,7 @@ def run_plant_node(
         )
         wait_for_peers(bus, tid, require, peer_timeout_s)
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+        loop.log = log
         cycles = scenario.cycles
         log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
         if mode == "lockstep":
@@ -507,6 +553,7 @@ def run_plant_node(
     log(
         f"plant done: {r.cycles} cycles, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.speed:.1f}x), deadline misses {r.deadline_misses}"
+        + (f", safe state for {r.safe_state_cycles} cycles" if r.safe_state_cycles else "")
         + (f", aborted: {r.aborted}" if r.aborted else "")
     )
     return r

@@ -22,6 +22,7 @@ import msgspec
 Positive = Annotated[float, msgspec.Meta(gt=0.0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
 WindSpeed = Annotated[float, msgspec.Meta(ge=0.0, le=70.0)]
+Cycles = Annotated[int, msgspec.Meta(ge=0, le=1_000_000)]
 
 
 class ScenarioError(ValueError):
@@ -168,10 +169,20 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
 
     ``control_period_s`` is both the sensor frame period and the command deadline;
     ``plant_step_s`` is the fixed internal integration step and must divide it.
+
+    The plant's watchdog: after ``watchdog_misses`` consecutive missed deadlines (0: never)
+    the plant enters its safe state (pitch demand to feather, moved at the pitch actuator's
+    rate limit; generator-torque demand to zero, ramped down at the torque rate limit),
+    ignores the controller's commands and says so (``safe_state`` = 1 in ``timing/cycle``
+    and ``timing/summary``). Recovery rule: with ``watchdog_recover_cycles`` = 0 (the
+    default) the safe state is latched for the rest of the run; with K > 0 control is handed
+    back after K consecutive commands that each met their deadline.
     """
 
     control_period_s: Positive = 0.01
     plant_step_s: Positive = 0.01
+    watchdog_misses: Cycles = 3
+    watchdog_recover_cycles: Cycles = 0
 
 
 class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
