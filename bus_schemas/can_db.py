@@ -300,9 +300,7 @@ def _header(receiver: str) -> list[Signal]:
             comment="alive counter, +1 mod 16 per message instance",
             receivers=[receiver],
         ),
-        Signal(
-            "part", 12, 4, minimum=0, maximum=15, comment="part index", receivers=[receiver]
-        ),
+        Signal("part", 12, 4, minimum=0, maximum=15, comment="part index", receivers=[receiver]),
     ]
 
 
@@ -367,8 +365,8 @@ def build_database() -> Database:
 
 
 def dbc_text() -> str:
-    """The DBC file text, written by ``cantools``' DBC writer."""
-    return build_database().as_dbc_string()
+    """The DBC file text, written by ``cantools``' DBC writer (line ends normalised to LF)."""
+    return build_database().as_dbc_string().replace("\r\n", "\n")
 
 
 @lru_cache(maxsize=1)

@@ -299,7 +299,12 @@ class CycleTiming(msgspec.Struct, frozen=True, kw_only=True):
 
 
 class TimingSummary(msgspec.Struct, frozen=True, kw_only=True):
-    """Running latency histogram summary; ``final`` = 1 on the last one of a run."""
+    """Running latency histogram summary; ``final`` = 1 on the last one of a run.
+
+    ``safe_state`` is the watchdog's state now, ``safe_state_cycles`` the cycles spent in it
+    so far; ``faults_injected`` counts every fault the scenario's ``[[faults]]`` applied
+    (all kinds; the per-kind counts are in the plant's log line).
+    """
 
     seq: Seq
     sample_time_ns: TimeNs
@@ -310,6 +315,8 @@ class TimingSummary(msgspec.Struct, frozen=True, kw_only=True):
     commands_rejected: Count
     commands_late: Count
     safe_state: Flag
+    safe_state_cycles: Count
+    faults_injected: Count
     final: Flag
     latency_p50_us: Annotated[float, M("us", 0.0, 1e12, "latency median")]
     latency_p99_us: Annotated[float, M("us", 0.0, 1e12, "latency 99th percentile")]

@@ -78,7 +78,7 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(PlantState, 3, 2, "truth"),
     _mt(ControllerStatus, 4, 2, "controller/status"),
     _mt(CycleTiming, 5, 1, "timing/cycle"),
-    _mt(TimingSummary, 6, 1, "timing/summary"),
+    _mt(TimingSummary, 6, 2, "timing/summary"),
 )
 
 BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in MESSAGES}

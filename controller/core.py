@@ -22,13 +22,19 @@ code  meaning
 3     region 2.5: transition to rated torque (induction-generator-like slope,
       or torque PI on generator speed)
 4     region 3: rated power/torque, speed regulated by blade pitch
+5     safe mode: set by the node (never by a core) while its sensor-frame watchdog holds
+      the safe command (:mod:`hil.controller_node`)
 ====  =========================================================================
+
+:func:`actuator_limits` gives the node a core's pitch range and rate limits, from which it
+builds its safe command without reaching into the core.
 
 The controller package never imports ``plant``: it speaks only ``bus_schemas``.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
 import msgspec
@@ -41,8 +47,11 @@ __all__ = [
     "REGIME_REGION_2",
     "REGIME_REGION_2_5",
     "REGIME_REGION_3",
+    "REGIME_SAFE",
+    "ActuatorLimits",
     "ControlOutput",
     "Controller",
+    "actuator_limits",
     "available_controllers",
     "make_controller",
 ]
@@ -52,6 +61,7 @@ REGIME_REGION_1_5 = 1
 REGIME_REGION_2 = 2
 REGIME_REGION_2_5 = 3
 REGIME_REGION_3 = 4
+REGIME_SAFE = 5
 
 
 class ControlOutput(msgspec.Struct, frozen=True, gc=False):
@@ -144,6 +154,7 @@ def make_controller(
     forecaster: str | None = None,
     feedforward: str | None = None,
     gauge_distance_m: float | None = None,
+    design_dir: str | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -164,6 +175,9 @@ def make_controller(
         ``"balanced"`` or ``"max_performance"`` for ``"lqri_ff"`` (None: ``"balanced"``).
     gauge_distance_m : float or None
         Distance of the wave gauge up-wave of the platform [m] (None: the preset's).
+    design_dir : str or None
+        Folder of design artefacts searched after the shipped ones (advanced kinds; None:
+        only the shipped designs and the user design cache, ``$FOWT_DESIGN_DIR``).
 
     Returns
     -------
@@ -173,7 +187,9 @@ def make_controller(
     Raises
     ------
     ValueError
-        If ``kind`` is unknown or the preset cannot be loaded.
+        If ``kind`` is unknown or the preset cannot be loaded;
+        :class:`controller.lqri.DesignNotFoundError` (a ValueError) if a design artefact for
+        ``control_period_s`` is missing.
     """
     if kind == "baseline":
         from controller.baseline import BaselineController, load_baseline  # noqa: PLC0415
@@ -189,7 +205,68 @@ def make_controller(
             forecaster=forecaster,  # type: ignore[arg-type]
             gauge_distance_m=gauge_distance_m,
             feedforward=ff,  # type: ignore[arg-type]
+            design_dir=design_dir,
         )
     raise ValueError(
         f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
     )
+
+
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """A controller's own actuator limits (the ones its commands respect).
+
+    Attributes
+    ----------
+    pitch_min_rad, pitch_max_rad : float
+        Blade pitch command range [rad]; ``pitch_max_rad`` is the feathered position.
+    pitch_rate_max_rad_s : float
+        Pitch command rate limit [rad/s].
+    torque_rate_max_nm_s : float
+        Generator torque command rate limit [N m/s] (high-speed shaft).
+    """
+
+    pitch_min_rad: float
+    pitch_max_rad: float
+    pitch_rate_max_rad_s: float
+    torque_rate_max_nm_s: float
+
+
+def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:
+    """The pitch range and the rate limits of a core built by :func:`make_controller`.
+
+    Parameters
+    ----------
+    controller : Controller
+        A baseline (:class:`controller.baseline.BaselineController`) or advanced
+        (:class:`controller.runtime.AdvancedController`) core.
+
+    Returns
+    -------
+    ActuatorLimits
+        Baseline: its preset's ``min_pitch_rad``, ``max_pitch_rad``, ``max_pitch_rate_rad_s``
+        and ``max_generator_torque_rate_nm_s``; advanced: its LQRI design's limits.
+
+    Raises
+    ------
+    TypeError
+        For a controller of another type.
+    """
+    from controller.baseline import BaselineController  # noqa: PLC0415
+
+    if isinstance(controller, BaselineController):
+        p = controller.params
+        return ActuatorLimits(
+            p.min_pitch_rad,
+            p.max_pitch_rad,
+            p.max_pitch_rate_rad_s,
+            p.max_generator_torque_rate_nm_s,
+        )
+    from controller.runtime import AdvancedController  # noqa: PLC0415
+
+    if isinstance(controller, AdvancedController):
+        d = controller.lqri.design
+        return ActuatorLimits(
+            d.pitch_min_rad, d.pitch_max_rad, d.pitch_rate_max_rad_s, d.torque_rate_max_nm_s
+        )
+    raise TypeError(f"no actuator limits known for {type(controller).__name__}")

@@ -173,10 +173,7 @@ def design_search_path(design_dir: str | Path | None = None) -> list[Path | Trav
 
 def design_command(name: str, control_period_s: float) -> str:
     """The command that writes the artefacts of ``name`` at ``control_period_s``."""
-    return (
-        f"fowt design {name} --control-period {control_period_s:.9g} "
-        f"--out {user_design_dir()}"
-    )
+    return f"fowt design {name} --control-period {control_period_s:.9g} --out {user_design_dir()}"
 
 
 class DesignNotFoundError(ValueError):

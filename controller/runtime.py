@@ -4,6 +4,11 @@
 ``initial_state()`` and ``step(state, frame, dt_s) -> (state, ControlOutput)``: it holds no
 clock and does no I/O; the node measures the cycle's compute time. It loads only files
 (its preset TOML, a ROSCO-format Cp table, the design artefacts) and never imports ``plant``.
+The LQRI gains and wave-FF filters are discrete, so their artefacts are per control period
+(``<design>_lqri_dt0p025.npz``, shipped for 0.025 s and 0.01 s); for another period the
+launcher designs them into the user cache first (``hil.launch.ensure_designs``), and
+:func:`missing_designs` tells which are absent. The observer artefact holds continuous
+models, discretised here at the control period.
 
 One cycle, from one validated :class:`bus_schemas.messages.SensorFrame`:
 
@@ -164,7 +169,9 @@ class AdvancedSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, 
     rotor_radius_m, drivetrain_inertia_kg_m2, gearbox_ratio, air_density_kg_m3 : float
         Turbine figures of the EKF: R [m], J about the LSS [kg m^2], N [-], ρ [kg/m^3].
     lqri_design, observer_design : str
-        Names of the artefacts in ``controller/presets/designs`` (or paths to the ``.npz``).
+        Design names (the stem of the plant preset they were designed for; the LQRI and
+        wave-FF artefacts of the control period in use are looked up with
+        :func:`controller.lqri.find_design`), or paths to the ``.npz``.
     feedforward : {"off", "balanced", "max_performance"}
         Wave feedforward setting (set by the controller kind, ``"lqri_ff"``).
     ekf, forecast : sections
@@ -412,8 +419,8 @@ class AdvancedController:
         is missing (the message names the ``fowt design`` command that writes it).
     ValueError
         For an AR/ESPRIT forecaster with a gauge that is not at the platform, or an
-        artefact designed for another control period. With feedforward on, the forecast horizon is the wave-FF design's
-        preview :math:`t_d` (``delay_s`` of its artefact).
+        artefact designed for another control period. With feedforward on, the forecast
+        horizon is the wave-FF design's preview :math:`t_d` (``delay_s`` of its artefact).
     """
 
     def __init__(

@@ -5,13 +5,16 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from hil.scenario import Scenario, ScenarioError, load_scenario, scenario_text, shipped_scenarios
+
+if TYPE_CHECKING:
+    from hil.can_bus import CanBusConfig
 
 app = typer.Typer(
     help="fowt-hil: floating-wind controller-in-the-loop bench.",
@@ -41,6 +44,58 @@ ZenohConfigOpt = Annotated[
 ]
 
 
+TransportOpt = Annotated[
+    str,
+    typer.Option(
+        "--transport",
+        help="zenoh | can: with can, the sensor frame and the command travel on CAN "
+        "(python-can), everything else on the loopback Zenoh session.",
+    ),
+]
+CanInterfaceOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--can-interface",
+        help="udp_multicast (private network namespace) | socketcan | virtual "
+        "(default: the scenario's [can] interface, else udp_multicast).",
+    ),
+]
+CanChannelOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--can-channel",
+        help="Multicast group (udp_multicast) or netdevice (socketcan); default per interface.",
+    ),
+]
+CanFdOpt = Annotated[
+    bool | None,
+    typer.Option("--can-fd/--no-can-fd", help="CAN FD frames (default: the scenario's [can])."),
+]
+
+
+def _can_config(
+    sc: Scenario, transport: str, interface: str | None, channel: str | None, fd: bool | None
+) -> CanBusConfig | None:
+    """The node's CAN bus for ``--transport can`` (None for zenoh); exits 2 on a bad option."""
+    if transport not in ("zenoh", "can"):
+        console.print(f"[red]error:[/] --transport must be zenoh or can, not {transport!r}")
+        raise typer.Exit(2)
+    if transport == "zenoh":
+        return None
+    from hil.can_bus import CanBusConfig, CanConfigError
+
+    try:
+        return CanBusConfig.for_interface(
+            interface or sc.can.interface,
+            channel if channel is not None else sc.can.channel,
+            sc.can.fd if fd is None else fd,
+            sc.turbine_id,
+        )
+    except CanConfigError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+
+
 def _scenario(ref: str, duration: float | None) -> Scenario:
     try:
         return load_scenario(ref).with_duration(duration)
@@ -67,11 +122,20 @@ def run(
     mode: Annotated[str, typer.Option(help="realtime | lockstep | inprocess")] = "realtime",
     speed: Annotated[float, typer.Option(help="Real-time factor (realtime mode).")] = 1.0,
     duration: DurationOpt = None,
-    transport: Annotated[str, typer.Option(help="Bus between processes: zenoh.")] = "zenoh",
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
     out: Annotated[Path | None, typer.Option("--out", help="Output folder.")] = None,
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
 ) -> None:
-    """Launch plant, controller and recorder as separate processes, then review the run."""
+    """Launch plant, controller and recorder as separate processes, then review the run.
+
+    ``--transport can`` puts the sensor frame and the command on a CAN bus between the
+    plant and controller processes (the recorder listens too and logs the raw frames);
+    with ``udp_multicast`` the launcher runs the whole bench in a fresh network namespace
+    (``unshare -n``, root) unless it already is in a private one.
+    """
     from hil.launch import RunFailedError, RunRequest, launch
 
     if mode not in ("realtime", "lockstep", "inprocess"):
@@ -82,10 +146,11 @@ def run(
     if not speed > 0:
         console.print(f"[red]error:[/] --speed must be > 0, got {speed}")
         raise typer.Exit(2)
-    if transport != "zenoh":
-        console.print(f"[red]error:[/] --transport {transport!r} is not available yet (zenoh only)")
+    sc = _scenario(scenario, duration)  # validate before launching anything
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    if can is not None and mode == "inprocess":
+        console.print("[red]error:[/] --mode inprocess has no bus: use lockstep or realtime")
         raise typer.Exit(2)
-    _scenario(scenario, duration)  # validate before launching anything
     req = RunRequest(
         scenario=scenario,
         mode=mode,  # type: ignore[arg-type]  # checked just above
@@ -94,6 +159,7 @@ def run(
         transport=transport,
         out_dir=out,
         plots=plots,
+        can=can,
     )
     try:
         launch(req, console)
@@ -114,11 +180,16 @@ def plant(
     require: Annotated[
         str, typer.Option(help="Comma-separated nodes to wait for before starting.")
     ] = "controller",
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
 ) -> None:
     """Run the plant process alone (the controller runs elsewhere)."""
     from hil.plant_node import run_plant_node
 
     sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if mode not in ("realtime", "lockstep"):
         console.print(f"[red]error:[/] the plant runs realtime or lockstep, not {mode!r}")
         raise typer.Exit(2)
@@ -130,6 +201,7 @@ def plant(
             mode=mode,  # type: ignore[arg-type]
             speed=speed,
             require=tuple(r for r in require.split(",") if r),
+            can=can,
         )
     except TimeoutError as exc:
         console.print(f"[red]error:[/] {exc}")
@@ -145,13 +217,33 @@ def controller(
     listen: ListenOpt = None,
     connect: ConnectOpt = None,
     zenoh_config: ZenohConfigOpt = None,
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
 ) -> None:
-    """Run the controller process alone (serves until the plant finishes or Ctrl-C)."""
-    from hil.controller_node import run_controller_node
+    """Run the controller process alone (serves until the plant finishes or Ctrl-C).
+
+    With ``--transport can`` it takes the sensor frames from and sends the commands to the
+    CAN bus; its status and the plant's timing stay on Zenoh.
+    """
+    from hil import controller_node
 
     sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     bus = _bus(listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config)
-    run_controller_node(sc, bus)  # type: ignore[arg-type]
+    if can is None:
+        controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
+        return
+    from unittest import mock
+
+    from hil.can_bus import hybrid_bus_factory
+
+    # The controller node opens its bus as ``Bus(bus_config)``; in a CAN run that bus is a
+    # HybridBus (same surface: the sensor and command keys on CAN, the rest on Zenoh), so
+    # the node's own loop, validation and stale-frame handling run unchanged.
+    with mock.patch.object(controller_node, "Bus", hybrid_bus_factory(can)):
+        controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
 
 
 @app.command()
@@ -163,15 +255,31 @@ def record(
     connect: ConnectOpt = None,
     zenoh_config: ZenohConfigOpt = None,
     run_info: Annotated[str, typer.Option(help="JSON object stored as run metadata.")] = "{}",
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
 ) -> None:
-    """Record every fowt/<turbine>/** message to an MCAP file until the run ends."""
+    """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
+
+    With ``--transport can`` it also listens on the CAN bus: the sensor frames and commands
+    decoded from it, and every raw frame on ``fowt/<turbine>/can/raw``.
+    """
     from hil.recorder import run_recorder_node
 
     sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     bus = _bus(listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config)
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
-    run_recorder_node(sc, bus, out, run_info=info, scenario_toml=text)  # type: ignore[arg-type]
+    run_recorder_node(
+        sc,
+        bus,  # type: ignore[arg-type]
+        out,
+        run_info=info,
+        scenario_toml=text,
+        can=can,
+    )
 
 
 @app.command("review")
@@ -258,26 +366,45 @@ def design_cmd(
     preset: Annotated[
         str, typer.Argument(help="Floating preset name or preset .toml path.")
     ] = "iea15mw_volturnus",
+    control_period: Annotated[
+        float,
+        typer.Option(
+            "--control-period", help="Control period of the discrete gains and filters, s."
+        ),
+    ] = 0.025,
     out: Annotated[
         Path | None,
         typer.Option("--out", help="Folder for the artefacts (default: the shipped designs)."),
     ] = None,
 ) -> None:
-    """Offline controller design: the LQRI gain schedule and the platform-observer models.
+    """Offline controller design: LQRI gain schedule, wave-FF filters, platform observer.
 
-    Calls :func:`controller.design.design` (LQRI, ``<preset>_lqri.npz/.json``) and
-    :func:`controller.design.observer.design_observer` (``<preset>_observer.npz/.json``).
+    Calls :func:`controller.design.design_all`: ``<preset>_lqri_dt<T>.npz/.json``,
+    ``<preset>_waveff_dt<T>.npz/.json`` (discrete at ``--control-period``) and
+    ``<preset>_observer.npz/.json`` (continuous). ``fowt run`` looks in the shipped designs,
+    then in ``$FOWT_DESIGN_DIR`` (default ``~/.cache/fowt-hil/designs``).
     """
-    from controller.design import design
-    from controller.design.observer import design_observer
+    import os
+    import time
 
+    from controller.design import BLAS_SINGLE_THREAD_ENV, design_all
+
+    if "numpy" not in sys.modules:  # one BLAS thread: see controller.design's docstring
+        for var, value in BLAS_SINGLE_THREAD_ENV.items():
+            os.environ.setdefault(var, value)
+
+    if not 0.0 < control_period <= 1.0:
+        console.print(f"[red]error:[/] --control-period must be in (0, 1] s, got {control_period}")
+        raise typer.Exit(2)
+    t0 = time.perf_counter()
     try:
-        paths = {**design(preset, out), **design_observer(preset, out)}
+        paths = design_all(preset, control_period, out)
     except (ValueError, OSError) as exc:
         console.print(f"[red]error:[/] {exc}")
         raise typer.Exit(2) from exc
     for key, path in paths.items():
         console.print(f"{key}: {path}")
+    console.print(f"designed in {time.perf_counter() - t0:.1f} s")
 
 
 @analyze_app.command("linear")

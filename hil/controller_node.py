@@ -8,10 +8,54 @@ duplicated, reordered or stale, steps the core, and builds the command (echoing 
 I/O, so the in-process runner uses the very same object as the Zenoh node and the two give
 identical results.
 
+Sensor-frame watchdog (the controller's counterpart of the plant's, same rule and same
+scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycles`` = K):
+
+* a frame is **missing** when the ``seq`` of the next accepted frame skips it (a gap of g
+  counts g misses); a rejected payload is not a miss by itself, but the seqs it hid show up
+  as a gap when a valid frame comes again;
+* a frame is **stale** when its age, the runtime's receive time minus the frame's
+  ``publish_time_ns``, exceeds one control period. Both are ``time.monotonic_ns()`` of one
+  host (the bench's default: loopback only), so the age is exact. With
+  ``same_host_clock=False`` (the node sets it when a Zenoh config file may join two hosts)
+  the age is taken relative to the smallest receive-minus-publish difference seen so far:
+  differences of the plant's publish times are true durations on any host, so this is the
+  age beyond the fastest delivery of the run, whatever the offset between the two clocks;
+* **no frame for a control period**: the node calls :meth:`ControllerRuntime.check_silence`
+  every half period; each period past the expected arrival of the next frame (half a period
+  of grace for jitter) counts one miss.
+
+The wall-clock checks (age and silence) apply only while the stream is *paced in real
+time*: the plant's publish times of the last 8 consecutive frames advanced by one control
+period each, within 10 % (``fowt run --mode realtime --speed 1``). In lock-step and
+in-process runs the plant waits for each command, so wall-clock age means nothing there and
+only the seq gaps count: the watchdog stays deterministic and lock-step keeps equal to
+in-process (a stall of the machine or a flood of bad payloads can never trip it). At
+another real-time speed the stream is not recognised as paced and only the gaps count
+(``paced=True`` forces the wall-clock checks on).
+
+After N consecutive misses (0: never) the runtime enters its **safe mode**: every command it
+publishes (it still answers each frame that arrives) is the safe command, the blade pitch
+moved towards the core's own feathered pitch (its maximum pitch) at the core's pitch rate
+limit, and the generator torque ramped to 0 at the core's torque rate limit, both from the
+last published command over the simulated time since it; ``ActuatorCommand.mode`` =
+:data:`MODE_SAFE` (2), ``ControllerStatus.regime`` = :data:`controller.core.REGIME_SAFE`
+(5), and the log says so. The core keeps stepping on the frames that arrive (its estimates
+stay live in the status) but its commands are discarded. Recovery, as the plant's: latched
+for the rest of the run when K = 0 (the default); with K > 0 after K consecutive healthy
+frames (no gap, not stale): the core is re-initialised (``initial_state()``; its first step
+starts from the current measurement: the baseline's filter, pitch and torque from the
+measured speed, pitch and torque; the advanced controller's EKF and platform KF from the
+frame, its wave forecaster restarting empty, so no forecast or feedforward until its buffer
+refills) and the commands go out with ``mode`` = :data:`MODE_RESUMING` (1), rate limited
+against the last published command, until the core's own command is within one step's rate
+limit of it (bumpless transfer), then ``mode`` = :data:`MODE_NORMAL` (0).
+
 :func:`run_controller_node` is the process: one Zenoh session, a subscriber on
 ``fowt/<turbine>/sensors`` whose callback runs the cycle and publishes at once (lowest
-latency: no hand-off to another thread), a liveliness token announcing readiness, and an
-exit when the plant publishes its final timing summary or on SIGINT/SIGTERM.
+latency: no hand-off to another thread), the silence check in the main thread, a liveliness
+token announcing readiness, and an exit when the plant publishes its final timing summary or
+on SIGINT/SIGTERM.
 
 This module never imports ``plant``: the controller speaks only ``bus_schemas``.
 """
@@ -26,11 +70,13 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
-from controller.core import make_controller
+from controller.core import REGIME_SAFE, actuator_limits, make_controller
+from controller.lqri import DesignNotFoundError
 from hil.bus import Bus, BusConfig
 from hil.scenario import Scenario
 
@@ -44,19 +90,60 @@ _FLOAT_FIELDS = tuple(
 )
 _float_values = operator.attrgetter(*_FLOAT_FIELDS)
 
+#: ``ActuatorCommand.mode``: the core's command.
+MODE_NORMAL = 0
+#: ``ActuatorCommand.mode``: the core's command, rate limited after leaving the safe mode.
+MODE_RESUMING = 1
+#: ``ActuatorCommand.mode``: the safe command (feathering, torque ramp-down).
+MODE_SAFE = 2
+#: Consecutive frames whose publish times advance by one control period (within
+#: :data:`PACED_TOLERANCE`) before the stream counts as paced in real time.
+PACED_FRAMES = 8
+PACED_TOLERANCE = 0.1
+
 
 class ControllerRuntime:
-    """Validation, sequencing and message building around a controller core.
+    """Validation, sequencing, the sensor-frame watchdog and message building around a core.
 
     Parameters
     ----------
     scenario : Scenario
-        Gives the controller kind, its preset and the control period (the core's dt).
+        Gives the controller kind, its preset, the control period (the core's dt) and the
+        watchdog's rule (``timing.watchdog_misses``, ``timing.watchdog_recover_cycles``).
     clock : callable
         Monotonic clock in ns (``time.monotonic_ns`` in a node).
+    design_dir : str or Path, optional
+        Folder of controller design artefacts searched after the shipped ones (the launcher
+        passes the cache it designed into); None: the shipped designs and the user design
+        cache (``$FOWT_DESIGN_DIR``, default ``~/.cache/fowt-hil/designs``).
+    paced : bool or None
+        Whether the wall-clock checks (frame age, silence) apply: None (default) detects a
+        stream paced in real time from the frames' publish times (module docstring); True
+        or False forces them on or off.
+    same_host_clock : bool
+        True (default): ``clock`` and the frames' ``publish_time_ns`` are one host's
+        monotonic clock, the age is exact; False: the age is relative to the fastest
+        delivery seen (module docstring).
+    log : callable, optional
+        Receives the watchdog's messages (entering and leaving the safe mode).
+
+    Raises
+    ------
+    controller.lqri.DesignNotFoundError
+        If the advanced controller's artefacts for the scenario's control period are missing
+        (the message names the ``fowt design`` command to run).
     """
 
-    def __init__(self, scenario: Scenario, clock: Callable[[], int] = time.monotonic_ns) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        clock: Callable[[], int] = time.monotonic_ns,
+        design_dir: str | Path | None = None,
+        *,
+        paced: bool | None = None,
+        same_host_clock: bool = True,
+        log: Callable[[str], None] | None = None,
+    ) -> None:
         c = scenario.controller
         waves = scenario.waves
         self.controller = make_controller(
@@ -66,20 +153,53 @@ class ControllerRuntime:
             forecaster=c.forecaster,
             feedforward=c.feedforward,
             gauge_distance_m=waves.gauge_distance_m if waves is not None else None,
+            design_dir=None if design_dir is None else str(design_dir),
         )
         self.state: Any = self.controller.initial_state()
         self.dt_s = scenario.timing.control_period_s
+        self.period_ns = round(self.dt_s * 1e9)
         self.clock = clock
         self.last_seq = -1
         self.last_sample_time_ns = -1
         self.command_seq = 0
         self.rejected: Counter[str] = Counter()
         self.accepted = 0
+        self.log: Callable[[str], None] = log if log is not None else _no_log
+        # Watchdog (module docstring): rule, counters and state.
+        self.limits = actuator_limits(self.controller)
+        self.watchdog_misses = scenario.timing.watchdog_misses
+        self.watchdog_recover = scenario.timing.watchdog_recover_cycles
+        self.paced = paced
+        self.same_host_clock = same_host_clock
+        self.consecutive_misses = 0
+        self.healthy_run = 0
+        self.safe_mode = False
+        self.resuming = False
+        self.safe_entries = 0
+        self.safe_commands = 0
+        self.frames_missing = 0
+        self.frames_stale = 0
+        self.silent_periods = 0
+        self._silence_counted = 0
+        self._paced_run = 0
+        self._min_delay_ns: int | None = None
+        self._last_publish_ns = -1
+        self._last_receive_ns = -1
+        # The last published command: (pitch rad, torque N m, its frame's sample time ns).
+        self._last_command: tuple[float, float, int] | None = None
+        self._restart_core = False
 
     @property
     def rejected_total(self) -> int:
         """All rejected frames so far."""
         return sum(self.rejected.values())
+
+    @property
+    def wall_checks(self) -> bool:
+        """True when the wall-clock checks (frame age, silence) apply now."""
+        if self.paced is not None:
+            return self.paced
+        return self._paced_run >= PACED_FRAMES
 
     def handle_payload(self, payload: bytes) -> tuple[ActuatorCommand, ControllerStatus] | None:
         """Decode one payload and run a cycle; None (and a counted rejection) if unusable."""
@@ -96,9 +216,10 @@ class ControllerRuntime:
         A frame whose ``seq`` is not newer than the last one (duplicate, replay, reordered)
         or whose sample time goes backwards is rejected: a controller must never step twice
         on one sample or on an older one. A frame with a non-finite value is rejected too
-        (the bus codec already refuses them; this guards the in-process path). The status
-        carries the core's estimates and ``compute_time_ns``, the injected clock's time
-        around the core's step [ns].
+        (the bus codec already refuses them; this guards the in-process path). An accepted
+        frame then goes through the watchdog (module docstring), which decides whether the
+        command is the core's or the safe one. The status carries the core's estimates and
+        ``compute_time_ns``, the injected clock's time around the core's step [ns].
         """
         if frame.seq <= self.last_seq:
             self.rejected["duplicate_or_reordered"] += 1
@@ -112,19 +233,42 @@ class ControllerRuntime:
             self.rejected["non_finite"] += 1  # the codec refuses these; in-process frames too
             return None
         t0 = self.clock()
+        self._watchdog(frame, t0)
+        if self._restart_core:  # leaving the safe mode: restart from this measurement
+            self._restart_core = False
+            self.state = self.controller.initial_state()
         self.state, out = self.controller.step(self.state, frame, self.dt_s)
         self.last_seq = frame.seq
         self.last_sample_time_ns = frame.sample_time_ns
         self.accepted += 1
+        pitch, torque = out.blade_pitch_commanded_rad, out.generator_torque_commanded_nm
+        regime = out.regime
+        if self.safe_mode:
+            pitch, torque = self._safe_command(frame)
+            mode, regime = MODE_SAFE, REGIME_SAFE
+            self.safe_commands += 1
+        elif self.resuming:
+            pitch, torque, clamped = self._transfer(frame, pitch, torque)
+            mode = MODE_RESUMING
+            if not clamped:
+                self.resuming = False
+                mode = MODE_NORMAL
+                self.log(
+                    f"controller back to normal commands at t = "
+                    f"{frame.sample_time_ns * 1e-9:.3f} s (bumpless transfer done)"
+                )
+        else:
+            mode = MODE_NORMAL
+        self._last_command = (pitch, torque, frame.sample_time_ns)
         now = self.clock()
         command = ActuatorCommand(
             seq=self.command_seq,
             answered_seq=frame.seq,
             sample_time_ns=frame.sample_time_ns,
             publish_time_ns=now,
-            mode=0,
-            blade_pitch_commanded_rad=out.blade_pitch_commanded_rad,
-            generator_torque_commanded_nm=out.generator_torque_commanded_nm,
+            mode=mode,
+            blade_pitch_commanded_rad=pitch,
+            generator_torque_commanded_nm=torque,
         )
         status = ControllerStatus(
             seq=self.command_seq,
@@ -132,7 +276,7 @@ class ControllerRuntime:
             sample_time_ns=frame.sample_time_ns,
             publish_time_ns=now,
             compute_time_ns=now - t0,
-            regime=out.regime,
+            regime=regime,
             rejected_frames=self.rejected_total,
             generator_speed_filtered_rad_s=out.generator_speed_filtered_rad_s,
             pitch_integrator_rad=out.pitch_integrator_rad,
@@ -153,6 +297,142 @@ class ControllerRuntime:
         self.command_seq += 1
         return command, status
 
+    # ------------------------------------------------------------------ watchdog
+    def check_silence(self, now_ns: int | None = None) -> bool:
+        """Count the control periods without a frame; called by the node's timer.
+
+        Each period past the expected arrival of the next frame (the last one's arrival plus
+        one period, plus half a period of grace) counts one miss, once. Does nothing before
+        the first frame, in the safe mode, or while the wall-clock checks are off.
+
+        Parameters
+        ----------
+        now_ns : int, optional
+            The clock's time [ns] (None: read the clock).
+
+        Returns
+        -------
+        bool
+            True when this call put the runtime in its safe mode.
+        """
+        if self._last_receive_ns < 0 or self.safe_mode or not self.wall_checks:
+            return False
+        now = self.clock() if now_ns is None else now_ns
+        silent = (now - self._last_receive_ns - self.period_ns // 2) // self.period_ns
+        new = silent - self._silence_counted
+        if new <= 0:
+            return False
+        self._silence_counted = silent
+        self.silent_periods += new
+        return self._miss(new, f"no sensor frame for {silent} control period(s)", self.last_seq)
+
+    def _watchdog(self, frame: SensorFrame, now_ns: int) -> None:
+        """Classify an accepted frame (gap, stale, healthy) and apply the rule."""
+        gap = frame.seq - self.last_seq - 1 if self.last_seq >= 0 else 0
+        delay = now_ns - frame.publish_time_ns
+        if not self.same_host_clock:
+            if self._min_delay_ns is None or delay < self._min_delay_ns:
+                self._min_delay_ns = delay
+            delay -= self._min_delay_ns
+        if gap == 0 and self._last_publish_ns >= 0:  # pacing: publish interval ~ one period
+            interval = frame.publish_time_ns - self._last_publish_ns
+            if abs(interval - self.period_ns) <= PACED_TOLERANCE * self.period_ns:
+                self._paced_run += 1
+            else:
+                self._paced_run = 0
+        self._last_publish_ns = frame.publish_time_ns
+        self._last_receive_ns = now_ns
+        tripped = False
+        unseen = gap - self._silence_counted  # the silence timer counted some already
+        self._silence_counted = 0
+        if gap > 0:
+            self.frames_missing += gap
+        if unseen > 0:
+            tripped = self._miss(unseen, f"{gap} sensor frame(s) missing", frame.seq)
+        if self.wall_checks and delay > self.period_ns:
+            self.frames_stale += 1
+            tripped |= self._miss(1, f"stale sensor frame ({delay * 1e-6:.1f} ms old)", frame.seq)
+            return
+        self.consecutive_misses = 0
+        if tripped or not self.safe_mode:
+            self.healthy_run = 0 if tripped else self.healthy_run + 1
+            return
+        self.healthy_run += 1
+        if 0 < self.watchdog_recover <= self.healthy_run:
+            self.safe_mode = False
+            self.resuming = True
+            self._restart_core = True
+            self.log(
+                f"controller leaves its safe mode at t = {frame.sample_time_ns * 1e-9:.3f} s "
+                f"after {self.healthy_run} healthy sensor frames: core restarted from the "
+                "measurement, rate-limited transfer"
+            )
+
+    def _miss(self, n: int, why: str, seq: int) -> bool:
+        """Count ``n`` missed frames; enter the safe mode at the limit (True if it did)."""
+        self.consecutive_misses += n
+        self.healthy_run = 0
+        if (
+            self.safe_mode
+            or self.watchdog_misses <= 0
+            or self.consecutive_misses < self.watchdog_misses
+        ):
+            return False
+        self.safe_mode = True
+        self.resuming = False
+        self.safe_entries += 1
+        self.log(
+            f"controller SAFE MODE after {self.consecutive_misses} consecutive missing or stale "
+            f"sensor frames ({why}; last seq {seq}): pitch to feather at "
+            f"{self.limits.pitch_rate_max_rad_s:g} rad/s, torque ramp-down at "
+            f"{self.limits.torque_rate_max_nm_s:g} N m/s, mode {MODE_SAFE}"
+        )
+        return True
+
+    def _elapsed_s(self, frame: SensorFrame) -> float:
+        """Simulated time since the last published command [s] (one period if none)."""
+        if self._last_command is None:
+            return self.dt_s
+        return (frame.sample_time_ns - self._last_command[2]) * 1e-9
+
+    def _previous_command(self, frame: SensorFrame) -> tuple[float, float]:
+        """The last published command, or the measured actuator positions if none yet."""
+        if self._last_command is not None:
+            return self._last_command[0], self._last_command[1]
+        lim = self.limits
+        pitch = min(max(frame.blade_pitch_measured_rad, lim.pitch_min_rad), lim.pitch_max_rad)
+        return pitch, max(frame.generator_torque_measured_nm, 0.0)
+
+    def _safe_command(self, frame: SensorFrame) -> tuple[float, float]:
+        """Pitch towards feather and torque towards 0, each at the core's rate limit."""
+        lim = self.limits
+        dt = self._elapsed_s(frame)
+        pitch, torque = self._previous_command(frame)
+        step = lim.pitch_rate_max_rad_s * dt
+        feather = lim.pitch_max_rad
+        pitch = min(pitch + step, feather) if pitch < feather else max(pitch - step, feather)
+        torque = max(torque - lim.torque_rate_max_nm_s * dt, 0.0)
+        return pitch, torque
+
+    def _transfer(
+        self, frame: SensorFrame, pitch: float, torque: float
+    ) -> tuple[float, float, bool]:
+        """Rate-limit the core's command against the last published one (bumpless return).
+
+        Returns the command and whether either channel was clamped.
+        """
+        lim = self.limits
+        dt = self._elapsed_s(frame)
+        p0, q0 = self._previous_command(frame)
+        dp, dq = lim.pitch_rate_max_rad_s * dt, lim.torque_rate_max_nm_s * dt
+        p = min(max(pitch, p0 - dp), p0 + dp)
+        q = min(max(torque, q0 - dq), q0 + dq)
+        return p, q, (p != pitch or q != torque)
+
+
+def _no_log(_msg: str) -> None:
+    """Discard a log line (the runtime's default logger)."""
+
 
 @dataclass
 class ControllerNodeResult:
@@ -161,6 +441,10 @@ class ControllerNodeResult:
     cycles: int
     rejected: dict[str, int]
     reason: str
+    safe_entries: int = 0
+    safe_commands: int = 0
+    frames_missing: int = 0
+    frames_stale: int = 0
 
 
 def run_controller_node(
@@ -169,8 +453,25 @@ def run_controller_node(
     timeout_s: float | None = None,
     log: Callable[[str], None] = print,
 ) -> ControllerNodeResult:
-    """Serve commands until the plant's final summary, a signal, or ``timeout_s``."""
-    runtime = ControllerRuntime(scenario)
+    """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
+
+    The design artefacts are looked up in the shipped designs and in ``$FOWT_DESIGN_DIR``
+    (the launcher sets it to the cache it designed into). When one is missing for the
+    scenario's control period the process exits at once (``SystemExit``, status 1) with a
+    message naming the ``fowt design ... --control-period ...`` command to run: the
+    controller process never designs (that would import ``plant``).
+
+    The sensor-frame watchdog (module docstring) logs through ``log``; its silence check
+    runs in this (the main) thread every half control period while waiting. The frame age is
+    exact (one host's monotonic clock) unless ``bus_config`` has a Zenoh config file, which
+    may join two hosts: then it is relative to the fastest delivery seen.
+    """
+    try:
+        runtime = ControllerRuntime(
+            scenario, same_host_clock=bus_config.config_file is None, log=log
+        )
+    except DesignNotFoundError as exc:
+        raise SystemExit(f"error: {exc}") from exc
     bus = Bus(bus_config)
     tid = scenario.turbine_id
     cmd_key, status_key = COMMAND.key(tid), CONTROLLER_STATUS.key(tid)
@@ -210,13 +511,31 @@ def run_controller_node(
         f"controller {scenario.controller.kind}/{scenario.controller.preset} ready on "
         f"{SENSORS.key(tid)} (listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
     )
+    poll_s = max(runtime.dt_s / 2, 1e-3)
+    end = math.inf if timeout_s is None else time.monotonic() + timeout_s
     try:
-        done.wait(timeout_s)
+        while not done.wait(min(poll_s, max(0.0, end - time.monotonic()))):
+            if time.monotonic() >= end:
+                break
+            with lock:
+                runtime.check_silence()
     finally:
         token.undeclare()
         bus.close()
+    rt = runtime
     log(
-        f"controller stopped ({reason[0]}): {runtime.accepted} cycles, "
-        f"rejected {dict(runtime.rejected)}"
+        f"controller stopped ({reason[0]}): {rt.accepted} cycles, rejected {dict(rt.rejected)}; "
+        f"watchdog: {rt.frames_missing} frames missing, {rt.frames_stale} stale, "
+        f"{rt.silent_periods} silent periods, safe mode entered {rt.safe_entries} times "
+        f"({rt.safe_commands} safe commands)"
+        + (", in safe mode at the end" if rt.safe_mode else "")
     )
-    return ControllerNodeResult(runtime.accepted, dict(runtime.rejected), reason[0])
+    return ControllerNodeResult(
+        rt.accepted,
+        dict(rt.rejected),
+        reason[0],
+        rt.safe_entries,
+        rt.safe_commands,
+        rt.frames_missing,
+        rt.frames_stale,
+    )

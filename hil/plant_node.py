@@ -18,6 +18,39 @@ One control cycle k (period T, speed factor s, wall period T/s):
    and a final one (``final`` = 1) that tells the other processes the run is over.
 
 Latency histograms: :class:`hil.timing.LatencyHistogram` (p50/p99/p99.9/max).
+
+Bus faults
+----------
+The scenario's ``bus_delay``, ``bus_jitter`` and ``bus_loss`` faults
+(:mod:`sensors.faults`) act here, on the two messages the plant owns: the sensor frame it
+sends and the command it receives. Each message's fate is a pure function of the seed, the
+fault and its ``seq`` (:class:`sensors.faults.BusFaultPlan`): lost, or delayed by d + J
+(simulated seconds; wall seconds d / s at speed factor s). Both links are FIFO, like the
+ordered transports they stand for: a message is never delivered before the one sent before
+it (delivery time max(t + d + J, previous delivery)), so jitter delays but never reorders.
+
+* Sensor frames (:class:`SensorLink`): a faulted run hands every frame to a small
+  scheduler instead of publishing it. ``realtime``: each frame is published when its wall
+  time comes, while the plant waits for the command and for the tick; the sensor-to-command
+  latency is still measured from the sample, so a delay eats into the deadline and a frame
+  later than the period is a miss (the command answering it is late and dropped).
+  ``lockstep`` / ``inprocess``: the delay is in simulated time. Cycle k (t_k to t_{k+1})
+  delivers, in order, every frame due before t_{k+1}, and the controller answers each (so a
+  delayed frame means the controller answers an older frame; the plant waits for every
+  answer, which keeps lock-step deterministic). The answer to frame k takes effect at its
+  arrival, t_k + delay, at the plant step's resolution; answers to older frames are late
+  and dropped (``commands_late``); if frame k is lost or due at or after t_{k+1}, the plant
+  holds the last command for the cycle and counts a deadline miss (the watchdog sees it).
+* Commands (``command`` channel): ``realtime``: :class:`CommandInbox` makes a delayed
+  command visible only at its arrival time + d/s (it may then miss the deadline: held,
+  watchdog) and drops a lost one. ``lockstep`` / ``inprocess``: the plant still waits for
+  the real command (determinism), then applies the fault: lost = held, a deadline miss;
+  delayed by D = (frame delay) + d + J >= T = late, held, a miss; otherwise it takes effect
+  D into the period.
+
+Every fault is counted per kind in ``PlantRunResult.faults_injected`` (sensor faults: one
+per channel reading acted on; bus faults: one per message), and each fault window's start
+and end is logged, as are the final counts.
 """
 
 from __future__ import annotations
@@ -27,11 +60,11 @@ import math
 import signal
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
 
@@ -50,7 +83,7 @@ from hil.scenario import (
     WavesSection,
     WindSpecSection,
 )
-from hil.timing import LatencyHistogram, Pacer
+from hil.timing import LatencyHistogram, Pacer, wait_until
 from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator, TowerBaseLoads
 from plant.turbine import TurbineParams, load_turbine
 from plant.waves import (
@@ -64,6 +97,10 @@ from plant.waves import (
 )
 from plant.wind import GustWind, RampWind, SteadyWind, StepWind, TurbulentWind, WindSpec
 from sensors import ChannelSpec, NoiseSpec, default_floating_suite
+from sensors.faults import OPEN_END_NS, BusFaultPlan
+
+if TYPE_CHECKING:
+    from hil.can_bus import CanBus, CanBusConfig, HybridBus
 
 Mode = Literal["realtime", "lockstep", "inprocess"]
 Publish = Callable[[MessageType, msgspec.Struct], None]
@@ -223,6 +260,7 @@ def plant_config(scenario: Scenario) -> PlantConfig:
         sensor_seed=s.seed,
         floating=floating,
         sensor_channels=channels,
+        sensor_faults=tuple(f for f in scenario.fault_specs() if not f.is_bus),
     )
 
 
@@ -241,11 +279,71 @@ class PlantRunResult:
     rejected: dict[str, int] = field(default_factory=dict)
     safe_state_entries: int = 0
     safe_state_cycles: int = 0
+    faults_injected: dict[str, int] = field(default_factory=dict)
 
     @property
     def speed(self) -> float:
         """Simulated seconds per wall second."""
         return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+class SensorLink:
+    """The sensor frame's way to the controller under bus faults: a seeded FIFO scheduler.
+
+    Every frame is submitted once; its fate comes from ``plan``
+    (:meth:`sensors.faults.BusFaultPlan.effect`): lost, or held until its delivery time, in
+    simulated time t_k + D and in wall time (frame sent) + D / s, each at least the previous
+    frame's (FIFO). The real-time loop pops frames by wall time, the lock-step and
+    in-process loops by simulated time.
+
+    Parameters
+    ----------
+    plan : BusFaultPlan
+        The ``sensors`` channel's faults.
+    speed : float
+        Real-time speed factor s (simulated s per wall s).
+    """
+
+    def __init__(self, plan: BusFaultPlan, speed: float = 1.0) -> None:
+        self.plan = plan
+        self.speed = speed
+        self.held: deque[tuple[int, int, SensorFrame]] = deque()
+        self.counts: Counter[str] = Counter()
+        self._last_sim_ns = -1
+        self._last_wall_ns = -1
+
+    def submit(self, frame: SensorFrame, sent_wall_ns: int) -> None:
+        """Decide ``frame``'s fate and hold it until its delivery time (or drop it)."""
+        effect = self.plan.effect(frame.seq, frame.sample_time_ns)
+        for kind in effect.kinds:
+            self.counts[kind] += 1
+        if effect.lost:
+            return
+        due_sim = max(frame.sample_time_ns + effect.delay_ns, self._last_sim_ns)
+        due_wall = max(sent_wall_ns + round(effect.delay_ns / self.speed), self._last_wall_ns)
+        self._last_sim_ns, self._last_wall_ns = due_sim, due_wall
+        self.held.append((due_sim, due_wall, frame))
+
+    def pop_due_sim(self, before_ns: int) -> list[tuple[SensorFrame, int]]:
+        """Frames due before simulated time ``before_ns``, in order, with their due time."""
+        out = []
+        held = self.held
+        while held and held[0][0] < before_ns:
+            due, _wall, frame = held.popleft()
+            out.append((frame, due))
+        return out
+
+    def pop_due_wall(self, now_ns: int) -> list[SensorFrame]:
+        """Frames whose wall delivery time is at or before ``now_ns``, in order."""
+        out = []
+        held = self.held
+        while held and held[0][1] <= now_ns:
+            out.append(held.popleft()[2])
+        return out
+
+    def next_due_wall(self) -> int | None:
+        """Wall delivery time of the next held frame (None: none held)."""
+        return self.held[0][1] if self.held else None
 
 
 class PlantLoop:
@@ -277,6 +375,24 @@ class PlantLoop:
         turbine = self.sim.config.turbine
         self.safe_demand = (turbine.pitch_max_rad, 0.0)
         self.log: Callable[[str], None] = lambda _msg: None
+        self._inbox: CommandInbox | None = None  # the bus node's, for its fault counters
+        # Bus faults (module docstring): the sensor link and the command channel's plan.
+        faults = scenario.fault_specs()
+        seed = scenario.sensors.seed
+        sensor_plan = BusFaultPlan(faults, "sensors", seed)
+        command_plan = BusFaultPlan(faults, "command", seed)
+        self.sensor_link = SensorLink(sensor_plan, speed) if sensor_plan else None
+        self.command_plan = command_plan if command_plan else None
+        self.command_fault_counts: Counter[str] = Counter()
+        events = [(f.start_ns, f"fault ON  {f.describe()}") for f in faults]
+        events += [(f.end_ns, f"fault OFF {f.kind} on {', '.join(f.channels)}") for f in faults]
+        self._fault_events = sorted(e for e in events if e[0] < OPEN_END_NS)
+        self._next_fault_event_ns = self._fault_events[0][0] if events else OPEN_END_NS
+
+    @property
+    def bus_faults(self) -> bool:
+        """True when the scenario has bus faults (the loops take the faulted path)."""
+        return self.sensor_link is not None or self.command_plan is not None
 
     @property
     def t_ns(self) -> int:
@@ -285,15 +401,37 @@ class PlantLoop:
     def sample(self) -> SensorFrame:
         """Publish truth and sensor frame of the current state; return the frame."""
         now = time.monotonic_ns()
+        if self.t_ns >= self._next_fault_event_ns:
+            self._log_fault_events()
         truth = self.sim.truth(self.k, self.t_ns, self.x, self.applied, now)
         frame = self.sim.sensor_frame(self.k, truth, now)
         self.frame_sent_ns = time.monotonic_ns()
-        self.publish(SENSORS, frame)
+        if self.sensor_link is None:
+            self.publish(SENSORS, frame)
+        else:  # the loop publishes it when the link delivers it
+            self.sensor_link.submit(frame, self.frame_sent_ns)
         # The log-only messages go out while the controller works on the frame: a Zenoh
         # put costs 50-150 us, which would otherwise add to every cycle's round trip.
         self.publish(TRUTH, truth)
         self.flush_timing()
         return frame
+
+    def _log_fault_events(self) -> None:
+        events = self._fault_events
+        while events and events[0][0] <= self.t_ns:
+            self.log(f"t = {self.t_ns * 1e-9:.3f} s: {events.pop(0)[1]}")
+        self._next_fault_event_ns = events[0][0] if events else OPEN_END_NS
+
+    def count_faults(self, inbox: CommandInbox | None = None) -> dict[str, int]:
+        """Collect the fault counters (sensor, sensor link, command) into the result."""
+        counts: Counter[str] = Counter(self.sim.faults.injected)
+        if self.sensor_link is not None:
+            counts.update(self.sensor_link.counts)
+        counts.update(self.command_fault_counts)
+        if inbox is not None:
+            counts.update(inbox.fault_counts)
+        self.result.faults_injected = dict(sorted(counts.items()))
+        return self.result.faults_injected
 
     def flush_timing(self) -> None:
         """Publish the previous cycle's timing record if it is still pending."""
@@ -307,12 +445,14 @@ class PlantLoop:
         latency_ns: int,
         tick_lateness_ns: int = 0,
         at_arrival: bool = True,
+        effect_at_ns: int = 0,
     ) -> None:
         """Apply ``command`` (None: deadline missed, hold), integrate, publish timing.
 
         ``at_arrival``: the command takes effect ``latency_ns`` into the period (real time);
-        False (lock-step, in-process): at the start of the period, whatever the latency, so
-        those modes stay deterministic on a loaded machine.
+        False (lock-step, in-process): ``effect_at_ns`` of simulated time into the period
+        (0 unless a bus fault delayed it), whatever the wall latency, so those modes stay
+        deterministic on a loaded machine.
         """
         t0 = time.monotonic_ns()
         missed = command is None
@@ -323,6 +463,8 @@ class PlantLoop:
             latency_sim_s = latency_ns * 1e-9 * self.speed
             if at_arrival and self.speed > 0:
                 switch = min(self.sim.n, round(latency_sim_s / self.sim.h))
+            elif effect_at_ns:
+                switch = min(self.sim.n, round(effect_at_ns * 1e-9 / self.sim.h))
             self.hist.record(latency_ns)
         else:
             new = previous
@@ -397,6 +539,8 @@ class PlantLoop:
             commands_rejected=r.commands_rejected,
             commands_late=r.commands_late,
             safe_state=int(self.safe_state),
+            safe_state_cycles=r.safe_state_cycles,
+            faults_injected=sum(self.count_faults(self._inbox).values()),
             final=int(final),
             latency_p50_us=self.hist.percentile_us(50),
             latency_p99_us=self.hist.percentile_us(99),
@@ -410,14 +554,41 @@ class PlantLoop:
 
 
 class CommandInbox:
-    """Receives command payloads in Zenoh's thread; the plant loop reads them."""
+    """Receives command payloads in Zenoh's thread; the plant loop reads them.
 
-    def __init__(self) -> None:
+    Parameters
+    ----------
+    faults : BusFaultPlan, optional
+        The ``command`` channel's bus faults, applied on arrival (real-time mode only; the
+        lock-step loop applies them in simulated time): a lost command is dropped, a
+        delayed one becomes visible (and counts as arrived) D / ``speed`` later, FIFO.
+    speed : float
+        Real-time speed factor s: a delay of D simulated seconds is D / s wall seconds.
+    """
+
+    def __init__(self, faults: BusFaultPlan | None = None, speed: float = 1.0) -> None:
         self.cond = threading.Condition()
         self.latest: tuple[ActuatorCommand, int] | None = None
         self.rejected: Counter[str] = Counter()
         self.last_answered = -1
         self.late = 0  # commands that answered an older frame than the one awaited
+        self.faults = faults if faults else None
+        self.speed = speed
+        self.fault_counts: Counter[str] = Counter()
+        self.pending: deque[tuple[int, ActuatorCommand]] = deque()  # (visible at ns, command)
+        self._last_visible_ns = -1
+
+    def _promote(self, now_ns: int) -> None:
+        """Make the delayed commands whose time has come visible (lock held)."""
+        pending = self.pending
+        while pending and pending[0][0] <= now_ns:
+            visible, command = pending.popleft()
+            if self.latest is not None:
+                self.late += 1  # superseded before anyone took it
+            self.latest = (command, visible)
+
+    def _next_visible_ns(self) -> int | None:
+        return self.pending[0][0] if self.pending else None
 
     def _drop_older(self, seq: int) -> None:
         if self.latest is not None and self.latest[0].answered_seq < seq:
@@ -437,12 +608,27 @@ class CommandInbox:
                 self.rejected["duplicate_or_reordered"] += 1
                 return
             self.last_answered = command.answered_seq
+            if self.faults is not None:
+                effect = self.faults.effect(command.answered_seq, command.sample_time_ns)
+                for kind in effect.kinds:
+                    self.fault_counts[kind] += 1
+                if effect.lost:
+                    return
+                if effect.delay_ns or self.pending:  # FIFO: never overtake a delayed one
+                    visible = arrival + round(effect.delay_ns / self.speed)
+                    visible = max(visible, self._last_visible_ns)
+                    self._last_visible_ns = visible
+                    self.pending.append((visible, command))
+                    self.cond.notify_all()
+                    return
             self.latest = (command, arrival)
             self.cond.notify_all()
 
     def take(self, seq: int) -> tuple[ActuatorCommand, int] | None:
         """The command answering ``seq`` if it has arrived (consumed), else None."""
         with self.cond:
+            if self.pending:
+                self._promote(time.monotonic_ns())
             self._drop_older(seq)
             if self.latest is not None and self.latest[0].answered_seq == seq:
                 got, self.latest = self.latest, None
@@ -453,18 +639,27 @@ class CommandInbox:
         """Block until the command answering ``seq`` arrives, or ``timeout_s`` passes."""
         deadline = time.monotonic() + timeout_s
         with self.cond:
+            if self.pending:
+                self._promote(time.monotonic_ns())
             self._drop_older(seq)
             while self.latest is None or self.latest[0].answered_seq != seq:
                 self._drop_older(seq)
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     return None
+                nxt = self._next_visible_ns()
+                if nxt is not None:
+                    remaining = min(remaining, max(0.0, (nxt - time.monotonic_ns()) / 1e9))
                 self.cond.wait(remaining)
+                if self.pending:
+                    self._promote(time.monotonic_ns())
             got, self.latest = self.latest, None
             return got
 
 
-def wait_for_peers(bus: Bus, turbine_id: str, required: tuple[str, ...], timeout_s: float) -> None:
+def wait_for_peers(
+    bus: Bus | HybridBus, turbine_id: str, required: tuple[str, ...], timeout_s: float
+) -> None:
     """Block until every ``required`` node (e.g. controller, recorder) has announced itself.
 
     Nodes declare a liveliness token ``fowt/<turbine>/alive/<name>`` after their
@@ -493,13 +688,29 @@ def run_plant_node(
     peer_timeout_s: float = 30.0,
     lockstep_timeout_s: float = 10.0,
     log: Callable[[str], None] = print,
+    can: CanBusConfig | None = None,
 ) -> PlantRunResult:
-    """Run the plant as its own process on the bus in ``realtime`` or ``lockstep`` mode."""
+    """Run the plant as its own process on the bus in ``realtime`` or ``lockstep`` mode.
+
+    Transport: with ``can`` None everything goes over the Zenoh session of ``bus_config``;
+    with a :class:`hil.can_bus.CanBusConfig` the sensor frame goes out and the command
+    comes in on that CAN bus (:class:`hil.can_bus.HybridBus`), while truth, timing and
+    liveliness stay on Zenoh. The loops are the same: lock-step waits for the command whose
+    (reassembled, unwrapped) ``answered_seq`` is frame k's.
+    """
     if mode not in ("realtime", "lockstep"):
         raise ValueError(f"the plant node runs realtime or lockstep, not {mode!r}")
     if not speed > 0:
         raise ValueError(f"speed factor must be > 0, got {speed}")
-    bus = Bus(bus_config)
+    bus: Bus | HybridBus
+    can_bus: CanBus | None = None
+    if can is None:
+        bus = Bus(bus_config)
+    else:  # imported here: a Zenoh-only plant does not load python-can and cantools
+        from hil.can_bus import HybridBus  # noqa: PLC0415
+
+        bus = HybridBus(bus_config, can)
+        can_bus = bus.can
     tid = scenario.turbine_id
     publishers = {
         mt.key_suffix: bus.publisher(mt.key(tid))
@@ -507,9 +718,14 @@ def run_plant_node(
     }
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if can_bus is not None and mt is SENSORS:
+            can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
+            return
         publishers[mt.key_suffix].put(mt.codec.encode(msg))
 
-    inbox = CommandInbox()
+    # Real time: command faults act on arrival in the inbox; lock-step: in the loop.
+    command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
+    inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
     bus.subscribe(COMMAND.key(tid), inbox.on_payload)
     stop = threading.Event()
 
@@ -528,6 +744,7 @@ def run_plant_node(
         wait_for_peers(bus, tid, require, peer_timeout_s)
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
         loop.log = log
+        loop._inbox = inbox
         cycles = scenario.cycles
         log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
         if mode == "lockstep":
@@ -544,9 +761,16 @@ def run_plant_node(
         if loop is not None:
             loop.result.commands_rejected = sum(inbox.rejected.values())
             loop.result.rejected = dict(inbox.rejected)
+            loop.count_faults(inbox)
             loop.publish_summary(final=True)
             time.sleep(0.2)  # let the final summary reach the recorder before the link goes
         token.undeclare()
+        if can_bus is not None:
+            log(
+                f"plant CAN ({can_bus.config.interface} {can_bus.config.effective_channel}"
+                f"{', FD' if can_bus.config.fd else ''}): {can_bus.frames_sent} frames sent, "
+                f"{can_bus.frames_received} received, rejected {dict(can_bus.rejected)}"
+            )
         bus.close()
     assert loop is not None
     r = loop.result
@@ -556,23 +780,80 @@ def run_plant_node(
         + (f", safe state for {r.safe_state_cycles} cycles" if r.safe_state_cycles else "")
         + (f", aborted: {r.aborted}" if r.aborted else "")
     )
+    if r.faults_injected:
+        log(f"plant faults injected: {_fault_counts_text(r.faults_injected)}")
     return r
+
+
+def _fault_counts_text(counts: dict[str, int]) -> str:
+    return ", ".join(f"{kind} {n}" for kind, n in counts.items())
+
+
+Exchange = Callable[[SensorFrame, int], "tuple[ActuatorCommand | None, int]"]
+
+
+def _faulted_sim_cycle(loop: PlantLoop, frame: SensorFrame, exchange: Exchange) -> None:
+    """One lock-step / in-process cycle under bus faults, in simulated time.
+
+    Delivers the frames due before t_{k+1} (the sensor link; without one, frame k, already
+    published), gets the controller's answer to each through ``exchange(frame, sent_ns)``
+    -> (command or None, wall latency ns), and applies the answer to frame k at its
+    simulated arrival, or holds (module docstring, "Bus faults").
+    """
+    k, t_k, period = loop.k, loop.t_ns, loop.period_ns
+    link = loop.sensor_link
+    due = [(frame, t_k)] if link is None else link.pop_due_sim(t_k + period)
+    answer: tuple[ActuatorCommand, int, int] | None = None
+    for f, due_ns in due:
+        if link is not None:
+            loop.publish(SENSORS, f)
+        command, latency = exchange(f, time.monotonic_ns())
+        if command is None:
+            continue
+        if f.seq == k:
+            answer = (command, latency, due_ns - t_k)
+        else:
+            loop.result.commands_late += 1  # answered an older frame: dropped
+    if answer is None:  # frame k lost or delayed past the period: hold, a miss
+        loop.finish_cycle(None, 0)
+        return
+    command, latency, effect_at = answer
+    plan = loop.command_plan
+    if plan is not None:
+        effect = plan.effect(k, t_k)
+        loop.command_fault_counts.update(effect.kinds)
+        if effect.lost:
+            loop.finish_cycle(None, 0)
+            return
+        effect_at += effect.delay_ns
+    if effect_at >= period:
+        loop.result.commands_late += 1
+        loop.finish_cycle(None, 0)
+        return
+    loop.finish_cycle(command, latency, at_arrival=False, effect_at_ns=effect_at)
 
 
 def _run_lockstep(
     loop: PlantLoop, inbox: CommandInbox, cycles: int, timeout_s: float, stop: threading.Event
 ) -> None:
-    for _ in range(cycles):
-        if stop.is_set():
-            return
-        frame = loop.sample()
+    def exchange(frame: SensorFrame, sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         got = inbox.wait_for(frame.seq, timeout_s)
         if got is None:
             raise TimeoutError(
                 f"controller did not answer frame {frame.seq} within {timeout_s:g} s"
             )
-        command, arrival = got
-        loop.finish_cycle(command, arrival - loop.frame_sent_ns, at_arrival=False)
+        return got[0], got[1] - sent_ns
+
+    faulted = loop.bus_faults
+    for _ in range(cycles):
+        if stop.is_set():
+            return
+        frame = loop.sample()
+        if faulted:
+            _faulted_sim_cycle(loop, frame, exchange)
+            continue
+        command, latency = exchange(frame, loop.frame_sent_ns)
+        loop.finish_cycle(command, latency, at_arrival=False)
 
 
 def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threading.Event) -> None:
@@ -584,10 +865,16 @@ def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threa
             return
         frame = loop.sample()
         sent = loop.frame_sent_ns
-        # Block on the inbox until the command or the next tick, whichever first (blocking,
-        # not spinning, leaves the CPU to the controller on a 2-core machine) ...
-        remaining_s = (pacer.deadline_ns(pacer.k + 1) - time.monotonic_ns()) / 1e9
-        got = inbox.wait_for(frame.seq, remaining_s) if remaining_s > 0 else inbox.take(frame.seq)
+        tick = pacer.deadline_ns(pacer.k + 1)
+        if loop.sensor_link is not None:
+            got = _wait_delivering(loop, loop.sensor_link, inbox, frame.seq, tick)
+        else:
+            # Block on the inbox until the command or the next tick, whichever first
+            # (blocking, not spinning, leaves the CPU to the controller on 2 cores) ...
+            remaining_s = (tick - time.monotonic_ns()) / 1e9
+            got = (
+                inbox.wait_for(frame.seq, remaining_s) if remaining_s > 0 else inbox.take(frame.seq)
+            )
         if got is not None and got[1] - sent > loop.wall_period_ns:
             got = None  # it came, but later than its control period: a miss
             loop.result.commands_late += 1
@@ -601,22 +888,65 @@ def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threa
     loop.result.commands_late += inbox.late
 
 
+def _wait_delivering(
+    loop: PlantLoop, link: SensorLink, inbox: CommandInbox, seq: int, tick_ns: int
+) -> tuple[ActuatorCommand, int] | None:
+    """Real time under sensor bus faults: wait for the command answering ``seq`` until
+    ``tick_ns``, publishing the held frames at their wall delivery times meanwhile (and
+    after the command came, up to the tick)."""
+    got: tuple[ActuatorCommand, int] | None = None
+    while True:
+        now = time.monotonic_ns()
+        for f in link.pop_due_wall(now):
+            loop.publish(SENSORS, f)
+        if now >= tick_ns:
+            break
+        nxt = link.next_due_wall()
+        if got is not None:
+            if nxt is None or nxt >= tick_ns:
+                break
+            wait_until(nxt, 200_000)
+            continue
+        limit = tick_ns if nxt is None else min(tick_ns, nxt)
+        remaining_s = (limit - now) / 1e9
+        got = inbox.wait_for(seq, remaining_s) if remaining_s > 0 else inbox.take(seq)
+    return got if got is not None else inbox.take(seq)
+
+
 def run_inprocess(
     scenario: Scenario,
     publish: Publish,
     step_controller: Callable[[SensorFrame], ActuatorCommand | None],
+    log: Callable[[str], None] | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
     ``step_controller`` is the controller runtime's cycle; the order of operations is the
-    lock-step order, so a seeded in-process run reproduces a lock-step run exactly.
+    lock-step order, so a seeded in-process run reproduces a lock-step run exactly (bus
+    faults included: both take :func:`_faulted_sim_cycle`). ``log`` gets the fault windows
+    and the final fault counts.
     """
     loop = PlantLoop(scenario, publish)
+    if log is not None:
+        loop.log = log
+
+    def exchange(frame: SensorFrame, _sent_ns: int) -> tuple[ActuatorCommand | None, int]:
+        t0 = time.monotonic_ns()
+        command = step_controller(frame)
+        return command, time.monotonic_ns() - t0
+
+    faulted = loop.bus_faults
     for _ in range(scenario.cycles):
         frame = loop.sample()
+        if faulted:
+            _faulted_sim_cycle(loop, frame, exchange)
+            continue
         t0 = time.monotonic_ns()
         command = step_controller(frame)
         latency = time.monotonic_ns() - t0
         loop.finish_cycle(command, latency, at_arrival=False)
+    loop.count_faults()
     loop.publish_summary(final=True)
+    if loop.result.faults_injected:
+        loop.log(f"plant faults injected: {_fault_counts_text(loop.result.faults_injected)}")
     return loop.result

@@ -6,6 +6,22 @@ queue to :class:`hil.mcap_log.RunLog`, flushing a chunk at least every 0.25 s, s
 stays readable up to its last flush if any process, this one included, is killed. The
 recorder stops after the plant's final timing summary (plus a short drain) or on
 SIGINT/SIGTERM, and always finishes the file.
+
+CAN runs
+--------
+With a CAN bus (:class:`hil.can_bus.CanBusConfig`; ``fowt record --transport can ...``,
+in the plant's and controller's network namespace) the recorder also joins the CAN bus, as
+a listen-only node: the sensor frames and commands, which do not travel on Zenoh in such a
+run, are reassembled and decoded there and written to their usual channels, and every raw
+frame goes to the channel ``fowt/<turbine>/can/raw`` (:data:`CAN_RAW_SUFFIX`; JSON Schema
+:data:`CAN_RAW_SCHEMA`), one MCAP message per frame: the bus's receive timestamp,
+``arbitration_id``, ``is_extended_id``, ``is_fd``, ``dlc`` (the data length in bytes) and
+``data`` (hex). Its ``sample_time_ns`` (the MCAP log time) is the sample time of the
+message instance the frame belongs to, known once the instance completes: frames are held
+per message type until then (a frame of an unknown id, or of an instance that never
+completes, gets the latest sample time seen). ``fowt review`` counts them under
+``run.messages["can/raw"]``; the recorder's metadata record adds the CAN frame count and
+the reassembler's rejections.
 """
 
 from __future__ import annotations
@@ -18,16 +34,116 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import msgspec
 
 from bus_schemas import DecodeError, TimingSummary
-from bus_schemas.registry import BY_SUFFIX, KEY_PREFIX
+from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
 from hil.bus import Bus, BusConfig
 from hil.mcap_log import RunLog
 from hil.scenario import Scenario
 
+if TYPE_CHECKING:
+    import can
+
+    from hil.can_bus import CanBus, CanBusConfig
+
 #: How often the main thread writes what the Zenoh thread queued (s); << the 0.25 s flush.
 _DRAIN_PERIOD_S = 0.02
+
+#: Key suffix of the raw CAN frame channel.
+CAN_RAW_SUFFIX = "can/raw"
+
+#: JSON Schema of one raw CAN frame record (:class:`CanRawFrame`).
+CAN_RAW_SCHEMA: dict[str, Any] = {
+    "title": "fowt.CanRawFrame",
+    "description": "One CAN frame as received by the recorder (classic or CAN FD).",
+    "type": "object",
+    "properties": {
+        "sample_time_ns": {
+            "type": "integer",
+            "description": "Sample time of the message instance the frame belongs to [ns]",
+        },
+        "timestamp_ns": {
+            "type": "integer",
+            "description": "Receive time on the bus interface, Unix epoch [ns]",
+        },
+        "arbitration_id": {"type": "integer", "minimum": 0, "maximum": 0x1FFFFFFF},
+        "is_extended_id": {"type": "boolean"},
+        "is_fd": {"type": "boolean"},
+        "dlc": {"type": "integer", "minimum": 0, "maximum": 64, "description": "Data bytes"},
+        "data": {"type": "string", "description": "Data bytes as hex"},
+    },
+    "required": [
+        "sample_time_ns",
+        "timestamp_ns",
+        "arbitration_id",
+        "is_extended_id",
+        "is_fd",
+        "dlc",
+        "data",
+    ],
+}
+
+
+class CanRawFrame(msgspec.Struct, frozen=True):
+    """One raw CAN frame record (channel ``fowt/<turbine>/can/raw``)."""
+
+    sample_time_ns: int
+    timestamp_ns: int
+    arbitration_id: int
+    is_extended_id: bool
+    is_fd: bool
+    dlc: int
+    data: str
+
+
+class RecorderLog(RunLog):
+    """:class:`hil.mcap_log.RunLog` plus the raw CAN frame channel.
+
+    Parameters
+    ----------
+    path : Path
+        Output file.
+    turbine : str
+        Turbine id of the keys.
+    can_raw : bool
+        Register the ``fowt/<turbine>/can/raw`` channel (a CAN run).
+    """
+
+    def __init__(self, path: Path, turbine: str, *, can_raw: bool = False) -> None:
+        super().__init__(path, turbine)
+        self.can_raw_key = f"{KEY_PREFIX}/{turbine}/{CAN_RAW_SUFFIX}"
+        self._can_raw_channel: int | None = None
+        self._can_raw_seq = 0
+        if can_raw:
+            schema_id = self._writer.register_schema(
+                name="fowt.CanRawFrame",
+                encoding="jsonschema",
+                data=json.dumps(CAN_RAW_SCHEMA).encode(),
+            )
+            self._can_raw_channel = self._writer.register_channel(
+                topic=self.can_raw_key, message_encoding="json", schema_id=schema_id
+            )
+
+    def write(self, key: str, msg: Any, receive_unix_ns: int | None = None) -> None:
+        """Write one message; a :class:`CanRawFrame` goes to the raw CAN channel."""
+        if not isinstance(msg, CanRawFrame):
+            super().write(key, msg, receive_unix_ns)
+            return
+        if self._can_raw_channel is None:
+            raise KeyError(f"no channel registered for key {key!r}")
+        self._writer.add_message(
+            channel_id=self._can_raw_channel,
+            log_time=self.start_unix_ns + msg.sample_time_ns,
+            data=msgspec.json.encode(msg),
+            publish_time=receive_unix_ns if receive_unix_ns is not None else time.time_ns(),
+            sequence=self._can_raw_seq,
+        )
+        self._can_raw_seq += 1
+        self.count += 1
+        self.maybe_flush()
 
 
 class Recorder:
@@ -76,6 +192,75 @@ class Recorder:
                 return n
 
 
+class CanTap:
+    """The recorder's CAN side: decoded sensor frames and commands, and every raw frame.
+
+    Runs in the CAN bus's receive thread and queues into the :class:`Recorder`'s queue
+    (module docstring, "CAN runs"). Raw frames are held per message type until the instance
+    they belong to completes, then queued with its sample time, ahead of the decoded message.
+
+    Parameters
+    ----------
+    recorder : Recorder
+        Whose queue the records go to.
+    bus : CanBus
+        The recorder's CAN bus (subscribes to the sensor frame and the command on it).
+    """
+
+    def __init__(self, recorder: Recorder, bus: CanBus) -> None:
+        self.recorder = recorder
+        self.bus = bus
+        tid = recorder.log.turbine
+        self.raw_key = f"{KEY_PREFIX}/{tid}/{CAN_RAW_SUFFIX}"
+        self.frames = 0
+        self.last_sample_ns = 0
+        self._held: dict[type[msgspec.Struct], list[CanRawFrame]] = {}
+        for mt in (SENSORS, COMMAND):
+            bus.subscribe_message(mt, self._message_handler(mt))
+        bus.add_frame_listener(self.on_frame)
+
+    def on_frame(self, frame: can.Message) -> None:
+        """Hold (or, for an unknown id, queue) one raw frame."""
+        self.frames += 1
+        record = CanRawFrame(
+            sample_time_ns=self.last_sample_ns,
+            timestamp_ns=round(frame.timestamp * 1e9),
+            arbitration_id=frame.arbitration_id,
+            is_extended_id=frame.is_extended_id,
+            is_fd=frame.is_fd,
+            dlc=len(frame.data),
+            data=bytes(frame.data).hex(),
+        )
+        mt = self.bus.reassembler.message_type_of(frame.arbitration_id)
+        if mt is None:
+            self.recorder.queue.put((self.raw_key, record, time.time_ns()))
+            return
+        self._held.setdefault(mt.cls, []).append(record)
+
+    def _message_handler(self, mt: MessageType) -> Callable[[Any], None]:
+        key = mt.key(self.recorder.log.turbine)
+
+        def on_message(msg: Any) -> None:
+            now = time.time_ns()
+            self.last_sample_ns = int(msg.sample_time_ns)
+            self._release(mt.cls, self.last_sample_ns, now)
+            self.recorder.queue.put((key, msg, now))
+
+        return on_message
+
+    def _release(self, cls: type[msgspec.Struct], sample_ns: int, now: int) -> None:
+        held = self._held.pop(cls, [])
+        for record in held:
+            stamped = msgspec.structs.replace(record, sample_time_ns=sample_ns)
+            self.recorder.queue.put((self.raw_key, stamped, now))
+
+    def flush(self) -> None:
+        """Queue the frames still held (instances that never completed)."""
+        now = time.time_ns()
+        for cls in list(self._held):
+            self._release(cls, self.last_sample_ns, now)
+
+
 def run_recorder_node(
     scenario: Scenario,
     bus_config: BusConfig,
@@ -84,12 +269,19 @@ def run_recorder_node(
     scenario_toml: str = "",
     drain_s: float = 0.3,
     log: Callable[[str], None] = print,
+    can: CanBusConfig | None = None,
 ) -> int:
     """Record until the plant's final summary (plus ``drain_s``) or a signal.
 
+    With ``can`` the recorder also listens on that CAN bus (module docstring, "CAN runs").
     Returns the number of messages written.
     """
-    run_log = RunLog(out, scenario.turbine_id)
+    can_bus: CanBus | None = None
+    if can is not None:  # imported here: a Zenoh-only recorder does not load python-can
+        from hil.can_bus import CanBus  # noqa: PLC0415
+
+        can_bus = CanBus(can)  # first: a bus that cannot open leaves no half-written file
+    run_log = RecorderLog(out, scenario.turbine_id, can_raw=can is not None)
     run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
     if run_info:
         run_log.add_metadata("run", run_info)
@@ -101,6 +293,7 @@ def run_recorder_node(
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+    tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
     written = 0
     try:
@@ -119,17 +312,29 @@ def run_recorder_node(
         token.undeclare()
     finally:
         bus.close()
+        meta = {
+            "messages": str(run_log.count),
+            "rejected": json.dumps(dict(recorder.rejected)),
+            "unknown_keys": json.dumps(dict(recorder.unknown_keys)),
+        }
+        if can_bus is not None and tap is not None:
+            can_bus.close()
+            tap.flush()
+            cfg = can_bus.config
+            meta.update(
+                can_interface=cfg.interface,
+                can_channel=cfg.effective_channel,
+                can_fd=str(int(cfg.fd)),
+                can_frames=str(tap.frames),
+                can_rejected=json.dumps(dict(can_bus.rejected)),
+            )
         written += recorder.drain(0.0)
-        run_log.add_metadata(
-            "recorder",
-            {
-                "messages": str(run_log.count),
-                "rejected": json.dumps(dict(recorder.rejected)),
-                "unknown_keys": json.dumps(dict(recorder.unknown_keys)),
-            },
-        )
+        meta["messages"] = str(run_log.count)
+        run_log.add_metadata("recorder", meta)
         run_log.close()
     log(f"recorder closed {out}: {run_log.count} messages, rejected {dict(recorder.rejected)}")
+    if can_bus is not None and tap is not None:
+        log(f"recorder CAN: {tap.frames} frames, rejected {dict(can_bus.rejected)}")
     return written
 
 

@@ -172,6 +172,8 @@ def _timing(run: RunData) -> dict[str, Any]:
             commands_rejected=int(final["commands_rejected"]),
             commands_late=int(final["commands_late"]),
             safe_state=int(final["safe_state"]),
+            safe_state_cycles=int(final.get("safe_state_cycles", 0)),
+            faults_injected=int(final.get("faults_injected", 0)),
             sim_seconds_per_wall_second=float(final["sim_seconds_per_wall_second"]),
         )
     else:
@@ -687,7 +689,13 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
         "deadline misses",
         f"[bold red]{misses}[/bold red]" if misses else _fmt(misses),
     )
-    for name in ("commands_held", "commands_rejected", "commands_late"):
+    for name in (
+        "commands_held",
+        "commands_rejected",
+        "commands_late",
+        "safe_state_cycles",
+        "faults_injected",
+    ):
         v = tm.get(name)
         ct.add_row(name.replace("_", " "), f"[yellow]{v}[/yellow]" if v else _fmt(v))
     safe = tm.get("safe_state")

@@ -5,6 +5,8 @@ noise, the timing (control period, plant step) and the run length. Every key car
 unit in its name (``duration_s``, ``speed_m_s``); a misspelt key or a key with another unit
 is an error naming the key and, where it looks like a known key with another unit, the key
 that was meant. Shipped scenarios live in ``hil/scenarios/*.toml``.
+
+``[[faults]]`` tables (:class:`FaultSection`) inject sensor and bus faults in time windows.
 """
 
 from __future__ import annotations
@@ -15,9 +17,12 @@ import importlib.util
 import re
 import tomllib
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal, get_args
 
 import msgspec
+
+if TYPE_CHECKING:
+    from sensors.faults import FaultSpec
 
 Positive = Annotated[float, msgspec.Meta(gt=0.0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
@@ -234,6 +239,46 @@ class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
                 raise ValueError(f"sensors.channels.{name}: {exc}") from exc
 
 
+FaultKind = Literal[
+    "stuck", "dropout", "bias_step", "noise_burst", "bus_delay", "bus_jitter", "bus_loss"
+]
+
+
+class FaultSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One ``[[faults]]`` table: a fault acting on a channel from ``start_s`` to ``end_s``.
+
+    ``kind``: ``stuck`` | ``dropout`` | ``bias_step`` (``bias``, the channel's unit) |
+    ``noise_burst`` (``std``, the channel's unit; ``seed``) on ``channel``, a measured
+    SensorFrame field (or a list of them); ``bus_delay`` (``delay_s``) | ``bus_jitter``
+    (``distribution`` = ``"uniform"`` with ``max_s``, or ``"normal"`` with ``std_s`` and an
+    optional ``max_s``; ``seed``) | ``bus_loss`` (``probability``; ``seed``) on
+    ``channel = "sensors"`` (the frame to the controller) or ``"command"`` (the command back
+    to the plant). Times are simulated seconds; ``end_s`` absent: to the end of the run.
+    The models and their randomness: :mod:`sensors.faults`; how the plant applies the bus
+    faults in each mode: :mod:`hil.plant_node`.
+    """
+
+    kind: FaultKind
+    channel: str | list[str]
+    start_s: float = 0.0
+    end_s: float | None = None
+    bias: float | None = None
+    std: float | None = None
+    delay_s: float | None = None
+    distribution: Literal["uniform", "normal"] | None = None
+    std_s: float | None = None
+    max_s: float | None = None
+    probability: float | None = None
+    seed: int | None = None
+
+    def spec(self) -> FaultSpec:
+        """The validated :class:`sensors.faults.FaultSpec` of this table."""
+        from sensors.faults import FaultSpec  # noqa: PLC0415
+
+        table = {k: v for k, v in msgspec.structs.asdict(self).items() if v is not None}
+        return FaultSpec.from_table(table)
+
+
 class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Which controller runs and with which parameter preset.
 
@@ -251,6 +296,22 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     feedforward: Literal["balanced", "max_performance"] = "balanced"
 
 
+class CanSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """The CAN bus of a ``--transport can`` run (``fowt run`` options override each key).
+
+    ``interface``: ``"udp_multicast"`` (two processes on one host, only inside a private
+    network namespace, which ``fowt run`` creates as root), ``"socketcan"`` (a Linux CAN
+    netdevice, ``vcan0`` / ``can0``) or ``"virtual"`` (python-can's in-process bus: loopback
+    tests only); ``channel``: the multicast group or netdevice (empty: the interface's
+    default, ``239.74.163.2`` / ``vcan0``); ``fd``: CAN FD, one frame per message instead of
+    classic 8-byte parts. Only the sensor frame and the command travel on CAN.
+    """
+
+    interface: Literal["udp_multicast", "socketcan", "virtual"] = "udp_multicast"
+    channel: str = ""
+    fd: bool = False
+
+
 class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """One run of the bench."""
 
@@ -265,6 +326,8 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     timing: TimingSection = msgspec.field(default_factory=TimingSection)
     sensors: SensorSection = msgspec.field(default_factory=SensorSection)
     controller: ControllerSection = msgspec.field(default_factory=ControllerSection)
+    faults: list[FaultSection] = msgspec.field(default_factory=list)
+    can: CanSection = msgspec.field(default_factory=CanSection)
 
     def __post_init__(self) -> None:
         ratio = self.timing.control_period_s / self.timing.plant_step_s
@@ -300,6 +363,34 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "
                 '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'
             )
+        self.fault_specs()
+
+    def fault_specs(self) -> tuple[FaultSpec, ...]:
+        """The validated faults, in file order.
+
+        Raises
+        ------
+        ValueError
+            Naming the table (``faults[i]``) and the key at fault; also for a sensor fault on
+            a channel a bottom-fixed plant does not measure.
+        """
+        specs = []
+        turbine_channels = SENSOR_CHANNELS[:5]
+        for i, section in enumerate(self.faults):
+            try:
+                spec = section.spec()
+            except ValueError as exc:
+                raise ValueError(f"faults[{i}]: {exc}") from exc
+            if not spec.is_bus and not self.floating:
+                for ch in spec.channels:
+                    if ch not in turbine_channels and ch not in self.sensors.channels:
+                        raise ValueError(
+                            f"faults[{i}]: channel {ch!r} is not measured by a bottom-fixed "
+                            f"plant (its channels: {', '.join(turbine_channels)}, and any "
+                            "[sensors.channels] table)"
+                        )
+            specs.append(spec)
+        return tuple(specs)
 
     @property
     def floating(self) -> bool:
@@ -347,8 +438,11 @@ def _known_fields(path: str) -> list[str]:
         "timing": TimingSection,
         "sensors": SensorSection,
         "controller": ControllerSection,
+        "can": CanSection,
     }
     if parts:
+        if parts[0].startswith("faults["):
+            return list(FaultSection.__struct_fields__)
         if parts[0] in ("wind", "waves"):
             classes: tuple[type[msgspec.Struct], ...] = (
                 (SteadyWindSpec, StepWindSpec, RampWindSpec, TurbulentWindSpec, GustWindSpec)
@@ -385,7 +479,10 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
             raise ScenarioError(f"{source}: unknown key {full!r}{hint}") from exc
         at = re.search(r" - at `\$\.?([^`]*)`", msg)
         if at:
-            msg = f"key {at.group(1)!r}: {msg[: at.start()]}"
+            kinds = ""
+            if re.fullmatch(r"faults\[\d+\]\.kind", at.group(1)):
+                kinds = f" (kinds: {', '.join(get_args(FaultKind))})"
+            msg = f"key {at.group(1)!r}: {msg[: at.start()]}{kinds}"
         raise ScenarioError(f"{source}: {msg}") from exc
 
 

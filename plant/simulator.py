@@ -23,6 +23,15 @@ Two plants
   :mod:`plant.platform` provides ``step_floating(t, x, u, h, params)`` (one integrator
   step with the input held), it is used with the mid-step inputs u(t + h/2).
 
+Sensor faults
+-------------
+``PlantConfig.sensor_faults`` (:class:`sensors.faults.FaultSpec`: stuck, dropout, bias step,
+noise burst) act on the channels' readings of each frame through a
+:class:`sensors.faults.FaultSchedule`, after the channel models and before the frame is
+built, so a fault changes exactly the fields it names in exactly its window; the rotor speed,
+derived from the generator speed, follows that channel's fault. ``PlantSimulator.faults``
+counts what they did (``injected``, per kind). Bus faults are the node layer's business.
+
 Loads in :class:`PlantState` (formulas in :class:`bus_schemas.messages.PlantState`): the
 tower-base fore-aft bending moment from thrust, gravity and inertia of the masses above the
 base (:class:`TowerBaseLoads`), and the low-speed-shaft torque N T_g.
@@ -53,6 +62,7 @@ from plant.turbine import TurbineParams, f, outputs
 from plant.waves import PhasorStepper, WaveField
 from plant.wind import WindSpec, make_wind_function, wind_speed
 from sensors import ChannelSpec, ChannelSuite, NoiseSpec, SensorSuite
+from sensors.faults import FaultSchedule, FaultSpec
 
 State = tuple[float, ...]
 
@@ -213,6 +223,9 @@ class PlantConfig:
         The floating platform and waves (None: bottom-fixed).
     sensor_channels : mapping of str to ChannelSpec, optional
         Full channel models (noise, bias, quantization, delay, sample-and-hold, dropout).
+    sensor_faults : tuple of FaultSpec
+        Faults of the run (:mod:`sensors.faults`); the sensor kinds are applied to the
+        frames here, the bus kinds are ignored (the plant node applies them).
     """
 
     turbine: TurbineParams
@@ -223,6 +236,7 @@ class PlantConfig:
     sensor_seed: int = 1
     floating: FloatingPlant | None = None
     sensor_channels: Mapping[str, ChannelSpec] | None = field(default=None)
+    sensor_faults: tuple[FaultSpec, ...] = ()
 
     def __post_init__(self) -> None:
         if not (self.plant_step_s > 0 and math.isfinite(self.plant_step_s)):
@@ -272,6 +286,10 @@ class PlantSimulator:
         if config.sensor_channels is not None:
             self.channels = ChannelSuite(config.sensor_channels, config.sensor_seed)
         self.sensors = SensorSuite(config.sensor_noise, config.sensor_seed)
+        self.faults = FaultSchedule(
+            config.sensor_faults, config.sensor_seed, config.sensor_channels
+        )
+        self._faulty = bool(self.faults)
         self._stepper: PhasorStepper | None = None
         self._wave_now: list[float] = [0.0] * 5
         if self.floating is not None and self.floating.waves.n_components:
@@ -495,7 +513,8 @@ class PlantSimulator:
         gives the nacelle's kinematic fore-aft acceleration (gravity not included).
         """
         if self.channels is None:
-            return self._noise_frame(seq, truth, publish_ns)
+            frame = self._noise_frame(seq, truth, publish_ns)
+            return self._fault_noise_frame(frame) if self._faulty else frame
         truths = {
             "generator_speed_measured_rad_s": truth.generator_speed_rad_s,
             "blade_pitch_measured_rad": truth.blade_pitch_rad,
@@ -509,6 +528,8 @@ class PlantSimulator:
             "wave_elevation_gauge_measured_m": truth.wave_elevation_gauge_m,
         }
         readings = self.channels.step(truth.sample_time_ns, truths)
+        if self._faulty:
+            self.faults.apply(truth.sample_time_ns, readings)
         values = dict.fromkeys(MEASURED_FIELDS, 0.0)
         mask = 0
         for name, (value, ok) in readings.items():
@@ -523,6 +544,32 @@ class PlantSimulator:
             seq=seq,
             sample_time_ns=truth.sample_time_ns,
             publish_time_ns=publish_ns,
+            valid_mask=mask,
+            rotor_speed_measured_rad_s=rotor,
+            **values,
+        )
+
+    def _fault_noise_frame(self, frame: SensorFrame) -> SensorFrame:
+        """Apply the sensor faults to a frame of the noise-only sensors."""
+        readings: dict[str, tuple[float, bool]] = {
+            name: (getattr(frame, name), bool(frame.valid_mask & VALID_BITS[name]))
+            for name in MEASURED_FIELDS
+        }
+        self.faults.apply(frame.sample_time_ns, readings)
+        values = dict.fromkeys(MEASURED_FIELDS, 0.0)
+        mask = 0
+        for name, (value, ok) in readings.items():
+            if ok:
+                values[name] = value
+                mask |= VALID_BITS[name]
+        rotor = 0.0
+        if mask & VALID_GENERATOR_SPEED:
+            rotor = values["generator_speed_measured_rad_s"] / self.params.gearbox_ratio
+            mask |= VALID_ROTOR_SPEED
+        return SensorFrame(
+            seq=frame.seq,
+            sample_time_ns=frame.sample_time_ns,
+            publish_time_ns=frame.publish_time_ns,
             valid_mask=mask,
             rotor_speed_measured_rad_s=rotor,
             **values,

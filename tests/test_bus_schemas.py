@@ -145,6 +145,8 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "commands_held",
         "commands_rejected",
         "commands_late",
+        "safe_state_cycles",
+        "faults_injected",
         "final",
         "tip_speed_ratio",
         "power_coefficient",

@@ -191,6 +191,8 @@ def _write_run(path: Path) -> Written:
                 commands_rejected=3,
                 commands_late=2,
                 safe_state=0,
+                safe_state_cycles=0,
+                faults_injected=0,
                 final=int(i == N - 1),
                 latency_p50_us=300.0,
                 latency_p99_us=600.0,

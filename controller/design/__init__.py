@@ -1,26 +1,59 @@
-"""Offline controller design: linear models, LQRI gain schedule, wave feedforward.
+"""Offline controller design: linear models, LQRI gain schedule, wave feedforward, observer.
 
 This package MAY import ``plant`` (offline work); the controller runtime loads only the files
-it writes (``controller/presets/designs/<preset>_lqri.npz`` + ``.json``).
+it writes, named after the design (the plant preset's stem) and, for the discrete LQRI gains
+and wave-FF filters, the control period (:func:`controller.lqri.artefact_stem`):
 
-Entry points: :func:`design` (``fowt design PRESET``) and :func:`linear_report`
-(``fowt analyze linear PRESET --wind W --json``).
+* ``<preset>_lqri_dt<T_s>.npz`` + ``.json`` (e.g. ``iea15mw_volturnus_lqri_dt0p025``),
+* ``<preset>_waveff_dt<T_s>.npz`` + ``.json``,
+* ``<preset>_observer.npz`` + ``.json`` (continuous models, discretised at run time).
+
+Each json records the preset, the settings, the control period, the creation time (UTC) and
+the git commit. Shipped in ``controller/presets/designs`` for 0.025 s (40 Hz) and 0.01 s
+(100 Hz); other periods are designed on first use by ``fowt run`` into the user design cache
+(``$FOWT_DESIGN_DIR``, default ``~/.cache/fowt-hil/designs``).
+
+Entry points: :func:`design_all` (``fowt design PRESET --control-period T_s``), :func:`design`
+(LQRI + wave FF) and :func:`linear_report` (``fowt analyze linear PRESET --wind W --json``).
+
+Design time (2-vCPU machine, one BLAS thread): about 6 s for all three artefacts, nearly all
+in the wave-FF vector fits (22 winds x 40 least-squares iterations on 1201 x 50 matrices).
+With a multi-threaded BLAS on a loaded 2-core machine the same fits took 25-50 s, so
+``fowt design`` and the launcher run the design with one BLAS thread.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import json
+import os
+import shutil
 import subprocess
+import tempfile
+import time
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
-__all__ = ["DEFAULT_DESIGN_DIR", "design", "linear_report"]
+__all__ = [
+    "BLAS_SINGLE_THREAD_ENV",
+    "DEFAULT_DESIGN_DIR",
+    "design",
+    "design_all",
+    "linear_report",
+]
 
 #: Where the shipped artefacts live (the runtime reads them through importlib.resources).
 DEFAULT_DESIGN_DIR = Path(__file__).resolve().parents[1] / "presets" / "designs"
+
+#: Environment that makes the BLAS libraries single-threaded (effective only when set before
+#: numpy is first imported, which is why this module imports numpy lazily): the design's small
+#: least-squares problems ran 10-70x faster on one thread than with threads contending for
+#: 2 shared cores.
+BLAS_SINGLE_THREAD_ENV = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
 
 
 def _commit() -> str:
@@ -42,17 +75,25 @@ def design(
     preset: str = "iea15mw_volturnus",
     out_dir: str | Path | None = None,
     settings: dict[str, object] | None = None,
+    control_period_s: float | None = None,
+    provenance: dict[str, object] | None = None,
 ) -> dict[str, Path]:
     """Run the offline LQRI and wave-feedforward designs and write their artefacts.
 
     Parameters
     ----------
     preset : str
-        Floating preset (:func:`plant.platform.load_floating`).
+        Floating preset (:func:`plant.platform.load_floating`): a shipped name or a path to a
+        preset TOML; the artefacts are named after its stem.
     out_dir : str or Path, optional
         Output folder (default: :data:`DEFAULT_DESIGN_DIR`).
     settings : dict, optional
         Overrides of :class:`controller.design.lqri.LqriSettings` fields.
+    control_period_s : float, optional
+        Control period T_s [s] of the discrete gains and filters (overrides
+        ``settings["control_period_s"]``; default 0.025 s).
+    provenance : dict, optional
+        ``created_utc`` and ``commit`` to record (default: now and ``git rev-parse HEAD``).
 
     Returns
     -------
@@ -60,25 +101,35 @@ def design(
         ``{"lqri_npz", "lqri_json", "waveff_npz", "waveff_json"}`` paths (the wave
         feedforward of :func:`controller.design.wave_ff.write_wave_ff_artefact`).
     """
+    import numpy as np  # noqa: PLC0415  (lazy: BLAS_SINGLE_THREAD_ENV must come first)
+
     from controller.design.linear import (  # noqa: PLC0415
         linear_model,
         rated_wind_speed,
         reduce_radiation,
     )
-    from controller.design.lqri import LqriSettings, design_lqri  # noqa: PLC0415
+    from controller.design.lqri import LQRI_STATE_NAMES, LqriSettings, design_lqri  # noqa: PLC0415
+    from controller.lqri import artefact_stem  # noqa: PLC0415
     from plant.platform import load_floating  # noqa: PLC0415  offline only
     from plant.turbine import optimal_torque_gain  # noqa: PLC0415
 
     s = LqriSettings()
     if settings:
         s = replace(s, **settings)  # type: ignore[arg-type]
+    if control_period_s is not None:
+        s = replace(s, control_period_s=float(control_period_s))
+    prov = provenance or {
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "commit": _commit(),
+    }
     params = load_floating(preset)
     models = [reduce_radiation(linear_model(params, w), params) for w in s.wind_grid_m_s]
     gains = design_lqri(models, s)
     tp = params.turbine
     out = Path(out_dir) if out_dir is not None else DEFAULT_DESIGN_DIR
     out.mkdir(parents=True, exist_ok=True)
-    npz = out / f"{Path(str(preset)).stem}_lqri.npz"
+    name = Path(str(preset)).stem
+    npz = out / f"{artefact_stem(name, 'lqri', s.control_period_s)}.npz"
     np.savez_compressed(
         npz,
         wind_m_s=gains.wind_m_s,
@@ -92,18 +143,9 @@ def design(
         "format_version": 1,
         "kind": "lqri_gain_schedule",
         "preset": str(preset),
-        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "commit": _commit(),
-        "state_names": [
-            "surge_m",
-            "pitch_rad",
-            "tower_fore_aft_m",
-            "surge_rate_m_s",
-            "pitch_rate_rad_s",
-            "tower_fore_aft_rate_m_s",
-            "rotor_speed_rad_s",
-            "blade_pitch_rad",
-        ],
+        "control_period_s": s.control_period_s,
+        **prov,
+        "state_names": list(LQRI_STATE_NAMES),
         "law": "theta_c = theta_op - K_x (x - x_op) - K_i z, z' = omega - omega_rated",
         "settings": s.as_dict(),
         "scalars": {
@@ -124,9 +166,69 @@ def design(
         str(preset),
         out,
         dt_s=s.control_period_s,
-        provenance={"created_utc": meta["created_utc"], "commit": meta["commit"]},
+        provenance=prov,
     )
     return {"lqri_npz": npz, "lqri_json": js, **ff}
+
+
+def design_all(
+    preset: str = "iea15mw_volturnus",
+    control_period_s: float = 0.025,
+    out_dir: str | Path | None = None,
+) -> dict[str, Path]:
+    """All artefacts the advanced controller loads, for one preset and control period.
+
+    Runs :func:`design` (LQRI + wave FF at ``control_period_s``) and
+    :func:`controller.design.observer.design_observer` into a temporary folder inside
+    ``out_dir`` and then moves each file into place (json before npz, each an atomic
+    ``os.replace``), so a controller looking for the artefacts meanwhile (another run sharing
+    the cache) never reads a half-written file.
+
+    Parameters
+    ----------
+    preset : str
+        Floating preset name or preset TOML path.
+    control_period_s : float
+        Control period T_s [s], in (0, 1].
+    out_dir : str or Path, optional
+        Output folder (default: :data:`DEFAULT_DESIGN_DIR`).
+
+    Returns
+    -------
+    dict
+        ``{"lqri_npz", "lqri_json", "waveff_npz", "waveff_json", "observer_npz",
+        "observer_json"}`` final paths.
+    """
+    from controller.design.observer import design_observer  # noqa: PLC0415
+
+    if not 0.0 < control_period_s <= 1.0:
+        raise ValueError(f"control_period_s = {control_period_s!r}: expected (0, 1] s")
+    out = Path(out_dir) if out_dir is not None else DEFAULT_DESIGN_DIR
+    out.mkdir(parents=True, exist_ok=True)
+    prov: dict[str, object] = {
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "commit": _commit(),
+    }
+    tmp = Path(tempfile.mkdtemp(prefix=".design-", dir=out))
+    try:
+        t0 = time.perf_counter()
+        staged = {
+            **design(preset, tmp, control_period_s=control_period_s, provenance=prov),
+            **design_observer(preset, tmp),
+        }
+        seconds = time.perf_counter() - t0
+        final: dict[str, Path] = {}
+        for key in sorted(staged, key=lambda k: not k.endswith("_json")):
+            path = staged[key]
+            if key.endswith("_json"):
+                meta = json.loads(path.read_text())
+                meta["design_time_s"] = round(seconds, 2)
+                path.write_text(json.dumps(meta, indent=2) + "\n")
+            final[key] = out / path.name
+            os.replace(path, final[key])
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return final
 
 
 def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> dict[str, object]:
@@ -140,6 +242,8 @@ def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> 
         "closed_loop_poles_z": [[re, im]...], "closed_loop_poles_s": [[re, im]...],
         "closed_loop_spectral_radius"}`` (continuous poles in 1/s; discrete z at T_s).
     """
+    import numpy as np  # noqa: PLC0415
+
     from controller.design.linear import linear_model, reduce_radiation  # noqa: PLC0415
     from controller.design.lqri import LqriSettings, closed_loop_poles, gains_at  # noqa: PLC0415
     from plant.modes import PITCH_LENGTH_M, identify_modes  # noqa: PLC0415

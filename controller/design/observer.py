@@ -219,6 +219,7 @@ def design_observer(
         "format_version": 1,
         "kind": "platform_kf_schedule",
         "preset": str(preset),
+        "control_period_s": None,  # continuous models: discretised at run time
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "commit": _commit(),
         "state_names": list(STATE_NAMES),

@@ -467,7 +467,7 @@ def write_wave_ff_artefact(
     hydro_preset: str = "iea15mw_volturnus",
     provenance: dict[str, object] | None = None,
 ) -> dict[str, Path]:
-    """Design the FF filters over the wind grid and write ``<preset>_waveff.npz`` + ``.json``.
+    """Design the FF filters over the wind grid; write ``<preset>_waveff_dt<T_s>.npz`` + ``.json``.
 
     The npz holds per scheduled wind k: ``a`` (m, n, n), ``b``, ``c`` (m, n), ``d`` (m,),
     ``wind_m_s`` (m,), ``is_pitch`` (m,) and the band errors; the json the settings, the gain
@@ -517,8 +517,10 @@ def write_wave_ff_artefact(
         )
         for w in wind_grid_m_s
     ]
+    from controller.lqri import artefact_stem  # noqa: PLC0415
+
     out_dir.mkdir(parents=True, exist_ok=True)
-    npz = out_dir / f"{Path(str(preset)).stem}_waveff.npz"
+    npz = out_dir / f"{artefact_stem(Path(str(preset)).stem, 'waveff', dt_s)}.npz"
     np.savez_compressed(
         npz,
         wind_m_s=np.array([d.wind_m_s for d in designs]),
@@ -536,6 +538,7 @@ def write_wave_ff_artefact(
         "format_version": 1,
         "kind": "wave_feedforward",
         "preset": str(preset),
+        "control_period_s": dt_s,
         "hydro_preset": hydro_preset,
         "law": "u_ff = g(U) * (c z + d eta), z' = A z + b eta, eta = forecast eta0(t + t_d)",
         "settings": {
@@ -546,7 +549,7 @@ def write_wave_ff_artefact(
             "high_pass_rad_s": HIGH_PASS_RAD_S,
             "order": designs[0].order,
             "wind_grid_m_s": list(wind_grid_m_s),
-            "scheduling": "nearest design wind, switched with hysteresis, state reset on switch",
+            "scheduling": "all filters run; outputs blended linearly in the scheduling wind",
         },
         "gain_table": {
             k: {"wind_m_s": list(v[0]), "g": list(v[1])} for k, v in FF_GAIN_TABLE.items()
