@@ -73,6 +73,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import zenoh
+
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
 from controller.core import REGIME_SAFE, actuator_limits, make_controller
@@ -507,6 +509,18 @@ def run_controller_node(
     bus.subscribe(SENSORS.key(tid), on_frame)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
+
+    def on_plant_liveliness(sample: zenoh.Sample) -> None:
+        # The plant's token goes away when it exits or is killed (Zenoh sees its session
+        # drop). A normal end sends the final summary first; a killed plant never will, so
+        # without this the controller would wait for ever.
+        if sample.kind == zenoh.SampleKind.DELETE and not done.is_set():
+            reason[0] = "plant gone (its liveliness token disappeared)"
+            done.set()
+
+    plant_watch = bus.session.liveliness().declare_subscriber(
+        f"fowt/{tid}/alive/plant", on_plant_liveliness
+    )
     log(
         f"controller {scenario.controller.kind}/{scenario.controller.preset} ready on "
         f"{SENSORS.key(tid)} (listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
@@ -520,6 +534,7 @@ def run_controller_node(
             with lock:
                 runtime.check_silence()
     finally:
+        plant_watch.undeclare()
         token.undeclare()
         bus.close()
     rt = runtime

@@ -536,7 +536,13 @@ class PlantLoop:
             cycles=r.cycles,
             deadline_misses=r.deadline_misses,
             commands_held=r.commands_held,
-            commands_rejected=r.commands_rejected,
+            # The inbox counts rejections as they happen (Zenoh's thread); the running
+            # summaries carry the count so far, not only the final one.
+            commands_rejected=(
+                sum(self._inbox.rejected.values())
+                if self._inbox is not None
+                else r.commands_rejected
+            ),
             commands_late=r.commands_late,
             safe_state=int(self.safe_state),
             safe_state_cycles=r.safe_state_cycles,
@@ -778,6 +784,7 @@ def run_plant_node(
         f"plant done: {r.cycles} cycles, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.speed:.1f}x), deadline misses {r.deadline_misses}"
         + (f", safe state for {r.safe_state_cycles} cycles" if r.safe_state_cycles else "")
+        + (f", rejected commands {r.rejected}" if r.rejected else "")
         + (f", aborted: {r.aborted}" if r.aborted else "")
     )
     if r.faults_injected:
