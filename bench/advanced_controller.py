@@ -202,7 +202,7 @@ def replay(rate: str, duration_s: float) -> dict[str, Any]:
     }
 
 
-def realtime(rate: str, duration_s: float) -> dict[str, Any]:
+def realtime(rate: str, duration_s: float, priority: int = 0) -> dict[str, Any]:
     """Part b: ``fowt run`` (plant, controller, recorder processes) in real time.
 
     Returns
@@ -210,7 +210,8 @@ def realtime(rate: str, duration_s: float) -> dict[str, Any]:
     dict
         Deadline misses, latency and controller compute percentiles (us) of the summary.
     """
-    s = run_fowt(_scenario_ref(rate), "realtime", duration_s)
+    extra = ["--realtime-priority", str(priority)] if priority else []
+    s = run_fowt(_scenario_ref(rate), "realtime", duration_s, extra)
     t = s["timing"]
     compute = t.get("controller_compute_us") or {}
     return {
@@ -271,6 +272,9 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=None, help="part c override, s")
     parser.add_argument("--replay-duration", type=float, default=300.0, help="part a, s")
     parser.add_argument("--realtime-duration", type=float, default=60.0, help="part b, s")
+    parser.add_argument(
+        "--realtime-priority", type=int, default=0, help="part b: SCHED_FIFO priority"
+    )
     args = parser.parse_args()
     load_before = os.getloadavg()
     result: dict[str, Any] = {
@@ -289,7 +293,8 @@ def main() -> None:
     if args.only in (None, "realtime"):
         result["realtime"] = {}
         for rate in RATES:
-            r = realtime(rate, args.realtime_duration)
+            r = realtime(rate, args.realtime_duration, args.realtime_priority)
+            r["realtime_priority"] = args.realtime_priority
             result["realtime"][rate] = r
             print("realtime", rate, r)
     if args.only in (None, "comparison"):

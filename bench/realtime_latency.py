@@ -30,18 +30,23 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--only", choices=sorted(CONFIGS), default=None)
+    ap.add_argument(
+        "--realtime-priority", type=int, default=0, help="SCHED_FIFO for plant and controller"
+    )
     args = ap.parse_args()
+    rt = ["--realtime-priority", str(args.realtime_priority)] if args.realtime_priority else []
     results: dict[str, Any] = {}
     for name, (scenario, period, step) in CONFIGS.items():
         if args.only and name != args.only:
             continue
         path = scenario_variant(scenario, period, step)
-        s = run_fowt(str(path), "realtime", args.duration)
+        s = run_fowt(str(path), "realtime", args.duration, rt)
         t = s["timing"]
         results[name] = {
             "scenario": scenario,
             "control_rate_hz": round(1.0 / period),
             "duration_s": args.duration,
+            "realtime_priority": args.realtime_priority,
             "latency_us": t["latency_us"],
             "deadline_misses": t["deadline_misses"],
             "cycles": t["cycles"],

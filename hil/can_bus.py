@@ -44,6 +44,7 @@ as :class:`hil.bus.Bus`.
 
 from __future__ import annotations
 
+import importlib.util
 import ipaddress
 import os
 import shlex
@@ -94,10 +95,32 @@ def socketcan_available(channel: str = "vcan0") -> bool:
     return Path("/sys/class/net", channel).exists()
 
 
+def _netns_interfaces() -> list[str]:
+    """Network interfaces of this process's network namespace (``/proc/net/dev`` is per
+    namespace, unlike ``/sys/class/net``, which shows the namespace sysfs was mounted in)."""
+    with open("/proc/net/dev") as fh:
+        lines = fh.read().splitlines()[2:]
+    return [line.split(":", 1)[0].strip() for line in lines if ":" in line]
+
+
 def in_private_netns() -> bool:
-    """Whether this process runs in another network namespace than PID 1 (``unshare -n``)."""
+    """Whether this process runs in a private network namespace (``unshare -n``).
+
+    True when its namespace differs from PID 1's. Where PID 1's namespace cannot be read
+    (a container or sandbox denies ``/proc/1/ns/net`` even to root), True only when this
+    namespace has no interface but ``lo``: then no frame can leave the host whatever the
+    namespace is. False when neither can be told.
+    """
     try:
-        return os.stat("/proc/self/ns/net").st_ino != os.stat("/proc/1/ns/net").st_ino
+        own = os.stat("/proc/self/ns/net").st_ino
+    except OSError:
+        return False
+    try:
+        return own != os.stat("/proc/1/ns/net").st_ino
+    except OSError:
+        pass
+    try:
+        return _netns_interfaces() == ["lo"]
     except OSError:
         return False
 
@@ -162,6 +185,8 @@ def transport_unavailable_reason(config: CanBusConfig, processes: bool = True) -
             f"socketcan device {chan!r} does not exist (this kernel may have no CAN: "
             f"`ip link add {chan} type vcan` fails); use --can-interface udp_multicast"
         )
+    if importlib.util.find_spec("msgpack") is None:
+        return "python-can's udp_multicast needs msgpack (pip install msgpack)"
     return None if in_private_netns() else netns_unavailable_reason()
 
 

@@ -44,6 +44,14 @@ ZenohConfigOpt = Annotated[
 ]
 
 
+RealtimePriorityOpt = Annotated[
+    int,
+    typer.Option(
+        "--realtime-priority",
+        help="SCHED_FIFO priority 1..40 for the plant and controller (root or CAP_SYS_NICE);"
+        " 0 = normal scheduling.",
+    ),
+]
 TransportOpt = Annotated[
     str,
     typer.Option(
@@ -104,6 +112,19 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
         raise typer.Exit(2) from exc
 
 
+def _realtime(priority: int, who: str) -> None:
+    """Switch this node to SCHED_FIFO before it opens its bus (threads inherit the policy)."""
+    if priority == 0:
+        return
+    from hil.rt import RealtimeError, set_realtime_priority
+
+    try:
+        console.print(f"{who}: {set_realtime_priority(priority)}")
+    except RealtimeError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+
+
 def _bus(listen: list[str] | None, connect: list[str] | None, zenoh_config: Path | None) -> object:
     from hil.bus import BusConfig, BusConfigError
 
@@ -128,6 +149,7 @@ def run(
     can_fd: CanFdOpt = None,
     out: Annotated[Path | None, typer.Option("--out", help="Output folder.")] = None,
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
+    realtime_priority: RealtimePriorityOpt = 0,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
 
@@ -160,6 +182,7 @@ def run(
         out_dir=out,
         plots=plots,
         can=can,
+        realtime_priority=realtime_priority,
     )
     try:
         launch(req, console)
@@ -184,6 +207,7 @@ def plant(
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
+    realtime_priority: RealtimePriorityOpt = 0,
 ) -> None:
     """Run the plant process alone (the controller runs elsewhere)."""
     from hil.plant_node import run_plant_node
@@ -194,6 +218,7 @@ def plant(
         console.print(f"[red]error:[/] the plant runs realtime or lockstep, not {mode!r}")
         raise typer.Exit(2)
     bus = _bus(listen or ["tcp/127.0.0.1:7447"], connect, zenoh_config)
+    _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
             sc,
@@ -221,6 +246,7 @@ def controller(
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
+    realtime_priority: RealtimePriorityOpt = 0,
 ) -> None:
     """Run the controller process alone (serves until the plant finishes or Ctrl-C).
 
@@ -232,18 +258,16 @@ def controller(
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     bus = _bus(listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config)
+    _realtime(realtime_priority, "controller")
     if can is None:
         controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
         return
-    from unittest import mock
-
     from hil.can_bus import hybrid_bus_factory
 
-    # The controller node opens its bus as ``Bus(bus_config)``; in a CAN run that bus is a
-    # HybridBus (same surface: the sensor and command keys on CAN, the rest on Zenoh), so
-    # the node's own loop, validation and stale-frame handling run unchanged.
-    with mock.patch.object(controller_node, "Bus", hybrid_bus_factory(can)):
-        controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
+    # In a CAN run the node's bus is a HybridBus (same surface: the sensor and command keys
+    # on CAN, the rest on Zenoh), so its loop, validation and stale-frame handling run
+    # unchanged.
+    controller_node.run_controller_node(sc, bus, bus_factory=hybrid_bus_factory(can))  # type: ignore[arg-type]
 
 
 @app.command()

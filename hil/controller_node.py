@@ -454,6 +454,7 @@ def run_controller_node(
     bus_config: BusConfig,
     timeout_s: float | None = None,
     log: Callable[[str], None] = print,
+    bus_factory: Callable[[BusConfig], Any] = Bus,
 ) -> ControllerNodeResult:
     """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
 
@@ -474,7 +475,9 @@ def run_controller_node(
         )
     except DesignNotFoundError as exc:
         raise SystemExit(f"error: {exc}") from exc
-    bus = Bus(bus_config)
+    # ``bus_factory``: a Zenoh Bus, or a CAN run's HybridBus (sensors and commands on CAN,
+    # the rest on Zenoh) with the same surface, so this loop runs unchanged over either.
+    bus = bus_factory(bus_config)
     tid = scenario.turbine_id
     cmd_key, status_key = COMMAND.key(tid), CONTROLLER_STATUS.key(tid)
     cmd_pub, status_pub = bus.publisher(cmd_key), bus.publisher(status_key)

@@ -59,6 +59,9 @@ from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
 from hil.scenario import Scenario, load_scenario, scenario_text
 
+#: Set in the environment of a launcher re-executed in a fresh network namespace.
+_NETNS_ENV = "FOWT_NETNS_CHILD"
+
 
 @dataclass(frozen=True)
 class RunRequest:
@@ -72,6 +75,7 @@ class RunRequest:
     out_dir: Path | None = None
     plots: bool = True
     can: CanBusConfig | None = None
+    realtime_priority: int = 0  # SCHED_FIFO for the plant and controller (0: normal)
 
 
 class RunFailedError(RuntimeError):
@@ -222,6 +226,10 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
         if reason is not None:
             raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
         if can.interface == "udp_multicast" and not in_private_netns():
+            if os.environ.get(_NETNS_ENV):  # never re-exec twice
+                raise RunFailedError(
+                    "re-executed under unshare --net, yet not in a private network namespace"
+                )
             return _launch_in_netns(req, can, out)
     out.mkdir(parents=True, exist_ok=True)
     mcap_path = out / "run.mcap"
@@ -310,7 +318,8 @@ def _launch_in_netns(req: RunRequest, can: CanBusConfig, out: Path) -> dict[str,
         cmd += ["--duration", repr(req.duration_s)]
     if not req.plots:
         cmd.append("--no-plots")
-    rc = subprocess.run(netns_command(cmd), check=False).returncode
+    env = {**os.environ, _NETNS_ENV: "1"}
+    rc = subprocess.run(netns_command(cmd), check=False, env=env).returncode
     if rc != 0:
         raise RunFailedError(
             f"the run in a private network namespace (unshare --net) exited with {rc}; "
@@ -358,6 +367,9 @@ def _run_processes(
     ref = _scenario_ref(req.scenario)
     # CAN run: the three nodes join the same CAN bus (sensor frame and command on CAN).
     can_args = can_config(req, scenario).cli_args() if req.transport == "can" else []
+    # Real-time scheduling for the two processes on the control loop; the recorder stays
+    # under the normal policy so it only takes the CPU they leave.
+    rt_args = ["--realtime-priority", str(req.realtime_priority)] if req.realtime_priority else []
     cmds = {
         "recorder": _node_cmd(
             "record",
@@ -374,7 +386,15 @@ def _run_processes(
             *can_args,
         ),
         "controller": _node_cmd(
-            "controller", ref, scenario, "--listen", ctrl_ep, "--connect", plant_ep, *can_args
+            "controller",
+            ref,
+            scenario,
+            "--listen",
+            ctrl_ep,
+            "--connect",
+            plant_ep,
+            *can_args,
+            *rt_args,
         ),
         "plant": _node_cmd(
             "plant",
@@ -389,6 +409,7 @@ def _run_processes(
             "--require",
             "controller,recorder",
             *can_args,
+            *rt_args,
         ),
     }
     procs: dict[str, subprocess.Popen[bytes]] = {}

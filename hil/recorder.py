@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import msgspec
+import zenoh
 
 from bus_schemas import DecodeError, TimingSummary
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
@@ -299,8 +300,20 @@ def run_recorder_node(
     try:
         bus.subscribe(f"{KEY_PREFIX}/{scenario.turbine_id}/**", recorder.on_sample)
         token = bus.session.liveliness().declare_token(f"fowt/{scenario.turbine_id}/alive/recorder")
+        plant_gone = threading.Event()
+
+        def on_plant_liveliness(sample: zenoh.Sample) -> None:
+            # The plant's token goes when it exits or is killed; a killed plant sends no
+            # final summary, and without this the recorder would wait for ever. What the
+            # plant sent before dying is still drained and written below.
+            if sample.kind == zenoh.SampleKind.DELETE:
+                plant_gone.set()
+
+        plant_watch = bus.session.liveliness().declare_subscriber(
+            f"fowt/{scenario.turbine_id}/alive/plant", on_plant_liveliness
+        )
         log(f"recorder writing {out}")
-        while not stop.is_set() and not recorder.final_seen.is_set():
+        while not stop.is_set() and not recorder.final_seen.is_set() and not plant_gone.is_set():
             # Drain in batches every 20 ms rather than waking per message: a wake-up per
             # sample costs a thread switch and a GIL hand-over with Zenoh's thread, which
             # took the CPU the plant and controller need (recorder CPU -20 % in lock-step).
@@ -309,6 +322,9 @@ def run_recorder_node(
         end = time.monotonic() + drain_s
         while time.monotonic() < end:
             written += recorder.drain(0.02)
+        if plant_gone.is_set() and not recorder.final_seen.is_set():
+            log("recorder: the plant went away without its final summary (killed?)")
+        plant_watch.undeclare()
         token.undeclare()
     finally:
         bus.close()
