@@ -33,10 +33,14 @@ pytest: setup
 
 test: lint typecheck pytest
 
+RTPRIO ?= 20
+
 bench: setup
-	$(BIN)/python bench/realtime_latency.py
+	$(BIN)/python bench/realtime_latency.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/lockstep_speed.py
 	$(BIN)/python bench/inprocess_speed.py
+	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
+	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
