@@ -5,6 +5,10 @@ Imported as ``from _helpers import ...``: pytest puts ``tests/`` on ``sys.path``
 
 from __future__ import annotations
 
+from collections import defaultdict
+from collections.abc import Callable
+from typing import Any
+
 import msgspec
 
 from bus_schemas import ActuatorCommand, PlantState, SensorFrame
@@ -14,6 +18,30 @@ from hil.plant_node import PlantRunResult, run_inprocess
 from hil.scenario import Scenario
 
 
+def run_collecting(
+    scenario: Scenario,
+    answer: Callable[[SensorFrame, ActuatorCommand | None], ActuatorCommand | None] | None = None,
+) -> tuple[PlantRunResult, dict[str, list[Any]]]:
+    """Run ``scenario`` in process with its controller; collect every message by key suffix.
+
+    ``answer(frame, command)`` may replace the controller's command (e.g. return None to
+    simulate a missed deadline). Returns the run result and ``{suffix: [messages]}``.
+    """
+    log: dict[str, list[Any]] = defaultdict(list)
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        log[mt.key_suffix].append(msg)
+
+    runtime = ControllerRuntime(scenario)
+
+    def step(frame: SensorFrame) -> ActuatorCommand | None:
+        result = runtime.handle_frame(frame)
+        command = None if result is None else result[0]
+        return command if answer is None else answer(frame, command)
+
+    return run_inprocess(scenario, publish, step), log
+
+
 def run_closed_loop(
     scenario: Scenario,
 ) -> tuple[PlantRunResult, list[PlantState], list[SensorFrame]]:
@@ -21,25 +49,11 @@ def run_closed_loop(
 
     Checks that every cycle ran; returns the run result (for its timing) and the messages.
     """
-    truth: list[PlantState] = []
-    frames: list[SensorFrame] = []
-
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        if mt is TRUTH:
-            assert isinstance(msg, PlantState)
-            truth.append(msg)
-        elif mt is SENSORS:
-            assert isinstance(msg, SensorFrame)
-            frames.append(msg)
-
-    runtime = ControllerRuntime(scenario)
-
-    def step(frame: SensorFrame) -> ActuatorCommand | None:
-        result = runtime.handle_frame(frame)
-        return None if result is None else result[0]
-
-    result = run_inprocess(scenario, publish, step)
+    result, log = run_collecting(scenario)
     assert result.cycles == scenario.cycles
+    truth, frames = log[TRUTH.key_suffix], log[SENSORS.key_suffix]
+    assert all(isinstance(m, PlantState) for m in truth)
+    assert all(isinstance(m, SensorFrame) for m in frames)
     return result, truth, frames
 
 

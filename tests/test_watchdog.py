@@ -15,11 +15,10 @@ import math
 
 import msgspec
 import pytest
+from _helpers import run_collecting
 
 from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
-from bus_schemas.registry import CYCLE_TIMING, TIMING_SUMMARY, TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from bus_schemas.registry import CYCLE_TIMING, TIMING_SUMMARY, TRUTH
 from hil.scenario import ScenarioError, load_scenario, parse_scenario, scenario_text
 from plant.turbine import load_turbine
 
@@ -34,33 +33,18 @@ def _run(
         base.timing, watchdog_misses=misses, watchdog_recover_cycles=recover
     )
     scenario = msgspec.structs.replace(base, timing=timing)
-    period = scenario.timing.control_period_s
-    truth: list[PlantState] = []
-    cycles: list[CycleTiming] = []
-    summaries: list[TimingSummary] = []
 
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        if mt is TRUTH:
-            assert isinstance(msg, PlantState)
-            truth.append(msg)
-        elif mt is CYCLE_TIMING:
-            assert isinstance(msg, CycleTiming)
-            cycles.append(msg)
-        elif mt is TIMING_SUMMARY:
-            assert isinstance(msg, TimingSummary)
-            summaries.append(msg)
+    def answer(frame: SensorFrame, command: ActuatorCommand | None) -> ActuatorCommand | None:
+        # From STALL_S until answer_again_s the command never comes: a missed deadline.
+        return None if STALL_S <= frame.sample_time_ns * 1e-9 < answer_again_s else command
 
-    runtime = ControllerRuntime(scenario)
-
-    def step(frame: SensorFrame) -> ActuatorCommand | None:
-        result = runtime.handle_frame(frame)
-        t_s = frame.sample_time_ns * 1e-9
-        if STALL_S <= t_s < answer_again_s:
-            return None  # the command never came: a missed deadline
-        return None if result is None else result[0]
-
-    run_inprocess(scenario, publish, step)
-    return truth, cycles, summaries, period
+    _result, log = run_collecting(scenario, answer)
+    return (
+        log[TRUTH.key_suffix],
+        log[CYCLE_TIMING.key_suffix],
+        log[TIMING_SUMMARY.key_suffix],
+        scenario.timing.control_period_s,
+    )
 
 
 def test_safe_state_after_n_misses_feathers_at_the_rate_limit() -> None:
