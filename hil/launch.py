@@ -26,25 +26,62 @@ python-can's ``virtual`` bus does not cross processes, so a process run takes:
   controller and recorder (and Zenoh on 127.0.0.1) all run in that namespace, which
   vanishes with the run. Otherwise the run is refused, saying why.
 * ``socketcan``: the netdevice (``vcan0``) must exist.
+
+Process faults (``[[faults]]`` kinds ``controller_kill`` and ``plant_kill``)
+-----------------------------------------------------------------------------
+The launcher owns the processes, so it injects these (:class:`ProcessFaultDriver`). It
+follows the plant's ``timing/cycle`` records (the plant waits for the launcher's liveliness
+token too, so none is missed); the simulated time is the end of the newest
+cycle the plant has reported, and when it reaches a fault's ``start_s`` the launcher sends
+SIGKILL (within milliseconds in real time; a lock-step plant, running faster than real
+time, may be a few cycles further by then: the record gives the time the launcher saw):
+
+* ``controller_kill``: the controller process dies; the plant misses its deadlines and,
+  after ``timing.watchdog_misses`` of them, enters its safe state. With
+  ``restart_after_s`` the launcher starts a new controller process that many wall-clock
+  seconds after the kill, with the same command line (it listens on the same port and
+  connects to the plant again; its log is appended to ``logs/controller.log``); the plant
+  hands control back after ``timing.watchdog_recover_cycles`` on-time commands (K = 0:
+  latched, it stays safe). Real-time runs only: in lock-step the plant waits for every
+  command and would abort on its lock-step timeout, so such a scenario is refused
+  (:class:`ProcessFaultError`) before anything starts, as is any process fault in an
+  in-process run (no processes).
+* ``plant_kill``: the plant dies; the controller and the recorder must end by themselves
+  (the plant's liveliness token goes) within :data:`PLANT_KILL_EXIT_TIMEOUT_S`, the
+  recorder closing its file, which the review then reads (its timing is incomplete).
+
+A fault whose ``start_s`` the run never reaches, or one that finds its process already
+dead, is reported as not injected; a restart not yet due when the run ends is not done.
+Every event (what was killed, when in simulated and wall time, restarted when, how the
+plant's watchdog answered, how the others exited) is printed and stored in ``summary.json``
+under ``run.process_faults``. The run succeeds (``fowt run`` exits 0) when the killed
+processes are the only ones that died; any other death, or a process that does not exit by
+itself after a ``plant_kill``, fails it (a summary is still written in the latter case).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import math
 import os
+import signal
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
 from bus_schemas import ActuatorCommand, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, TIMING_SUMMARY
+from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, TIMING_SUMMARY
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
 from hil.can_bus import (
     CanBusConfig,
@@ -57,7 +94,7 @@ from hil.log_writer import BackgroundRunLog
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
-from hil.scenario import Scenario, load_scenario, scenario_text
+from hil.scenario import ProcessFault, Scenario, load_scenario, scenario_text
 
 #: Set in the environment of a launcher re-executed in a fresh network namespace.
 _NETNS_ENV = "FOWT_NETNS_CHILD"
@@ -80,6 +117,52 @@ class RunRequest:
 
 class RunFailedError(RuntimeError):
     """A process of the run failed; the message names it and its log."""
+
+
+class ProcessFaultError(RunFailedError):
+    """A scenario's process fault cannot act in this run's mode; said before anything starts."""
+
+
+#: Wall seconds the controller and the recorder get to exit by themselves after a plant_kill.
+PLANT_KILL_EXIT_TIMEOUT_S: dict[str, float] = {"controller": 10.0, "recorder": 15.0}
+
+
+def check_process_faults(scenario: Scenario, mode: Mode) -> tuple[ProcessFault, ...]:
+    """The scenario's process faults, refused where the run's mode cannot act on them.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario.
+    mode : str
+        ``realtime``, ``lockstep`` or ``inprocess``.
+
+    Returns
+    -------
+    tuple of ProcessFault
+        The process faults by start time (empty when there are none).
+
+    Raises
+    ------
+    ProcessFaultError
+        In-process mode with any process fault (there are no processes), or lock-step mode
+        with a ``controller_kill`` (the plant would wait for the dead controller's command
+        until its lock-step timeout aborted the run).
+    """
+    faults = scenario.process_faults()
+    for f in faults:
+        if mode == "inprocess":
+            raise ProcessFaultError(
+                f"scenario {scenario.name!r} {f.label}: kind {f.kind!r} needs plant and "
+                "controller processes; an in-process run has none (use --mode realtime)"
+            )
+        if mode == "lockstep" and f.kind == "controller_kill":
+            raise ProcessFaultError(
+                f"scenario {scenario.name!r} {f.label}: kind 'controller_kill' needs "
+                "--mode realtime: in lock-step the plant waits for every command and would "
+                "abort on its lock-step timeout once the controller is killed"
+            )
+    return faults
 
 
 def default_out_dir(scenario: Scenario) -> Path:
@@ -206,12 +289,23 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
 
     The advanced controller's design artefacts for the scenario's control period are
     designed first when missing (:func:`ensure_designs`), and the controller (process or
-    in-process runtime) is told where they are.
+    in-process runtime) is told where they are. The scenario's process faults are checked
+    against the mode first (:func:`check_process_faults`), injected during the run
+    (:class:`ProcessFaultDriver`) and reported in the summary's ``run.process_faults``.
+
+    Raises
+    ------
+    ProcessFaultError
+        When the mode cannot act on a process fault (nothing is started).
+    RunFailedError
+        When a process fails; also, after the summary is written, when a process fault run
+        has a problem (:attr:`ProcessFaultDriver.problems`).
     """
     console = console or Console()
     if req.transport not in ("zenoh", "can"):
         raise ValueError(f"transport {req.transport!r}: expected zenoh or can")
     scenario = load_scenario(req.scenario).with_duration(req.duration_s)
+    process_faults = check_process_faults(scenario, req.mode)
     toml_text, _source = scenario_text(req.scenario)
     out = req.out_dir or default_out_dir(scenario)
     if req.transport == "can":
@@ -236,19 +330,31 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     info = run_info(req, scenario)
     design_dir = ensure_designs(scenario, console)
     t0 = time.monotonic()
+    driver: ProcessFaultDriver | None = None
     if req.mode == "inprocess":
         _run_inprocess(scenario, mcap_path, info, toml_text, design_dir)
     else:
-        _run_processes(req, scenario, out, mcap_path, info, console, design_dir)
+        if process_faults:
+            driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
+        _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver)
     wall = time.monotonic() - t0
     summary = review(mcap_path, out, plots=req.plots)
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
+    if driver is not None:
+        summary["run"]["process_faults"] = driver.records
+        summary["run"]["plant_killed"] = driver.plant_killed
+        if driver.problems:
+            summary["run"]["process_fault_problems"] = list(driver.problems)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     render_summary(summary, console)
+    if driver is not None:
+        driver.render(console)
     console.print(f"run log: [bold]{mcap_path}[/]")
     console.print(f"summary: {out / 'summary.json'}")
     for png in sorted(out.glob("*.png")):
         console.print(f"plot:    {png}")
+    if driver is not None and driver.problems:
+        raise RunFailedError("; ".join(driver.problems))
     return summary
 
 
@@ -353,6 +459,7 @@ def _run_processes(
     info: dict[str, str],
     console: Console,
     design_dir: Path | None = None,
+    driver: ProcessFaultDriver | None = None,
 ) -> None:
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
@@ -407,32 +514,53 @@ def _run_processes(
             "--speed",
             repr(req.speed),
             "--require",
-            "controller,recorder",
+            # With process faults the plant also waits for the launcher's token: the
+            # launcher then follows the simulated time from the first cycle on.
+            "controller,recorder" + (",launcher" if driver is not None else ""),
             *can_args,
             *rt_args,
         ),
     }
     procs: dict[str, subprocess.Popen[bytes]] = {}
-    files = []
+    files: list[IO[bytes]] = []
+
+    def start(name: str) -> subprocess.Popen[bytes]:
+        """Start (or, for a process fault's restart, start again) the process ``name``."""
+        again = name in procs
+        fh = open(logs / f"{name}.log", "ab" if again else "wb")  # noqa: SIM115 - closed below
+        files.append(fh)
+        if again:
+            fh.write(f"\n--- {name} restarted by the launcher at {_utc()} ---\n".encode())
+            fh.flush()
+        proc = subprocess.Popen(cmds[name], stdout=fh, stderr=subprocess.STDOUT, env=env)
+        procs[name] = proc
+        return proc
+
     try:
         for name in ("recorder", "controller", "plant"):
-            fh = open(logs / f"{name}.log", "wb")  # noqa: SIM115 - closed in finally
-            files.append(fh)
-            procs[name] = subprocess.Popen(cmds[name], stdout=fh, stderr=subprocess.STDOUT, env=env)
-        _follow(procs, scenario, plant_ep, console)
+            start(name)
+        if driver is not None:
+            driver.start_clock()
+        _follow(procs, scenario, plant_ep, console, driver, start)
         rc = procs["plant"].wait()
-        if rc != 0:
-            raise RunFailedError(f"plant exited with {rc}; see {logs / 'plant.log'}")
-        for name, timeout in (("recorder", 15.0), ("controller", 5.0)):
-            try:
-                procs[name].wait(timeout)
-            except subprocess.TimeoutExpired:
-                procs[name].terminate()
-                procs[name].wait(5.0)
-        if procs["recorder"].returncode != 0:
-            raise RunFailedError(
-                f"recorder exited with {procs['recorder'].returncode}; see {logs / 'recorder.log'}"
-            )
+        if driver is not None and driver.expected(procs["plant"]):
+            driver.wait_for_others(procs, console)
+        else:
+            if rc != 0:
+                raise RunFailedError(f"plant exited with {rc}; see {logs / 'plant.log'}")
+            for name, timeout in (("recorder", 15.0), ("controller", 5.0)):
+                try:
+                    procs[name].wait(timeout)
+                except subprocess.TimeoutExpired:
+                    procs[name].terminate()
+                    procs[name].wait(5.0)
+            if procs["recorder"].returncode != 0:
+                raise RunFailedError(
+                    f"recorder exited with {procs['recorder'].returncode}; "
+                    f"see {logs / 'recorder.log'}"
+                )
+        if driver is not None:
+            driver.finish(console)
     finally:
         for p in procs.values():
             if p.poll() is None:
@@ -446,9 +574,26 @@ def _run_processes(
 
 
 def _follow(
-    procs: dict[str, subprocess.Popen[bytes]], scenario: Scenario, plant_ep: str, console: Console
+    procs: dict[str, subprocess.Popen[bytes]],
+    scenario: Scenario,
+    plant_ep: str,
+    console: Console,
+    driver: ProcessFaultDriver | None = None,
+    start: Callable[[str], subprocess.Popen[bytes]] | None = None,
 ) -> None:
-    """Show progress (simulated time from the plant's timing summaries) until the plant exits."""
+    """Show progress (simulated time from the plant's timing summaries) until the plant exits.
+
+    With a ``driver`` the plant's ``timing/cycle`` records are followed too (the launcher
+    announces itself with the liveliness token ``fowt/<turbine>/alive/launcher``, which the
+    plant then waits for), and the scenario's process faults are injected as their time
+    comes (``start`` restarts a process); a process the driver killed is not a failure.
+
+    Raises
+    ------
+    RunFailedError
+        When the controller or the recorder exits with a nonzero status it was not killed
+        with by a process fault.
+    """
     latest: dict[str, float] = {"sim_s": 0.0, "misses": 0.0}
 
     def on_summary(_key: str, payload: bytes) -> None:
@@ -460,8 +605,15 @@ def _follow(
         latest["misses"] = float(s.deadline_misses)
 
     bus = Bus(BusConfig(connect=(plant_ep,)))
+    token: Any = None  # kept referenced: a dropped liveliness token is undeclared
     try:
         bus.subscribe(TIMING_SUMMARY.key(scenario.turbine_id), on_summary)
+        if driver is not None:
+            tid = scenario.turbine_id
+            bus.subscribe(CYCLE_TIMING.key(tid), driver.on_cycle)
+            # The plant waits for this token (``--require ...,launcher``), so no cycle passes
+            # unseen, however fast a lock-step run goes.
+            token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/launcher")
         with Progress(
             TextColumn("[bold]{task.description}"),
             BarColumn(),
@@ -474,11 +626,349 @@ def _follow(
             task = progress.add_task(scenario.name, total=scenario.duration_s, misses=0)
             while procs["plant"].poll() is None:
                 for name in ("controller", "recorder"):
-                    rc = procs[name].poll()
-                    if rc is not None and rc != 0:
+                    proc = procs[name]
+                    rc = proc.poll()
+                    if rc is not None and rc != 0 and not (driver and driver.expected(proc)):
                         raise RunFailedError(f"{name} exited with {rc} during the run")
+                if driver is not None and start is not None:
+                    driver.step(procs, start, console)
                 progress.update(task, completed=latest["sim_s"], misses=latest["misses"])
-                time.sleep(0.1)
-            progress.update(task, completed=max(latest["sim_s"], scenario.duration_s))
+                if driver is not None:
+                    driver.due.wait(driver.wait_s(0.1))
+                else:
+                    time.sleep(0.1)
+            killed = driver is not None and driver.plant_killed
+            done = latest["sim_s"] if killed else max(latest["sim_s"], scenario.duration_s)
+            progress.update(task, completed=done)
     finally:
+        if token is not None:
+            with contextlib.suppress(Exception):  # the session may already be going away
+                token.undeclare()
         bus.close()
+
+
+def _utc() -> str:
+    """Now, UTC, ISO 8601 to the millisecond."""
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
+
+
+class ProcessFaultDriver:
+    """Injects a run's process faults and keeps their record (module docstring).
+
+    Parameters
+    ----------
+    faults : sequence of ProcessFault
+        The scenario's process faults (:func:`check_process_faults`).
+    control_period_s : float
+        The plant's control period T [s]: the ``timing/cycle`` record of cycle k (sample
+        time t_k) says the simulated time has reached t_k + T.
+
+    Attributes
+    ----------
+    records : list of dict
+        One JSON-able record per fault, by start time: ``fault`` (``faults[i]``), ``kind``,
+        ``start_s``, ``restart_after_s``, ``outcome`` (a sentence), ``killed`` and
+        ``restarted`` (None, or ``pid``, ``sim_s`` [s simulated: the end of the newest cycle
+        the plant had reported], ``wall_s`` [s since the processes were started], ``utc``);
+        for ``controller_kill`` also ``plant_safe_state`` (``entered_sim_s``: sample time of
+        the first ``timing/cycle`` with the safe state on from the kill's cycle on;
+        ``left_sim_s``: the first one after that with it off; None when not seen); for
+        ``plant_kill`` also ``others`` (per process: ``exit_code``, ``exited_after_s``
+        [wall s after the kill], ``by_itself``).
+    problems : list of str
+        What fails the run although only the processes asked for were killed.
+    plant_killed : bool
+        True once a ``plant_kill`` killed the plant.
+    due : threading.Event
+        Set (from Zenoh's thread) when the simulated time reaches the next fault's start.
+    """
+
+    def __init__(self, faults: Sequence[ProcessFault], control_period_s: float) -> None:
+        self.period_ns = round(control_period_s * 1e9)
+        self._pending = sorted(faults, key=lambda f: (f.start_s, f.index))
+        self.records: list[dict[str, Any]] = [
+            {
+                "fault": f.label,
+                "kind": f.kind,
+                "start_s": f.start_s,
+                "restart_after_s": f.restart_after_s,
+                "outcome": "not injected",
+                "killed": None,
+                "restarted": None,
+            }
+            for f in self._pending
+        ]
+        self._by_index = {f.index: r for f, r in zip(self._pending, self.records, strict=True)}
+        self.problems: list[str] = []
+        self.plant_killed = False
+        self._plant_killed_at: float | None = None  # monotonic
+        self.due = threading.Event()
+        self._lock = threading.Lock()
+        self._sim_ns = 0  # end of the newest cycle the plant reported
+        self._safe = 0
+        self._safe_changes: list[tuple[int, int]] = []  # (cycle sample time ns, new state)
+        self._killed: list[subprocess.Popen[bytes]] = []
+        self._restarts: list[tuple[float, ProcessFault]] = []  # (monotonic due, fault)
+        self._t0 = time.monotonic()
+        self._next_due_ns = self._due_ns()
+
+    def _due_ns(self) -> float:
+        return round(self._pending[0].start_s * 1e9) if self._pending else math.inf
+
+    def start_clock(self) -> None:
+        """Take now as the wall-clock origin of the records' ``wall_s`` (processes started)."""
+        self._t0 = time.monotonic()
+
+    def on_cycle(self, _key: str, payload: bytes) -> None:
+        """``timing/cycle`` callback (Zenoh's thread): simulated time and safe state."""
+        try:
+            c = CYCLE_TIMING.codec.decode(payload)
+        except Exception:
+            return
+        with self._lock:
+            self._sim_ns = max(self._sim_ns, c.sample_time_ns + self.period_ns)
+            if c.safe_state != self._safe:
+                self._safe = c.safe_state
+                self._safe_changes.append((c.sample_time_ns, c.safe_state))
+            sim_ns = self._sim_ns
+        if sim_ns >= self._next_due_ns:
+            self.due.set()
+
+    def expected(self, proc: subprocess.Popen[bytes]) -> bool:
+        """True when ``proc`` died because a process fault killed it."""
+        return any(p is proc for p in self._killed)
+
+    def wait_s(self, default: float) -> float:
+        """How long the follow loop may sleep: ``default``, less when a restart is due."""
+        if not self._restarts:
+            return default
+        soonest = min(at for at, _ in self._restarts)
+        return max(0.0, min(default, soonest - time.monotonic()))
+
+    def _stamp(self, pid: int, sim_ns: int, at: float) -> dict[str, Any]:
+        return {
+            "pid": pid,
+            "sim_s": round(sim_ns / 1e9, 3),
+            "wall_s": round(at - self._t0, 3),
+            "utc": _utc(),
+        }
+
+    def step(
+        self,
+        procs: dict[str, subprocess.Popen[bytes]],
+        start: Callable[[str], subprocess.Popen[bytes]],
+        console: Console,
+    ) -> None:
+        """Kill what the simulated time has reached, restart what is due (main thread).
+
+        Parameters
+        ----------
+        procs : dict of str to Popen
+            The run's processes by name; a restart replaces ``procs["controller"]``.
+        start : callable
+            ``start(name)`` starts the process ``name`` again and returns it.
+        console : Console
+            Where the events are printed.
+        """
+        self.due.clear()
+        with self._lock:
+            sim_ns = self._sim_ns
+        while self._pending and round(self._pending[0].start_s * 1e9) <= sim_ns:
+            fault = self._pending.pop(0)
+            self._next_due_ns = self._due_ns()
+            self._kill(fault, procs, sim_ns, console)
+        now = time.monotonic()
+        for item in [r for r in self._restarts if r[0] <= now]:
+            self._restarts.remove(item)
+            self._restart(item[1], procs, start, console)
+
+    def _kill(
+        self,
+        fault: ProcessFault,
+        procs: dict[str, subprocess.Popen[bytes]],
+        sim_ns: int,
+        console: Console,
+    ) -> None:
+        rec = self._by_index[fault.index]
+        name = fault.process
+        proc = procs[name]
+        if proc.poll() is not None:
+            rec["outcome"] = (
+                f"not injected: no {name} process was running at {sim_ns / 1e9:.3f} s "
+                f"simulated (the last one exited with {proc.returncode})"
+            )
+            console.print(f"[yellow]process fault[/] {fault.label} {fault.kind}: {rec['outcome']}")
+            return
+        proc.send_signal(signal.SIGKILL)
+        killed_at = time.monotonic()
+        self._killed.append(proc)
+        with contextlib.suppress(subprocess.TimeoutExpired):  # SIGKILL cannot be ignored
+            proc.wait(5.0)
+        rec["killed"] = self._stamp(proc.pid, sim_ns, killed_at)
+        if fault.kind == "plant_kill":
+            self.plant_killed = True
+            self._plant_killed_at = killed_at
+            rec["outcome"] = "plant killed"
+        elif fault.restart_after_s is not None:
+            self._restarts.append((killed_at + fault.restart_after_s, fault))
+            rec["outcome"] = "controller killed; restart pending"
+        else:
+            rec["outcome"] = "controller killed, not restarted (no restart_after_s)"
+        console.print(
+            f"[yellow]process fault[/] {fault.label} {fault.kind}: SIGKILL {name} "
+            f"(pid {proc.pid}) at {sim_ns / 1e9:.3f} s simulated, "
+            f"{rec['killed']['wall_s']:.2f} s wall"
+            + (
+                f"; restart in {fault.restart_after_s:g} s"
+                if fault.restart_after_s is not None
+                else ""
+            )
+        )
+
+    def _restart(
+        self,
+        fault: ProcessFault,
+        procs: dict[str, subprocess.Popen[bytes]],
+        start: Callable[[str], subprocess.Popen[bytes]],
+        console: Console,
+    ) -> None:
+        rec = self._by_index[fault.index]
+        if procs["plant"].poll() is not None:
+            rec["outcome"] = "controller killed; not restarted: the plant had ended"
+            return
+        try:
+            proc = start(fault.process)
+        except OSError as exc:
+            raise RunFailedError(f"{fault.label}: restarting the controller failed: {exc}") from exc
+        with self._lock:
+            sim_ns = self._sim_ns
+        rec["restarted"] = self._stamp(proc.pid, sim_ns, time.monotonic())
+        rec["outcome"] = "controller killed and restarted"
+        console.print(
+            f"[yellow]process fault[/] {fault.label} controller_kill: controller restarted "
+            f"(pid {proc.pid}) at {sim_ns / 1e9:.3f} s simulated, "
+            f"{rec['restarted']['wall_s']:.2f} s wall"
+        )
+
+    def wait_for_others(self, procs: dict[str, subprocess.Popen[bytes]], console: Console) -> None:
+        """After a ``plant_kill``: wait for the controller and the recorder to exit by
+        themselves (:data:`PLANT_KILL_EXIT_TIMEOUT_S`), record how, terminate a laggard.
+
+        A process that does not exit in time, or exits with a nonzero status, is a problem
+        (:attr:`problems`); a controller already killed by a ``controller_kill`` and not
+        restarted is left out.
+        """
+        killed_at = self._plant_killed_at if self._plant_killed_at is not None else time.monotonic()
+        waiting = {n: procs[n] for n in ("controller", "recorder") if not self.expected(procs[n])}
+        exits: dict[str, dict[str, Any]] = {}
+        while waiting:
+            now = time.monotonic()
+            for name, proc in list(waiting.items()):
+                rc = proc.poll()
+                if rc is not None:
+                    exits[name] = {
+                        "exit_code": rc,
+                        "exited_after_s": round(now - killed_at, 3),
+                        "by_itself": True,
+                    }
+                    del waiting[name]
+                elif now - killed_at > PLANT_KILL_EXIT_TIMEOUT_S[name]:
+                    proc.terminate()
+                    try:
+                        proc.wait(5.0)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+                        proc.wait(5.0)
+                    exits[name] = {
+                        "exit_code": proc.returncode,
+                        "exited_after_s": None,
+                        "by_itself": False,
+                    }
+                    del waiting[name]
+            time.sleep(0.02)
+        for name, e in exits.items():
+            if not e["by_itself"]:
+                self.problems.append(
+                    f"{name} did not exit by itself within "
+                    f"{PLANT_KILL_EXIT_TIMEOUT_S[name]:g} s of the plant's kill (terminated)"
+                )
+            elif e["exit_code"] != 0:
+                self.problems.append(
+                    f"{name} exited with {e['exit_code']} after the plant's kill; see its log"
+                )
+            else:
+                console.print(
+                    f"[yellow]process fault[/] plant_kill: {name} exited by itself "
+                    f"{e['exited_after_s']:.2f} s after the plant's kill"
+                )
+        for rec in self.records:
+            if rec["kind"] == "plant_kill" and rec["killed"] is not None:
+                rec["others"] = exits
+
+    def finish(self, console: Console) -> None:
+        """Close the records at the end of the run (faults and restarts never reached, the
+        plant's safe state around each controller kill)."""
+        with self._lock:
+            sim_ns = self._sim_ns
+            changes = list(self._safe_changes)
+        ended = "plant killed" if self.plant_killed else "run complete"
+        for f in self._pending:
+            self._by_index[f.index]["outcome"] = (
+                f"not injected: the run ended ({ended}) at {sim_ns / 1e9:.3f} s simulated, "
+                f"before start_s = {f.start_s:g} s"
+            )
+        for _, f in self._restarts:
+            self._by_index[f.index]["outcome"] = (
+                "controller killed; not restarted: the run ended before the restart was due"
+            )
+        self._pending, self._restarts = [], []
+        for rec in self.records:
+            if rec["kind"] != "controller_kill" or rec["killed"] is None:
+                continue
+            kill_ns = round(rec["killed"]["sim_s"] * 1e9) - self.period_ns
+            entered = next((t for t, on in changes if on and t >= kill_ns), None)
+            left = (
+                next((t for t, on in changes if not on and t > entered), None)
+                if entered is not None
+                else None
+            )
+            rec["plant_safe_state"] = {
+                "entered_sim_s": None if entered is None else round(entered / 1e9, 3),
+                "left_sim_s": None if left is None else round(left / 1e9, 3),
+            }
+
+    def render(self, console: Console) -> None:
+        """Print the records as a table, and the problems."""
+        table = Table(title="Process faults")
+        table.add_column("fault")
+        table.add_column("kind", overflow="fold")
+        table.add_column("killed (sim s / wall s)")
+        table.add_column("restarted (sim s / wall s)")
+        table.add_column("outcome", ratio=1)
+
+        def when(stamp: dict[str, Any] | None) -> str:
+            return "-" if stamp is None else f"{stamp['sim_s']:.3f} / {stamp['wall_s']:.2f}"
+
+        for rec in self.records:
+            outcome = rec["outcome"]
+            safe = rec.get("plant_safe_state")
+            if safe is not None:
+                if safe["entered_sim_s"] is None:
+                    outcome += "; plant safe state not entered"
+                else:
+                    left = safe["left_sim_s"]
+                    outcome += f"; plant safe state from {safe['entered_sim_s']} s " + (
+                        "to the end" if left is None else f"to {left} s"
+                    )
+            for name, e in rec.get("others", {}).items():
+                outcome += (
+                    f"; {name} exited by itself ({e['exit_code']}) after {e['exited_after_s']} s"
+                    if e["by_itself"]
+                    else f"; {name} terminated"
+                )
+            table.add_row(
+                rec["fault"], rec["kind"], when(rec["killed"]), when(rec["restarted"]), outcome
+            )
+        console.print(table)
+        for problem in self.problems:
+            console.print(f"[red]process fault problem:[/] {problem}")

@@ -6,7 +6,9 @@ unit in its name (``duration_s``, ``speed_m_s``); a misspelt key or a key with a
 is an error naming the key and, where it looks like a known key with another unit, the key
 that was meant. Shipped scenarios live in ``hil/scenarios/*.toml``.
 
-``[[faults]]`` tables (:class:`FaultSection`) inject sensor and bus faults in time windows.
+``[[faults]]`` tables (:class:`FaultSection`) inject sensor and bus faults in time windows,
+and process faults (:class:`ProcessFault`: the controller or the plant process killed) that
+``fowt run`` acts on (:mod:`hil.launch`).
 """
 
 from __future__ import annotations
@@ -14,8 +16,10 @@ from __future__ import annotations
 import difflib
 import importlib.resources
 import importlib.util
+import math
 import re
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal, get_args
 
@@ -240,8 +244,83 @@ class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
 
 
 FaultKind = Literal[
-    "stuck", "dropout", "bias_step", "noise_burst", "bus_delay", "bus_jitter", "bus_loss"
+    "stuck",
+    "dropout",
+    "bias_step",
+    "noise_burst",
+    "bus_delay",
+    "bus_jitter",
+    "bus_loss",
+    "controller_kill",
+    "plant_kill",
 ]
+ProcessFaultKind = Literal["controller_kill", "plant_kill"]
+#: Fault kinds that act on a process of the run, not on a channel (:class:`ProcessFault`).
+PROCESS_FAULT_KINDS: tuple[str, ...] = get_args(ProcessFaultKind)
+#: ``[[faults]]`` keys a process fault never takes (they describe a channel's fault).
+_CHANNEL_FAULT_KEYS = (
+    "channel",
+    "end_s",
+    "bias",
+    "std",
+    "delay_s",
+    "distribution",
+    "std_s",
+    "max_s",
+    "probability",
+    "seed",
+)
+
+
+@dataclass(frozen=True)
+class ProcessFault:
+    """A process fault of a ``fowt run`` process run, validated.
+
+    The launcher (:mod:`hil.launch`), which owns the processes, follows the plant's
+    simulated time and acts when it passes ``start_s``:
+
+    * ``controller_kill``: SIGKILL the controller process; with ``restart_after_s`` the
+      launcher starts a new controller process (the same command line: it listens on the
+      same port and connects to the plant again) that many wall-clock seconds after the
+      kill. Real-time runs only: in lock-step the plant waits for every command and would
+      abort on its lock-step timeout, so ``fowt run --mode lockstep`` refuses the scenario.
+    * ``plant_kill``: SIGKILL the plant process; the controller and the recorder end on
+      their own (the plant's liveliness token goes) and the recorder closes its file.
+
+    Attributes
+    ----------
+    index : int
+        The table's index in ``[[faults]]`` (``faults[index]`` in messages).
+    kind : str
+        ``"controller_kill"`` or ``"plant_kill"``.
+    start_s : float
+        Simulated time of the kill [s], >= 0.
+    restart_after_s : float or None
+        ``controller_kill`` only: wall-clock seconds from the kill to the restart, > 0;
+        None: the controller stays dead (the plant runs on its watchdog to the end).
+    """
+
+    index: int
+    kind: ProcessFaultKind
+    start_s: float
+    restart_after_s: float | None = None
+
+    @property
+    def label(self) -> str:
+        """``faults[i]``: where the fault is in the scenario file."""
+        return f"faults[{self.index}]"
+
+    @property
+    def process(self) -> str:
+        """The process the fault kills: ``"controller"`` or ``"plant"``."""
+        return "controller" if self.kind == "controller_kill" else "plant"
+
+    def describe(self) -> str:
+        """One line for the console: kind, time and restart."""
+        text = f"{self.label} {self.kind} at {self.start_s:g} s simulated"
+        if self.restart_after_s is not None:
+            text += f", restart {self.restart_after_s:g} s (wall) later"
+        return text
 
 
 class FaultSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -256,10 +335,14 @@ class FaultSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     to the plant). Times are simulated seconds; ``end_s`` absent: to the end of the run.
     The models and their randomness: :mod:`sensors.faults`; how the plant applies the bus
     faults in each mode: :mod:`hil.plant_node`.
+
+    Process faults (:class:`ProcessFault`, acted on by ``fowt run``) take no ``channel``:
+    ``controller_kill`` (``start_s``, optional ``restart_after_s`` in wall-clock seconds)
+    and ``plant_kill`` (``start_s``).
     """
 
     kind: FaultKind
-    channel: str | list[str]
+    channel: str | list[str] | None = None
     start_s: float = 0.0
     end_s: float | None = None
     bias: float | None = None
@@ -270,13 +353,86 @@ class FaultSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     max_s: float | None = None
     probability: float | None = None
     seed: int | None = None
+    restart_after_s: float | None = None
+
+    @property
+    def is_process(self) -> bool:
+        """True for the process kinds (``controller_kill``, ``plant_kill``)."""
+        return self.kind in PROCESS_FAULT_KINDS
 
     def spec(self) -> FaultSpec:
-        """The validated :class:`sensors.faults.FaultSpec` of this table."""
+        """The validated :class:`sensors.faults.FaultSpec` of a sensor or bus fault table.
+
+        Raises
+        ------
+        ValueError
+            For a process fault (see :meth:`process_fault`), a ``restart_after_s`` on
+            another kind, or anything :meth:`sensors.faults.FaultSpec.from_table` refuses.
+        """
         from sensors.faults import FaultSpec  # noqa: PLC0415
 
+        if self.is_process:
+            raise ValueError(f"kind {self.kind!r} is a process fault, not a channel fault")
+        if self.restart_after_s is not None:
+            raise ValueError(
+                f"key 'restart_after_s' is used only by kind 'controller_kill', "
+                f"not by kind {self.kind!r}"
+            )
         table = {k: v for k, v in msgspec.structs.asdict(self).items() if v is not None}
         return FaultSpec.from_table(table)
+
+    def process_fault(self, index: int) -> ProcessFault:
+        """The validated :class:`ProcessFault` of a process fault table.
+
+        Parameters
+        ----------
+        index : int
+            The table's index in ``[[faults]]``.
+
+        Returns
+        -------
+        ProcessFault
+            Kind, start time and restart delay.
+
+        Raises
+        ------
+        ValueError
+            Naming the key at fault: a channel-fault key (``channel``, ``end_s``, ...), a
+            ``restart_after_s`` on ``plant_kill``, a negative or non-finite ``start_s``, a
+            ``restart_after_s`` that is not > 0 s.
+        """
+        kind = self.kind
+        if kind not in PROCESS_FAULT_KINDS:
+            raise ValueError(f"kind {kind!r} is not a process fault")
+        takes = "start_s, restart_after_s" if kind == "controller_kill" else "start_s"
+        for key in _CHANNEL_FAULT_KEYS:
+            if getattr(self, key) is not None:
+                if key == "end_s":
+                    why = "the kill is an instant"
+                    if kind == "controller_kill":
+                        why += "; the controller comes back with restart_after_s"
+                else:
+                    why = "a process fault acts on a whole process, not on a channel"
+                raise ValueError(
+                    f"key {key!r} is not used by kind {kind!r} ({why}; {kind} takes: {takes})"
+                )
+        if kind == "plant_kill" and self.restart_after_s is not None:
+            raise ValueError(
+                "key 'restart_after_s' is not used by kind 'plant_kill' (a killed plant ends "
+                "the run; plant_kill takes: start_s)"
+            )
+        start = float(self.start_s)
+        if not (math.isfinite(start) and start >= 0.0):
+            raise ValueError(f"key 'start_s' expected a simulated time >= 0 s, got {start!r}")
+        restart = self.restart_after_s
+        if restart is not None:
+            restart = float(restart)
+            if not (math.isfinite(restart) and restart > 0.0):
+                raise ValueError(
+                    f"key 'restart_after_s' expected a wall-clock delay > 0 s, got {restart!r}"
+                )
+        pk: ProcessFaultKind = "controller_kill" if kind == "controller_kill" else "plant_kill"
+        return ProcessFault(index=index, kind=pk, start_s=start, restart_after_s=restart)
 
 
 class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -364,9 +520,10 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'
             )
         self.fault_specs()
+        self.process_faults()
 
     def fault_specs(self) -> tuple[FaultSpec, ...]:
-        """The validated faults, in file order.
+        """The validated sensor and bus faults, in file order (process faults left out).
 
         Raises
         ------
@@ -377,6 +534,8 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
         specs = []
         turbine_channels = SENSOR_CHANNELS[:5]
         for i, section in enumerate(self.faults):
+            if section.is_process:
+                continue
             try:
                 spec = section.spec()
             except ValueError as exc:
@@ -391,6 +550,31 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                         )
             specs.append(spec)
         return tuple(specs)
+
+    def process_faults(self) -> tuple[ProcessFault, ...]:
+        """The validated process faults (``controller_kill``, ``plant_kill``), by start time.
+
+        Raises
+        ------
+        ValueError
+            Naming the table (``faults[i]``) and the key at fault, or a second
+            ``plant_kill`` (the first one ends the run).
+        """
+        out: list[ProcessFault] = []
+        for i, section in enumerate(self.faults):
+            if not section.is_process:
+                continue
+            try:
+                out.append(section.process_fault(i))
+            except ValueError as exc:
+                raise ValueError(f"faults[{i}]: {exc}") from exc
+        plant_kills = [f for f in out if f.kind == "plant_kill"]
+        if len(plant_kills) > 1:
+            raise ValueError(
+                f"{plant_kills[1].label}: a second plant_kill (kind 'plant_kill'); the first "
+                f"one, {plant_kills[0].label}, already ends the run"
+            )
+        return tuple(sorted(out, key=lambda f: (f.start_s, f.index)))
 
     @property
     def floating(self) -> bool:
