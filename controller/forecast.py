@@ -50,6 +50,7 @@ This module must not import ``plant``. The 10-line finite-depth dispersion solve
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
@@ -721,7 +722,7 @@ def _check_decimation(o: str, config: ArConfig | EspritConfig) -> None:
     set_(config, "retrain_every", _int_at_least(o, "retrain_every", config.retrain_every, 1))
 
 
-class _DecimatedForecaster:
+class _DecimatedForecaster(abc.ABC):
     """Shared runtime of the AR and ESPRIT forecasters (decimation, hold, weight tables).
 
     The model sees every D-th call's sample (D = sample_period / dt; the held value if that
@@ -759,8 +760,9 @@ class _DecimatedForecaster:
         """Zero window; the forecast is 0 m until the first training."""
         return ForecasterState(self._n, self._decim)
 
-    def _train(self, state: ForecasterState) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _train(self, state: ForecasterState) -> None:
+        """Fill ``state.weights`` from the model window (AR or ESPRIT)."""
 
     def step(
         self, state: ForecasterState, sample_m: float, valid: bool = True

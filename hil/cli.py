@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 from rich.console import Console
@@ -349,6 +350,21 @@ app.add_typer(analyze_app, name="analyze")
 app.add_typer(preset_app, name="preset")
 
 
+T = TypeVar("T")
+
+
+def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
+    """Run an analysis of ``preset`` at ``wind`` (m/s); bad input exits 2 with the reason."""
+    if not wind > 0:
+        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
+        raise typer.Exit(2)
+    try:
+        return fn(preset, wind)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+
+
 @analyze_app.command("modes")
 def analyze_modes(
     preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
@@ -364,14 +380,7 @@ def analyze_modes(
     """
     from plant.modes import natural_modes
 
-    if not wind > 0:
-        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
-        raise typer.Exit(2)
-    try:
-        modes = natural_modes(preset, wind)
-    except (ValueError, OSError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+    modes = _analysis(natural_modes, preset, wind)
     if as_json:
         out = {"preset": preset, "wind_m_s": wind, "modes": [m.as_dict() for m in modes]}
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
@@ -440,14 +449,7 @@ def analyze_linear(
     """Design-model poles (with their modes) and the LQRI closed-loop poles at ``--wind``."""
     from controller.design import linear_report
 
-    if not wind > 0:
-        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
-        raise typer.Exit(2)
-    try:
-        report = linear_report(preset, wind)
-    except (ValueError, OSError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+    report = _analysis(linear_report, preset, wind)
     if as_json:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return
