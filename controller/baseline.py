@@ -87,12 +87,13 @@ from typing import Any, Literal
 import msgspec
 
 from bus_schemas.messages import SensorFrame
-from controller.core import (
+from controller.interface import (
     REGIME_REGION_1,
     REGIME_REGION_1_5,
     REGIME_REGION_2,
     REGIME_REGION_2_5,
     REGIME_REGION_3,
+    ActuatorLimits,
     ControlOutput,
 )
 
@@ -556,6 +557,16 @@ class BaselineController:
     def initial_state(self) -> BaselineState:
         """State before the first call; the first :meth:`step` initialises it from data."""
         return _INITIAL_STATE
+
+    def actuator_limits(self) -> ActuatorLimits:
+        """The preset's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
+        p = self.params
+        return ActuatorLimits(
+            p.min_pitch_rad,
+            p.max_pitch_rad,
+            p.max_pitch_rate_rad_s,
+            p.max_generator_torque_rate_nm_s,
+        )
 
     def pitch_gains(self, pitch_rad: float) -> tuple[float, float, float]:
         """Scheduled pitch gains at ``pitch_rad`` [rad].

@@ -57,7 +57,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from controller.core import REGIME_REGION_2, REGIME_REGION_3, ControlOutput
+from controller.interface import REGIME_REGION_2, REGIME_REGION_3, ControlOutput
 
 __all__ = [
     "DESIGN_DIR_ENV",

@@ -92,7 +92,6 @@ from bus_schemas.messages import (
     VALID_WAVE_GAUGE,
     SensorFrame,
 )
-from controller.core import ControlOutput
 from controller.estimators import (
     PlatformKF,
     PlatformKFConfig,
@@ -105,6 +104,7 @@ from controller.estimators import (
     encoder_rotor_speed_std,
 )
 from controller.forecast import ArConfig, DispersionConfig, EspritConfig, make_forecaster
+from controller.interface import ActuatorLimits, ControlOutput
 from controller.lqri import (
     DesignNotFoundError,
     LqriController,
@@ -525,6 +525,13 @@ class AdvancedController:
         self.forecaster = make_forecaster(kind, cfg)
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
+
+    def actuator_limits(self) -> ActuatorLimits:
+        """The LQRI design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
+        d = self.lqri.design
+        return ActuatorLimits(
+            d.pitch_min_rad, d.pitch_max_rad, d.pitch_rate_max_rad_s, d.torque_rate_max_nm_s
+        )
 
     # -------------------------------------------------------------- cycle
     def initial_state(self) -> AdvancedState:

@@ -39,7 +39,7 @@ publishes (it still answers each frame that arrives) is the safe command, the bl
 moved towards the core's own feathered pitch (its maximum pitch) at the core's pitch rate
 limit, and the generator torque ramped to 0 at the core's torque rate limit, both from the
 last published command over the simulated time since it; ``ActuatorCommand.mode`` =
-:data:`MODE_SAFE` (2), ``ControllerStatus.regime`` = :data:`controller.core.REGIME_SAFE`
+:data:`MODE_SAFE` (2), ``ControllerStatus.regime`` = :data:`controller.interface.REGIME_SAFE`
 (5), and the log says so. The core keeps stepping on the frames that arrive (its estimates
 stay live in the status) but its commands are discarded. Recovery, as the plant's: latched
 for the rest of the run when K = 0 (the default); with K > 0 after K consecutive healthy
@@ -77,8 +77,9 @@ import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
-from controller.core import REGIME_SAFE, actuator_limits, make_controller
+from controller.interface import REGIME_SAFE
 from controller.lqri import DesignNotFoundError
+from controller.registry import actuator_limits, make_controller
 from hil.bus import Bus, BusConfig
 from hil.scenario import Scenario
 

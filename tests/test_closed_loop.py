@@ -77,7 +77,7 @@ def test_seeded_runs_are_identical() -> None:
 
 
 @pytest.mark.parametrize(
-    "module", ["controller.baseline", "controller.core", "hil.controller_node"]
+    "module", ["controller.baseline", "controller.registry", "hil.controller_node"]
 )
 def test_controller_runtime_never_imports_the_plant(module: str) -> None:
     code = (

@@ -26,7 +26,8 @@ from controller.baseline import (
     available_presets,
     load_baseline,
 )
-from controller.core import ControlOutput, make_controller
+from controller.interface import ControlOutput
+from controller.registry import make_controller
 
 REPO = Path(__file__).resolve().parents[1]
 IEA_DISCON = (
@@ -501,7 +502,7 @@ def test_make_controller_registry() -> None:
 
 def test_controller_does_not_import_plant() -> None:
     code = (
-        "import controller.baseline, controller.core, sys; "
+        "import controller.baseline, controller.registry, sys; "
         "assert not any(m == 'plant' or m.startswith('plant.') for m in sys.modules), "
         "sorted(m for m in sys.modules if m.startswith('plant'))"
     )

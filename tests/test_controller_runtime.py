@@ -153,7 +153,7 @@ def test_advanced_controller_never_imports_plant() -> None:
     frames loads no ``plant`` module (the controller process's whole path)."""
     code = (
         "import sys\n"
-        "from controller.core import make_controller\n"
+        "from controller.registry import make_controller\n"
         "from hil.scenario import load_scenario\n"
         "from tests.test_controller_runtime import _frames\n"
         "load_scenario('iea15mw-lqri-15')\n"
@@ -171,7 +171,7 @@ def test_lqri_ff_publishes_its_feedforward_part() -> None:
     """kind "lqri_ff": the status sets EST_FEEDFORWARD; the forecast horizon is the FF
     design's preview time."""
     from bus_schemas.messages import EST_FEEDFORWARD
-    from controller.core import make_controller
+    from controller.registry import make_controller
     from controller.runtime import AdvancedController
 
     ctrl = make_controller("lqri_ff", "iea15mw_advanced", control_period_s=0.025)

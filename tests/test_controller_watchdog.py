@@ -23,7 +23,7 @@ import pytest
 
 from bus_schemas import ActuatorCommand, ControllerStatus, SensorFrame
 from bus_schemas.registry import SENSORS, MessageType
-from controller.core import REGIME_SAFE
+from controller.interface import REGIME_SAFE
 from hil.controller_node import MODE_NORMAL, MODE_RESUMING, MODE_SAFE, ControllerRuntime
 from hil.mcap_log import read_run
 from hil.plant_node import run_inprocess

@@ -78,7 +78,7 @@ def test_an_artefact_of_another_period_is_refused(tmp_path: Path) -> None:
 
 
 def test_missing_design_names_the_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from controller.core import make_controller
+    from controller.registry import make_controller
 
     monkeypatch.setenv(DESIGN_DIR_ENV, str(tmp_path / "empty"))
     with pytest.raises(DesignNotFoundError) as info:
@@ -146,7 +146,7 @@ def test_run_at_an_unshipped_period_designs_on_first_use(
 
     code = (
         "import sys\n"
-        "from controller.core import make_controller\n"
+        "from controller.registry import make_controller\n"
         "from hil.controller_node import ControllerRuntime\n"
         "from hil.scenario import load_scenario\n"
         "from tests.test_controller_runtime import _frames\n"

@@ -1,0 +1,185 @@
+"""The controller kinds of the bench: one table mapping ``kind`` to a constructor.
+
+:data:`CONTROLLER_KINDS` maps each ``[controller] kind`` of a scenario to a function that builds
+the core from :class:`ControllerOptions`; :func:`make_controller` looks the kind up there.
+Adding a kind is one constructor function and one entry in that table (the core implements
+:class:`controller.interface.Controller`, including ``actuator_limits()``).
+
+The cores are imported inside their constructors, so building a baseline core never imports
+numpy/scipy of the advanced one. This module imports the cores; the cores import only
+:mod:`controller.interface`, never this module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from controller.interface import ActuatorLimits, Controller
+
+__all__ = [
+    "CONTROLLER_KINDS",
+    "ControllerOptions",
+    "actuator_limits",
+    "available_controllers",
+    "make_controller",
+]
+
+
+@dataclass(frozen=True)
+class ControllerOptions:
+    """What a constructor of :data:`CONTROLLER_KINDS` receives.
+
+    Attributes
+    ----------
+    kind : str
+        The controller kind (the key it was looked up by).
+    preset : str
+        Shipped preset name or path to a TOML preset.
+    control_period_s : float
+        Control period [s].
+    forecaster : str or None
+        Wave forecaster name (advanced kinds; None: the preset's).
+    feedforward : str or None
+        Wave feedforward setting (``"lqri_ff"``; None: ``"balanced"``).
+    gauge_distance_m : float or None
+        Distance of the wave gauge up-wave of the platform [m] (None: the preset's).
+    design_dir : str or None
+        Extra folder of design artefacts (advanced kinds).
+    """
+
+    kind: str
+    preset: str
+    control_period_s: float = 0.025
+    forecaster: str | None = None
+    feedforward: str | None = None
+    gauge_distance_m: float | None = None
+    design_dir: str | None = None
+
+
+def _baseline(o: ControllerOptions) -> Controller[Any]:
+    from controller.baseline import BaselineController, load_baseline  # noqa: PLC0415
+
+    return BaselineController(load_baseline(o.preset))
+
+
+def _advanced(o: ControllerOptions) -> Controller[Any]:
+    from controller.runtime import AdvancedController, load_advanced_settings  # noqa: PLC0415
+
+    ff = "off" if o.kind == "lqri" else (o.feedforward or "balanced")
+    return AdvancedController(
+        load_advanced_settings(o.preset),
+        o.control_period_s,
+        forecaster=o.forecaster,  # type: ignore[arg-type]
+        gauge_distance_m=o.gauge_distance_m,
+        feedforward=ff,  # type: ignore[arg-type]
+        design_dir=o.design_dir,
+    )
+
+
+CONTROLLER_KINDS: dict[str, Callable[[ControllerOptions], Controller[Any]]] = {
+    "baseline": _baseline,
+    "lqri": _advanced,
+    "lqri_ff": _advanced,
+}
+"""``kind`` -> constructor: the one place a controller kind is registered."""
+
+
+def available_controllers() -> tuple[str, ...]:
+    """Names accepted by :func:`make_controller` as ``kind``."""
+    return tuple(CONTROLLER_KINDS)
+
+
+def make_controller(
+    kind: str,
+    preset: str,
+    *,
+    control_period_s: float = 0.025,
+    forecaster: str | None = None,
+    feedforward: str | None = None,
+    gauge_distance_m: float | None = None,
+    design_dir: str | None = None,
+) -> Controller[Any]:
+    """Build a controller of ``kind`` from a shipped preset name or a preset file path.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`CONTROLLER_KINDS`: ``"baseline"`` (NREL-style baseline,
+        :mod:`controller.baseline`), ``"lqri"`` (observers + wave forecast + LQRI,
+        :mod:`controller.runtime`) or ``"lqri_ff"`` (the same plus the wave feedforward).
+    preset : str
+        Shipped preset name (e.g. ``"nrel5mw_baseline"``, ``"iea15mw_advanced"``) or path to a
+        TOML preset.
+    control_period_s : float
+        Control period [s] (the advanced controller discretises its observer at it).
+    forecaster : str or None
+        ``"dispersion"``, ``"ar"`` or ``"esprit"`` (advanced kinds; None: the preset's).
+    feedforward : str or None
+        ``"balanced"`` or ``"max_performance"`` for ``"lqri_ff"`` (None: ``"balanced"``).
+    gauge_distance_m : float or None
+        Distance of the wave gauge up-wave of the platform [m] (None: the preset's).
+    design_dir : str or None
+        Folder of design artefacts searched after the shipped ones (advanced kinds; None:
+        only the shipped designs and the user design cache, ``$FOWT_DESIGN_DIR``).
+
+    Returns
+    -------
+    Controller
+        A pure controller core.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown or the preset cannot be loaded;
+        :class:`controller.lqri.DesignNotFoundError` (a ValueError) if a design artefact for
+        ``control_period_s`` is missing.
+    """
+    build = CONTROLLER_KINDS.get(kind)
+    if build is None:
+        raise ValueError(
+            f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
+        )
+    return build(
+        ControllerOptions(
+            kind=kind,
+            preset=preset,
+            control_period_s=control_period_s,
+            forecaster=forecaster,
+            feedforward=feedforward,
+            gauge_distance_m=gauge_distance_m,
+            design_dir=design_dir,
+        )
+    )
+
+
+def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:
+    """The pitch range and the rate limits of a core built by :func:`make_controller`.
+
+    Parameters
+    ----------
+    controller : Controller
+        Any core; it reports its own limits (``controller.actuator_limits()``).
+
+    Returns
+    -------
+    ActuatorLimits
+        Baseline: its preset's ``min_pitch_rad``, ``max_pitch_rad``, ``max_pitch_rate_rad_s``
+        and ``max_generator_torque_rate_nm_s``; advanced: its LQRI design's limits.
+
+    Raises
+    ------
+    TypeError
+        For an object without ``actuator_limits()``.
+    """
+    limits = getattr(controller, "actuator_limits", None)
+    if not callable(limits):
+        raise TypeError(f"no actuator limits known for {type(controller).__name__}")
+    result = limits()
+    if not isinstance(result, ActuatorLimits):
+        raise TypeError(
+            f"{type(controller).__name__}.actuator_limits() returned "
+            f"{type(result).__name__}, expected ActuatorLimits"
+        )
+    return result
