@@ -1,18 +1,38 @@
-"""The ``fowt`` command: run, plant, controller, record, review, scenarios, analyze, preset."""
+"""The ``fowt`` command: run, plant, controller, record, review, scenarios, presets, analyze.
+
+Bad input on the command line (an option's value, a scenario file) ends the command with one
+line on stderr, ``error: ...`` naming the option or the scenario key and what was expected, and
+exit code 2, before anything is started or written: every number option is checked by a
+callback (:func:`_number`), every output path by :func:`_writable` (nothing is created by the
+check), and a usage error of the parser is turned into the same one line by :func:`main`.
+"""
 
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
+import tempfile
 from collections.abc import Callable
+from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn, TypeVar
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
-from hil.scenario import Scenario, ScenarioError, load_scenario, scenario_text, shipped_scenarios
+from hil.scenario import (
+    MAX_DURATION_S,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    scenario_text,
+    shipped_scenarios,
+)
 
 if TYPE_CHECKING:
     from hil.can_bus import CanBusConfig
@@ -22,35 +42,225 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
 )
 console = Console()
+_stderr = Console(stderr=True, soft_wrap=True)
+
+
+def _fail(message: str, code: int = 2) -> NoReturn:
+    """Print ``error: message`` as one line on stderr and exit with ``code``."""
+    _stderr.print(Text.assemble(("error: ", "bold red"), message.replace("\n", " ")))
+    raise typer.Exit(code)
+
+
+# ----------------------------------------------------------------- option checks
+
+
+def _number(
+    unit: str,
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    le: float | None = None,
+) -> Callable[[float | None], float | None]:
+    """Callback checking a float option: finite and within the bounds, else a usage error.
+
+    The message (printed by :func:`main` as one line) names the option and what was expected,
+    e.g. ``Invalid value for '--duration': expected a finite number > 0 and <= 604800 (s),
+    got nan``.
+    """
+    bounds = " and ".join(
+        b
+        for b in (
+            f"> {gt:g}" if gt is not None else "",
+            f">= {ge:g}" if ge is not None else "",
+            f"<= {le:g}" if le is not None else "",
+        )
+        if b
+    )
+    expected = f"expected a finite number {bounds} ({unit})".replace("  ", " ")
+
+    def check(value: float | None) -> float | None:
+        if value is None:
+            return None
+        ok = math.isfinite(value)
+        ok = ok and (gt is None or value > gt) and (ge is None or value >= ge)
+        ok = ok and (le is None or value <= le)
+        if not ok:
+            raise typer.BadParameter(f"{expected}, got {value:g}")
+        return value
+
+    return check
+
+
+def _existing_ancestor(path: Path) -> Path:
+    """The nearest ancestor of ``path`` (itself included) that exists."""
+    p = path.absolute()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def _probe_writable(folder: Path) -> str | None:
+    """Why ``folder`` (an existing directory) cannot take a new file, or None if it can.
+
+    Tries for real (a temporary file, removed at once): permission bits say nothing for root,
+    nor about read-only or pseudo file systems.
+    """
+    try:
+        fd, name = tempfile.mkstemp(prefix=".fowt-write-check-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    os.close(fd)
+    os.unlink(name)
+    return None
+
+
+def _writable(kind: str) -> Callable[[Path | None], Path | None]:
+    """Callback checking an output path: ``kind`` is ``"folder"`` or ``"file"``.
+
+    A folder may exist (as a directory) or not (it is made when the run starts, with its
+    parents); a file may exist (as a file) or not. Either way the nearest existing ancestor
+    must be a directory that takes a new file. Nothing is left behind by the check.
+    """
+
+    def check(path: Path | None) -> Path | None:
+        if path is None:
+            return None
+        if path.exists():
+            if kind == "folder" and not path.is_dir():
+                raise typer.BadParameter(f"expected a folder, {path} is a file")
+            if kind == "file" and path.is_dir():
+                raise typer.BadParameter(f"expected a file name, {path} is a folder")
+        ancestor = _existing_ancestor(path if kind == "folder" else path.parent)
+        if not ancestor.is_dir():
+            raise typer.BadParameter(f"cannot create {path}: {ancestor} is a file, not a folder")
+        why = _probe_writable(ancestor)
+        if why is not None:
+            raise typer.BadParameter(f"cannot write {path}: {ancestor} is not writable ({why})")
+        return path
+
+    return check
+
+
+def _text_file(path: Path | None) -> Path | None:
+    """Callback: an input text file that exists and can be read (no NUL byte in its start)."""
+    if path is None:
+        return None
+    if not path.is_file():
+        raise typer.BadParameter(f"expected an existing file, {path} is not one")
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(65536)
+    except OSError as exc:
+        raise typer.BadParameter(f"cannot read {path} ({exc.strerror or exc})") from exc
+    try:
+        head.decode("utf-8")
+        binary = b"\0" in head
+    except UnicodeDecodeError as exc:  # a character cut at the end of the head is fine
+        binary = exc.start < len(head) - 3
+    if binary:
+        raise typer.BadParameter(f"expected a UTF-8 text file, {path} holds binary data")
+    return path
+
+
+def _choice(*allowed: str) -> Callable[[str], str]:
+    """Callback: one of ``allowed``."""
+
+    def check(value: str) -> str:
+        if value not in allowed:
+            raise typer.BadParameter(f"expected one of {', '.join(allowed)}, got {value!r}")
+        return value
+
+    return check
+
+
+#: Nodes the plant can wait for (their liveliness tokens ``fowt/<turbine>/alive/<name>``).
+_PEERS = ("controller", "recorder", "launcher")
+
+
+def _require_list(value: str) -> str:
+    """Callback of ``--require``: comma-separated node names, or ``none``."""
+    names = [v.strip() for v in value.split(",") if v.strip()]
+    if names == ["none"]:
+        return ""
+    bad = [n for n in names if n not in _PEERS]
+    if bad:
+        raise typer.BadParameter(
+            f"expected comma-separated names from {', '.join(_PEERS)} (or none), got {bad[0]!r}"
+        )
+    return ",".join(names)
+
+
+def _json_object(value: str) -> str:
+    """Callback of ``--run-info``: a JSON object."""
+    try:
+        obj = json.loads(value)
+    except json.JSONDecodeError as exc:
+        raise typer.BadParameter(f"expected a JSON object, not valid JSON ({exc.msg})") from exc
+    if not isinstance(obj, dict):
+        raise typer.BadParameter(f"expected a JSON object, got a JSON {type(obj).__name__}")
+    return value
+
+
+# ----------------------------------------------------------------- shared options
 
 ScenarioArg = Annotated[
-    str, typer.Argument(help="Shipped scenario name (see `fowt scenarios`) or a TOML file.")
+    str,
+    typer.Argument(
+        help="Shipped scenario name (see 'fowt scenarios') or a scenario TOML file.",
+        show_default=True,
+    ),
 ]
 DurationOpt = Annotated[
-    float | None, typer.Option("--duration", help="Simulated seconds (overrides the scenario).")
+    float | None,
+    typer.Option(
+        "--duration",
+        help="Simulated seconds (overrides the scenario's duration_s).",
+        callback=_number("s", gt=0.0, le=MAX_DURATION_S),
+    ),
+]
+SpeedOpt = Annotated[
+    float,
+    typer.Option(
+        "--speed",
+        help="Real-time factor (realtime mode).",
+        callback=_number("real-time factor", gt=0, le=1000),
+    ),
 ]
 ListenOpt = Annotated[
-    list[str] | None, typer.Option("--listen", help="Zenoh endpoint to listen on (repeatable).")
+    list[str] | None,
+    typer.Option(
+        "--listen",
+        help="Zenoh endpoint to listen on (repeatable; default: the node's loopback port, or"
+        " the --zenoh-config file's endpoints).",
+    ),
 ]
 ConnectOpt = Annotated[
-    list[str] | None, typer.Option("--connect", help="Zenoh endpoint to connect to (repeatable).")
+    list[str] | None,
+    typer.Option(
+        "--connect",
+        help="Zenoh endpoint to connect to (repeatable; default as for --listen).",
+    ),
 ]
 ZenohConfigOpt = Annotated[
     Path | None,
     typer.Option(
-        "--zenoh-config", help="Zenoh JSON5 config for multi-host use (router, TLS, ACL)."
+        "--zenoh-config",
+        help="Zenoh JSON5 config for multi-host use (router, TLS, ACL); its endpoints are"
+        " kept unless --listen/--connect are given.",
+        callback=_text_file,
     ),
 ]
-
-
 RealtimePriorityOpt = Annotated[
     int,
     typer.Option(
         "--realtime-priority",
         help="SCHED_FIFO priority 1..40 for the plant and controller (root or CAP_SYS_NICE);"
         " 0 = normal scheduling.",
+        min=0,
+        max=40,
     ),
 ]
 TransportOpt = Annotated[
@@ -59,6 +269,7 @@ TransportOpt = Annotated[
         "--transport",
         help="zenoh | can: with can, the sensor frame and the command travel on CAN "
         "(python-can), everything else on the loopback Zenoh session.",
+        callback=_choice("zenoh", "can"),
     ),
 ]
 CanInterfaceOpt = Annotated[
@@ -66,7 +277,7 @@ CanInterfaceOpt = Annotated[
     typer.Option(
         "--can-interface",
         help="udp_multicast (private network namespace) | socketcan | virtual "
-        "(default: the scenario's [can] interface, else udp_multicast).",
+        "(default: the scenario's can.interface, else udp_multicast).",
     ),
 ]
 CanChannelOpt = Annotated[
@@ -78,7 +289,11 @@ CanChannelOpt = Annotated[
 ]
 CanFdOpt = Annotated[
     bool | None,
-    typer.Option("--can-fd/--no-can-fd", help="CAN FD frames (default: the scenario's [can])."),
+    typer.Option(
+        "--can-fd/--no-can-fd",
+        help="CAN FD frames (default: the scenario's can.fd).",
+        show_default=False,
+    ),
 ]
 
 
@@ -86,9 +301,6 @@ def _can_config(
     sc: Scenario, transport: str, interface: str | None, channel: str | None, fd: bool | None
 ) -> CanBusConfig | None:
     """The node's CAN bus for ``--transport can`` (None for zenoh); exits 2 on a bad option."""
-    if transport not in ("zenoh", "can"):
-        console.print(f"[red]error:[/] --transport must be zenoh or can, not {transport!r}")
-        raise typer.Exit(2)
     if transport == "zenoh":
         return None
     from hil.can_bus import CanBusConfig, CanConfigError
@@ -101,16 +313,14 @@ def _can_config(
             sc.turbine_id,
         )
     except CanConfigError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
 
 
 def _scenario(ref: str, duration: float | None) -> Scenario:
     try:
         return load_scenario(ref).with_duration(duration)
     except ScenarioError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
 
 
 def _realtime(priority: int, who: str) -> None:
@@ -122,61 +332,91 @@ def _realtime(priority: int, who: str) -> None:
     try:
         console.print(f"{who}: {set_realtime_priority(priority)}")
     except RealtimeError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
 
 
-def _bus(listen: list[str] | None, connect: list[str] | None, zenoh_config: Path | None) -> object:
+def _bus(
+    listen: list[str] | None,
+    connect: list[str] | None,
+    zenoh_config: Path | None,
+    default_listen: tuple[str, ...] = (),
+    default_connect: tuple[str, ...] = (),
+) -> object:
+    """The node's bus: the options, else the node's loopback defaults.
+
+    With ``--zenoh-config`` the defaults are not applied: the file's endpoints stay unless
+    ``--listen``/``--connect`` are given explicitly.
+    """
+    import zenoh
+
     from hil.bus import BusConfig, BusConfigError
 
+    if zenoh_config is None:
+        listen = listen or list(default_listen)
+        connect = connect or list(default_connect)
     try:
-        return BusConfig(
+        config = BusConfig(
             listen=tuple(listen or ()), connect=tuple(connect or ()), config_file=zenoh_config
         )
     except BusConfigError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
+    if zenoh_config is not None:
+        try:  # parse it now: a bad file is an input error, not a crash when the node starts
+            config.zenoh_config()
+        except (zenoh.ZError, ValueError, OSError) as exc:
+            _fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
+    return config
 
 
-@app.command()
+# ----------------------------------------------------------------- commands
+
+
+@app.command(short_help="Run plant, controller and recorder as processes, then review.")
 def run(
     scenario: ScenarioArg = "default",
-    mode: Annotated[str, typer.Option(help="realtime | lockstep | inprocess")] = "realtime",
-    speed: Annotated[float, typer.Option(help="Real-time factor (realtime mode).")] = 1.0,
+    mode: Annotated[
+        str,
+        typer.Option(
+            help="realtime | lockstep | inprocess",
+            callback=_choice("realtime", "lockstep", "inprocess"),
+        ),
+    ] = "realtime",
+    speed: SpeedOpt = 1.0,
     duration: DurationOpt = None,
     transport: TransportOpt = "zenoh",
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
-    out: Annotated[Path | None, typer.Option("--out", help="Output folder.")] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out", help="Output folder (default: runs/<scenario>).", callback=_writable("folder")
+        ),
+    ] = None,
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
     realtime_priority: RealtimePriorityOpt = 0,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
 
-    ``--transport can`` puts the sensor frame and the command on a CAN bus between the
-    plant and controller processes (the recorder listens too and logs the raw frames);
-    with ``udp_multicast`` the launcher runs the whole bench in a fresh network namespace
-    (``unshare -n``, root) unless it already is in a private one.
+    With --transport can the sensor frame and the command travel on a CAN bus between the
+    plant and controller processes (the recorder listens too and logs the raw frames); with
+    udp_multicast the launcher runs the whole bench in a fresh network namespace (unshare -n,
+    root) unless it already is in a private one.
     """
-    from hil.launch import RunFailedError, RunRequest, launch
+    from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
 
-    if mode not in ("realtime", "lockstep", "inprocess"):
-        console.print(
-            f"[red]error:[/] --mode must be realtime, lockstep or inprocess, not {mode!r}"
-        )
-        raise typer.Exit(2)
-    if not speed > 0:
-        console.print(f"[red]error:[/] --speed must be > 0, got {speed}")
-        raise typer.Exit(2)
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if can is not None and mode == "inprocess":
-        console.print("[red]error:[/] --mode inprocess has no bus: use lockstep or realtime")
-        raise typer.Exit(2)
+        _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+    if out is None:
+        try:
+            _writable("folder")(default_out_dir(sc))
+        except typer.BadParameter as exc:
+            _fail(f"default output folder: {exc.message} (give --out)")
     req = RunRequest(
         scenario=scenario,
-        mode=mode,  # type: ignore[arg-type]  # checked just above
+        mode=mode,  # type: ignore[arg-type]  # checked by its callback
         speed=speed,
         duration_s=duration,
         transport=transport,
@@ -188,37 +428,56 @@ def run(
     try:
         launch(req, console)
     except RunFailedError as exc:
-        console.print(f"[red]run failed:[/] {exc}")
+        console.print(f"[red]run failed:[/] {escape(str(exc))}")
         raise typer.Exit(1) from exc
 
 
-@app.command()
+@app.command(short_help="Run the plant process alone.")
 def plant(
     scenario: ScenarioArg = "default",
-    mode: Annotated[str, typer.Option(help="realtime | lockstep")] = "realtime",
-    speed: Annotated[float, typer.Option(help="Real-time factor.")] = 1.0,
+    mode: Annotated[
+        str, typer.Option(help="realtime | lockstep", callback=_choice("realtime", "lockstep"))
+    ] = "realtime",
+    speed: SpeedOpt = 1.0,
     duration: DurationOpt = None,
     listen: ListenOpt = None,
     connect: ConnectOpt = None,
     zenoh_config: ZenohConfigOpt = None,
     require: Annotated[
-        str, typer.Option(help="Comma-separated nodes to wait for before starting.")
-    ] = "controller",
+        str,
+        typer.Option(
+            help="Comma-separated nodes to wait for before the first cycle (controller,"
+            " recorder, launcher), or none. The default waits for the recorder too, so the run"
+            " is recorded from cycle 0.",
+            callback=_require_list,
+        ),
+    ] = "controller,recorder",
+    wait_timeout: Annotated[
+        float,
+        typer.Option(
+            "--wait-timeout",
+            help="Seconds to wait for the required nodes before giving up (exit 1); 0 waits"
+            " until they come or Ctrl-C.",
+            callback=_number("s", ge=0.0, le=MAX_DURATION_S),
+        ),
+    ] = 120.0,
     transport: TransportOpt = "zenoh",
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
     realtime_priority: RealtimePriorityOpt = 0,
 ) -> None:
-    """Run the plant process alone (the controller runs elsewhere)."""
-    from hil.plant_node import run_plant_node
+    """Run the plant process alone (the controller and the recorder run elsewhere).
+
+    The plant waits for the nodes of --require, then runs the scenario. Ctrl-C or SIGTERM
+    ends it at once, while it waits (exit 130 / 143, nothing ran) or runs (the run is
+    closed with its final timing summary, exit 0).
+    """
+    from hil.plant_node import PeerWaitInterruptedError, run_plant_node
 
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    if mode not in ("realtime", "lockstep"):
-        console.print(f"[red]error:[/] the plant runs realtime or lockstep, not {mode!r}")
-        raise typer.Exit(2)
-    bus = _bus(listen or ["tcp/127.0.0.1:7447"], connect, zenoh_config)
+    bus = _bus(listen, connect, zenoh_config, default_listen=("tcp/127.0.0.1:7447",))
     _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
@@ -227,16 +486,19 @@ def plant(
             mode=mode,  # type: ignore[arg-type]
             speed=speed,
             require=tuple(r for r in require.split(",") if r),
+            peer_timeout_s=wait_timeout if wait_timeout > 0 else math.inf,
             can=can,
         )
+    except PeerWaitInterruptedError as exc:
+        _stderr.print(f"plant: {exc}", markup=False)
+        raise typer.Exit(128 + exc.signum) from exc
     except TimeoutError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(1) from exc
+        _fail(str(exc), code=1)
     if result.aborted and result.aborted != "stopped by signal":
         raise typer.Exit(1)
 
 
-@app.command()
+@app.command(short_help="Run the controller process alone.")
 def controller(
     scenario: ScenarioArg = "default",
     duration: DurationOpt = None,
@@ -251,14 +513,20 @@ def controller(
 ) -> None:
     """Run the controller process alone (serves until the plant finishes or Ctrl-C).
 
-    With ``--transport can`` it takes the sensor frames from and sends the commands to the
-    CAN bus; its status and the plant's timing stay on Zenoh.
+    With --transport can it takes the sensor frames from and sends the commands to the CAN
+    bus; its status and the plant's timing stay on Zenoh.
     """
     from hil import controller_node
 
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7448",),
+        default_connect=("tcp/127.0.0.1:7447",),
+    )
     _realtime(realtime_priority, "controller")
     if can is None:
         controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
@@ -271,15 +539,19 @@ def controller(
     controller_node.run_controller_node(sc, bus, bus_factory=hybrid_bus_factory(can))  # type: ignore[arg-type]
 
 
-@app.command()
+@app.command(short_help="Record a run to an MCAP file.")
 def record(
     scenario: ScenarioArg = "default",
-    out: Annotated[Path, typer.Option("--out", help="MCAP file to write.")] = Path("run.mcap"),
+    out: Annotated[
+        Path, typer.Option("--out", help="MCAP file to write.", callback=_writable("file"))
+    ] = Path("run.mcap"),
     duration: DurationOpt = None,
     listen: ListenOpt = None,
     connect: ConnectOpt = None,
     zenoh_config: ZenohConfigOpt = None,
-    run_info: Annotated[str, typer.Option(help="JSON object stored as run metadata.")] = "{}",
+    run_info: Annotated[
+        str, typer.Option(help="JSON object stored as run metadata.", callback=_json_object)
+    ] = "{}",
     transport: TransportOpt = "zenoh",
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
@@ -287,14 +559,19 @@ def record(
 ) -> None:
     """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
 
-    With ``--transport can`` it also listens on the CAN bus: the sensor frames and commands
-    decoded from it, and every raw frame on ``fowt/<turbine>/can/raw``.
+    With --transport can it also listens on the CAN bus: the sensor frames and commands
+    decoded from it, and every raw frame on fowt/<turbine>/can/raw.
     """
     from hil.recorder import run_recorder_node
 
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+    )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
     run_recorder_node(
@@ -327,56 +604,106 @@ def review_cmd(
         render_summary(summary, console)
 
 
-@app.command()
+def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
+    """Name and text columns, one line each, never truncated (long lines wrap in the terminal)."""
+    width = max((len(name) for name, _ in rows), default=0)
+    for name, text in rows:
+        sys.stdout.write(f"{indent}{name:<{width}}  {text}".rstrip() + "\n")
+
+
+@app.command(short_help="List the shipped scenarios.")
 def scenarios() -> None:
-    """List the shipped scenarios."""
-    table = Table("name", "turbine", "platform", "controller", "duration s", "description")
+    """List the shipped scenarios: name, description, plant, controller and duration."""
+    rows = []
     for name in shipped_scenarios():
         sc = load_scenario(name)
-        table.add_row(
-            name,
-            sc.turbine,
-            sc.platform or "-",
-            f"{sc.controller.kind}/{sc.controller.preset}",
-            f"{sc.duration_s:g}",
-            sc.description,
+        plant_text = f"{sc.turbine} on {sc.platform}" if sc.platform else f"{sc.turbine} fixed"
+        details = (
+            f"[{plant_text}; {sc.controller.kind}/{sc.controller.preset}; {sc.duration_s:g} s]"
         )
-    console.print(table)
+        rows.append((name, f"{sc.description} {details}" if sc.description else details))
+    _write_rows(rows)
 
 
-analyze_app = typer.Typer(help="Offline analysis of plant presets.", no_args_is_help=True)
-preset_app = typer.Typer(help="Plant presets: import from other tools.", no_args_is_help=True)
+def _preset_rows(package: str, folder: str = "") -> list[tuple[str, str]]:
+    """(name, first comment line) of every ``*.toml`` preset of ``package``/``folder``."""
+    root = resources.files(package)
+    if folder:
+        root = root / folder
+    rows = []
+    for entry in sorted(root.iterdir(), key=lambda e: e.name):
+        if not entry.name.endswith(".toml"):
+            continue
+        first = next(
+            (ln.lstrip("# ").strip() for ln in entry.read_text().splitlines() if ln.strip()), ""
+        )
+        rows.append((entry.name.removesuffix(".toml"), first if first else "-"))
+    return rows
+
+
+@app.command(short_help="List the shipped presets.")
+def presets() -> None:
+    """List the shipped presets: turbines, floating platforms and controllers.
+
+    A scenario names them with turbine = "...", platform = "..." and, in its [controller]
+    table, preset = "...". The text is each preset file's first line.
+    """
+    sections = (
+        ('turbine presets (turbine = "<name>")', _preset_rows("plant.presets")),
+        (
+            'floating platform presets (platform = "<name>")',
+            _preset_rows("plant.presets", "floating"),
+        ),
+        ('controller presets ([controller] preset = "<name>")', _preset_rows("controller.presets")),
+    )
+    for i, (title, rows) in enumerate(sections):
+        sys.stdout.write(("\n" if i else "") + title + "\n")
+        _write_rows(rows, indent="  ")
+
+
+analyze_app = typer.Typer(
+    help="Offline analysis of plant presets.", no_args_is_help=True, rich_markup_mode=None
+)
+preset_app = typer.Typer(
+    help="Plant presets: import from other tools (list them with 'fowt presets').",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
 app.add_typer(analyze_app, name="analyze")
 app.add_typer(preset_app, name="preset")
 
 
 T = TypeVar("T")
 
+WindOpt = Annotated[
+    float,
+    typer.Option(
+        "--wind",
+        help="Steady hub-height wind of the model, m/s.",
+        callback=_number("m/s", gt=0.0, le=70.0),
+    ),
+]
+
 
 def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
     """Run an analysis of ``preset`` at ``wind`` (m/s); bad input exits 2 with the reason."""
-    if not wind > 0:
-        console.print(f"[red]error:[/] --wind must be > 0 m/s, got {wind}")
-        raise typer.Exit(2)
     try:
         return fn(preset, wind)
     except (ValueError, OSError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
 
 
-@analyze_app.command("modes")
+@analyze_app.command("modes", short_help="Natural periods and damping of the platform modes.")
 def analyze_modes(
     preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
-    wind: Annotated[
-        float, typer.Option("--wind", help="Steady hub-height wind of the linearisation, m/s.")
-    ] = 5.0,
+    wind: WindOpt = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
 ) -> None:
     """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
 
-    Linearises the floating model about its steady operating point at ``--wind``
-    (:func:`plant.modes.natural_modes`): period T = 2π/ω_d, damping ratio ζ = −Re λ/|λ|.
+    Linearises the floating model about its steady operating point at --wind
+    (plant.modes.natural_modes): period T = 2 pi / omega_d [s], damping ratio
+    zeta = -Re(lambda) / |lambda| [-].
     """
     from plant.modes import natural_modes
 
@@ -385,16 +712,16 @@ def analyze_modes(
         out = {"preset": preset, "wind_m_s": wind, "modes": [m.as_dict() for m in modes]}
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
         return
-    table = Table(title=f"Natural modes of {preset} at {wind:g} m/s")
+    table = Table(title=f"Natural modes of {escape(preset)} at {wind:g} m/s")
     table.add_column("mode")
-    table.add_column("damped period [s]", justify="right")
-    table.add_column("damping ratio [-]", justify="right")
+    table.add_column(escape("damped period [s]"), justify="right")
+    table.add_column(escape("damping ratio [-]"), justify="right")
     for m in modes:
         table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
     console.print(table)
 
 
-@app.command("design")
+@app.command("design", short_help="Offline controller design: LQRI, wave FF, observer.")
 def design_cmd(
     preset: Annotated[
         str, typer.Argument(help="Floating preset name or preset .toml path.")
@@ -402,22 +729,27 @@ def design_cmd(
     control_period: Annotated[
         float,
         typer.Option(
-            "--control-period", help="Control period of the discrete gains and filters, s."
+            "--control-period",
+            help="Control period of the discrete gains and filters, s.",
+            callback=_number("s", ge=0.001, le=1.0),
         ),
     ] = 0.025,
     out: Annotated[
         Path | None,
-        typer.Option("--out", help="Folder for the artefacts (default: the shipped designs)."),
+        typer.Option(
+            "--out",
+            help="Folder for the artefacts (default: the shipped designs).",
+            callback=_writable("folder"),
+        ),
     ] = None,
 ) -> None:
     """Offline controller design: LQRI gain schedule, wave-FF filters, platform observer.
 
-    Calls :func:`controller.design.design_all`: ``<preset>_lqri_dt<T>.npz/.json``,
-    ``<preset>_waveff_dt<T>.npz/.json`` (discrete at ``--control-period``) and
-    ``<preset>_observer.npz/.json`` (continuous). ``fowt run`` looks in the shipped designs,
-    then in ``$FOWT_DESIGN_DIR`` (default ``~/.cache/fowt-hil/designs``).
+    Calls controller.design.design_all: <preset>_lqri_dt<T>.npz/.json,
+    <preset>_waveff_dt<T>.npz/.json (discrete at --control-period) and
+    <preset>_observer.npz/.json (continuous). 'fowt run' looks in the shipped designs, then
+    in $FOWT_DESIGN_DIR (default ~/.cache/fowt-hil/designs).
     """
-    import os
     import time
 
     from controller.design import BLAS_SINGLE_THREAD_ENV, design_all
@@ -426,37 +758,33 @@ def design_cmd(
         for var, value in BLAS_SINGLE_THREAD_ENV.items():
             os.environ.setdefault(var, value)
 
-    if not 0.0 < control_period <= 1.0:
-        console.print(f"[red]error:[/] --control-period must be in (0, 1] s, got {control_period}")
-        raise typer.Exit(2)
     t0 = time.perf_counter()
     try:
         paths = design_all(preset, control_period, out)
     except (ValueError, OSError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     for key, path in paths.items():
         console.print(f"{key}: {path}")
     console.print(f"designed in {time.perf_counter() - t0:.1f} s")
 
 
-@analyze_app.command("linear")
+@analyze_app.command("linear", short_help="Design-model poles and LQRI closed-loop poles.")
 def analyze_linear(
     preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
-    wind: Annotated[float, typer.Option("--wind", help="Steady wind of the model, m/s.")] = 15.0,
+    wind: WindOpt = 15.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
-    """Design-model poles (with their modes) and the LQRI closed-loop poles at ``--wind``."""
+    """Design-model poles (with their modes) and the LQRI closed-loop poles at --wind."""
     from controller.design import linear_report
 
     report = _analysis(linear_report, preset, wind)
     if as_json:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return
-    table = Table(title=f"Design model of {preset} at {wind:g} m/s")
+    table = Table(title=f"Design model of {escape(preset)} at {wind:g} m/s")
     table.add_column("mode")
-    table.add_column("damped period [s]", justify="right")
-    table.add_column("damping ratio [-]", justify="right")
+    table.add_column(escape("damped period [s]"), justify="right")
+    table.add_column(escape("damping ratio [-]"), justify="right")
     for m in report["modes"]:  # type: ignore[attr-defined]
         table.add_row(str(m["name"]), f"{m['period_s']:.2f}", f"{m['damping_ratio']:.4f}")
     console.print(table)
@@ -466,14 +794,34 @@ def analyze_linear(
     )
 
 
-@analyze_app.command("forecast")
+@analyze_app.command("forecast", short_help="VAF of each wave forecaster on a seeded sea.")
 def analyze_forecast(
-    hs: Annotated[float, typer.Option("--hs", help="JONSWAP significant height, m.")] = 2.2,
-    tp: Annotated[float, typer.Option("--tp", help="JONSWAP peak period, s.")] = 8.0,
+    hs: Annotated[
+        float,
+        typer.Option(
+            "--hs", help="JONSWAP significant height, m.", callback=_number("m", gt=0.0, le=30.0)
+        ),
+    ] = 2.2,
+    tp: Annotated[
+        float,
+        typer.Option(
+            "--tp", help="JONSWAP peak period, s.", callback=_number("s", gt=0.0, le=40.0)
+        ),
+    ] = 8.0,
     distance: Annotated[
-        float, typer.Option("--distance", help="Gauge distance up-wave, m.")
+        float,
+        typer.Option(
+            "--distance",
+            help="Gauge distance up-wave, m.",
+            callback=_number("m", ge=0.0, le=10_000.0),
+        ),
     ] = 450.0,
-    horizon: Annotated[float, typer.Option("--horizon", help="Forecast horizon, s.")] = 10.0,
+    horizon: Annotated[
+        float,
+        typer.Option(
+            "--horizon", help="Forecast horizon, s.", callback=_number("s", gt=0.0, le=120.0)
+        ),
+    ] = 10.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
     """VAF of each wave forecaster (dispersion, AR, ESPRIT) on a seeded sea, runtime code."""
@@ -482,20 +830,46 @@ def analyze_forecast(
     try:
         report = forecast_report(hs_m=hs, tp_s=tp, distance_m=distance, horizon_s=horizon)
     except ValueError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     if as_json:
         sys.stdout.write(json.dumps(report, indent=2, default=str) + "\n")
-    else:
-        console.print_json(json.dumps(report, default=str))
+        return
+    sea = report["sea_state"]
+    table = Table(
+        title=escape(
+            f"Wave forecast VAF, JONSWAP Hs {sea['hs_m']:g} m, Tp {sea['tp_s']:g} s, "
+            f"gauge {sea['distance_m']:g} m up-wave, seed {sea['seed']}, "
+            f"{sea['duration_s']:g} s evaluated"
+        )
+    )
+    table.add_column("forecaster")
+    table.add_column("input")
+    table.add_column(escape("horizon [s]"), justify="right")
+    table.add_column(escape("VAF [%]"), justify="right")
+    table.add_column(escape("model period [s]"), justify="right")
+    table.add_column(escape("mean step [us]"), justify="right")
+    for kind, entry in report["forecasters"].items():
+        vaf = entry["vaf_percent"]
+        table.add_row(
+            kind,
+            escape(str(entry["input"])),
+            f"{entry['horizon_s']:g}",
+            "-" if not math.isfinite(vaf) else f"{vaf:.1f}",
+            f"{entry['sample_period_s']:g}",
+            f"{entry['mean_step_us']:.1f}",
+        )
+    console.print(table)
 
 
-@preset_app.command("import-openfast")
+@preset_app.command("import-openfast", short_help="Import a floating OpenFAST deck as a preset.")
 def preset_import_openfast(
-    fst_file: Annotated[Path, typer.Argument(help="The OpenFAST deck's .fst file.")],
-    out: Annotated[Path, typer.Option("--out", help="Folder for the preset files.")] = Path(
-        "presets"
-    ),
+    fst_file: Annotated[
+        Path, typer.Argument(help="The OpenFAST deck's .fst file.", callback=_text_file)
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", help="Folder for the preset files.", callback=_writable("folder")),
+    ] = Path("presets"),
     name: Annotated[
         str | None, typer.Option("--name", help="File stem / preset name (default: deck title).")
     ] = None,
@@ -506,18 +880,42 @@ def preset_import_openfast(
     """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data)."""
     from plant.openfast_import import import_openfast, write_preset
 
-    if not fst_file.is_file():
-        console.print(f"[red]error:[/] {fst_file} is not a file")
-        raise typer.Exit(2)
     try:
         deck = import_openfast(fst_file, turbine=turbine, name=name)
         path = write_preset(deck, out, stem=name)
     except (ValueError, OSError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
-    console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)')
+        _fail(str(exc))
+    console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
 
 
-def main() -> None:
-    """Entry point of ``python -m hil``."""
-    app()
+def _click_base(name: str) -> type[Exception]:
+    """The parser's exception class ``name`` (typer's own copy of click, or click)."""
+    return next(c for c in typer.BadParameter.__mro__ if c.__name__ == name)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of ``fowt`` and ``python -m hil``.
+
+    Runs the app with the parser's own error printing off, so that a usage error (a bad
+    option value, an unknown option, a missing argument) is one line, ``error: ...``, on
+    stderr with exit code 2, like every other bad input; no arguments print the help.
+    """
+    args = sys.argv[1:] if argv is None else list(argv)
+    usage_error = _click_base("UsageError")
+    click_error = _click_base("ClickException")
+    try:
+        rv: Any = app(args=args, prog_name="fowt", standalone_mode=False)
+    except usage_error as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # "fowt analyze": show that group's help
+            app(args=[*args, "--help"], prog_name="fowt")
+        text = exc.format_message()  # type: ignore[attr-defined]
+        ctx = getattr(exc, "ctx", None)
+        where = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+        _stderr.print(Text.assemble(("error: ", "bold red"), f"{text}{where}"))
+        sys.exit(2)
+    except click_error as exc:
+        _stderr.print(Text.assemble(("error: ", "bold red"), exc.format_message()))  # type: ignore[attr-defined]
+        sys.exit(getattr(exc, "exit_code", 1))
+    except typer.Abort:
+        sys.exit(130)
+    sys.exit(rv if isinstance(rv, int) else 0)

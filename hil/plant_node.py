@@ -67,6 +67,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
+import zenoh
 
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
 from bus_schemas.registry import COMMAND, CYCLE_TIMING, SENSORS, TIMING_SUMMARY, TRUTH, MessageType
@@ -101,6 +102,7 @@ from sensors.faults import OPEN_END_NS, BusFaultPlan
 
 if TYPE_CHECKING:
     from hil.can_bus import CanBus, CanBusConfig, HybridBus
+    from plant.hydro.wamit import HydroData
 
 Mode = Literal["realtime", "lockstep", "inprocess"]
 Publish = Callable[[MessageType, msgspec.Struct], None]
@@ -179,6 +181,30 @@ def waves_from_scenario(spec: WavesSection | None, depth_m: float) -> WaveField:
     )
 
 
+def _excitation_table(hydro: HydroData, locked_dofs: tuple[int, ...]) -> tuple[Any, Any]:
+    """Frequencies [rad/s] and the head-sea surge, heave, pitch excitation per metre of wave.
+
+    A preset whose hydrodynamic data lack heave or pitch (the ``nrel5mw_tlp`` buoy has surge
+    only) has those modes locked; their column is 0. A missing mode that is not locked is
+    an error.
+    """
+    import numpy as np  # noqa: PLC0415
+
+    wanted = (0, 2, 4)  # surge, heave, pitch in the 6-DOF hydrodynamic numbering
+    present = [d for d in wanted if d in hydro.excitation.dofs]
+    exc = hydro.excitation.select(present, heading_deg=0.0)
+    table = np.zeros((exc.omega_rad_s.size, len(wanted)), dtype=np.complex128)
+    for model_dof, d in enumerate(wanted):  # model DOFs: 0 surge, 1 heave, 2 pitch
+        if d in present:
+            table[:, model_dof] = exc.force[:, 0, present.index(d)]
+        elif model_dof not in locked_dofs:
+            raise ValueError(
+                f"the platform's hydrodynamic data have no excitation for DOF {d} and the "
+                "preset does not lock it (locked_dofs)"
+            )
+    return exc.omega_rad_s, table
+
+
 def floating_plant(scenario: Scenario) -> FloatingPlant:
     """Load the platform preset and build the waves and their excitation (offline, ~1 s)."""
     from plant.hydro.wamit import HydroData  # noqa: PLC0415
@@ -200,8 +226,7 @@ def floating_plant(scenario: Scenario) -> FloatingPlant:
     else:
         hydro = HydroData.load_npz((base or Path(".")) / hydro_ref)
     field = waves_from_scenario(scenario.waves, preset.water_depth_m)
-    exc = hydro.excitation.select((0, 2, 4), heading_deg=0.0)
-    force = excitation_force(field, exc.omega_rad_s, exc.force[:, 0, :])
+    force = excitation_force(field, *_excitation_table(hydro, params.locked_dofs))
     gauge = scenario.waves.gauge_distance_m if scenario.waves is not None else 450.0
     hub = float(params.hub_lever[2])
     return FloatingPlant(
@@ -663,26 +688,78 @@ class CommandInbox:
             return got
 
 
+class PeerWaitInterruptedError(Exception):
+    """SIGINT or SIGTERM arrived while the plant waited for its peers (nothing ran).
+
+    Attributes
+    ----------
+    signum : int
+        The signal number.
+    """
+
+    def __init__(self, signum: int, missing: list[str]) -> None:
+        super().__init__(
+            f"{signal.Signals(signum).name} while waiting for {missing}: stopped before the "
+            "first cycle, nothing ran"
+        )
+        self.signum = signum
+
+
 def wait_for_peers(
-    bus: Bus | HybridBus, turbine_id: str, required: tuple[str, ...], timeout_s: float
+    bus: Bus | HybridBus,
+    turbine_id: str,
+    required: tuple[str, ...],
+    timeout_s: float,
+    stop: threading.Event | None = None,
 ) -> None:
     """Block until every ``required`` node (e.g. controller, recorder) has announced itself.
 
     Nodes declare a liveliness token ``fowt/<turbine>/alive/<name>`` after their
-    subscribers, so once the token is seen their subscriptions are in place too.
+    subscribers, so once the token is seen their subscriptions are in place too. A
+    liveliness subscriber with history sees the tokens already there and every new one, so
+    the wait ends as soon as the last one appears, and within 50 ms of ``stop`` being set.
+
+    Raises
+    ------
+    TimeoutError
+        When ``timeout_s`` (``math.inf``: no limit) passes first, naming who is missing.
     """
-    deadline = time.monotonic() + timeout_s
     missing = set(required)
-    while missing:
-        replies = bus.session.liveliness().get(f"fowt/{turbine_id}/alive/*", timeout=1.0)
-        for reply in replies:
-            if reply.ok is not None:
-                missing.discard(str(reply.ok.key_expr).rsplit("/", 1)[-1])
-        if not missing:
-            break
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"no {sorted(missing)} after {timeout_s:.0f} s; is it running?")
-        time.sleep(0.05)
+    if not missing:
+        return
+    seen: set[str] = set()
+    changed = threading.Event()
+    lock = threading.Lock()
+
+    def on_token(sample: zenoh.Sample) -> None:
+        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        with lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                seen.discard(name)
+            else:
+                seen.add(name)
+        changed.set()
+
+    sub = bus.session.liveliness().declare_subscriber(
+        f"fowt/{turbine_id}/alive/*", on_token, history=True
+    )
+    deadline = time.monotonic() + timeout_s
+    try:
+        while True:
+            with lock:
+                left = missing - seen
+            if not left:
+                return
+            if stop is not None and stop.is_set():
+                return
+            if time.monotonic() > deadline:
+                raise TimeoutError(
+                    f"no {sorted(left)} after {timeout_s:g} s (--wait-timeout); is it running?"
+                )
+            changed.wait(0.05)
+            changed.clear()
+    finally:
+        sub.undeclare()
 
 
 def run_plant_node(
@@ -691,7 +768,7 @@ def run_plant_node(
     mode: Mode = "realtime",
     speed: float = 1.0,
     require: tuple[str, ...] = ("controller",),
-    peer_timeout_s: float = 30.0,
+    peer_timeout_s: float = 120.0,
     lockstep_timeout_s: float = 10.0,
     log: Callable[[str], None] = print,
     can: CanBusConfig | None = None,
@@ -734,8 +811,10 @@ def run_plant_node(
     inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
     bus.subscribe(COMMAND.key(tid), inbox.on_payload)
     stop = threading.Event()
+    received: list[int] = []
 
     def on_signal(signum: int, _frame: Any) -> None:
+        received.append(signum)
         stop.set()
 
     signal.signal(signal.SIGTERM, on_signal)
@@ -747,7 +826,10 @@ def run_plant_node(
             f"plant waiting for {list(require)} "
             f"(listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
         )
-        wait_for_peers(bus, tid, require, peer_timeout_s)
+        wait_for_peers(bus, tid, require, peer_timeout_s, stop)
+        if stop.is_set():
+            signum = received[0] if received else signal.SIGTERM
+            raise PeerWaitInterruptedError(signum, list(require))
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
         loop.log = log
         loop._inbox = inbox

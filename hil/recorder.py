@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from bus_schemas import DecodeError, TimingSummary
+from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
 from hil.bus import Bus, BusConfig
 from hil.mcap_log import RunLog
@@ -147,6 +147,10 @@ class RecorderLog(RunLog):
         self.maybe_flush()
 
 
+#: The plant's messages that carry the cycle number (``seq``) of every control cycle.
+_PER_CYCLE = (SensorFrame, PlantState, CycleTiming)
+
+
 class Recorder:
     """Decode-and-queue sink for bus samples, drained into a :class:`RunLog`."""
 
@@ -157,6 +161,10 @@ class Recorder:
         self.unknown_keys: Counter[str] = Counter()
         self.final_seen = threading.Event()
         self.prefix = f"{KEY_PREFIX}/{log.turbine}/"
+        #: Lowest cycle (``seq``) of the plant's per-cycle messages written (sensor frame,
+        #: truth, cycle timing); None until one is. A recorder that joined late sees a
+        #: first cycle > 0: the run is partial (metadata ``first_cycle_recorded``).
+        self.first_cycle: int | None = None
 
     def on_sample(self, key: str, payload: bytes) -> None:
         """Decode one sample (Zenoh's thread) and queue it for writing."""
@@ -186,6 +194,10 @@ class Recorder:
         while True:
             key, msg, recv = item
             self.log.write(key, msg, recv)
+            if isinstance(msg, _PER_CYCLE) and (
+                self.first_cycle is None or msg.seq < self.first_cycle
+            ):
+                self.first_cycle = int(msg.seq)
             n += 1
             try:
                 item = self.queue.get_nowait()
@@ -346,6 +358,9 @@ def run_recorder_node(
             )
         written += recorder.drain(0.0)
         meta["messages"] = str(run_log.count)
+        meta["first_cycle_recorded"] = (
+            "none" if recorder.first_cycle is None else str(recorder.first_cycle)
+        )
         run_log.add_metadata("recorder", meta)
         run_log.close()
     log(f"recorder closed {out}: {run_log.count} messages, rejected {dict(recorder.rejected)}")

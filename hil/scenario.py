@@ -32,6 +32,16 @@ Positive = Annotated[float, msgspec.Meta(gt=0.0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
 WindSpeed = Annotated[float, msgspec.Meta(ge=0.0, le=70.0)]
 Cycles = Annotated[int, msgspec.Meta(ge=0, le=1_000_000)]
+#: Longest run a scenario may ask for [s] (one week: far beyond any soak or load case).
+MAX_DURATION_S = 604_800.0
+Duration = Annotated[float, msgspec.Meta(gt=0.0, le=MAX_DURATION_S)]
+Seed = Annotated[int, msgspec.Meta(ge=0, le=2**63 - 1)]
+#: Significant wave height [m]: the largest ever measured is about 20 m.
+WaveHeight = Annotated[float, msgspec.Meta(gt=0.0, le=30.0)]
+#: Spectral peak or mean period [s].
+WavePeriod = Annotated[float, msgspec.Meta(gt=0.0, le=40.0)]
+#: Angular frequency bound of the wave components [rad/s].
+WaveFrequency = Annotated[float, msgspec.Meta(gt=0.0, le=20.0)]
 
 
 class ScenarioError(ValueError):
@@ -90,7 +100,7 @@ class TurbulentWindSpec(
 
     mean_m_s: Annotated[float, msgspec.Meta(gt=0.0, le=70.0)]
     turbulence_class: TurbulenceClass = "B"
-    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
+    seed: Seed = 0
 
 
 class GustWindSpec(
@@ -111,12 +121,12 @@ WindSpecSection = SteadyWindSpec | StepWindSpec | RampWindSpec | TurbulentWindSp
 class _WavesCommon(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Keys every irregular sea state takes (see :func:`plant.waves.synthesize`)."""
 
-    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
-    gauge_distance_m: NonNegative = 450.0
+    seed: Seed = 0
+    gauge_distance_m: Annotated[float, msgspec.Meta(ge=0.0, le=10_000.0)] = 450.0
     n_components: Annotated[int, msgspec.Meta(ge=1, le=5000)] = 200
-    omega_min_rad_s: Positive = 0.1
-    omega_max_rad_s: Positive = 3.0
-    depth_m: Positive | None = None
+    omega_min_rad_s: WaveFrequency = 0.1
+    omega_max_rad_s: WaveFrequency = 3.0
+    depth_m: Annotated[float, msgspec.Meta(gt=0.0, le=12_000.0)] | None = None
 
     def check(self) -> None:
         """Cross-field checks (frequency band)."""
@@ -130,8 +140,8 @@ class _WavesCommon(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
 class JonswapWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="jonswap", tag_field="kind"):
     """JONSWAP spectrum: height ``hs_m``, peak period ``tp_s``, peak factor ``gamma``."""
 
-    hs_m: Positive
-    tp_s: Positive
+    hs_m: WaveHeight
+    tp_s: WavePeriod
     gamma: Annotated[float, msgspec.Meta(ge=1.0, le=10.0)] = 3.3
 
 
@@ -140,15 +150,15 @@ class PiersonMoskowitzWavesSpec(
 ):
     """Pierson-Moskowitz spectrum (JONSWAP with γ = 1): ``hs_m``, peak period ``tp_s``."""
 
-    hs_m: Positive
-    tp_s: Positive
+    hs_m: WaveHeight
+    tp_s: WavePeriod
 
 
 class IsscWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="issc", tag_field="kind"):
     """ISSC spectrum (casanovas-2014 eq. 3.1): ``hs_m``, mean period ``t1_s``."""
 
-    hs_m: Positive
-    t1_s: Positive
+    hs_m: WaveHeight
+    t1_s: WavePeriod
 
 
 class StillWavesSpec(_WavesCommon, frozen=True, kw_only=True, tag="still", tag_field="kind"):
@@ -188,8 +198,8 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     back after K consecutive commands that each met their deadline.
     """
 
-    control_period_s: Positive = 0.01
-    plant_step_s: Positive = 0.01
+    control_period_s: Annotated[float, msgspec.Meta(ge=0.001, le=1.0)] = 0.01
+    plant_step_s: Annotated[float, msgspec.Meta(ge=0.0001, le=1.0)] = 0.01
     watchdog_misses: Cycles = 3
     watchdog_recover_cycles: Cycles = 0
 
@@ -205,7 +215,7 @@ class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     floating plant, on top of the noise-only channels for a bottom-fixed one.
     """
 
-    seed: int = 1
+    seed: Seed = 1
     generator_speed_std_rad_s: NonNegative | None = None
     blade_pitch_std_rad: NonNegative | None = None
     generator_torque_std_nm: NonNegative | None = None
@@ -352,7 +362,7 @@ class FaultSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     std_s: float | None = None
     max_s: float | None = None
     probability: float | None = None
-    seed: int | None = None
+    seed: Seed | None = None
     restart_after_s: float | None = None
 
     @property
@@ -478,7 +488,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     waves: WavesSection | None = None
     description: str = ""
     turbine_id: Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z0-9_-]+$")] = "t1"
-    duration_s: Positive = 60.0
+    duration_s: Duration = 60.0
     timing: TimingSection = msgspec.field(default_factory=TimingSection)
     sensors: SensorSection = msgspec.field(default_factory=SensorSection)
     controller: ControllerSection = msgspec.field(default_factory=ControllerSection)
@@ -592,10 +602,17 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
         return round(self.duration_s / self.timing.control_period_s)
 
     def with_duration(self, duration_s: float | None) -> Scenario:
-        """A copy with another run length (None keeps this one)."""
+        """A copy with another run length (None keeps this one).
+
+        Raises
+        ------
+        ScenarioError
+            Unless ``duration_s`` is a finite number of seconds in (0, MAX_DURATION_S].
+        """
         if duration_s is None:
             return self
-        return msgspec.structs.replace(self, duration_s=duration_s)
+        check_duration(duration_s, "--duration")
+        return msgspec.structs.replace(self, duration_s=float(duration_s))
 
     def to_toml_dict(self) -> dict[str, object]:
         """Plain dict of the scenario (JSON-able), tags included."""
@@ -638,6 +655,47 @@ def _known_fields(path: str) -> list[str]:
     return list(cls.__struct_fields__)
 
 
+def check_duration(duration_s: object, name: str = "duration_s") -> float:
+    """``duration_s`` as a float, or a :class:`ScenarioError` naming ``name``.
+
+    Expected: a finite number of seconds, > 0 and <= :data:`MAX_DURATION_S`.
+    """
+    if isinstance(duration_s, bool) or not isinstance(duration_s, int | float):
+        raise ScenarioError(
+            f"{name}: expected a number of seconds, got {type(duration_s).__name__}"
+        )
+    value = float(duration_s)
+    if not math.isfinite(value):
+        raise ScenarioError(f"{name}: expected a finite number of seconds, got {value}")
+    if not 0.0 < value <= MAX_DURATION_S:
+        raise ScenarioError(
+            f"{name}: expected seconds > 0 and <= {MAX_DURATION_S:g}, got {value:g}"
+        )
+    return value
+
+
+def non_finite_key(raw: object, path: str = "") -> tuple[str, float] | None:
+    """The first key (dotted path, ``faults[i]`` for list items) holding NaN or +-inf.
+
+    Every number of a scenario is a physical quantity, so none may be non-finite; checked on
+    the parsed TOML before the typed validation so the message says "not finite" rather
+    than a failed bound (NaN fails every comparison).
+    """
+    if isinstance(raw, float):
+        return None if math.isfinite(raw) else (path, raw)
+    if isinstance(raw, dict):
+        for key, value in raw.items():
+            found = non_finite_key(value, f"{path}.{key}" if path else str(key))
+            if found:
+                return found
+    elif isinstance(raw, list):
+        for i, value in enumerate(raw):
+            found = non_finite_key(value, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
 def parse_scenario(text: str, source: str = "<string>") -> Scenario:
     """Parse and validate scenario TOML text.
 
@@ -650,6 +708,9 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{source}: not valid TOML: {exc}") from exc
+    bad = non_finite_key(raw)
+    if bad is not None:
+        raise ScenarioError(f"{source}: key {bad[0]!r}: expected a finite number, got {bad[1]}")
     try:
         return msgspec.convert(raw, Scenario)
     except msgspec.ValidationError as exc:
@@ -693,18 +754,45 @@ def shipped_scenarios() -> list[str]:
 
 
 def scenario_text(name_or_path: str) -> tuple[str, str]:
-    """The TOML text and its source for a shipped name or a file path."""
+    """The TOML text and its source for a shipped name or a file path.
+
+    A bare name (no ``/``, no ``.toml``) of a shipped scenario is the shipped scenario, even
+    when the working directory holds a file or folder of that name (write ``./name`` for
+    that one).
+
+    Raises
+    ------
+    ScenarioError
+        For an unknown name, a path that is not a readable UTF-8 text file.
+    """
+    res = importlib.resources.files("hil") / "scenarios" / f"{name_or_path}.toml"
+    bare = "/" not in name_or_path and not name_or_path.endswith(".toml")
+    if bare and name_or_path and res.is_file():
+        return res.read_text(), f"hil/scenarios/{name_or_path}.toml"
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
+    if path.suffix == ".toml" or path.exists() or not bare:
+        if path.is_dir():
+            raise ScenarioError(
+                f"scenario {name_or_path!r}: {path} is a directory, not a scenario file, and "
+                f"no shipped scenario has that name (shipped: {', '.join(shipped_scenarios())})"
+            )
         if not path.is_file():
             raise ScenarioError(f"scenario file {path} does not exist")
-        return path.read_text(), str(path)
-    res = importlib.resources.files("hil") / "scenarios" / f"{name_or_path}.toml"
-    if not res.is_file():
-        raise ScenarioError(
-            f"no scenario {name_or_path!r}: expected a .toml path or one of {shipped_scenarios()}"
-        )
-    return res.read_text(), f"hil/scenarios/{name_or_path}.toml"
+        try:
+            return path.read_bytes().decode("utf-8"), str(path)
+        except UnicodeDecodeError as exc:
+            raise ScenarioError(
+                f"scenario file {path}: expected a UTF-8 TOML text file, found binary data "
+                f"(byte {exc.start})"
+            ) from exc
+        except OSError as exc:
+            raise ScenarioError(
+                f"scenario file {path}: cannot read it ({exc.strerror or exc})"
+            ) from exc
+    raise ScenarioError(
+        f"no scenario {name_or_path!r}: expected a .toml path or one of "
+        f"{', '.join(shipped_scenarios())}"
+    )
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
