@@ -165,6 +165,21 @@ def _text_file(path: Path | None) -> Path | None:
     return path
 
 
+def _preset_ref(value: str) -> str:
+    """Callback of a preset argument: a shipped name, or a path to a readable text file."""
+    if value.endswith(".toml") or "/" in value:
+        _text_file(Path(value))
+    return value
+
+
+def _forecasters(values: list[str] | None) -> list[str] | None:
+    """Callback of ``--forecaster``: names of :mod:`controller.forecast` forecasters."""
+    for value in values or ():
+        if value not in ("dispersion", "ar", "esprit"):
+            raise typer.BadParameter(f"expected dispersion, ar or esprit, got {value!r}")
+    return values
+
+
 def _choice(*allowed: str) -> Callable[[str], str]:
     """Callback: one of ``allowed``."""
 
@@ -403,12 +418,12 @@ def run(
     udp_multicast the launcher runs the whole bench in a fresh network namespace (unshare -n,
     root) unless it already is in a private one.
     """
-    from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
-
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if can is not None and mode == "inprocess":
         _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+    from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
+
     if out is None:
         try:
             _writable("folder")(default_out_dir(sc))
@@ -473,11 +488,11 @@ def plant(
     ends it at once, while it waits (exit 130 / 143, nothing ran) or runs (the run is
     closed with its final timing summary, exit 0).
     """
-    from hil.plant_node import PeerWaitInterruptedError, run_plant_node
-
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     bus = _bus(listen, connect, zenoh_config, default_listen=("tcp/127.0.0.1:7447",))
+    from hil.plant_node import PeerWaitInterruptedError, run_plant_node
+
     _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
@@ -516,8 +531,6 @@ def controller(
     With --transport can it takes the sensor frames from and sends the commands to the CAN
     bus; its status and the plant's timing stay on Zenoh.
     """
-    from hil import controller_node
-
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     bus = _bus(
@@ -528,6 +541,8 @@ def controller(
         default_connect=("tcp/127.0.0.1:7447",),
     )
     _realtime(realtime_priority, "controller")
+    from hil import controller_node
+
     if can is None:
         controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
         return
@@ -562,10 +577,10 @@ def record(
     With --transport can it also listens on the CAN bus: the sensor frames and commands
     decoded from it, and every raw frame on fowt/<turbine>/can/raw.
     """
-    from hil.recorder import run_recorder_node
-
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    from hil.recorder import run_recorder_node
+
     bus = _bus(
         listen,
         connect,
@@ -645,8 +660,8 @@ def _preset_rows(package: str, folder: str = "") -> list[tuple[str, str]]:
 def presets() -> None:
     """List the shipped presets: turbines, floating platforms and controllers.
 
-    A scenario names them with turbine = "...", platform = "..." and, in its [controller]
-    table, preset = "...". The text is each preset file's first line.
+    A scenario names them with turbine = "<name>", platform = "<name>" and, in its
+    [controller] table, preset = "<name>". The text is each preset file's first line.
     """
     sections = (
         ('turbine presets (turbine = "<name>")', _preset_rows("plant.presets")),
@@ -665,7 +680,8 @@ analyze_app = typer.Typer(
     help="Offline analysis of plant presets.", no_args_is_help=True, rich_markup_mode=None
 )
 preset_app = typer.Typer(
-    help="Plant presets: import from other tools (list them with 'fowt presets').",
+    help="Import plant presets from other tools (list the shipped ones: fowt presets).",
+    short_help="Import plant presets from other tools.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -695,7 +711,9 @@ def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
 
 @analyze_app.command("modes", short_help="Natural periods and damping of the platform modes.")
 def analyze_modes(
-    preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ],
     wind: WindOpt = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
 ) -> None:
@@ -724,7 +742,7 @@ def analyze_modes(
 @app.command("design", short_help="Offline controller design: LQRI, wave FF, observer.")
 def design_cmd(
     preset: Annotated[
-        str, typer.Argument(help="Floating preset name or preset .toml path.")
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
     ] = "iea15mw_volturnus",
     control_period: Annotated[
         float,
@@ -770,7 +788,9 @@ def design_cmd(
 
 @analyze_app.command("linear", short_help="Design-model poles and LQRI closed-loop poles.")
 def analyze_linear(
-    preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ],
     wind: WindOpt = 15.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
@@ -822,13 +842,37 @@ def analyze_forecast(
             "--horizon", help="Forecast horizon, s.", callback=_number("s", gt=0.0, le=120.0)
         ),
     ] = 10.0,
+    duration: Annotated[
+        float,
+        typer.Option(
+            "--duration",
+            help="Evaluated seconds of the seeded sea (after the dispersion filter fills).",
+            callback=_number("s", gt=0.0, le=36_000.0),
+        ),
+    ] = 600.0,
+    forecaster: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--forecaster",
+            help="dispersion | ar | esprit (repeatable; default: all three).",
+            callback=_forecasters,
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
     """VAF of each wave forecaster (dispersion, AR, ESPRIT) on a seeded sea, runtime code."""
     from hil.analyze_forecast import forecast_report
 
+    kinds = tuple(forecaster) if forecaster else ("dispersion", "ar", "esprit")
     try:
-        report = forecast_report(hs_m=hs, tp_s=tp, distance_m=distance, horizon_s=horizon)
+        report = forecast_report(
+            hs_m=hs,
+            tp_s=tp,
+            distance_m=distance,
+            horizon_s=horizon,
+            duration_s=duration,
+            kinds=kinds,
+        )
     except ValueError as exc:
         _fail(str(exc))
     if as_json:

@@ -1,0 +1,445 @@
+"""Bad input on every command: one line naming the key or option, exit 2, nothing written.
+
+Each case runs ``fowt`` as a subprocess in an empty folder holding only the case's input
+files and checks the exit code, that stderr is exactly one ``error: ...`` line containing
+the expected words (the key or option and what was expected), that there is no traceback,
+and that nothing appeared in the folder (no output folder, no default ``runs/``). Every case
+fails at validation, before a process, a bus or a file is opened, so each takes well under
+a second of CPU.
+
+The rest: the CLI's listings (``fowt scenarios`` never truncates a name, every shipped
+scenario has a description, ``fowt presets``), a shipped name winning over a stray folder,
+``analyze forecast`` as a table or JSON, and the help texts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from hil.scenario import load_scenario, scenario_text, shipped_scenarios
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: Random bytes that are not UTF-8 (0xff never occurs in UTF-8) and hold a NUL.
+BINARY = bytes([0xFF, 0xFE, 0x00, 0x81]) + bytes(range(256)) * 4
+
+
+def _fowt(
+    args: list[str], cwd: Path, timeout: float = 120.0, columns: int = 80
+) -> subprocess.CompletedProcess[str]:
+    env = {
+        **os.environ,
+        "COLUMNS": str(columns),
+        "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
+    }
+    return subprocess.run(
+        [sys.executable, "-m", "hil", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+
+
+def _tree(root: Path) -> set[str]:
+    return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
+def _variant(name: str, old: str, new: str) -> str:
+    text, _ = scenario_text(name)
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+#: Scenario files written into the case's folder: file name -> contents.
+INPUTS: dict[str, str | bytes] = {
+    "binary.toml": BINARY,
+    "dur_inf.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", "duration_s = inf"),
+    "dur_nan.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", "duration_s = nan"),
+    "dur_neg.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", "duration_s = -5.0"),
+    "dur_zero.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", "duration_s = 0.0"),
+    "dur_str.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", 'duration_s = "60"'),
+    "dur_huge.toml": _variant("nrel5mw-ramp", "duration_s = 60.0", "duration_s = 1e12"),
+    "hs_inf.toml": _variant("default", "hs_m = 1.7", "hs_m = inf"),
+    "hs_nan.toml": _variant("default", "hs_m = 1.7", "hs_m = nan"),
+    "hs_neg.toml": _variant("default", "hs_m = 1.7", "hs_m = -1.7"),
+    "hs_huge.toml": _variant("default", "hs_m = 1.7", "hs_m = 1e6"),
+    "period_zero.toml": _variant(
+        "nrel5mw-ramp", "control_period_s = 0.01", "control_period_s = 0.0"
+    ),
+    "wind_neg.toml": _variant("nrel5mw-ramp", "initial_m_s = 8.0", "initial_m_s = -8.0"),
+    "seed_neg.toml": _variant("nrel5mw-ramp", "seed = 7", "seed = -7"),
+    "std_nan.toml": _variant(
+        "nrel5mw-ramp", "blade_pitch_std_rad = 0.0005", "blade_pitch_std_rad = nan"
+    ),
+    "channel_inf.toml": _variant(
+        "nrel5mw-ramp",
+        "[controller]",
+        "[sensors.channels.generator_speed_measured_rad_s]\nstd = -inf\n\n[controller]",
+    ),
+    "fault_inf.toml": _variant(
+        "nrel5mw-ramp",
+        "[controller]",
+        '[[faults]]\nkind = "dropout"\nchannel = "blade_pitch_measured_rad"\nstart_s = inf\n\n'
+        "[controller]",
+    ),
+    "bad.json5": "{ listen: ",
+}
+
+RUN = ["run", "--mode", "inprocess", "--out", "out"]
+
+#: (case id, arguments, words the one error line must contain).
+CASES: list[tuple[str, list[str], list[str]]] = [
+    # scenario files
+    ("binary-scenario", [*RUN[:1], "binary.toml", *RUN[1:]], ["binary.toml", "UTF-8", "binary"]),
+    ("duration-inf", ["run", "dur_inf.toml", *RUN[1:]], ["'duration_s'", "finite", "inf"]),
+    ("duration-nan", ["run", "dur_nan.toml", *RUN[1:]], ["'duration_s'", "finite", "nan"]),
+    ("duration-negative", ["run", "dur_neg.toml", *RUN[1:]], ["'duration_s'", "> 0"]),
+    ("duration-zero", ["run", "dur_zero.toml", *RUN[1:]], ["'duration_s'", "> 0"]),
+    ("duration-wrong-type", ["run", "dur_str.toml", *RUN[1:]], ["'duration_s'", "float", "str"]),
+    ("duration-too-long", ["run", "dur_huge.toml", *RUN[1:]], ["'duration_s'", "<= 604800"]),
+    ("hs-inf", ["run", "hs_inf.toml", *RUN[1:]], ["'waves.hs_m'", "finite", "inf"]),
+    ("hs-nan", ["run", "hs_nan.toml", *RUN[1:]], ["'waves.hs_m'", "finite", "nan"]),
+    ("hs-negative", ["run", "hs_neg.toml", *RUN[1:]], ["'waves.hs_m'", "> 0"]),
+    ("hs-huge", ["run", "hs_huge.toml", *RUN[1:]], ["'waves.hs_m'", "<= 30"]),
+    (
+        "control-period-zero",
+        ["run", "period_zero.toml", *RUN[1:]],
+        ["'timing.control_period_s'", ">= 0.001"],
+    ),
+    ("wind-negative", ["run", "wind_neg.toml", *RUN[1:]], ["'wind.initial_m_s'", ">= 0"]),
+    ("seed-negative", ["run", "seed_neg.toml", *RUN[1:]], ["'sensors.seed'", ">= 0"]),
+    ("std-nan", ["run", "std_nan.toml", *RUN[1:]], ["'sensors.blade_pitch_std_rad'", "finite"]),
+    (
+        "channel-table-inf",
+        ["run", "channel_inf.toml", *RUN[1:]],
+        ["'sensors.channels.generator_speed_measured_rad_s.std'", "finite"],
+    ),
+    ("fault-start-inf", ["run", "fault_inf.toml", *RUN[1:]], ["'faults[0].start_s'", "finite"]),
+    ("scenario-missing", ["run", "nope.toml", *RUN[1:]], ["nope.toml", "does not exist"]),
+    (
+        "scenario-unknown-name",
+        ["run", "no-such-scenario", *RUN[1:]],
+        ["no-such-scenario", "default"],
+    ),
+    # run options
+    (
+        "run-duration-nan",
+        ["run", "nrel5mw-ramp", "--duration", "nan", *RUN[1:]],
+        ["'--duration'", "finite", "nan"],
+    ),
+    (
+        "run-duration-inf",
+        ["run", "nrel5mw-ramp", "--duration", "inf", *RUN[1:]],
+        ["'--duration'", "finite", "inf"],
+    ),
+    (
+        "run-duration-negative",
+        ["run", "nrel5mw-ramp", "--duration", "-5", *RUN[1:]],
+        ["'--duration'", "> 0", "-5"],
+    ),
+    (
+        "run-duration-zero",
+        ["run", "nrel5mw-ramp", "--duration", "0", *RUN[1:]],
+        ["'--duration'", "> 0"],
+    ),
+    (
+        "run-duration-text",
+        ["run", "nrel5mw-ramp", "--duration", "abc", *RUN[1:]],
+        ["'--duration'", "number"],
+    ),
+    (
+        "run-speed-zero",
+        ["run", "nrel5mw-ramp", "--speed", "0", "--out", "out"],
+        ["'--speed'", "> 0"],
+    ),
+    (
+        "run-speed-nan",
+        ["run", "nrel5mw-ramp", "--speed", "nan", "--out", "out"],
+        ["'--speed'", "finite"],
+    ),
+    (
+        "run-mode",
+        ["run", "nrel5mw-ramp", "--mode", "fast", "--out", "out"],
+        ["'--mode'", "lockstep"],
+    ),
+    (
+        "run-transport",
+        ["run", "nrel5mw-ramp", "--transport", "udp", "--out", "out"],
+        ["'--transport'", "zenoh"],
+    ),
+    (
+        "run-priority",
+        ["run", "nrel5mw-ramp", "--realtime-priority", "99", "--out", "out"],
+        ["'--realtime-priority'"],
+    ),
+    (
+        "run-out-unwritable",
+        ["run", "nrel5mw-ramp", "--mode", "inprocess", "--out", "/proc/fowt-out"],
+        ["'--out'", "not writable"],
+    ),
+    (
+        "run-out-under-a-file",
+        ["run", "nrel5mw-ramp", "--mode", "inprocess", "--out", "bad.json5/out"],
+        ["'--out'", "is a file"],
+    ),
+    ("run-unknown-option", ["run", "nrel5mw-ramp", "--bogus"], ["--bogus"]),
+    # the other process commands
+    (
+        "plant-wait-timeout",
+        ["plant", "nrel5mw-ramp", "--wait-timeout", "-1"],
+        ["'--wait-timeout'", ">= 0"],
+    ),
+    (
+        "plant-wait-timeout-nan",
+        ["plant", "nrel5mw-ramp", "--wait-timeout", "nan"],
+        ["'--wait-timeout'", "finite"],
+    ),
+    (
+        "plant-require",
+        ["plant", "nrel5mw-ramp", "--require", "controler"],
+        ["'--require'", "controller"],
+    ),
+    ("plant-duration", ["plant", "dur_nan.toml"], ["'duration_s'", "finite"]),
+    (
+        "plant-zenoh-config-binary",
+        ["plant", "nrel5mw-ramp", "--zenoh-config", "binary.toml"],
+        ["'--zenoh-config'", "binary"],
+    ),
+    (
+        "plant-zenoh-config-missing",
+        ["plant", "nrel5mw-ramp", "--zenoh-config", "none.json5"],
+        ["'--zenoh-config'", "existing file"],
+    ),
+    (
+        "plant-zenoh-config-invalid",
+        ["plant", "nrel5mw-ramp", "--zenoh-config", "bad.json5"],
+        ["--zenoh-config", "not a valid Zenoh config"],
+    ),
+    (
+        "controller-duration",
+        ["controller", "nrel5mw-ramp", "--duration", "inf"],
+        ["'--duration'", "finite"],
+    ),
+    ("controller-scenario", ["controller", "hs_inf.toml"], ["'waves.hs_m'", "finite"]),
+    (
+        "record-out-unwritable",
+        ["record", "nrel5mw-ramp", "--out", "/proc/fowt.mcap"],
+        ["'--out'", "not writable"],
+    ),
+    ("record-out-folder", ["record", "nrel5mw-ramp", "--out", "."], ["'--out'", "is a folder"]),
+    (
+        "record-run-info-list",
+        ["record", "nrel5mw-ramp", "--out", "r.mcap", "--run-info", "[1]"],
+        ["'--run-info'", "JSON object"],
+    ),
+    (
+        "record-run-info-invalid",
+        ["record", "nrel5mw-ramp", "--out", "r.mcap", "--run-info", "{"],
+        ["'--run-info'", "not valid JSON"],
+    ),
+    # offline commands
+    (
+        "modes-wind-nan",
+        ["analyze", "modes", "iea15mw_volturnus", "--wind", "nan"],
+        ["'--wind'", "finite"],
+    ),
+    (
+        "modes-wind-zero",
+        ["analyze", "modes", "iea15mw_volturnus", "--wind", "0"],
+        ["'--wind'", "> 0"],
+    ),
+    ("modes-binary-preset", ["analyze", "modes", "binary.toml"], ["binary.toml"]),
+    (
+        "linear-wind-inf",
+        ["analyze", "linear", "iea15mw_volturnus", "--wind", "inf"],
+        ["'--wind'", "finite"],
+    ),
+    ("forecast-hs-inf", ["analyze", "forecast", "--hs", "inf"], ["'--hs'", "finite"]),
+    ("forecast-tp-zero", ["analyze", "forecast", "--tp", "0"], ["'--tp'", "> 0"]),
+    (
+        "forecast-distance-negative",
+        ["analyze", "forecast", "--distance", "-1"],
+        ["'--distance'", ">= 0"],
+    ),
+    (
+        "forecast-horizon-nan",
+        ["analyze", "forecast", "--horizon", "nan"],
+        ["'--horizon'", "finite"],
+    ),
+    ("design-period-nan", ["design", "--control-period", "nan"], ["'--control-period'", "finite"]),
+    ("design-period-too-long", ["design", "--control-period", "2"], ["'--control-period'", "<= 1"]),
+    (
+        "design-out-unwritable",
+        ["design", "--out", "/proc/fowt-designs"],
+        ["'--out'", "not writable"],
+    ),
+    ("import-binary-deck", ["preset", "import-openfast", "binary.toml"], ["binary"]),
+    (
+        "import-missing-deck",
+        ["preset", "import-openfast", "deck.fst"],
+        ["deck.fst", "existing file"],
+    ),
+    (
+        "import-out-unwritable",
+        ["preset", "import-openfast", "bad.json5", "--out", "/proc/fowt-presets"],
+        ["'--out'", "not writable"],
+    ),
+]
+
+
+@pytest.mark.parametrize(("args", "words"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_exit_2_nothing_written(
+    tmp_path: Path, args: list[str], words: list[str]
+) -> None:
+    for name, content in INPUTS.items():
+        path = tmp_path / name
+        if isinstance(content, bytes):
+            path.write_bytes(content)
+        else:
+            path.write_text(content)
+    before = _tree(tmp_path)
+    proc = _fowt(args, tmp_path)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: "), lines[0]
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    assert proc.stdout == ""
+    assert _tree(tmp_path) == before  # no output folder, no runs/, no probe file left
+
+
+def test_cases_cover_every_command() -> None:
+    """The table has a case for each command that takes input (review: its own tests)."""
+    commands = {" ".join(a[:2]) if a[0] in ("analyze", "preset") else a[0] for _, a, _ in CASES}
+    assert commands >= {
+        "run",
+        "plant",
+        "controller",
+        "record",
+        "design",
+        "analyze modes",
+        "analyze linear",
+        "analyze forecast",
+        "preset import-openfast",
+    }
+
+
+# ----------------------------------------------------------------- listings and names
+
+
+def test_scenarios_lists_every_name_whole_with_a_description(tmp_path: Path) -> None:
+    proc = _fowt(["scenarios"], tmp_path, columns=40)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    names = shipped_scenarios()
+    assert len(lines) == len(names)  # one line each, whatever the terminal width
+    for name, line in zip(names, lines, strict=True):
+        assert line.split()[0] == name  # never truncated
+        assert load_scenario(name).description.strip(), f"{name} has no description"
+        assert load_scenario(name).description in line
+    assert "nrel5mw-tlp" in names
+
+
+def test_presets_lists_turbines_platforms_and_controllers(tmp_path: Path) -> None:
+    proc = _fowt(["presets"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    listed = {ln.split()[0] for ln in proc.stdout.splitlines() if ln.startswith("  ")}
+    assert {
+        "iea15mw",
+        "nrel5mw",
+        "iea15mw_volturnus",
+        "nrel5mw_tlp",
+        "nrel5mw_baseline",
+        "iea15mw_baseline",
+        "iea15mw_advanced",
+    } <= listed
+    for preset in ("iea15mw_volturnus", "nrel5mw_tlp"):  # listed names are usable as such
+        load_scenario("nrel5mw-tlp")  # the TLP preset has a scenario that loads
+        assert preset in proc.stdout
+
+
+def test_shipped_name_wins_over_a_stray_folder(tmp_path: Path) -> None:
+    (tmp_path / "nrel5mw-ramp").mkdir()  # e.g. the output folder of an earlier run
+    proc = _fowt(["run", "nrel5mw-ramp", "--duration", "nan"], tmp_path)
+    # the scenario resolved (the shipped one): the error is about the option, not the folder
+    assert "'--duration'" in proc.stderr and "directory" not in proc.stderr
+    (tmp_path / "my-scenario").mkdir()
+    proc = _fowt(["run", "my-scenario", "--out", "o"], tmp_path)
+    assert proc.returncode == 2
+    assert "is a directory" in proc.stderr and "no shipped scenario" in proc.stderr
+
+
+def test_analyze_forecast_prints_a_table_or_json(tmp_path: Path) -> None:
+    args = ["analyze", "forecast", "--horizon", "5", "--duration", "60"]
+    args += ["--forecaster", "dispersion"]  # the FIR only: a second or so
+    table = _fowt(args, tmp_path, timeout=300, columns=120)
+    assert table.returncode == 0, table.stderr
+    assert not table.stdout.lstrip().startswith("{")
+    for word in ("dispersion", "up-wave gauge", "VAF [%]", "horizon [s]"):
+        assert word in table.stdout
+    as_json = _fowt([*args, "--json"], tmp_path, timeout=300)
+    assert as_json.returncode == 0, as_json.stderr
+    report = json.loads(as_json.stdout)
+    vaf = report["forecasters"]["dispersion"]["vaf_percent"]
+    # the same seeded sea: the table shows the JSON's figure, to one decimal
+    assert f"{vaf:.1f}" in table.stdout
+
+
+def test_modes_table_has_units(tmp_path: Path) -> None:
+    proc = _fowt(["analyze", "modes", "nrel5mw_tlp"], tmp_path, columns=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "damped period [s]" in proc.stdout and "damping ratio [-]" in proc.stdout
+
+
+COMMANDS = [
+    [],
+    ["run"],
+    ["plant"],
+    ["controller"],
+    ["record"],
+    ["scenarios"],
+    ["presets"],
+    ["design"],
+    ["analyze"],
+    ["analyze", "modes"],
+    ["analyze", "linear"],
+    ["analyze", "forecast"],
+    ["preset", "import-openfast"],
+]
+
+
+@pytest.mark.parametrize("cmd", COMMANDS, ids=[" ".join(c) or "fowt" for c in COMMANDS])
+def test_help_texts_are_clean(cmd: list[str]) -> None:
+    from typer.testing import CliRunner  # in process: only the help text is under test
+
+    from hil.cli import app
+
+    result = CliRunner().invoke(app, [*cmd, "--help"], env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    text = result.output
+    assert "``" not in text  # no raw reStructuredText
+    assert "<bool>" not in text  # no type shown for flags
+    # no cut command summaries ("review" is left out: its command is another change's)
+    listed = [ln for ln in text.splitlines() if not ln.lstrip().startswith("review ")]
+    assert "..." not in "\n".join(listed).replace("[ARGS]...", "")
+    # no markup eaten from the text ("the scenario's [can] interface" once lost "[can]")
+    assert "scenario's  " not in text and "scenario's )" not in text
+
+
+def test_plant_wait_timeout_default_in_help(tmp_path: Path) -> None:
+    proc = _fowt(["plant", "--help"], tmp_path)
+    text = " ".join(proc.stdout.split())
+    assert re.search(r"--wait-timeout <float> [^\[]*\[default: 120\.0\]", text), text
+    assert re.search(r"--require <str> [^\[]*\[default: controller,recorder\]", text), text
