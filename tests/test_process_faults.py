@@ -119,7 +119,7 @@ def test_process_faults_parse_and_stay_out_of_the_channel_faults() -> None:
         ),
         (
             'kind = "controller_kill"\nstart_s = 5.0\nrestart_after_s = nan',
-            r"faults\[0\]: key 'restart_after_s'",
+            r"key 'faults\[0\]\.restart_after_s': expected a finite number, got nan",
         ),
         (
             'kind = "controller_kill"\nstart_s = -1.0',
