@@ -7,6 +7,12 @@ stays readable up to its last flush if any process, this one included, is killed
 recorder stops after the plant's final timing summary (plus a short drain) or on
 SIGINT/SIGTERM, and always finishes the file.
 
+Its ``recorder`` metadata record holds ``messages`` (written), ``rejected`` and
+``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest cycle number
+(``seq``) of the plant's per-cycle messages (sensor frame, truth, cycle timing) in the file,
+``"0"`` for a run recorded from its start, larger when the recorder joined late (a partial
+run), ``"none"`` when no cycle was recorded.
+
 CAN runs
 --------
 With a CAN bus (:class:`hil.can_bus.CanBusConfig`; ``fowt record --transport can ...``,

@@ -508,14 +508,15 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
             )
         if isinstance(self.wind, RampWindSpec) and self.wind.end_s < self.wind.start_s:
             raise ValueError("wind.end_s must be >= wind.start_s")
+        _check_preset("turbine", self.turbine, shipped_turbines(), "a turbine preset")
+        _check_preset(
+            "controller.preset",
+            self.controller.preset,
+            _package_presets("controller", "presets"),
+            "a controller preset",
+        )
         if self.platform is not None:
-            shipped = shipped_platforms()
-            ref = self.platform
-            if not (ref in shipped or ref.endswith(".toml")):
-                raise ValueError(
-                    f"platform = {ref!r}: expected a floating preset ({', '.join(shipped)}) "
-                    "or a path to a preset .toml"
-                )
+            _check_preset("platform", self.platform, shipped_platforms(), "a floating preset")
         if self.waves is not None:
             if self.platform is None:
                 raise ValueError(
@@ -731,20 +732,43 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         raise ScenarioError(f"{source}: {msg}") from exc
 
 
-def shipped_platforms() -> list[str]:
-    """Names of the floating platform presets shipped with the plant.
+def _package_presets(package: str, *folder: str) -> list[str]:
+    """Names of the ``*.toml`` presets in ``package``/``folder``, without importing it.
 
-    The preset folder is found with ``importlib.util.find_spec`` on the top-level ``plant``
-    package, which locates it without importing it: the controller process validates the
-    same scenario file and must never import ``plant`` (the two sides speak only
-    ``bus_schemas``).
+    The folder is found with ``importlib.util.find_spec`` on the top-level package, which
+    locates it without importing it: the controller process validates the same scenario
+    file and must never import ``plant`` (the two sides speak only ``bus_schemas``).
     """
-    spec = importlib.util.find_spec("plant")
+    spec = importlib.util.find_spec(package)
     locations = list(spec.submodule_search_locations or []) if spec is not None else []
     if not locations:
         return []
-    root = Path(locations[0]) / "presets" / "floating"
+    root = Path(locations[0]).joinpath(*folder)
     return sorted(p.name.removesuffix(".toml") for p in root.glob("*.toml"))
+
+
+def _check_preset(key: str, ref: str, shipped: list[str], what: str) -> None:
+    """A preset reference: a shipped name, or a path to an existing ``.toml`` file."""
+    if ref in shipped:
+        return
+    if ref.endswith(".toml"):
+        if not Path(ref).is_file():
+            raise ValueError(f"{key} = {ref!r}: preset file not found")
+        return
+    raise ValueError(
+        f"{key} = {ref!r}: expected {what} ({', '.join(shipped)}) or a path to a preset .toml"
+    )
+
+
+def shipped_turbines() -> list[str]:
+    """Names of the turbine presets shipped with the plant (found without importing it)."""
+    return _package_presets("plant", "presets")
+
+
+def shipped_platforms() -> list[str]:
+    """Names of the floating platform presets shipped with the plant (found without
+    importing it: :func:`_package_presets`)."""
+    return _package_presets("plant", "presets", "floating")
 
 
 def shipped_scenarios() -> list[str]:

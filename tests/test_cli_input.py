@@ -92,6 +92,9 @@ INPUTS: dict[str, str | bytes] = {
         '[[faults]]\nkind = "dropout"\nchannel = "blade_pitch_measured_rad"\nstart_s = inf\n\n'
         "[controller]",
     ),
+    "turbine.toml": _variant("nrel5mw-ramp", 'turbine = "nrel5mw"', 'turbine = "nrel5"'),
+    "ctl_preset.toml": _variant("nrel5mw-ramp", 'preset = "nrel5mw_baseline"', 'preset = "x"'),
+    "platform.toml": _variant("default", 'platform = "iea15mw_volturnus"', 'platform = "p.toml"'),
     "bad.json5": "{ listen: ",
 }
 
@@ -125,6 +128,9 @@ CASES: list[tuple[str, list[str], list[str]]] = [
         ["'sensors.channels.generator_speed_measured_rad_s.std'", "finite"],
     ),
     ("fault-start-inf", ["run", "fault_inf.toml", *RUN[1:]], ["'faults[0].start_s'", "finite"]),
+    ("turbine-unknown", ["run", "turbine.toml", *RUN[1:]], ["turbine = 'nrel5'", "nrel5mw"]),
+    ("controller-preset", ["run", "ctl_preset.toml", *RUN[1:]], ["controller.preset = 'x'"]),
+    ("platform-file-missing", ["run", "platform.toml", *RUN[1:]], ["platform", "not found"]),
     ("scenario-missing", ["run", "nope.toml", *RUN[1:]], ["nope.toml", "does not exist"]),
     (
         "scenario-unknown-name",
@@ -443,3 +449,69 @@ def test_plant_wait_timeout_default_in_help(tmp_path: Path) -> None:
     text = " ".join(proc.stdout.split())
     assert re.search(r"--wait-timeout <float> [^\[]*\[default: 120\.0\]", text), text
     assert re.search(r"--require <str> [^\[]*\[default: controller,recorder\]", text), text
+
+
+# ----------------------------------------------------------------- Zenoh config endpoints
+
+
+@pytest.mark.parametrize(
+    ("command_defaults", "options", "listen", "connect"),
+    [
+        # no options: the file's endpoints stay (the node's loopback defaults are not applied)
+        (
+            {"default_listen": ("tcp/127.0.0.1:7447",)},
+            {},
+            ["tcp/127.0.0.1:17001"],
+            ["tcp/127.0.0.1:17002"],
+        ),
+        (
+            {"default_listen": ("tcp/127.0.0.1:7448",), "default_connect": ("tcp/127.0.0.1:7447",)},
+            {},
+            ["tcp/127.0.0.1:17001"],
+            ["tcp/127.0.0.1:17002"],
+        ),
+        # explicit options replace the file's endpoints
+        (
+            {"default_listen": ("tcp/127.0.0.1:7447",)},
+            {"listen": ["tcp/127.0.0.1:17003"], "connect": ["tcp/127.0.0.1:17004"]},
+            ["tcp/127.0.0.1:17003"],
+            ["tcp/127.0.0.1:17004"],
+        ),
+    ],
+)
+def test_zenoh_config_endpoints_are_kept_unless_given(
+    tmp_path: Path,
+    command_defaults: dict[str, tuple[str, ...]],
+    options: dict[str, list[str]],
+    listen: list[str],
+    connect: list[str],
+) -> None:
+    from hil.bus import BusConfig
+    from hil.cli import _bus
+
+    path = tmp_path / "zenoh.json5"
+    path.write_text(
+        '{ mode: "peer", listen: { endpoints: ["tcp/127.0.0.1:17001"] },'
+        ' connect: { endpoints: ["tcp/127.0.0.1:17002"] },'
+        " scouting: { multicast: { enabled: false } } }"
+    )
+    bus = _bus(options.get("listen"), options.get("connect"), path, **command_defaults)
+    assert isinstance(bus, BusConfig)
+    conf = bus.zenoh_config()
+    assert json.loads(conf.get_json("listen/endpoints")) == listen
+    assert json.loads(conf.get_json("connect/endpoints")) == connect
+
+
+def test_without_zenoh_config_the_loopback_defaults_apply() -> None:
+    from hil.bus import BusConfig
+    from hil.cli import _bus
+
+    bus = _bus(
+        None,
+        None,
+        None,
+        default_listen=("tcp/127.0.0.1:7448",),
+        default_connect=("tcp/127.0.0.1:7447",),
+    )
+    assert isinstance(bus, BusConfig)
+    assert bus.listen == ("tcp/127.0.0.1:7448",) and bus.connect == ("tcp/127.0.0.1:7447",)
