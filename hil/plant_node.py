@@ -882,13 +882,15 @@ def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threa
             got = (
                 inbox.wait_for(frame.seq, remaining_s) if remaining_s > 0 else inbox.take(frame.seq)
             )
+        late_ns = 0
         if got is not None and got[1] - sent > loop.wall_period_ns:
+            late_ns = got[1] - sent  # logged as this missed cycle's latency
             got = None  # it came, but later than its control period: a miss
             loop.result.commands_late += 1
         # ... then pace precisely to the tick.
         lateness_next = pacer.wait_tick()
         if got is None:
-            loop.finish_cycle(None, 0, lateness)
+            loop.finish_cycle(None, late_ns, lateness)
         else:
             loop.finish_cycle(got[0], got[1] - sent, lateness)
         lateness = lateness_next
