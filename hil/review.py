@@ -486,6 +486,16 @@ def _measured(sensors: Sequence[dict[str, Any]], name: str) -> FloatArray:
     return x
 
 
+def _invalid_spans(t: FloatArray, invalid: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:
+    """Time spans [s] of consecutive invalid samples (each to the next sample's time)."""
+    if not invalid.any():
+        return []
+    edges = np.diff(np.concatenate(([0], invalid.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return [(float(t[a]), float(t[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+
+
 def _is_floating(truth: Sequence[dict[str, Any]]) -> bool:
     return bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
 
@@ -554,14 +564,19 @@ def _timeseries_plot(
     command = run.topic("command")
     tt, ts, tc = _t_s(truth), _t_s(sensors), _t_s(command)
     floating = _is_floating(truth)
-    behind = {"lw": 0.6, "alpha": 0.45, "zorder": 1, "color": "0.55"}
+    behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
     front = {"lw": 1.3, "zorder": 3}
     cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
     fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True, layout="constrained")
 
     def meas(ax: Any, field: str, scale: float = 1.0, text: str = "measured") -> None:
-        if sensors:
-            ax.plot(ts, _measured(sensors, field) * scale, label=text, **behind)
+        if not sensors:
+            return
+        x = _measured(sensors, field)
+        ax.plot(ts, x * scale, label=text, **behind)
+        gaps = _invalid_spans(ts, np.isnan(x) & np.isfinite(_col(sensors, field)))
+        for i, (a, b) in enumerate(gaps):
+            ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if i else "invalid")
 
     ax = axes[0]
     meas(ax, "wind_speed_measured_m_s", text="nacelle anemometer")
@@ -609,7 +624,14 @@ def _timeseries_plot(
     ax = axes[7]
     if floating:
         meas(ax, "wave_elevation_gauge_measured_m", text="gauge (measured)")
-        ax.plot(tt, _col(truth, "wave_elevation_gauge_m"), label="at the gauge (truth)", lw=0.9)
+        ax.plot(
+            tt,
+            _col(truth, "wave_elevation_gauge_m"),
+            label="at the gauge (truth)",
+            lw=0.9,
+            ls="--",
+            zorder=2,
+        )
         ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform", **front)
     ax.set_ylabel("wave elevation [m]")
     ax.set_xlabel("simulated time [s]")
@@ -626,7 +648,7 @@ def _timeseries_plot(
         a.grid(True, alpha=0.3)
     note = ""
     if isinstance(start, float) and start > 0:
-        note = f"; KPIs from t = {start:g} s (dotted line)"
+        note = f"; KPIs from t = {start:.1f} s (dotted line)"
     fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -642,23 +664,31 @@ def _timing_plot(
     lat_all = _col(cycles, "latency_ns")
     fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
     finite = lat_ns[np.isfinite(lat_ns)] / 1e3
+    mode = run.metadata.get("run", {}).get("mode", "")
+    enforced = mode not in ("lockstep", "inprocess")
+    dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
     if lat_ns.size:
         pct = kpi.latency_percentiles_us(lat_ns)
-        hi = float(max(finite.max() if finite.size else 0.0, deadline if deadline > 0 else 0.0))
-        bins = np.linspace(0.0, hi * 1.02 if hi > 0 else 1.0, 101)
+        # Log-spaced bins on a log axis: the latency spans decades (tens of us to a stall).
+        lo = float(finite[finite > 0].min()) if (finite > 0).any() else 1.0
+        hi = float(max(finite.max() if finite.size else 1.0, deadline if deadline > 0 else 0.0))
+        bins = np.logspace(np.log10(lo * 0.95), np.log10(max(hi, lo) * 1.05), 101)
         a0.hist(finite, bins=bins, color="tab:blue", label=f"{finite.size} cycles with a command")
+        a0.set_xscale("log")
         for q, color in (("p50", "tab:green"), ("p99", "tab:orange")):
             v = pct[q]
             if math.isfinite(v):
                 a0.axvline(v, color=color, ls="--", label=f"{q} = {v:.0f} us")
             else:
-                a0.plot([], [], " ", label=f"{q}: no command (unanswered cycles)")
+                share = 100.0 * unanswered / lat_ns.size
+                a0.plot([], [], " ", label=f"{q} = inf ({share:.2g} % of cycles had no command)")
         if deadline > 0:
-            a0.axvline(deadline, color="tab:red", lw=1.5, label=f"deadline {deadline:.0f} us")
+            a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
         a0.set_yscale("log")
         a0.legend(fontsize="small")
         ok = ~missed_all & (lat_all > 0)
-        a1.plot(seq[ok], lat_all[ok] / 1e3, ".", ms=2, color="tab:blue", label="met its deadline")
+        a1.plot(seq[ok], lat_all[ok] / 1e3, ".", ms=2, color="tab:blue", label="command in time")
+        a1.set_yscale("log")
         late = missed_all & (lat_all > 0)
         if late.any():
             a1.plot(
@@ -678,11 +708,11 @@ def _timing_plot(
                 "v",
                 color="darkred",
                 ms=6,
-                label=f"missed: no command ({int(none.sum())})",
+                label=f"missed: no command by the next tick ({int(none.sum())})",
             )
         if deadline > 0:
-            a1.axhline(deadline, color="tab:red", lw=1.2, label="deadline")
-        a1.legend(fontsize="small", loc="upper right")
+            a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
+        a1.legend(fontsize="small", loc="best", framealpha=0.9)
     else:
         _no_data(a0)
         _no_data(a1)
@@ -727,8 +757,8 @@ def _psd_plot(
         df = fs / nper
         n_seg = max(1, (len(msgs) - nper) // (nper // 2) + 1)
         title += (
-            f" (Welch, Hann, segment {nper / fs:.4g} s, resolution {df:.3g} Hz, "
-            f"{n_seg} segments 50 % overlap, t = {t[0]:.4g}-{t[-1]:.4g} s)"
+            f", t = {t[0]:.4g}-{t[-1]:.4g} s (KPI window)\nWelch, Hann window, segment "
+            f"{nper / fs:.4g} s, resolution {df:.3g} Hz, {n_seg} segments with 50 % overlap"
         )
         for ax, (name, x, unit) in zip(axes, series, strict=True):
             ax.set_ylabel(f"{name}\n[{unit}]")
@@ -845,7 +875,7 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
             + (", shortened to half the run" if win.get("shortened") else "")
             + ") left out; '-': not available (e.g. no platform)"
         )
-    t = Table(title="KPIs", caption=caption)
+    t = Table(title="KPIs")
     t.add_column("KPI")
     t.add_column("value", justify="right")
     t.add_column("unit")
@@ -874,6 +904,8 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     for name, v, scale, unit in rows:
         t.add_row(name, _fmt(v, scale), unit)
     console.print(t)
+    if caption:
+        console.print(caption)
 
     _render_estimates(summary, console)
 
@@ -937,8 +969,9 @@ def _render_estimates(summary: dict[str, Any], console: Console) -> None:
     """The estimator and forecast tables (advanced controllers; nothing for the baseline)."""
     est = summary.get("estimator") or {}
     fc = summary.get("forecast") or {}
-    if all(v is None for v in est.values()) and not fc.get("samples"):
-        return
+    errors = [v for k, v in est.items() if k != "degraded_fraction"]
+    if all(v is None for v in errors) and not fc.get("samples"):
+        return  # no estimate published (the baseline controller)
     t = Table(title="Estimator and wave forecast (against the truth, KPI window)")
     t.add_column("quantity")
     t.add_column("value", justify="right")
