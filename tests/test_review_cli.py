@@ -157,13 +157,13 @@ def test_review_of_a_truncated_log_says_where_and_strict_fails(
     truth = read_run(cut).topic("truth")
     assert at == pytest.approx(max(m["sample_time_ns"] for m in truth) / 1e9)
     assert 0.0 < at < (N - 1) * DT_NS / 1e9
-    proc = _fowt("review", str(cut), "--out", str(tmp_path / "b"))
+    proc = _fowt("review", str(cut), "--out", str(tmp_path / "b"), "--no-plots")
     assert proc.returncode == 0
     assert f"truncated at t = {at:.2f} s" in proc.stdout
-    proc = _fowt("review", str(cut), "--out", str(tmp_path / "c"), "--strict")
+    proc = _fowt("review", str(cut), "--json", "--out", str(tmp_path / "c"), "--strict")
     assert proc.returncode == 1
     assert f"truncated at t = {at:.2f} s" in proc.stderr
-    proc = _fowt("review", str(floating_log), "--out", str(tmp_path / "d"), "--strict")
+    proc = _fowt("review", str(floating_log), "--json", "--out", str(tmp_path / "d"), "--strict")
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
