@@ -10,7 +10,8 @@ One control cycle k (period T, speed factor s, wall period T/s):
    * ``realtime``: sleep to the next tick; a command that arrived within the deadline
      (T/s wall) takes effect when it arrived, at the plant step's resolution (rounded to
      the nearest step); one that did not is a deadline miss, the last command is held and
-     the late one, if it comes, is dropped and counted;
+     the late one, if it comes before the tick, is dropped and counted (its latency is
+     logged in the cycle's record; 0 when no command came);
    * ``inprocess``: call the controller directly (no bus; fastest);
 
 3. integrate x_{k+1} and publish this cycle's :class:`CycleTiming` (latency on the plant's

@@ -3,9 +3,12 @@
 Summary keys (all numbers, ``null`` where a channel was missing)
 ----------------------------------------------------------------
 ``timing``
-    ``latency_us.{p50,p99,p999,max}`` sensor-to-command latency [us], numpy linear
-    percentiles of every ``timing/cycle`` ``latency_ns`` > 0 (cycles whose command never
-    arrived log 0 and are left out; they are counted in ``deadline_misses``);
+    ``latency_us.{p50,p99,p999,max}`` sensor-to-command latency [us], linear percentiles
+    over every ``timing/cycle``: a missed cycle at the latency of its late command, one
+    that got no command before the next tick as infinite (``null`` where a percentile
+    falls among those; :func:`hil.kpi.latency_percentiles_us`); ``latency_cycles`` [1]
+    cycles in them, ``unanswered_cycles`` [1] those without a command, ``deadline_us``
+    [us] the control period over the speed factor;
     ``latency_source`` says which channel they came from (``"timing/cycle"``, or
     ``"timing/summary"`` when no cycle was logged); ``latency_us_plant`` the plant's own
     histogram percentiles (about 2 % bin width) from the last ``timing/summary``;
@@ -28,11 +31,18 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     damage rate, so DELs of runs of different lengths compare),
     ``thrust_del_n`` [N] the same for rotor thrust (m = 4),
     ``platform_pitch_mean_deg``, ``platform_pitch_std_deg`` [deg], ``surge_mean_m``,
-    ``surge_std_m`` [m] of the true platform motion (truth; 0 for a bottom-fixed plant).
+    ``surge_std_m`` [m] of the true platform motion (truth; ``null`` for a bottom-fixed
+    plant). Every KPI (and the estimator and forecast figures) covers only the samples from
+    ``kpi_window.from_s`` on (:func:`kpi_window`).
+``kpi_window``
+    ``settle_s`` requested start-up settling time (scenario ``[review] settle_s``),
+    ``from_s``/``to_s`` the window used [s], ``shortened`` when the run was too short.
 ``run``
     the ``"run"`` metadata record (strings) plus ``turbine``, ``duration_s`` [s] (span of
     ``sample_time_ns`` over all topics), ``messages`` (count per topic suffix),
-    ``truncated`` and ``error`` (what the reader stopped on).
+    ``truncated`` (no footer and closing magic), ``truncated_at_s`` [s] the last sample
+    time in a truncated file, ``statistics_ok`` (the summary's message counts equal the
+    messages read; ``null`` without a summary) and ``error`` (what the reader stopped on).
 ``scenario``
     ``name`` and ``config`` (the record's ``json`` parsed), ``null`` fields when absent.
 ``estimator``
@@ -635,6 +645,14 @@ def _timeseries_plot(
         ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform", **front)
     ax.set_ylabel("wave elevation [m]")
     ax.set_xlabel("simulated time [s]")
+    # A minimum visible span per panel (its unit), so that sensor quantisation and noise
+    # around a flat truth (pitch at 0 below rated) stay a thin band, not the whole panel.
+    for a, span in zip(axes, (1.0, 0.5, 1.0, 100.0, 0.1, 0.5, 1.0, 0.5), strict=True):
+        if a.lines:
+            lo, hi = a.get_ylim()
+            if hi - lo < span:
+                mid = 0.5 * (lo + hi)
+                a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
     start = window.get("from_s")
     for a in axes:
         if a.lines:
