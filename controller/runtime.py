@@ -122,6 +122,7 @@ __all__ = [
     "AdvancedState",
     "ObserverDesign",
     "discretize",
+    "forecast_fill_time_s",
     "load_advanced_settings",
     "load_observer_design",
     "missing_designs",
@@ -393,6 +394,50 @@ class AdvancedState(msgspec.Struct, gc=False):
     speed_misses: int = 0
 
 
+def _forecaster_config(
+    fc: ForecastSection, kind: str, distance_m: float
+) -> DispersionConfig | ArConfig | EspritConfig:
+    """The forecaster configuration of the ``[forecast]`` section for ``kind``."""
+    horizon = fc.horizon_s + fc.gauge_delay_s
+    if kind == "dispersion":
+        return DispersionConfig(
+            distance_m=max(distance_m, 1e-3),
+            horizon_s=horizon,
+            dt_s=fc.sample_period_s,
+            n_taps=fc.n_taps,
+            depth_m=fc.water_depth_m,
+        )
+    if distance_m > 1.0:
+        raise ValueError(
+            f"forecaster {kind!r} predicts the elevation where it is measured from its "
+            f"own past; the gauge is {distance_m:g} m up-wave, not at the platform. Set "
+            "[waves] gauge_distance_m = 0 or use forecaster = 'dispersion'"
+        )
+    cls = ArConfig if kind == "ar" else EspritConfig
+    return cls(sample_period_s=0.5, dt_s=fc.sample_period_s, horizon_s=horizon)
+
+
+def forecast_fill_time_s(
+    settings: AdvancedSettings,
+    forecaster: ForecasterName | None = None,
+    gauge_distance_m: float | None = None,
+) -> float:
+    """Simulated time from the first frame until the wave forecast is valid [s].
+
+    The forecaster is called every ``sample_period_s`` (T_f) from t = 0 and is valid once its
+    window holds its n model samples, taken every D calls (D = 1 for the dispersion filter,
+    the decimation for AR/ESPRIT): t_fill = (n − 1) D T_f. Until then the controller
+    status clears ``EST_WAVE_FORECAST`` and ``lqri_ff`` applies no feedforward. Built from
+    the preset alone (no design artefact; the window does not depend on the horizon), so it
+    equals :attr:`AdvancedController.forecast_fill_time_s`.
+    """
+    fc = settings.forecast
+    kind = forecaster or fc.kind
+    distance = fc.gauge_distance_m if gauge_distance_m is None else gauge_distance_m
+    st = make_forecaster(kind, _forecaster_config(fc, kind, distance)).init_state()
+    return (st.n - 1) * st.weights.shape[0] * fc.sample_period_s
+
+
 class AdvancedController:
     """LQRI (optionally plus wave feedforward) on observer estimates (module docstring).
 
@@ -501,28 +546,9 @@ class AdvancedController:
             fc = msgspec.structs.replace(fc, horizon_s=wave_ff.delay_s)
         kind = forecaster or fc.kind
         distance = fc.gauge_distance_m if gauge_distance_m is None else gauge_distance_m
-        horizon = fc.horizon_s + fc.gauge_delay_s
         self.forecast_kind = kind
         self.forecast_horizon_s = fc.horizon_s
-        cfg: DispersionConfig | ArConfig | EspritConfig
-        if kind == "dispersion":
-            cfg = DispersionConfig(
-                distance_m=max(distance, 1e-3),
-                horizon_s=horizon,
-                dt_s=fc.sample_period_s,
-                n_taps=fc.n_taps,
-                depth_m=fc.water_depth_m,
-            )
-        else:
-            if distance > 1.0:
-                raise ValueError(
-                    f"forecaster {kind!r} predicts the elevation where it is measured from its "
-                    f"own past; the gauge is {distance:g} m up-wave, not at the platform. Set "
-                    "[waves] gauge_distance_m = 0 or use forecaster = 'dispersion'"
-                )
-            cls = ArConfig if kind == "ar" else EspritConfig
-            cfg = cls(sample_period_s=0.5, dt_s=fc.sample_period_s, horizon_s=horizon)
-        self.forecaster = make_forecaster(kind, cfg)
+        self.forecaster = make_forecaster(kind, _forecaster_config(fc, kind, distance))
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
 
@@ -532,6 +558,18 @@ class AdvancedController:
         return ActuatorLimits(
             d.pitch_min_rad, d.pitch_max_rad, d.pitch_rate_max_rad_s, d.torque_rate_max_nm_s
         )
+
+    @property
+    def forecast_fill_time_s(self) -> float:
+        """Simulated time from the first frame until the wave forecast is valid [s].
+
+        The forecaster is called every ``sample_period_s`` (T_f) from t = 0 and is valid once
+        its window holds its n model samples, taken every D calls (D = 1 for the dispersion
+        filter, the decimation for AR/ESPRIT): t_fill = (n − 1) D T_f. Until then the status
+        clears ``EST_WAVE_FORECAST`` and ``lqri_ff`` applies no feedforward.
+        """
+        st = self.forecaster.init_state()
+        return (st.n - 1) * st.weights.shape[0] * self._forecast_period_ns * 1e-9
 
     # -------------------------------------------------------------- cycle
     def initial_state(self) -> AdvancedState:

@@ -1,4 +1,5 @@
-"""The ``fowt`` command: run, plant, controller, record, review, scenarios, presets, analyze.
+"""The ``fowt`` command: run, plant, controller, record, review, recover, scenarios, presets,
+analyze, preset.
 
 Bad input on the command line (an option's value, a scenario file) ends the command with one
 line on stderr, ``error: ...`` naming the option or the scenario key and what was expected, and
@@ -603,20 +604,72 @@ def record(
 def review_cmd(
     mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
     out: Annotated[Path | None, typer.Option("--out", help="Folder for summary and plots.")] = None,
-    plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
+    plots: Annotated[
+        bool | None,
+        typer.Option(
+            "--plots/--no-plots", help="Write PNG plots (default: yes, but no with --json)."
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    strict: Annotated[
+        bool, typer.Option("--strict", help="Exit 1 when the file is truncated or inconsistent.")
+    ] = False,
 ) -> None:
     """Summarise a recorded run: KPIs and timing from the MCAP file alone, plus plots."""
-    from hil.review import render_summary, review
+    from hil.mcap_log import NotMcapError
+    from hil.review import render_summary, review, truncation_note
 
     if not mcap.is_file():
         console.print(f"[red]error:[/] {mcap} is not a file")
         raise typer.Exit(2)
-    summary = review(mcap, out, plots=plots)
+    try:
+        summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
+    except NotMcapError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    except OSError as exc:
+        console.print(f"[red]error:[/] {mcap}: {exc.strerror or exc}")
+        raise typer.Exit(2) from exc
+    note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        if note:
+            Console(stderr=True).print(f"[yellow]warning:[/] {mcap}: {note}")
     else:
         render_summary(summary, console)
+    bad = note is not None or summary["run"].get("statistics_ok") is False
+    if strict and bad:
+        reason = note or str(summary["run"].get("error"))
+        Console(stderr=True).print(f"[red]error:[/] --strict: {mcap}: {reason}")
+        raise typer.Exit(1)
+
+
+@app.command("recover")
+def recover_cmd(
+    mcap: Annotated[Path, typer.Argument(help="A truncated MCAP file (e.g. recorder killed).")],
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Output file (default: <name>.recovered.mcap).")
+    ] = None,
+) -> None:
+    """Rewrite a truncated MCAP file as a complete one (every message before the cut)."""
+    from hil.mcap_log import NotMcapError, recover
+
+    if not mcap.is_file():
+        console.print(f"[red]error:[/] {mcap} is not a file")
+        raise typer.Exit(2)
+    target = out if out is not None else mcap.with_suffix(".recovered.mcap")
+    if target.resolve() == mcap.resolve():
+        console.print("[red]error:[/] --out must differ from the input file")
+        raise typer.Exit(2)
+    try:
+        n = recover(mcap, target)
+    except NotMcapError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    except OSError as exc:
+        console.print(f"[red]error:[/] {target}: {exc.strerror or exc}")
+        raise typer.Exit(2) from exc
+    console.print(f"recovered {n} messages into {target}")
 
 
 def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:

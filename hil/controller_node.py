@@ -450,6 +450,41 @@ class ControllerNodeResult:
     frames_stale: int = 0
 
 
+def feedforward_notice(scenario: Scenario) -> list[tuple[str, str]]:
+    """What to say at the start of an ``lqri_ff`` run about its wave feedforward.
+
+    The feedforward acts only once the wave forecast is valid, i.e. after the forecaster's
+    fill time (:func:`controller.runtime.forecast_fill_time_s`, 204.6 s for the shipped
+    IEA 15 MW preset). Returns ``[(level, line), ...]``: an ``"info"`` line with that time
+    and, when the run is not longer, a ``"warning"`` that the feedforward never acts. Empty
+    for the other controllers.
+    """
+    c = scenario.controller
+    if c.kind != "lqri_ff":
+        return []
+    from controller.runtime import (  # noqa: PLC0415 - only the advanced kinds need it
+        forecast_fill_time_s,
+        load_advanced_settings,
+    )
+
+    waves = scenario.waves
+    fill = forecast_fill_time_s(
+        load_advanced_settings(c.preset),
+        c.forecaster,
+        waves.gauge_distance_m if waves is not None else None,
+    )
+    out = [("info", f"lqri_ff: feedforward active from t = {fill:.1f} s (wave forecast filled)")]
+    if scenario.duration_s <= fill:
+        out.append(
+            (
+                "warning",
+                f"the run is {scenario.duration_s:g} s, not longer than the forecast fill time "
+                f"{fill:.1f} s: the wave feedforward never acts in it",
+            )
+        )
+    return out
+
+
 def run_controller_node(
     scenario: Scenario,
     bus_config: BusConfig,
@@ -476,6 +511,8 @@ def run_controller_node(
         )
     except DesignNotFoundError as exc:
         raise SystemExit(f"error: {exc}") from exc
+    for level, line in feedforward_notice(scenario):
+        log(f"{level}: {line}" if level != "info" else line)
     # ``bus_factory``: a Zenoh Bus, or a CAN run's HybridBus (sensors and commands on CAN,
     # the rest on Zenoh) with the same surface, so this loop runs unchanged over either.
     bus = bus_factory(bus_config)

@@ -118,12 +118,18 @@ def pitch_travel_deg_s(t_s: ArrayLike, pitch_rad: ArrayLike) -> float:
 
 
 def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
-    """Latency percentiles from raw samples (numpy ``percentile``, linear interpolation).
+    """Latency percentiles from raw samples (linear interpolation, numpy's default).
+
+    A sample may be ``inf``: a cycle whose command never came (its latency is beyond any
+    measured one). Percentile q is then taken on the sorted samples x_(0) <= ... <= x_(N-1)
+    at the rank h = (N - 1) q / 100 as x_(floor h) + (h - floor h)(x_(ceil h) - x_(floor h))
+    when both are finite, and ``inf`` otherwise (numpy's ``linear`` method without its
+    inf - inf = nan), so a run with 2 % unanswered cycles has an infinite p99.
 
     Parameters
     ----------
     latency_ns : array_like
-        Latency samples [ns].
+        Latency samples [ns], ``inf`` for an unanswered cycle.
 
     Returns
     -------
@@ -134,9 +140,18 @@ def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
     a = _as_1d(latency_ns)
     if a.size == 0:
         return {"p50": NAN, "p99": NAN, "p999": NAN, "max": NAN}
-    us = a / 1e3
-    p50, p99, p999 = np.percentile(us, [50.0, 99.0, 99.9], method="linear")
-    return {"p50": float(p50), "p99": float(p99), "p999": float(p999), "max": float(us.max())}
+    us = np.sort(a / 1e3)
+    out: dict[str, float] = {}
+    n = us.size
+    for name, q in (("p50", 50.0), ("p99", 99.0), ("p999", 99.9)):
+        h = (n - 1) * q / 100.0
+        lo, hi = math.floor(h), math.ceil(h)
+        if math.isfinite(us[hi]):
+            out[name] = float(us[lo] + (h - lo) * (us[hi] - us[lo]))
+        else:
+            out[name] = math.inf
+    out["max"] = float(us[-1])
+    return out
 
 
 def percentiles(x: ArrayLike, qs: Sequence[float], names: Sequence[str]) -> dict[str, float]:

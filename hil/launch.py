@@ -89,7 +89,7 @@ from hil.can_bus import (
     netns_command,
     transport_unavailable_reason,
 )
-from hil.controller_node import ControllerRuntime
+from hil.controller_node import ControllerRuntime, feedforward_notice
 from hil.log_writer import BackgroundRunLog
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
@@ -329,6 +329,8 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     mcap_path = out / "run.mcap"
     info = run_info(req, scenario)
     design_dir = ensure_designs(scenario, console)
+    for level, line in feedforward_notice(scenario):
+        console.print(f"[yellow]warning:[/] {line}" if level == "warning" else line)
     t0 = time.monotonic()
     driver: ProcessFaultDriver | None = None
     if req.mode == "inprocess":

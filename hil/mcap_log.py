@@ -6,14 +6,36 @@ Writing
 message declaration (:meth:`bus_schemas.registry.MessageType.json_schema`) and writes each
 message as JSON. ``log_time`` is the run's wall-clock start plus the message's simulated
 ``sample_time_ns``, so Foxglove's timeline is simulated time; ``publish_time`` is when the
-recorder received it. Chunks are flushed to the OS every ``flush_interval_s`` (default
-0.25 s of wall time), so a SIGKILL of any process loses at most that much of the log.
+recorder received it.
+
+File layout and crash safety
+----------------------------
+A file closed by :meth:`RunLog.close` is a complete MCAP file: magic, Header, Schemas,
+Channels and Metadata, zstd Chunks each followed by its MessageIndex records, DataEnd,
+then the summary section (Schemas, Channels, Statistics, ChunkIndexes, MetadataIndexes,
+SummaryOffsets), the Footer and the closing magic, so any MCAP reader opens it (the mcap
+package's seeking and non-seeking readers, ``@mcap/core``, Foxglove).
+
+The file is opened *buffered*: mcap's :class:`~mcap.writer.Writer` uses a buffered stream
+as it is, whereas it wraps a raw (unbuffered) one in a buffer of its own that
+:meth:`~mcap.writer.Writer.finish` does not flush, so closing the raw file under it loses
+the end of the summary, the Footer and the closing magic. Crash safety comes from
+:meth:`RunLog.maybe_flush` instead: every ``flush_interval_s`` (default 0.25 s of wall time)
+the chunk in progress is closed and written with its message indexes, and the stream is
+flushed to the OS. A SIGKILL of the writing process therefore loses at most the messages
+of the last ``flush_interval_s`` (plus whatever the caller had not handed over yet); the
+file then ends after its last flushed chunk (or inside a chunk the buffer had started to
+write) without a summary. Such a file is read by any sequential reader up to the cut
+(:func:`read_run`, mcap's ``NonSeekingReader``) and :func:`recover` rewrites it as a
+complete file (``fowt recover``; with mcap's Go CLI: ``mcap recover``).
 
 Reading
 -------
-:func:`read_run` reads a file front to back with mcap's stream reader and stops cleanly at
-the first truncated or corrupt record, so a run whose recorder was killed still reviews up
-to its last flushed chunk.
+:func:`read_run` reads a file front to back with mcap's stream reader through its summary,
+Footer and closing magic. It stops cleanly at the first truncated or corrupt record (a run
+whose recorder was killed still reviews up to its last flushed chunk) and says so
+(``truncated``, ``error``); a file that does not start with the MCAP magic raises
+:class:`NotMcapError`.
 """
 
 from __future__ import annotations
@@ -28,7 +50,7 @@ from typing import IO, Any
 import msgspec
 import orjson
 from mcap.exceptions import McapError
-from mcap.records import Channel, DataEnd, Message, Metadata, Schema
+from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
@@ -36,6 +58,13 @@ from bus_schemas.registry import MESSAGES, MessageType
 
 PROFILE = "fowt-hil"
 RAW_SCHEMA_NAME = "fowt.RawPayload"
+
+#: The 8 bytes every MCAP file starts and ends with.
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+class NotMcapError(ValueError):
+    """The file is not an MCAP file (it does not start with the MCAP magic)."""
 
 
 class RunLog:
@@ -64,9 +93,10 @@ class RunLog:
         self.path = path
         self.turbine = turbine
         self.start_unix_ns = time.time_ns() if start_unix_ns is None else start_unix_ns
-        # Unbuffered: a finished chunk goes to the OS at once, so SIGKILL cannot strand it
-        # in a Python buffer.
-        self._stream: IO[bytes] = open(path, "wb", buffering=0)  # noqa: SIM115 - closed in close()
+        # Buffered, so the Writer writes to this stream itself (module docstring: a raw
+        # stream would get a private buffer that finish() never flushes). maybe_flush()
+        # pushes finished chunks to the OS.
+        self._stream: IO[bytes] = open(path, "wb")  # noqa: SIM115 - closed in close()
         self._writer = Writer(self._stream, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library="fowt-hil")
         self._channels: dict[str, tuple[int, MessageType]] = {}
@@ -133,34 +163,51 @@ class RunLog:
         self.maybe_flush()
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        """Add a metadata record (scenario, run information, counters)."""
+        """Add a metadata record (scenario, run information, counters) and flush it."""
         self._writer.add_metadata(name, data)
+        self.flush()
+
+    def flush(self) -> None:
+        """Close the chunk in progress and hand everything written so far to the OS."""
+        self._writer.flush()
+        self._last_flush_ns = time.monotonic_ns()
 
     def maybe_flush(self) -> None:
         """Flush the chunk in progress if the flush interval has passed."""
-        now = time.monotonic_ns()
-        if now - self._last_flush_ns >= self._flush_interval_ns:
-            self._writer.flush()
-            self._last_flush_ns = now
+        if time.monotonic_ns() - self._last_flush_ns >= self._flush_interval_ns:
+            self.flush()
 
     def close(self) -> None:
-        """Write the summary section and close the file (idempotent)."""
+        """Write the summary section, Footer and closing magic; close the file (idempotent)."""
         if self._closed:
             return
         self._closed = True
-        self._writer.finish()
-        self._stream.close()
+        try:
+            self._writer.finish()
+            self._stream.flush()
+        finally:
+            self._stream.close()
 
 
 @dataclass
 class RunData:
-    """Messages of one run, grouped by topic, as plain dicts in file order."""
+    """Messages of one run, grouped by topic, as plain dicts in file order.
+
+    ``complete`` is True when the file ran through its summary section, Footer and closing
+    magic; ``truncated`` is its negation (a killed writer, a cut copy); ``error`` says what
+    the reader stopped on. ``statistics`` is the message count per topic of the summary's
+    Statistics record (None without one) and ``statistics_ok`` whether it equals the
+    messages read.
+    """
 
     messages: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
     schemas: dict[str, str] = field(default_factory=dict)
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     truncated: bool = False
     error: str = ""
+    complete: bool = False
+    statistics: dict[str, int] | None = None
+    statistics_ok: bool | None = None
 
     def topic(self, suffix: str) -> list[dict[str, Any]]:
         """Messages of the first topic ending in ``/<suffix>`` (any turbine)."""
@@ -170,8 +217,17 @@ class RunData:
         return []
 
 
+def check_magic(path: Path) -> None:
+    """Raise :class:`NotMcapError` unless ``path`` starts with the MCAP magic."""
+    with open(path, "rb") as fh:
+        head = fh.read(len(MCAP_MAGIC))
+    if head != MCAP_MAGIC:
+        what = "an empty file" if not head else f"starts with {head[:8]!r}"
+        raise NotMcapError(f"{path} is not an MCAP file ({what}, expected the MCAP magic)")
+
+
 def iter_records(path: Path) -> Iterator[Any]:
-    """Yield MCAP records, stopping (not raising) at a truncated or corrupt tail."""
+    """Yield MCAP records through the Footer and closing magic (raises at a cut or bad tail)."""
     with open(path, "rb") as stream:
         reader = StreamReader(stream, skip_magic=False)
         yield from reader.records
@@ -180,24 +236,32 @@ def iter_records(path: Path) -> Iterator[Any]:
 def read_run(path: Path) -> RunData:
     """Read every message of a run log, tolerating a truncated file.
 
+    Raises
+    ------
+    NotMcapError
+        If the file does not start with the MCAP magic (empty, random, another format).
+
     Returns
     -------
     RunData
-        ``truncated`` is True when the file ended before its data-end record (a killed process);
-        ``error`` then says what the reader stopped on.
+        ``truncated`` is True when the file ended before its Footer and closing magic (a
+        killed process); ``error`` then says what the reader stopped on.
     """
+    check_magic(path)
     run = RunData()
     channels: dict[int, str] = {}
     schema_names: dict[int, str] = {}
-    saw_footer = False
+    in_summary = False
+    stats: Statistics | None = None
     try:
         for rec in iter_records(path):
             if isinstance(rec, Schema):
                 schema_names[rec.id] = rec.name
             elif isinstance(rec, Channel):
-                channels[rec.id] = rec.topic
-                run.schemas[rec.topic] = schema_names.get(rec.schema_id, "")
-                run.messages.setdefault(rec.topic, [])
+                if not in_summary:
+                    channels[rec.id] = rec.topic
+                    run.schemas[rec.topic] = schema_names.get(rec.schema_id, "")
+                    run.messages.setdefault(rec.topic, [])
             elif isinstance(rec, Message):
                 topic = channels.get(rec.channel_id)
                 if topic is not None:
@@ -205,12 +269,87 @@ def read_run(path: Path) -> RunData:
             elif isinstance(rec, Metadata):
                 run.metadata[rec.name] = dict(rec.metadata)
             elif isinstance(rec, DataEnd):
-                # The data section is complete; what follows is the summary, not needed.
-                saw_footer = True
-                break
+                in_summary = True
+            elif isinstance(rec, Statistics):
+                stats = rec
+            elif isinstance(rec, Footer):
+                # The stream reader checks the closing magic right after this record.
+                in_summary = True
+        run.complete = in_summary
     except (McapError, EOFError, ValueError, OSError) as exc:
-        run.error = f"{type(exc).__name__}: {exc}"
+        run.error = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
     except Exception as exc:
         run.error = f"{type(exc).__name__}: {exc}"
-    run.truncated = not saw_footer
+    run.complete = run.complete and not run.error
+    run.truncated = not run.complete
+    if stats is not None:
+        run.statistics = {
+            channels.get(cid, str(cid)): int(n) for cid, n in stats.channel_message_counts.items()
+        }
+        read = {t: len(m) for t, m in run.messages.items() if m}
+        run.statistics_ok = read == {t: n for t, n in run.statistics.items() if n}
+        if not run.statistics_ok and not run.error:
+            run.error = f"summary statistics {run.statistics} differ from the messages read {read}"
     return run
+
+
+def recover(path: Path, out: Path) -> int:
+    """Rewrite a truncated run log as a complete MCAP file; return the messages kept.
+
+    Every complete record before the cut (read with mcap's sequential
+    :class:`~mcap.stream_reader.StreamReader`, the same records its ``NonSeekingReader``
+    yields) is written again with mcap's :class:`~mcap.writer.Writer`: the Header's
+    profile, schemas, channels (topic, encodings, metadata), messages (log and publish
+    time, sequence, data) and metadata, then a fresh summary, Footer and closing magic.
+    This is what ``mcap recover`` of mcap's Go CLI does for a file cut inside its data.
+
+    Raises
+    ------
+    NotMcapError
+        If ``path`` does not start with the MCAP magic.
+    """
+    check_magic(path)
+    from mcap.records import Header  # noqa: PLC0415
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    n = 0
+    with open(out, "wb") as stream:
+        writer = Writer(stream, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
+        schema_ids: dict[int, int] = {}
+        channel_ids: dict[int, int] = {}
+        started = False
+        try:
+            for rec in iter_records(path):
+                if isinstance(rec, Header):
+                    writer.start(profile=rec.profile, library=rec.library or "fowt-hil")
+                    started = True
+                elif isinstance(rec, DataEnd | Footer):
+                    break
+                elif not started:
+                    continue
+                elif isinstance(rec, Schema) and rec.id not in schema_ids:
+                    schema_ids[rec.id] = writer.register_schema(rec.name, rec.encoding, rec.data)
+                elif isinstance(rec, Channel) and rec.id not in channel_ids:
+                    channel_ids[rec.id] = writer.register_channel(
+                        topic=rec.topic,
+                        message_encoding=rec.message_encoding,
+                        schema_id=schema_ids.get(rec.schema_id, 0),
+                        metadata=dict(rec.metadata),
+                    )
+                elif isinstance(rec, Message) and rec.channel_id in channel_ids:
+                    writer.add_message(
+                        channel_id=channel_ids[rec.channel_id],
+                        log_time=rec.log_time,
+                        data=rec.data,
+                        publish_time=rec.publish_time,
+                        sequence=rec.sequence,
+                    )
+                    n += 1
+                elif isinstance(rec, Metadata):
+                    writer.add_metadata(rec.name, dict(rec.metadata))
+        except (McapError, EOFError, ValueError, OSError):
+            pass  # the cut: everything before it is kept
+        if not started:
+            writer.start(profile=PROFILE, library="fowt-hil")
+        writer.finish()
+    return n

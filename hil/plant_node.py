@@ -10,7 +10,8 @@ One control cycle k (period T, speed factor s, wall period T/s):
    * ``realtime``: sleep to the next tick; a command that arrived within the deadline
      (T/s wall) takes effect when it arrived, at the plant step's resolution (rounded to
      the nearest step); one that did not is a deadline miss, the last command is held and
-     the late one, if it comes, is dropped and counted;
+     the late one, if it comes before the tick, is dropped and counted (its latency is
+     logged in the cycle's record; 0 when no command came);
    * ``inprocess``: call the controller directly (no bus; fastest);
 
 3. integrate x_{k+1} and publish this cycle's :class:`CycleTiming` (latency on the plant's
@@ -964,13 +965,15 @@ def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threa
             got = (
                 inbox.wait_for(frame.seq, remaining_s) if remaining_s > 0 else inbox.take(frame.seq)
             )
+        late_ns = 0
         if got is not None and got[1] - sent > loop.wall_period_ns:
+            late_ns = got[1] - sent  # logged as this missed cycle's latency
             got = None  # it came, but later than its control period: a miss
             loop.result.commands_late += 1
         # ... then pace precisely to the tick.
         lateness_next = pacer.wait_tick()
         if got is None:
-            loop.finish_cycle(None, 0, lateness)
+            loop.finish_cycle(None, late_ns, lateness)
         else:
             loop.finish_cycle(got[0], got[1] - sent, lateness)
         lateness = lateness_next

@@ -3,9 +3,12 @@
 Summary keys (all numbers, ``null`` where a channel was missing)
 ----------------------------------------------------------------
 ``timing``
-    ``latency_us.{p50,p99,p999,max}`` sensor-to-command latency [us], numpy linear
-    percentiles of every ``timing/cycle`` ``latency_ns`` > 0 (cycles whose command never
-    arrived log 0 and are left out; they are counted in ``deadline_misses``);
+    ``latency_us.{p50,p99,p999,max}`` sensor-to-command latency [us], linear percentiles
+    over every ``timing/cycle``: a missed cycle at the latency of its late command, one
+    that got no command before the next tick as infinite (``null`` where a percentile
+    falls among those; :func:`hil.kpi.latency_percentiles_us`); ``latency_cycles`` [1]
+    cycles in them, ``unanswered_cycles`` [1] those without a command, ``deadline_us``
+    [us] the control period over the speed factor;
     ``latency_source`` says which channel they came from (``"timing/cycle"``, or
     ``"timing/summary"`` when no cycle was logged); ``latency_us_plant`` the plant's own
     histogram percentiles (about 2 % bin width) from the last ``timing/summary``;
@@ -28,11 +31,18 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     damage rate, so DELs of runs of different lengths compare),
     ``thrust_del_n`` [N] the same for rotor thrust (m = 4),
     ``platform_pitch_mean_deg``, ``platform_pitch_std_deg`` [deg], ``surge_mean_m``,
-    ``surge_std_m`` [m] of the true platform motion (truth; 0 for a bottom-fixed plant).
+    ``surge_std_m`` [m] of the true platform motion (truth; ``null`` for a bottom-fixed
+    plant). Every KPI (and the estimator and forecast figures) covers only the samples from
+    ``kpi_window.from_s`` on (:func:`kpi_window`).
+``kpi_window``
+    ``settle_s`` requested start-up settling time (scenario ``[review] settle_s``),
+    ``from_s``/``to_s`` the window used [s], ``shortened`` when the run was too short.
 ``run``
     the ``"run"`` metadata record (strings) plus ``turbine``, ``duration_s`` [s] (span of
     ``sample_time_ns`` over all topics), ``messages`` (count per topic suffix),
-    ``truncated`` and ``error`` (what the reader stopped on).
+    ``truncated`` (no footer and closing magic), ``truncated_at_s`` [s] the last sample
+    time in a truncated file, ``statistics_ok`` (the summary's message counts equal the
+    messages read; ``null`` without a summary) and ``error`` (what the reader stopped on).
 ``scenario``
     ``name`` and ``config`` (the record's ``json`` parsed), ``null`` fields when absent.
 ``estimator``
@@ -66,10 +76,11 @@ from bus_schemas.messages import (
     EST_PLATFORM_SURGE_VELOCITY,
     EST_WAVE_FORECAST,
     EST_WIND_SPEED,
-    VALID_WAVE_GAUGE,
+    VALID_BITS,
 )
 from hil import kpi
 from hil.mcap_log import RunData, read_run
+from hil.scenario import ReviewSection
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -82,6 +93,10 @@ SHAFT_WOHLER_M = 4.0
 DEL_N_EQ_HZ = 1.0
 
 PLOT_FILES = ("timeseries.png", "timing.png", "psd.png")
+
+#: Start-up settling time left out of the KPIs when the log's scenario has no ``[review]
+#: settle_s`` [s] (see :func:`kpi_window`); the default of ``hil.scenario.ReviewSection``.
+DEFAULT_SETTLE_S = ReviewSection().settle_s
 
 
 # --------------------------------------------------------------------------- helpers
@@ -131,6 +146,36 @@ def _int_or_none(v: Any) -> int | None:
 # --------------------------------------------------------------------------- summary
 
 
+def _cycle_latency_ns(cycles: Sequence[dict[str, Any]]) -> tuple[FloatArray, int]:
+    """Every cycle's sensor-to-command latency [ns] and the count of unanswered cycles.
+
+    A cycle that met its deadline logs its latency; a missed one logs the latency of the
+    command that came after the deadline (``hil.plant_node``, real-time mode), or 0 when
+    none came before the next tick: that cycle counts as unanswered, latency ``inf``.
+    """
+    lat = _col(cycles, "latency_ns")
+    missed = _col(cycles, "deadline_missed") > 0
+    keep = np.isfinite(lat) & ((lat > 0) | missed)
+    lat, missed = lat[keep], missed[keep]
+    none = missed & (lat <= 0)
+    lat = np.where(none, np.inf, lat)
+    return lat, int(none.sum())
+
+
+def _deadline_us(run: RunData) -> float:
+    """The command deadline in wall time [us]: the control period / the speed factor."""
+    cfg = _scenario(run).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    if not isinstance(period, int | float):
+        return math.nan
+    try:
+        speed = float(run.metadata.get("run", {}).get("speed", "1"))
+    except ValueError:
+        speed = 1.0
+    return float(period) * 1e6 / (speed if speed > 0 else 1.0)
+
+
 def _timing(run: RunData) -> dict[str, Any]:
     cycles = run.topic("timing/cycle")
     summaries = run.topic("timing/summary")
@@ -138,8 +183,7 @@ def _timing(run: RunData) -> dict[str, Any]:
     final = next((s for s in reversed(summaries) if int(s.get("final", 0)) == 1), None)
     last_summary = final if final is not None else (summaries[-1] if summaries else None)
 
-    lat_ns = _col(cycles, "latency_ns")
-    lat_ns = lat_ns[np.isfinite(lat_ns) & (lat_ns > 0)]
+    lat_ns, unanswered = _cycle_latency_ns(cycles)
     plant_lat = (
         {
             "p50": last_summary.get("latency_p50_us"),
@@ -160,6 +204,9 @@ def _timing(run: RunData) -> dict[str, Any]:
     out: dict[str, Any] = {
         "complete": final is not None,
         "latency_us": latency,
+        "latency_cycles": int(lat_ns.size),
+        "unanswered_cycles": unanswered,
+        "deadline_us": _deadline_us(run),
         "latency_source": latency_source,
         "latency_us_plant": plant_lat,
         "cycles_logged": len(cycles),
@@ -204,15 +251,54 @@ def _timing(run: RunData) -> dict[str, Any]:
     return out
 
 
-def _kpis(run: RunData) -> dict[str, Any]:
-    truth = run.topic("truth")
-    sensors = run.topic("sensors")
+def _since(msgs: list[dict[str, Any]], t0_s: float) -> list[dict[str, Any]]:
+    """The messages whose sample time is at or after ``t0_s`` [s]."""
+    t0_ns = t0_s * 1e9
+    return [m for m in msgs if m.get("sample_time_ns", -1) >= t0_ns]
+
+
+def kpi_window(run: RunData) -> dict[str, Any]:
+    """The part of the run the KPIs are computed over (the start-up transient left out).
+
+    The scenario's ``[review] settle_s`` (:data:`DEFAULT_SETTLE_S` = 60 s when absent, e.g. in
+    a log written before the key existed) is the requested settling time T_s. The KPIs use the
+    truth samples with t >= t_0, t_0 = min(T_s, t_end / 2): a run shorter than 2 T_s keeps
+    its second half (``shortened`` True), so short test and CI runs still review.
+
+    Returns
+    -------
+    dict
+        ``settle_s`` (requested T_s), ``from_s`` (t_0), ``to_s`` (last truth sample, None
+        without one) [s] and ``shortened``.
+    """
+    cfg = _scenario(run).get("config") or {}
+    rv = cfg.get("review") if isinstance(cfg, dict) else None
+    settle = DEFAULT_SETTLE_S
+    if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
+        settle = float(rv["settle_s"])
+    t = _t_s(run.topic("truth"))
+    t = t[np.isfinite(t)]
+    end = float(t.max()) if t.size else math.nan
+    start = min(settle, 0.5 * end) if math.isfinite(end) else settle
+    return {
+        "settle_s": settle,
+        "from_s": start,
+        "to_s": end,
+        "shortened": bool(start < settle),
+    }
+
+
+def _kpis(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
+    truth = _since(run.topic("truth"), t0_s)
+    sensors = _since(run.topic("sensors"), t0_s)
     t = _t_s(truth)
     rotor = _col(truth, "rotor_speed_rad_s")
     platform_pitch = _col(truth, "platform_pitch_rad")
     if truth and not np.isfinite(platform_pitch).all():  # a log of PlantState version 1
         platform_pitch = _col(sensors, "platform_pitch_measured_rad")
     surge = _col(truth, "platform_surge_m")
+    if not _is_floating(truth):  # a bottom-fixed plant has no platform: null, not 0
+        platform_pitch = surge = np.array([math.nan])
     return {
         "mean_power_w": kpi.mean_power_w(_col(truth, "electrical_power_w")),
         "rotor_speed_mean_rad_s": kpi.mean(rotor),
@@ -240,7 +326,7 @@ def _kpis(run: RunData) -> dict[str, Any]:
     }
 
 
-def _estimates(run: RunData) -> dict[str, Any]:
+def _estimates(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
     """Estimator, forecast and compute-time KPIs of an advanced controller's status messages.
 
     The truth (``truth`` channel) is linearly interpolated to each status sample time.
@@ -249,8 +335,11 @@ def _estimates(run: RunData) -> dict[str, Any]:
     distinct (``wave_forecast_time_ns``, forecast) pair with ``EST_WAVE_FORECAST`` set is
     compared with the true platform elevation ``wave_elevation_platform_m`` at the time it is
     a forecast for; VAF = 100 (1 − var(η − η̂)/var(η)) [%] over the pairs inside the record.
+    Only the status messages at or after ``t0_s`` [s] count (the KPI window); the compute
+    time percentiles use every cycle.
     """
-    status = run.topic("controller/status")
+    all_status = run.topic("controller/status")
+    status = _since(all_status, t0_s)
     truth = run.topic("truth")
     nan = math.nan
     est: dict[str, Any] = {
@@ -262,7 +351,7 @@ def _estimates(run: RunData) -> dict[str, Any]:
     }
     fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
     compute = kpi.percentiles(
-        _col(status, "compute_time_ns") / 1e3, [50.0, 99.0], ["p50", "p99", "max"]
+        _col(all_status, "compute_time_ns") / 1e3, [50.0, 99.0], ["p50", "p99", "max"]
     )
     out = {"estimator": est, "forecast": fc, "controller": {"compute_us": compute}}
     if not status or not truth:
@@ -350,6 +439,8 @@ def _run_info(run: RunData) -> dict[str, Any]:
         duration_s=duration,
         messages={_suffix(k): len(v) for k, v in run.messages.items()},
         truncated=run.truncated,
+        truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if run.truncated else None,
+        statistics_ok=run.statistics_ok,
         error=run.error,
     )
     return info
@@ -368,12 +459,14 @@ def summarize(run: RunData) -> dict[str, Any]:
     dict
         ``{"timing", "kpi", "run", "scenario"}``; keys and units in the module docstring.
     """
+    window = kpi_window(run)
     summary = {
         "timing": _timing(run),
-        "kpi": _kpis(run),
+        "kpi": _kpis(run, window["from_s"]),
+        "kpi_window": window,
         "run": _run_info(run),
         "scenario": _scenario(run),
-        **_estimates(run),
+        **_estimates(run, window["from_s"]),
     }
     cleaned: dict[str, Any] = _clean(summary)
     return cleaned
@@ -382,14 +475,65 @@ def summarize(run: RunData) -> dict[str, Any]:
 # --------------------------------------------------------------------------- plots
 
 
-def _no_data(ax: Any) -> None:
-    ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
+def _no_data(ax: Any, text: str = "no data") -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+#: Wall-clock resolution wanted of the PSD: 0.004 Hz puts two bins below the surge mode of
+#: a semi-submersible (about 0.008 Hz) and resolves its pitch mode (about 0.037 Hz).
+PSD_TARGET_SEGMENT_S = 250.0
+
+RPM_PER_RAD_S = 30.0 / math.pi
+
+
+def _measured(sensors: Sequence[dict[str, Any]], name: str) -> FloatArray:
+    """A measured field with the samples whose valid bit is clear as nan (gaps, not zeros)."""
+    x = _col(sensors, name)
+    bit = VALID_BITS.get(name)
+    if bit is not None and sensors:
+        valid = (_col(sensors, "valid_mask").astype(np.int64) & bit) > 0
+        x = np.where(valid, x, np.nan)
+    return x
+
+
+def _invalid_spans(t: FloatArray, invalid: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:
+    """Time spans [s] of consecutive invalid samples (each to the next sample's time)."""
+    if not invalid.any():
+        return []
+    edges = np.diff(np.concatenate(([0], invalid.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return [(float(t[a]), float(t[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+
+
+def _is_floating(truth: Sequence[dict[str, Any]]) -> bool:
+    return bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
+
+
+def psd_segment(n: int, fs_hz: float) -> int:
+    """Welch segment length [samples] for a record of ``n`` samples at ``fs_hz``.
+
+    min(:data:`PSD_TARGET_SEGMENT_S` fs, n / 2): at most what resolves the platform modes, and
+    at least three half-overlapping segments to average; never fewer than 8 samples (or n).
+    The frequency resolution is fs / nperseg.
+    """
+    return int(max(min(n, 8), min(round(PSD_TARGET_SEGMENT_S * fs_hz), n // 2)))
 
 
 def write_plots(run: RunData, out_dir: Path) -> list[Path]:
     """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
 
     Uses the Agg backend (selected here, not at import). Panels with no data say so.
+
+    * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
+      transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
+      valid bit is clear (dropout) is a gap; the platform panels say "bottom-fixed" for a
+      plant without one. The KPI window's start is a dotted line.
+    * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
+      cycle with missed cycles marked (late command at its latency, or no command at all).
+    * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
+      :func:`psd_segment`, its resolution in each title) of the rotor speed [rpm²/Hz], blade
+      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz].
 
     Returns
     -------
@@ -404,165 +548,271 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     truth = run.topic("truth")
+    cycles = run.topic("timing/cycle")
+    window = kpi_window(run)
+    name = _scenario(run).get("name") or "run"
+    mode = run.metadata.get("run", {}).get("mode", "")
+    label = f"{name}" + (f" ({mode})" if mode else "")
+    written: list[Path] = []
+    path = out_dir / "timeseries.png"
+    _timeseries_plot(run, window, label, path, plt)
+    written.append(path)
+    path = out_dir / "timing.png"
+    _timing_plot(run, cycles, label, path, plt)
+    written.append(path)
+    path = out_dir / "psd.png"
+    _psd_plot(truth, window, label, path, plt)
+    written.append(path)
+    return written
+
+
+def _timeseries_plot(
+    run: RunData, window: dict[str, Any], label: str, path: Path, plt: Any
+) -> None:
+    truth = run.topic("truth")
     sensors = run.topic("sensors")
     command = run.topic("command")
-    cycles = run.topic("timing/cycle")
-    written: list[Path] = []
-
-    # --- time series
     tt, ts, tc = _t_s(truth), _t_s(sensors), _t_s(command)
-    fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True)
+    floating = _is_floating(truth)
+    behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
+    front = {"lw": 1.3, "zorder": 3}
+    cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
+    fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True, layout="constrained")
+
+    def meas(ax: Any, field: str, scale: float = 1.0, text: str = "measured") -> None:
+        if not sensors:
+            return
+        x = _measured(sensors, field)
+        ax.plot(ts, x * scale, label=text, **behind)
+        gaps = _invalid_spans(ts, np.isnan(x) & np.isfinite(_col(sensors, field)))
+        for i, (a, b) in enumerate(gaps):
+            ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if i else "invalid")
+
     ax = axes[0]
+    meas(ax, "wind_speed_measured_m_s", text="nacelle anemometer")
     if truth:
-        ax.plot(tt, _col(truth, "wind_speed_m_s"), label="hub wind (truth)")
-    if sensors:
-        ax.plot(ts, _col(sensors, "wind_speed_measured_m_s"), label="nacelle anemometer", lw=0.7)
+        ax.plot(tt, _col(truth, "wind_speed_m_s"), label="hub wind (truth)", **front)
     ax.set_ylabel("wind speed [m/s]")
     ax = axes[1]
+    meas(ax, "rotor_speed_measured_rad_s", RPM_PER_RAD_S)
     if truth:
-        ax.plot(tt, _col(truth, "rotor_speed_rad_s") * 30.0 / math.pi, label="truth")
-    if sensors:
-        ax.plot(
-            ts,
-            _col(sensors, "rotor_speed_measured_rad_s") * 30.0 / math.pi,
-            label="measured",
-            lw=0.7,
-        )
+        ax.plot(tt, _col(truth, "rotor_speed_rad_s") * RPM_PER_RAD_S, label="truth", **front)
     ax.set_ylabel("rotor speed [rpm]")
     ax = axes[2]
+    meas(ax, "blade_pitch_measured_rad", 180.0 / math.pi)
     if truth:
-        ax.plot(tt, np.degrees(_col(truth, "blade_pitch_rad")), label="truth")
-    if sensors:
-        ax.plot(ts, np.degrees(_col(sensors, "blade_pitch_measured_rad")), label="measured")
+        ax.plot(tt, np.degrees(_col(truth, "blade_pitch_rad")), label="truth", **front)
     if command:
         ax.step(
-            tc,
-            np.degrees(_col(command, "blade_pitch_commanded_rad")),
-            where="post",
-            label="commanded",
-            lw=0.8,
+            tc, np.degrees(_col(command, "blade_pitch_commanded_rad")), label="command", **cmd_style
         )
     ax.set_ylabel("blade pitch [deg]")
     ax = axes[3]
+    meas(ax, "generator_torque_measured_nm", 1e-3)
     if truth:
-        ax.plot(tt, _col(truth, "generator_torque_nm") / 1e3, label="truth")
+        ax.plot(tt, _col(truth, "generator_torque_nm") / 1e3, label="truth", **front)
     if command:
         ax.step(
-            tc,
-            _col(command, "generator_torque_commanded_nm") / 1e3,
-            where="post",
-            label="commanded",
-            lw=0.8,
+            tc, _col(command, "generator_torque_commanded_nm") / 1e3, label="command", **cmd_style
         )
     ax.set_ylabel("generator torque [kN m]")
     ax = axes[4]
+    meas(ax, "electrical_power_measured_w", 1e-6)
     if truth:
-        ax.plot(tt, _col(truth, "electrical_power_w") / 1e6, label="truth")
+        ax.plot(tt, _col(truth, "electrical_power_w") / 1e6, label="truth", **front)
     ax.set_ylabel("electrical power [MW]")
-    floating = bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
     ax = axes[5]
     if floating:
-        ax.plot(tt, np.degrees(_col(truth, "platform_pitch_rad")), label="truth")
-    if floating and sensors:
-        ax.plot(
-            ts, np.degrees(_col(sensors, "platform_pitch_measured_rad")), label="measured", lw=0.7
-        )
+        meas(ax, "platform_pitch_measured_rad", 180.0 / math.pi)
+        ax.plot(tt, np.degrees(_col(truth, "platform_pitch_rad")), label="truth", **front)
     ax.set_ylabel("platform pitch [deg]")
     ax = axes[6]
     if floating:
-        ax.plot(tt, _col(truth, "platform_surge_m"), label="truth")
-    if floating and sensors:
-        ax.plot(ts, _col(sensors, "platform_surge_measured_m"), label="measured", lw=0.7)
+        meas(ax, "platform_surge_measured_m")
+        ax.plot(tt, _col(truth, "platform_surge_m"), label="truth", **front)
     ax.set_ylabel("platform surge [m]")
     ax = axes[7]
     if floating:
-        ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform")
-        ax.plot(tt, _col(truth, "wave_elevation_gauge_m"), label="at the gauge (truth)", lw=0.8)
-    if floating and sensors:
-        gauge = _col(sensors, "wave_elevation_gauge_measured_m")
-        valid = (_col(sensors, "valid_mask").astype(np.int64) & VALID_WAVE_GAUGE) > 0
-        ax.plot(ts, np.where(valid, gauge, np.nan), label="gauge (measured)", lw=0.6)
+        meas(ax, "wave_elevation_gauge_measured_m", text="gauge (measured)")
+        ax.plot(
+            tt,
+            _col(truth, "wave_elevation_gauge_m"),
+            label="at the gauge (truth)",
+            lw=0.9,
+            ls="--",
+            zorder=2,
+        )
+        ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform", **front)
     ax.set_ylabel("wave elevation [m]")
     ax.set_xlabel("simulated time [s]")
+    # A minimum visible span per panel (its unit), so that sensor quantisation and noise
+    # around a flat truth (pitch at 0 below rated) stay a thin band, not the whole panel.
+    for a, span in zip(axes, (1.0, 0.5, 1.0, 100.0, 0.1, 0.5, 1.0, 0.5), strict=True):
+        if a.lines:
+            lo, hi = a.get_ylim()
+            if hi - lo < span:
+                mid = 0.5 * (lo + hi)
+                a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
+    start = window.get("from_s")
     for a in axes:
         if a.lines:
-            a.legend(loc="upper right", fontsize="small")
+            if isinstance(start, float) and start > 0:
+                a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
+            a.legend(loc="upper right", fontsize="small", ncols=3)
+        elif truth and not floating and a in axes[5:]:
+            _no_data(a, "bottom-fixed plant: no platform")
         else:
             _no_data(a)
         a.grid(True, alpha=0.3)
-    fig.suptitle("Run time series")
-    fig.tight_layout()
-    path = out_dir / "timeseries.png"
+    note = ""
+    if isinstance(start, float) and start > 0:
+        note = f"; KPIs from t = {start:.1f} s (dotted line)"
+    fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
     fig.savefig(path, dpi=100)
     plt.close(fig)
-    written.append(path)
 
-    # --- timing
-    lat_ns = _col(cycles, "latency_ns")
-    ok = np.isfinite(lat_ns) & (lat_ns > 0)
-    lat_us = lat_ns[ok] / 1e3
-    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8))
-    if lat_us.size:
-        a0.hist(lat_us, bins=min(100, max(10, lat_us.size // 10)), color="tab:blue")
-        pct = kpi.latency_percentiles_us(lat_ns[ok])
-        for name, color in (("p50", "tab:green"), ("p99", "tab:red")):
-            a0.axvline(pct[name], color=color, ls="--", label=f"{name} = {pct[name]:.1f} us")
+
+def _timing_plot(
+    run: RunData, cycles: Sequence[dict[str, Any]], label: str, path: Path, plt: Any
+) -> None:
+    lat_ns, unanswered = _cycle_latency_ns(cycles)
+    deadline = _deadline_us(run)
+    seq = _col(cycles, "seq")
+    missed_all = _col(cycles, "deadline_missed") > 0
+    lat_all = _col(cycles, "latency_ns")
+    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
+    finite = lat_ns[np.isfinite(lat_ns)] / 1e3
+    mode = run.metadata.get("run", {}).get("mode", "")
+    enforced = mode not in ("lockstep", "inprocess")
+    dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
+    if lat_ns.size:
+        pct = kpi.latency_percentiles_us(lat_ns)
+        # Log-spaced bins on a log axis: the latency spans decades (tens of us to a stall).
+        lo = float(finite[finite > 0].min()) if (finite > 0).any() else 1.0
+        hi = float(max(finite.max() if finite.size else 1.0, deadline if deadline > 0 else 0.0))
+        bins = np.logspace(np.log10(lo * 0.95), np.log10(max(hi, lo) * 1.05), 101)
+        a0.hist(finite, bins=bins, color="tab:blue", label=f"{finite.size} cycles with a command")
+        a0.set_xscale("log")
+        for q, color in (("p50", "tab:green"), ("p99", "tab:orange")):
+            v = pct[q]
+            if math.isfinite(v):
+                a0.axvline(v, color=color, ls="--", label=f"{q} = {v:.0f} us")
+            else:
+                share = 100.0 * unanswered / lat_ns.size
+                a0.plot([], [], " ", label=f"{q} = inf ({share:.2g} % of cycles had no command)")
+        if deadline > 0:
+            a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
         a0.set_yscale("log")
-        a0.legend()
-        seq = _col(cycles, "seq")[ok]
-        a1.plot(seq, lat_us, ".", ms=2)
-        missed = _col(cycles, "deadline_missed") > 0
-        if missed.any():
-            for x in _col(cycles, "seq")[missed]:
-                a1.axvline(x, color="tab:red", alpha=0.3, lw=0.5)
+        a0.legend(fontsize="small")
+        ok = ~missed_all & (lat_all > 0)
+        a1.plot(seq[ok], lat_all[ok] / 1e3, ".", ms=2, color="tab:blue", label="command in time")
+        a1.set_yscale("log")
+        late = missed_all & (lat_all > 0)
+        if late.any():
+            a1.plot(
+                seq[late],
+                lat_all[late] / 1e3,
+                "x",
+                color="tab:red",
+                ms=6,
+                label=f"missed: command late ({int(late.sum())})",
+            )
+        none = missed_all & ~(lat_all > 0)
+        if none.any():
+            top = max(float(finite.max()) if finite.size else 0.0, deadline) * 1.05
+            a1.plot(
+                seq[none],
+                np.full(int(none.sum()), top),
+                "v",
+                color="darkred",
+                ms=6,
+                label=f"missed: no command by the next tick ({int(none.sum())})",
+            )
+        if deadline > 0:
+            a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
+        a1.legend(fontsize="small", loc="best", framealpha=0.9)
     else:
         _no_data(a0)
         _no_data(a1)
+    n_missed = int(missed_all.sum())
+    a0.set_title(
+        f"{label}: sensor-to-command latency of all {lat_ns.size} cycles "
+        f"({n_missed} missed, {unanswered} without a command)"
+    )
     a0.set_xlabel("sensor-to-command latency [us]")
     a0.set_ylabel("cycles [1]")
+    a1.set_title("latency per cycle")
     a1.set_xlabel("cycle [1]")
     a1.set_ylabel("latency [us]")
     a1.grid(True, alpha=0.3)
-    fig.tight_layout()
-    path = out_dir / "timing.png"
     fig.savefig(path, dpi=100)
     plt.close(fig)
-    written.append(path)
 
-    # --- PSD
-    fig, (p0, p1) = plt.subplots(2, 1, figsize=(10, 8), sharex=True)
-    if len(truth) >= 8:
-        dt = float(np.median(np.diff(tt)))
+
+def _psd_plot(
+    truth: Sequence[dict[str, Any]], window: dict[str, Any], label: str, path: Path, plt: Any
+) -> None:
+    start = window.get("from_s") or 0.0
+    msgs = _since(list(truth), float(start))
+    t = _t_s(msgs)
+    floating = _is_floating(truth)
+    series: list[tuple[str, FloatArray | None, str]] = [
+        ("rotor speed", _col(msgs, "rotor_speed_rad_s") * RPM_PER_RAD_S, "rpm$^2$/Hz"),
+        ("blade pitch", np.degrees(_col(msgs, "blade_pitch_rad")), "deg$^2$/Hz"),
+        (
+            "platform pitch",
+            np.degrees(_col(msgs, "platform_pitch_rad")) if floating else None,
+            "deg$^2$/Hz",
+        ),
+        ("tower-base fore-aft moment", _col(msgs, "tower_base_moment_nm") / 1e6, "(MN m)$^2$/Hz"),
+    ]
+    fig, axes = plt.subplots(len(series), 1, figsize=(10, 12), sharex=True, layout="constrained")
+    title = f"{label}: power spectral densities"
+    if len(msgs) >= 8:
+        dt = float(np.median(np.diff(t)))
         fs = 1.0 / dt if dt > 0 else 1.0
-        nper = min(len(truth), 1024)
-        for ax, x, label, unit in (
-            (p0, _col(truth, "rotor_speed_rad_s"), "rotor speed", "(rad/s)$^2$/Hz"),
-            (p1, np.degrees(_col(truth, "blade_pitch_rad")), "blade pitch", "deg$^2$/Hz"),
-        ):
-            f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant")
-            ax.loglog(f[1:], pxx[1:], label=label)
-            ax.set_ylabel(f"PSD [{unit}]")
-            ax.legend()
+        nper = psd_segment(len(msgs), fs)
+        df = fs / nper
+        n_seg = max(1, (len(msgs) - nper) // (nper // 2) + 1)
+        title += (
+            f", t = {t[0]:.4g}-{t[-1]:.4g} s (KPI window)\nWelch, Hann window, segment "
+            f"{nper / fs:.4g} s, resolution {df:.3g} Hz, {n_seg} segments with 50 % overlap"
+        )
+        for ax, (name, x, unit) in zip(axes, series, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            if x is None:
+                _no_data(ax, "bottom-fixed plant: no platform")
+                continue
+            if not np.isfinite(x).all():
+                _no_data(ax, "not logged")
+                continue
+            f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
+            pos = pxx[1:] > 0
+            if not pos.any():
+                _no_data(ax, f"{name} constant over the window: no spectrum")
+                continue
+            ax.loglog(f[1:][pos], pxx[1:][pos], lw=1.0)
             ax.grid(True, which="both", alpha=0.3)
     else:
-        _no_data(p0)
-        _no_data(p1)
-        p0.set_ylabel("PSD [(rad/s)$^2$/Hz]")
-        p1.set_ylabel("PSD [deg$^2$/Hz]")
-    p1.set_xlabel("frequency [Hz]")
-    fig.tight_layout()
-    path = out_dir / "psd.png"
+        for ax, (name, _x, unit) in zip(axes, series, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            _no_data(ax)
+    axes[-1].set_xlabel("frequency [Hz]")
+    fig.suptitle(title, fontsize="medium")
     fig.savefig(path, dpi=100)
     plt.close(fig)
-    written.append(path)
-    return written
 
 
 # --------------------------------------------------------------------------- entry points
 
 
-def review(mcap_path: Path, out_dir: Path | None = None, plots: bool = True) -> dict[str, Any]:
+def review(
+    mcap_path: Path, out_dir: Path | None = None, plots: bool = True, write_summary: bool = True
+) -> dict[str, Any]:
     """Read a run log, write ``summary.json`` (and plots) and return the summary.
+
+    The file is read first: a file that is not an MCAP file raises
+    :class:`hil.mcap_log.NotMcapError` before anything is written.
 
     Parameters
     ----------
@@ -572,17 +822,32 @@ def review(mcap_path: Path, out_dir: Path | None = None, plots: bool = True) -> 
         Output folder; defaults to the MCAP file's folder.
     plots : bool
         Also write the PNG plots (:func:`write_plots`).
+    write_summary : bool
+        Write ``summary.json`` (False: only return the summary).
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
-    out.mkdir(parents=True, exist_ok=True)
     run = read_run(mcap_path)
     summary = summarize(run)
     summary["run"]["source"] = str(mcap_path)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    if write_summary or plots:
+        out.mkdir(parents=True, exist_ok=True)
+    if write_summary:
+        (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
     if plots:
         write_plots(run, out)
     return summary
+
+
+def truncation_note(summary: dict[str, Any]) -> str | None:
+    """``"truncated at t = 3.27 s (...)"`` for a truncated run log, None for a complete one."""
+    run = summary.get("run", {})
+    if not run.get("truncated"):
+        return None
+    at = run.get("truncated_at_s")
+    where = f"t = {at:.2f} s" if isinstance(at, int | float) else "t = - (no message)"
+    why = f" ({run['error']})" if run.get("error") else ""
+    return f"truncated at {where}{why}"
 
 
 def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
@@ -609,15 +874,25 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
         if k in run:
             head.add_row(k, str(run[k]))
     head.add_row("duration", f"{_fmt(run.get('duration_s'), digits=2)} s")
-    trunc = bool(run.get("truncated"))
-    head.add_row("truncated", "[red]yes[/red]" if trunc else "no")
-    if run.get("error"):
-        head.add_row("reader stopped on", f"[yellow]{run['error']}[/yellow]")
+    note = truncation_note(summary)
+    head.add_row("truncated", f"[red]yes: {note}[/red]" if note else "no")
+    if run.get("error") and not note:
+        head.add_row("reader", f"[yellow]{run['error']}[/yellow]")
     msgs = run.get("messages", {})
     head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
     console.print(head)
 
     k = summary.get("kpi", {})
+    win = summary.get("kpi_window") or {}
+    caption = None
+    if isinstance(win.get("from_s"), int | float):
+        caption = (
+            f"KPIs over t = {_fmt(win['from_s'], digits=1)}-{_fmt(win.get('to_s'), digits=1)} s: "
+            f"the first {_fmt(win['from_s'], digits=1)} s (start-up settling, review.settle_s "
+            f"= {_fmt(win.get('settle_s'), digits=1)} s"
+            + (", shortened to half the run" if win.get("shortened") else "")
+            + ") left out; '-': not available (e.g. no platform)"
+        )
     t = Table(title="KPIs")
     t.add_column("KPI")
     t.add_column("value", justify="right")
@@ -647,6 +922,10 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     for name, v, scale, unit in rows:
         t.add_row(name, _fmt(v, scale), unit)
     console.print(t)
+    if caption:
+        console.print(caption)
+
+    _render_estimates(summary, console)
 
     tm = summary.get("timing", {})
     tt = Table(title="Timing" + ("" if tm.get("complete", True) else " (incomplete run)"))
@@ -702,6 +981,35 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     ct.add_row("safe state", "[bold red]entered[/bold red]" if safe else "no")
     ct.add_row("sim s / wall s", _fmt(tm.get("sim_seconds_per_wall_second"), digits=3))
     console.print(ct)
+
+
+def _render_estimates(summary: dict[str, Any], console: Console) -> None:
+    """The estimator and forecast tables (advanced controllers; nothing for the baseline)."""
+    est = summary.get("estimator") or {}
+    fc = summary.get("forecast") or {}
+    errors = [v for k, v in est.items() if k != "degraded_fraction"]
+    if all(v is None for v in errors) and not fc.get("samples"):
+        return  # no estimate published (the baseline controller)
+    t = Table(title="Estimator and wave forecast (against the truth, KPI window)")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_column("unit")
+    for name, key, unit in (
+        ("wind speed error, mean", "wind_speed_error_mean_pct", "%"),
+        ("wind speed error, RMS", "wind_speed_error_rms_m_s", "m/s"),
+        ("platform pitch rate error, RMS", "platform_pitch_rate_error_rms_rad_s", "rad/s"),
+        ("platform surge velocity error, RMS", "platform_surge_velocity_error_rms_m_s", "m/s"),
+        ("estimator degraded", "degraded_fraction", "fraction of cycles"),
+    ):
+        t.add_row(name, _fmt(est.get(key)), unit)
+    vaf = fc.get("vaf_pct")
+    t.add_row(
+        "wave forecast VAF",
+        _fmt(vaf, digits=1) if fc.get("samples") else "- (no valid forecast)",
+        "%",
+    )
+    t.add_row("wave forecasts compared", _fmt(fc.get("samples")), "[1]")
+    console.print(t)
 
 
 __all__ = ["PLOT_FILES", "render_summary", "review", "summarize", "write_plots"]

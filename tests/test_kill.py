@@ -6,7 +6,9 @@ follows the truth and the controller status on the bus. About 3 s into the run t
 gets SIGKILL; the sample time of the newest message the monitor had seen is the time of the
 kill in simulated seconds. Then:
 
-* the file reviews (``fowt review --json``) up to its last flushed chunk;
+* the file reviews (``fowt review --json``) up to its last flushed chunk; when the recorder
+  survives it is a complete, conformant MCAP file (``_mcap_conformance``), and when the
+  recorder is the victim :func:`hil.mcap_log.recover` makes one of it;
 * the data lost is, per channel, the newest sample seen on the bus at the kill minus the
   newest sample in the file [simulated s]; it must stay within :data:`MAX_LOSS_S`. The
   recorder flushes a chunk every 0.25 s wall and drains its queue every 0.02 s, so a
@@ -34,6 +36,7 @@ from pathlib import Path
 from typing import IO, Any
 
 import pytest
+from _mcap_conformance import check_complete_mcap
 
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
@@ -142,7 +145,7 @@ def _review_cli(mcap: Path) -> dict[str, Any]:
 
 @pytest.mark.parametrize("victim", ["plant", "controller", "recorder"])
 def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path: Path) -> None:
-    from hil.mcap_log import read_run
+    from hil.mcap_log import read_run, recover
 
     procs, endpoints, files = _start(tmp_path)
     monitor = Monitor(endpoints)
@@ -201,5 +204,13 @@ def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path
         assert procs["plant"].returncode == 0, logs["plant"]
         assert procs["controller"].returncode == 0, logs["controller"]
         assert summary["timing"]["complete"] is False
+        # The cut file is recovered (mcap's sequential reader up to the cut, rewritten with
+        # a summary) into a complete file that every MCAP reader opens, nothing lost.
+        fixed = tmp_path / "recovered.mcap"
+        assert recover(mcap, fixed) == sum(len(m) for m in run.messages.values())
+        assert check_complete_mcap(fixed).message_count == recover(mcap, fixed)
+    else:
+        # The recorder survived and closed its file: complete and conformant.
+        check_complete_mcap(mcap)
     if hung:
         pytest.fail(f"{hung} did not exit within {EXIT_TIMEOUT_S} s of the end: {logs}")

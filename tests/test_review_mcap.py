@@ -30,14 +30,21 @@ from bus_schemas.registry import (
 )
 from hil import kpi
 from hil.mcap_log import RunLog
-from hil.review import PLOT_FILES, render_summary, review
+from hil.review import PLOT_FILES, render_summary, review, truncation_note
 
 TURBINE = "t1"
 N = 1500
 DT_NS = 20_000_000  # 50 Hz
 AERO_AMPLITUDE_NM = 2.0e6
 AERO_FREQ_HZ = 0.5  # 25 samples per cycle, integer cycles over the run
-SCENARIO_CFG = {"wind": {"mean_m_s": 11.4, "ti": 0.1}, "duration_s": 30.0, "seed": 7}
+SCENARIO_CFG = {
+    "wind": {"mean_m_s": 11.4, "ti": 0.1},
+    "duration_s": 30.0,
+    "seed": 7,
+    "timing": {"control_period_s": 0.02},
+    "review": {"settle_s": 0.0},  # KPIs over the whole record (the settling test sets more)
+}
+DEADLINE_NS = 20_000_000
 
 
 @dataclass
@@ -59,7 +66,7 @@ class Written:
     final: TimingSummary
 
 
-def _write_run(path: Path) -> Written:
+def _write_run(path: Path, scenario_cfg: dict | None = None) -> Written:
     rng = np.random.default_rng(20240601)
     k = np.arange(N)
     t_ns = k * DT_NS
@@ -78,14 +85,22 @@ def _write_run(path: Path) -> Written:
     latency = rng.lognormal(np.log(300e3), 0.3, N).astype(np.int64) + 1
     missed = rng.random(N) < 0.01
     missed[N // 3] = True  # at least one miss before the 60 % cut
-    latency[missed] = 0  # a missed deadline has no command to time
+    # A missed cycle logs the latency of its late command, or 0 when none came (unanswered):
+    # every other missed cycle is of each kind.
+    late = missed & (np.cumsum(missed) % 2 == 0)
+    latency[late] = DEADLINE_NS + rng.integers(1, 5_000_000, int(late.sum()))
+    latency[missed & ~late] = 0
     held = missed.copy()
     compute = rng.integers(20_000, 80_000, N)
 
     log = RunLog(path, TURBINE, start_unix_ns=1_700_000_000_000_000_000, flush_interval_s=0.0)
     log.add_metadata(
         "scenario",
-        {"name": "synthetic", "toml": "duration_s = 30.0\n", "json": json.dumps(SCENARIO_CFG)},
+        {
+            "name": "synthetic",
+            "toml": "duration_s = 30.0\n",
+            "json": json.dumps(SCENARIO_CFG if scenario_cfg is None else scenario_cfg),
+        },
     )
     log.add_metadata("run", {"mode": "sim", "transport": "inproc", "seed": "7"})
     wall0 = 10_000_000_000
@@ -231,11 +246,25 @@ def test_summary_timing_matches_written(reviewed: tuple[dict, Path], written: Wr
     assert tm["commands_late"] == 2
     assert tm["safe_state"] == 0
     assert tm["sim_seconds_per_wall_second"] == 2.0
-    lat_us = written.latency_ns[written.latency_ns > 0] / 1e3
+    # Percentiles over ALL cycles: a late command at its latency, an unanswered cycle as
+    # beyond any latency (numpy's linear percentile with a huge stand-in, mapped back to inf).
+    unanswered = written.latency_ns == 0
+    assert tm["unanswered_cycles"] == int(unanswered.sum()) > 0
+    assert tm["latency_cycles"] == N
+    assert tm["deadline_us"] == pytest.approx(DEADLINE_NS / 1e3)
+    lat_us = np.where(unanswered, 1e300, written.latency_ns / 1e3)
     assert tm["latency_source"] == "timing/cycle"
     for key, q in (("p50", 50), ("p99", 99), ("p999", 99.9)):
-        assert tm["latency_us"][key] == pytest.approx(np.percentile(lat_us, q), rel=1e-12)
-    assert tm["latency_us"]["max"] == pytest.approx(lat_us.max(), rel=1e-12)
+        want = float(np.percentile(lat_us, q))
+        if want > 1e200:
+            assert tm["latency_us"][key] is None, key  # inf -> JSON null
+        else:
+            assert tm["latency_us"][key] == pytest.approx(want, rel=1e-12)
+    assert tm["latency_us"]["p50"] is not None
+    assert tm["latency_us"]["max"] is None  # some cycle was never answered
+    # The late commands of missed cycles count at their real latency (above the deadline).
+    late = written.missed & ~unanswered
+    assert late.any() and (written.latency_ns[late] > DEADLINE_NS).all()
     assert tm["latency_us_plant"] == {"p50": 300.0, "p99": 600.0, "p999": 800.0, "max": 900.0}
     comp_us = written.compute_ns / 1e3
     cc = tm["controller_compute_us"]
@@ -298,7 +327,7 @@ def test_summary_json_and_plots_written(reviewed: tuple[dict, Path]) -> None:
     loaded = json.loads(text)  # valid JSON (no NaN tokens: json.dumps used allow_nan=False)
     assert "NaN" not in text
     assert loaded == s
-    for key in ("p50", "p99", "p999", "max"):
+    for key in ("p50", "p99"):
         assert isinstance(loaded["timing"]["latency_us"][key], float)
     for key in ("deadline_misses", "cycles", "commands_held", "commands_rejected"):
         assert isinstance(loaded["timing"][key], int)
@@ -327,7 +356,14 @@ def test_truncated_file_still_reviews(written: Written, tmp_path: Path) -> None:
     assert s["timing"]["commands_rejected"] == 3
     assert s["timing"]["sim_seconds_per_wall_second"] == pytest.approx(2.0, rel=1e-9)
     lat = written.latency_ns[:n_cyc]
-    assert s["timing"]["latency_us"]["max"] == pytest.approx(lat.max() / 1e3, rel=1e-12)
+    if (lat == 0).any():  # an unanswered cycle survived the cut: its latency is unbounded
+        assert s["timing"]["latency_us"]["max"] is None
+    else:
+        assert s["timing"]["latency_us"]["max"] == pytest.approx(lat.max() / 1e3, rel=1e-12)
+    # The cut is reported with the time of the last message that survived it.
+    t_last = (n_cyc - 1) * DT_NS / 1e9
+    assert s["run"]["truncated_at_s"] == pytest.approx(t_last, abs=DT_NS / 1e9)
+    assert truncation_note(s).startswith(f"truncated at t = {s['run']['truncated_at_s']:.2f} s")
     assert s["scenario"]["name"] == "synthetic"
     json.loads((tmp_path / "out" / "summary.json").read_text())
     for name in PLOT_FILES:
