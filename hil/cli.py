@@ -615,7 +615,10 @@ def review_cmd(
         bool, typer.Option("--strict", help="Exit 1 when the file is truncated or inconsistent.")
     ] = False,
 ) -> None:
-    """Summarise a recorded run: KPIs and timing from the MCAP file alone, plus plots."""
+    """Review a recorded run: KPIs, timing and plots.
+
+    Everything comes from the MCAP file alone.
+    """
     from hil.mcap_log import NotMcapError
     from hil.review import render_summary, review, truncation_note
 
@@ -651,7 +654,10 @@ def recover_cmd(
         Path | None, typer.Option("--out", help="Output file (default: <name>.recovered.mcap).")
     ] = None,
 ) -> None:
-    """Rewrite a truncated MCAP file as a complete one (every message before the cut)."""
+    """Make a truncated MCAP file complete.
+
+    The new file holds every message before the cut, with summary and footer.
+    """
     from hil.mcap_log import NotMcapError, recover
 
     if not mcap.is_file():
