@@ -126,9 +126,19 @@ def _realtime(priority: int, who: str) -> None:
         raise typer.Exit(2) from exc
 
 
-def _bus(listen: list[str] | None, connect: list[str] | None, zenoh_config: Path | None) -> object:
+def _bus(
+    listen: list[str] | None,
+    connect: list[str] | None,
+    zenoh_config: Path | None,
+    default_listen: tuple[str, ...] = (),
+    default_connect: tuple[str, ...] = (),
+) -> object:
+    """The node's BusConfig; the loopback defaults apply only without ``--zenoh-config``
+    (a config file's own endpoints are kept unless ``--listen``/``--connect`` are given)."""
     from hil.bus import BusConfig, BusConfigError
 
+    if zenoh_config is None:
+        listen, connect = listen or list(default_listen), connect or list(default_connect)
     try:
         return BusConfig(
             listen=tuple(listen or ()), connect=tuple(connect or ()), config_file=zenoh_config
@@ -218,7 +228,7 @@ def plant(
     if mode not in ("realtime", "lockstep"):
         console.print(f"[red]error:[/] the plant runs realtime or lockstep, not {mode!r}")
         raise typer.Exit(2)
-    bus = _bus(listen or ["tcp/127.0.0.1:7447"], connect, zenoh_config)
+    bus = _bus(listen, connect, zenoh_config, default_listen=("tcp/127.0.0.1:7447",))
     _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
@@ -258,7 +268,13 @@ def controller(
 
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen or ["tcp/127.0.0.1:7448"], connect or ["tcp/127.0.0.1:7447"], zenoh_config)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7448",),
+        default_connect=("tcp/127.0.0.1:7447",),
+    )
     _realtime(realtime_priority, "controller")
     if can is None:
         controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
@@ -294,7 +310,12 @@ def record(
 
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen, connect or ["tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"], zenoh_config)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+    )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
     run_recorder_node(
@@ -305,6 +326,32 @@ def record(
         scenario_toml=text,
         can=can,
     )
+
+
+@app.command()
+def router(
+    zenoh_config: Annotated[
+        Path,
+        typer.Option(
+            "--zenoh-config",
+            help="Zenoh JSON5 config with mode router (config/zenoh-router.json5).",
+        ),
+    ],
+) -> None:
+    """Run the Zenoh router of a two-host bench (TLS, access control) until Ctrl-C.
+
+    The same router as zenohd -c FILE of the same Zenoh version; see docs/multi-host.md.
+    """
+    from hil.router import RouterConfigError, run_router, zenoh_error_text
+
+    try:
+        run_router(zenoh_config, echo=console.print)
+    except RouterConfigError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    except Exception as exc:  # zenoh.ZError: certificate file, port in use
+        console.print(f"[red]error:[/] router session did not open: {zenoh_error_text(exc)}")
+        raise typer.Exit(1) from exc
 
 
 @app.command("review")
