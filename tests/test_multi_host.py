@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from _two_hosts import NamespacesUnavailableError, TwoHosts, must, run, two_hosts
+from _two_hosts import ADDR_A, NamespacesUnavailableError, TwoHosts, must, run, two_hosts
 
 from hil.review import review
 from hil.scenario import load_scenario
@@ -97,7 +97,10 @@ def test_lockstep_run_across_two_hosts_equals_one_host_run(hosts: TwoHosts, tmp_
     mcap = h.lockstep_run(SCENARIO, DURATION_S, tmp_path / "two")
     one_out, _ = one_host.communicate(timeout=300)
     assert one_host.returncode == 0, one_out
-    assert "plant done" in (tmp_path / "two" / "plant.log").read_text()
+    plant_log = (tmp_path / "two" / "plant.log").read_text()
+    assert "plant done" in plant_log
+    # The plant listened nowhere and connected only to the router (the file's endpoints).
+    assert f"listen [], connect ['tls/{ADDR_A}:7447']" in plant_log
     # The run's traffic crossed the veth pair (controller and recorder are in the other
     # namespace, whose only way out is that pair).
     assert h.rx_bytes() - rx_before > 100_000

@@ -376,3 +376,13 @@ def test_router_cli_refuses_a_client_config_in_one_line() -> None:
     assert r.returncode == 2
     assert "Traceback" not in r.stdout + r.stderr
     assert "mode is 'client'; expected \"router\"" in r.stdout
+
+
+def test_bus_config_describes_the_endpoints_a_config_file_gives() -> None:
+    assert BusConfig(listen=("tcp/127.0.0.1:7447",)).describe() == (
+        "listen ['tcp/127.0.0.1:7447'], connect []"
+    )
+    text = BusConfig(config_file=CONFIGS["plant"]).describe()
+    assert text.startswith("listen [], connect ['tls/<ROUTER_ADDR>:7447'], config ")
+    moved = BusConfig(connect=("tls/192.0.2.1:7447",), config_file=CONFIGS["plant"])
+    assert "connect ['tls/192.0.2.1:7447']" in moved.describe()
