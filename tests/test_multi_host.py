@@ -113,6 +113,7 @@ def test_lockstep_run_across_two_hosts_equals_one_host_run(hosts: TwoHosts, tmp_
     assert got["timing"]["cycles_logged"] == cycles
     assert got["timing"]["deadline_misses"] == 0
     assert got["run"]["truncated"] is False
+    assert got["kpi"].keys() == want["kpi"].keys()
     assert _kpis(got) == pytest.approx(_kpis(want), rel=1e-12, abs=0.0)
     assert _kpis(got)["mean_power_w"] > 1e6  # a turbine producing power, not an empty run
     # The deny-by-default access control let every message of the run through.
