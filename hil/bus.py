@@ -96,6 +96,20 @@ class BusConfig:
             conf.insert_json5(key, value)
         return conf
 
+    def describe(self) -> str:
+        """``listen [...], connect [...]`` as the session will use them (for log lines).
+
+        With a config file the endpoints are the file's (unless given here), followed by
+        ``, config FILE``.
+        """
+        if self.config_file is None:
+            return f"listen {list(self.listen)}, connect {list(self.connect)}"
+        conf = self.zenoh_config()
+        listen, connect = (
+            json.loads(conf.get_json(f"{k}/endpoints")) for k in ("listen", "connect")
+        )
+        return f"listen {listen}, connect {connect}, config {self.config_file}"
+
 
 def free_tcp_endpoint() -> str:
     """A free ``tcp/127.0.0.1:<port>`` endpoint (the OS picks the port)."""

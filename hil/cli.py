@@ -600,6 +600,32 @@ def record(
     )
 
 
+@app.command()
+def router(
+    zenoh_config: Annotated[
+        Path,
+        typer.Option(
+            "--zenoh-config",
+            help="Zenoh JSON5 config with mode router (config/zenoh-router.json5).",
+        ),
+    ],
+) -> None:
+    """Run the Zenoh router of a two-host bench (TLS, access control) until Ctrl-C.
+
+    The same router as zenohd -c FILE of the same Zenoh version; see docs/multi-host.md.
+    """
+    from hil.router import RouterConfigError, run_router, zenoh_error_text
+
+    try:
+        run_router(zenoh_config, echo=console.print)
+    except RouterConfigError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from exc
+    except Exception as exc:  # zenoh.ZError: certificate file, port in use
+        console.print(f"[red]error:[/] router session did not open: {zenoh_error_text(exc)}")
+        raise typer.Exit(1) from exc
+
+
 @app.command("review")
 def review_cmd(
     mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],

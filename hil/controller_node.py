@@ -564,7 +564,7 @@ def run_controller_node(
     )
     log(
         f"controller {scenario.controller.kind}/{scenario.controller.preset} ready on "
-        f"{SENSORS.key(tid)} (listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
+        f"{SENSORS.key(tid)} ({bus_config.describe()})"
     )
     poll_s = max(runtime.dt_s / 2, 1e-3)
     end = math.inf if timeout_s is None else time.monotonic() + timeout_s

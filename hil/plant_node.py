@@ -823,10 +823,7 @@ def run_plant_node(
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/plant")
     loop: PlantLoop | None = None
     try:
-        log(
-            f"plant waiting for {list(require)} "
-            f"(listen {list(bus_config.listen)}, connect {list(bus_config.connect)})"
-        )
+        log(f"plant waiting for {list(require)} ({bus_config.describe()})")
         wait_for_peers(bus, tid, require, peer_timeout_s, stop)
         if stop.is_set():
             signum = received[0] if received else signal.SIGTERM

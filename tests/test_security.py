@@ -11,8 +11,9 @@
 * The multi-host example configs in ``config/`` parse as ``zenoh.Config`` (strictly: an
   unknown key or message type is an error) and say what ``docs/multi-host.md`` says: TLS
   only, mutual authentication, no scouting, clients that listen nowhere, and an access
-  control that limits the plant and the controller to their own keys. No session is
-  opened with them: they name other hosts.
+  control that limits the plant and the controller to their own keys. They are run for
+  real (router, plant, controller and recorder in two network namespaces) by
+  ``test_multi_host.py``.
 """
 
 from __future__ import annotations
@@ -32,12 +33,14 @@ import pytest
 import zenoh
 
 from hil.bus import BusConfig, BusConfigError, free_tcp_endpoint
+from hil.router import RouterConfigError, RouterPlan, load_router_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = {
     "router": ROOT / "config" / "zenoh-router.json5",
     "plant": ROOT / "config" / "zenoh-plant-router.json5",
     "controller": ROOT / "config" / "zenoh-controller-router.json5",
+    "recorder": ROOT / "config" / "zenoh-recorder-router.json5",
 }
 SCOUTING_PORT = 7446
 _TCP_LISTEN = "0A"
@@ -240,6 +243,9 @@ def test_multi_host_config_parses_with_tls_and_without_scouting(name: str) -> No
     assert _get(conf, "scouting/multicast/enabled") is False
     assert _get(conf, "scouting/gossip/enabled") is False
     assert _get(conf, "transport/link/protocols") == ["tls"]
+    # Router and clients must agree on the transport (the bench's low-latency one).
+    assert _get(conf, "transport/unicast/lowlatency") is True
+    assert _get(conf, "transport/unicast/qos/enabled") is False
     assert _get(conf, "transport/link/tls/enable_mtls") is True
     assert _get(conf, "transport/link/tls/root_ca_certificate")
     endpoints = _get(conf, "listen/endpoints") + _get(conf, "connect/endpoints")
@@ -294,6 +300,7 @@ def test_router_access_control_limits_each_node_to_its_keys() -> None:
         assert set(policy["rules"]) <= rule_ids
     assert subjects["plant"]["cert_common_names"] == ["fowt-plant"]
     assert subjects["controller"]["cert_common_names"] == ["fowt-controller"]
+    assert subjects["recorder"]["cert_common_names"] == ["fowt-recorder"]
 
     def puts(s: str) -> set[str]:
         return _allowed(acl, s, "ingress", "put")
@@ -312,3 +319,70 @@ def test_router_access_control_limits_each_node_to_its_keys() -> None:
     for subject in ("plant", "controller", "recorder"):
         assert _allowed(acl, subject, "ingress", "liveliness_token") == {"fowt/t1/alive/**"}
         assert _allowed(acl, subject, "ingress", "declare_queryable") == set()
+
+
+# ------------------------------------------------------------------ fowt router
+
+
+def test_router_plan_of_the_shipped_router_config() -> None:
+    _, plan = load_router_config(CONFIGS["router"])
+    assert plan == RouterPlan(
+        listen=("tls/<ROUTER_ADDR>:7447",),
+        access_control=True,
+        default_permission="deny",
+        mtls=True,
+        protocols=("tls",),
+    )
+    assert plan.warnings() == []
+
+
+def test_router_refuses_what_is_not_a_router_config(tmp_path: Path) -> None:
+    with pytest.raises(RouterConfigError, match=r"mode is 'client'; expected \"router\""):
+        load_router_config(CONFIGS["plant"])
+    with pytest.raises(RouterConfigError, match="no such file"):
+        load_router_config(tmp_path / "absent.json5")
+    binary = tmp_path / "binary.json5"
+    binary.write_bytes(bytes(range(256)))
+    with pytest.raises(RouterConfigError, match="not a valid Zenoh config"):
+        load_router_config(binary)
+    deaf = tmp_path / "deaf.json5"
+    deaf.write_text('{mode: "router", listen: {endpoints: []}}')
+    with pytest.raises(RouterConfigError, match="listen/endpoints is empty"):
+        load_router_config(deaf)
+
+
+def test_router_warns_when_the_file_leaves_the_bench_open(tmp_path: Path) -> None:
+    text = CONFIGS["router"].read_text()
+    open_file = tmp_path / "open.json5"
+    open_file.write_text(
+        text.replace(
+            "enabled: true,\n    default_permission", "enabled: false,\n    default_permission"
+        ).replace("enable_mtls: true", "enable_mtls: false")
+    )
+    _, plan = load_router_config(open_file)
+    warnings = plan.warnings()
+    assert any("access control is off" in w for w in warnings)
+    assert any("mutual TLS is off" in w for w in warnings)
+
+
+def test_router_cli_refuses_a_client_config_in_one_line() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "hil", "router", "--zenoh-config", str(CONFIGS["plant"])],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "COLUMNS": "200"},
+    )
+    assert r.returncode == 2
+    assert "Traceback" not in r.stdout + r.stderr
+    assert "mode is 'client'; expected \"router\"" in r.stdout
+
+
+def test_bus_config_describes_the_endpoints_a_config_file_gives() -> None:
+    assert BusConfig(listen=("tcp/127.0.0.1:7447",)).describe() == (
+        "listen ['tcp/127.0.0.1:7447'], connect []"
+    )
+    text = BusConfig(config_file=CONFIGS["plant"]).describe()
+    assert text.startswith("listen [], connect ['tls/<ROUTER_ADDR>:7447'], config ")
+    moved = BusConfig(connect=("tls/192.0.2.1:7447",), config_file=CONFIGS["plant"])
+    assert "connect ['tls/192.0.2.1:7447']" in moved.describe()
