@@ -657,7 +657,7 @@ def review_cmd(
         console.print(f"[red]error:[/] {exc}")
         raise typer.Exit(2) from exc
     except OSError as exc:
-        console.print(f"[red]error:[/] {mcap}: {exc.strerror or exc}")
+        console.print(f"[red]error:[/] {exc.filename or mcap}: {exc.strerror or exc}")
         raise typer.Exit(2) from exc
     note = truncation_note(summary)
     if as_json:

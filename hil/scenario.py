@@ -486,8 +486,9 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     on VolturnUS-S in steady 7.1 m/s wind and still water (baseline controller), the 20 s
     moving mean of the rotor speed and of the tower-base moment is within 2 % of its final
     value from t = 50 s; the platform pitch mean takes 185 s and the surge mean 356 s (the
-    lightly damped slow modes), so load cases that judge platform means may set more. A run
-    shorter than 2 ``settle_s`` keeps its second half (``hil.review.kpi_window``).
+    lightly damped slow modes; ``bench/settling.py``), so load cases that judge platform
+    means may set more. A run shorter than 2 ``settle_s`` keeps its second half
+    (``hil.review.kpi_window``).
     """
 
     settle_s: NonNegative = 60.0

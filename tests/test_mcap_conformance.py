@@ -23,6 +23,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -243,3 +244,43 @@ def test_mcap_core_on_a_cut_log_and_its_recovery(
     rc, [res] = _node_check(node_checker, fixed)
     assert rc == 0, res
     assert sum(res["indexed"]["perTopic"].values()) == n_read
+
+
+_KILLED_PARENT = """
+import os, signal, sys, time
+from pathlib import Path
+from bus_schemas import PlantState
+from bus_schemas.registry import TRUTH
+from hil.log_writer import BackgroundRunLog
+
+log = BackgroundRunLog(Path(sys.argv[1]), "t1", {"run": {"mode": "inprocess"}})
+fields = {f: 0.0 for f in PlantState.__struct_fields__}
+fields.update(floating=0)
+for i in range(int(sys.argv[2])):
+    fields.update(seq=i, sample_time_ns=i * 25_000_000, publish_time_ns=i)
+    log.publish(TRUTH, PlantState(**fields))
+time.sleep(0.5)
+os.kill(os.getpid(), signal.SIGKILL)
+"""
+
+
+def test_inprocess_log_is_complete_after_its_run_process_is_killed(tmp_path: Path) -> None:
+    """``--mode inprocess``: the log writer is a child process; SIGKILL of the run's process
+    closes the pipe, and the writer finishes a complete file with every message handed over."""
+    path = tmp_path / "run.mcap"
+    n = 2 * 4096  # two full batches: each goes to the writer when it fills (hil.log_writer)
+    proc = subprocess.run(
+        [sys.executable, "-c", _KILLED_PARENT, str(path), str(n)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.returncode == -9, proc.stderr
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if path.exists() and path.read_bytes()[-8:] == b"\x89MCAP0\r\n":
+            break
+        time.sleep(0.2)
+    found = check_complete_mcap(path)
+    assert found.per_topic == {"fowt/t1/truth": n}
