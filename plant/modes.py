@@ -49,7 +49,14 @@ import numpy as np
 import numpy.typing as npt
 
 from plant import turbine as _turbine
-from plant.platform import DOF_NAMES, FloatingParams, f, load_floating
+from plant.platform import (
+    DOF_NAMES,
+    FloatingParams,
+    f,
+    load_floating,
+    relative_wind,
+    rotor_thrust,
+)
 
 __all__ = [
     "PITCH_LENGTH_M",
@@ -144,26 +151,37 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
 
     if not wind_m_s > 0.0:
         raise ValueError(f"wind_m_s: expected a positive wind speed in m/s, got {wind_m_s}")
-    omega, theta, torque = _rotor_point(params, wind_m_s)
     nr = params.n_radiation
-    u = (theta, torque, wind_m_s, 0.0, 0.0, 0.0)
+    # The rotor sees the rotor-normal wind U_n = U cos(τ + φ + κ s)/cos τ of the pitched platform
+    # (relative_wind), and the platform's pitch depends on the rotor's thrust: fixed-point
+    # iteration on U_n (converges in a few passes; the trim changes U_n by < 1 %).
+    u_n = wind_m_s
+    q_eq = np.zeros(4)
+    for _ in range(50):
+        omega, theta, torque = _rotor_point(params, u_n)
+        u = (theta, torque, wind_m_s, 0.0, 0.0, 0.0)
 
-    def state(q: Sequence[float] | FloatArray) -> tuple[float, ...]:
-        return (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, omega, theta, torque, *([0.0] * nr))
+        def state(
+            q: Sequence[float] | FloatArray, w: float = omega, th: float = theta, tg: float = torque
+        ) -> tuple[float, ...]:
+            return (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, w, th, tg, *([0.0] * nr))
 
-    def residual(q: FloatArray) -> FloatArray:
-        dx = f(0.0, state(q), u, params)
-        return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
+        def residual(q: FloatArray, u: tuple[float, ...] = u, state: object = state) -> FloatArray:
+            dx = f(0.0, state(q), u, params)  # type: ignore[operator]
+            return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
 
-    q_eq, _, ier, msg = fsolve(residual, np.zeros(4), full_output=True, xtol=1e-12)
-    if ier != 1:
-        raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
-    x = state(q_eq)
-    thrust = (
-        params.turbine.k_thrust
-        * wind_m_s**2
-        * _turbine.outputs(0.0, (omega, theta, torque), u[:3], params.turbine).ct
-    )
+        q_eq, _, ier, msg = fsolve(residual, q_eq, full_output=True, xtol=1e-12)
+        # From the previous pass's solution fsolve may stop without "progress" at the solution.
+        if ier != 1 and float(np.max(np.abs(residual(q_eq)))) > 1e-9:
+            raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
+        x = state(q_eq)
+        u_new = relative_wind(x, wind_m_s, params) if params.aero else wind_m_s
+        if abs(u_new - u_n) < 1e-10 * wind_m_s:
+            break
+        u_n = u_new
+    else:
+        raise ValueError(f"operating point at U = {wind_m_s} m/s: rotor-normal wind not converged")
+    thrust = rotor_thrust(omega, theta, u_n, params.turbine)
     return OperatingPoint(wind_m_s, x, u, float(thrust))
 
 
