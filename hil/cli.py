@@ -377,12 +377,19 @@ def analyze_modes(
 
     Linearises the floating model about its steady operating point at ``--wind``
     (:func:`plant.modes.natural_modes`): period T = 2π/ω_d, damping ratio ζ = −Re λ/|λ|.
+    Open loop: no controller; blade pitch and generator torque held at the operating point,
+    rotor speed free (the case of OpenFAST linearisations above rated).
     """
-    from plant.modes import natural_modes
+    from plant.modes import OPEN_LOOP_CASE, natural_modes
 
     modes = _analysis(natural_modes, preset, wind)
     if as_json:
-        out = {"preset": preset, "wind_m_s": wind, "modes": [m.as_dict() for m in modes]}
+        out = {
+            "preset": preset,
+            "wind_m_s": wind,
+            "case": OPEN_LOOP_CASE,
+            "modes": [m.as_dict() for m in modes],
+        }
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
         return
     table = Table(title=f"Natural modes of {preset} at {wind:g} m/s")
@@ -391,6 +398,7 @@ def analyze_modes(
     table.add_column("damping ratio [-]", justify="right")
     for m in modes:
         table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
+    table.caption = OPEN_LOOP_CASE
     console.print(table)
 
 

@@ -1,41 +1,68 @@
 """Steady operating point, numerical linearisation and natural modes of the floating turbine.
 
-1. Rotor: below rated, ω = min(λ* U / R, ω_rated) at fine pitch; above rated, the pitch at which
-   the aerodynamic power at rated speed equals rated power / η; generator torque balancing the
-   aerodynamic torque (held as the torque demand).
-2. Platform: the static equilibrium F(q) = 0 of :func:`plant.platform.f` at rest (mean thrust,
-   nonlinear mooring, weight and buoyancy), solved by Newton iterations (scipy ``fsolve``).
+1. Rotor: below rated, ω = min(λ* U_n / R, ω_rated) at fine pitch; above rated, the pitch at
+   which the aerodynamic power at rated speed equals rated power / η; generator torque balancing
+   the aerodynamic torque (held as the torque demand). U_n is the rotor-normal wind the rotor
+   sees on the pitched platform (:func:`plant.platform.relative_wind`).
+2. Platform: the static equilibrium F(q) = 0 of :func:`plant.platform.f` at rest (mean thrust
+   along the tilted shaft, tower drag, nonlinear mooring, weight and buoyancy), solved by Newton
+   iterations (scipy ``fsolve``); steps 1-2 repeat until U_n is converged (the trim).
 3. A = ∂f/∂x by central differences about that point (inputs held), including the radiation
-   states and the aerodynamic damping (thrust and torque depend on U_rel = U − J_h·q̇).
+   states and the aerodynamic stiffness and damping (thrust and torque depend on the
+   rotor-normal relative wind U_n = [(U − J_h·q̇) cos ψ + J_v·q̇ sin ψ]/cos τ, ψ = τ + φ + κ s,
+   so on the platform's pitch and its rates; tower drag on the structure's velocity), and the
+   mooring's stiffness at the mean offset.
 4. Eigenvalues λ = −ζω_n ± jω_d of A; a mode's DOF is the dominant entry of its displacement
    eigenvector with pitch scaled by a length (:data:`PITCH_LENGTH_M`) so that metres compare;
    among the modes of one DOF, the one with the largest drive-point resonance peak
    |residue| / |Re λ| is that DOF's natural mode (radiation-state poles, nearly cancelled by
    zeros, have tiny residues). Period T = 2π/ω_d (damped), ζ = −Re λ / |λ|.
 
-The same identification (:func:`identify_modes`) applies to any first-order state matrix with
-known position/velocity indices, e.g. an OpenFAST linearisation.
+The case is open loop (:data:`OPEN_LOOP_CASE`): no controller, blade pitch and generator torque
+held at the operating point, rotor speed free. The same identification (:func:`identify_modes`)
+applies to any first-order state matrix with known position/velocity indices, e.g. an OpenFAST
+linearisation.
 
-Known discrepancy: the tower fore-aft mode
-------------------------------------------
-For ``iea15mw_volturnus`` at 5 m/s, surge, heave and pitch agree with the OpenFAST
-linearisation ``lin_00.1.lin`` (123.2 s, 20.4 s, 27.3 s), the first tower fore-aft mode does
-not: 1.93 s here against 2.23 s there. The evidence says the linearisation was made with another
-tower than the deck the preset is imported from, so the preset is not tuned by hand to match:
+Against the OpenFAST linearisations of the IEA 15 MW VolturnUS-S
+--------------------------------------------------------------------
+``../shared/reference/openfast/IEA-15-240-RWT-UMaineSemi/linearizations`` (5-24 m/s; tests in
+``tests/test_modes.py``). Compared term by term (A-matrix entries; force-space and with the tower
+condensed statically, s̈ = ṡ = 0, which leaves the platform periods within 1 %):
 
-* the tower column of lin_00's A (∂ṡ̇/∂s, the modal stiffness over the modal mass as coupled
-  to the platform) is 0.745 of ours (−7.79 vs −10.46 1/s²), and √(1/0.745) × 1.93 s = 2.23 s:
-  the whole period difference is that one ratio, not the coupling or the damping;
-* lin_00's static heave at its operating point is −0.021 m, ours −0.356 m; with the heave
-  restoring of 4.52e6 N/m (hydrostatics + mooring) that is about 150 t less weight in the
-  linearised turbine;
-* lin_00 was generated on 02-Feb-2021 from a WEIS/AeroElasticSE deck ("Generated with
-  AeroElasticSE FAST driver", MAP++ of Jan 2021), while the preset comes from the deck shipped
-  with rosco 2.10.6, whose tower weighs 1467 t (ElastoDyn tower file, ``TMassDen`` integrated)
-  against 1263 t in the VolturnUS-S definition report (NREL/TP-5000-76773);
-* so the linearisation's tower is lighter and softer relative to its mass than the deck's; the
-  test keeps the 5 % tower check as an expected failure with this reason
-  (``tests/test_modes.py``).
+* what was missing here and is now modelled: the 6° shaft tilt. The rotor sees the wind normal
+  to its tilted disc, so the rotor speed depends on platform pitch: ∂ω̇/∂φ = −3.27e-2 1/s² in
+  lin_10 (15 m/s), 0 before, −3.48e-2 now; the thrust acts along the shaft (moment arm
+  h cos τ + a sin τ = 147.9 m, not 150 m); the heave/pitch mooring stiffness grows with the
+  offset (k_φφ 2.59e8 → 3.05e8 N m/rad at 14 m; it was held at its zero-offset value); the
+  tower's aerodynamic drag (AeroDyn ``TwrAero``, C_d 0.5, D 10-6.5 m, shear 0.12: 73 kN at
+  15 m/s, 187 kN at 24 m/s) sets the trim at high wind. Trim at 15 m/s: surge 14.57 m (lin_10
+  14.59), pitch 0.0377 rad (0.039), blade pitch 0.1995 rad (0.1982);
+* with the rotor speed locked and the tower condensed, the pitch period is 1.8-2.6 % longer
+  here than in the linearisations at every wind speed from 5 to 24 m/s, and the condensed pitch
+  stiffness/inertia ∂φ̈/∂φ is 0.941-0.949 of theirs at every wind speed: a wind-independent
+  offset, the model (the linearisations reproduce the 2020 v1.0 turbine with a 1,263 t tower,
+  about 160 t lighter than the deck imported here), not the aerodynamics;
+* what opens the gap with wind is the rotor-speed loop (φ̇ → U_n → aerodynamic torque → ω →
+  thrust → pitch moment). Its torque side agrees (∂ω̇/∂φ̇ −2.37 vs −2.30, ∂ω̇/∂ω −0.143 vs −0.127
+  1/s at 15 m/s); its thrust side ∂T/∂ω, from the Cp/Ct/Cq table of the current rotor, is about
+  twice lin_10's at 15 m/s (the tower row ∂s̈/∂ω −0.745 vs −0.383; 1.3x at 19 m/s, equal at
+  24 m/s), which with the 5 % softer pitch adds 5-8 % to the pitch period at 15-19 m/s where the
+  linearisations' loop adds 0.5-3 %. The table derivative is not an interpolation artefact
+  (a bicubic fit of the same table gives ∂C_t/∂λ within 15 %);
+* below rated the linearisations are not open loop in generator torque: ∂ω̇/∂ω is −0.098 1/s at
+  5 m/s and −1.118 1/s at 9 m/s against an aerodynamic −0.039 and −0.069 here, i.e. ServoDyn's
+  generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad). At 5 m/s the two
+  differences (softer pitch here, no torque slope here) cancel; at 9 m/s the missing slope makes
+  the pitch period 12 % short here.
+
+Tower fore-aft mode: 1.93 s here. The six linearisations give 2.23 s with the 2020 tower; an
+OpenFAST linearisation of the current deck (the one imported here, 1,466.5 t tower) gives
+0.5023 Hz = 1.99 s (IEAWindSystems/IEA-15-240-RWT issue #261); the v1.1 release notes say
+"around 0.49 Hz". This model has rigid blades (0.518 Hz). The blades' first flapwise mode is
+just above it (0.543 Hz at standstill: Rayleigh quotient of the deck's ElastoDyn blade with its
+mode shape; higher when spinning); with flexible blades their collective flap mode couples with
+the tower-top motion, and of two coupled modes the lower is pushed down, here by a few per cent:
+the difference to 1.99 s.
 """
 
 from __future__ import annotations
@@ -59,6 +86,7 @@ from plant.platform import (
 )
 
 __all__ = [
+    "OPEN_LOOP_CASE",
     "PITCH_LENGTH_M",
     "Mode",
     "OperatingPoint",
@@ -72,6 +100,12 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Length (m) by which pitch (rad) is scaled to compare with translations in mode shapes.
 PITCH_LENGTH_M = 100.0
+
+#: The case :func:`natural_modes` analyses (no controller in the loop).
+OPEN_LOOP_CASE = (
+    "open loop: no controller; blade pitch and generator torque held at the operating point, "
+    "rotor speed free"
+)
 
 
 @dataclass(frozen=True)

@@ -857,10 +857,22 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
         b2 = w20 * f0 + w21 * f1 + w22 * f2 + am2 + tc2 * uw
         b3 = w30 * f0 + w31 * f1 + w32 * f2 + am3 + tc3 * uw
         # Linear damping with the tower drag's, for this step's wind.
-        x00, x01, x02, x03 = d00 + au * t00, d01 + au * t01, d02 + au * t02, d03 + au * t03
-        x10, x11, x12, x13 = d10 + au * t10, d11 + au * t11, d12 + au * t12, d13 + au * t13
-        x20, x21, x22, x23 = d20 + au * t20, d21 + au * t21, d22 + au * t22, d23 + au * t23
-        x30, x31, x32, x33 = d30 + au * t30, d31 + au * t31, d32 + au * t32, d33 + au * t33
+        x00 = d00 + au * t00
+        x01 = d01 + au * t01
+        x02 = d02 + au * t02
+        x03 = d03 + au * t03
+        x10 = d10 + au * t10
+        x11 = d11 + au * t11
+        x12 = d12 + au * t12
+        x13 = d13 + au * t13
+        x20 = d20 + au * t20
+        x21 = d21 + au * t21
+        x22 = d22 + au * t22
+        x23 = d23 + au * t23
+        x30 = d30 + au * t30
+        x31 = d31 + au * t31
+        x32 = d32 + au * t32
+        x33 = d33 + au * t33
         (lx0, lx1, ly0, ly1, ilx, ily, t0, t1, t2, t3, c0, c1, c2, c3) = cell
         (
             s_lo,
@@ -1410,8 +1422,10 @@ def tower_drag_matrices(
     psi = sum(ck * eta ** (k + 2) for k, ck in enumerate(p.tower_mode_shape_coefficients))
     jac = np.stack([np.ones_like(z), np.zeros_like(z), z, psi + np.zeros_like(z)])
     rho = air_density_kg_m3
-    c = 0.5 * rho * np.trapezoid(width * prof**2 * jac, z, axis=1)
-    d = rho * np.trapezoid(width * prof * jac[:, None, :] * jac[None, :, :], z, axis=2)
+    c = 0.5 * rho * np.asarray(np.trapezoid(width * prof**2 * jac, z, axis=1), dtype=np.float64)
+    d = rho * np.asarray(
+        np.trapezoid(width * prof * jac[:, None, :] * jac[None, :, :], z, axis=2), dtype=np.float64
+    )
     return c, d
 
 
