@@ -372,6 +372,13 @@ def analyze_modes(
         float, typer.Option("--wind", help="Steady hub-height wind of the linearisation, m/s.")
     ] = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
+    torque_slope: Annotated[
+        float,
+        typer.Option(
+            "--torque-slope",
+            help="Generator-torque law in the loop, dT/domega in N m s/rad (default 0: open loop).",
+        ),
+    ] = 0.0,
 ) -> None:
     """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
 
@@ -382,12 +389,20 @@ def analyze_modes(
     """
     from plant.modes import OPEN_LOOP_CASE, natural_modes
 
-    modes = _analysis(natural_modes, preset, wind)
+    modes = _analysis(
+        lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
+    )
+    case = (
+        OPEN_LOOP_CASE
+        if torque_slope == 0.0
+        else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
+        "blade pitch held, rotor speed free"
+    )
     if as_json:
         out = {
             "preset": preset,
             "wind_m_s": wind,
-            "case": OPEN_LOOP_CASE,
+            "case": case,
             "modes": [m.as_dict() for m in modes],
         }
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
@@ -398,7 +413,7 @@ def analyze_modes(
     table.add_column("damping ratio [-]", justify="right")
     for m in modes:
         table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
-    table.caption = OPEN_LOOP_CASE
+    table.caption = case
     console.print(table)
 
 

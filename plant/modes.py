@@ -293,7 +293,9 @@ def identify_modes(
     return modes
 
 
-def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) -> list[Mode]:
+def natural_modes(
+    preset: str | Path | FloatingParams, wind_m_s: float = 5.0, torque_slope_nm_s_rad: float = 0.0
+) -> list[Mode]:
     """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
 
     Parameters
@@ -302,6 +304,11 @@ def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) ->
         Floating preset name/path (loaded with :func:`plant.platform.load_floating`) or params.
     wind_m_s : float, optional
         Steady hub-height wind (m/s), default 5.
+    torque_slope_nm_s_rad : float, optional
+        k = ∂T_c/∂ω: a generator-torque law in the loop, T_c = T_0 + k (ω − ω_0) (N m s/rad,
+        low-speed shaft), entering through the torque actuator: ∂Ṫ_g/∂ω = k/τ_T. Default 0:
+        the open-loop case (:data:`OPEN_LOOP_CASE`). Below rated the OpenFAST linearisations
+        hold ServoDyn's torque law (module docstring); this is the option to compare with them.
 
     Returns
     -------
@@ -309,6 +316,12 @@ def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) ->
         ``[surge, heave, pitch, tower_fore_aft]`` (those found), JSON-ready via ``as_dict``.
     """
     params = preset if isinstance(preset, FloatingParams) else load_floating(preset)
+    if not math.isfinite(torque_slope_nm_s_rad):
+        raise ValueError(
+            "torque_slope_nm_s_rad: expected a finite slope in N m s/rad, "
+            f"got {torque_slope_nm_s_rad}"
+        )
     op = operating_point(params, wind_m_s)
     a = linearize(params, op)
+    a[10, 8] += torque_slope_nm_s_rad * params.turbine.inv_torque_tau
     return identify_modes(a, range(4), range(4, 8), DOF_NAMES, (1.0, 1.0, PITCH_LENGTH_M, 1.0))
