@@ -45,15 +45,18 @@ condensed statically, s̈ = ṡ = 0, which leaves the platform periods within 1 
 * what opens the gap with wind is the rotor-speed loop (φ̇ → U_n → aerodynamic torque → ω →
   thrust → pitch moment). Its torque side agrees (∂ω̇/∂φ̇ −2.37 vs −2.30, ∂ω̇/∂ω −0.143 vs −0.127
   1/s at 15 m/s); its thrust side ∂T/∂ω, from the Cp/Ct/Cq table of the current rotor, is about
-  twice lin_10's at 15 m/s (the tower row ∂s̈/∂ω −0.745 vs −0.383; 1.3x at 19 m/s, equal at
-  24 m/s), which with the 5 % softer pitch adds 5-8 % to the pitch period at 15-19 m/s where the
-  linearisations' loop adds 0.5-3 %. The table derivative is not an interpolation artefact
-  (a bicubic fit of the same table gives ∂C_t/∂λ within 15 %);
+  twice lin_10's at 15 m/s (the tower row ∂s̈/∂ω −0.745 vs −0.383; 1.3x at 19 m/s, about
+  equal at 24 m/s). With the 5 % softer pitch, the rotor-speed loop lengthens the pitch period by
+  5.5 % (15 m/s) and 9.3 % (19 m/s) here, by 1.5 % and 3.9 % in the linearisations. The table
+  derivative is not an interpolation artefact (a bicubic fit of the same table gives ∂C_t/∂λ
+  within 15 %);
 * below rated the linearisations are not open loop in generator torque: ∂ω̇/∂ω is −0.098 1/s at
   5 m/s and −1.118 1/s at 9 m/s against an aerodynamic −0.039 and −0.069 here, i.e. ServoDyn's
   generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad). At 5 m/s the two
   differences (softer pitch here, no torque slope here) cancel; at 9 m/s the missing slope makes
-  the pitch period 12 % short here.
+  the pitch period 12 % short here. ``natural_modes(..., torque_slope_nm_s_rad=k)`` (``fowt
+  analyze modes --torque-slope``) puts such a law in the loop: with the slope read from the
+  ``.lin`` files, surge, heave and pitch agree within 0.5 % (5 m/s) and 2.4 % (9 m/s).
 
 Tower fore-aft mode: 1.93 s here. The six linearisations give 2.23 s with the 2020 tower; an
 OpenFAST linearisation of the current deck (the one imported here, 1,466.5 t tower) gives
