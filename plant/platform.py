@@ -14,7 +14,7 @@ State, input and dynamics (SI)::
                                               wave excitation surge force (N), heave force (N),
                                               pitch moment (N m) about the reference point
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + Q_T T + F_t + F^w
     dξ/dt = A_r ξ + B_r v,   μ = C_r ξ,   v = (ẋ, ż, φ̇)
 
 * ``M_s``: rigid-body mass matrix of platform + tower + rotor-nacelle assembly (RNA) with the
@@ -34,9 +34,13 @@ State, input and dynamics (SI)::
 * ``D``: linear damping (additional linear damping of the deck, tower structural damping
   2 ζ √(k m) of the fixed-base mode); ``B_q``: additional quadratic drag (OpenFAST
   ``AddBQuad``: F = −B_q (v∘|v|), element-wise product).
-* Rotor: :func:`plant.turbine.f` with the relative wind at the hub
-  U_rel = U − (ẋ + h_hub φ̇ + (1 + c_hub κ) ṡ) = U − J_h·q̇; the thrust T = ½ρπR²U_rel²Ct(λ, θ)
-  acts along x at the hub: generalised force J_h T, J_h = (1, 0, h_hub, 1 + c_hub κ).
+* Rotor: :func:`plant.turbine.f` with the rotor-normal relative wind at the hub
+  U_rel = [(U − J_h·q̇) cos ψ + (J_v·q̇) sin ψ]/cos τ, ψ = τ + φ + κ s the shaft's tilt (τ the
+  built-in tilt, upwind end up), J_h = (1, 0, h_hub, 1 + c_hub κ) and J_v = (0, 1, −a_hub,
+  −a_hub κ) the hub's horizontal and vertical velocity per DOF rate; the thrust
+  T = ½ρπR²U_rel²Ct(λ, θ) acts along the shaft: generalised force
+  Q_T T, Q_T = (cos ψ, −sin ψ, h_hub cos τ + a_hub sin τ, J_h,s cos τ − J_v,s sin τ).
+* Tower drag: F_t = c_t U|U| − |U| D_t q̇ (:func:`tower_drag_matrices`).
 
 The potential energy is V(q) = ½ qᵀ K q − F_0ᵀq + V_m(q), so with D, B_q, radiation, aero and
 waves off, E = ½ q̇ᵀ(M_s + A_∞)q̇ + V(q) + ½ J ω² is conserved (:func:`energy`).
@@ -50,7 +54,9 @@ is one numpy product of a precomputed block matrix [[A_r, B_r], [C_r, 0]]. The r
 :func:`plant.turbine.f` and :class:`plant.aero.PerformanceTable`. The simulator's integrator,
 :func:`step_floating`, goes further (a closure per (params, h) with M⁻¹ folded into every
 constant, cached Cp/Ct/Cq cell and mooring segment, one numpy product per step for the
-radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states).
+radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states); with
+the shaft tilt, tower drag and offset-dependent mooring stiffness 23 µs (34 radiation states,
+``bench/step_floating_speed.py``; 18 µs before them).
 """
 
 from __future__ import annotations
@@ -527,7 +533,7 @@ def _mech(
 ) -> tuple[float, ...]:
     """Derivative of the 11 mechanical + rotor states with the radiation memory force μ given.
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w and the rotor
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + Q_T T + F_t + F^w and the rotor
     of :func:`plant.turbine.f` (one Cp/Ct/Cq cell lookup for thrust and torque), in plain
     floats with the precomputed tuples of :class:`FloatingParams` (no numpy).
     """
@@ -649,7 +655,7 @@ def f(
 ) -> tuple[float, ...]:
     """Time derivative of the floating-turbine state (equations in the module docstring).
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + J_h T(U_rel) + F^w;
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + Q_T T(U_rel) + F_t + F^w;
     dξ/dt = A_r ξ + B_r v; rotor states from :func:`plant.turbine.f` at U_rel = U − J_h·q̇.
 
     Parameters
@@ -1050,7 +1056,7 @@ def step_floating(
     the params): stages on plain floats with M⁻¹ folded into every constant, the Cp/Ct/Cq cell
     and mooring segment cached, and the radiation update one numpy product per step that also
     gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous call returned).
-    About 15-20 µs per call on the 2-vCPU bench machine with 28 radiation states.
+    About 23 µs per call on the 2-vCPU bench machine with 34 radiation states.
 
     Parameters
     ----------
