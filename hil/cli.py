@@ -801,18 +801,41 @@ def analyze_modes(
     ],
     wind: WindOpt = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
+    torque_slope: Annotated[
+        float,
+        typer.Option(
+            "--torque-slope",
+            help="Generator-torque law in the loop, dT/domega in N m s/rad (default 0: open loop).",
+            callback=_number("N m s/rad", ge=0.0),
+        ),
+    ] = 0.0,
 ) -> None:
     """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
 
     Linearises the floating model about its steady operating point at --wind
     (plant.modes.natural_modes): period T = 2 pi / omega_d [s], damping ratio
-    zeta = -Re(lambda) / |lambda| [-].
+    zeta = -Re(lambda) / |lambda| [-]. Open loop: no controller; blade pitch and generator
+    torque held at the operating point, rotor speed free (the case of OpenFAST
+    linearisations above rated).
     """
-    from plant.modes import natural_modes
+    from plant.modes import OPEN_LOOP_CASE, natural_modes
 
-    modes = _analysis(natural_modes, preset, wind)
+    modes = _analysis(
+        lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
+    )
+    case = (
+        OPEN_LOOP_CASE
+        if torque_slope == 0.0
+        else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
+        "blade pitch held, rotor speed free"
+    )
     if as_json:
-        out = {"preset": preset, "wind_m_s": wind, "modes": [m.as_dict() for m in modes]}
+        out = {
+            "preset": preset,
+            "wind_m_s": wind,
+            "case": case,
+            "modes": [m.as_dict() for m in modes],
+        }
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
         return
     table = Table(title=f"Natural modes of {escape(preset)} at {wind:g} m/s")
@@ -821,6 +844,7 @@ def analyze_modes(
     table.add_column(escape("damping ratio [-]"), justify="right")
     for m in modes:
         table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
+    table.caption = case
     console.print(table)
 
 

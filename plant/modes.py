@@ -1,41 +1,71 @@
 """Steady operating point, numerical linearisation and natural modes of the floating turbine.
 
-1. Rotor: below rated, ω = min(λ* U / R, ω_rated) at fine pitch; above rated, the pitch at which
-   the aerodynamic power at rated speed equals rated power / η; generator torque balancing the
-   aerodynamic torque (held as the torque demand).
-2. Platform: the static equilibrium F(q) = 0 of :func:`plant.platform.f` at rest (mean thrust,
-   nonlinear mooring, weight and buoyancy), solved by Newton iterations (scipy ``fsolve``).
+1. Rotor: below rated, ω = min(λ* U_n / R, ω_rated) at fine pitch; above rated, the pitch at
+   which the aerodynamic power at rated speed equals rated power / η; generator torque balancing
+   the aerodynamic torque (held as the torque demand). U_n is the rotor-normal wind the rotor
+   sees on the pitched platform (:func:`plant.platform.relative_wind`).
+2. Platform: the static equilibrium F(q) = 0 of :func:`plant.platform.f` at rest (mean thrust
+   along the tilted shaft, tower drag, nonlinear mooring, weight and buoyancy), solved by Newton
+   iterations (scipy ``fsolve``); steps 1-2 repeat until U_n is converged (the trim).
 3. A = ∂f/∂x by central differences about that point (inputs held), including the radiation
-   states and the aerodynamic damping (thrust and torque depend on U_rel = U − J_h·q̇).
+   states and the aerodynamic stiffness and damping (thrust and torque depend on the
+   rotor-normal relative wind U_n = [(U − J_h·q̇) cos ψ + J_v·q̇ sin ψ]/cos τ, ψ = τ + φ + κ s,
+   so on the platform's pitch and its rates; tower drag on the structure's velocity), and the
+   mooring's stiffness at the mean offset.
 4. Eigenvalues λ = −ζω_n ± jω_d of A; a mode's DOF is the dominant entry of its displacement
    eigenvector with pitch scaled by a length (:data:`PITCH_LENGTH_M`) so that metres compare;
    among the modes of one DOF, the one with the largest drive-point resonance peak
    |residue| / |Re λ| is that DOF's natural mode (radiation-state poles, nearly cancelled by
    zeros, have tiny residues). Period T = 2π/ω_d (damped), ζ = −Re λ / |λ|.
 
-The same identification (:func:`identify_modes`) applies to any first-order state matrix with
-known position/velocity indices, e.g. an OpenFAST linearisation.
+The case is open loop (:data:`OPEN_LOOP_CASE`): no controller, blade pitch and generator torque
+held at the operating point, rotor speed free. The same identification (:func:`identify_modes`)
+applies to any first-order state matrix with known position/velocity indices, e.g. an OpenFAST
+linearisation.
 
-Known discrepancy: the tower fore-aft mode
-------------------------------------------
-For ``iea15mw_volturnus`` at 5 m/s, surge, heave and pitch agree with the OpenFAST
-linearisation ``lin_00.1.lin`` (123.2 s, 20.4 s, 27.3 s), the first tower fore-aft mode does
-not: 1.93 s here against 2.23 s there. The evidence says the linearisation was made with another
-tower than the deck the preset is imported from, so the preset is not tuned by hand to match:
+Against the OpenFAST linearisations of the IEA 15 MW VolturnUS-S
+--------------------------------------------------------------------
+``../shared/reference/openfast/IEA-15-240-RWT-UMaineSemi/linearizations`` (5-24 m/s; tests in
+``tests/test_modes.py``). Compared term by term (A-matrix entries; force-space and with the tower
+condensed statically, s̈ = ṡ = 0, which leaves the platform periods within 1 %):
 
-* the tower column of lin_00's A (∂ṡ̇/∂s, the modal stiffness over the modal mass as coupled
-  to the platform) is 0.745 of ours (−7.79 vs −10.46 1/s²), and √(1/0.745) × 1.93 s = 2.23 s:
-  the whole period difference is that one ratio, not the coupling or the damping;
-* lin_00's static heave at its operating point is −0.021 m, ours −0.356 m; with the heave
-  restoring of 4.52e6 N/m (hydrostatics + mooring) that is about 150 t less weight in the
-  linearised turbine;
-* lin_00 was generated on 02-Feb-2021 from a WEIS/AeroElasticSE deck ("Generated with
-  AeroElasticSE FAST driver", MAP++ of Jan 2021), while the preset comes from the deck shipped
-  with rosco 2.10.6, whose tower weighs 1467 t (ElastoDyn tower file, ``TMassDen`` integrated)
-  against 1263 t in the VolturnUS-S definition report (NREL/TP-5000-76773);
-* so the linearisation's tower is lighter and softer relative to its mass than the deck's; the
-  test keeps the 5 % tower check as an expected failure with this reason
-  (``tests/test_modes.py``).
+* what was missing here and is now modelled: the 6° shaft tilt. The rotor sees the wind normal
+  to its tilted disc, so the rotor speed depends on platform pitch: ∂ω̇/∂φ = −3.27e-2 1/s² in
+  lin_10 (15 m/s), 0 before, −3.48e-2 now; the thrust acts along the shaft (moment arm
+  h cos τ + a sin τ = 147.9 m, not 150 m); the heave/pitch mooring stiffness grows with the
+  offset (k_φφ 2.59e8 → 3.05e8 N m/rad at 14 m; it was held at its zero-offset value); the
+  tower's aerodynamic drag (AeroDyn ``TwrAero``, C_d 0.5, D 10-6.5 m, shear 0.12: 73 kN at
+  15 m/s, 187 kN at 24 m/s) sets the trim at high wind. Trim at 15 m/s: surge 14.57 m (lin_10
+  14.59), pitch 0.0377 rad (0.039), blade pitch 0.1995 rad (0.1982);
+* with the rotor speed locked and the tower condensed, the pitch period is 1.8-2.6 % longer
+  here than in the linearisations at every wind speed from 5 to 24 m/s, and the condensed pitch
+  stiffness/inertia ∂φ̈/∂φ is 0.941-0.949 of theirs at every wind speed: a wind-independent
+  offset, the model (the linearisations reproduce the 2020 v1.0 turbine with a 1,263 t tower,
+  about 160 t lighter than the deck imported here), not the aerodynamics;
+* what opens the gap with wind is the rotor-speed loop (φ̇ → U_n → aerodynamic torque → ω →
+  thrust → pitch moment). Its torque side agrees (∂ω̇/∂φ̇ −2.37 vs −2.30, ∂ω̇/∂ω −0.143 vs −0.127
+  1/s at 15 m/s); its thrust side ∂T/∂ω, from the Cp/Ct/Cq table of the current rotor, is about
+  twice lin_10's at 15 m/s (the tower row ∂s̈/∂ω −0.745 vs −0.383; 1.3x at 19 m/s, about
+  equal at 24 m/s). With the 5 % softer pitch, the rotor-speed loop lengthens the pitch period by
+  5.5 % (15 m/s) and 9.3 % (19 m/s) here, by 1.5 % and 3.9 % in the linearisations. The table
+  derivative is not an interpolation artefact (a bicubic fit of the same table gives ∂C_t/∂λ
+  within 15 %);
+* below rated the linearisations are not open loop in generator torque: ∂ω̇/∂ω is −0.098 1/s at
+  5 m/s and −1.118 1/s at 9 m/s against an aerodynamic −0.039 and −0.069 here, i.e. ServoDyn's
+  generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad). At 5 m/s the two
+  differences (softer pitch here, no torque slope here) cancel; at 9 m/s the missing slope makes
+  the pitch period 12 % short here. ``natural_modes(..., torque_slope_nm_s_rad=k)`` (``fowt
+  analyze modes --torque-slope``) puts such a law in the loop: with the slope read from the
+  ``.lin`` files, surge, heave and pitch agree within 0.5 % (5 m/s) and 2.4 % (9 m/s).
+
+Tower fore-aft mode: 1.93 s here. The six linearisations give 2.23 s with the 2020 tower; an
+OpenFAST linearisation of the current deck (the one imported here, 1,466.5 t tower) gives
+0.5023 Hz = 1.99 s (IEAWindSystems/IEA-15-240-RWT issue #261); the v1.1 release notes say
+"around 0.49 Hz". This model has rigid blades (0.518 Hz). The blades' first flapwise mode is
+just above it (0.543 Hz at standstill: Rayleigh quotient of the deck's ElastoDyn blade with its
+mode shape; higher when spinning); with flexible blades their collective flap mode couples with
+the tower-top motion, and of two coupled modes the lower is pushed down, here by a few per cent:
+the difference to 1.99 s.
 """
 
 from __future__ import annotations
@@ -49,9 +79,17 @@ import numpy as np
 import numpy.typing as npt
 
 from plant import turbine as _turbine
-from plant.platform import DOF_NAMES, FloatingParams, f, load_floating
+from plant.platform import (
+    DOF_NAMES,
+    FloatingParams,
+    f,
+    load_floating,
+    relative_wind,
+    rotor_thrust,
+)
 
 __all__ = [
+    "OPEN_LOOP_CASE",
     "PITCH_LENGTH_M",
     "Mode",
     "OperatingPoint",
@@ -65,6 +103,12 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Length (m) by which pitch (rad) is scaled to compare with translations in mode shapes.
 PITCH_LENGTH_M = 100.0
+
+#: The case :func:`natural_modes` analyses (no controller in the loop).
+OPEN_LOOP_CASE = (
+    "open loop: no controller; blade pitch and generator torque held at the operating point, "
+    "rotor speed free"
+)
 
 
 @dataclass(frozen=True)
@@ -144,26 +188,37 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
 
     if not wind_m_s > 0.0:
         raise ValueError(f"wind_m_s: expected a positive wind speed in m/s, got {wind_m_s}")
-    omega, theta, torque = _rotor_point(params, wind_m_s)
     nr = params.n_radiation
-    u = (theta, torque, wind_m_s, 0.0, 0.0, 0.0)
+    # The rotor sees the rotor-normal wind U_n = U cos(τ + φ + κ s)/cos τ of the pitched platform
+    # (relative_wind), and the platform's pitch depends on the rotor's thrust: fixed-point
+    # iteration on U_n (converges in a few passes; the trim changes U_n by < 1 %).
+    u_n = wind_m_s
+    q_eq = np.zeros(4)
+    for _ in range(50):
+        omega, theta, torque = _rotor_point(params, u_n)
+        u = (theta, torque, wind_m_s, 0.0, 0.0, 0.0)
 
-    def state(q: Sequence[float] | FloatArray) -> tuple[float, ...]:
-        return (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, omega, theta, torque, *([0.0] * nr))
+        def state(
+            q: Sequence[float] | FloatArray, w: float = omega, th: float = theta, tg: float = torque
+        ) -> tuple[float, ...]:
+            return (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, w, th, tg, *([0.0] * nr))
 
-    def residual(q: FloatArray) -> FloatArray:
-        dx = f(0.0, state(q), u, params)
-        return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
+        def residual(q: FloatArray, u: tuple[float, ...] = u, state: object = state) -> FloatArray:
+            dx = f(0.0, state(q), u, params)  # type: ignore[operator]
+            return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
 
-    q_eq, _, ier, msg = fsolve(residual, np.zeros(4), full_output=True, xtol=1e-12)
-    if ier != 1:
-        raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
-    x = state(q_eq)
-    thrust = (
-        params.turbine.k_thrust
-        * wind_m_s**2
-        * _turbine.outputs(0.0, (omega, theta, torque), u[:3], params.turbine).ct
-    )
+        q_eq, _, ier, msg = fsolve(residual, q_eq, full_output=True, xtol=1e-12)
+        # From the previous pass's solution fsolve may stop without "progress" at the solution.
+        if ier != 1 and float(np.max(np.abs(residual(q_eq)))) > 1e-9:
+            raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
+        x = state(q_eq)
+        u_new = relative_wind(x, wind_m_s, params) if params.aero else wind_m_s
+        if abs(u_new - u_n) < 1e-10 * wind_m_s:
+            break
+        u_n = u_new
+    else:
+        raise ValueError(f"operating point at U = {wind_m_s} m/s: rotor-normal wind not converged")
+    thrust = rotor_thrust(omega, theta, u_n, params.turbine)
     return OperatingPoint(wind_m_s, x, u, float(thrust))
 
 
@@ -241,7 +296,9 @@ def identify_modes(
     return modes
 
 
-def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) -> list[Mode]:
+def natural_modes(
+    preset: str | Path | FloatingParams, wind_m_s: float = 5.0, torque_slope_nm_s_rad: float = 0.0
+) -> list[Mode]:
     """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
 
     Parameters
@@ -250,6 +307,11 @@ def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) ->
         Floating preset name/path (loaded with :func:`plant.platform.load_floating`) or params.
     wind_m_s : float, optional
         Steady hub-height wind (m/s), default 5.
+    torque_slope_nm_s_rad : float, optional
+        k = ∂T_c/∂ω: a generator-torque law in the loop, T_c = T_0 + k (ω − ω_0) (N m s/rad,
+        low-speed shaft), entering through the torque actuator: ∂Ṫ_g/∂ω = k/τ_T. Default 0:
+        the open-loop case (:data:`OPEN_LOOP_CASE`). Below rated the OpenFAST linearisations
+        hold ServoDyn's torque law (module docstring); this is the option to compare with them.
 
     Returns
     -------
@@ -257,6 +319,12 @@ def natural_modes(preset: str | Path | FloatingParams, wind_m_s: float = 5.0) ->
         ``[surge, heave, pitch, tower_fore_aft]`` (those found), JSON-ready via ``as_dict``.
     """
     params = preset if isinstance(preset, FloatingParams) else load_floating(preset)
+    if not math.isfinite(torque_slope_nm_s_rad):
+        raise ValueError(
+            "torque_slope_nm_s_rad: expected a finite slope in N m s/rad, "
+            f"got {torque_slope_nm_s_rad}"
+        )
     op = operating_point(params, wind_m_s)
     a = linearize(params, op)
+    a[10, 8] += torque_slope_nm_s_rad * params.turbine.inv_torque_tau
     return identify_modes(a, range(4), range(4, 8), DOF_NAMES, (1.0, 1.0, PITCH_LENGTH_M, 1.0))

@@ -209,8 +209,9 @@ def compute_mooring(
     """Quasi-static mooring tables with MoorPy (elastic catenaries with seabed contact).
 
     F_x(x), F_z(x), M_φ(x) on ``surge_grid_m`` (default −40..60 m, 1 m) at zero heave and pitch;
-    K_zφ by central differences (±0.1 m, ±0.002 rad) at zero offset; the 6x6 coupled stiffness
-    at zero offset (MoorPy ``getCoupledStiffnessA``) for reference.
+    K_zφ by central differences (±0.1 m, ±0.002 rad) at zero offset and at every offset of the
+    grid (K_zφ(x)); the 6x6 coupled stiffness at zero offset (MoorPy ``getCoupledStiffnessA``)
+    for reference.
     """
     import moorpy  # noqa: PLC0415  optional, import time only
 
@@ -246,15 +247,20 @@ def compute_mooring(
         fz.append(float(f6[2]))
         my.append(float(f6[4]))
     dz, dp = 0.1, 0.002
-    fzp, fzm = force([0, 0, dz, 0, 0, 0]), force([0, 0, -dz, 0, 0, 0])
-    fpp, fpm = force([0, 0, 0, 0, dp, 0]), force([0, 0, 0, 0, -dp, 0])
-    k_zp = np.array(
-        [
-            [-(fzp[2] - fzm[2]) / (2 * dz), -(fpp[2] - fpm[2]) / (2 * dp)],
-            [-(fzp[4] - fzm[4]) / (2 * dz), -(fpp[4] - fpm[4]) / (2 * dp)],
-        ]
-    )
-    k_zp = 0.5 * (k_zp + k_zp.T)
+
+    def k_heave_pitch(x: float) -> np.ndarray:
+        fzp, fzm = force([x, 0, dz, 0, 0, 0]), force([x, 0, -dz, 0, 0, 0])
+        fpp, fpm = force([x, 0, 0, 0, dp, 0]), force([x, 0, 0, 0, -dp, 0])
+        k = np.array(
+            [
+                [-(fzp[2] - fzm[2]) / (2 * dz), -(fpp[2] - fpm[2]) / (2 * dp)],
+                [-(fzp[4] - fzm[4]) / (2 * dz), -(fpp[4] - fpm[4]) / (2 * dp)],
+            ]
+        )
+        return 0.5 * (k + k.T)
+
+    k_zp = k_heave_pitch(0.0)
+    k_by_surge = [k_heave_pitch(float(x)).tolist() for x in grid]
     force([0, 0, 0, 0, 0, 0])
     k6 = np.asarray(ms.getCoupledStiffnessA(lines_only=True), dtype=float)
     return MooringFile(
@@ -265,6 +271,7 @@ def compute_mooring(
         moment_pitch_nm=my,
         stiffness_heave_pitch=k_zp.tolist(),
         stiffness_6x6_at_zero=k6.tolist(),
+        stiffness_heave_pitch_by_surge=k_by_surge,
         lines=[
             {
                 "anchor_x_m": ln.anchor_m[0],
@@ -375,6 +382,24 @@ def import_openfast(
     if abs(hub_cm) > 0.0:
         raise ValueError(f"{ed_path}: HubCM != 0 is not supported")
 
+    # Tower aerodynamic drag (AeroDyn TwrAero) and the wind's shear exponent (InflowWind).
+    twr_h: list[float] = []
+    twr_d: list[float] = []
+    twr_cd: list[float] = []
+    shear = 0.0
+    if int(_num(fst, "CompAero", fst_path, 0.0)) == 2:
+        ad_path = root / _text(fst, "AeroFile", fst_path)
+        ad, ad_lines = read_keyed_file(ad_path)
+        if ad.get("TWRAERO", "false").strip().lower() == "true":
+            trows = _table_after(ad_lines, "TwrElev", 3, ad_path)
+            twr_h = [r[0] for r in trows]
+            twr_d = [r[1] for r in trows]
+            twr_cd = [r[2] for r in trows]
+        if int(_num(fst, "CompInflow", fst_path, 0.0)) == 1:
+            ifw_path = root / _text(fst, "InflowFile", fst_path)
+            ifw, _ = read_keyed_file(ifw_path)
+            shear = _num(ifw, "PLexp", ifw_path, 0.0)
+
     hd, hd_lines = read_keyed_file(hd_path)
     pot_root = hd_path.parent / _text(hd, "PotFile", hd_path)
     ulen = _num(hd, "WAMITULEN", hd_path, 1.0)
@@ -417,6 +442,11 @@ def import_openfast(
         blade_mass_kg=blade_mass,
         blade_cm_axial_m=blade_r_cm * math.sin(precone),
         blade_second_moment_kg_m2=blade_i,
+        shaft_tilt_rad=-tilt,  # ElastoDyn ShftTilt < 0: upwind end up
+        tower_drag_height_m=twr_h,
+        tower_drag_diameter_m=twr_d,
+        tower_drag_coefficient=twr_cd,
+        wind_shear_exponent=shear,
         additional_force_n=add_f0,
         additional_linear_stiffness=add_c,
         additional_linear_damping=add_b,

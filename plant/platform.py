@@ -14,7 +14,7 @@ State, input and dynamics (SI)::
                                               wave excitation surge force (N), heave force (N),
                                               pitch moment (N m) about the reference point
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + Q_T T + F_t + F^w
     dξ/dt = A_r ξ + B_r v,   μ = C_r ξ,   v = (ẋ, ż, φ̇)
 
 * ``M_s``: rigid-body mass matrix of platform + tower + rotor-nacelle assembly (RNA) with the
@@ -34,9 +34,13 @@ State, input and dynamics (SI)::
 * ``D``: linear damping (additional linear damping of the deck, tower structural damping
   2 ζ √(k m) of the fixed-base mode); ``B_q``: additional quadratic drag (OpenFAST
   ``AddBQuad``: F = −B_q (v∘|v|), element-wise product).
-* Rotor: :func:`plant.turbine.f` with the relative wind at the hub
-  U_rel = U − (ẋ + h_hub φ̇ + (1 + c_hub κ) ṡ) = U − J_h·q̇; the thrust T = ½ρπR²U_rel²Ct(λ, θ)
-  acts along x at the hub: generalised force J_h T, J_h = (1, 0, h_hub, 1 + c_hub κ).
+* Rotor: :func:`plant.turbine.f` with the rotor-normal relative wind at the hub
+  U_rel = [(U − J_h·q̇) cos ψ + (J_v·q̇) sin ψ]/cos τ, ψ = τ + φ + κ s the shaft's tilt (τ the
+  built-in tilt, upwind end up), J_h = (1, 0, h_hub, 1 + c_hub κ) and J_v = (0, 1, −a_hub,
+  −a_hub κ) the hub's horizontal and vertical velocity per DOF rate; the thrust
+  T = ½ρπR²U_rel²Ct(λ, θ) acts along the shaft: generalised force
+  Q_T T, Q_T = (cos ψ, −sin ψ, h_hub cos τ + a_hub sin τ, J_h,s cos τ − J_v,s sin τ).
+* Tower drag: F_t = c_t U|U| − |U| D_t q̇ (:func:`tower_drag_matrices`).
 
 The potential energy is V(q) = ½ qᵀ K q − F_0ᵀq + V_m(q), so with D, B_q, radiation, aero and
 waves off, E = ½ q̇ᵀ(M_s + A_∞)q̇ + V(q) + ½ J ω² is conserved (:func:`energy`).
@@ -50,7 +54,9 @@ is one numpy product of a precomputed block matrix [[A_r, B_r], [C_r, 0]]. The r
 :func:`plant.turbine.f` and :class:`plant.aero.PerformanceTable`. The simulator's integrator,
 :func:`step_floating`, goes further (a closure per (params, h) with M⁻¹ folded into every
 constant, cached Cp/Ct/Cq cell and mooring segment, one numpy product per step for the
-radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states).
+radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states); with
+the shaft tilt, tower drag and offset-dependent mooring stiffness 23 µs (34 radiation states,
+``bench/step_floating_speed.py``; 18 µs before them).
 """
 
 from __future__ import annotations
@@ -119,14 +125,17 @@ class MooringTable:
 
     With F_x(x), F_z(x), M_φ(x) the mooring surge force (N), heave force (N) and pitch moment
     (N m, about the reference point) at surge offset x and zero heave and pitch (a
-    precomputed catenary solution), and K_zφ the 2x2 mooring stiffness in (heave, pitch) at zero
-    offset, the force is the gradient of the potential
+    precomputed catenary solution), and K_zφ(x) the 2x2 mooring stiffness in (heave, pitch) at
+    offset x (the lines' tensions, hence their heave and pitch stiffness, grow with the offset:
+    for the IEA 15 MW VolturnUS-S k_φφ is 2.59e8 N m/rad at 0 m and 3.05e8 at 14 m), the force
+    is the gradient of the potential
 
-        V_m(x, z, φ) = V_0(x) − z F_z(x) − φ M_φ(x) + ½ (z, φ) K_zφ (z, φ)ᵀ,  V_0' = −F_x,
+        V_m(x, z, φ) = V_0(x) − z F_z(x) − φ M_φ(x) + ½ (z, φ) K_zφ(x) (z, φ)ᵀ,  V_0' = −F_x,
 
-    i.e. F_x = F_x(x) + z F_z'(x) + φ M_φ'(x), (F_z, M_φ) = (F_z(x), M_φ(x)) − K_zφ (z, φ).
-    Tables are interpolated linearly (extrapolated linearly beyond the grid), so V_0 is exact
-    piecewise quadratic and the model conserves energy.
+    i.e. F_x = F_x(x) + z F_z'(x) + φ M_φ'(x) − ½ (z, φ) K_zφ'(x) (z, φ)ᵀ and
+    (F_z, M_φ) = (F_z(x), M_φ(x)) − K_zφ(x) (z, φ). Tables are interpolated linearly
+    (extrapolated linearly beyond the grid), so V_0 is exact piecewise quadratic and the model
+    conserves energy. Without a K_zφ(x) table, K_zφ is the constant given.
 
     Parameters
     ----------
@@ -137,7 +146,10 @@ class MooringTable:
     moment_pitch_nm : array_like, shape (n,)
         Mooring moment about the y axis through the reference point (N m), positive pitch sense.
     stiffness_heave_pitch : array_like, shape (2, 2)
-        K_zφ: [[N/m, N/rad], [N m/m, N m/rad]], symmetrised.
+        K_zφ at zero offset: [[N/m, N/rad], [N m/m, N m/rad]], symmetrised.
+    stiffness_heave_pitch_by_surge : array_like, shape (n, 2, 2) or (0,), optional
+        K_zφ(x) at every surge offset of ``surge_m`` (same units), symmetrised; empty (default):
+        the constant ``stiffness_heave_pitch`` at every offset.
     """
 
     surge_m: FloatArray
@@ -145,6 +157,7 @@ class MooringTable:
     force_heave_n: FloatArray
     moment_pitch_nm: FloatArray
     stiffness_heave_pitch: FloatArray
+    stiffness_heave_pitch_by_surge: FloatArray = field(default_factory=lambda: np.zeros((0,)))
     _x: list[float] = field(init=False, repr=False)
     _seg: list[tuple[float, ...]] = field(init=False, repr=False)
     _k: tuple[float, float, float] = field(init=False, repr=False)
@@ -161,7 +174,15 @@ class MooringTable:
         k = _matrix(owner, "stiffness_heave_pitch", self.stiffness_heave_pitch, (2, 2), "N/m..")
         k = 0.5 * (k + k.T)
         k.setflags(write=False)
+        kx_in = np.asarray(self.stiffness_heave_pitch_by_surge, dtype=np.float64)
+        if kx_in.size == 0:
+            kx = np.broadcast_to(k, (n, 2, 2)).copy()
+        else:
+            kx = _matrix(owner, "stiffness_heave_pitch_by_surge", kx_in, (n, 2, 2), "N/m..")
+            kx = 0.5 * (kx + kx.transpose(0, 2, 1))
+        kx.setflags(write=False)
         set_ = object.__setattr__
+        set_(self, "stiffness_heave_pitch_by_surge", kx if kx_in.size else np.zeros((0,)))
         for name, val in (
             ("surge_m", x),
             ("force_surge_n", fx),
@@ -186,6 +207,12 @@ class MooringTable:
                     float(my[i]),
                     float(my[i + 1] - my[i]) / dx,
                     float(v0[i]),
+                    float(kx[i, 0, 0]),
+                    float(kx[i + 1, 0, 0] - kx[i, 0, 0]) / dx,
+                    float(kx[i, 0, 1]),
+                    float(kx[i + 1, 0, 1] - kx[i, 0, 1]) / dx,
+                    float(kx[i, 1, 1]),
+                    float(kx[i + 1, 1, 1] - kx[i, 1, 1]) / dx,
                 )
             )
         set_(self, "_x", [float(v) for v in x])
@@ -193,7 +220,8 @@ class MooringTable:
         set_(self, "_k", (float(k[0, 0]), float(k[0, 1]), float(k[1, 1])))
 
     def segment(self, surge_m: float) -> tuple[float, ...]:
-        """(x_i, F_x,i, F_x', F_z,i, F_z', M_i, M', V_0,i) of the segment holding ``surge_m``."""
+        """Segment holding ``surge_m``: (x_i, F_x,i, F_x', F_z,i, F_z', M_i, M', V_0,i,
+        k_zz,i, k_zz', k_zφ,i, k_zφ', k_φφ,i, k_φφ')."""
         i = bisect_right(self._x, surge_m) - 1
         if i < 0:
             i = 0
@@ -211,25 +239,32 @@ def mooring_force(
 ) -> tuple[float, float, float]:
     """Mooring (surge force N, heave force N, pitch moment N m) at a platform position.
 
-    F_x = F_x(x) + z F_z'(x) + φ M_φ'(x);  F_z = F_z(x) − k_zz z − k_zφ φ;
-    M_φ = M_φ(x) − k_zφ z − k_φφ φ  (see :class:`MooringTable`).
+    F_x = F_x(x) + z F_z'(x) + φ M_φ'(x) − ½ (z, φ) K_zφ'(x) (z, φ)ᵀ;
+    F_z = F_z(x) − k_zz(x) z − k_zφ(x) φ;  M_φ = M_φ(x) − k_zφ(x) z − k_φφ(x) φ
+    (see :class:`MooringTable`).
     """
-    x0, fx0, dfx, fz0, dfz, my0, dmy, _ = table.segment(surge_m)
+    x0, fx0, dfx, fz0, dfz, my0, dmy, _, kzz, dkzz, kzp, dkzp, kpp, dkpp = table.segment(surge_m)
     d = surge_m - x0
-    kzz, kzp, kpp = table._k
+    z, r = heave_m, pitch_rad
     return (
-        fx0 + dfx * d + heave_m * dfz + pitch_rad * dmy,
-        fz0 + dfz * d - kzz * heave_m - kzp * pitch_rad,
-        my0 + dmy * d - kzp * heave_m - kpp * pitch_rad,
+        fx0
+        + dfx * d
+        + z * dfz
+        + r * dmy
+        - 0.5 * (dkzz * z * z + 2.0 * dkzp * z * r + dkpp * r * r),
+        fz0 + dfz * d - (kzz + dkzz * d) * z - (kzp + dkzp * d) * r,
+        my0 + dmy * d - (kzp + dkzp * d) * z - (kpp + dkpp * d) * r,
     )
 
 
 def _mooring_potential(
     table: MooringTable, surge_m: float, heave_m: float, pitch_rad: float
 ) -> float:
-    x0, fx0, dfx, fz0, dfz, my0, dmy, v0 = table.segment(surge_m)
+    x0, fx0, dfx, fz0, dfz, my0, dmy, v0, kzz, dkzz, kzp, dkzp, kpp, dkpp = table.segment(surge_m)
     d = surge_m - x0
-    kzz, kzp, kpp = table._k
+    kzz += dkzz * d
+    kzp += dkzp * d
+    kpp += dkpp * d
     fz = fz0 + dfz * d
     my = my0 + dmy * d
     return (
@@ -287,6 +322,21 @@ class FloatingParams:
     hub_lever : (4,) array
         J_h = (1, 0, h_hub m, 1 + c_hub κ): hub velocity along x per unit DOF rate (-, -, m, -).
     mooring : MooringTable
+    hub_lever_vertical : (4,) array, optional
+        J_v = (0, 1, −a_hub m, −a_hub κ): hub velocity along z per unit DOF rate, a_hub the hub's
+        x offset from the tower axis (negative upwind). Default (0, 1, 0, 0).
+    shaft_tilt_rad : float, optional
+        τ: rotor shaft tilt, upwind end up (rad; the IEA 15 MW's 6° is 0.1047, ElastoDyn
+        ``ShftTilt`` = −6°). Default 0.
+    tower_slope_per_m : float, optional
+        κ: rotation of the tower top (and shaft) per metre of the tower DOF s (rad/m).
+    tower_drag : (4,) array, optional
+        c_t: generalised aerodynamic drag force of the tower per U|U| (N, N, N m, N per (m/s)²),
+        c_t,i = ½ρ ∫ C_d D (z/h_hub)^{2α} J_i(z) dz, J(z) = (1, 0, z, ψ(z)). Default zeros.
+    tower_drag_damping : (4, 4) array, optional
+        D_t: its derivative with respect to the structure's velocity per |U| (N s/m per m/s ...),
+        D_t,ij = ρ ∫ C_d D (z/h_hub)^α J_i J_j dz, so that the tower drag to first order in the
+        tower's velocity v(z) = J(z)·q̇ ≪ U is F_t = c_t U|U| − |U| D_t q̇. Default zeros.
     radiation_a, radiation_b, radiation_c : arrays (n, n), (n, 3), (3, n)
         Radiation memory state space of (surge, heave, pitch): dξ/dt = A ξ + B v, μ = C ξ
         (μ in N, N, N m); n = 0 for none.
@@ -319,6 +369,11 @@ class FloatingParams:
     radiation_c: FloatArray = field(default_factory=lambda: np.zeros((3, 0)))
     aero: bool = True
     locked_dofs: tuple[int, ...] = ()
+    hub_lever_vertical: FloatArray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0, 0.0]))
+    shaft_tilt_rad: float = 0.0
+    tower_slope_per_m: float = 0.0
+    tower_drag: FloatArray = field(default_factory=lambda: np.zeros(4))
+    tower_drag_damping: FloatArray = field(default_factory=lambda: np.zeros((4, 4)))
     # Precomputed for f(): Python-float tuples and the radiation block matrix.
     _minv: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _k: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
@@ -326,6 +381,10 @@ class FloatingParams:
     _bq: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _f0: tuple[float, ...] = field(init=False, repr=False)
     _jh: tuple[float, ...] = field(init=False, repr=False)
+    _jv: tuple[float, ...] = field(init=False, repr=False)
+    _rot: tuple[float, float, float, float, float] = field(init=False, repr=False)
+    _tdrag: tuple[float, ...] = field(init=False, repr=False)
+    _tdamp: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _rad: FloatArray = field(init=False, repr=False)
     _step_cache: dict[float, _Stepper] = field(init=False, repr=False)
     n_radiation: int = field(init=False)
@@ -349,6 +408,15 @@ class FloatingParams:
         d = _matrix(owner, "linear_damping", self.linear_damping, (4, 4), "N s/m, N m s/rad")
         bq = _matrix(owner, "quadratic_damping", self.quadratic_damping, (3, 3), "N s^2/m^2")
         jh = _matrix(owner, "hub_lever", self.hub_lever, (4,), "-, -, m, -")
+        jv = _matrix(owner, "hub_lever_vertical", self.hub_lever_vertical, (4,), "-, -, m, -")
+        td = _matrix(owner, "tower_drag", self.tower_drag, (4,), "N per (m/s)^2")
+        tdd = _matrix(owner, "tower_drag_damping", self.tower_drag_damping, (4, 4), "N s/m per m/s")
+        tilt = float(self.shaft_tilt_rad)
+        if not (math.isfinite(tilt) and abs(tilt) < 0.5):
+            raise ValueError(f"{owner}.shaft_tilt_rad: expected |tilt| < 0.5 rad, got {tilt}")
+        kap = float(self.tower_slope_per_m)
+        if not math.isfinite(kap):
+            raise ValueError(f"{owner}.tower_slope_per_m: expected a finite slope in rad/m")
         a = np.array(self.radiation_a, dtype=np.float64)
         nr = a.shape[0] if a.ndim == 2 else -1
         ra = _matrix(owner, "radiation_a", a, (nr, nr), "1/s")
@@ -363,6 +431,9 @@ class FloatingParams:
             ("linear_damping", d),
             ("quadratic_damping", bq),
             ("hub_lever", jh),
+            ("hub_lever_vertical", jv),
+            ("tower_drag", td),
+            ("tower_drag_damping", tdd),
             ("radiation_a", ra),
             ("radiation_b", rb),
             ("radiation_c", rc),
@@ -383,6 +454,19 @@ class FloatingParams:
         set_(self, "_bq", _tuple2(bq))
         set_(self, "_f0", tuple(float(v) for v in f0))
         set_(self, "_jh", tuple(float(v) for v in jh))
+        set_(self, "_jv", tuple(float(v) for v in jv))
+        set_(self, "_tdrag", tuple(float(v) for v in td))
+        set_(self, "_tdamp", _tuple2(tdd))
+        set_(self, "shaft_tilt_rad", tilt)
+        set_(self, "tower_slope_per_m", kap)
+        # Rotor geometry: (τ, 1/cos τ, κ, Q_φ/T, Q_s/T), Q_φ/T = h cos τ + a sin τ (the thrust's
+        # moment arm about the reference point), Q_s/T = J_h,s cos τ − J_v,s sin τ.
+        ct, st = math.cos(tilt), math.sin(tilt)
+        set_(
+            self,
+            "_rot",
+            (tilt, 1.0 / ct, kap, float(jh[2] * ct - jv[2] * st), float(jh[3] * ct - jv[3] * st)),
+        )
         block = np.zeros((nr + 3, nr + 3))
         block[:nr, :nr] = ra
         block[:nr, nr:] = rb
@@ -411,9 +495,21 @@ def state_names(params: FloatingParams) -> list[str]:
 def relative_wind(
     x: tuple[float, ...] | FloatArray, wind_m_s: float, params: FloatingParams
 ) -> float:
-    """Wind relative to the moving hub, U_rel = U − J_h·q̇ (m/s)."""
+    """Rotor-normal wind relative to the moving hub, in the units of the Cp/Ct/Cq table (m/s).
+
+    U_rel = [(U − J_h·q̇) cos ψ + (J_v·q̇) sin ψ] / cos τ,  ψ = τ + φ + κ s,
+
+    the component of the relative air velocity along the shaft (tilted by ψ from the horizontal,
+    upwind end up), divided by cos τ because the table's coefficients are referred to the
+    horizontal wind on the rotor at its own tilt τ (so U_rel = U at rest).
+    """
     jh = params._jh
-    return wind_m_s - (x[4] + jh[2] * x[6] + jh[3] * x[7])
+    jv = params._jv
+    tilt, ict, kap, _, _ = params._rot
+    psi = tilt + x[2] + kap * x[3]
+    vx = x[4] + jh[2] * x[6] + jh[3] * x[7]
+    vz = x[5] + jv[2] * x[6] + jv[3] * x[7]
+    return ((wind_m_s - vx) * math.cos(psi) + vz * math.sin(psi)) * ict
 
 
 def rotor_thrust(
@@ -437,15 +533,25 @@ def _mech(
 ) -> tuple[float, ...]:
     """Derivative of the 11 mechanical + rotor states with the radiation memory force μ given.
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + J_h T + F^w and the rotor
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + Q_T T + F_t + F^w and the rotor
     of :func:`plant.turbine.f` (one Cp/Ct/Cq cell lookup for thrust and torque), in plain
     floats with the precomputed tuples of :class:`FloatingParams` (no numpy).
     """
     q0, q1, q2, q3, v0, v1, v2, v3, omega, theta, torque = x[:11]
     jh = p._jh
+    jv = p._jv
     tp = p.turbine
+    tilt, ict, kap, arm_p, arm_s = p._rot
+    psi = tilt + q2 + kap * q3
+    cpsi = math.cos(psi)
+    spsi = math.sin(psi)
     # Aero off: zero wind into the rotor (no aerodynamic torque or thrust).
-    u_rel = u[2] - (v0 + jh[2] * v2 + jh[3] * v3) if p.aero else 0.0
+    u_rel = (
+        ((u[2] - (v0 + jh[2] * v2 + jh[3] * v3)) * cpsi + (v1 + jv[2] * v2 + jv[3] * v3) * spsi)
+        * ict
+        if p.aero
+        else 0.0
+    )
     if u_rel > WIND_MIN_M_S:
         tsr = (omega if omega > 0.0 else 0.0) * tp.rotor_radius_m / u_rel
         _, ct, cq = tp.table.coefficients(tsr, theta)
@@ -478,11 +584,22 @@ def _mech(
     a0 = v0 * abs(v0)
     a1 = v1 * abs(v1)
     a2 = v2 * abs(v2)
+    # Tower drag F_t = c_t U|U| − |U| D_t q̇ (aero off: none).
+    uw = u[2] if p.aero else 0.0
+    au = abs(uw)
+    uw *= au
+    c0, c1, c2, c3 = p._tdrag
+    t0, t1, t2, t3 = p._tdamp
+    ft0 = c0 * uw - au * (t0[0] * v0 + t0[1] * v1 + t0[2] * v2 + t0[3] * v3)
+    ft1 = c1 * uw - au * (t1[0] * v0 + t1[1] * v1 + t1[2] * v2 + t1[3] * v3)
+    ft2 = c2 * uw - au * (t2[0] * v0 + t2[1] * v1 + t2[2] * v2 + t2[3] * v3)
+    ft3 = c3 * uw - au * (t3[0] * v0 + t3[1] * v1 + t3[2] * v2 + t3[3] * v3)
     g0 = (
         f0[0]
         + fmx
         + u[3]
-        + thrust
+        + thrust * cpsi
+        + ft0
         - mu0
         - (k0[0] * q0 + k0[1] * q1 + k0[2] * q2 + k0[3] * q3)
         - (d0[0] * v0 + d0[1] * v1 + d0[2] * v2 + d0[3] * v3)
@@ -492,6 +609,8 @@ def _mech(
         f0[1]
         + fmz
         + u[4]
+        - thrust * spsi
+        + ft1
         - mu1
         - (k1[0] * q0 + k1[1] * q1 + k1[2] * q2 + k1[3] * q3)
         - (d1[0] * v0 + d1[1] * v1 + d1[2] * v2 + d1[3] * v3)
@@ -501,7 +620,8 @@ def _mech(
         f0[2]
         + fmp
         + u[5]
-        + jh[2] * thrust
+        + arm_p * thrust
+        + ft2
         - mu2
         - (k2[0] * q0 + k2[1] * q1 + k2[2] * q2 + k2[3] * q3)
         - (d2[0] * v0 + d2[1] * v1 + d2[2] * v2 + d2[3] * v3)
@@ -509,7 +629,8 @@ def _mech(
     )
     g3 = (
         f0[3]
-        + jh[3] * thrust
+        + arm_s * thrust
+        + ft3
         - (k3[0] * q0 + k3[1] * q1 + k3[2] * q2 + k3[3] * q3)
         - (d3[0] * v0 + d3[1] * v1 + d3[2] * v2 + d3[3] * v3)
     )
@@ -534,7 +655,7 @@ def f(
 ) -> tuple[float, ...]:
     """Time derivative of the floating-turbine state (equations in the module docstring).
 
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + J_h T(U_rel) + F^w;
+    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + Q_T T(U_rel) + F_t + F^w;
     dξ/dt = A_r ξ + B_r v; rotor states from :func:`plant.turbine.f` at U_rel = U − J_h·q̇.
 
     Parameters
@@ -610,19 +731,24 @@ def _radiation_step_matrices(
 def _mooring_segments(
     p: FloatingParams, minv: FloatArray
 ) -> tuple[list[float], list[tuple[float, ...]]]:
-    """Per mooring-table segment: (lo, hi, M⁻¹(L_m − K) row-major 16, M⁻¹(F_0 + F_m,c) 4).
+    """Per mooring-table segment: (lo, hi, M⁻¹(L_m − K) row-major 16, M⁻¹(F_0 + F_m,c) 4,
+    x_i, k_zz', k_zφ', k_φφ').
 
-    Inside a segment the mooring force is affine in q (:func:`mooring_force`):
-    F_m = F_m,c + L_m q with L_m = [[F_x', F_z', M'], [F_z', −k_zz, −k_zφ], [M', −k_zφ, −k_φφ]]
-    (padded to 4x4), so mooring, stiffness and static force fold into one affine map per segment.
-    The first and last segments extend to ∓∞ (linear extrapolation, as the table).
+    Inside a segment the mooring force is affine in q with K_zφ at the segment's start x_i
+    (:func:`mooring_force`): F_m = F_m,c + L_m q with
+    L_m = [[F_x', F_z', M'], [F_z', −k_zz,i, −k_zφ,i], [M', −k_zφ,i, −k_φφ,i]] (padded to 4x4), so
+    mooring, stiffness and static force fold into one affine map per segment; the terms of the
+    offset-dependent K_zφ(x) (k' (x − x_i) (z, φ) and the surge force −½ (z, φ) K' (z, φ)ᵀ) are
+    added per stage. The first and last segments extend to ∓∞ (linear extrapolation, as the
+    table).
     """
     tab = p.mooring
-    kzz, kzp, kpp = tab._k
     knots = tab._x
     nseg = len(tab._seg)
     out: list[tuple[float, ...]] = []
-    for i, (x0, fx0, dfx, fz0, dfz, my0, dmy, _) in enumerate(tab._seg):
+    for i, (x0, fx0, dfx, fz0, dfz, my0, dmy, _, kzz, dkzz, kzp, dkzp, kpp, dkpp) in enumerate(
+        tab._seg
+    ):
         lm = np.zeros((4, 4))
         lm[:3, :3] = [[dfx, dfz, dmy], [dfz, -kzz, -kzp], [dmy, -kzp, -kpp]]
         fc = np.array([fx0 - dfx * x0, fz0 - dfz * x0, my0 - dmy * x0, 0.0])
@@ -630,7 +756,7 @@ def _mooring_segments(
         ct = minv @ (p.static_force + fc)
         lo = -math.inf if i == 0 else knots[i]
         hi = math.inf if i == nseg - 1 else knots[i + 1]
-        out.append((lo, hi, *kt.ravel().tolist(), *ct.tolist()))
+        out.append((lo, hi, *kt.ravel().tolist(), *ct.tolist(), x0, dkzz, dkzp, dkpp))
     return knots, out
 
 
@@ -660,11 +786,21 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
     ((d00, d01, d02, d03), (d10, d11, d12, d13), (d20, d21, d22, d23), (d30, d31, d32, d33)) = (
         _tuple2(-minv @ p.linear_damping)
     )
+    # Tower drag: M⁻¹ c_t (per U|U|) and −M⁻¹ D_t (per |U|), folded per step with the wind.
+    tc0, tc1, tc2, tc3 = (float(v) for v in minv @ p.tower_drag)
+    ((t00, t01, t02, t03), (t10, t11, t12, t13), (t20, t21, t22, t23), (t30, t31, t32, t33)) = (
+        _tuple2(-minv @ p.tower_drag_damping)
+    )
     ((e00, e01, e02), (e10, e11, e12), (e20, e21, e22), (e30, e31, e32)) = _tuple2(
         -minv[:, :3] @ p.quadratic_damping
     )
-    j0, j1, j2, j3 = (float(v) for v in minv @ p.hub_lever)
+    tilt, ict, kap, arm_p, arm_s = p._rot
+    # Thrust along the shaft: (T cos ψ, −T sin ψ) on surge and heave, T·arm on pitch and tower.
+    j0, j1, j2, j3 = (float(v) for v in minv[:, 2] * arm_p + minv[:, 3] * arm_s)
     jh2, jh3 = p._jh[2], p._jh[3]
+    jv2, jv3 = p._jv[2], p._jv[3]
+    ict = ict if aero else 0.0  # aero off: no wind into the rotor (as f)
+    cos, sin = math.cos, math.sin
     radius = tp.rotor_radius_m
     k_thrust = tp.k_thrust
     k_dom = tp.k_torque * tp.inv_inertia
@@ -720,10 +856,29 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
                 am0, am1, am2, am3, ar0, ar1, ar2, ar3 = (start @ np.array(x)).tolist()
         else:
             am0 = am1 = am2 = am3 = ar0 = ar1 = ar2 = ar3 = 0.0
-        b0 = w00 * f0 + w01 * f1 + w02 * f2 + am0
-        b1 = w10 * f0 + w11 * f1 + w12 * f2 + am1
-        b2 = w20 * f0 + w21 * f1 + w22 * f2 + am2
-        b3 = w30 * f0 + w31 * f1 + w32 * f2 + am3
+        au = wind if wind > 0.0 else -wind
+        uw = wind * au
+        b0 = w00 * f0 + w01 * f1 + w02 * f2 + am0 + tc0 * uw
+        b1 = w10 * f0 + w11 * f1 + w12 * f2 + am1 + tc1 * uw
+        b2 = w20 * f0 + w21 * f1 + w22 * f2 + am2 + tc2 * uw
+        b3 = w30 * f0 + w31 * f1 + w32 * f2 + am3 + tc3 * uw
+        # Linear damping with the tower drag's, for this step's wind.
+        x00 = d00 + au * t00
+        x01 = d01 + au * t01
+        x02 = d02 + au * t02
+        x03 = d03 + au * t03
+        x10 = d10 + au * t10
+        x11 = d11 + au * t11
+        x12 = d12 + au * t12
+        x13 = d13 + au * t13
+        x20 = d20 + au * t20
+        x21 = d21 + au * t21
+        x22 = d22 + au * t22
+        x23 = d23 + au * t23
+        x30 = d30 + au * t30
+        x31 = d31 + au * t31
+        x32 = d32 + au * t32
+        x33 = d33 + au * t33
         (lx0, lx1, ly0, ly1, ilx, ily, t0, t1, t2, t3, c0, c1, c2, c3) = cell
         (
             s_lo,
@@ -733,13 +888,20 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
             k20, k21, k22, k23,
             k30, k31, k32, k33,
             g0, g1, g2, g3,
+            s_x0, s_dkzz, s_dkzp, s_dkpp,
         ) = seg  # fmt: skip
         # RK4 stages: (τ of this stage, weight, step to the next stage's input).
         sq0, sq1, sq2, sq3, sv0, sv1, sv2, sv3, som, sth, stg = x[:m]
         kq0 = kq1 = kq2 = kq3 = kv0 = kv1 = kv2 = kv3 = kom = kth = ktg = 0.0
         for tau, wgt, nxt in stages:
-            # Rotor: relative wind, one bilinear Ct/Cq lookup in the cached cell.
-            ur = wind - (sv0 + jh2 * sv2 + jh3 * sv3)
+            # Rotor: rotor-normal relative wind (shaft at ψ = τ + φ + κ s), one bilinear
+            # Ct/Cq lookup in the cached cell.
+            psi = tilt + sq2 + kap * sq3
+            cps = cos(psi)
+            sps = sin(psi)
+            ur = (
+                (wind - (sv0 + jh2 * sv2 + jh3 * sv3)) * cps + (sv1 + jv2 * sv2 + jv3 * sv3) * sps
+            ) * ict
             if ur > WIND_MIN_M_S:
                 tsr = (som if som > 0.0 else 0.0) * radius / ur
                 if lx0 <= tsr < lx1 and ly0 <= sth < ly1:
@@ -764,6 +926,8 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
             else:
                 thrust = 0.0
                 dom = -g_dom * stg
+            fx = thrust * cps
+            fz = thrust * sps
             dth = (pd - sth) * p_itau
             dth = p_rate if dth > p_rate else (-p_rate if dth < -p_rate else dth)
             dtg = (td - stg) * t_itau
@@ -780,32 +944,40 @@ def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
                     k20, k21, k22, k23,
                     k30, k31, k32, k33,
                     g0, g1, g2, g3,
+                    s_x0, s_dkzz, s_dkzp, s_dkpp,
                 ) = seg  # fmt: skip
+            # Offset-dependent heave/pitch mooring stiffness: forces beyond the affine fold.
+            mz = s_dkzz * sq1 + s_dkzp * sq2
+            mp = s_dkzp * sq1 + s_dkpp * sq2
+            dxs = sq0 - s_x0
+            mfx = fx - 0.5 * (sq1 * mz + sq2 * mp)
+            mfz = fz + dxs * mz
+            mfp = -dxs * mp
             qa0 = sv0 * (sv0 if sv0 > 0.0 else -sv0)
             qa1 = sv1 * (sv1 if sv1 > 0.0 else -sv1)
             qa2 = sv2 * (sv2 if sv2 > 0.0 else -sv2)
             a0 = (
-                g0 + b0 + tau * ar0 + j0 * thrust
+                g0 + b0 + tau * ar0 + j0 * thrust + w00 * mfx - w01 * mfz + w02 * mfp
                 + k00 * sq0 + k01 * sq1 + k02 * sq2 + k03 * sq3
-                + d00 * sv0 + d01 * sv1 + d02 * sv2 + d03 * sv3
+                + x00 * sv0 + x01 * sv1 + x02 * sv2 + x03 * sv3
                 + e00 * qa0 + e01 * qa1 + e02 * qa2
             )  # fmt: skip
             a1 = (
-                g1 + b1 + tau * ar1 + j1 * thrust
+                g1 + b1 + tau * ar1 + j1 * thrust + w10 * mfx - w11 * mfz + w12 * mfp
                 + k10 * sq0 + k11 * sq1 + k12 * sq2 + k13 * sq3
-                + d10 * sv0 + d11 * sv1 + d12 * sv2 + d13 * sv3
+                + x10 * sv0 + x11 * sv1 + x12 * sv2 + x13 * sv3
                 + e10 * qa0 + e11 * qa1 + e12 * qa2
             )  # fmt: skip
             a2 = (
-                g2 + b2 + tau * ar2 + j2 * thrust
+                g2 + b2 + tau * ar2 + j2 * thrust + w20 * mfx - w21 * mfz + w22 * mfp
                 + k20 * sq0 + k21 * sq1 + k22 * sq2 + k23 * sq3
-                + d20 * sv0 + d21 * sv1 + d22 * sv2 + d23 * sv3
+                + x20 * sv0 + x21 * sv1 + x22 * sv2 + x23 * sv3
                 + e20 * qa0 + e21 * qa1 + e22 * qa2
             )  # fmt: skip
             a3 = (
-                g3 + b3 + tau * ar3 + j3 * thrust
+                g3 + b3 + tau * ar3 + j3 * thrust + w30 * mfx - w31 * mfz + w32 * mfp
                 + k30 * sq0 + k31 * sq1 + k32 * sq2 + k33 * sq3
-                + d30 * sv0 + d31 * sv1 + d32 * sv2 + d33 * sv3
+                + x30 * sv0 + x31 * sv1 + x32 * sv2 + x33 * sv3
                 + e30 * qa0 + e31 * qa1 + e32 * qa2
             )  # fmt: skip
             kq0 += wgt * sv0
@@ -884,7 +1056,7 @@ def step_floating(
     the params): stages on plain floats with M⁻¹ folded into every constant, the Cp/Ct/Cq cell
     and mooring segment cached, and the radiation update one numpy product per step that also
     gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous call returned).
-    About 15-20 µs per call on the 2-vCPU bench machine with 28 radiation states.
+    About 23 µs per call on the 2-vCPU bench machine with 34 radiation states.
 
     Parameters
     ----------
@@ -982,6 +1154,17 @@ class FloatingPreset(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     blade_mass_kg: float
     blade_cm_axial_m: float
     blade_second_moment_kg_m2: float
+    #: Rotor shaft tilt, upwind end up (rad): −ElastoDyn ``ShftTilt``. The Cp/Ct/Cq table is
+    #: referred to the horizontal wind at this tilt; platform pitch adds to it (plant.platform).
+    shaft_tilt_rad: float = 0.0
+    #: Tower aerodynamic drag (AeroDyn tower table): heights above SWL (m), diameters (m) and
+    #: drag coefficients (-) at stations; empty: no tower drag.
+    tower_drag_height_m: list[float] = []
+    tower_drag_diameter_m: list[float] = []
+    tower_drag_coefficient: list[float] = []
+    #: Power-law exponent α of the mean wind over height, U(z) = U_hub (z/h_hub)^α (InflowWind
+    #: ``PLexp``), for the tower drag.
+    wind_shear_exponent: float = 0.0
     additional_force_n: list[float]
     additional_linear_stiffness: list[list[float]]
     additional_linear_damping: list[list[float]]
@@ -1035,6 +1218,8 @@ class MooringFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     moment_pitch_nm: list[float]
     stiffness_heave_pitch: list[list[float]]
     stiffness_6x6_at_zero: list[list[float]]
+    #: K_zφ(x) (2x2 per surge offset of ``surge_m``); empty: ``stiffness_heave_pitch`` everywhere.
+    stiffness_heave_pitch_by_surge: list[list[list[float]]] = []
     lines: list[dict[str, float | str]] = []
 
 
@@ -1138,6 +1323,7 @@ class StructuralMatrices:
     tower_damping_n_s_m: float
     total_mass_kg: float
     modal: TowerModal
+    hub_lever_vertical: FloatArray
 
 
 def structural_matrices(p: FloatingPreset) -> StructuralMatrices:
@@ -1198,8 +1384,55 @@ def structural_matrices(p: FloatingPreset) -> StructuralMatrices:
     k_fb = tm.modal_stiffness_elastic_n_m + tm.modal_stiffness_gravity_n_m
     c_tower = 2.0 * p.tower_damping_ratio * math.sqrt(max(k_fb, 0.0) * tm.modal_mass_kg)
     hub_lever = np.array([1.0, 0.0, ht + p.rotor_apex_z_m, 1.0 + p.rotor_apex_z_m * kap])
+    hub_lever_vertical = np.array([0.0, 1.0, -p.rotor_apex_x_m, -p.rotor_apex_x_m * kap])
     total = mp + mt + tm.rna_mass_kg
-    return StructuralMatrices(M, K, F, hub_lever, c_tower, total, tm)
+    return StructuralMatrices(M, K, F, hub_lever, c_tower, total, tm, hub_lever_vertical)
+
+
+def tower_drag_matrices(
+    p: FloatingPreset, air_density_kg_m3: float, n_points: int = 401
+) -> tuple[FloatArray, FloatArray]:
+    """Generalised tower drag c_t (4,) and its velocity derivative D_t (4, 4) (FloatingParams).
+
+    With C_d(z), D(z) interpolated linearly between the preset's stations, the mean wind
+    U(z) = U_hub (z/h_hub)^α, and J(z) = (1, 0, z, ψ(η)) the horizontal velocity of the tower
+    section at height z per DOF rate (ψ the tower mode shape, η = (z − h_b)/L, 0 below the
+    base), the drag ½ρ C_d D (U(z) − v)|U(z) − v| dz of each section expanded to first order in
+    v = J·q̇ gives (trapezoidal rule on ``n_points``)
+
+        c_t = ½ρ ∫ C_d D (z/h_hub)^{2α} J dz,   D_t = ρ ∫ C_d D (z/h_hub)^α J Jᵀ dz.
+
+    Both are zero without a tower drag table.
+    """
+    zs = np.asarray(p.tower_drag_height_m, dtype=np.float64)
+    if zs.size == 0:
+        return np.zeros(4), np.zeros((4, 4))
+    ds = np.asarray(p.tower_drag_diameter_m, dtype=np.float64)
+    cds = np.asarray(p.tower_drag_coefficient, dtype=np.float64)
+    if not (zs.size >= 2 and ds.shape == zs.shape and cds.shape == zs.shape):
+        raise ValueError(
+            "tower_drag_height_m, tower_drag_diameter_m, tower_drag_coefficient: expected lists "
+            "of the same length >= 2 (m, m, -)"
+        )
+    if not (np.all(np.diff(zs) > 0.0) and zs[0] > 0.0 and np.all(ds >= 0.0) and np.all(cds >= 0)):
+        raise ValueError(
+            "tower_drag_height_m: expected increasing heights above the water line (m), "
+            "with diameters (m) and drag coefficients (-) >= 0"
+        )
+    z = np.linspace(float(zs[0]), float(zs[-1]), n_points)
+    width = np.interp(z, zs, ds) * np.interp(z, zs, cds)
+    hub = p.tower_top_height_m + p.rotor_apex_z_m
+    prof = (z / hub) ** p.wind_shear_exponent
+    length = p.tower_top_height_m - p.tower_base_height_m
+    eta = np.clip((z - p.tower_base_height_m) / length, 0.0, 1.0)
+    psi = sum(ck * eta ** (k + 2) for k, ck in enumerate(p.tower_mode_shape_coefficients))
+    jac = np.stack([np.ones_like(z), np.zeros_like(z), z, psi + np.zeros_like(z)])
+    rho = air_density_kg_m3
+    c = 0.5 * rho * np.asarray(np.trapezoid(width * prof**2 * jac, z, axis=1), dtype=np.float64)
+    d = rho * np.asarray(
+        np.trapezoid(width * prof * jac[:, None, :] * jac[None, :, :], z, axis=2), dtype=np.float64
+    )
+    return c, d
 
 
 def _resolve(base: Path | None, name: str) -> Path | Traversable:
@@ -1292,7 +1525,9 @@ def build_floating_params(
         force_heave_n=np.array(mooring.force_heave_n),
         moment_pitch_nm=np.array(mooring.moment_pitch_nm),
         stiffness_heave_pitch=np.array(mooring.stiffness_heave_pitch),
+        stiffness_heave_pitch_by_surge=np.array(mooring.stiffness_heave_pitch_by_surge),
     )
+    drag, drag_damping = tower_drag_matrices(preset, turbine.air_density_kg_m3)
     if radiation is None:
         ra, rb, rc = np.zeros((0, 0)), np.zeros((0, 3)), np.zeros((3, 0))
     else:
@@ -1319,6 +1554,11 @@ def build_floating_params(
         linear_damping=D,
         quadratic_damping=bq,
         hub_lever=s.hub_lever,
+        hub_lever_vertical=s.hub_lever_vertical,
+        shaft_tilt_rad=preset.shaft_tilt_rad,
+        tower_slope_per_m=s.modal.slope_per_m,
+        tower_drag=drag,
+        tower_drag_damping=drag_damping,
         mooring=table,
         radiation_a=ra,
         radiation_b=rb,

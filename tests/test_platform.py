@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -15,6 +16,7 @@ from plant.platform import (
     energy,
     f,
     load_floating,
+    relative_wind,
     rotor_thrust,
 )
 
@@ -105,12 +107,17 @@ def test_steady_thrust_at_rated_equals_actuator_disc_formula(params: FloatingPar
     xs = _run(params, op.state, op.inputs, 0.05, n)
     thrusts = []
     for x in xs[n // 2 :]:
-        u_rel = u_rated - (x[4] + params.hub_lever[2] * x[6] + params.hub_lever[3] * x[7])
-        thrusts.append(rotor_thrust(x[8], x[9], u_rel, tp))
+        thrusts.append(rotor_thrust(x[8], x[9], relative_wind(x, u_rated, params), tp))
     mean_thrust = float(np.mean(thrusts))
     omega, pitch = op.state[8], op.state[9]
-    _, ct, _ = tp.table.evaluate(omega * tp.rotor_radius_m / u_rated, pitch)
-    expected = 0.5 * tp.air_density_kg_m3 * np.pi * tp.rotor_radius_m**2 * u_rated**2 * float(ct)
+    # Rotor-normal wind at the static point: U cos ψ / cos τ, shaft at ψ = τ + φ + κ s (mean
+    # platform pitch φ and tower-top slope κ s).
+    tilt = params.shaft_tilt_rad
+    psi = tilt + op.state[2] + params.tower_slope_per_m * op.state[3]
+    u_n = u_rated * math.cos(psi) / math.cos(tilt)
+    assert relative_wind(op.state, u_rated, params) == pytest.approx(u_n, rel=1e-12)
+    _, ct, _ = tp.table.evaluate(omega * tp.rotor_radius_m / u_n, pitch)
+    expected = 0.5 * tp.air_density_kg_m3 * np.pi * tp.rotor_radius_m**2 * u_n**2 * float(ct)
     assert mean_thrust == pytest.approx(expected, rel=0.01)
     assert mean_thrust > 1.5e6  # IEA 15 MW near rated: about 2.5 MN
     # The platform drifts downwind to balance the thrust with the mooring.
