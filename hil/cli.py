@@ -600,7 +600,7 @@ def record(
     )
 
 
-@app.command()
+@app.command(short_help="Run the Zenoh router of a two-host bench.")
 def router(
     zenoh_config: Annotated[
         Path,
@@ -626,7 +626,7 @@ def router(
         raise typer.Exit(1) from exc
 
 
-@app.command("review")
+@app.command("review", short_help="Review a recorded run: KPIs, timing and plots.")
 def review_cmd(
     mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
     out: Annotated[Path | None, typer.Option("--out", help="Folder for summary and plots.")] = None,
@@ -673,7 +673,7 @@ def review_cmd(
         raise typer.Exit(1)
 
 
-@app.command("recover")
+@app.command("recover", short_help="Make a truncated MCAP file complete.")
 def recover_cmd(
     mcap: Annotated[Path, typer.Argument(help="A truncated MCAP file (e.g. recorder killed).")],
     out: Annotated[

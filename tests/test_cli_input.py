@@ -415,6 +415,7 @@ COMMANDS = [
     ["plant"],
     ["controller"],
     ["record"],
+    ["router"],
     ["review"],
     ["recover"],
     ["scenarios"],
