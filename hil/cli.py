@@ -332,10 +332,24 @@ def _can_config(
 
 
 def _scenario(ref: str, duration: float | None) -> Scenario:
+    """Load and validate the scenario, and its controller preset for the controller kind."""
     try:
-        return load_scenario(ref).with_duration(duration)
+        sc = load_scenario(ref).with_duration(duration)
     except ScenarioError as exc:
         _fail(str(exc))
+    c = sc.controller
+    try:  # parsing the preset costs milliseconds and imports no plant
+        if c.kind == "baseline":
+            from controller.baseline import load_baseline
+
+            load_baseline(c.preset)
+        else:
+            from controller.runtime import load_advanced_settings
+
+            load_advanced_settings(c.preset)
+    except (ValueError, OSError) as exc:
+        _fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+    return sc
 
 
 def _realtime(priority: int, who: str) -> None:
