@@ -104,7 +104,8 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
         ctrl_ep = free_tcp_endpoint()
     base = [sys.executable, "-m", "hil"]
     cmds = {
-        # The plant waits for a node that never comes, so all three stay up and connected.
+        # The plant waits for a node that never comes here (the launcher's token), so all
+        # three stay up and connected. (--require accepts only the bench's node names.)
         "plant": [
             *base,
             "plant",
@@ -112,7 +113,7 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
             "--listen",
             plant_ep,
             "--require",
-            "controller,recorder,absent",
+            "controller,recorder,launcher",
         ],
         "controller": [
             *base,
