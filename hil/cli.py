@@ -520,7 +520,12 @@ def plant(
         )
     except PeerWaitInterruptedError as exc:
         _stderr.print(f"plant: {exc}", markup=False)
-        raise typer.Exit(128 + exc.signum) from exc
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # Nothing is left to clean up (the session is closed, nothing was written), and the
+        # interpreter's normal teardown of the imported scipy stack takes 1-3 s on a loaded
+        # 2-core machine: end the process now, as Ctrl-C asks.
+        os._exit(128 + exc.signum)
     except TimeoutError as exc:
         _fail(str(exc), code=1)
     if result.aborted and result.aborted != "stopped by signal":
@@ -691,7 +696,9 @@ def presets() -> None:
 
 
 analyze_app = typer.Typer(
-    help="Offline analysis of plant presets.", no_args_is_help=True, rich_markup_mode=None
+    help="Offline analysis: platform modes, design model, wave forecasters.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
 )
 preset_app = typer.Typer(
     help="Import plant presets from other tools (list the shipped ones: fowt presets).",
