@@ -697,6 +697,7 @@ def presets() -> None:
 
 analyze_app = typer.Typer(
     help="Offline analysis: platform modes, design model, wave forecasters.",
+    short_help="Offline analysis: modes, design model, forecasters.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
