@@ -367,13 +367,15 @@ def _run_inprocess(
     toml_text: str,
     design_dir: Path | None = None,
 ) -> None:
+    # The controller first: a core that cannot be built must not leave the log's writer
+    # thread running (the process would never exit).
+    runtime = ControllerRuntime(scenario, design_dir=design_dir)
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
         {"scenario": scenario_metadata(scenario, toml_text), "run": info},
     )
     publish = log.publish
-    runtime = ControllerRuntime(scenario, design_dir=design_dir)
 
     def step(frame: SensorFrame) -> ActuatorCommand | None:
         result = runtime.handle_frame(frame)

@@ -94,6 +94,9 @@ INPUTS: dict[str, str | bytes] = {
     ),
     "turbine.toml": _variant("nrel5mw-ramp", 'turbine = "nrel5mw"', 'turbine = "nrel5"'),
     "ctl_preset.toml": _variant("nrel5mw-ramp", 'preset = "nrel5mw_baseline"', 'preset = "x"'),
+    "kind_preset.toml": _variant(
+        "nrel5mw-ramp", 'preset = "nrel5mw_baseline"', 'preset = "iea15mw_advanced"'
+    ),
     "platform.toml": _variant("default", 'platform = "iea15mw_volturnus"', 'platform = "p.toml"'),
     "bad.json5": "{ listen: ",
 }
@@ -130,6 +133,11 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     ("fault-start-inf", ["run", "fault_inf.toml", *RUN[1:]], ["'faults[0].start_s'", "finite"]),
     ("turbine-unknown", ["run", "turbine.toml", *RUN[1:]], ["turbine = 'nrel5'", "nrel5mw"]),
     ("controller-preset", ["run", "ctl_preset.toml", *RUN[1:]], ["controller.preset = 'x'"]),
+    (
+        "controller-preset-of-another-kind",
+        ["run", "kind_preset.toml", *RUN[1:]],
+        ["controller.preset = 'iea15mw_advanced' for kind 'baseline'"],
+    ),
     ("platform-file-missing", ["run", "platform.toml", *RUN[1:]], ["platform", "not found"]),
     ("scenario-missing", ["run", "nope.toml", *RUN[1:]], ["nope.toml", "does not exist"]),
     (
