@@ -149,7 +149,10 @@ def design(
         "law": "theta_c = theta_op - K_x (x - x_op) - K_i z, z' = omega - omega_rated",
         "settings": s.as_dict(),
         "scalars": {
-            "rated_torque_nm": float(models[0].u_op[1]),
+            # P_rated / (η ω_rated N): the torque of region 3 (the first design wind may lie
+            # below the rated rotor speed, where the trim torque is higher)
+            "rated_torque_nm": tp.rated_power_w
+            / (tp.generator_efficiency * tp.rated_rotor_speed_rad_s * tp.gearbox_ratio),
             "rated_rotor_speed_rad_s": tp.rated_rotor_speed_rad_s,
             "torque_gain_nm_s2": optimal_torque_gain(tp),
             "torque_max_nm": tp.torque_max_nm,
