@@ -759,5 +759,7 @@ class AdvancedController:
             wave_forecast_time_ns=forecast_ns if forecast_ok else 0,
             feedforward_pitch_rad=lqri_state.feedforward_pitch_rad,
             feedforward_torque_nm=lqri_state.feedforward_torque_nm,
+            forecast_unstable_fits=int(getattr(fstate, "unstable_fits", 0)),
+            forecast_guarded=int(getattr(fstate, "guarded", 0)),
         )
         return new, result
