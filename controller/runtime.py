@@ -39,9 +39,10 @@ One cycle, from one validated :class:`bus_schemas.messages.SensorFrame`:
    torque PI of region 2.5, constant torque in region 3 when the pitch is at or above
    ``VS_Rgn3MP``) is the advanced controller's torque law in every regime; below rated its
    pitch PI (at fine pitch, with its clamped integrator) gives the pitch. Its state tracks the
-   applied commands (previous pitch and torque; while the LQRI acts, its pitch integrator
-   is set so that its output equals the applied pitch), so its rate limits, its region-3
-   criterion and its integrators never wind up against commands it did not make.
+   applied commands (previous pitch, and previous torque less its feedforward part; while
+   the LQRI acts, its pitch integrator is set so that its output equals the applied pitch),
+   so its rate limits, its region-3 criterion and its integrators never wind up against
+   commands it did not make.
 6. **Regime logic and LQRI** (:class:`controller.lqri.LqriController`) on
    :math:`(u_m, \\hat\\omega, \\theta, \\hat x)`, plus the wave feedforward when the
    controller kind is ``"lqri_ff"``. The gains are scheduled (and the regime switched) on the
@@ -546,7 +547,9 @@ class AdvancedController:
                     "[waves] gauge_distance_m = 0 or use forecaster = 'dispersion'"
                 )
             cls = ArConfig if kind == "ar" else EspritConfig
-            cfg = cls(sample_period_s=0.5, dt_s=fc.sample_period_s, horizon_s=horizon)
+            # the model samples at about casanovas' 2 Hz, on a multiple of the call period
+            model_period = max(1, round(0.5 / fc.sample_period_s)) * fc.sample_period_s
+            cfg = cls(sample_period_s=model_period, dt_s=fc.sample_period_s, horizon_s=horizon)
         self.forecaster = make_forecaster(kind, cfg)
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
@@ -672,10 +675,13 @@ class AdvancedController:
         # their rate limits, region-3 criterion and integrators follow what the turbine got
         bst = state.baseline
         if bst is not None:
+            # the law's own part of the applied torque: tracking the total (FF included)
+            # would let its rate limit ratchet the FF up against it cycle after cycle
             bst = msgspec.structs.replace(
                 bst,
                 blade_pitch_commanded_rad=state.last_pitch_cmd_rad,
-                generator_torque_commanded_nm=state.last_torque_cmd_nm,
+                generator_torque_commanded_nm=state.last_torque_cmd_nm
+                - state.lqri.feedforward_torque_nm,
             )
         else:
             bst = self.baseline.initial_state()
