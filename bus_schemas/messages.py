@@ -237,7 +237,9 @@ class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     Version 2 adds the estimates, forecast and feedforward of an advanced controller. They
     default to 0; ``estimates_valid_mask`` says which hold a value (bits ``EST_*`` of this
     module); the baseline sets none. ``estimator_degraded`` = 1 when an estimator runs on
-    missing or invalid measurements.
+    missing or invalid measurements. ``forecast_unstable_fits`` and ``forecast_guarded`` count
+    (since the start) the AR/ESPRIT wave-forecaster fits stabilised for poles outside the unit
+    circle and the forecasts the bound guard replaced by 0 m (``controller.forecast``).
     """
 
     seq: Seq
@@ -282,6 +284,8 @@ class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     feedforward_torque_nm: Annotated[
         float, M("N m", -1e8, 1e8, "feedforward part of the torque demand (HSS)")
     ] = 0.0
+    forecast_unstable_fits: Count = 0
+    forecast_guarded: Count = 0
 
 
 class CycleTiming(msgspec.Struct, frozen=True, kw_only=True):

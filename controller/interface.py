@@ -102,6 +102,10 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
         Sample time the forecast is for [ns] (sample time + horizon).
     feedforward_pitch_rad, feedforward_torque_nm : float
         Feedforward parts of the pitch [rad] and torque [N m, HSS] demands.
+    forecast_unstable_fits, forecast_guarded : int
+        AR/ESPRIT wave forecaster: fits so far with poles outside the unit circle (stabilised)
+        and forecasts so far replaced by the fallback 0 m by the bound guard
+        (:mod:`controller.forecast`); 0 for the dispersion forecaster.
     """
 
     blade_pitch_commanded_rad: float
@@ -122,6 +126,8 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
     wave_forecast_time_ns: int = 0
     feedforward_pitch_rad: float = 0.0
     feedforward_torque_nm: float = 0.0
+    forecast_unstable_fits: int = 0
+    forecast_guarded: int = 0
 
 
 @dataclass(frozen=True)

@@ -13,11 +13,18 @@ Per step (dt = T_s), with U the estimated wind speed used for scheduling:
    pitch regime when U ≥ U_sw + h/2 or ω ≥ 1.02 ω_ref; leave it when U ≤ U_sw − h/2 and the
    previous pitch command is at the minimum. U_sw is the rated wind of the design model,
    h = ``switch_hysteresis_m_s`` of the design settings.
-2. Below rated: T_g = min(K ω², T_rated) (disannio-2022 Tab. 10 look-up; optimal-TSR K),
-   pitch to θ_min; the integrator is held bumpless for the switch (step 4).
+2. Below rated the LQRI does not act: the torque and pitch are those of the below-rated laws
+   passed in the measurement (``torque_law_nm``, ``pitch_below_rated_rad``; the runtime gives
+   the baseline's region 1 / 1.5 / 2 / 2.5 torque law, which holds the rotor at or above its
+   minimum speed, and the baseline's pitch PI, at fine pitch below rated). Without them
+   (NaN) the fallback is T_g = min(K ω², T_rated) (disannio-2022 Tab. 10 look-up;
+   optimal-TSR K) and θ_min. The integrator z rests at 0 (no wind-up while the pitch sits
+   at fine pitch) and is re-initialised bumplessly on entering the pitch regime (step 4).
 3. Above rated: gains K_x(U), K_i(U) and the operating point x_op(U), θ_op(U) interpolated
    linearly on the wind grid (end values held):
-   θ_c = θ_op − K_x (x − x_op) − K_i z,  z ← z + T_s (ω − ω_ref);  T_g = T_rated.
+   θ_c = θ_op − K_x (x − x_op) − K_i z,  z ← z + T_s (ω − ω_ref); T_g is the torque law's
+   (region 3: T_rated; at fine pitch in a lull, region 2.5, so the rotor is not braked below
+   its minimum speed), T_rated without a torque law.
 4. θ_c saturated to [θ_min, θ_max] and rate limited |Δθ_c| ≤ θ'_max T_s; anti-windup by
    back-calculation: when the limited command differs from the LQRI output, z is reset so
    that the LQRI output equals the applied command (also on entering the pitch regime).
@@ -318,6 +325,15 @@ class LqriMeasurement(msgspec.Struct, frozen=True, kw_only=True):
         Estimated rates.
     wave_elevation_forecast_m : float
         Predicted elevation η̂₀(t + t_d) at the platform (m); NaN when no forecast.
+    torque_law_nm : float
+        Generator torque (N m) of the below-rated torque law for this cycle (the baseline's
+        region 1 / 1.5 / 2 / 2.5 / 3 law, :class:`controller.runtime.AdvancedController`);
+        NaN: the LQRI's own fallback law min(K ω², T_rated) (no minimum-speed region).
+    pitch_below_rated_rad : float
+        Pitch command (rad) of the below-rated pitch law for this cycle (the baseline's PI,
+        at fine pitch below rated); NaN: fine pitch θ_min (approached at the rate limit).
+    regime_below_rated : int
+        Regime code the below-rated laws report (``controller.core.REGIME_*``).
     """
 
     wind_speed_estimate_m_s: float
@@ -330,6 +346,9 @@ class LqriMeasurement(msgspec.Struct, frozen=True, kw_only=True):
     platform_pitch_rate_rad_s: float = 0.0
     tower_top_deflection_rate_m_s: float = 0.0
     wave_elevation_forecast_m: float = math.nan
+    torque_law_nm: float = math.nan
+    pitch_below_rated_rad: float = math.nan
+    regime_below_rated: int = REGIME_REGION_2
 
 
 class LqriState(msgspec.Struct, frozen=True, gc=False):
@@ -591,7 +610,8 @@ class LqriController:
         w = m.rotor_speed_rad_s
         if state.first_call:
             th_prev = min(max(m.blade_pitch_rad, d.pitch_min_rad), d.pitch_max_rad)
-            tq_prev = d.torque_gain_nm_s2 * w * w
+            law0 = m.torque_law_nm
+            tq_prev = law0 if math.isfinite(law0) else d.torque_gain_nm_s2 * w * w
             above = u >= d.switch_wind_m_s
         else:
             th_prev = state.blade_pitch_commanded_rad
@@ -636,6 +656,7 @@ class LqriController:
         ff_tq = 0.0 if ff_pitch else u_ff
         z = state.integrator_rad
         lim = d.pitch_rate_max_rad_s * dt_s
+        law = m.torque_law_nm
         if above:
             if entering:  # bumpless: LQRI output equals the previous command
                 z = (th_op - fb + ff_th - th_prev) / ki
@@ -645,13 +666,22 @@ class LqriController:
             th = min(max(th, th_prev - lim), th_prev + lim)
             if th != th_raw:  # anti-windup by back-calculation on the total command
                 z = (th_op - fb + ff_th - th) / ki
-            tq = d.rated_torque_nm + ff_tq
+            # region 3 of the torque law is T_rated; at fine pitch (a lull) it is the
+            # region-2.5 law, so the rotor is not braked below its minimum speed
+            tq = (law if math.isfinite(law) else d.rated_torque_nm) + ff_tq
             regime = REGIME_REGION_3
         else:
-            th = max(d.pitch_min_rad, th_prev - lim)
-            tq = min(d.torque_gain_nm_s2 * w * w, d.rated_torque_nm) + ff_tq
-            z = (th_op - fb - th) / ki
-            regime = REGIME_REGION_2
+            pb = m.pitch_below_rated_rad
+            th = pb if math.isfinite(pb) else d.pitch_min_rad
+            th = min(max(th, d.pitch_min_rad), d.pitch_max_rad)
+            th = min(max(th, th_prev - lim), th_prev + lim)
+            if math.isfinite(law):
+                tq = law + ff_tq
+                regime = m.regime_below_rated
+            else:
+                tq = min(d.torque_gain_nm_s2 * w * w, d.rated_torque_nm) + ff_tq
+                regime = REGIME_REGION_2
+            z = 0.0  # the LQRI integrator rests; entering the pitch regime re-initialises it
         tq = min(max(tq, 0.0), d.torque_max_nm)
         tlim = d.torque_rate_max_nm_s * dt_s
         tq = min(max(tq, tq_prev - tlim), tq_prev + tlim)
@@ -672,7 +702,7 @@ class LqriController:
             generator_torque_commanded_nm=tq,
             regime=regime,
             generator_speed_filtered_rad_s=w,
-            pitch_integrator_rad=ki * z,
+            pitch_integrator_rad=ki * z if above else 0.0,
             gain_schedule_factor=u,
         )
         return new, out

@@ -31,7 +31,19 @@ One cycle, from one validated :class:`bus_schemas.messages.SensorFrame`:
    that the forecast made at frame time :math:`t_c` is
    :math:`\\hat\\eta_0(t_c + t_d)`; it is held, with its target time :math:`t_c + t_d` [ns],
    until the next call.
-5. **Regime logic and LQRI** (:class:`controller.lqri.LqriController`) on
+5. **Below-rated laws**: the baseline controller of the preset's ``below_rated_baseline``
+   (:class:`controller.baseline.BaselineController`, the IEA 15 MW DISCON figures) runs
+   every cycle on the measured generator speed (the EKF's estimate when the sample is
+   invalid). Its torque law (region 1 below cut-in, region 1.5 up to
+   :math:`\\omega_2`, :math:`K\\omega^2` in region 2, the
+   torque PI of region 2.5, constant torque in region 3 when the pitch is at or above
+   ``VS_Rgn3MP``) is the advanced controller's torque law in every regime; below rated its
+   pitch PI (at fine pitch, with its clamped integrator) gives the pitch. Its state tracks the
+   applied commands (previous pitch, and previous torque less its feedforward part; while
+   the LQRI acts, its pitch integrator is set so that its output equals the applied pitch),
+   so its rate limits, its region-3 criterion and its integrators never wind up against
+   commands it did not make.
+6. **Regime logic and LQRI** (:class:`controller.lqri.LqriController`) on
    :math:`(u_m, \\hat\\omega, \\theta, \\hat x)`, plus the wave feedforward when the
    controller kind is ``"lqri_ff"``. The gains are scheduled (and the regime switched) on the
    EKF's *mean*-wind state :math:`u_m`, the filtered wind of disannio-2022 sect. 4.8, not on
@@ -92,6 +104,7 @@ from bus_schemas.messages import (
     VALID_WAVE_GAUGE,
     SensorFrame,
 )
+from controller.baseline import BaselineController, BaselineState, load_baseline
 from controller.estimators import (
     PlatformKF,
     PlatformKFConfig,
@@ -175,6 +188,9 @@ class AdvancedSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, 
         :func:`controller.lqri.find_design`), or paths to the ``.npz``.
     feedforward : {"off", "balanced", "max_performance"}
         Wave feedforward setting (set by the controller kind, ``"lqri_ff"``).
+    below_rated_baseline : str
+        Baseline preset (``controller/presets/<name>.toml``) whose torque law (regions 1,
+        1.5, 2, 2.5, 3) and pitch PI act below rated (:class:`AdvancedController`, step 5).
     ekf, forecast : sections
     """
 
@@ -186,6 +202,7 @@ class AdvancedSettings(msgspec.Struct, frozen=True, forbid_unknown_fields=True, 
     lqri_design: str = "iea15mw_volturnus"
     observer_design: str = "iea15mw_volturnus"
     feedforward: FeedforwardName = "off"
+    below_rated_baseline: str = "iea15mw_baseline"
     ekf: EkfSection = msgspec.field(default_factory=EkfSection)
     forecast: ForecastSection = msgspec.field(default_factory=ForecastSection)
     preset_dir: str = ""
@@ -392,6 +409,7 @@ class AdvancedState(msgspec.Struct, gc=False):
     last_pitch_cmd_rad: float = 0.0
     last_torque_cmd_nm: float = 0.0
     speed_misses: int = 0
+    baseline: BaselineState | None = None
 
 
 def _forecaster_config(
@@ -414,7 +432,9 @@ def _forecaster_config(
             "[waves] gauge_distance_m = 0 or use forecaster = 'dispersion'"
         )
     cls = ArConfig if kind == "ar" else EspritConfig
-    return cls(sample_period_s=0.5, dt_s=fc.sample_period_s, horizon_s=horizon)
+    # the model samples at about casanovas' 2 Hz, on a multiple of the call period
+    model_period = max(1, round(0.5 / fc.sample_period_s)) * fc.sample_period_s
+    return cls(sample_period_s=model_period, dt_s=fc.sample_period_s, horizon_s=horizon)
 
 
 def forecast_fill_time_s(
@@ -544,6 +564,14 @@ class AdvancedController:
             self.lqri = LqriController(lqri_design, wave_ff, feedforward=s.feedforward)
             # the FF filters expect the forecast t_d ahead that they were designed for
             fc = msgspec.structs.replace(fc, horizon_s=wave_ff.delay_s)
+        # the baseline's torque law (every regime) and pitch PI (below rated)
+        base = load_baseline(s.below_rated_baseline)
+        if abs(base.gearbox_ratio - s.gearbox_ratio) > 1e-9 * s.gearbox_ratio:
+            raise ValueError(
+                f"below_rated_baseline {s.below_rated_baseline!r} has gearbox_ratio "
+                f"{base.gearbox_ratio}, the advanced preset {s.gearbox_ratio}: expected the same"
+            )
+        self.baseline = BaselineController(base)
         kind = forecaster or fc.kind
         distance = fc.gauge_distance_m if gauge_distance_m is None else gauge_distance_m
         self.forecast_kind = kind
@@ -687,7 +715,30 @@ class AdvancedController:
             period = self._forecast_period_ns
             next_ns = (t_ns // period + 1) * period
         forecast_ok = bool(fstate.filled) and math.isfinite(forecast_m)
-        # 5. regime logic + LQRI
+        # 5. below-rated laws (the baseline's torque law and pitch PI on the measured speed,
+        # the EKF's when the speed sample is invalid), tracking the applied commands so that
+        # their rate limits, region-3 criterion and integrators follow what the turbine got
+        bst = state.baseline
+        if bst is not None:
+            # the law's own part of the applied torque: tracking the total (FF included)
+            # would let its rate limit ratchet the FF up against it cycle after cycle
+            bst = msgspec.structs.replace(
+                bst,
+                blade_pitch_commanded_rad=state.last_pitch_cmd_rad,
+                generator_torque_commanded_nm=state.last_torque_cmd_nm
+                - state.lqri.feedforward_torque_nm,
+            )
+        else:
+            bst = self.baseline.initial_state()
+        bframe = (
+            frame
+            if speed_ok
+            else msgspec.structs.replace(
+                frame, generator_speed_measured_rad_s=omega * s.gearbox_ratio
+            )
+        )
+        bst, bout = self.baseline.step(bst, bframe, dt_s)
+        # 6. regime logic + LQRI
         meas = LqriMeasurement(
             wind_speed_estimate_m_s=west.mean_wind_m_s,
             rotor_speed_rad_s=omega,
@@ -699,8 +750,20 @@ class AdvancedController:
             platform_pitch_rate_rad_s=x[4],
             tower_top_deflection_rate_m_s=x[5],
             wave_elevation_forecast_m=forecast_m if forecast_ok else math.nan,
+            torque_law_nm=bout.generator_torque_commanded_nm,
+            pitch_below_rated_rad=bout.blade_pitch_commanded_rad,
+            regime_below_rated=bout.regime,
         )
         lqri_state, out = self.lqri.step(state.lqri, meas, dt_s)
+        integrator_rad = out.pitch_integrator_rad
+        if lqri_state.above_rated:
+            # the baseline pitch PI tracks the LQRI's command (bumpless hand-back at θ_min)
+            ki_eff = self.baseline.pitch_gains(out.blade_pitch_commanded_rad)[1]
+            bst = msgspec.structs.replace(
+                bst, pitch_speed_error_integral_rad=out.blade_pitch_commanded_rad / ki_eff
+            )
+        else:
+            integrator_rad = bout.pitch_integrator_rad
         est_mask = (
             EST_WIND_SPEED
             | EST_PLATFORM_PITCH
@@ -726,13 +789,14 @@ class AdvancedController:
             last_pitch_cmd_rad=out.blade_pitch_commanded_rad,
             last_torque_cmd_nm=out.generator_torque_commanded_nm,
             speed_misses=speed_misses,
+            baseline=bst,
         )
         result = ControlOutput(
             blade_pitch_commanded_rad=out.blade_pitch_commanded_rad,
             generator_torque_commanded_nm=out.generator_torque_commanded_nm,
             regime=out.regime,
             generator_speed_filtered_rad_s=omega * s.gearbox_ratio,
-            pitch_integrator_rad=out.pitch_integrator_rad,
+            pitch_integrator_rad=integrator_rad,
             gain_schedule_factor=max(out.gain_schedule_factor, 0.0),
             estimates_valid_mask=est_mask,
             estimator_degraded=int(degraded),
@@ -746,5 +810,7 @@ class AdvancedController:
             wave_forecast_time_ns=forecast_ns if forecast_ok else 0,
             feedforward_pitch_rad=lqri_state.feedforward_pitch_rad,
             feedforward_torque_nm=lqri_state.feedforward_torque_nm,
+            forecast_unstable_fits=int(getattr(fstate, "unstable_fits", 0)),
+            forecast_guarded=int(getattr(fstate, "guarded", 0)),
         )
         return new, result

@@ -990,24 +990,50 @@ def analyze_forecast(
         ),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    grid: Annotated[
+        bool,
+        typer.Option(
+            "--grid",
+            help="VAF table over Hs 1-8 m x Tp 6-14 s with 0.02 m sensor noise (--hs/--tp unused).",
+        ),
+    ] = False,
 ) -> None:
     """VAF of each wave forecaster (dispersion, AR, ESPRIT) on a seeded sea, runtime code."""
-    from hil.analyze_forecast import forecast_report
+    from hil.analyze_forecast import forecast_grid, forecast_report
 
     kinds = tuple(forecaster) if forecaster else ("dispersion", "ar", "esprit")
     try:
-        report = forecast_report(
-            hs_m=hs,
-            tp_s=tp,
-            distance_m=distance,
-            horizon_s=horizon,
-            duration_s=duration,
-            kinds=kinds,
-        )
+        if grid:
+            report = forecast_grid(distance_m=distance, horizon_s=horizon)
+        else:
+            report = forecast_report(
+                hs_m=hs,
+                tp_s=tp,
+                distance_m=distance,
+                horizon_s=horizon,
+                duration_s=duration,
+                kinds=kinds,
+            )
     except ValueError as exc:
         _fail(str(exc))
     if as_json:
         sys.stdout.write(json.dumps(report, indent=2, default=str) + "\n")
+        return
+    if grid:
+        table = Table(title=f"forecast VAF (%), gauge {distance:g} m, horizon {horizon:g} s")
+        for col in ("Hs m", "Tp s", "dispersion", "AR", "ESPRIT", "AR/ESPRIT stabilised fits"):
+            table.add_column(col, justify="right")
+        for row in report["rows"]:
+            d, a, e = row["dispersion"], row["ar"], row["esprit"]
+            table.add_row(
+                f"{row['hs_m']:g}",
+                f"{row['tp_s']:g}",
+                f"{d['vaf_percent']:.1f}",
+                f"{a['vaf_percent']:.1f}",
+                f"{e['vaf_percent']:.1f}",
+                f"{a['unstable_fits']}/{a['trainings']}, {e['unstable_fits']}/{e['trainings']}",
+            )
+        console.print(table)
         return
     sea = report["sea_state"]
     table = Table(

@@ -296,6 +296,8 @@ class ControllerRuntime:
             wave_forecast_time_ns=out.wave_forecast_time_ns,
             feedforward_pitch_rad=out.feedforward_pitch_rad,
             feedforward_torque_nm=out.feedforward_torque_nm,
+            forecast_unstable_fits=out.forecast_unstable_fits,
+            forecast_guarded=out.forecast_guarded,
         )
         self.command_seq += 1
         return command, status

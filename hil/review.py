@@ -408,6 +408,10 @@ def _estimates(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
             var = float(np.var(eta))
             if var > 0.0:
                 fc["vaf_pct"] = float(100.0 * (1.0 - np.var(eta - f_v[ok]) / var))
+    # AR/ESPRIT forecaster: fits stabilised and forecasts guarded (counts since the start)
+    for key, name in (("unstable_fits", "forecast_unstable_fits"), ("guarded", "forecast_guarded")):
+        col = _col(status, name)
+        fc[key] = int(np.nanmax(col)) if col.size and np.isfinite(col).any() else 0
     return out
 
 

@@ -156,6 +156,8 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "floating",
         "estimates_valid_mask",
         "estimator_degraded",
+        "forecast_unstable_fits",
+        "forecast_guarded",
     }
     for mt in MESSAGES:
         for f in mt.codec.fields:

@@ -123,13 +123,91 @@ def test_ar_literal_setup_fails_on_wider_band_or_noise() -> None:
 
 
 def test_esprit_sanity() -> None:
-    """ESPRIT (casanovas sect. 7.3) on the 2 rad/s band-limited sea: VAF >= 90 % at 5 s."""
-    r = forecast_report(
-        duration_s=200.0, seed=1, kinds=("esprit",), local_horizon_s=5.0, omega_max_rad_s=2.0
-    )
+    """ESPRIT (casanovas sect. 7.3) as the seed has it (raw fit, ``stabilise=False``) on the
+    2 rad/s band-limited noise-free sea: VAF >= 90 % at 5 s. The stabilised runtime default
+    loses most of it there (measured 28 %: the seed's growing/decaying pairs describe the
+    beating) but stays bounded, which is what the runtime needs on real seas."""
+    kw = {"duration_s": 200.0, "seed": 1, "kinds": ("esprit",), "local_horizon_s": 5.0}
+    r = forecast_report(omega_max_rad_s=2.0, stabilise=False, **kw)  # type: ignore[arg-type]
     e = r["forecasters"]["esprit"]
     assert e["vaf_percent"] >= 90.0
     assert math.isfinite(e["vaf_percent"])
+    assert e["unstable_fits"] == 0  # the raw fit is not checked
+    s = forecast_report(omega_max_rad_s=2.0, **kw)["forecasters"]["esprit"]  # type: ignore[arg-type]
+    assert s["unstable_fits"] > 0
+    assert s["vaf_percent"] > 0.0
+    assert s["max_abs_forecast_m"] <= 1.5 * s["max_abs_truth_m"]
+
+
+#: Sea states of issue 9 item 4 (H_s 1-8 m, T_p 6-14 s): the corners and the issue's own.
+_SEAS = [(1.0, 6.0), (8.0, 14.0), (4.3, 10.0)]
+
+
+@pytest.mark.parametrize("kind", ["ar", "esprit"])
+def test_ar_esprit_bounded_on_noisy_seas(kind: str) -> None:
+    """Issue 9: AR and ESPRIT never return unbounded forecasts (gauge at the platform, own
+    past, horizon 8 s, 0.02 m seeded sensor noise, 120 s evaluated).
+
+    Before the stability check the issue measured VAF -59 226 % (AR) and -414 % (ESPRIT) at
+    H_s 4.3 m, T_p 10 s. Now: every forecast within 1.5x the largest true elevation (the
+    guard's hard limit is 3x the window's), VAF above -60 % (an 8 s own-past forecast has
+    little skill at T_p 6 s; measured on the full grid, ``bench/forecast_grid.py``: see the
+    README), and the stabilised fits are counted.
+    """
+    for hs, tp in _SEAS:
+        r = forecast_report(
+            hs_m=hs,
+            tp_s=tp,
+            distance_m=300.0,
+            horizon_s=8.0,
+            duration_s=120.0,
+            kinds=(kind,),
+            noise_m=0.02,
+        )
+        e = r["forecasters"][kind]
+        msg = f"{kind} Hs {hs} Tp {tp}: {e}"
+        assert math.isfinite(e["vaf_percent"]), msg
+        assert e["vaf_percent"] > -60.0, msg
+        assert e["max_abs_forecast_m"] <= 1.5 * e["max_abs_truth_m"], msg
+        assert e["unstable_fits"] > 0, msg  # the check acted and was counted
+
+
+def test_raw_ar_diverges_where_the_stabilised_one_does_not() -> None:
+    """The seed's raw least-squares AR on the issue's sea (H_s 4.3 m, T_p 10 s, 8 s ahead)
+    is unbounded (VAF far below -100 %); the same fits stabilised are not."""
+    kw = {"hs_m": 4.3, "tp_s": 10.0, "distance_m": 300.0, "horizon_s": 8.0}
+    raw = forecast_report(duration_s=120.0, kinds=("ar",), stabilise=False, **kw)  # type: ignore[arg-type]
+    ok = forecast_report(duration_s=120.0, kinds=("ar",), **kw)  # type: ignore[arg-type]
+    assert raw["forecasters"]["ar"]["vaf_percent"] < -100.0
+    assert ok["forecasters"]["ar"]["vaf_percent"] > -60.0
+
+
+def test_stability_check_reflects_growing_poles_and_guard_counts() -> None:
+    """A growing sinusoid (|z| = 1.02 per 0.5 s sample) fits an AR/ESPRIT model with poles
+    outside the unit circle: the check reflects them (counted), so the forecast decays instead
+    of growing; a guard factor below the forecast's size replaces it by 0 m (counted)."""
+    dt = 0.1
+    t = np.arange(1200) * dt
+    y = np.exp(0.04 * t) * np.cos(0.8 * t) * 0.01
+    for cls, cfg_t in ((ArForecaster, ArConfig), (EspritForecaster, EspritConfig)):
+        fc = cls(cfg_t(horizon_s=5.0))  # type: ignore[operator]
+        st = fc.init_state()
+        out = np.empty(y.size)
+        for i in range(y.size):
+            st, out[i] = fc.step(st, float(y[i]), True)
+        assert st.unstable_fits > 0, cls
+        # bounded: never above the newest amplitude (a growing model would forecast 1.22x it)
+        assert float(np.max(np.abs(out[-200:]))) <= float(np.max(np.abs(y[-200:]))), cls
+        raw = cls(cfg_t(horizon_s=5.0, stabilise=False))  # type: ignore[operator]
+        st_r = raw.init_state()
+        for i in range(y.size):
+            st_r, _ = raw.step(st_r, float(y[i]), True)
+        assert st_r.unstable_fits == 0
+    guarded = ArForecaster(ArConfig(horizon_s=5.0, bound_factor=1e-3))
+    st = guarded.init_state()
+    outs = [guarded.step(st, float(v), True)[1] for v in y]
+    assert st.guarded > 0
+    assert outs[-1] == 0.0
 
 
 def test_esprit_recovers_sinusoids_exactly() -> None:
@@ -228,6 +306,10 @@ def test_configs_validate_with_units() -> None:
         make_forecaster("kalman")
     with pytest.raises(ValueError, match="ArConfig"):
         make_forecaster("ar", EspritConfig())
+    with pytest.raises(ValueError, match="bound_factor"):
+        ArConfig(bound_factor=0.0)
+    with pytest.raises(ValueError, match="stabilise"):
+        EspritConfig(stabilise="yes")  # type: ignore[arg-type]
 
 
 def test_vaf_definition() -> None:

@@ -120,3 +120,60 @@ def test_wave_feedforward_enters_torque_below_and_pitch_above() -> None:
     assert st.feedforward_pitch_rad != 0.0
     st, out = on.step(st, _meas(20.0, d.rated_rotor_speed_rad_s, prev), 0.025)
     assert st.feedforward_pitch_rad == 0.0
+
+
+def test_below_rated_laws_are_passed_through_and_the_integrator_rests(
+    ctrl: LqriController,
+) -> None:
+    """Issue 9: below rated the torque and pitch of the below-rated laws (the baseline's, given
+    by the runtime) are applied, rate limited; the LQRI integrator stays at 0 (no wind-up while
+    the pitch sits at fine pitch) and the regime is the law's (here region 1.5)."""
+    d = ctrl.design
+    st = ctrl.initial_state()
+    law = 5.0e6
+    for _ in range(400):  # 10 s at fine pitch, rotor slow (5 rpm), wind 7 m/s
+        m = LqriMeasurement(
+            wind_speed_estimate_m_s=7.0,
+            rotor_speed_rad_s=0.53,
+            blade_pitch_rad=0.0,
+            torque_law_nm=law,
+            pitch_below_rated_rad=d.pitch_min_rad,
+            regime_below_rated=1,
+        )
+        st, out = ctrl.step(st, m, 0.025)
+        assert st.integrator_rad == 0.0
+        assert out.pitch_integrator_rad == 0.0
+    assert out.regime == 1
+    assert out.generator_torque_commanded_nm == pytest.approx(law, rel=1e-12)
+    assert out.blade_pitch_commanded_rad == d.pitch_min_rad
+
+
+def test_lqri_integrator_back_calculated_at_fine_pitch(ctrl: LqriController) -> None:
+    """Issue 9: in the pitch regime with the rotor below rated (a lull) the pitch saturates at
+    fine pitch for 30 s; the integrator is back-calculated, so the pitch leaves fine pitch on
+    the first cycles of overspeed (a wound-up integrator would hold it there for seconds)."""
+    d = ctrl.design
+    st = ctrl.initial_state()
+    for _ in range(1200):
+        m = LqriMeasurement(
+            wind_speed_estimate_m_s=14.0,
+            rotor_speed_rad_s=0.9 * d.rated_rotor_speed_rad_s,
+            blade_pitch_rad=d.pitch_min_rad,
+            torque_law_nm=d.rated_torque_nm,
+        )
+        st, out = ctrl.step(st, m, 0.025)
+        assert out.regime == 4
+        assert out.blade_pitch_commanded_rad == d.pitch_min_rad
+    z_sat = st.integrator_rad
+    pitches = []
+    for _ in range(8):  # 0.2 s of 5 % overspeed
+        m = LqriMeasurement(
+            wind_speed_estimate_m_s=14.0,
+            rotor_speed_rad_s=1.05 * d.rated_rotor_speed_rad_s,
+            blade_pitch_rad=d.pitch_min_rad,
+            torque_law_nm=d.rated_torque_nm,
+        )
+        st, out = ctrl.step(st, m, 0.025)
+        pitches.append(out.blade_pitch_commanded_rad)
+    assert math.isfinite(z_sat)
+    assert pitches[-1] > d.pitch_min_rad, pitches

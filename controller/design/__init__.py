@@ -77,6 +77,7 @@ def design(
     settings: dict[str, object] | None = None,
     control_period_s: float | None = None,
     provenance: dict[str, object] | None = None,
+    below_rated_baseline: str = "iea15mw_baseline",
 ) -> dict[str, Path]:
     """Run the offline LQRI and wave-feedforward designs and write their artefacts.
 
@@ -94,6 +95,10 @@ def design(
         ``settings["control_period_s"]``; default 0.025 s).
     provenance : dict, optional
         ``created_utc`` and ``commit`` to record (default: now and ``git rev-parse HEAD``).
+    below_rated_baseline : str
+        Baseline preset whose torque law the advanced controller runs below rated
+        (``AdvancedSettings.below_rated_baseline``): the wave-FF filters are designed at the
+        operating points that law holds (rotor at or above its minimum speed ``VS_MinOMSpd``).
 
     Returns
     -------
@@ -149,7 +154,10 @@ def design(
         "law": "theta_c = theta_op - K_x (x - x_op) - K_i z, z' = omega - omega_rated",
         "settings": s.as_dict(),
         "scalars": {
-            "rated_torque_nm": float(models[0].u_op[1]),
+            # P_rated / (η ω_rated N): the torque of region 3 (the first design wind may lie
+            # below the rated rotor speed, where the trim torque is higher)
+            "rated_torque_nm": tp.rated_power_w
+            / (tp.generator_efficiency * tp.rated_rotor_speed_rad_s * tp.gearbox_ratio),
             "rated_rotor_speed_rad_s": tp.rated_rotor_speed_rad_s,
             "torque_gain_nm_s2": optimal_torque_gain(tp),
             "torque_max_nm": tp.torque_max_nm,
@@ -159,14 +167,19 @@ def design(
     }
     js = npz.with_suffix(".json")
     js.write_text(json.dumps(meta, indent=2) + "\n")
+    from controller.baseline import load_baseline  # noqa: PLC0415
     from controller.design.wave_ff import write_wave_ff_artefact  # noqa: PLC0415
 
+    # the below-rated torque law of the advanced controller (controller.runtime) holds the
+    # rotor at or above the baseline's minimum speed (VS_MinOMSpd, region 1.5)
+    base = load_baseline(below_rated_baseline)
     ff = write_wave_ff_artefact(
         params,
         str(preset),
         out,
         dt_s=s.control_period_s,
         provenance=prov,
+        min_rotor_speed_rad_s=base.cut_in_generator_speed_rad_s / base.gearbox_ratio,
     )
     return {"lqri_npz": npz, "lqri_json": js, **ff}
 

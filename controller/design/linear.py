@@ -55,7 +55,13 @@ import scipy.linalg as sla
 
 from plant import turbine as _turbine
 from plant.hydro.wamit import load_hydro_preset
-from plant.modes import PITCH_LENGTH_M, identify_modes, linearize, operating_point
+from plant.modes import (
+    PITCH_LENGTH_M,
+    OperatingPoint,
+    identify_modes,
+    linearize,
+    operating_point,
+)
 from plant.platform import DOF_NAMES, N_MECH_STATES, FloatingParams, f, state_names
 
 __all__ = [
@@ -154,7 +160,52 @@ def _output_matrix(params: FloatingParams, n: int) -> FloatArray:
     return c
 
 
-def linear_model(params: FloatingParams, wind_m_s: float) -> LinearModel:
+def _operating_point_at_speed(
+    params: FloatingParams, op: OperatingPoint, omega_rad_s: float
+) -> OperatingPoint:
+    """The steady point at ``omega_rad_s`` (fine pitch, torque = aerodynamic torque / N).
+
+    Below the wind where the optimal tip-speed ratio would take the rotor under its minimum
+    speed, the torque law (region 1.5) holds the rotor at that minimum; the platform
+    equilibrium is solved again for the thrust there (as :func:`plant.modes.operating_point`).
+    """
+    from scipy.optimize import fsolve  # noqa: PLC0415  offline only
+
+    tp = params.turbine
+    u_w = op.wind_m_s
+    theta = tp.pitch_min_rad
+    aero = _turbine.outputs(0.0, (omega_rad_s, theta, 0.0), (theta, 0.0, u_w), tp)
+    torque = aero.aero_torque_nm / tp.gearbox_ratio
+    nr = params.n_radiation
+    u = (theta, torque, u_w, 0.0, 0.0, 0.0)
+
+    def state(q: FloatArray) -> tuple[float, ...]:
+        return (
+            *(float(v) for v in q),
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            omega_rad_s,
+            theta,
+            torque,
+            *([0.0] * nr),
+        )
+
+    def residual(q: FloatArray) -> FloatArray:
+        dx = f(0.0, state(q), u, params)
+        return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
+
+    q_eq, _, ier, msg = fsolve(residual, np.array(op.state[:4]), full_output=True, xtol=1e-12)
+    if ier != 1:
+        raise ValueError(f"no static equilibrium at U = {u_w} m/s, omega = {omega_rad_s}: {msg}")
+    ct = _turbine.outputs(0.0, (omega_rad_s, theta, torque), u[:3], tp).ct
+    return OperatingPoint(u_w, state(q_eq), u, float(tp.k_thrust * u_w**2 * ct))
+
+
+def linear_model(
+    params: FloatingParams, wind_m_s: float, min_rotor_speed_rad_s: float = 0.0
+) -> LinearModel:
     """Full linear model (with radiation states) at a steady wind.
 
     Parameters
@@ -163,6 +214,11 @@ def linear_model(params: FloatingParams, wind_m_s: float) -> LinearModel:
         Plant parameters (:func:`plant.platform.load_floating`).
     wind_m_s : float
         Steady hub-height wind U (m/s), > 0.
+    min_rotor_speed_rad_s : float, optional
+        Minimum rotor speed (rad/s) of the torque law (region 1.5): where the optimal
+        tip-speed ratio would run the rotor slower, the model is taken at this speed, fine
+        pitch and the aerodynamic torque there (the turbine's real operating point below
+        about 7 m/s for the IEA 15 MW). Default 0: the optimal-TSR point.
 
     Returns
     -------
@@ -171,6 +227,8 @@ def linear_model(params: FloatingParams, wind_m_s: float) -> LinearModel:
         of A (pitch and torque are states driven by their demands).
     """
     op = operating_point(params, wind_m_s)
+    if op.state[_IDX_OMEGA] < min_rotor_speed_rad_s:
+        op = _operating_point_at_speed(params, op, min_rotor_speed_rad_s)
     a = linearize(params, op)
     x0 = np.array(op.state, dtype=np.float64)
     bu = _jacobian_u(params, x0, op.inputs)

@@ -466,6 +466,7 @@ def write_wave_ff_artefact(
     torque_below_m_s: float = 17.0,
     hydro_preset: str = "iea15mw_volturnus",
     provenance: dict[str, object] | None = None,
+    min_rotor_speed_rad_s: float = 0.0,
 ) -> dict[str, Path]:
     """Design the FF filters over the wind grid; write ``<preset>_waveff_dt<T_s>.npz`` + ``.json``.
 
@@ -491,6 +492,10 @@ def write_wave_ff_artefact(
         Hydrodynamic data of the excitation.
     provenance : dict, optional
         Extra metadata (commit, creation time).
+    min_rotor_speed_rad_s : float
+        Minimum rotor speed of the torque law (rad/s): at winds where the optimal tip-speed
+        ratio would run the rotor slower, the filters are designed at this speed (the
+        turbine's real operating point, :func:`controller.design.linear.linear_model`).
 
     Returns
     -------
@@ -508,7 +513,10 @@ def write_wave_ff_artefact(
     om, x_tf = excitation_transfer(hydro_preset)
     designs = [
         design_wave_ff(
-            reduce_radiation(linear_model(params, w), params),  # type: ignore[arg-type]
+            reduce_radiation(
+                linear_model(params, w, min_rotor_speed_rad_s),  # type: ignore[arg-type]
+                params,  # type: ignore[arg-type]
+            ),
             om,
             x_tf,
             dt_s=dt_s,
@@ -549,6 +557,7 @@ def write_wave_ff_artefact(
             "high_pass_rad_s": HIGH_PASS_RAD_S,
             "order": designs[0].order,
             "wind_grid_m_s": list(wind_grid_m_s),
+            "min_rotor_speed_rad_s": min_rotor_speed_rad_s,
             "scheduling": "all filters run; outputs blended linearly in the scheduling wind",
         },
         "gain_table": {
