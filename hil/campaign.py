@@ -867,6 +867,10 @@ def _json_clean(obj: Any) -> Any:
     return obj
 
 
+def _isnan(v: Any) -> bool:
+    return isinstance(v, float) and math.isnan(v)
+
+
 def write_table(rows: Sequence[dict[str, Any]], out: Path) -> tuple[Path, Path]:
     """Write ``results.parquet`` (pyarrow) and ``results.csv``; returns both paths."""
     import csv  # noqa: PLC0415
