@@ -1,4 +1,5 @@
-"""The ``fowt`` command: run, plant, controller, record, review, scenarios, analyze, preset."""
+"""The ``fowt`` command: run, plant, controller, record, review, scenarios, analyze, preset,
+campaign, compare, report (the last three: :mod:`hil.campaign_cli`)."""
 
 from __future__ import annotations
 
@@ -516,6 +517,15 @@ def preset_import_openfast(
         console.print(f"[red]error:[/] {exc}")
         raise typer.Exit(2) from exc
     console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)')
+
+
+def _register_campaign_commands() -> None:
+    from hil.campaign_cli import register
+
+    register(app, console)
+
+
+_register_campaign_commands()
 
 
 def main() -> None:
