@@ -842,6 +842,7 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
         "probabilities": probs,
         "kpis": {k: {"unit": u, "better": d, "label": lab} for k, (u, d, lab) in ck.KPIS.items()},
         "not_available": dict(ck.NOT_AVAILABLE),
+        "notes": dict(ck.NOTES),
         "runs": {
             "total": len(rows),
             "ok": sum(r["status"] == "ok" for r in rows),
@@ -907,6 +908,8 @@ class CampaignResult:
     wall_s: float = 0.0
     workers: int = 0
     results: dict[str, dict[str, Any]] = field(default_factory=dict)
+    tasks_wall_s: float = 0.0  # from the first submission to the last result (no cluster start)
+    simulated_s: float = 0.0  # simulated seconds of the runs this call ran (resumed ones left out)
 
 
 def _existing(spec: RunSpec, out: Path) -> dict[str, Any] | None:
@@ -1032,12 +1035,14 @@ def run_campaign(
         console.print(f"--resume: {skipped} run(s) already done, {len(todo)} to run")
     design_dir = _designs(todo, console) if scheduler is None else None
     n_workers = 0
+    tasks_wall = 0.0
     if todo:
         client, cluster = _client(scheduler, workers)
         try:
             n_workers = len(client.scheduler_info()["workers"])
             where = scheduler or "local cluster on 127.0.0.1 (no dashboard)"
             console.print(f"{len(todo)} run(s) on {n_workers} Dask worker(s), {where}")
+            t_tasks = time.monotonic()
             _submit_all(
                 client,
                 campaign,
@@ -1052,6 +1057,7 @@ def run_campaign(
                 (Progress, TextColumn, BarColumn, MofNCompleteColumn),
                 (TimeElapsedColumn, TimeRemainingColumn),
             )
+            tasks_wall = time.monotonic() - t_tasks
         finally:
             client.close()
             if cluster is not None:
@@ -1070,6 +1076,8 @@ def run_campaign(
         wall_s=time.monotonic() - t_start,
         workers=n_workers,
         results=results,
+        tasks_wall_s=tasks_wall,
+        simulated_s=sum(float(s.scenario["duration_s"]) for s in todo),
     )
 
 

@@ -51,6 +51,8 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
         t.add_row(*row)
     console.print(t)
     for reason in agg.get("not_available", {}).values():
+        console.print(f"[yellow]not computed:[/] {reason}")
+    for reason in agg.get("notes", {}).values():
         console.print(f"[yellow]note:[/] {reason}")
     runs = agg["runs"]
     console.print(f"runs: {runs['total']} ({runs['ok']} ok, {runs['failed']} failed)")
@@ -130,10 +132,10 @@ def register(app: typer.Typer, console: Console) -> None:
             console.print(f"report:  {path}")
         console.print(f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}")
         console.print(f"aggregates: {out_dir / 'aggregates.json'}")
-        sim = sum(s.scenario["duration_s"] for s in c.runs if s.rel_dir in result.results)
+        speed = result.simulated_s / result.tasks_wall_s if result.tasks_wall_s > 0 else 0.0
         console.print(
             f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall, "
-            f"{result.workers} worker(s): {sim / max(result.wall_s, 1e-9):.1f} simulated s / wall s"
+            f"{result.workers} worker(s): {speed:.1f} simulated s / wall s over the runs done"
         )
         if result.aggregates["runs"]["failed"]:
             raise typer.Exit(1)

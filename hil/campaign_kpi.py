@@ -78,6 +78,20 @@ NOT_AVAILABLE: dict[str, str] = {
     ),
 }
 
+#: Remarks on how this plant's KPIs differ from al-2019's (printed and reported).
+NOTES: dict[str, str] = {
+    "shaft_del_nm": (
+        "DEL(M_LSS) is the DEL of the low-speed-shaft torque N·T_g: the plant's drivetrain is "
+        "rigid, so the shaft carries the generator torque only, and a controller holding "
+        "constant torque above rated (the baseline) gives a DEL near 0 there; ratios to it "
+        "are then meaningless"
+    ),
+    "pitch_rate_mean_abs_deg_s": (
+        "mean|dθ/dt| is 0 below rated where only the torque acts (al-2019 footnote 3): its "
+        "ratios are undefined there"
+    ),
+}
+
 #: Minimum rotor speed Ω_min [rad/s] of the shipped turbines for Ω_opt (below it the
 #: optimal-TSR speed is not reachable): IEA 15 MW DISCON VS_MinOMSpd = 0.5236 rad/s (5 rpm);
 #: NREL 5 MW cut-in rotor speed 6.9 rpm = 0.7226 rad/s (jonkman-2009 table 1-1).

@@ -59,6 +59,13 @@ def pct(v: Any) -> str:
     return f"{100.0 * float(v):+.1f} %"
 
 
+def pct_plain(v: Any) -> str:
+    """A fraction as a percentage without sign (``-`` for None/nan)."""
+    if v is None or not math.isfinite(float(v)):
+        return "-"
+    return f"{100.0 * float(v):.3g} %"
+
+
 def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1) -> str:
     """An HTML table; the first ``left`` columns left-aligned, cells escaped."""
     head = "".join(
@@ -121,8 +128,12 @@ def _bars(
     title: str,
     ref: float | None = None,
     scale: float = 1.0,
+    clip: tuple[float, float] | None = None,
 ) -> str:
-    """Grouped bar chart (al-2019 style): x = KPI groups, one bar per series."""
+    """Grouped bar chart (al-2019 style): x = KPI groups, one bar per series.
+
+    ``clip`` (unscaled): bars beyond it are drawn to the limit and labelled with their value.
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(11, 3.6))
     n = max(1, len(series))
@@ -130,7 +141,22 @@ def _bars(
     x = np.arange(len(groups))
     for i, (name, vals) in enumerate(series.items()):
         v = np.array([np.nan if a is None else float(a) for a in vals]) * scale
-        ax.bar(x + (i - (n - 1) / 2) * width, np.nan_to_num(v), width, label=name)
+        xs = x + (i - (n - 1) / 2) * width
+        shown = np.nan_to_num(v)
+        if clip is not None:  # a ratio to a near-zero value would flatten every other bar
+            lo, hi = clip[0] * scale, clip[1] * scale
+            for xi, vi in zip(xs, shown, strict=True):
+                if vi > hi or vi < lo:
+                    ax.annotate(
+                        f"{vi:.3g}",
+                        (xi, min(max(vi, lo), hi)),
+                        fontsize=6,
+                        rotation=90,
+                        ha="center",
+                        va="top" if vi > hi else "bottom",
+                    )
+            shown = np.clip(shown, lo, hi)
+        ax.bar(xs, shown, width, label=name)
     if ref is not None:
         ax.axhline(ref * scale, color="k", lw=0.8)
     ax.set_xticks(x, groups, fontsize=8)
@@ -190,7 +216,7 @@ def campaign_html(
         + ", ".join(f"{_esc(c)} {100 * p:.2f} %" for c, p in agg["probabilities"].items())
         + ".</p>"
     )
-    for reason in agg.get("not_available", {}).values():
+    for reason in [*agg.get("not_available", {}).values(), *agg.get("notes", {}).values()]:
         parts.append(f'<p class="note">{_esc(reason)}.</p>')
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:
@@ -238,7 +264,14 @@ def campaign_html(
         series["Weibull"] = [inc[k]["weibull"] for k in kpis]
         parts.append(
             img(
-                _bars(short, series, "waves / still [-]", "Wave-induced increment", ref=1.0),
+                _bars(
+                    short,
+                    series,
+                    "waves / still [-]",
+                    "Wave-induced increment",
+                    ref=1.0,
+                    clip=(0.0, 10.0),
+                ),
                 "wave-induced increment per load case",
             )
         )
@@ -252,8 +285,7 @@ def campaign_html(
         for k, lab in zip(kpis, labels, strict=True):
             row = [lab, pct(rel[k]["weibull"]), pct(rel[k]["weibull_of_cases"])]
             if norm:
-                row += [fmt(100 * (norm[k]["weibull"] or math.nan), 3) + " %"]
-                row += [fmt(100 * (norm[k]["weibull_of_cases"] or math.nan), 3) + " %"]
+                row += [pct_plain(norm[k]["weibull"]), pct_plain(norm[k]["weibull_of_cases"])]
             body.append(row)
         parts.append(
             '<p class="note">relative = X_ctrl / X_base − 1 (al-2019 figures 5-1, 5-3/5-5 top); '
@@ -266,7 +298,15 @@ def campaign_html(
         series["Weibull"] = [rel[k]["weibull"] for k in kpis]
         parts.append(
             img(
-                _bars(short, series, "relative [%]", f"{ctrl}: relative to {base}", 0.0, 100.0),
+                _bars(
+                    short,
+                    series,
+                    "relative [%]",
+                    f"{ctrl}: relative to {base}",
+                    0.0,
+                    100.0,
+                    clip=(-1.0, 3.0),
+                ),
                 f"{ctrl} relative performance",
             )
         )
@@ -275,7 +315,15 @@ def campaign_html(
             series["Weibull"] = [norm[k]["weibull"] for k in kpis]
             parts.append(
                 img(
-                    _bars(short, series, "P_n [%]", f"{ctrl}: normalised (eq. 5-1)", 1.0, 100.0),
+                    _bars(
+                        short,
+                        series,
+                        "P_n [%]",
+                        f"{ctrl}: normalised (eq. 5-1)",
+                        1.0,
+                        100.0,
+                        clip=(-2.0, 3.0),
+                    ),
                     f"{ctrl} normalised performance",
                 )
             )
