@@ -480,3 +480,65 @@ def test_campaign_report_renders_in_headless_chromium(
         line for line in proc.stderr.splitlines() if "CONSOLE" in line or "Uncaught" in line
     ]
     assert not console_errors, console_errors
+
+
+def test_campaign_on_an_existing_scheduler(tmp_path: Path) -> None:
+    """``--scheduler``: `dask scheduler` and `dask worker` started by hand (loopback)."""
+    import socket
+    import time
+
+    with socket.socket() as s0:  # a free loopback port
+        s0.bind(("127.0.0.1", 0))
+        port = s0.getsockname()[1]
+    dask = str(Path(sys.executable).parent / "dask")
+    sched = subprocess.Popen(
+        [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    worker = subprocess.Popen(
+        [
+            dask,
+            "worker",
+            f"tcp://127.0.0.1:{port}",
+            "--nworkers",
+            "1",
+            "--nthreads",
+            "1",
+            "--host",
+            "127.0.0.1",
+            "--no-dashboard",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.2)
+        path = tmp_path / "one.toml"
+        path.write_text(
+            'name = "one"\nduration_s = 10.0\nstill_water = false\n'
+            '[[cases]]\nname = "lc4"\nscenario = "iea15mw-lc4"\nprobability = 0.2\n' + _CONTROLLERS
+        )
+        proc = _fowt(
+            "campaign",
+            str(path),
+            "--scheduler",
+            f"tcp://127.0.0.1:{port}",
+            "--out",
+            str(tmp_path / "out"),
+            "--no-html",
+        )
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert f"tcp://127.0.0.1:{port}" in proc.stdout
+        s = json.loads((tmp_path / "out/runs/lc4/baseline/s0/summary.json").read_text())
+        assert s["campaign"]["status"] == "ok"
+        assert s["campaign"]["kpi"]["mean_power_w"] > 1e7  # 13.9 m/s: near rated 15 MW
+    finally:
+        for p in (worker, sched):
+            p.terminate()
+            p.wait(timeout=30)
