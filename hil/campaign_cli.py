@@ -14,8 +14,6 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from hil import campaign_kpi as ck
-
 
 def _names(text: str | None) -> list[str] | None:
     return [n.strip() for n in text.split(",") if n.strip()] if text else None
@@ -23,6 +21,8 @@ def _names(text: str | None) -> list[str] | None:
 
 def render_aggregates(agg: dict[str, Any], console: Console) -> None:
     """Print the Weibull-weighted aggregates: wave increment, relative and normalised."""
+    from hil import campaign_kpi as ck
+
     kpis = list(ck.KPIS)
     t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {agg['baseline']}")
     t.add_column("KPI")
