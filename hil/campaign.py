@@ -413,11 +413,14 @@ def select(
     controllers: Sequence[str] | None = None,
     seeds: int | None = None,
     duration_s: float | None = None,
+    baseline: str | None = None,
 ) -> Campaign:
     """A reduced campaign: some cases, some controllers, fewer seeds or another length.
 
     The baseline (and its still-water twins) stays whatever ``controllers`` says, since the
-    aggregates are relative to it.
+    aggregates are relative to it. ``baseline`` names another controller of the campaign to
+    compare with (it then gets the still-water twins instead), e.g. ``lqri`` to isolate what
+    the wave feedforward of ``lqri_ff`` adds.
 
     Raises
     ------
@@ -434,18 +437,25 @@ def select(
         for n in asked or []:
             if n not in known:
                 raise CampaignError(f"--{what}s: no {what} {n!r} (names: {', '.join(known)})")
-    keep_ctrl = set(controllers or ctrl_names) | {spec.baseline}
+    if baseline is not None and baseline not in ctrl_names:
+        raise CampaignError(f"--baseline: no controller {baseline!r} (names: {ctrl_names})")
+    base = baseline or spec.baseline
+    twins = spec.twin_controllers
+    if baseline is not None and twins:
+        twins = [baseline]
+    keep_ctrl = set(controllers or ctrl_names) | {base}
     new = msgspec.structs.replace(
         spec,
+        baseline=base,
         cases=[c for c in spec.cases if cases is None or c.name in cases],
         controllers=[c for c in spec.controllers if c.name in keep_ctrl],
         seeds=seeds if seeds is not None else spec.seeds,
         duration_s=duration_s if duration_s is not None else spec.duration_s,
-        still_water_controllers=[n for n in spec.twin_controllers if n in keep_ctrl] or None,
+        still_water_controllers=[n for n in twins if n in keep_ctrl] or None,
     )
     src = Path(campaign.source)
-    base = src.parent if src.exists() else Path(__file__).parent / "campaigns"
-    return Campaign(spec=new, source=campaign.source, runs=expand(new, base))
+    base_dir = src.parent if src.exists() else Path(__file__).parent / "campaigns"
+    return Campaign(spec=new, source=campaign.source, runs=expand(new, base_dir))
 
 
 # --------------------------------------------------------------------------- one run (task)

@@ -97,6 +97,13 @@ def register(app: typer.Typer, console: Console) -> None:
         duration: Annotated[
             float | None, typer.Option("--duration", help="Simulated seconds per run.")
         ] = None,
+        baseline: Annotated[
+            str | None,
+            typer.Option(
+                "--baseline",
+                help="Compare with this controller instead (it gets the still-water twins).",
+            ),
+        ] = None,
         html: Annotated[bool, typer.Option(help="Write report.html.")] = True,
     ) -> None:
         """Run a campaign (cases x seeds x controllers) on Dask; tables, aggregates, report.
@@ -111,8 +118,8 @@ def register(app: typer.Typer, console: Console) -> None:
             raise typer.Exit(2)
         try:
             c = load_campaign(campaign)
-            if cases or controllers or seeds is not None or duration is not None:
-                c = select(c, _names(cases), _names(controllers), seeds, duration)
+            if cases or controllers or seeds is not None or duration is not None or baseline:
+                c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
         except CampaignError as exc:
             console.print(f"[red]error:[/] {exc}")
             raise typer.Exit(2) from exc
