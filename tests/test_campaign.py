@@ -190,6 +190,20 @@ def test_shipped_campaign_and_expansion() -> None:
     # the hash is the content: the same scenario under another run name hashes the same
     from hil.campaign import canonical_hash
 
+    # a reduced campaign against another controller: same runs, same hashes
+    from hil.campaign import select
+
+    sub = select(c, cases=["lc2"], controllers=["lqri_ff_bp"], seeds=1, baseline="lqri")
+    assert sub.spec.baseline == "lqri" and sub.spec.twin_controllers == ["lqri"]
+    assert sorted((r.controller, r.waves) for r in sub.runs) == [
+        ("lqri", "still"),
+        ("lqri", "waves"),
+        ("lqri_ff_bp", "waves"),
+    ]
+    ff_sub = next(r for r in sub.runs if r.controller == "lqri_ff_bp")
+    assert ff_sub.scenario_hash == by[("lc2", "waves", "lqri_ff_bp", 0)].scenario_hash
+    with pytest.raises(CampaignError, match="no controller 'pid'"):
+        select(c, baseline="pid")
     renamed = {**r0.scenario, "name": "other", "description": "other"}
     assert canonical_hash(renamed, "inprocess") == r0.scenario_hash
     assert canonical_hash(r0.scenario, "lockstep") != r0.scenario_hash
