@@ -139,11 +139,11 @@ def register(app: typer.Typer, console: Console) -> None:
             console.print(f"report:  {path}")
         console.print(f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}")
         console.print(f"aggregates: {out_dir / 'aggregates.json'}")
-        speed = result.simulated_s / result.tasks_wall_s if result.tasks_wall_s > 0 else 0.0
-        console.print(
-            f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall, "
-            f"{result.workers} worker(s): {speed:.1f} simulated s / wall s over the runs done"
-        )
+        line = f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall"
+        if result.tasks_wall_s > 0:
+            speed = result.simulated_s / result.tasks_wall_s
+            line += f", {result.workers} worker(s): {speed:.1f} simulated s / wall s"
+        console.print(line)
         if result.aggregates["runs"]["failed"]:
             raise typer.Exit(1)
 
