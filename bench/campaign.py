@@ -7,6 +7,8 @@ the baseline and the balanced wave feedforward, the baseline's still-water twins
 * throughput = Σ simulated seconds / wall seconds from the first submission to the last
   result (the cluster's start-up excluded; it is printed apart), for each worker count, and
   the ratio 2 workers / 1 worker (issue 11's target: >= 1.8 on this 2-core machine);
+* the CPU share of the runs (Σ CPU time of the worker processes / Σ run wall time): below 1
+  when other load on the machine takes the cores, which caps the speed-up;
 * Dask's overhead per task: (a) the round trip of a no-op task on the 2-worker cluster
   (submit -> result, tasks one after the other); (b) inside the campaign, the wall time per
   run not spent in :func:`hil.campaign.execute_run`,
@@ -52,6 +54,7 @@ def _measure(campaign: Any, workers: int) -> dict[str, Any]:
         total = time.monotonic() - t0
     sim = sum(s.scenario["duration_s"] for s in campaign.runs)
     run_wall = sum(float(r.get("wall_s", 0.0)) for r in res.results.values())
+    run_cpu = sum(float(r.get("cpu_s", 0.0)) for r in res.results.values())
     failed = res.aggregates["runs"]["failed"]
     if failed:
         raise SystemExit(f"{failed} run(s) failed")
@@ -64,6 +67,8 @@ def _measure(campaign: Any, workers: int) -> dict[str, Any]:
         "command_wall_s": total,
         "cluster_start_and_stop_s": total - res.tasks_wall_s,
         "sum_run_wall_s": run_wall,
+        "sum_run_cpu_s": run_cpu,
+        "cpu_share_of_run_wall": run_cpu / run_wall if run_wall > 0 else None,
         "throughput_sim_s_per_wall_s": sim / res.tasks_wall_s,
         "overhead_per_run_s": overhead,
     }

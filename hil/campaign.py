@@ -640,9 +640,11 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
     -------
     dict
         ``status``, ``error``, ``traceback``, ``summary`` (the review summary),
-        ``kpi``, ``psd``, ``wall_s``, ``worker`` (host:pid).
+        ``kpi``, ``psd``, ``wall_s``, ``cpu_s`` (the worker process's CPU time for the
+        run), ``worker`` (host:pid).
     """
     t0 = time.monotonic()
+    cpu0 = time.process_time()
     out: dict[str, Any] = {
         "status": "failed",
         "error": "",
@@ -676,6 +678,7 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
         out["error"] = f"{type(exc).__name__}: {exc}"
         out["traceback"] = traceback.format_exc()
     out["wall_s"] = time.monotonic() - t0
+    out["cpu_s"] = time.process_time() - cpu0  # this process's CPU time (lockstep: launcher only)
     return out
 
 
