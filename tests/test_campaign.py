@@ -187,12 +187,9 @@ def test_shipped_campaign_and_expansion() -> None:
     assert ff.scenario["controller"]["feedforward"] == "max_performance"
     hashes = [r.scenario_hash for r in c.runs]
     assert len(set(hashes)) == len(hashes)
-    # the hash is the content: the same scenario under another run name hashes the same
-    from hil.campaign import canonical_hash
+    from hil.campaign import canonical_hash, select
 
     # a reduced campaign against another controller: same runs, same hashes
-    from hil.campaign import select
-
     sub = select(c, cases=["lc2"], controllers=["lqri_ff_bp"], seeds=1, baseline="lqri")
     assert sub.spec.baseline == "lqri" and sub.spec.twin_controllers == ["lqri"]
     assert sorted((r.controller, r.waves) for r in sub.runs) == [
@@ -204,6 +201,7 @@ def test_shipped_campaign_and_expansion() -> None:
     assert ff_sub.scenario_hash == by[("lc2", "waves", "lqri_ff_bp", 0)].scenario_hash
     with pytest.raises(CampaignError, match="no controller 'pid'"):
         select(c, baseline="pid")
+    # the hash is the content: the same scenario under another run name hashes the same
     renamed = {**r0.scenario, "name": "other", "description": "other"}
     assert canonical_hash(renamed, "inprocess") == r0.scenario_hash
     assert canonical_hash(r0.scenario, "lockstep") != r0.scenario_hash
