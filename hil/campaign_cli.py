@@ -124,15 +124,20 @@ def register(app: typer.Typer, console: Console) -> None:
             console.print(f"[red]error:[/] {exc}")
             raise typer.Exit(2) from exc
         out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
-        result = run_campaign(
-            c,
-            out_dir,
-            scheduler=scheduler,
-            workers=workers,
-            record=record,  # type: ignore[arg-type]
-            resume=resume,
-            console=console,
-        )
+        try:
+            result = run_campaign(
+                c,
+                out_dir,
+                scheduler=scheduler,
+                workers=workers,
+                record=record,  # type: ignore[arg-type]
+                resume=resume,
+                console=console,
+            )
+        except (OSError, TimeoutError) as exc:
+            where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
+            console.print(f"[red]error:[/] cannot use {where}: {exc}")
+            raise typer.Exit(2) from exc
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
