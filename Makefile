@@ -42,6 +42,7 @@ bench: setup
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py
+	$(BIN)/python bench/campaign.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -1,5 +1,5 @@
-"""The ``fowt`` command: run, plant, controller, record, review, recover, scenarios, presets,
-analyze, preset.
+"""The ``fowt`` command: run, plant, controller, record, router, review, recover, scenarios,
+presets, analyze, preset, and campaign, compare, report (:mod:`hil.campaign_cli`).
 
 Bad input on the command line (an option's value, a scenario file) ends the command with one
 line on stderr, ``error: ...`` naming the option or the scenario key and what was expected, and
@@ -1087,6 +1087,15 @@ def preset_import_openfast(
     except (ValueError, OSError) as exc:
         _fail(str(exc))
     console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
+
+
+def _register_campaign_commands() -> None:
+    from hil.campaign_cli import register
+
+    register(app, console)
+
+
+_register_campaign_commands()
 
 
 def _click_base(name: str) -> type[Exception]:

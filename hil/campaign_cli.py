@@ -1,0 +1,217 @@
+"""The ``fowt campaign``, ``fowt compare`` and ``fowt report`` commands.
+
+Registered on the ``fowt`` Typer app by :func:`register` (kept out of :mod:`hil.cli` so the
+campaign work stays in its own files).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+
+def _names(text: str | None) -> list[str] | None:
+    return [n.strip() for n in text.split(",") if n.strip()] if text else None
+
+
+def render_aggregates(agg: dict[str, Any], console: Console) -> None:
+    """Print the Weibull-weighted aggregates: wave increment, relative and normalised."""
+    from hil import campaign_kpi as ck
+
+    kpis = list(ck.KPIS)
+    t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {agg['baseline']}")
+    t.add_column("KPI")
+    if agg.get("wave_increment"):
+        t.add_column("waves/still (baseline)", justify="right")
+    for ctrl in agg["relative"]:
+        t.add_column(f"{ctrl} relative", justify="right")
+        if agg["normalised"].get(ctrl):
+            t.add_column(f"{ctrl} P_n", justify="right")
+
+    def pct(v: Any, signed: bool = True) -> str:
+        if v is None or not math.isfinite(float(v)):
+            return "-"
+        return f"{100 * float(v):+.1f} %" if signed else f"{100 * float(v):.0f} %"
+
+    for k in kpis:
+        unit, _d, label = ck.KPIS[k]
+        row = [f"{label} [{unit}]"]
+        if agg.get("wave_increment"):
+            v = agg["wave_increment"][k]["weibull"]
+            row.append("-" if v is None or not math.isfinite(v) else f"{v:.3f}")
+        for ctrl, rel in agg["relative"].items():
+            row.append(pct(rel[k]["weibull"]))
+            if agg["normalised"].get(ctrl):
+                row.append(pct(agg["normalised"][ctrl][k]["weibull"], signed=False))
+        t.add_row(*row)
+    console.print(t)
+    for reason in agg.get("not_available", {}).values():
+        console.print(f"[yellow]not computed:[/] {reason}")
+    for reason in agg.get("notes", {}).values():
+        console.print(f"[yellow]note:[/] {reason}")
+    runs = agg["runs"]
+    console.print(f"runs: {runs['total']} ({runs['ok']} ok, {runs['failed']} failed)")
+
+
+def register(app: typer.Typer, console: Console) -> None:
+    """Add ``campaign``, ``compare`` and ``report`` to the ``fowt`` app."""
+
+    @app.command("campaign")
+    def campaign_cmd(
+        campaign: Annotated[
+            str, typer.Argument(help="Shipped campaign name (al2019-iea15mw) or a TOML file.")
+        ],
+        out: Annotated[
+            Path | None, typer.Option("--out", help="Output folder (runs/campaign-<name>).")
+        ] = None,
+        scheduler: Annotated[
+            str | None,
+            typer.Option(
+                "--scheduler",
+                help="tcp://HOST:PORT of a running Dask scheduler (default: a local cluster of"
+                " processes on 127.0.0.1, one per core).",
+            ),
+        ] = None,
+        workers: Annotated[
+            int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
+        ] = None,
+        record: Annotated[
+            str, typer.Option("--record", help="mcap (keep run.mcap) | none (summaries only).")
+        ] = "mcap",
+        resume: Annotated[
+            bool, typer.Option("--resume", help="Skip runs already done (same scenario hash).")
+        ] = False,
+        cases: Annotated[
+            str | None, typer.Option("--cases", help="Only these cases (comma-separated).")
+        ] = None,
+        controllers: Annotated[
+            str | None,
+            typer.Option("--controllers", help="Only these controllers (the baseline stays)."),
+        ] = None,
+        seeds: Annotated[int | None, typer.Option("--seeds", help="Seeds per case.")] = None,
+        duration: Annotated[
+            float | None, typer.Option("--duration", help="Simulated seconds per run.")
+        ] = None,
+        baseline: Annotated[
+            str | None,
+            typer.Option(
+                "--baseline",
+                help="Compare with this controller instead (it gets the still-water twins).",
+            ),
+        ] = None,
+        html: Annotated[bool, typer.Option(help="Write report.html.")] = True,
+    ) -> None:
+        """Run a campaign (cases x seeds x controllers) on Dask; tables, aggregates, report.
+
+        Exits 1 when a run failed (every other run still ran; the failures are in the table
+        with their error), 2 on a bad campaign file or option.
+        """
+        from hil.campaign import CampaignError, load_campaign, run_campaign, select
+
+        if record not in ("mcap", "none"):
+            console.print(f"[red]error:[/] --record {record!r}: expected mcap or none")
+            raise typer.Exit(2)
+        try:
+            c = load_campaign(campaign)
+            if cases or controllers or seeds is not None or duration is not None or baseline:
+                c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
+        except CampaignError as exc:
+            console.print(f"[red]error:[/] {exc}")
+            raise typer.Exit(2) from exc
+        out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
+        try:
+            result = run_campaign(
+                c,
+                out_dir,
+                scheduler=scheduler,
+                workers=workers,
+                record=record,  # type: ignore[arg-type]
+                resume=resume,
+                console=console,
+            )
+        except (OSError, TimeoutError) as exc:
+            where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
+            console.print(f"[red]error:[/] cannot use {where}: {exc}")
+            raise typer.Exit(2) from exc
+        render_aggregates(result.aggregates, console)
+        if html:
+            path = write_campaign_report(result, c)
+            console.print(f"report:  {path}")
+        console.print(f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}")
+        console.print(f"aggregates: {out_dir / 'aggregates.json'}")
+        line = f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall"
+        if result.tasks_wall_s > 0:
+            speed = result.simulated_s / result.tasks_wall_s
+            line += f", {result.workers} worker(s): {speed:.1f} simulated s / wall s"
+        console.print(line)
+        if result.aggregates["runs"]["failed"]:
+            raise typer.Exit(1)
+
+    @app.command("compare")
+    def compare_cmd(
+        runs: Annotated[list[Path], typer.Argument(help="Two or more run MCAP files.")],
+        out: Annotated[Path, typer.Option("--out", help="Output folder.")] = Path("compare"),
+    ) -> None:
+        """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
+        from hil.html_report import compare_runs, fmt
+
+        if len(runs) < 2:
+            console.print("[red]error:[/] give at least two MCAP files")
+            raise typer.Exit(2)
+        for p in runs:
+            if not p.is_file():
+                console.print(f"[red]error:[/] {p} is not a file")
+                raise typer.Exit(2)
+        try:
+            res = compare_runs(runs, out)
+        except ValueError as exc:
+            console.print(f"[red]error:[/] {exc}")
+            raise typer.Exit(2) from exc
+        labels = [r["label"] for r in res["runs"]]
+        t = Table(title="KPIs (Δ % vs run 0)")
+        t.add_column("KPI")
+        for lab in labels:
+            t.add_column(lab, justify="right")
+        for k, vals in res["kpi"].items():
+            cells = [fmt(vals[0])]
+            for v, d in zip(vals[1:], res["diff_pct"][k][1:], strict=True):
+                cells.append(f"{fmt(v)} ({'-' if d is None else f'{d:+.2f} %'})")
+            t.add_row(k, *cells)
+        console.print(t)
+        for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
+            console.print(f"wrote {out / name}")
+
+    @app.command("report")
+    def report_cmd(
+        mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+        out: Annotated[
+            Path | None, typer.Option("--out", help="HTML file (default: report.html beside it).")
+        ] = None,
+    ) -> None:
+        """One self-contained HTML report of a run (KPI tables, time series, timing, PSDs)."""
+        from hil.html_report import run_html
+
+        if not mcap.is_file():
+            console.print(f"[red]error:[/] {mcap} is not a file")
+            raise typer.Exit(2)
+        text, _summary = run_html(mcap)
+        path = out or mcap.parent / "report.html"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        console.print(f"report: {path}")
+
+
+def write_campaign_report(result: Any, campaign: Any) -> Path:
+    """Write ``report.html`` of a finished campaign (:class:`hil.campaign.CampaignResult`)."""
+    from hil.html_report import campaign_html
+
+    run_dirs = {(s.case, s.waves, s.controller, s.seed): s.rel_dir for s in campaign.runs}
+    text = campaign_html(result.aggregates, result.rows, result.results, run_dirs)
+    path: Path = result.out / "report.html"
+    path.write_text(text)
+    return path

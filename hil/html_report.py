@@ -1,0 +1,584 @@
+"""Self-contained HTML reports: a campaign, one run, a comparison of runs.
+
+One file each, no external resources: the figures are PNGs embedded as base64 data URIs and
+the style is inline, so the file opens anywhere (and offline). Campaign figures follow
+al-2019: the wave-induced increment per load case (figure 2-5), the relative performance of
+each controller vs the baseline per case (figure 5-1) and Weibull-weighted (figures 5-3 and
+5-5 top), the normalised performance of eq. (5-1) per case (figure 5-2) and Weibull-weighted
+(figures 5-3 and 5-5 bottom), and rotor-speed PSDs (figure 5-4, right).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hil import campaign_kpi as ck
+
+_STYLE = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px;
+color:#1b1b1b;max-width:1200px}
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ccc}
+table{border-collapse:collapse;margin:8px 0;font-size:0.85em}
+th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}
+th{background:#f0f0f0}td.l,th.l{text-align:left}
+.note{color:#555;font-size:0.9em}.bad{color:#b00020}
+img{max-width:100%;height:auto;border:1px solid #eee}
+"""
+
+
+def _esc(v: Any) -> str:
+    return html.escape(str(v))
+
+
+def fmt(v: Any, digits: int = 4) -> str:
+    """A number for a table: ``-`` for None/nan, 4 significant digits otherwise."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool | str):
+        return str(v)
+    if isinstance(v, int):
+        return str(v)
+    x = float(v)
+    if not math.isfinite(x):
+        return "-"
+    return f"{x:.{digits}g}"
+
+
+def pct(v: Any) -> str:
+    """A fraction as a signed percentage (``-`` for None/nan)."""
+    if v is None or not math.isfinite(float(v)):
+        return "-"
+    return f"{100.0 * float(v):+.1f} %"
+
+
+def pct_plain(v: Any) -> str:
+    """A fraction as a percentage without sign (``-`` for None/nan)."""
+    if v is None or not math.isfinite(float(v)):
+        return "-"
+    return f"{100.0 * float(v):.3g} %"
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], left: int = 1) -> str:
+    """An HTML table; the first ``left`` columns left-aligned, cells escaped."""
+    head = "".join(
+        f'<th class="l">{_esc(h)}</th>' if i < left else f"<th>{_esc(h)}</th>"
+        for i, h in enumerate(headers)
+    )
+    body = []
+    for r in rows:
+        cells = "".join(
+            f'<td class="l">{_esc(c)}</td>' if i < left else f"<td>{_esc(c)}</td>"
+            for i, c in enumerate(r)
+        )
+        body.append(f"<tr>{cells}</tr>")
+    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def png_data_uri(fig: Any, dpi: int = 90) -> str:
+    """A matplotlib figure as a ``data:image/png;base64,...`` URI (the figure is closed)."""
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def img(uri: str, alt: str) -> str:
+    """An ``<img>`` of a data URI."""
+    return f'<img src="{uri}" alt="{_esc(alt)}">'
+
+
+def file_img(path: Path, alt: str) -> str:
+    """An ``<img>`` embedding a PNG file."""
+    data = base64.b64encode(Path(path).read_bytes()).decode()
+    return img(f"data:image/png;base64,{data}", alt)
+
+
+def page(title: str, body: str) -> str:
+    """A complete HTML document."""
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{_esc(title)}</title><style>{_STYLE}</style></head>"
+        f"<body><h1>{_esc(title)}</h1>{body}</body></html>\n"
+    )
+
+
+def _pyplot() -> Any:
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    return plt
+
+
+def _bars(
+    groups: Sequence[str],
+    series: dict[str, list[Any]],
+    ylabel: str,
+    title: str,
+    ref: float | None = None,
+    scale: float = 1.0,
+    clip: tuple[float, float] | None = None,
+) -> str:
+    """Grouped bar chart (al-2019 style): x = KPI groups, one bar per series.
+
+    ``clip`` (unscaled): bars beyond it are drawn to the limit and labelled with their value.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(11, 3.6))
+    n = max(1, len(series))
+    width = 0.8 / n
+    x = np.arange(len(groups))
+    for i, (name, vals) in enumerate(series.items()):
+        v = np.array([np.nan if a is None else float(a) for a in vals]) * scale
+        xs = x + (i - (n - 1) / 2) * width
+        shown = np.nan_to_num(v)
+        if clip is not None:  # a ratio to a near-zero value would flatten every other bar
+            lo, hi = clip[0] * scale, clip[1] * scale
+            for xi, vi in zip(xs, shown, strict=True):
+                if vi > hi or vi < lo:
+                    ax.annotate(
+                        f"{vi:.3g}",
+                        (xi, min(max(vi, lo), hi)),
+                        fontsize=6,
+                        rotation=90,
+                        ha="center",
+                        va="top" if vi > hi else "bottom",
+                    )
+            shown = np.clip(shown, lo, hi)
+        ax.bar(xs, shown, width, label=name)
+    if ref is not None:
+        ax.axhline(ref * scale, color="k", lw=0.8)
+    ax.set_xticks(x, groups, fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=7, ncol=min(n, 8))
+    fig.tight_layout()
+    return png_data_uri(fig)
+
+
+# --------------------------------------------------------------------------- campaign
+
+
+def _mean_psd(psds: Sequence[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray] | None:
+    good = [p for p in psds if p and p.get("f_hz")]
+    if not good:
+        return None
+    n = min(len(p["f_hz"]) for p in good)
+    f = np.asarray(good[0]["f_hz"][:n])
+    return f, np.mean([np.asarray(p["pxx"][:n]) for p in good], axis=0)
+
+
+def campaign_html(
+    agg: dict[str, Any],
+    rows: Sequence[dict[str, Any]],
+    results: dict[str, dict[str, Any]] | None = None,
+    run_dirs: dict[tuple[str, str, str, int], str] | None = None,
+    extra: str = "",
+) -> str:
+    """The campaign report (one self-contained HTML page).
+
+    Parameters
+    ----------
+    agg : dict
+        :func:`hil.campaign.aggregate` output.
+    rows : sequence of dict
+        The results table (:func:`hil.campaign.row_of`).
+    results : dict, optional
+        Run folder -> task result (for the PSDs).
+    run_dirs : dict, optional
+        (case, waves, controller, seed) -> run folder, to find each row's result.
+    extra : str
+        HTML appended (e.g. a comparison with published figures).
+    """
+    kpis = list(ck.KPIS)
+    labels = [f"{ck.KPIS[k][2]} [{ck.KPIS[k][0]}]" for k in kpis]
+    short = [ck.KPIS[k][2] for k in kpis]
+    cases = list(agg["probabilities"])
+    base = agg["baseline"]
+    parts: list[str] = []
+    runs = agg["runs"]
+    parts.append(
+        f"<p>{runs['total']} runs: {runs['ok']} ok, "
+        f'<span class="{"bad" if runs["failed"] else ""}">{runs["failed"]} failed</span>. '
+        f"Baseline: <b>{_esc(base)}</b>. Load cases and occurrence probabilities: "
+        + ", ".join(f"{_esc(c)} {100 * p:.2f} %" for c, p in agg["probabilities"].items())
+        + ".</p>"
+    )
+    for reason in [*agg.get("not_available", {}).values(), *agg.get("notes", {}).values()]:
+        parts.append(f'<p class="note">{_esc(reason)}.</p>')
+    failed = [r for r in rows if r["status"] != "ok"]
+    if failed:
+        parts.append("<h2>Failed runs</h2>")
+        parts.append(
+            table(
+                ["case", "waves", "controller", "seed", "error"],
+                [[r["case"], r["waves"], r["controller"], r["seed"], r["error"]] for r in failed],
+                left=5,
+            )
+        )
+    # Weibull-weighted absolute values
+    parts.append("<h2>Weibull-weighted KPIs</h2>")
+    parts.append(
+        '<p class="note">X_W = Σ p_i X_i / Σ p_i over the load cases (means over seeds).</p>'
+    )
+    parts.append(
+        table(
+            ["configuration", *labels],
+            [[name, *[fmt(vals[k]) for k in kpis]] for name, vals in agg["weibull"].items()],
+        )
+    )
+    inc = agg.get("wave_increment") or {}
+    if inc:
+        parts.append("<h2>Wave-induced increment (baseline, waves / still water)</h2>")
+        parts.append(
+            '<p class="note">al-2019 table 2-5 and figure 2-5: X_waves / X_still with the '
+            "baseline; 1 = waves change nothing.</p>"
+        )
+        parts.append(
+            table(
+                ["KPI", *cases, "Weibull", "Σp·ratio"],
+                [
+                    [
+                        lab,
+                        *[fmt(inc[k]["per_case"].get(c), 3) for c in cases],
+                        fmt(inc[k]["weibull"], 3),
+                        fmt(inc[k]["weibull_of_cases"], 3),
+                    ]
+                    for k, lab in zip(kpis, labels, strict=True)
+                ],
+            )
+        )
+        series = {c: [inc[k]["per_case"].get(c) for k in kpis] for c in cases}
+        series["Weibull"] = [inc[k]["weibull"] for k in kpis]
+        parts.append(
+            img(
+                _bars(
+                    short,
+                    series,
+                    "waves / still [-]",
+                    "Wave-induced increment",
+                    ref=1.0,
+                    clip=(0.0, 10.0),
+                ),
+                "wave-induced increment per load case",
+            )
+        )
+    for ctrl, rel in agg["relative"].items():
+        parts.append(f"<h2>{_esc(ctrl)} vs {_esc(base)}</h2>")
+        norm = agg["normalised"].get(ctrl, {})
+        head = ["KPI", "relative, Weibull", "Σp·relative"]
+        if norm:
+            head += ["normalised P_n, Weibull", "Σp·P_n"]
+        body = []
+        for k, lab in zip(kpis, labels, strict=True):
+            row = [lab, pct(rel[k]["weibull"]), pct(rel[k]["weibull_of_cases"])]
+            if norm:
+                row += [pct_plain(norm[k]["weibull"]), pct_plain(norm[k]["weibull_of_cases"])]
+            body.append(row)
+        parts.append(
+            '<p class="note">relative = X_ctrl / X_base − 1 (al-2019 figures 5-1, 5-3/5-5 top); '
+            "P_n = (X_ctrl − X_still) / (X_base − X_still), eq. (5-1): 100 % = baseline in "
+            "waves, 0 % = baseline in still water (figures 5-2, 5-3/5-5 bottom). Weibull: "
+            "on the Weibull-weighted KPIs; Σp·: the weighted mean of the per-case values.</p>"
+        )
+        parts.append(table(head, body))
+        series = {c: [rel[k]["per_case"].get(c) for k in kpis] for c in cases}
+        series["Weibull"] = [rel[k]["weibull"] for k in kpis]
+        parts.append(
+            img(
+                _bars(
+                    short,
+                    series,
+                    "relative [%]",
+                    f"{ctrl}: relative to {base}",
+                    0.0,
+                    100.0,
+                    clip=(-1.0, 3.0),
+                ),
+                f"{ctrl} relative performance",
+            )
+        )
+        if norm:
+            series = {c: [norm[k]["per_case"].get(c) for k in kpis] for c in cases}
+            series["Weibull"] = [norm[k]["weibull"] for k in kpis]
+            parts.append(
+                img(
+                    _bars(
+                        short,
+                        series,
+                        "P_n [%]",
+                        f"{ctrl}: normalised (eq. 5-1)",
+                        1.0,
+                        100.0,
+                        clip=(-2.0, 3.0),
+                    ),
+                    f"{ctrl} normalised performance",
+                )
+            )
+    # per-case mean and spread
+    parts.append("<h2>Per load case: mean ± spread over seeds</h2>")
+    body = []
+    for case in cases:
+        for waves, block in agg["per_case"].get(case, {}).items():
+            for ctrl, vals in block.items():
+                body.append(
+                    [
+                        case,
+                        waves,
+                        ctrl,
+                        *[
+                            f"{fmt(vals[k]['mean'])} ± {fmt(vals[k]['spread'], 2)} "
+                            f"(n={vals[k]['n']})"
+                            for k in kpis
+                        ],
+                    ]
+                )
+    parts.append(table(["case", "waves", "controller", *labels], body, left=3))
+    # PSDs
+    if results and run_dirs:
+        parts.append("<h2>Rotor-speed PSD per load case (mean over seeds)</h2>")
+        parts.append(_psd_grid(rows, results, run_dirs, cases, base))
+    parts.append(extra)
+    return page(f"Campaign {agg['campaign']}", "".join(parts))
+
+
+def _psd_grid(
+    rows: Sequence[dict[str, Any]],
+    results: dict[str, dict[str, Any]],
+    run_dirs: dict[tuple[str, str, str, int], str],
+    cases: Sequence[str],
+    base: str,
+) -> str:
+    plt = _pyplot()
+    ncol = min(4, max(1, len(cases)))
+    nrow = math.ceil(len(cases) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.6 * nrow), squeeze=False)
+    configs = sorted(
+        {(r["waves"], r["controller"]) for r in rows},
+        key=lambda wc: (wc[0] != "waves", wc[1] != base, wc[1]),
+    )
+    for ax, case in zip(axes.flat, cases, strict=False):
+        for waves, ctrl in configs:
+            psds = []
+            for r in rows:
+                if (r["case"], r["waves"], r["controller"]) != (case, waves, ctrl):
+                    continue
+                res = results.get(run_dirs.get((case, waves, ctrl, r["seed"]), ""), {})
+                psds.append((res.get("psd") or {}).get("rotor_speed_rpm", {}))
+            m = _mean_psd(psds)
+            if m is not None:
+                ax.loglog(m[0], m[1], lw=0.9, label=f"{ctrl} ({waves})")
+        ax.set_title(case, fontsize=9)
+        ax.set_xlabel("f [Hz]", fontsize=8)
+        ax.set_ylabel("rpm²/Hz", fontsize=8)
+        ax.grid(True, which="both", alpha=0.2)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(cases) :]:
+        ax.axis("off")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="lower center", ncol=min(5, len(labels)), fontsize=7)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    return img(png_data_uri(fig), "rotor-speed PSDs per load case")
+
+
+# --------------------------------------------------------------------------- one run, compare
+
+
+def run_html(mcap_path: Path, out_dir: Path | None = None) -> tuple[str, dict[str, Any]]:
+    """The report of one run from its MCAP file: summary tables and the review's plots.
+
+    Returns
+    -------
+    (str, dict)
+        The HTML page and the review summary (with ``campaign_kpi``).
+    """
+    import tempfile  # noqa: PLC0415
+
+    from hil.mcap_log import read_run  # noqa: PLC0415
+    from hil.review import summarize, write_plots  # noqa: PLC0415
+
+    run = read_run(Path(mcap_path))
+    summary = summarize(run)
+    summary["campaign_kpi"] = _campaign_kpis(run, summary)
+    parts = [f"<p>Run log: <code>{_esc(mcap_path)}</code>. "]
+    sc = summary.get("scenario") or {}
+    parts.append(f"Scenario: <b>{_esc(sc.get('name'))}</b>.</p>")
+    if run.truncated:
+        parts.append(f'<p class="bad">The log is truncated: {_esc(run.error)}</p>')
+    for section in ("kpi", "campaign_kpi", "timing", "estimator", "forecast"):
+        vals = summary.get(section) or {}
+        flat = _flatten(vals)
+        if flat:
+            parts.append(f"<h2>{_esc(section)}</h2>")
+            parts.append(table(["key", "value"], [[k, fmt(v)] for k, v in flat]))
+    for reason in ck.NOT_AVAILABLE.values():
+        parts.append(f'<p class="note">{_esc(reason)}.</p>')
+    with tempfile.TemporaryDirectory(prefix="fowt-report-") as tmp:
+        d = Path(out_dir) if out_dir is not None else Path(tmp)
+        for png in write_plots(run, d):
+            parts.append(f"<h2>{_esc(png.stem)}</h2>")
+            parts.append(file_img(png, png.stem))
+    title = f"Run {sc.get('name') or Path(mcap_path).parent.name}"
+    return page(title, "".join(parts)), summary
+
+
+def _flatten(d: dict[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    out: list[tuple[str, Any]] = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out += _flatten(v, f"{prefix}{k}.")
+        elif not isinstance(v, list):
+            out.append((f"{prefix}{k}", v))
+    return out
+
+
+def _campaign_kpis(run: Any, summary: dict[str, Any]) -> dict[str, Any]:
+    """The campaign KPIs of a run read from its MCAP file (nan where not computable)."""
+    import msgspec  # noqa: PLC0415
+
+    from hil.campaign import run_kpis_of  # noqa: PLC0415
+    from hil.scenario import Scenario  # noqa: PLC0415
+
+    config = (summary.get("scenario") or {}).get("config")
+    try:
+        scenario = msgspec.convert(config, Scenario)
+    except (msgspec.ValidationError, TypeError, ValueError):
+        return {k: math.nan for k in ck.KPIS}
+    kpis: dict[str, Any] = run_kpis_of(run, scenario, None)["kpi"]
+    return kpis
+
+
+_COMPARE_SERIES = (
+    ("rotor_speed_rad_s", "rotor speed [rpm]", ck.RPM_PER_RAD_S),
+    ("blade_pitch_rad", "blade pitch [deg]", 180.0 / math.pi),
+    ("generator_torque_nm", "generator torque [MN m]", 1e-6),
+    ("electrical_power_w", "electrical power [MW]", 1e-6),
+    ("platform_pitch_rad", "platform pitch [deg]", 180.0 / math.pi),
+    ("tower_base_moment_nm", "tower-base moment [MN m]", 1e-6),
+)
+
+
+def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
+    """Compare runs: KPI table with % differences vs the first, overlaid series and PSDs.
+
+    Writes ``compare.json``, ``compare_timeseries.png``, ``compare_psd.png`` and
+    ``compare.html`` into ``out``.
+
+    Returns
+    -------
+    dict
+        ``runs`` (labels and paths), ``kpi[name] = [value per run]``,
+        ``diff_pct[name] = [100 (x_j / x_0 − 1) per run]`` (None where x_0 = 0 or missing).
+    """
+    import json  # noqa: PLC0415
+
+    from scipy.signal import welch  # noqa: PLC0415
+
+    from hil.mcap_log import read_run  # noqa: PLC0415
+    from hil.review import summarize  # noqa: PLC0415
+
+    out.mkdir(parents=True, exist_ok=True)
+    runs = []
+    labels: list[str] = []
+    kpi_rows: dict[str, list[Any]] = {}
+    for p in paths:
+        run = read_run(Path(p))
+        if not run.topic("truth"):
+            raise ValueError(f"{p}: no truth channel in the log ({run.error or 'empty'})")
+        s = summarize(run)
+        merged = {**{f"kpi.{k}": v for k, v in _flatten(s.get("kpi") or {})}}
+        merged.update({f"campaign.{k}": v for k, v in _campaign_kpis(run, s).items()})
+        merged["timing.deadline_misses"] = (s.get("timing") or {}).get("deadline_misses")
+        runs.append(run)
+        name = (s.get("scenario") or {}).get("name") or Path(p).parent.name
+        label = f"{len(labels)}: {name}"
+        labels.append(label)
+        for k, v in merged.items():
+            kpi_rows.setdefault(k, [None] * (len(labels) - 1)).append(v)
+        for vals in kpi_rows.values():
+            if len(vals) < len(labels):
+                vals.append(None)
+    diff: dict[str, list[Any]] = {}
+    for k, vals in kpi_rows.items():
+        ref = vals[0]
+        diff[k] = [
+            None
+            if not isinstance(ref, int | float)
+            or not isinstance(v, int | float)
+            or not math.isfinite(float(ref))
+            or not math.isfinite(float(v))
+            or ref == 0
+            else 100.0 * (float(v) / float(ref) - 1.0)
+            for v in vals
+        ]
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(_COMPARE_SERIES), 1, figsize=(11, 14), sharex=True)
+    fig2, axes2 = plt.subplots(3, 1, figsize=(10, 9))
+    for run, label in zip(runs, labels, strict=True):
+        truth = run.topic("truth")
+        t = np.array([m["sample_time_ns"] for m in truth], dtype=np.float64) / 1e9
+        for ax, (name, ylab, scale) in zip(axes, _COMPARE_SERIES, strict=True):
+            y = np.array([m.get(name, np.nan) for m in truth], dtype=np.float64) * scale
+            ax.plot(t, y, lw=0.8, label=label)
+            ax.set_ylabel(ylab, fontsize=8)
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+        for ax, (name, ylab, scale) in zip(
+            axes2, [_COMPARE_SERIES[0], _COMPARE_SERIES[4], _COMPARE_SERIES[5]], strict=True
+        ):
+            y = np.array([m.get(name, np.nan) for m in truth], dtype=np.float64) * scale
+            if t.size >= 64 and np.isfinite(y).all():
+                f, pxx = welch(y, fs=1.0 / dt, nperseg=min(t.size, round(256 / dt)))
+                sel = (f > 0) & (f <= 1.0)
+                ax.loglog(f[sel], pxx[sel], lw=0.9, label=label)
+            ax.set_ylabel(f"PSD of {ylab}", fontsize=8)
+    for ax in [*axes, *axes2]:
+        ax.grid(True, alpha=0.3)
+        if ax.lines:
+            ax.legend(fontsize=7)
+    axes[-1].set_xlabel("simulated time [s]")
+    axes2[-1].set_xlabel("frequency [Hz]")
+    fig.tight_layout()
+    fig2.tight_layout()
+    ts_path = out / "compare_timeseries.png"
+    psd_path = out / "compare_psd.png"
+    fig.savefig(ts_path, dpi=90)
+    fig2.savefig(psd_path, dpi=90)
+    plt.close(fig)
+    plt.close(fig2)
+    result = {
+        "runs": [{"label": lab, "path": str(p)} for lab, p in zip(labels, paths, strict=True)],
+        "kpi": kpi_rows,
+        "diff_pct": diff,
+    }
+    from hil.campaign import _json_clean  # noqa: PLC0415
+
+    (out / "compare.json").write_text(json.dumps(_json_clean(result), indent=1) + "\n")
+    head = ["KPI", *labels[:1], *[f"{lab} (Δ %)" for lab in labels[1:]]]
+    body = []
+    for k, vals in kpi_rows.items():
+        cells = [fmt(vals[0])]
+        for v, d in zip(vals[1:], diff[k][1:], strict=True):
+            cells.append(f"{fmt(v)} ({'-' if d is None else f'{d:+.2f}'})")
+        body.append([k, *cells])
+    body_html = (
+        table(head, body)
+        + "<h2>Time series</h2>"
+        + file_img(ts_path, "overlaid time series")
+        + "<h2>PSDs</h2>"
+        + file_img(psd_path, "PSDs")
+    )
+    (out / "compare.html").write_text(page("Comparison of runs", body_html))
+    return result
