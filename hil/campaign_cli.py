@@ -4,8 +4,6 @@ Registered on the ``fowt`` Typer app by :func:`register` (kept out of :mod:`hil.
 campaign work stays in its own files).
 """
 
-from __future__ import annotations
-
 import math
 from pathlib import Path
 from typing import Annotated, Any
@@ -59,15 +57,26 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
 
 
 def register(app: typer.Typer, console: Console) -> None:
-    """Add ``campaign``, ``compare`` and ``report`` to the ``fowt`` app."""
+    """Add ``campaign``, ``compare`` and ``report`` to the ``fowt`` app.
 
-    @app.command("campaign")
+    Called at the end of :mod:`hil.cli`, so its option checks (finite numbers, writable
+    paths, choices) are used here too: bad input is one line and exit code 2.
+    """
+    from hil import cli as _cli
+    from hil.scenario import MAX_DURATION_S
+
+    @app.command("campaign", short_help="Run a campaign of cases x seeds x controllers on Dask.")
     def campaign_cmd(
         campaign: Annotated[
             str, typer.Argument(help="Shipped campaign name (al2019-iea15mw) or a TOML file.")
         ],
         out: Annotated[
-            Path | None, typer.Option("--out", help="Output folder (runs/campaign-<name>).")
+            Path | None,
+            typer.Option(
+                "--out",
+                help="Output folder (runs/campaign-<name>).",
+                callback=_cli._writable("folder"),
+            ),
         ] = None,
         scheduler: Annotated[
             str | None,
@@ -78,10 +87,16 @@ def register(app: typer.Typer, console: Console) -> None:
             ),
         ] = None,
         workers: Annotated[
-            int | None, typer.Option("--workers", help="Local worker processes (default: cores).")
+            int | None,
+            typer.Option("--workers", help="Local worker processes (default: cores).", min=1),
         ] = None,
         record: Annotated[
-            str, typer.Option("--record", help="mcap (keep run.mcap) | none (summaries only).")
+            str,
+            typer.Option(
+                "--record",
+                help="mcap (keep run.mcap) | none (summaries only).",
+                callback=_cli._choice("mcap", "none"),
+            ),
         ] = "mcap",
         resume: Annotated[
             bool, typer.Option("--resume", help="Skip runs already done (same scenario hash).")
@@ -93,9 +108,16 @@ def register(app: typer.Typer, console: Console) -> None:
             str | None,
             typer.Option("--controllers", help="Only these controllers (the baseline stays)."),
         ] = None,
-        seeds: Annotated[int | None, typer.Option("--seeds", help="Seeds per case.")] = None,
+        seeds: Annotated[
+            int | None, typer.Option("--seeds", help="Seeds per case.", min=1, max=10_000)
+        ] = None,
         duration: Annotated[
-            float | None, typer.Option("--duration", help="Simulated seconds per run.")
+            float | None,
+            typer.Option(
+                "--duration",
+                help="Simulated seconds per run.",
+                callback=_cli._number("s", gt=0.0, le=MAX_DURATION_S),
+            ),
         ] = None,
         baseline: Annotated[
             str | None,
@@ -152,10 +174,13 @@ def register(app: typer.Typer, console: Console) -> None:
         if result.aggregates["runs"]["failed"]:
             raise typer.Exit(1)
 
-    @app.command("compare")
+    @app.command("compare", short_help="Compare runs: KPIs, time series, PSDs.")
     def compare_cmd(
         runs: Annotated[list[Path], typer.Argument(help="Two or more run MCAP files.")],
-        out: Annotated[Path, typer.Option("--out", help="Output folder.")] = Path("compare"),
+        out: Annotated[
+            Path,
+            typer.Option("--out", help="Output folder.", callback=_cli._writable("folder")),
+        ] = Path("compare"),
     ) -> None:
         """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
         from hil.html_report import compare_runs, fmt
@@ -186,11 +211,16 @@ def register(app: typer.Typer, console: Console) -> None:
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
             console.print(f"wrote {out / name}")
 
-    @app.command("report")
+    @app.command("report", short_help="Write a self-contained HTML report of a run.")
     def report_cmd(
         mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
         out: Annotated[
-            Path | None, typer.Option("--out", help="HTML file (default: report.html beside it).")
+            Path | None,
+            typer.Option(
+                "--out",
+                help="HTML file (default: report.html beside it).",
+                callback=_cli._writable("file"),
+            ),
         ] = None,
     ) -> None:
         """One self-contained HTML report of a run (KPI tables, time series, timing, PSDs)."""
