@@ -16,6 +16,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	# ROSCO's compiled controller (kind = "rosco"): the wheel's libdiscon only, without the
+	# toolbox's dependencies (--no-deps keeps the install small).
+	$(BIN)/python -m pip install --quiet --no-deps 'rosco==2.10.*'
 	touch $(STAMP)
 
 run: setup

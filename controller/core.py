@@ -143,7 +143,7 @@ class Controller(Protocol[StateT]):
 
 def available_controllers() -> tuple[str, ...]:
     """Names accepted by :func:`make_controller` as ``kind``."""
-    return ("baseline", "lqri", "lqri_ff")
+    return ("baseline", "lqri", "lqri_ff", "rosco")
 
 
 def make_controller(
@@ -155,6 +155,9 @@ def make_controller(
     feedforward: str | None = None,
     gauge_distance_m: float | None = None,
     design_dir: str | None = None,
+    library: str | None = None,
+    parameter_file: str | None = None,
+    output_dir: str | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -178,6 +181,10 @@ def make_controller(
     design_dir : str or None
         Folder of design artefacts searched after the shipped ones (advanced kinds; None:
         only the shipped designs and the user design cache, ``$FOWT_DESIGN_DIR``).
+    library, parameter_file, output_dir : str or None
+        ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
+        (None: the shipped one named by ``preset``) and the folder for its files
+        (:func:`controller.rosco.make_rosco_controller`).
 
     Returns
     -------
@@ -206,6 +213,13 @@ def make_controller(
             gauge_distance_m=gauge_distance_m,
             feedforward=ff,  # type: ignore[arg-type]
             design_dir=design_dir,
+        )
+    # --- kind "rosco": a DISCON library through the Bladed swap array (controller/rosco.py)
+    if kind == "rosco":
+        from controller.rosco import make_rosco_controller  # noqa: PLC0415
+
+        return make_rosco_controller(
+            preset, library=library, parameter_file=parameter_file, output_dir=output_dir
         )
     raise ValueError(
         f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
@@ -252,6 +266,11 @@ def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:
     TypeError
         For a controller of another type.
     """
+    # A core that knows its own limits (kind "rosco": controller/rosco.py) says them.
+    own = getattr(controller, "actuator_limits", None)
+    if callable(own):
+        limits: ActuatorLimits = own()
+        return limits
     from controller.baseline import BaselineController  # noqa: PLC0415
 
     if isinstance(controller, BaselineController):
