@@ -30,9 +30,11 @@ Fortran output buffering
 ------------------------
 ROSCO writes its debug files through libgfortran, which buffers them. The bench reads the
 newest line after every call (ROSCO's wind-speed estimate and state machine, see
-:mod:`controller.rosco`), so :data:`UNBUFFERED_ENV` is set before the first library is
-loaded: libgfortran reads it once, when it is loaded, and then writes every record at the
-end of its ``WRITE`` statement.
+:mod:`controller.rosco`), so after every call it asks libgfortran to flush all its units
+(``_gfortran_flush_i4(NULL)``, what Fortran's ``FLUSH`` intrinsic calls), when the library
+depends on libgfortran. (libgfortran's ``GFORTRAN_UNBUFFERED_ALL`` would need setting
+before that library is first loaded into the process, and numpy or scipy may have loaded
+the same libgfortran already.)
 
 This module does no I/O other than loading libraries and has no clock.
 """
@@ -40,7 +42,6 @@ This module does no I/O other than loading libraries and has no clock.
 from __future__ import annotations
 
 import ctypes
-import os
 import shutil
 import tempfile
 import threading
@@ -49,7 +50,6 @@ from pathlib import Path
 __all__ = [
     "MSG_CAPACITY",
     "SWAP_SIZE",
-    "UNBUFFERED_ENV",
     "DisconError",
     "DisconLibrary",
     "DisconLoadError",
@@ -61,8 +61,6 @@ __all__ = [
 SWAP_SIZE = 3000
 #: Capacity of the message buffer (characters, NUL included), passed in record 49.
 MSG_CAPACITY = 1025
-#: libgfortran's switch that writes every record at once (see the module docstring).
-UNBUFFERED_ENV = "GFORTRAN_UNBUFFERED_ALL"
 
 _ORIGINALS: dict[str, ctypes.CDLL] = {}
 _LOAD_LOCK = threading.Lock()
@@ -94,7 +92,6 @@ class DisconLoadError(DisconError, ValueError):
 
 def _load(path: Path) -> ctypes.CDLL:
     """Load a private copy of ``path`` (module docstring); raise DisconLoadError if unusable."""
-    os.environ.setdefault(UNBUFFERED_ENV, "1")
     key = str(path)
     with _LOAD_LOCK:
         if key not in _ORIGINALS:
@@ -158,6 +155,11 @@ class DisconLibrary:
             ctypes.c_char_p,
         ]
         self._fn = fn
+        flush = getattr(self._lib, "_gfortran_flush_i4", None)  # None: not a gfortran build
+        if flush is not None:
+            flush.restype = None
+            flush.argtypes = [ctypes.c_void_p]
+        self._flush = flush
         self.swap = (ctypes.c_float * SWAP_SIZE)()
         self._fail = ctypes.c_int(0)
         self.infile = str(Path(infile).expanduser().resolve()).encode()
@@ -186,6 +188,8 @@ class DisconLibrary:
         self._fail.value = 0
         self._msg[0] = b"\0"
         self._fn(sw, ctypes.byref(self._fail), self._infile_z, self._outname_z, self._msg)
+        if self._flush is not None:
+            self._flush(None)  # every Fortran unit written out (module docstring)
         self.calls += 1
         status = self._fail.value
         msg = "" if status == 0 else self._msg.value.decode("utf-8", "replace").strip()
