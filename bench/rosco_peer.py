@@ -119,7 +119,7 @@ def settled(r: dict[str, Any], seconds: float) -> dict[str, float]:
 
 def cmp_steady(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
     rows = []
-    print("\nsteady wind, NREL 5 MW bottom-fixed: ROSCO | baseline (last %.0f s)" % args.settle)
+    print(f"\nsteady wind, NREL 5 MW bottom-fixed: ROSCO | baseline (last {args.settle:.0f} s)")
     print(
         f"{'U':>5} {'rpm R':>7} {'rpm B':>7} {'P R':>6} {'P B':>6} {'pitch R':>8} "
         f"{'pitch B':>8} {'dpitch':>7} {'TSR R':>6} {'TSR B':>6} {'reg R':>5} {'reg B':>5}"
@@ -231,7 +231,11 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
     presets = Path(aero.__file__).parent / "presets"
     table = aero.read_rosco_table(presets / "iea15mw_cp_ct_cq.txt")
     scaled = aero.PerformanceTable(
-        table.pitch_rad, table.tsr, 0.95 * table.cp, table.ct, 0.95 * table.cq,
+        table.pitch_rad,
+        table.tsr,
+        0.95 * table.cp,
+        table.ct,
+        0.95 * table.cq,
         table.wind_speeds_m_s,
     )
     aero.write_rosco_table(scaled, tmp / "iea15mw_cp095.txt", "IEA 15 MW, Cp and Cq x 0.95")
@@ -253,7 +257,10 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
         k = r["status_t"] >= args.wse_skip
         truth = np.interp(r["status_t"][k], r["t"], r["wind_speed_m_s"])
         err = (r["wind_est"][k] - truth) / np.mean(truth)
-        rows[kind] = {"mean_error_pct": float(100 * np.mean(err)), "rms_error_pct": float(100 * np.sqrt(np.mean(err**2)))}
+        rows[kind] = {
+            "mean_error_pct": float(100 * np.mean(err)),
+            "rms_error_pct": float(100 * np.sqrt(np.mean(err**2))),
+        }
     print(
         f"\nwind-speed estimate, IEA 15 MW VolturnUS-S, turbulent {args.wse_wind} m/s class B, "
         f"plant Cp x 0.95, {args.wse_duration:.0f} s (first {args.wse_skip:.0f} s skipped); "
@@ -294,6 +301,9 @@ def _dump_toml(d: dict[str, Any], prefix: str = "") -> str:
     return "\n".join(lines)
 
 
+COMPARISONS = {"steady": cmp_steady, "step": cmp_step, "floating": cmp_floating, "wse": cmp_wse}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", default=["steady", "step", "floating", "wse"])
@@ -316,7 +326,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="fowt-rosco-peer-") as td:
         tmp = Path(td)
         for name in args.only:
-            results[name] = {"steady": cmp_steady, "step": cmp_step, "floating": cmp_floating, "wse": cmp_wse}[name](args, tmp)
+            results[name] = {
+                "steady": cmp_steady,
+                "step": cmp_step,
+                "floating": cmp_floating,
+                "wse": cmp_wse,
+            }[name](args, tmp)
             results[name]["measured"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
             path.write_text(json.dumps(results, indent=2) + "\n")
     print(f"\nsaved {path}")

@@ -94,11 +94,13 @@ This module never imports ``plant``.
 
 from __future__ import annotations
 
+import ctypes
 import importlib.util
 import logging
 import math
 import os
 import tempfile
+import threading
 from collections import Counter
 from dataclasses import dataclass, field
 from importlib import resources
@@ -146,6 +148,11 @@ __all__ = [
 RUN_DIR_ENV = "FOWT_RUN_DIR"
 _PRESET_PACKAGE = "controller.presets.rosco"
 _log = logging.getLogger("fowt.rosco")
+#: Root names in use by the instances of this process (see RoscoController.root_name).
+_ROOT_NAMES: set[str] = set()
+_NAMES_LOCK = threading.Lock()
+#: Start-up phase [s]: how long the actuators are held while the first call runs.
+STARTUP_HOLD_S = 1.0
 
 #: ROSCO ``VS_State`` -> bench regime code (module docstring).
 VS_STATE_REGIME = {
@@ -495,9 +502,16 @@ class RoscoState:
     warnings: Counter[str] = field(default_factory=Counter)
     dbg: _DebugTail | None = None
     dbg2: _DebugTail | None = None
+    init_thread: threading.Thread | None = None
+    init_result: tuple[int, str] | None = None
+    held_frames: int = 0
+    init_checked: bool = False
+    degraded: bool = False
 
     def close(self) -> None:
         """Final call (status -1, as ServoDyn's last call) and close the debug files."""
+        if self.init_thread is not None:
+            self.init_thread.join()
         if self.library.calls > 0:
             self.library.swap[0] = -1.0
             self.library.call()
@@ -531,9 +545,21 @@ class RoscoController:
         )
 
     def root_name(self, instance: int) -> Path:
-        """``avcOUTNAME`` of instance ``instance`` (its files: ``<stem>.RO.dbg`` ...)."""
-        stem = "rosco" if instance == 1 else f"rosco-{instance}"
-        return self.settings.output_dir / f"{stem}.SrvD"
+        """``avcOUTNAME`` of instance ``instance`` (its files: ``<stem>.RO.dbg`` ...).
+
+        ``rosco.SrvD`` for the first, ``rosco-<n>.SrvD`` after; a name another instance of
+        this process already holds (two controllers writing to one folder) takes the next
+        free number, since libgfortran stops the whole process when two units open one file.
+        """
+        n = instance
+        while True:
+            stem = "rosco" if n == 1 else f"rosco-{n}"
+            path = self.settings.output_dir / f"{stem}.SrvD"
+            with _NAMES_LOCK:
+                if str(path) not in _ROOT_NAMES:
+                    _ROOT_NAMES.add(str(path))
+                    return path
+            n += 1
 
     def initial_state(self) -> RoscoState:
         """Load a fresh private copy of the library (its first call comes with the next step).
@@ -545,9 +571,10 @@ class RoscoController:
         """
         self._instances += 1
         n = self._instances
-        lib = DisconLibrary(self.settings.library, self.params.path, self.root_name(n))
+        root = self.root_name(n)
+        lib = DisconLibrary(self.settings.library, self.params.path, root)
         state = RoscoState(library=lib, instance=n)
-        stem = self.root_name(n).with_suffix("")
+        stem = root.with_suffix("")
         if self.params.logging_level >= 1:
             state.dbg = _DebugTail(
                 stem.with_name(stem.name + ".RO.dbg"), ("WE_Vw", "GenSpeedF", "PC_MinPit")
@@ -570,27 +597,18 @@ class RoscoController:
             out.append(v)
         return out, (mask & _CORE_BITS) != _CORE_BITS
 
-    def step(
-        self, state: RoscoState, measurement: SensorFrame, dt_s: float
-    ) -> tuple[RoscoState, ControlOutput]:
-        """Fill the swap array, call the library once, read the demands back.
-
-        Raises
-        ------
-        controller.discon.DisconError
-            When the library returns ``aviFAIL`` < 0 (with its message) or a non-finite
-            demand.
-        """
+    def _fill(
+        self, state: RoscoState, frame: SensorFrame, dt_s: float, *, first: bool
+    ) -> ctypes.Array[ctypes.c_float]:
+        """Write the frame into the swap array (module docstring's table); return it."""
         p = self.params
-        lib = state.library
-        sw = lib.swap
+        sw = state.library.swap
         (gen, rot, pitch, torque, power, wind, acc, ptfm_pitch, ptfm_rate, surge), degraded = (
-            self._held(state, measurement)
+            self._held(state, frame)
         )
-        first = lib.calls == 0
-        t = measurement.sample_time_ns * 1e-9
+        state.degraded = degraded
         sw[0] = 0.0 if first else 1.0
-        sw[1] = t
+        sw[1] = frame.sample_time_ns * 1e-9
         sw[2] = dt_s
         sw[3] = sw[32] = sw[33] = pitch
         sw[4] = p.pc_fine_pit_rad
@@ -621,12 +639,21 @@ class RoscoController:
         sw[1000] = surge
         sw[1004] = ptfm_pitch
         sw[1010] = ptfm_rate
-        status, msg = lib.call()
+        return sw
+
+    @staticmethod
+    def _first_call(state: RoscoState) -> None:
+        """The instance's first call (status 0), run in the start-up thread."""
+        state.init_result = state.library.call()
+
+    def _check(self, state: RoscoState, status: int, msg: str, frame: SensorFrame) -> None:
+        """Raise on ``aviFAIL`` < 0; log each distinct warning (``aviFAIL`` > 0) once."""
+        t = frame.sample_time_ns * 1e-9
         if status < 0:
             raise DisconError(
-                f"DISCON library {lib.path} failed at t = {t:.3f} s (aviFAIL = {status}): "
-                f"{msg or '(no message)'}",
-                library=str(lib.path),
+                f"DISCON library {state.library.path} failed at t = {t:.3f} s "
+                f"(aviFAIL = {status}): {msg or '(no message)'}",
+                library=str(state.library.path),
                 status=status,
                 msg=msg,
             )
@@ -634,6 +661,59 @@ class RoscoController:
             state.warnings[msg] += 1
             if state.warnings[msg] == 1:
                 _log.warning("DISCON warning at t = %.3f s (aviFAIL = %d): %s", t, status, msg)
+
+    def _hold(self, state: RoscoState, frame: SensorFrame) -> ControlOutput:
+        """Start-up command: the actuators where they are (measured, held when invalid)."""
+        p = self.params
+        values, degraded = self._held(state, frame)
+        pitch = min(max(values[2], p.pc_min_pit_rad), p.pc_max_pit_rad)
+        torque = max(values[3], 0.0)
+        state.last_pitch_command_rad = pitch
+        regime = REGIME_REGION_3 if pitch >= p.pc_min_pit_rad + p.pc_switch_rad else REGIME_REGION_2
+        return ControlOutput(
+            blade_pitch_commanded_rad=pitch,
+            generator_torque_commanded_nm=torque,
+            regime=regime,
+            generator_speed_filtered_rad_s=values[0],
+            pitch_integrator_rad=0.0,
+            gain_schedule_factor=1.0,
+            estimator_degraded=int(degraded),
+        )
+
+    def step(
+        self, state: RoscoState, measurement: SensorFrame, dt_s: float
+    ) -> tuple[RoscoState, ControlOutput]:
+        """Fill the swap array, call the library once, read the demands back.
+
+        Raises
+        ------
+        controller.discon.DisconError
+            When the library returns ``aviFAIL`` < 0 (with its message) or a non-finite
+            demand.
+        """
+        p = self.params
+        lib = state.library
+        if lib.calls == 0 and state.init_thread is None:  # first frame: start-up phase
+            self._fill(state, measurement, dt_s, first=True)
+            state.init_thread = threading.Thread(
+                target=self._first_call, args=(state,), name="rosco-first-call", daemon=True
+            )
+            state.init_thread.start()
+        if state.held_frames < max(1, math.ceil(STARTUP_HOLD_S / dt_s - 1e-9)):
+            state.held_frames += 1  # a fixed count, whenever the thread ends: deterministic
+            return state, self._hold(state, measurement)
+        if not state.init_checked:
+            assert state.init_thread is not None
+            state.init_thread.join()  # due now (in real time, usually long done)
+            state.init_checked = True
+            assert state.init_result is not None
+            self._check(state, *state.init_result, measurement)
+        sw = self._fill(state, measurement, dt_s, first=False)
+        last_cmd = state.last_pitch_command_rad
+        pitch = sw[3]
+        t = measurement.sample_time_ns * 1e-9
+        status, msg = lib.call()
+        self._check(state, status, msg, measurement)
         pitch_cmd = float(sw[44])
         torque_cmd = float(sw[46]) if sw[34] != 0.0 else 0.0
         if not (math.isfinite(pitch_cmd) and math.isfinite(torque_cmd)):
@@ -647,6 +727,7 @@ class RoscoController:
         # ROSCO's internals from its debug files (module docstring).
         est_mask = 0
         wind_est = 0.0
+        gen = float(sw[19])
         gen_f = gen
         min_pitch = p.pc_min_pit_rad
         if state.dbg is not None and state.dbg.poll():
@@ -674,6 +755,6 @@ class RoscoController:
             pitch_integrator_rad=0.0,
             gain_schedule_factor=1.0,
             estimates_valid_mask=est_mask,
-            estimator_degraded=int(degraded),
+            estimator_degraded=int(state.degraded),
             wind_speed_estimated_m_s=wind_est,
         )

@@ -35,7 +35,9 @@ except DisconLoadError:
 needs_rosco = pytest.mark.skipif(
     ROSCO_LIB is None, reason="the rosco wheel is not installed (make setup installs it)"
 )
-needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc to build the test DISCON")
+needs_gcc = pytest.mark.skipif(
+    shutil.which("gcc") is None, reason="no gcc to build the test DISCON"
+)
 
 # A Bladed-style controller: pitch = measured pitch + 0.01 rad, torque = 2 x measured torque;
 # counts its calls in static memory and returns the count in record 120; writes the strings
@@ -110,20 +112,26 @@ def test_swap_array_mapping_and_private_instances(tmp_path: Path) -> None:
         "nrel5mw", library=str(lib), output_dir=tmp_path / "out"
     )  # the NREL DISCON.IN only supplies limits here
     a, b = ctrl.initial_state(), ctrl.initial_state()
-    for k in range(3):
+    hold = 40  # start-up phase: 1 s at 40 Hz, actuators held while the first call runs
+    for k in range(hold):
+        a, out = ctrl.step(a, _frame(k), 0.025)
+        assert out.blade_pitch_commanded_rad == pytest.approx(0.05)  # measured, held
+        assert out.generator_torque_commanded_nm == pytest.approx(40_000.0)
+    for k in range(hold, hold + 2):
         a, out = ctrl.step(a, _frame(k), 0.025)
     assert out.blade_pitch_commanded_rad == pytest.approx(0.06, abs=1e-6)  # record 45
     assert out.generator_torque_commanded_nm == pytest.approx(80_000.0)  # record 47
     sw = a.library.swap
-    assert sw[0] == 1.0 and sw[1] == pytest.approx(0.05) and sw[2] == pytest.approx(0.025)
+    assert sw[0] == 1.0 and sw[1] == pytest.approx(1.025) and sw[2] == pytest.approx(0.025)
     assert sw[19] == 100.0 and sw[20] == 1.0 and sw[22] == 40_000.0 and sw[26] == 10.0
     assert sw[3] == sw[32] == sw[33] == pytest.approx(0.05)
     assert sw[14] == 4e6 and sw[52] == pytest.approx(0.1) and sw[60] == 3.0
     assert sw[82] == pytest.approx(0.001 / 0.025, rel=1e-5)  # d(pitch rate)/dt
     assert sw[1000] == 3.0 and sw[1004] == pytest.approx(0.02)
-    assert sw[119] == 3.0  # this instance was called 3 times
-    b, _ = ctrl.step(b, _frame(0), 0.025)
-    assert b.library.swap[119] == 1.0  # its own static memory
+    assert sw[119] == 3.0  # this instance was called 3 times: first call, then 2
+    for k in range(hold + 1):
+        b, _ = ctrl.step(b, _frame(k), 0.025)
+    assert b.library.swap[119] == 2.0  # its own static memory
     seen = (tmp_path / "out" / "rosco.SrvD.seen").read_text().splitlines()
     assert seen[0] == str(shipped_parameter_files()["nrel5mw"])
     assert seen[1] == str(tmp_path / "out" / "rosco.SrvD")
@@ -181,7 +189,9 @@ def test_missing_library_and_malformed_parameter_file(
 ) -> None:
     bad = tmp_path / "DISCON.IN"
     good = shipped_parameter_files()["nrel5mw"].read_text()
-    bad.write_text(good.replace("0.174500000000                           ! PC_MaxRat", "fast ! PC_MaxRat"))
+    bad.write_text(
+        good.replace("0.174500000000                           ! PC_MaxRat", "fast ! PC_MaxRat")
+    )
     text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n' + lines.format(bad=bad) + "\n")
     with pytest.raises(RunFailedError, match=expected):
         launch(_run_request(tmp_path, text, "inprocess"))
