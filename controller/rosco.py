@@ -94,7 +94,9 @@ This module never imports ``plant``.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import importlib.metadata
 import importlib.util
 import logging
 import math
@@ -327,20 +329,27 @@ def default_library() -> Path:
         If the ``rosco`` package is not installed or ships no library; the message says how
         to install it (``pip install --no-deps 'rosco==2.10.*'``, which ``make setup`` runs).
     """
-    spec = importlib.util.find_spec("rosco")
-    locations = list(spec.submodule_search_locations or []) if spec is not None else []
     hint = (
         "install ROSCO's compiled controller with `pip install --no-deps 'rosco==2.10.*'` "
         '(make setup does), or name a library with [controller] library = "path/to/'
         'libdiscon.so"'
     )
-    if not locations:
+    # The installed distribution's files (a script named rosco.py on sys.path cannot hide it),
+    # then the import system's view of a `rosco` package.
+    roots: list[Path] = []
+    with contextlib.suppress(importlib.metadata.PackageNotFoundError):
+        roots.append(Path(str(importlib.metadata.distribution("rosco").locate_file("rosco"))))
+    spec = importlib.util.find_spec("rosco")
+    if spec is not None and spec.submodule_search_locations:
+        roots.append(Path(next(iter(spec.submodule_search_locations))))
+    if not roots:
         raise DisconLoadError(f"no ROSCO library: the `rosco` package is not installed; {hint}")
-    for name in ("libdiscon.so", "libdiscon.dylib", "libdiscon.dll"):
-        lib = Path(locations[0]) / "lib" / name
-        if lib.is_file():
-            return lib
-    raise DisconLoadError(f"the `rosco` package at {locations[0]} has no lib/libdiscon; {hint}")
+    for root in roots:
+        for name in ("libdiscon.so", "libdiscon.dylib", "libdiscon.dll"):
+            lib = root / "lib" / name
+            if lib.is_file():
+                return lib
+    raise DisconLoadError(f"the `rosco` package at {roots[0]} has no lib/libdiscon; {hint}")
 
 
 # --------------------------------------------------------------------------- settings
