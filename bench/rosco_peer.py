@@ -12,9 +12,10 @@ Four comparisons, each run in process (deterministic: the same numbers as lock-s
 4. ``wse``: wind-speed estimation with the plant's Cp table scaled by 0.95 (a model
    mismatch the controllers do not know): ROSCO's EKF (``WE_Mode`` = 2, from its debug
    file, on the status channel) and the bench's EKF (``lqri``'s observer) against the
-   true rotor-effective wind; mean and RMS error. Turbulent IEC class B wind on
-   the floating IEA 15 MW (the bench's EKF belongs to the advanced controller, which needs
-   a floating plant). Mean winds 9 and 14 m/s; ROSCO's own flag ``WE_Op`` (its EKF
+   true rotor-effective wind; mean and RMS error. On the floating IEA 15 MW (the bench's EKF
+   belongs to the advanced controller, which needs a floating plant), two cases: steady wind
+   in still water (the model mismatch alone) and IEC class B turbulence with load case 2's
+   waves. Mean winds 9 and 14 m/s; ROSCO's own flag ``WE_Op`` (its EKF
    operating, or its fall-back to the filtered anemometer) from its ``.RO.dbg2``.
 
 Usage::
@@ -244,43 +245,54 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
     text = text.replace('table_file = "iea15mw_cp_ct_cq.txt"', 'table_file = "iea15mw_cp095.txt"')
     tdir = tmp / "iea15mw_cp095.toml"
     tdir.write_text(text)
-    base = load_scenario("iea15mw-lc2")
-    out: dict[str, Any] = {"cp_scale": 0.95, "duration_s": args.wse_duration, "winds": {}}
+    out: dict[str, Any] = {"cp_scale": 0.95, "duration_s": args.wse_duration, "cases": {}}
     print(
-        f"\nwind-speed estimate, IEA 15 MW VolturnUS-S, turbulent class B, plant Cp x 0.95, "
-        f"{args.wse_duration:.0f} s (first {args.wse_skip:.0f} s skipped); error relative to "
-        "the mean true rotor-effective wind"
+        f"\nwind-speed estimate, IEA 15 MW VolturnUS-S, plant Cp x 0.95, {args.wse_duration:.0f} s "
+        f"(first {args.wse_skip:.0f} s skipped); error relative to the mean true "
+        "rotor-effective wind"
     )
-    for wind in args.wse_winds:
-        rows: dict[str, Any] = {}
-        for kind, preset in (("rosco", "iea15mw_volturnus"), ("lqri", "iea15mw_advanced")):
-            ctrl = msgspec.structs.replace(base.controller, kind=kind, preset=preset)
-            sc = msgspec.structs.replace(
-                base, controller=ctrl, duration_s=args.wse_duration, turbine=str(tdir)
-            )
-            sc = msgspec.structs.replace(sc, wind=msgspec.structs.replace(sc.wind, mean_m_s=wind))
-            run_dir = tmp / f"wse-{kind}-{wind}"
-            r = run(sc, run_dir)
-            k = r["status_t"] >= args.wse_skip
-            truth = np.interp(r["status_t"][k], r["t"], r["wind_speed_m_s"])
-            err = (r["wind_est"][k] - truth) / np.mean(truth)
-            rows[kind] = {
-                "mean_error_pct": float(100 * np.mean(err)),
-                "rms_error_pct": float(100 * np.sqrt(np.mean(err**2))),
-            }
-            if kind == "rosco":  # ROSCO's own flag: EKF operating (1) or anemometer fallback
-                op = _dbg2_column(run_dir / "rosco.RO.dbg2", "WE_Op", args.wse_skip)
-                rows[kind]["we_op_fraction"] = float(np.mean(op == 1.0)) if op.size else None
-            print(
-                f"  {wind:4.1f} m/s {kind:<6} mean {rows[kind]['mean_error_pct']:+.2f} %, "
-                f"RMS {rows[kind]['rms_error_pct']:.2f} %"
-                + (
-                    f", EKF operating {100 * rows[kind]['we_op_fraction']:.1f} % of the time"
-                    if rows[kind].get("we_op_fraction") is not None
-                    else ""
+    from hil.scenario import SteadyWindSpec
+
+    for case in ("steady-still", "turbulent-lc2"):
+        base = load_scenario("iea15mw-still-water" if case == "steady-still" else "iea15mw-lc2")
+        for wind in args.wse_winds:
+            rows: dict[str, Any] = {}
+            for kind, preset in (("rosco", "iea15mw_volturnus"), ("lqri", "iea15mw_advanced")):
+                ctrl = msgspec.structs.replace(base.controller, kind=kind, preset=preset)
+                if case == "steady-still":
+                    wspec: Any = SteadyWindSpec(speed_m_s=wind)
+                else:
+                    wspec = msgspec.structs.replace(base.wind, mean_m_s=wind)
+                sc = msgspec.structs.replace(
+                    base,
+                    controller=ctrl,
+                    duration_s=args.wse_duration,
+                    turbine=str(tdir),
+                    wind=wspec,
                 )
-            )
-        out["winds"][str(wind)] = rows
+                run_dir = tmp / f"wse-{case}-{kind}-{wind}"
+                r = run(sc, run_dir)
+                k = r["status_t"] >= args.wse_skip
+                truth = np.interp(r["status_t"][k], r["t"], r["wind_speed_m_s"])
+                err = (r["wind_est"][k] - truth) / np.mean(truth)
+                rows[kind] = {
+                    "mean_error_pct": float(100 * np.mean(err)),
+                    "rms_error_pct": float(100 * np.sqrt(np.mean(err**2))),
+                }
+                if kind == "rosco":  # ROSCO's flag: EKF operating (1) or anemometer fallback
+                    op = _dbg2_column(run_dir / "rosco.RO.dbg2", "WE_Op", args.wse_skip)
+                    rows[kind]["we_op_fraction"] = float(np.mean(op == 1.0)) if op.size else None
+                print(
+                    f"  {case:<14} {wind:4.1f} m/s {kind:<6} "
+                    f"mean {rows[kind]['mean_error_pct']:+.2f} %, "
+                    f"RMS {rows[kind]['rms_error_pct']:.2f} %"
+                    + (
+                        f", EKF operating {100 * rows[kind]['we_op_fraction']:.1f} % of the time"
+                        if rows[kind].get("we_op_fraction") is not None
+                        else ""
+                    )
+                )
+            out["cases"][f"{case}-{wind:g}"] = rows
     return out
 
 
@@ -342,7 +354,7 @@ def main() -> None:
     ap.add_argument("--floating-duration", type=float, default=600.0)
     ap.add_argument("--wse-duration", type=float, default=300.0)
     ap.add_argument("--wse-winds", type=float, nargs="*", default=[9.0, 14.0])
-    ap.add_argument("--wse-skip", type=float, default=30.0)
+    ap.add_argument("--wse-skip", type=float, default=100.0)
     args = ap.parse_args()
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / "rosco_peer.json"

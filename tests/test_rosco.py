@@ -178,15 +178,25 @@ def test_library_failure_ends_the_run_with_its_message(tmp_path: Path, mode: str
 
 
 @pytest.mark.parametrize(
-    ("lines", "expected"),
+    ("lines", "expected", "mode"),
     [
-        ('library = "/nonexistent/libdiscon.so"', "DISCON library not found: /nonexistent"),
-        ("parameter_file = '{bad}'", "parameter 'PC_MaxRat' = 'fast' is not a number"),
+        (
+            'library = "/nonexistent/libdiscon.so"',
+            "DISCON library not found: /nonexistent",
+            "inprocess",
+        ),
+        (
+            'library = "/nonexistent/libdiscon.so"',
+            "DISCON library not found: /nonexistent",
+            "lockstep",
+        ),
+        ("parameter_file = '{bad}'", "parameter 'PC_MaxRat' = 'fast' is not a number", "inprocess"),
     ],
 )
 def test_missing_library_and_malformed_parameter_file(
-    tmp_path: Path, lines: str, expected: str
+    tmp_path: Path, lines: str, expected: str, mode: str
 ) -> None:
+    """Refused before the run starts, with the file and parameter named; the MCAP reviews."""
     bad = tmp_path / "DISCON.IN"
     good = shipped_parameter_files()["nrel5mw"].read_text()
     bad.write_text(
@@ -194,7 +204,7 @@ def test_missing_library_and_malformed_parameter_file(
     )
     text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n' + lines.format(bad=bad) + "\n")
     with pytest.raises(RunFailedError, match=expected):
-        launch(_run_request(tmp_path, text, "inprocess"))
+        launch(_run_request(tmp_path, text, mode))  # type: ignore[arg-type]
     summary = review(tmp_path / "run" / "run.mcap", plots=False)
     assert summary["timing"]["cycles"] == 0
 
