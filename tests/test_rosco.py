@@ -288,3 +288,32 @@ def test_library_error_is_a_value_error() -> None:
     with pytest.raises(DisconLoadError, match="not found"):
         make_rosco_controller("nrel5mw", library="/nonexistent/lib.so")
     assert issubclass(DisconLoadError, ValueError) and issubclass(DisconLoadError, DisconError)
+
+
+@needs_rosco
+def test_watchdog_restart_loads_a_fresh_rosco(tmp_path: Path) -> None:
+    """Frames missing -> safe mode; after K healthy frames the core restarts: a new private
+    copy of the library (first call again, its files rosco-2.RO.*), rate-limited transfer."""
+    text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n', duration=10.0).replace(
+        "[timing]\n", "[timing]\nwatchdog_misses = 3\nwatchdog_recover_cycles = 5\n"
+    )
+    scenario = parse_scenario(text)
+    runtime = ControllerRuntime(scenario, run_dir=tmp_path, paced=False)
+    limits = runtime.limits
+    assert limits.pitch_max_rad == pytest.approx(1.57) and limits.pitch_rate_max_rad_s == 0.1745
+    modes = []
+    for k in [*range(60), *range(64, 140)]:  # frames 60..63 lost: 4 misses > 3
+        frame = _frame(
+            k,
+            generator_speed_measured_rad_s=122.9,
+            rotor_speed_measured_rad_s=1.267,
+            wind_speed_measured_m_s=18.0,
+            blade_pitch_measured_rad=0.26,
+            generator_torque_measured_nm=43_000.0,
+        )
+        out = runtime.handle_frame(frame)
+        assert out is not None
+        modes.append(out[0].mode)
+    assert runtime.safe_entries == 1 and 2 in modes and modes[-1] in (0, 1)
+    assert (tmp_path / "rosco.RO.dbg").is_file() and (tmp_path / "rosco-2.RO.dbg").is_file()
+    assert runtime.state.instance == 2
