@@ -83,6 +83,7 @@ def run(scenario: Scenario, run_dir: Path) -> dict[str, Any]:
         "tip_speed_ratio",
         "wind_speed_m_s",
         "platform_pitch_rad",
+        "power_coefficient",
     ):
         out[name] = np.array([getattr(m, name) for m in truth])
     out["status_t"] = np.array([m.sample_time_ns * 1e-9 for m in status])
@@ -245,6 +246,11 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
     text = text.replace('table_file = "iea15mw_cp_ct_cq.txt"', 'table_file = "iea15mw_cp095.txt"')
     tdir = tmp / "iea15mw_cp095.toml"
     tdir.write_text(text)
+    # The floating plant takes its rotor from the platform preset's `turbine`: point it there.
+    ptext = (presets / "floating" / "iea15mw_volturnus.toml").read_text()
+    assert 'turbine = "iea15mw"' in ptext
+    pdir = tmp / "iea15mw_volturnus_cp095.toml"
+    pdir.write_text(ptext.replace('turbine = "iea15mw"', f'turbine = "{tdir}"'))
     out: dict[str, Any] = {"cp_scale": 0.95, "duration_s": args.wse_duration, "cases": {}}
     print(
         f"\nwind-speed estimate, IEA 15 MW VolturnUS-S, plant Cp x 0.95, {args.wse_duration:.0f} s "
@@ -268,6 +274,7 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
                     controller=ctrl,
                     duration_s=args.wse_duration,
                     turbine=str(tdir),
+                    platform=str(pdir),
                     wind=wspec,
                 )
                 run_dir = tmp / f"wse-{case}-{kind}-{wind}"
@@ -278,6 +285,9 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
                 rows[kind] = {
                     "mean_error_pct": float(100 * np.mean(err)),
                     "rms_error_pct": float(100 * np.sqrt(np.mean(err**2))),
+                    "plant_cp_mean": float(
+                        np.mean(r["power_coefficient"][r["t"] >= args.wse_skip])
+                    ),
                 }
                 if kind == "rosco":  # ROSCO's flag: EKF operating (1) or anemometer fallback
                     op = _dbg2_column(run_dir / "rosco.RO.dbg2", "WE_Op", args.wse_skip)

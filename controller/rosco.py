@@ -71,6 +71,18 @@ ROSCO keeps both inside; it writes them to its debug files when DISCON.IN's
 
 ``pitch_integrator_rad`` is 0 and ``gain_schedule_factor`` 1 (not reported by ROSCO).
 
+Start-up phase
+--------------
+ROSCO's first call (status 0) reads DISCON.IN and its Cp table: 60-230 ms on this machine,
+several control periods. So on an instance's first frame the core fills the swap array and
+runs that call in a thread (ctypes releases the GIL), and answers the first
+``ceil(STARTUP_HOLD_S / dt)`` frames (1 s) with the actuators where they are (the measured
+pitch and torque; regime by ROSCO's region-3 rule from the DISCON.IN); the next frame joins
+the thread (in real time long finished; in lock-step it may wait) and is ROSCO's second call
+(status 1). The count is fixed, whatever the thread's duration, so lock-step and in-process
+runs stay identical. ROSCO was initialised from the first frame and sees the time jump by
+1 s to the second; its filters and integrators step with the period of record 3.
+
 Not a pure core
 ---------------
 A DISCON library keeps its state in its own static memory, so the state this core hands
