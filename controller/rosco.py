@@ -75,7 +75,8 @@ Start-up phase
 --------------
 ROSCO's first call (status 0) reads DISCON.IN and its Cp table: 60-230 ms on this machine,
 several control periods. So on an instance's first frame the core fills the swap array and
-runs that call in a thread (ctypes releases the GIL), and answers the first
+lets that call run in a thread started with the instance (ctypes releases the GIL; the
+thread runs under the normal scheduling policy), and answers the first
 ``ceil(STARTUP_HOLD_S / dt)`` frames (1 s) with the actuators where they are (the measured
 pitch and torque; regime by ROSCO's region-3 rule from the DISCON.IN); the next frame joins
 the thread (in real time long finished; in lock-step it may wait) and is ROSCO's second call
@@ -524,6 +525,8 @@ class RoscoState:
     dbg: _DebugTail | None = None
     dbg2: _DebugTail | None = None
     init_thread: threading.Thread | None = None
+    init_go: threading.Event = field(default_factory=threading.Event)
+    init_started: bool = False
     init_result: tuple[int, str] | None = None
     held_frames: int = 0
     init_checked: bool = False
@@ -532,6 +535,9 @@ class RoscoState:
     def close(self) -> None:
         """Final call (status -1, as ServoDyn's last call) and close the debug files."""
         if self.init_thread is not None:
+            if not self.init_started:  # never stepped: let the waiting thread end
+                self.init_result = (0, "")
+                self.init_go.set()
             self.init_thread.join()
         if self.library.calls > 0:
             self.library.swap[0] = -1.0
@@ -595,6 +601,10 @@ class RoscoController:
         root = self.root_name(n)
         lib = DisconLibrary(self.settings.library, self.params.path, root)
         state = RoscoState(library=lib, instance=n)
+        state.init_thread = threading.Thread(
+            target=self._first_call, args=(state,), name=f"rosco-first-call-{n}", daemon=True
+        )
+        state.init_thread.start()
         stem = root.with_suffix("")
         if self.params.logging_level >= 1:
             state.dbg = _DebugTail(
@@ -664,8 +674,22 @@ class RoscoController:
 
     @staticmethod
     def _first_call(state: RoscoState) -> None:
-        """The instance's first call (status 0), run in the start-up thread."""
-        state.init_result = state.library.call()
+        """The start-up thread: wait for the first frame, then make the first call (status 0).
+
+        Started with the instance, before any frame, so the first frame only sets an event
+        (no thread start and no wait on the control path). A controller process under
+        ``SCHED_FIFO`` (``--realtime-priority``) passes its policy to this thread; the thread
+        drops to the normal policy (Linux applies ``sched_setscheduler(0, ...)`` to the
+        calling thread only), so its 0.1-0.5 s of parsing neither competes with the control
+        loop at real-time priority nor uses up the real-time CPU budget
+        (``sched_rt_runtime_us``) that the loop's threads share.
+        """
+        with contextlib.suppress(AttributeError, OSError):
+            if os.sched_getscheduler(0) in (os.SCHED_FIFO, os.SCHED_RR):
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        state.init_go.wait()
+        if state.init_result is None:  # None unless closed before the first frame
+            state.init_result = state.library.call()
 
     def _check(self, state: RoscoState, status: int, msg: str, frame: SensorFrame) -> None:
         """Raise on ``aviFAIL`` < 0; log each distinct warning (``aviFAIL`` > 0) once."""
@@ -714,12 +738,10 @@ class RoscoController:
         """
         p = self.params
         lib = state.library
-        if lib.calls == 0 and state.init_thread is None:  # first frame: start-up phase
+        if not state.init_started:  # first frame: the start-up thread makes the first call
             self._fill(state, measurement, dt_s, first=True)
-            state.init_thread = threading.Thread(
-                target=self._first_call, args=(state,), name="rosco-first-call", daemon=True
-            )
-            state.init_thread.start()
+            state.init_started = True
+            state.init_go.set()
         if state.held_frames < max(1, math.ceil(STARTUP_HOLD_S / dt_s - 1e-9)):
             state.held_frames += 1  # a fixed count, whenever the thread ends: deterministic
             return state, self._hold(state, measurement)
