@@ -479,11 +479,15 @@ class _DebugTail:
             return False
         self._partial = data[end + 1 :]
         start = data.rfind("\n", 0, end) + 1
-        toks = data[start:end].split()
-        try:
-            self.values = {n: float(toks[i]) for n, i in self.index.items()}
-        except (IndexError, ValueError):
-            return False
+        line = data[start:end]
+        try:  # ROSCO's fixed layout: column i at [25 i, 25 i + 20) (F20.5 / ES20.5, TR5)
+            self.values = {n: float(line[25 * i : 25 * i + 20]) for n, i in self.index.items()}
+        except ValueError:
+            toks = line.split()  # another layout: whitespace-separated columns
+            try:
+                self.values = {n: float(toks[i]) for n, i in self.index.items()}
+            except (IndexError, ValueError):
+                return False
         return True
 
     def close(self) -> None:
