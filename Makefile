@@ -44,6 +44,7 @@ bench: setup
 	$(BIN)/python bench/inprocess_speed.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
+	$(BIN)/python bench/rosco.py --realtime-priority $(RTPRIO)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
