@@ -317,3 +317,15 @@ def test_watchdog_restart_loads_a_fresh_rosco(tmp_path: Path) -> None:
     assert runtime.safe_entries == 1 and 2 in modes and modes[-1] in (0, 1)
     assert (tmp_path / "rosco.RO.dbg").is_file() and (tmp_path / "rosco-2.RO.dbg").is_file()
     assert runtime.state.instance == 2
+
+
+@needs_rosco
+def test_rosco_tracks_its_tip_speed_ratio_in_region_2(tmp_path: Path) -> None:
+    """NREL 5 MW at 8 m/s: ROSCO's torque law (VS_ControlMode 2) tracks VS_TSRopt = 7.5
+    through its own wind-speed estimate (settled TSR within 0.5 %, last 10 s of 60 s)."""
+    truth, status, _ = _collect(
+        _scenario('kind = "rosco"\npreset = "nrel5mw"\n', duration=60.0, wind=8.0), tmp_path
+    )
+    tsr = np.mean([s.tip_speed_ratio for s in truth[-400:]])
+    assert tsr == pytest.approx(7.5, rel=0.005)
+    assert {s.regime for s in status[-400:]} == {2}
