@@ -16,6 +16,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	# ROSCO's compiled controller (kind = "rosco"): the wheel's libdiscon only, without the
+	# toolbox's dependencies (--no-deps keeps the install small).
+	$(BIN)/python -m pip install --quiet --no-deps 'rosco==2.10.*'
 	touch $(STAMP)
 
 run: setup
@@ -43,6 +46,7 @@ bench: setup
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py
 	$(BIN)/python bench/campaign.py
+	$(BIN)/python bench/rosco.py --realtime-priority $(RTPRIO)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -47,6 +47,9 @@ class ControllerOptions:
         Distance of the wave gauge up-wave of the platform [m] (None: the preset's).
     design_dir : str or None
         Extra folder of design artefacts (advanced kinds).
+    library, parameter_file, output_dir : str or None
+        ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
+        (None: the shipped one named by ``preset``) and the folder for its files.
     """
 
     kind: str
@@ -56,6 +59,9 @@ class ControllerOptions:
     feedforward: str | None = None
     gauge_distance_m: float | None = None
     design_dir: str | None = None
+    library: str | None = None
+    parameter_file: str | None = None
+    output_dir: str | None = None
 
 
 def _baseline(o: ControllerOptions) -> Controller[Any]:
@@ -78,10 +84,19 @@ def _advanced(o: ControllerOptions) -> Controller[Any]:
     )
 
 
+def _rosco(o: ControllerOptions) -> Controller[Any]:
+    from controller.rosco import make_rosco_controller  # noqa: PLC0415
+
+    return make_rosco_controller(
+        o.preset, library=o.library, parameter_file=o.parameter_file, output_dir=o.output_dir
+    )
+
+
 CONTROLLER_KINDS: dict[str, Callable[[ControllerOptions], Controller[Any]]] = {
     "baseline": _baseline,
     "lqri": _advanced,
     "lqri_ff": _advanced,
+    "rosco": _rosco,
 }
 """``kind`` -> constructor: the one place a controller kind is registered."""
 
@@ -100,6 +115,9 @@ def make_controller(
     feedforward: str | None = None,
     gauge_distance_m: float | None = None,
     design_dir: str | None = None,
+    library: str | None = None,
+    parameter_file: str | None = None,
+    output_dir: str | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -123,6 +141,10 @@ def make_controller(
     design_dir : str or None
         Folder of design artefacts searched after the shipped ones (advanced kinds; None:
         only the shipped designs and the user design cache, ``$FOWT_DESIGN_DIR``).
+    library, parameter_file, output_dir : str or None
+        ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
+        (None: the shipped one named by ``preset``) and the folder for its files
+        (:func:`controller.rosco.make_rosco_controller`).
 
     Returns
     -------
@@ -150,6 +172,9 @@ def make_controller(
             feedforward=feedforward,
             gauge_distance_m=gauge_distance_m,
             design_dir=design_dir,
+            library=library,
+            parameter_file=parameter_file,
+            output_dir=output_dir,
         )
     )
 

@@ -77,6 +77,7 @@ import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
+from controller.discon import DisconError
 from controller.interface import REGIME_SAFE
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
@@ -129,6 +130,9 @@ class ControllerRuntime:
         delivery seen (module docstring).
     log : callable, optional
         Receives the watchdog's messages (entering and leaving the safe mode).
+    run_dir : str or Path, optional
+        The run's folder, where a ``"rosco"`` core's library writes its files (None: the
+        core's default, ``$FOWT_RUN_DIR``; :mod:`controller.rosco`).
 
     Raises
     ------
@@ -146,6 +150,7 @@ class ControllerRuntime:
         paced: bool | None = None,
         same_host_clock: bool = True,
         log: Callable[[str], None] | None = None,
+        run_dir: str | Path | None = None,
     ) -> None:
         c = scenario.controller
         waves = scenario.waves
@@ -157,6 +162,9 @@ class ControllerRuntime:
             feedforward=c.feedforward,
             gauge_distance_m=waves.gauge_distance_m if waves is not None else None,
             design_dir=None if design_dir is None else str(design_dir),
+            library=c.library,
+            parameter_file=c.parameter_file,
+            output_dir=None if run_dir is None else str(run_dir),
         )
         self.state: Any = self.controller.initial_state()
         self.dt_s = scenario.timing.control_period_s
@@ -511,8 +519,10 @@ def run_controller_node(
         runtime = ControllerRuntime(
             scenario, same_host_clock=bus_config.config_file is None, log=log
         )
-    except DesignNotFoundError as exc:
+    except (DesignNotFoundError, DisconError) as exc:
         raise SystemExit(f"error: {exc}") from exc
+    except ValueError as exc:  # e.g. a malformed DISCON.IN: the message names it
+        raise SystemExit(f"error: controller {scenario.controller.kind!r}: {exc}") from exc
     for level, line in feedforward_notice(scenario):
         log(f"{level}: {line}" if level != "info" else line)
     # ``bus_factory``: a Zenoh Bus, or a CAN run's HybridBus (sensors and commands on CAN,
@@ -525,9 +535,19 @@ def run_controller_node(
     reason = ["timeout"]
     lock = threading.Lock()
 
+    failure: list[DisconError] = []
+
     def on_frame(_key: str, payload: bytes) -> None:
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
-            result = runtime.handle_payload(payload)
+            if failure:
+                return
+            try:
+                result = runtime.handle_payload(payload)
+            except DisconError as exc:  # a DISCON library's aviFAIL < 0 ends the run
+                failure.append(exc)
+                reason[0] = "controller failed"
+                done.set()
+                return
             if result is None:
                 return
             command, status = result
@@ -580,6 +600,8 @@ def run_controller_node(
         plant_watch.undeclare()
         token.undeclare()
         bus.close()
+    if failure:
+        raise SystemExit(f"error: {failure[0]}")
     rt = runtime
     log(
         f"controller stopped ({reason[0]}): {rt.accepted} cycles, rejected {dict(rt.rejected)}; "

@@ -82,6 +82,8 @@ from rich.table import Table
 
 from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, TIMING_SUMMARY
+from controller.discon import DisconError
+from controller.rosco import RUN_DIR_ENV
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
 from hil.can_bus import (
     CanBusConfig,
@@ -238,7 +240,7 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         If the design fails (its output is in the message).
     """
     c = scenario.controller
-    if c.kind == "baseline":
+    if c.kind not in ("lqri", "lqri_ff"):  # only the advanced controller has designs
         return None
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
     from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
@@ -367,15 +369,21 @@ def _run_inprocess(
     toml_text: str,
     design_dir: Path | None = None,
 ) -> None:
-    # The controller first: a core that cannot be built must not leave the log's writer
-    # thread running (the process would never exit).
-    runtime = ControllerRuntime(scenario, design_dir=design_dir)
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
         {"scenario": scenario_metadata(scenario, toml_text), "run": info},
     )
     publish = log.publish
+    # A core that cannot be built closes the log (its writer would keep the process alive)
+    # and the run fails with the reason; the MCAP file stays reviewable.
+    try:
+        runtime = ControllerRuntime(scenario, design_dir=design_dir, run_dir=mcap_path.parent)
+    except BaseException as exc:
+        log.close()
+        if isinstance(exc, ValueError | DisconError):  # e.g. a DISCON library or DISCON.IN
+            raise RunFailedError(f"controller {scenario.controller.kind!r}: {exc}") from exc
+        raise
 
     def step(frame: SensorFrame) -> ActuatorCommand | None:
         result = runtime.handle_frame(frame)
@@ -388,6 +396,8 @@ def _run_inprocess(
 
     try:
         run_inprocess(scenario, publish, step)
+    except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
+        raise RunFailedError(f"controller failed: {exc}; the run up to it: {mcap_path}") from exc
     finally:
         log.close()
 
@@ -475,6 +485,7 @@ def _run_processes(
         from controller.lqri import DESIGN_DIR_ENV  # noqa: PLC0415
 
         env[DESIGN_DIR_ENV] = str(design_dir)
+    env[RUN_DIR_ENV] = str(out.resolve())  # a DISCON library's files go to the run's folder
     ref = _scenario_ref(req.scenario)
     # CAN run: the three nodes join the same CAN bus (sensor frame and command on CAN).
     can_args = can_config(req, scenario).cli_args() if req.transport == "can" else []
@@ -545,7 +556,7 @@ def _run_processes(
             start(name)
         if driver is not None:
             driver.start_clock()
-        _follow(procs, scenario, plant_ep, console, driver, start)
+        _follow(procs, scenario, plant_ep, console, driver, start, logs)
         rc = procs["plant"].wait()
         if driver is not None and driver.expected(procs["plant"]):
             driver.wait_for_others(procs, console)
@@ -584,6 +595,7 @@ def _follow(
     console: Console,
     driver: ProcessFaultDriver | None = None,
     start: Callable[[str], subprocess.Popen[bytes]] | None = None,
+    logs: Path | None = None,
 ) -> None:
     """Show progress (simulated time from the plant's timing summaries) until the plant exits.
 
@@ -633,7 +645,9 @@ def _follow(
                     proc = procs[name]
                     rc = proc.poll()
                     if rc is not None and rc != 0 and not (driver and driver.expected(proc)):
-                        raise RunFailedError(f"{name} exited with {rc} during the run")
+                        raise RunFailedError(
+                            f"{name} exited with {rc} during the run{_last_error(logs, name)}"
+                        )
                 if driver is not None and start is not None:
                     driver.step(procs, start, console)
                 progress.update(task, completed=latest["sim_s"], misses=latest["misses"])
@@ -649,6 +663,18 @@ def _follow(
             with contextlib.suppress(Exception):  # the session may already be going away
                 token.undeclare()
         bus.close()
+
+
+def _last_error(logs: Path | None, name: str) -> str:
+    """``": <the last 'error:' line of its log>"``, or "" (for a failed process's message)."""
+    if logs is None:
+        return ""
+    with contextlib.suppress(OSError):
+        text = (logs / f"{name}.log").read_text(errors="replace")
+        lines = [ln.strip() for ln in text.splitlines() if ln.startswith("error:")]
+        if lines:
+            return f": {lines[-1]} (log: {logs / f'{name}.log'})"
+    return ""
 
 
 def _utc() -> str:

@@ -454,12 +454,26 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
     ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
     ``[waves] gauge_distance_m``.
+
+    ``"rosco"``: a Bladed-style DISCON library (:mod:`controller.rosco`); ``preset`` names
+    a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
+    gives one; ``library`` a user's build (default: the ``rosco`` wheel's ``libdiscon``).
+    Relative paths are taken from the working directory of ``fowt run``.
     """
 
-    kind: Literal["baseline", "lqri", "lqri_ff"] = "baseline"
+    kind: Literal["baseline", "lqri", "lqri_ff", "rosco"] = "baseline"
     preset: str = "nrel5mw_baseline"
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"
+    library: str | None = None
+    parameter_file: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
+            raise ValueError(
+                "controller.library and controller.parameter_file are used only by "
+                f"kind = 'rosco' (kind is {self.kind!r})"
+            )
 
 
 class CanSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -542,7 +556,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
-        if self.controller.kind != "baseline" and self.platform is None:
+        if self.controller.kind not in ("baseline", "rosco") and self.platform is None:
             raise ValueError(
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "
                 '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'
