@@ -68,7 +68,7 @@ def _pcts(ns: list[int]) -> dict[str, float]:
 
 
 def call_cost(duration_s: float) -> dict[str, Any]:
-    from controller.core import make_controller
+    from controller.registry import make_controller
 
     out: dict[str, Any] = {}
     cases = {

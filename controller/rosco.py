@@ -136,7 +136,8 @@ from bus_schemas.messages import (
     VALID_WIND,
     SensorFrame,
 )
-from controller.core import (
+from controller.discon import DisconError, DisconLibrary, DisconLoadError
+from controller.interface import (
     REGIME_REGION_1,
     REGIME_REGION_1_5,
     REGIME_REGION_2,
@@ -145,7 +146,6 @@ from controller.core import (
     ActuatorLimits,
     ControlOutput,
 )
-from controller.discon import DisconError, DisconLibrary, DisconLoadError
 
 __all__ = [
     "RUN_DIR_ENV",

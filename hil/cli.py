@@ -344,10 +344,11 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
             from controller.baseline import load_baseline
 
             load_baseline(c.preset)
-        else:
+        elif c.kind in ("lqri", "lqri_ff"):
             from controller.runtime import load_advanced_settings
 
             load_advanced_settings(c.preset)
+        # other kinds check their presets when built (rosco: its DISCON.IN, at load)
     except (ValueError, OSError) as exc:
         _fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
     return sc

@@ -38,7 +38,7 @@ import numpy as np
 from rich.console import Console
 
 from controller.baseline import BaselineParams
-from controller.core import REGIME_REGION_3
+from controller.interface import REGIME_REGION_3
 from hil.mcap_log import RunData, read_run
 from hil.scenario import scenario_text
 

@@ -540,12 +540,23 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
         if isinstance(self.wind, RampWindSpec) and self.wind.end_s < self.wind.start_s:
             raise ValueError("wind.end_s must be >= wind.start_s")
         _check_preset("turbine", self.turbine, shipped_turbines(), "a turbine preset")
-        _check_preset(
-            "controller.preset",
-            self.controller.preset,
-            _package_presets("controller", "presets"),
-            "a controller preset",
-        )
+        if self.controller.kind == "rosco":
+            # ROSCO's presets are the shipped DISCON.IN files (controller/presets/rosco); a
+            # scenario's own parameter_file is checked when the controller loads it
+            if self.controller.parameter_file is None:
+                _check_preset(
+                    "controller.preset",
+                    self.controller.preset,
+                    _package_presets("controller", "presets", "rosco", suffix="_DISCON.IN"),
+                    "a shipped DISCON.IN",
+                )
+        else:
+            _check_preset(
+                "controller.preset",
+                self.controller.preset,
+                _package_presets("controller", "presets"),
+                "a controller preset",
+            )
         if self.platform is not None:
             _check_preset("platform", self.platform, shipped_platforms(), "a floating preset")
         if self.waves is not None:
@@ -764,8 +775,8 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         raise ScenarioError(f"{source}: {msg}") from exc
 
 
-def _package_presets(package: str, *folder: str) -> list[str]:
-    """Names of the ``*.toml`` presets in ``package``/``folder``, without importing it.
+def _package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[str]:
+    """Names of the ``*<suffix>`` presets in ``package``/``folder``, without importing it.
 
     The folder is found with ``importlib.util.find_spec`` on the top-level package, which
     locates it without importing it: the controller process validates the same scenario
@@ -776,7 +787,7 @@ def _package_presets(package: str, *folder: str) -> list[str]:
     if not locations:
         return []
     root = Path(locations[0]).joinpath(*folder)
-    return sorted(p.name.removesuffix(".toml") for p in root.glob("*.toml"))
+    return sorted(p.name.removesuffix(suffix) for p in root.glob(f"*{suffix}"))
 
 
 def _check_preset(key: str, ref: str, shipped: list[str], what: str) -> None:

@@ -267,7 +267,7 @@ def test_plots_render_without_warnings_for_constant_pitch(tmp_path: Path) -> Non
 def test_lqri_ff_run_says_when_its_feedforward_starts(tmp_path: Path) -> None:
     """The fill time printed equals the controller's own (its forecaster's window), and a run
     shorter than it is warned about; the review shows the estimator and forecast table."""
-    from controller.core import make_controller
+    from controller.registry import make_controller
     from hil.controller_node import feedforward_notice
     from hil.scenario import load_scenario
 
