@@ -314,6 +314,8 @@ class LqrWaveController:
         self.rate_max = float(m["pitch_rate_max_rad_s"])
         self.torque_rate_max = float(m["torque_rate_max_nm_s"])
         self.psi_max = 2.0 * float(m["settings"]["rotor_angle_max_rad"])
+        #: hub velocity = J_h · q̇ (surge, heave, pitch, tower), J_h of the design's plant
+        self.hub_lever = tuple(float(v) for v in m["hub_lever"])
 
     def actuator_limits(self) -> ActuatorLimits:
         """The design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
@@ -443,6 +445,8 @@ class LqrWaveController:
             platform_pitch_estimated_rad=float(x_abs[2]),
             platform_surge_velocity_estimated_m_s=float(x_abs[4]),
             platform_pitch_rate_estimated_rad_s=float(x_abs[6]),
-            tower_top_velocity_estimated_m_s=float(x_abs[4] + 87.6 * x_abs[6] + x_abs[7]),
+            tower_top_velocity_estimated_m_s=float(
+                sum(j * v for j, v in zip(self.hub_lever, x_abs[4:8], strict=True))
+            ),
         )
         return new, out

@@ -379,6 +379,7 @@ def design_lqr_wave(
         "pitch_rate_max_rad_s": float(tp.pitch_rate_max_rad_s),
         "torque_rate_max_nm_s": float(tp.torque_rate_max_nm_s),
         "max_closed_loop_spectral_radius": float(rho_max.max()),
+        "hub_lever": [float(v) for v in m.params.hub_lever],
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "commit": _commit(),
         **(provenance or {}),
