@@ -73,12 +73,13 @@ from controller.estimators import (
 )
 from controller.forecast import WaveFrequencyConfig, WaveFrequencyEstimator, WaveFrequencyState
 from controller.interface import REGIME_REGION_3, ActuatorLimits, ControlOutput
-from controller.lqri import DesignNotFoundError, design_search_path, period_tag
+from controller.lqri import design_search_path, period_tag, user_design_dir
 from controller.runtime import EkfSection, discretize
 
 __all__ = [
     "LqrWaveController",
     "LqrWaveDesign",
+    "LqrWaveDesignNotFoundError",
     "LqrWavePreset",
     "LqrWaveState",
     "find_lqr_wave_design",
@@ -155,9 +156,16 @@ def find_lqr_wave_design(
         npz, js = folder / f"{stem}.npz", folder / f"{stem}.json"
         if npz.is_file() and js.is_file():
             return npz
-    raise DesignNotFoundError(
-        f"{name} ({variant})", "lqr_wave", control_period_s, tuple(str(f) for f in folders)
+    raise LqrWaveDesignNotFoundError(
+        f"no lqr_wave design {stem}.npz for control period {control_period_s:.9g} s (looked in "
+        f"{', '.join(str(f) for f in folders)}); run `fowt design {name} --lqr-wave {variant} "
+        f"--control-period {control_period_s:.9g} --out {user_design_dir()}`"
     )
+
+
+class LqrWaveDesignNotFoundError(ValueError):
+    """No searched folder holds the ``lqr_wave`` design for the control period (message: the
+    ``fowt design`` command that writes it)."""
 
 
 @dataclass(frozen=True, eq=False)

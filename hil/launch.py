@@ -216,15 +216,19 @@ def _ensure_lqr_wave(scenario: Scenario, console: Console) -> Path | None:
     process when neither the shipped designs nor the user cache hold it.
     """
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
-    from controller.lqr_wave import find_lqr_wave_design, load_lqr_wave_preset  # noqa: PLC0415
-    from controller.lqri import DESIGN_DIR_ENV, DesignNotFoundError, user_design_dir  # noqa: PLC0415
+    from controller.lqr_wave import (  # noqa: PLC0415
+        LqrWaveDesignNotFoundError,
+        find_lqr_wave_design,
+        load_lqr_wave_preset,
+    )
+    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
 
     dt = scenario.timing.control_period_s
     p = load_lqr_wave_preset(scenario.controller.preset)
     try:
         find_lqr_wave_design(p.design, p.variant, dt)
         return None
-    except DesignNotFoundError:
+    except LqrWaveDesignNotFoundError:
         pass
     cache = user_design_dir()
     env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
