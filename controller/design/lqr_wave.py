@@ -415,7 +415,13 @@ def damping_map(
     waves = np.arange(0.05, 3.0 + 1e-9, 0.05) if waves_rad_s is None else np.asarray(waves_rad_s)
     zeta = np.full((winds.size, waves.size), np.nan)
     freq = np.full((winds.size, waves.size), np.nan)
+    failed: list[str] = []
     for i, v in enumerate(winds):
+        try:
+            m.base(float(v))
+        except ValueError as exc:  # no static equilibrium found: the row stays NaN, reported
+            failed.append(f"{v:g} m/s: {exc}")
+            continue
         for j, w in enumerate(waves):
             a, _, _ = m.at(float(v), float(w))
             modes = identify_modes(
@@ -438,4 +444,5 @@ def damping_map(
         "max_at_wave_omega_rad_s": float(waves[j_max]),
         "max_at_wave_hz": float(waves[j_max] / (2.0 * math.pi)),
         "seed_max": "christiansen-2013 sect. 2.9: maximum at 10.4 m/s and 0.09 Hz",
+        "failed_winds": failed,
     }
