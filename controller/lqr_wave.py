@@ -36,7 +36,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import msgspec
 import numpy as np
@@ -109,6 +109,10 @@ class LqrWavePreset(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
         AR(2) estimator settings (:class:`controller.forecast.WaveFrequencyConfig`).
     kf_degraded_after_s : float
         A KF channel missing longer than this marks the estimate degraded.
+    platform_states : {"observer", "measured"}
+        ``"measured"``: the LQR takes platform surge, pitch and pitch rate straight from their
+        sensor channels (when valid) instead of the KF (the other five states, not measured,
+        stay the KF's): the comparison that tells what the observer costs.
     ekf : EkfSection
     """
 
@@ -123,6 +127,7 @@ class LqrWavePreset(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_
     wave_sample_period_s: float = 0.5
     wave_forgetting_factor: float = 0.995
     kf_degraded_after_s: float = 2.0
+    platform_states: Literal["observer", "measured"] = "observer"
     ekf: EkfSection = msgspec.field(default_factory=EkfSection)
     preset_dir: str = ""
 
@@ -408,12 +413,20 @@ class LqrWaveController:
         kf_state = kf.predict(kf_state, u_kf, dt_s)
         kf_state = kf.update(kf_state, z, valid, u_kf)
         x_abs = kf_state.x + xo_i[:8]
+        x_lqr = x_abs.copy()
+        if s.platform_states == "measured":
+            if mask & VALID_PLATFORM_SURGE:
+                x_lqr[0] = raw[0]
+            if mask & VALID_PLATFORM_PITCH:
+                x_lqr[2] = raw[1]
+            if mask & VALID_PLATFORM_PITCH_RATE:
+                x_lqr[6] = raw[2]
         # LQR on the deviation from the operating point at the scheduling wind
         xop = d.operating_point(v)
         psi = state.rotor_angle_rad + (omega - self.omega_rated) * dt_s
         psi = min(max(psi, -self.psi_max), self.psi_max)
         zt = np.empty(12)
-        zt[:8] = x_abs - xop[:8]
+        zt[:8] = x_lqr - xop[:8]
         zt[8] = omega - self.omega_rated
         zt[9] = pitch - xop[9]
         zt[10] = psi
