@@ -210,3 +210,22 @@ def test_bem_script_reproduces_the_shipped_data() -> None:
     np.testing.assert_allclose(
         hydro.radiation.added_mass, ref, rtol=1e-6, atol=1e-9 * float(np.abs(ref).max())
     )
+
+
+def test_open_loop_pitch_damping_peaks_near_rated_wind() -> None:
+    """christiansen-2013 sect. 2.9: the open-loop platform-pitch damping peaks near 10.4 m/s.
+
+    Ours peaks at 11 m/s (grid 0.5 m/s; rated is 11.4 m/s) on every wave frequency, 1 m/s
+    tolerance. The seed's wave frequency of the maximum (0.09 Hz) is not reproduced: the BEM
+    pitch radiation damping of this hull peaks near 1.5 rad/s (0.24 Hz), where our map peaks
+    (``bench/results/christiansen_damping_map.json``).
+    """
+    from controller.design.lqr_wave import damping_map
+
+    rep = damping_map(PRESET, np.arange(8.0, 14.01, 0.5), np.array([0.3, 0.6, 1.5]))
+    assert abs(rep["max_at_wind_m_s"] - 10.4) <= 1.0, rep["max_at_wind_m_s"]
+    zeta = np.array(rep["pitch_damping_ratio"])
+    winds = np.array(rep["wind_m_s"])
+    for j in range(zeta.shape[1]):
+        assert abs(winds[int(np.nanargmax(zeta[:, j]))] - 10.4) <= 1.0
+    assert np.all(zeta[np.isfinite(zeta)] > 0.0)  # open loop: positively damped
