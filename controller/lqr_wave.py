@@ -202,7 +202,10 @@ class LqrWaveDesign:
     def operating_point(self, wind_m_s: float) -> FloatArray:
         """x_op(v) (11,) interpolated linearly in v (held at the ends)."""
         v = self.wind_m_s
-        return np.array([np.interp(wind_m_s, v, self.x_op[:, k]) for k in range(11)])
+        f = float(np.clip(np.interp(wind_m_s, v, np.arange(v.size)), 0, v.size - 1))
+        i0 = min(int(f), v.size - 2)
+        a = f - i0
+        return np.asarray((1.0 - a) * self.x_op[i0] + a * self.x_op[i0 + 1], dtype=np.float64)
 
 
 def load_lqr_wave_design(
