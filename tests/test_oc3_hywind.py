@@ -216,8 +216,9 @@ def test_open_loop_pitch_damping_peaks_near_rated_wind() -> None:
     """christiansen-2013 sect. 2.9: the open-loop platform-pitch damping peaks near 10.4 m/s.
 
     Ours peaks at 11 m/s (grid 0.5 m/s; rated is 11.4 m/s) on every wave frequency, 1 m/s
-    tolerance. The seed's wave frequency of the maximum (0.09 Hz) is not reproduced: the BEM
-    pitch radiation damping of this hull peaks near 1.5 rad/s (0.24 Hz), where our map peaks
+    tolerance. The seed's wave frequency of the maximum (0.09 Hz) is not reproduced: B55 peaks
+    at 0.59 rad/s (0.093 Hz), but the coupled surge-pitch mode's damping follows the surge
+    radiation damping (peak 1.39 rad/s) and the map peaks at 1.5 rad/s (0.24 Hz)
     (``bench/results/christiansen_damping_map.json``).
     """
     from controller.design.lqr_wave import damping_map
