@@ -20,6 +20,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +68,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=Path, help="folder with <scenario>/run.mcap (else run them)")
     args = ap.parse_args()
-    runs = args.runs or RESULTS / "christiansen_runs"
+    runs = args.runs or Path(tempfile.gettempdir()) / "christiansen_runs"
     table: dict[str, dict[str, dict[str, float]]] = {}
     for tp in PERIODS:
         table[f"tp{tp}"] = {}
