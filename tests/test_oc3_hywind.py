@@ -230,3 +230,25 @@ def test_open_loop_pitch_damping_peaks_near_rated_wind() -> None:
     for j in range(zeta.shape[1]):
         assert abs(winds[int(np.nanargmax(zeta[:, j]))] - 10.4) <= 1.0
     assert np.all(zeta[np.isfinite(zeta)] > 0.0)  # open loop: positively damped
+
+
+def test_run_at_an_unshipped_period_designs_lqr_wave_on_first_use(tmp_path: Path) -> None:
+    """``fowt run`` at 20 Hz (not shipped) designs the gain table into $FOWT_DESIGN_DIR first,
+    with the preset, settings and commit recorded beside it."""
+    import os
+
+    text = (Path(__file__).parents[1] / "hil/scenarios/oc3-hywind-tp10-lqr1.toml").read_text()
+    text = text.replace("control_period_s = 0.1 ", "control_period_s = 0.05 ")
+    scen = tmp_path / "s.toml"
+    scen.write_text(text.replace('name = "oc3-hywind-tp10-lqr1"', 'name = "first-use"'))
+    cache = tmp_path / "designs"
+    env = {**os.environ, "FOWT_DESIGN_DIR": str(cache)}
+    cmd = [sys.executable, "-m", "hil", "run", str(scen), "--mode", "inprocess"]
+    cmd += ["--duration", "3", "--out", str(tmp_path / "run"), "--no-plots"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "designed lqr_wave lqr1 at 0.05 s" in proc.stdout
+    meta = json.loads((cache / "nrel5mw_oc3_hywind_lqr_wave_lqr1_dt0p05.json").read_text())
+    assert meta["preset"] == PRESET and meta["control_period_s"] == 0.05
+    assert meta["settings"]["variant"] == "lqr1" and len(meta["commit"]) >= 7
+    assert meta["max_closed_loop_spectral_radius"] < 1.0
