@@ -27,11 +27,11 @@ in the shipped ``nrel5mw_tlp`` preset. Every figure and choice:
   853.87 m on the 320 m seabed), solved quasi-statically by
   :func:`plant.openfast_import.compute_mooring` (MoorPy; seabed friction not modelled);
 * tower: the OC3-Hywind tower (base at 10 m, top at 87.6 m) is not among the reference
-  figures; **assumption**: the NREL 5 MW land-based tower distribution and mode shape of the
-  ``nrel5mw_tlp`` preset stretched over 10..87.6 m (the OC3 tower is 249.7 t against this
-  distribution's ~270 t over the shorter span);
-* rotor-nacelle assembly: as ``nrel5mw_tlp`` (hub 56 780 kg, nacelle 240 000 kg at 1.9 m
-  downwind, 1.75 m up; blades 17 740 kg each ... as that preset).
+  figures; **assumption**: the NREL 5 MW land-based tower's distributed mass, stiffness and
+  mode shape (as in ``nrel5mw_tlp``) over 10..87.6 m: 286.7 t (the OC3 tower is 249.7 t
+  per Jonkman 2010), tower fore-aft period 2.09 s;
+* rotor-nacelle assembly: as ``nrel5mw_tlp`` (NREL/TP-500-38060: hub 56 780 kg, nacelle
+  240 000 kg at 1.9 m downwind and 1.75 m up, three blades of 17 608.8 kg; 349.6 t in all).
 """
 
 from __future__ import annotations
