@@ -142,8 +142,10 @@ def build(out_root: Path, n_omega: int = 45, panel_m: float = 2.0) -> Path:
     from plant.openfast_import import _toml_lines  # noqa: PLC0415
 
     header = [
-        "NREL 5 MW on the OC3-Hywind spar: written by `python -m plant.oc3_hywind`;",
-        "sources and choices in plant/oc3_hywind.py and plant/presets/README.md.",
+        "NREL 5 MW on the OC3-Hywind spar (christiansen-2013): surge, heave, pitch, tower "
+        "fore-aft, rotor.",
+        "Written by `python -m plant.oc3_hywind`; sources and choices in plant/oc3_hywind.py "
+        "and plant/presets/README.md.",
         f"hydrodynamics: {desc}",
         *(f"radiation {line}" for line in model.describe()),
         f"mooring surge stiffness at zero offset {moor.stiffness_6x6_at_zero[0][0]:.4e} N/m",
