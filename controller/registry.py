@@ -92,11 +92,18 @@ def _rosco(o: ControllerOptions) -> Controller[Any]:
     )
 
 
+def _lqr_wave(o: ControllerOptions) -> Controller[Any]:
+    from controller.lqr_wave import LqrWaveController, load_lqr_wave_preset  # noqa: PLC0415
+
+    return LqrWaveController(load_lqr_wave_preset(o.preset), o.control_period_s, o.design_dir)
+
+
 CONTROLLER_KINDS: dict[str, Callable[[ControllerOptions], Controller[Any]]] = {
     "baseline": _baseline,
     "lqri": _advanced,
     "lqri_ff": _advanced,
     "rosco": _rosco,
+    "lqr_wave": _lqr_wave,  # christiansen-2013, controller/lqr_wave.py
 }
 """``kind`` -> constructor: the one place a controller kind is registered."""
 

@@ -892,6 +892,13 @@ def design_cmd(
             callback=_writable("folder"),
         ),
     ] = None,
+    lqr_wave: Annotated[
+        str | None,
+        typer.Option(
+            "--lqr-wave",
+            help="Design the lqr_wave gain table instead: variant lqr1 or lqr2 (christiansen).",
+        ),
+    ] = None,
 ) -> None:
     """Offline controller design: LQRI gain schedule, wave-FF filters, platform observer.
 
@@ -909,6 +916,16 @@ def design_cmd(
             os.environ.setdefault(var, value)
 
     t0 = time.perf_counter()
+    if lqr_wave is not None:
+        from controller.design.lqr_wave import LqrWaveSettings, design_lqr_wave
+
+        try:
+            npz = design_lqr_wave(preset, control_period, LqrWaveSettings(variant=lqr_wave), out)
+        except (ValueError, OSError) as exc:
+            _fail(str(exc))
+        console.print(f"lqr_wave: {npz}")
+        console.print(f"designed in {time.perf_counter() - t0:.1f} s")
+        return
     try:
         paths = design_all(preset, control_period, out)
     except (ValueError, OSError) as exc:
@@ -943,6 +960,31 @@ def analyze_linear(
     console.print(
         f"closed-loop spectral radius (z): {report['closed_loop_spectral_radius']:.5f}; "
         f"rotor pole {report['rotor_pole_1_s']:.4f} 1/s"
+    )
+
+
+@analyze_app.command("damping-map", short_help="Open-loop platform-pitch damping over wind, waves.")
+def analyze_damping_map(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ] = "nrel5mw_oc3_hywind",
+    as_json: Annotated[bool, typer.Option("--json", help="Print the whole map as JSON.")] = False,
+) -> None:
+    """Open-loop damping ratio of the platform-pitch mode over wind speed (3-25 m/s) and wave
+    frequency (0.05-3 rad/s), christiansen-2013 sect. 2.9 (controller.design.lqr_wave)."""
+    from controller.design.lqr_wave import damping_map
+
+    try:
+        report = damping_map(preset)
+    except (ValueError, OSError) as exc:
+        _fail(str(exc))
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    console.print(
+        f"platform-pitch damping ratio: max {report['max_damping_ratio']:.4f} at "
+        f"{report['max_at_wind_m_s']:g} m/s, wave {report['max_at_wave_omega_rad_s']:g} rad/s "
+        f"({report['max_at_wave_hz']:.3f} Hz); {report['seed_max']}"
     )
 
 

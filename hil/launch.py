@@ -211,6 +211,44 @@ def _design_preset(scenario: Scenario, name: str) -> str:
     return name
 
 
+def _ensure_lqr_wave(scenario: Scenario, console: Console) -> Path | None:
+    """First-use design of an ``lqr_wave`` gain table for the scenario's control period.
+
+    Runs ``fowt design DESIGN --lqr-wave VARIANT --control-period T_s --out CACHE`` in a child
+    process when neither the shipped designs nor the user cache hold it.
+    """
+    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
+    from controller.lqr_wave import (  # noqa: PLC0415
+        LqrWaveDesignNotFoundError,
+        find_lqr_wave_design,
+        load_lqr_wave_preset,
+    )
+    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
+
+    dt = scenario.timing.control_period_s
+    p = load_lqr_wave_preset(scenario.controller.preset)
+    if p.design.endswith(".npz"):  # a path to the artefact itself: loading reports a problem
+        return None
+    try:
+        find_lqr_wave_design(p.design, p.variant, dt)
+        return None
+    except LqrWaveDesignNotFoundError:
+        pass
+    cache = user_design_dir()
+    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
+    cmd = [sys.executable, "-m", "hil", "design", p.design, "--lqr-wave", p.variant]
+    cmd += ["--control-period", repr(dt), "--out", str(cache)]
+    console.print(f"no lqr_wave design {p.design} {p.variant} at {dt:g} s: {' '.join(cmd[2:])}")
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    if proc.returncode != 0:
+        raise RunFailedError(
+            f"lqr_wave design failed ({proc.returncode}):\n{proc.stdout}{proc.stderr}"
+        )
+    console.print(f"designed lqr_wave {p.variant} at {dt:g} s in {time.monotonic() - t0:.1f} s")
+    return cache
+
+
 def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path | None:
     """Design the advanced controller's artefacts for the scenario's control period if missing.
 
@@ -242,6 +280,8 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
     c = scenario.controller
     if c.kind not in ("lqri", "lqri_ff"):  # only the advanced controller has designs
         return None
+    if c.kind == "lqr_wave":
+        return _ensure_lqr_wave(scenario, console or Console())
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
     from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
     from controller.runtime import load_advanced_settings, missing_designs  # noqa: PLC0415

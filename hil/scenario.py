@@ -450,7 +450,8 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
 
     ``kind``: ``"baseline"`` (preset e.g. ``"nrel5mw_baseline"``), ``"lqri"`` (observers, wave
     forecast and LQRI; preset e.g. ``"iea15mw_advanced"``) or ``"lqri_ff"`` (the same plus
-    the wave feedforward). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
+    the wave feedforward) or ``"lqr_wave"`` (christiansen-2013, preset e.g.
+    ``"nrel5mw_oc3_hywind_lqr2"``). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
     ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
     ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
     ``[waves] gauge_distance_m``.
@@ -461,7 +462,7 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     Relative paths are taken from the working directory of ``fowt run``.
     """
 
-    kind: Literal["baseline", "lqri", "lqri_ff", "rosco"] = "baseline"
+    kind: Literal["baseline", "lqri", "lqri_ff", "rosco", "lqr_wave"] = "baseline"
     preset: str = "nrel5mw_baseline"
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"

@@ -1445,7 +1445,7 @@ def _resolve(base: Path | None, name: str) -> Path | Traversable:
 
 _PRESET_PACKAGE = "plant.presets"
 _PRESET_PREFIX = "preset:"
-_FLOATING_PRESETS = ("iea15mw_volturnus", "nrel5mw_tlp")
+_FLOATING_PRESETS = ("iea15mw_volturnus", "nrel5mw_tlp", "nrel5mw_oc3_hywind")
 
 
 def read_floating_preset(name_or_path: str | Path) -> tuple[FloatingPreset, Path | None, str]:

@@ -294,6 +294,7 @@ CASES: list[tuple[str, list[str], list[str]]] = [
         ["'--wind'", "> 0"],
     ),
     ("modes-binary-preset", ["analyze", "modes", "binary.toml"], ["binary.toml"]),
+    ("damping-map-binary-preset", ["analyze", "damping-map", "binary.toml"], ["binary.toml"]),
     (
         "linear-wind-inf",
         ["analyze", "linear", "iea15mw_volturnus", "--wind", "inf"],
@@ -367,6 +368,7 @@ def test_cases_cover_every_command() -> None:
         "analyze modes",
         "analyze linear",
         "analyze forecast",
+        "analyze damping-map",
         "preset import-openfast",
     }
 
@@ -457,6 +459,7 @@ COMMANDS = [
     ["analyze", "modes"],
     ["analyze", "linear"],
     ["analyze", "forecast"],
+    ["analyze", "damping-map"],
     ["preset", "import-openfast"],
 ]
 
