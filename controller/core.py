@@ -143,7 +143,11 @@ class Controller(Protocol[StateT]):
 
 def available_controllers() -> tuple[str, ...]:
     """Names accepted by :func:`make_controller` as ``kind``."""
-    return ("baseline", "lqri", "lqri_ff")
+    return ("baseline", "lqri", "lqri_ff", *_CASANOVAS_KINDS)
+
+
+#: casanovas-2014 kinds (:mod:`controller.casanovas`), registered in :func:`make_controller`.
+_CASANOVAS_KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
 
 
 def make_controller(
@@ -155,6 +159,9 @@ def make_controller(
     feedforward: str | None = None,
     gauge_distance_m: float | None = None,
     design_dir: str | None = None,
+    preview: str | None = None,
+    horizon_s: float | None = None,
+    overlap: float | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -178,6 +185,8 @@ def make_controller(
     design_dir : str or None
         Folder of design artefacts searched after the shipped ones (advanced kinds; None:
         only the shipped designs and the user design cache, ``$FOWT_DESIGN_DIR``).
+    preview, horizon_s, overlap : optional
+        casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
 
     Returns
     -------
@@ -205,6 +214,19 @@ def make_controller(
             forecaster=forecaster,  # type: ignore[arg-type]
             gauge_distance_m=gauge_distance_m,
             feedforward=ff,  # type: ignore[arg-type]
+            design_dir=design_dir,
+        )
+    if kind in _CASANOVAS_KINDS:
+        from controller.casanovas import make_casanovas  # noqa: PLC0415
+
+        return make_casanovas(
+            kind,
+            preset,
+            control_period_s=control_period_s,
+            preview=preview,
+            horizon_s=horizon_s,
+            overlap=overlap,
+            gauge_distance_m=gauge_distance_m,
             design_dir=design_dir,
         )
     raise ValueError(
@@ -269,4 +291,9 @@ def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:
         return ActuatorLimits(
             d.pitch_min_rad, d.pitch_max_rad, d.pitch_rate_max_rad_s, d.torque_rate_max_nm_s
         )
+    own = getattr(controller, "actuator_limits", None)  # cores that report their own
+    if callable(own):
+        result = own()
+        if isinstance(result, ActuatorLimits):
+            return result
     raise TypeError(f"no actuator limits known for {type(controller).__name__}")

@@ -73,10 +73,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
+from bus_schemas.messages import WAVE_PREVIEW_FIELDS
+from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_STATUS,
+    SENSORS,
+    TIMING_SUMMARY,
+    WAVE_PREVIEW_PERFECT,
+)
 from controller.core import REGIME_SAFE, actuator_limits, make_controller
 from controller.lqri import DesignNotFoundError
 from hil.bus import Bus, BusConfig
@@ -156,8 +164,13 @@ class ControllerRuntime:
             feedforward=c.feedforward,
             gauge_distance_m=waves.gauge_distance_m if waves is not None else None,
             design_dir=None if design_dir is None else str(design_dir),
+            preview=c.preview,
+            horizon_s=c.horizon_s,
+            overlap=c.overlap,
         )
         self.state: Any = self.controller.initial_state()
+        # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
+        self._accept_preview = getattr(self.controller, "accept_preview", None)
         self.dt_s = scenario.timing.control_period_s
         self.period_ns = round(self.dt_s * 1e9)
         self.clock = clock
@@ -211,6 +224,26 @@ class ControllerRuntime:
             self.rejected[exc.reason] += 1
             return None
         return self.handle_frame(frame)
+
+    def handle_preview_payload(self, payload: bytes) -> None:
+        """Decode a :data:`bus_schemas.messages.WavePreviewPerfect` and hand it to the core.
+
+        Only cores with ``accept_preview(state, seq, force_n)`` take it; an undecodable one is
+        counted under ``rejected["preview_" + reason]``.
+        """
+        try:
+            msg = WAVE_PREVIEW_PERFECT.codec.decode(payload)
+        except DecodeError as exc:
+            self.rejected["preview_" + exc.reason] += 1
+            return
+        self.handle_preview(msg)
+
+    def handle_preview(self, msg: Any) -> None:
+        """Hand a decoded perfect preview to the core (no-op for cores without one)."""
+        if self._accept_preview is None:
+            return
+        force = np.array([getattr(msg, f) for f in WAVE_PREVIEW_FIELDS])
+        self.state = self._accept_preview(self.state, msg.seq, force)
 
     def handle_frame(self, frame: SensorFrame) -> tuple[ActuatorCommand, ControllerStatus] | None:
         """Run one control cycle on a decoded, range-checked frame.
@@ -509,6 +542,13 @@ def run_controller_node(
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+
+    def on_preview(_key: str, payload: bytes) -> None:
+        with lock:
+            runtime.handle_preview_payload(payload)
+
+    if scenario.controller.preview == "perfect":
+        bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")

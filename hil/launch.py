@@ -76,12 +76,20 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
 
+import msgspec
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bus_schemas import ActuatorCommand, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, TIMING_SUMMARY
+from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_STATUS,
+    CYCLE_TIMING,
+    TIMING_SUMMARY,
+    WAVE_PREVIEW_PERFECT,
+    MessageType,
+)
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
 from hil.can_bus import (
     CanBusConfig,
@@ -238,7 +246,7 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         If the design fails (its output is in the message).
     """
     c = scenario.controller
-    if c.kind == "baseline":
+    if c.kind not in ("lqri", "lqri_ff"):  # the others design nothing on first use
         return None
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
     from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
@@ -370,8 +378,12 @@ def _run_inprocess(
         scenario.turbine_id,
         {"scenario": scenario_metadata(scenario, toml_text), "run": info},
     )
-    publish = log.publish
     runtime = ControllerRuntime(scenario, design_dir=design_dir)
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if mt is WAVE_PREVIEW_PERFECT:  # the bench oracle reaches the core as over the bus
+            runtime.handle_preview(msg)
+        log.publish(mt, msg)
 
     def step(frame: SensorFrame) -> ActuatorCommand | None:
         result = runtime.handle_frame(frame)

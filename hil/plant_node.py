@@ -67,9 +67,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
+import numpy as np
 
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
-from bus_schemas.registry import COMMAND, CYCLE_TIMING, SENSORS, TIMING_SUMMARY, TRUTH, MessageType
+from bus_schemas.messages import (
+    WAVE_PREVIEW_FIELDS,
+    WAVE_PREVIEW_SAMPLES,
+    WAVE_PREVIEW_STEP_S,
+    WavePreviewPerfect,
+)
+from bus_schemas.registry import (
+    COMMAND,
+    CYCLE_TIMING,
+    SENSORS,
+    TIMING_SUMMARY,
+    TRUTH,
+    WAVE_PREVIEW_PERFECT,
+    MessageType,
+)
 from hil.bus import Bus, BusConfig
 from hil.scenario import (
     JonswapWavesSpec,
@@ -87,6 +102,7 @@ from hil.timing import LatencyHistogram, Pacer, wait_until
 from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator, TowerBaseLoads
 from plant.turbine import TurbineParams, load_turbine
 from plant.waves import (
+    ExcitationForce,
     IsscSpectrum,
     JonswapSpectrum,
     PiersonMoskowitzSpectrum,
@@ -200,8 +216,14 @@ def floating_plant(scenario: Scenario) -> FloatingPlant:
     else:
         hydro = HydroData.load_npz((base or Path(".")) / hydro_ref)
     field = waves_from_scenario(scenario.waves, preset.water_depth_m)
-    exc = hydro.excitation.select((0, 2, 4), heading_deg=0.0)
-    force = excitation_force(field, exc.omega_rad_s, exc.force[:, 0, :])
+    # Surge, heave, pitch excitation; a body with fewer modes in its hydro file (the TLP buoy
+    # of casanovas-2014: surge only) gets zero excitation in the others (they are locked).
+    have = [d for d in (0, 2, 4) if d in hydro.excitation.dofs]
+    exc = hydro.excitation.select(have, heading_deg=0.0)
+    x_tf = np.zeros((exc.omega_rad_s.size, 3), dtype=np.complex128)
+    for col, d in enumerate(have):
+        x_tf[:, (0, 2, 4).index(d)] = exc.force[:, 0, col]
+    force = excitation_force(field, exc.omega_rad_s, x_tf)
     gauge = scenario.waves.gauge_distance_m if scenario.waves is not None else 450.0
     hub = float(params.hub_lever[2])
     return FloatingPlant(
@@ -388,6 +410,32 @@ class PlantLoop:
         events += [(f.end_ns, f"fault OFF {f.kind} on {', '.join(f.channels)}") for f in faults]
         self._fault_events = sorted(e for e in events if e[0] < OPEN_END_NS)
         self._next_fault_event_ns = self._fault_events[0][0] if events else OPEN_END_NS
+        # Perfect wave preview (casanovas-2014 controllers, [controller] preview = "perfect").
+        self._preview: ExcitationForce | None = None
+        self._preview_offsets = WAVE_PREVIEW_STEP_S * np.arange(WAVE_PREVIEW_SAMPLES)
+        fp = self.sim.floating
+        if scenario.controller.preview == "perfect" and fp is not None:
+            self._preview = ExcitationForce(fp.waves, fp.excitation_transfer[:, :1])
+            w = fp.waves
+            self._preview_z0 = (
+                w.amplitude_m * np.exp(1j * w.phase_rad) * self._preview.transfer[:, 0]
+            )
+            self._preview_rot = np.exp(1j * np.outer(self._preview_offsets, w.omega_rad_s))
+
+    def _wave_preview(self, now_ns: int) -> msgspec.Struct:
+        """The surge excitation force X(t + jΔ), j < 81 (:data:`WavePreviewPerfect`)."""
+        assert self._preview is not None
+        # X(t + kΔ) = Re Σ_i [a_i X(ω_i) e^{i(ω_i t + φ_i)}] e^{i ω_i k Δ}: one (81 x N) product
+        f = self._preview.field
+        z = self._preview_z0 * np.exp(1j * f.omega_rad_s * (self.t_ns * 1e-9))
+        force = (self._preview_rot @ z).real
+        return WavePreviewPerfect(
+            seq=self.k,
+            sample_time_ns=self.t_ns,
+            publish_time_ns=now_ns,
+            preview_step_s=WAVE_PREVIEW_STEP_S,
+            **dict(zip(WAVE_PREVIEW_FIELDS, force.tolist(), strict=True)),
+        )
 
     @property
     def bus_faults(self) -> bool:
@@ -405,6 +453,8 @@ class PlantLoop:
             self._log_fault_events()
         truth = self.sim.truth(self.k, self.t_ns, self.x, self.applied, now)
         frame = self.sim.sensor_frame(self.k, truth, now)
+        if self._preview is not None:  # bench oracle, published before the frame it goes with
+            self.publish(WAVE_PREVIEW_PERFECT, self._wave_preview(now))
         self.frame_sent_ns = time.monotonic_ns()
         if self.sensor_link is None:
             self.publish(SENSORS, frame)

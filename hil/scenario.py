@@ -440,16 +440,34 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
 
     ``kind``: ``"baseline"`` (preset e.g. ``"nrel5mw_baseline"``), ``"lqri"`` (observers, wave
     forecast and LQRI; preset e.g. ``"iea15mw_advanced"``) or ``"lqri_ff"`` (the same plus
-    the wave feedforward). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
-    ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
-    ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
-    ``[waves] gauge_distance_m``.
+    the wave feedforward), or a casanovas-2014 kind (``"no_control"``, ``"base_torque"``,
+    ``"lqr_steady"``, ``"lqr_finite"``, ``"lqr_overlaid"``, :mod:`controller.casanovas`; preset
+    = design artefact e.g. ``"nrel5mw_tlp_casanovas_u8_hs6"``; ``preview`` = ``"perfect"``
+    (default: the plant publishes the excitation force over 20 s, a bench oracle) or
+    ``"forecast"`` (from the up-wave gauge); ``horizon_s`` (default T₁ of the design) and
+    ``overlap`` (default 0.5) of the finite-horizon LQR). For the advanced kinds:
+    ``forecaster`` (``"dispersion"`` | ``"ar"`` | ``"esprit"``, default: the preset's),
+    ``feedforward`` (``"balanced"`` | ``"max_performance"``, used by ``"lqri_ff"``); the gauge
+    distance comes from ``[waves] gauge_distance_m``.
     """
 
-    kind: Literal["baseline", "lqri", "lqri_ff"] = "baseline"
+    kind: Literal[
+        "baseline",
+        "lqri",
+        "lqri_ff",
+        "no_control",
+        "base_torque",
+        "lqr_steady",
+        "lqr_finite",
+        "lqr_overlaid",
+    ] = "baseline"
     preset: str = "nrel5mw_baseline"
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"
+    # casanovas-2014 kinds (controller.casanovas): preset = the design artefact's name.
+    preview: Literal["perfect", "forecast"] | None = None
+    horizon_s: Annotated[float, msgspec.Meta(gt=0.0, le=20.0)] | None = None
+    overlap: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] | None = None
 
 
 class CanSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -514,7 +532,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
-        if self.controller.kind != "baseline" and self.platform is None:
+        if self.controller.kind in ("lqri", "lqri_ff") and self.platform is None:
             raise ValueError(
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "
                 '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'
