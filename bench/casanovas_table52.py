@@ -193,7 +193,7 @@ def table31() -> list[dict[str, Any]]:
 def solve_bench(n: int = 40) -> dict[str, Any]:
     """Per-reset compute of the finite-horizon solve [us]: seed-style (both equations
     integrated every reset) and cached (P and the operator X -> φ precomputed)."""
-    from controller.casanovas import finite_horizon_solve, make_casanovas  # noqa: PLC0415
+    from controller.casanovas import finite_horizon_solve, make_casanovas
 
     full: list[float] = []
     cached: list[float] = []
