@@ -331,7 +331,8 @@ class CasanovasState:
     force_prev_n: float = 0.0
     preview: FloatArray | None = None  # X(t + jΔ) [N] for the current cycle
     preview_seq: int = -1
-    preview_stale: int = 0
+    preview_stale: int = 0  # cycles run without the preview of their own frame (total)
+    stale_now: bool = False  # this cycle did
     gauge_window: FloatArray | None = None
     gains: FloatArray | None = None
     feedforward: FloatArray | None = None
@@ -475,13 +476,14 @@ class CasanovasController:
             st = replace(st, gauge_window=window)
         elif st.preview is not None and st.preview_seq == m.seq:
             preview = st.preview
+            st = replace(st, stale_now=False)
         elif st.preview is not None:  # stale: shift the last one by the elapsed samples
             shift = (m.seq - st.preview_seq) * self.dt
             preview = np.interp(self._t_prev + shift, self._t_prev, st.preview, right=0.0)
-            st = replace(st, preview_stale=st.preview_stale + 1)
+            st = replace(st, preview_stale=st.preview_stale + 1, stale_now=True)
         else:
             preview = np.zeros(self.n_preview)
-            st = replace(st, preview_stale=st.preview_stale + 1)
+            st = replace(st, preview_stale=st.preview_stale + 1, stale_now=True)
         # -- observer
         y = np.array(
             [
@@ -567,7 +569,7 @@ class CasanovasController:
                 "platform_surge_velocity_estimated_m_s": float(x[2]),
                 "feedforward_pitch_rad": max(-2.0, min(2.0, ff_pitch)),
                 "feedforward_torque_nm": ff_torque,
-                "estimator_degraded": 1 if st.preview_stale else 0,
+                "estimator_degraded": 1 if st.stale_now else 0,
             }
         return ControlOutput(
             blade_pitch_commanded_rad=pitch,

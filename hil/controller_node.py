@@ -171,6 +171,7 @@ class ControllerRuntime:
         self.state: Any = self.controller.initial_state()
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
         self._accept_preview = getattr(self.controller, "accept_preview", None)
+        self.preview_seq = -1  # seq of the newest preview handed to the core
         self.dt_s = scenario.timing.control_period_s
         self.period_ns = round(self.dt_s * 1e9)
         self.clock = clock
@@ -244,6 +245,12 @@ class ControllerRuntime:
             return
         force = np.array([getattr(msg, f) for f in WAVE_PREVIEW_FIELDS])
         self.state = self._accept_preview(self.state, msg.seq, force)
+        self.preview_seq = max(self.preview_seq, int(msg.seq))
+
+    @property
+    def takes_preview(self) -> bool:
+        """True when the core takes the perfect wave preview (``accept_preview``)."""
+        return self._accept_preview is not None
 
     def handle_frame(self, frame: SensorFrame) -> tuple[ActuatorCommand, ControllerStatus] | None:
         """Run one control cycle on a decoded, range-checked frame.
@@ -518,14 +525,34 @@ def run_controller_node(
     reason = ["timeout"]
     lock = threading.Lock()
 
+    # A core that takes the perfect wave preview waits for the preview of its frame: the two
+    # keys are delivered by Zenoh without a mutual order, so a frame that arrives first is
+    # held (at most half a control period, then it runs on the last preview, which the core
+    # counts as stale).
+    wants_preview = scenario.controller.preview == "perfect" and runtime.takes_preview
+    pending: list[tuple[SensorFrame, float]] = []
+
+    def cycle(frame: SensorFrame) -> None:
+        result = runtime.handle_frame(frame)
+        if result is None:
+            return
+        command, status = result
+        cmd_pub.put(COMMAND.codec.encode(command))
+        status_pub.put(CONTROLLER_STATUS.codec.encode(status))
+
     def on_frame(_key: str, payload: bytes) -> None:
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
-            result = runtime.handle_payload(payload)
-            if result is None:
+            try:
+                frame = SENSORS.codec.decode(payload)
+            except DecodeError as exc:
+                runtime.rejected[exc.reason] += 1
                 return
-            command, status = result
-            cmd_pub.put(COMMAND.codec.encode(command))
-            status_pub.put(CONTROLLER_STATUS.codec.encode(status))
+            if wants_preview and runtime.preview_seq < frame.seq:
+                if pending:  # a newer frame: the held one goes now
+                    cycle(pending.pop()[0])
+                pending.append((frame, time.monotonic()))
+                return
+            cycle(frame)
 
     def on_summary(_key: str, payload: bytes) -> None:
         try:
@@ -546,6 +573,8 @@ def run_controller_node(
     def on_preview(_key: str, payload: bytes) -> None:
         with lock:
             runtime.handle_preview_payload(payload)
+            if pending and runtime.preview_seq >= pending[0][0].seq:
+                cycle(pending.pop()[0])
 
     if scenario.controller.preview == "perfect":
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
@@ -576,6 +605,8 @@ def run_controller_node(
                 break
             with lock:
                 runtime.check_silence()
+                if pending and time.monotonic() - pending[0][1] > runtime.dt_s / 2:
+                    cycle(pending.pop()[0])
     finally:
         plant_watch.undeclare()
         token.undeclare()

@@ -770,7 +770,7 @@ def run_plant_node(
     tid = scenario.turbine_id
     publishers = {
         mt.key_suffix: bus.publisher(mt.key(tid))
-        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY)
+        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
     }
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
