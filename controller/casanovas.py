@@ -103,14 +103,12 @@ def load_casanovas_design(name: str, design_dir: str | Path | None = None) -> Ca
     ValueError
         If no such artefact exists (the message names ``python -m controller.design.casanovas``).
     """
-    import os  # noqa: PLC0415
-
     dirs: list[Path] = []
     if design_dir is not None:
         dirs.append(Path(design_dir))
-    env = os.environ.get("FOWT_DESIGN_DIR")
-    if env:
-        dirs.append(Path(env))
+    from controller.lqri import user_design_dir  # noqa: PLC0415
+
+    dirs.append(user_design_dir())  # $FOWT_DESIGN_DIR or ~/.cache/fowt-hil/designs
     shipped = resources.files("controller.presets").joinpath("designs")
     for d in dirs:
         npz, js = d / f"{name}.npz", d / f"{name}.json"

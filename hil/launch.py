@@ -246,7 +246,9 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         If the design fails (its output is in the message).
     """
     c = scenario.controller
-    if c.kind not in ("lqri", "lqri_ff"):  # the others design nothing on first use
+    if c.kind in _CASANOVAS_KINDS:
+        return _ensure_casanovas_design(scenario, console or Console())
+    if c.kind not in ("lqri", "lqri_ff"):  # the baseline designs nothing
         return None
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
     from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
@@ -289,6 +291,49 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
     still = missing_designs(load_advanced_settings(c.preset), dt, ff, cache)
     if still:
         raise RunFailedError(str(still[0]))
+    return cache
+
+
+_CASANOVAS_KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
+
+
+def _ensure_casanovas_design(scenario: Scenario, console: Console) -> Path | None:
+    """Design a missing casanovas-2014 artefact from the scenario's platform, wind and sea.
+
+    Runs ``python -m controller.design.casanovas --preset PLATFORM --wind U --hs H --t1 T1
+    --out CACHE`` (one BLAS thread) when ``[controller] preset`` is not found and is the
+    artefact name of that case; otherwise the controller's own error names what is missing.
+    """
+    from controller.casanovas import load_casanovas_design  # noqa: PLC0415
+    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
+    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
+
+    c = scenario.controller
+    try:
+        load_casanovas_design(c.preset)
+        return None
+    except ValueError:
+        pass
+    waves, wind = scenario.waves, scenario.wind
+    hs, t1 = getattr(waves, "hs_m", None), getattr(waves, "t1_s", None)
+    speed = getattr(wind, "speed_m_s", None)
+    if scenario.platform is None or hs is None or t1 is None or speed is None:
+        return None  # nothing to design from: the controller reports the missing artefact
+    from controller.design.casanovas import artefact_stem  # noqa: PLC0415
+
+    if artefact_stem(scenario.platform, speed, hs) != c.preset:
+        return None
+    cache = user_design_dir()
+    cmd = [
+        sys.executable, "-m", "controller.design.casanovas", "--preset", scenario.platform,
+        "--wind", repr(speed), "--hs", repr(hs), "--t1", repr(t1), "--out", str(cache),
+        "--control-period", repr(scenario.timing.control_period_s),
+    ]  # fmt: skip
+    console.print(f"no design {c.preset}: designing it into {cache} ...")
+    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    if proc.returncode != 0:
+        raise RunFailedError(f"design of {c.preset} failed:\n{proc.stdout}{proc.stderr}")
     return cache
 
 

@@ -226,3 +226,31 @@ def test_each_kind_runs_closed_loop_over_zenoh_in_lockstep(tmp_path: Path, kind:
     assert np.all((pitch >= 0.0) & (pitch < math.radians(10)))
     truth = run.topic("truth")
     assert np.std([t["platform_surge_m"] for t in truth]) > 0.01  # the waves move it
+
+
+def test_a_missing_design_is_made_on_first_use(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sea state without a shipped design: ``fowt run`` designs it into the user cache."""
+    from rich.console import Console
+
+    from hil.launch import RunRequest, launch
+
+    cache = tmp_path / "designs"
+    monkeypatch.setenv("FOWT_DESIGN_DIR", str(cache))
+    text = (SCENARIOS / "casanovas-tlp-hs6-u8.toml").read_text()
+    text = text.replace("hs_m = 6.0", "hs_m = 8.0").replace("t1_s = 11.6", "t1_s = 12.5")
+    text = text.replace("_u8_hs6", "_u8_hs8").replace(
+        'kind = "lqr_overlaid"', 'kind = "lqr_steady"'
+    )
+    path = tmp_path / "hs8.toml"
+    path.write_text(text)
+    summary = launch(
+        RunRequest(str(path), mode="inprocess", duration_s=2.0, out_dir=tmp_path / "run",
+                   plots=False),
+        Console(file=None, quiet=True),
+    )  # fmt: skip
+    assert (cache / "nrel5mw_tlp_casanovas_u8_hs8.npz").is_file()
+    meta = (cache / "nrel5mw_tlp_casanovas_u8_hs8.json").read_text()
+    assert '"t1_s": 12.5' in meta and '"commit"' in meta and '"preset": "nrel5mw_tlp"' in meta
+    assert summary["timing"]["cycles"] == 20

@@ -581,14 +581,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preset", default="nrel5mw_tlp")
     ap.add_argument("--out", default=str(DEFAULT_DESIGN_DIR))
     ap.add_argument("--control-period", type=float, default=0.1)
+    ap.add_argument("--wind", type=float, help="one design: wind speed [m/s] (with --hs, --t1)")
+    ap.add_argument("--hs", type=float, help="one design: significant wave height [m]")
+    ap.add_argument("--t1", type=float, help="one design: ISSC mean period T1 [s]")
     args = ap.parse_args(argv)
-    for hs, t1 in SEA_STATES.items():
-        for u in WIND_SPEEDS:
-            s = CasanovasSettings(
-                wind_m_s=u, hs_m=hs, t1_s=t1, control_period_s=args.control_period
-            )
-            path = write_design(args.preset, s, args.out)
-            print(f"wrote {path}")
+    cases = [(hs, t1, u) for hs, t1 in SEA_STATES.items() for u in WIND_SPEEDS]
+    if args.wind is not None or args.hs is not None or args.t1 is not None:
+        if args.wind is None or args.hs is None or args.t1 is None:
+            ap.error("--wind, --hs and --t1 go together")
+        cases = [(args.hs, args.t1, args.wind)]
+    for hs, t1, u in cases:
+        s = CasanovasSettings(wind_m_s=u, hs_m=hs, t1_s=t1, control_period_s=args.control_period)
+        print(f"wrote {write_design(args.preset, s, args.out)}")
     return 0
 
 
