@@ -221,6 +221,66 @@ def solve_bench(n: int = 40) -> dict[str, Any]:
     }
 
 
+_LINE = re.compile(
+    r"\] (\S+) (\S+) seed (\S+) (\S+) T (\S+) δ (\S+): ([\d.]+) kW "
+    r"\(wall [\d.]+ s, overruns (\d+)\)"
+)
+
+
+def tables_from_logs(paths: list[str]) -> dict[str, Any]:
+    """Rebuild table 5.2 / 5.1 from the per-run lines this script prints (partial campaigns)."""
+    fixed: dict[int, float] = {}
+    rows: list[dict[str, Any]] = []
+    for path in paths:
+        for line in Path(path).read_text().splitlines():
+            m = _LINE.search(line)
+            if m is None:
+                continue
+            sc, kind, seed, pv, h, d, kw, over = m.groups()
+            u = int(sc.rsplit("-u", 1)[1])
+            if sc.startswith("casanovas-fixed"):
+                fixed[u] = float(kw) * 1e3
+                continue
+            hs = int(re.search(r"hs(\d+)", sc).group(1))  # type: ignore[union-attr]
+            rows.append({"kind": kind, "seed": int(seed), "preview": pv, "hs_m": hs,
+                         "wind_m_s": u, "horizon_s": None if h == "None" else float(h),
+                         "overlap": None if d == "None" else float(d),
+                         "mean_power_w": float(kw) * 1e3, "overruns": int(over)})  # fmt: skip
+    table: dict[str, list[float]] = {}
+    sens: list[dict[str, Any]] = []
+    for r in rows:
+        r["increase_percent"] = 100 * (r["mean_power_w"] / fixed[r["wind_m_s"]] - 1)
+        r["increase_kw"] = (r["mean_power_w"] - fixed[r["wind_m_s"]]) / 1e3
+        if r["horizon_s"] is not None:
+            sens.append(r)
+        else:
+            key = f"{r['kind']}/{r['preview']}/hs{r['hs_m']}/u{r['wind_m_s']}"
+            table.setdefault(key, []).append(r["increase_percent"])
+    t52 = {
+        k: {
+            "mean_percent": float(np.mean(v)),
+            "std_percent": float(np.std(v)),
+            "n": len(v),
+            "seed_percent": SEED_T52.get(k.split("/")[0], {}).get(
+                (int(k.split("/")[2][2:]), int(k.split("/")[3][1:]))
+            ),
+        }
+        for k, v in sorted(table.items())
+    }
+    # paired by wave seed: the difference to no_control on the same sea [percentage points]
+    ref = {(r["hs_m"], r["wind_m_s"], r["seed"]): r["increase_percent"] for r in rows
+           if r["kind"] == "no_control" and r["horizon_s"] is None}  # fmt: skip
+    for k, v in t52.items():
+        kind, pv, hs, u = k.split("/")
+        d = [r["increase_percent"] - ref[(r["hs_m"], r["wind_m_s"], r["seed"])] for r in rows
+             if r["kind"] == kind and r["preview"] == pv and r["horizon_s"] is None
+             and f"hs{r['hs_m']}" == hs and f"u{r['wind_m_s']}" == u
+             and (r["hs_m"], r["wind_m_s"], r["seed"]) in ref]  # fmt: skip
+        v["minus_no_control_pp"] = float(np.mean(d)) if d else None
+        v["minus_no_control_pp_min_max"] = [float(np.min(d)), float(np.max(d))] if d else None
+    return {"fixed_power_w": fixed, "table52": t52, "table51": sens, "runs": rows}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3, help="wave seeds per case (seed: 10)")
@@ -235,7 +295,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sensitivity", action="store_true", help="table 5.1 (H_s 6, 10 m/s)")
     ap.add_argument("--table31-only", action="store_true")
     ap.add_argument("--out", default=str(RESULTS / "casanovas_table52.json"))
+    ap.add_argument("--from-logs", nargs="+", help="rebuild the tables from printed run lines")
     args = ap.parse_args(argv)
+    if args.from_logs:
+        res = {"machine": machine(), "from_logs": args.from_logs, "table31": table31(),
+               **tables_from_logs(args.from_logs)}  # fmt: skip
+        Path(args.out).write_text(json.dumps(res, indent=2))
+        for k, v in res["table52"].items():
+            d = v["minus_no_control_pp"]
+            print(f"{k:32s} {v['mean_percent']:7.3f} % ± {v['std_percent']:.3f} (n={v['n']})"
+                  f"  seed {v['seed_percent']}  vs no_control "
+                  f"{'-' if d is None else f'{d:+.4f}'} pp")  # fmt: skip
+        for r in res["table51"]:
+            print(f"T {r['horizon_s']:5} δ {r['overlap']:4}: {r['increase_percent']:.4f} %")
+        print(f"saved {args.out}")
+        return 0
 
     result: dict[str, Any] = {"machine": machine(), "args": vars(args), "table31": table31()}
     print("table 3.1 (kW; % of the aerodynamic power ½ρπR²Cp*V³):")
