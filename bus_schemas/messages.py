@@ -327,3 +327,44 @@ class TimingSummary(msgspec.Struct, frozen=True, kw_only=True):
     latency_p999_us: Annotated[float, M("us", 0.0, 1e12, "latency 99.9th percentile")]
     latency_max_us: Annotated[float, M("us", 0.0, 1e12, "latency maximum")]
     sim_seconds_per_wall_second: Annotated[float, M("1", 0.0, 1e9, "achieved speed over real time")]
+
+
+#: Number of samples and their spacing [s] in :data:`WavePreviewPerfect` (horizon 20 s).
+WAVE_PREVIEW_SAMPLES = 81
+WAVE_PREVIEW_STEP_S = 0.25
+#: Field names of the preview samples, X(t + j Δ) for j = 0 … WAVE_PREVIEW_SAMPLES - 1.
+WAVE_PREVIEW_FIELDS: tuple[str, ...] = tuple(
+    f"excitation_force_surge_ahead_{j:02d}_n" for j in range(WAVE_PREVIEW_SAMPLES)
+)
+
+#: Bench oracle (casanovas-2014 table 5.2 assumes it): the surge wave-excitation force at the
+#: platform over the next 20 s, X(t + jΔ), j = 0 … 80, Δ = 0.25 s, computed by the plant from
+#: its own wave field and published just before the :class:`SensorFrame` with the same
+#: ``seq``. Only scenarios with ``[controller] preview = "perfect"`` publish it; it is not a
+#: measurement (no real turbine has it): the ``_perfect`` suffix says so. It never travels on
+#: CAN. Declared with ``msgspec.defstruct`` so that its 81 sample fields are written once.
+WavePreviewPerfect: type[msgspec.Struct] = msgspec.defstruct(
+    "WavePreviewPerfect",
+    [
+        ("seq", Seq),
+        ("sample_time_ns", TimeNs),
+        ("publish_time_ns", TimeNs),
+        ("preview_step_s", Annotated[float, M("s", 0.0, 10.0, "spacing of the preview samples")]),
+        *(
+            (
+                name,
+                Annotated[
+                    float,
+                    M("N", -1e10, 1e10, f"surge wave excitation force {j * 0.25:g} s ahead"),
+                ],
+            )
+            for j, name in enumerate(WAVE_PREVIEW_FIELDS)
+        ),
+    ],
+    frozen=True,
+    kw_only=True,
+    module=__name__,
+)
+WavePreviewPerfect.__doc__ = (
+    "Perfect preview of the surge wave-excitation force over 20 s (bench oracle; see above)."
+)

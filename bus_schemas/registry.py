@@ -21,6 +21,7 @@ from bus_schemas.messages import (
     PlantState,
     SensorFrame,
     TimingSummary,
+    WavePreviewPerfect,
 )
 
 KEY_PREFIX = "fowt"
@@ -79,6 +80,7 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(ControllerStatus, 4, 2, "controller/status"),
     _mt(CycleTiming, 5, 1, "timing/cycle"),
     _mt(TimingSummary, 6, 2, "timing/summary"),
+    _mt(WavePreviewPerfect, 7, 1, "preview/wave_perfect"),
 )
 
 BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in MESSAGES}
@@ -91,6 +93,7 @@ TRUTH = BY_CLASS[PlantState]
 CONTROLLER_STATUS = BY_CLASS[ControllerStatus]
 CYCLE_TIMING = BY_CLASS[CycleTiming]
 TIMING_SUMMARY = BY_CLASS[TimingSummary]
+WAVE_PREVIEW_PERFECT = BY_CLASS[WavePreviewPerfect]
 
 
 def identify(payload: bytes | bytearray | memoryview) -> MessageType:
@@ -121,6 +124,7 @@ __all__ = [
     "SENSORS",
     "TIMING_SUMMARY",
     "TRUTH",
+    "WAVE_PREVIEW_PERFECT",
     "DecodeError",
     "MessageType",
     "decode_any",

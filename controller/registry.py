@@ -50,6 +50,8 @@ class ControllerOptions:
     library, parameter_file, output_dir : str or None
         ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
         (None: the shipped one named by ``preset``) and the folder for its files.
+    preview, horizon_s, overlap : optional
+        casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
     """
 
     kind: str
@@ -62,6 +64,9 @@ class ControllerOptions:
     library: str | None = None
     parameter_file: str | None = None
     output_dir: str | None = None
+    preview: str | None = None
+    horizon_s: float | None = None
+    overlap: float | None = None
 
 
 def _baseline(o: ControllerOptions) -> Controller[Any]:
@@ -98,12 +103,33 @@ def _lqr_wave(o: ControllerOptions) -> Controller[Any]:
     return LqrWaveController(load_lqr_wave_preset(o.preset), o.control_period_s, o.design_dir)
 
 
+def _casanovas(o: ControllerOptions) -> Controller[Any]:
+    from controller.casanovas import make_casanovas  # noqa: PLC0415
+
+    return make_casanovas(
+        o.kind,
+        o.preset,
+        control_period_s=o.control_period_s,
+        preview=o.preview,
+        horizon_s=o.horizon_s,
+        overlap=o.overlap,
+        gauge_distance_m=o.gauge_distance_m,
+        design_dir=o.design_dir,
+    )
+
+
 CONTROLLER_KINDS: dict[str, Callable[[ControllerOptions], Controller[Any]]] = {
     "baseline": _baseline,
     "lqri": _advanced,
     "lqri_ff": _advanced,
     "rosco": _rosco,
     "lqr_wave": _lqr_wave,  # christiansen-2013, controller/lqr_wave.py
+    # casanovas-2014 (controller/casanovas.py)
+    "no_control": _casanovas,
+    "base_torque": _casanovas,
+    "lqr_steady": _casanovas,
+    "lqr_finite": _casanovas,
+    "lqr_overlaid": _casanovas,
 }
 """``kind`` -> constructor: the one place a controller kind is registered."""
 
@@ -125,6 +151,9 @@ def make_controller(
     library: str | None = None,
     parameter_file: str | None = None,
     output_dir: str | None = None,
+    preview: str | None = None,
+    horizon_s: float | None = None,
+    overlap: float | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -152,6 +181,8 @@ def make_controller(
         ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
         (None: the shipped one named by ``preset``) and the folder for its files
         (:func:`controller.rosco.make_rosco_controller`).
+    preview, horizon_s, overlap : optional
+        casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
 
     Returns
     -------
@@ -182,6 +213,9 @@ def make_controller(
             library=library,
             parameter_file=parameter_file,
             output_dir=output_dir,
+            preview=preview,
+            horizon_s=horizon_s,
+            overlap=overlap,
         )
     )
 

@@ -73,10 +73,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, SENSORS, TIMING_SUMMARY
+from bus_schemas.messages import WAVE_PREVIEW_FIELDS
+from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_STATUS,
+    SENSORS,
+    TIMING_SUMMARY,
+    WAVE_PREVIEW_PERFECT,
+)
 from controller.discon import DisconError
 from controller.interface import REGIME_SAFE
 from controller.lqri import DesignNotFoundError
@@ -165,8 +173,14 @@ class ControllerRuntime:
             library=c.library,
             parameter_file=c.parameter_file,
             output_dir=None if run_dir is None else str(run_dir),
+            preview=c.preview,
+            horizon_s=c.horizon_s,
+            overlap=c.overlap,
         )
         self.state: Any = self.controller.initial_state()
+        # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
+        self._accept_preview = getattr(self.controller, "accept_preview", None)
+        self.preview_seq = -1  # seq of the newest preview handed to the core
         self.dt_s = scenario.timing.control_period_s
         self.period_ns = round(self.dt_s * 1e9)
         self.clock = clock
@@ -220,6 +234,32 @@ class ControllerRuntime:
             self.rejected[exc.reason] += 1
             return None
         return self.handle_frame(frame)
+
+    def handle_preview_payload(self, payload: bytes) -> None:
+        """Decode a :data:`bus_schemas.messages.WavePreviewPerfect` and hand it to the core.
+
+        Only cores with ``accept_preview(state, seq, force_n)`` take it; an undecodable one is
+        counted under ``rejected["preview_" + reason]``.
+        """
+        try:
+            msg = WAVE_PREVIEW_PERFECT.codec.decode(payload)
+        except DecodeError as exc:
+            self.rejected["preview_" + exc.reason] += 1
+            return
+        self.handle_preview(msg)
+
+    def handle_preview(self, msg: Any) -> None:
+        """Hand a decoded perfect preview to the core (no-op for cores without one)."""
+        if self._accept_preview is None:
+            return
+        force = np.array([getattr(msg, f) for f in WAVE_PREVIEW_FIELDS])
+        self.state = self._accept_preview(self.state, msg.seq, force)
+        self.preview_seq = max(self.preview_seq, int(msg.seq))
+
+    @property
+    def takes_preview(self) -> bool:
+        """True when the core takes the perfect wave preview (``accept_preview``)."""
+        return self._accept_preview is not None
 
     def handle_frame(self, frame: SensorFrame) -> tuple[ActuatorCommand, ControllerStatus] | None:
         """Run one control cycle on a decoded, range-checked frame.
@@ -536,23 +576,42 @@ def run_controller_node(
     lock = threading.Lock()
 
     failure: list[DisconError] = []
+    # A core that takes the perfect wave preview waits for the preview of its frame: the two
+    # keys are delivered by Zenoh without a mutual order, so a frame that arrives first is
+    # held (at most half a control period, then it runs on the last preview, which the core
+    # counts as stale).
+    wants_preview = scenario.controller.preview == "perfect" and runtime.takes_preview
+    pending: list[tuple[SensorFrame, float]] = []
+
+    def cycle(frame: SensorFrame) -> None:
+        try:
+            result = runtime.handle_frame(frame)
+        except DisconError as exc:  # a DISCON library's aviFAIL < 0 ends the run
+            failure.append(exc)
+            reason[0] = "controller failed"
+            done.set()
+            return
+        if result is None:
+            return
+        command, status = result
+        cmd_pub.put(COMMAND.codec.encode(command))
+        status_pub.put(CONTROLLER_STATUS.codec.encode(status))
 
     def on_frame(_key: str, payload: bytes) -> None:
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
             if failure:
                 return
             try:
-                result = runtime.handle_payload(payload)
-            except DisconError as exc:  # a DISCON library's aviFAIL < 0 ends the run
-                failure.append(exc)
-                reason[0] = "controller failed"
-                done.set()
+                frame = SENSORS.codec.decode(payload)
+            except DecodeError as exc:
+                runtime.rejected[exc.reason] += 1
                 return
-            if result is None:
+            if wants_preview and runtime.preview_seq < frame.seq:
+                if pending:  # a newer frame: the held one goes now
+                    cycle(pending.pop()[0])
+                pending.append((frame, time.monotonic()))
                 return
-            command, status = result
-            cmd_pub.put(COMMAND.codec.encode(command))
-            status_pub.put(CONTROLLER_STATUS.codec.encode(status))
+            cycle(frame)
 
     def on_summary(_key: str, payload: bytes) -> None:
         try:
@@ -569,6 +628,15 @@ def run_controller_node(
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+
+    def on_preview(_key: str, payload: bytes) -> None:
+        with lock:
+            runtime.handle_preview_payload(payload)
+            if pending and runtime.preview_seq >= pending[0][0].seq:
+                cycle(pending.pop()[0])
+
+    if scenario.controller.preview == "perfect":
+        bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
@@ -596,6 +664,8 @@ def run_controller_node(
                 break
             with lock:
                 runtime.check_silence()
+                if pending and time.monotonic() - pending[0][1] > runtime.dt_s / 2:
+                    cycle(pending.pop()[0])
     finally:
         plant_watch.undeclare()
         token.undeclare()

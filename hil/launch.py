@@ -76,12 +76,20 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
 
+import msgspec
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bus_schemas import ActuatorCommand, SensorFrame
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, TIMING_SUMMARY
+from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_STATUS,
+    CYCLE_TIMING,
+    TIMING_SUMMARY,
+    WAVE_PREVIEW_PERFECT,
+    MessageType,
+)
 from controller.discon import DisconError
 from controller.rosco import RUN_DIR_ENV
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
@@ -278,10 +286,13 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         If the design fails (its output is in the message).
     """
     c = scenario.controller
-    if c.kind not in ("lqri", "lqri_ff"):  # only the advanced controller has designs
-        return None
+    if c.kind in _CASANOVAS_KINDS:
+        return _ensure_casanovas_design(scenario, console or Console())
     if c.kind == "lqr_wave":
         return _ensure_lqr_wave(scenario, console or Console())
+    if c.kind not in ("lqri", "lqri_ff"):  # only these designs remain; the others design nothing
+        return None
+        return None
     from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
     from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
     from controller.runtime import load_advanced_settings, missing_designs  # noqa: PLC0415
@@ -323,6 +334,49 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
     still = missing_designs(load_advanced_settings(c.preset), dt, ff, cache)
     if still:
         raise RunFailedError(str(still[0]))
+    return cache
+
+
+_CASANOVAS_KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
+
+
+def _ensure_casanovas_design(scenario: Scenario, console: Console) -> Path | None:
+    """Design a missing casanovas-2014 artefact from the scenario's platform, wind and sea.
+
+    Runs ``python -m controller.design.casanovas --preset PLATFORM --wind U --hs H --t1 T1
+    --out CACHE`` (one BLAS thread) when ``[controller] preset`` is not found and is the
+    artefact name of that case; otherwise the controller's own error names what is missing.
+    """
+    from controller.casanovas import load_casanovas_design  # noqa: PLC0415
+    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
+    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
+
+    c = scenario.controller
+    try:
+        load_casanovas_design(c.preset)
+        return None
+    except ValueError:
+        pass
+    waves, wind = scenario.waves, scenario.wind
+    hs, t1 = getattr(waves, "hs_m", None), getattr(waves, "t1_s", None)
+    speed = getattr(wind, "speed_m_s", None)
+    if scenario.platform is None or hs is None or t1 is None or speed is None:
+        return None  # nothing to design from: the controller reports the missing artefact
+    from controller.design.casanovas import artefact_stem  # noqa: PLC0415
+
+    if artefact_stem(scenario.platform, speed, hs) != c.preset:
+        return None
+    cache = user_design_dir()
+    cmd = [
+        sys.executable, "-m", "controller.design.casanovas", "--preset", scenario.platform,
+        "--wind", repr(speed), "--hs", repr(hs), "--t1", repr(t1), "--out", str(cache),
+        "--control-period", repr(scenario.timing.control_period_s),
+    ]  # fmt: skip
+    console.print(f"no design {c.preset}: designing it into {cache} ...")
+    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    if proc.returncode != 0:
+        raise RunFailedError(f"design of {c.preset} failed:\n{proc.stdout}{proc.stderr}")
     return cache
 
 
@@ -414,7 +468,6 @@ def _run_inprocess(
         scenario.turbine_id,
         {"scenario": scenario_metadata(scenario, toml_text), "run": info},
     )
-    publish = log.publish
     # A core that cannot be built closes the log (its writer would keep the process alive)
     # and the run fails with the reason; the MCAP file stays reviewable.
     try:
@@ -424,6 +477,11 @@ def _run_inprocess(
         if isinstance(exc, ValueError | DisconError):  # e.g. a DISCON library or DISCON.IN
             raise RunFailedError(f"controller {scenario.controller.kind!r}: {exc}") from exc
         raise
+
+    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if mt is WAVE_PREVIEW_PERFECT:  # the bench oracle reaches the core as over the bus
+            runtime.handle_preview(msg)
+        log.publish(mt, msg)
 
     def step(frame: SensorFrame) -> ActuatorCommand | None:
         result = runtime.handle_frame(frame)

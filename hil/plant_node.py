@@ -68,10 +68,25 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
+import numpy as np
 import zenoh
 
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
-from bus_schemas.registry import COMMAND, CYCLE_TIMING, SENSORS, TIMING_SUMMARY, TRUTH, MessageType
+from bus_schemas.messages import (
+    WAVE_PREVIEW_FIELDS,
+    WAVE_PREVIEW_SAMPLES,
+    WAVE_PREVIEW_STEP_S,
+    WavePreviewPerfect,
+)
+from bus_schemas.registry import (
+    COMMAND,
+    CYCLE_TIMING,
+    SENSORS,
+    TIMING_SUMMARY,
+    TRUTH,
+    WAVE_PREVIEW_PERFECT,
+    MessageType,
+)
 from hil.bus import Bus, BusConfig
 from hil.scenario import (
     JonswapWavesSpec,
@@ -89,6 +104,7 @@ from hil.timing import LatencyHistogram, Pacer, wait_until
 from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator, TowerBaseLoads
 from plant.turbine import TurbineParams, load_turbine
 from plant.waves import (
+    ExcitationForce,
     IsscSpectrum,
     JonswapSpectrum,
     PiersonMoskowitzSpectrum,
@@ -414,6 +430,32 @@ class PlantLoop:
         events += [(f.end_ns, f"fault OFF {f.kind} on {', '.join(f.channels)}") for f in faults]
         self._fault_events = sorted(e for e in events if e[0] < OPEN_END_NS)
         self._next_fault_event_ns = self._fault_events[0][0] if events else OPEN_END_NS
+        # Perfect wave preview (casanovas-2014 controllers, [controller] preview = "perfect").
+        self._preview: ExcitationForce | None = None
+        self._preview_offsets = WAVE_PREVIEW_STEP_S * np.arange(WAVE_PREVIEW_SAMPLES)
+        fp = self.sim.floating
+        if scenario.controller.preview == "perfect" and fp is not None:
+            self._preview = ExcitationForce(fp.waves, fp.excitation_transfer[:, :1])
+            w = fp.waves
+            self._preview_z0 = (
+                w.amplitude_m * np.exp(1j * w.phase_rad) * self._preview.transfer[:, 0]
+            )
+            self._preview_rot = np.exp(1j * np.outer(self._preview_offsets, w.omega_rad_s))
+
+    def _wave_preview(self, now_ns: int) -> msgspec.Struct:
+        """The surge excitation force X(t + jΔ), j < 81 (:data:`WavePreviewPerfect`)."""
+        assert self._preview is not None
+        # X(t + kΔ) = Re Σ_i [a_i X(ω_i) e^{i(ω_i t + φ_i)}] e^{i ω_i k Δ}: one (81 x N) product
+        f = self._preview.field
+        z = self._preview_z0 * np.exp(1j * f.omega_rad_s * (self.t_ns * 1e-9))
+        force = (self._preview_rot @ z).real
+        return WavePreviewPerfect(
+            seq=self.k,
+            sample_time_ns=self.t_ns,
+            publish_time_ns=now_ns,
+            preview_step_s=WAVE_PREVIEW_STEP_S,
+            **dict(zip(WAVE_PREVIEW_FIELDS, force.tolist(), strict=True)),
+        )
 
     @property
     def bus_faults(self) -> bool:
@@ -431,6 +473,8 @@ class PlantLoop:
             self._log_fault_events()
         truth = self.sim.truth(self.k, self.t_ns, self.x, self.applied, now)
         frame = self.sim.sensor_frame(self.k, truth, now)
+        if self._preview is not None:  # bench oracle, published before the frame it goes with
+            self.publish(WAVE_PREVIEW_PERFECT, self._wave_preview(now))
         self.frame_sent_ns = time.monotonic_ns()
         if self.sensor_link is None:
             self.publish(SENSORS, frame)
@@ -798,7 +842,7 @@ def run_plant_node(
     tid = scenario.turbine_id
     publishers = {
         mt.key_suffix: bus.publisher(mt.key(tid))
-        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY)
+        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
     }
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:

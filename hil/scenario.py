@@ -451,7 +451,13 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     ``kind``: ``"baseline"`` (preset e.g. ``"nrel5mw_baseline"``), ``"lqri"`` (observers, wave
     forecast and LQRI; preset e.g. ``"iea15mw_advanced"``) or ``"lqri_ff"`` (the same plus
     the wave feedforward) or ``"lqr_wave"`` (christiansen-2013, preset e.g.
-    ``"nrel5mw_oc3_hywind_lqr2"``). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
+    ``"nrel5mw_oc3_hywind_lqr2"``), or a casanovas-2014 kind (``"no_control"``,
+    ``"base_torque"``, ``"lqr_steady"``, ``"lqr_finite"``, ``"lqr_overlaid"``,
+    :mod:`controller.casanovas`; preset = design artefact e.g.
+    ``"nrel5mw_tlp_casanovas_u8_hs6"``; ``preview`` = ``"perfect"`` (default: the plant
+    publishes the excitation force over 20 s, a bench oracle) or ``"forecast"`` (from the
+    up-wave gauge); ``horizon_s`` (default T₁ of the design) and ``overlap`` (default 0.5) of
+    the finite-horizon LQR). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
     ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
     ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
     ``[waves] gauge_distance_m``.
@@ -462,12 +468,27 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     Relative paths are taken from the working directory of ``fowt run``.
     """
 
-    kind: Literal["baseline", "lqri", "lqri_ff", "rosco", "lqr_wave"] = "baseline"
+    kind: Literal[
+        "baseline",
+        "lqri",
+        "lqri_ff",
+        "rosco",
+        "lqr_wave",
+        "no_control",
+        "base_torque",
+        "lqr_steady",
+        "lqr_finite",
+        "lqr_overlaid",
+    ] = "baseline"
     preset: str = "nrel5mw_baseline"
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"
     library: str | None = None
     parameter_file: str | None = None
+    # casanovas-2014 kinds (controller.casanovas): preset = the design artefact's name.
+    preview: Literal["perfect", "forecast"] | None = None
+    horizon_s: Annotated[float, msgspec.Meta(gt=0.0, le=20.0)] | None = None
+    overlap: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] | None = None
 
     def __post_init__(self) -> None:
         if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
@@ -551,13 +572,15 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                     _package_presets("controller", "presets", "rosco", suffix="_DISCON.IN"),
                     "a shipped DISCON.IN",
                 )
-        else:
+        elif self.controller.kind in ("baseline", "lqri", "lqri_ff", "lqr_wave"):
             _check_preset(
                 "controller.preset",
                 self.controller.preset,
                 _package_presets("controller", "presets"),
                 "a controller preset",
             )
+        # casanovas-2014 kinds name a design artefact, designed on first use when missing:
+        # their controller checks it when it is built
         if self.platform is not None:
             _check_preset("platform", self.platform, shipped_platforms(), "a floating preset")
         if self.waves is not None:
@@ -568,7 +591,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
-        if self.controller.kind not in ("baseline", "rosco") and self.platform is None:
+        if self.controller.kind in ("lqri", "lqri_ff", "lqr_wave") and self.platform is None:
             raise ValueError(
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "
                 '(platform = "iea15mw_volturnus"): its observers estimate the platform motion'

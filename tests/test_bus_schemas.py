@@ -129,7 +129,7 @@ def test_json_schema_is_flat_and_names_units_and_ranges() -> None:
 
 
 def test_every_field_names_its_unit_or_is_a_counter() -> None:
-    unit_suffixes = ("_rad_s", "_rad", "_nm", "_n", "_w", "_m_s", "_m_s2", "_m", "_ns", "_us")
+    unit_suffixes = ("_rad_s", "_rad", "_nm", "_n", "_w", "_m_s", "_m_s2", "_m", "_ns", "_us", "_s")
     dimensionless = {
         "seq",
         "answered_seq",
