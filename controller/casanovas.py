@@ -62,7 +62,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bus_schemas.messages import SensorFrame
-from controller.core import REGIME_REGION_2, ActuatorLimits, ControlOutput
+from controller.interface import REGIME_REGION_2, ActuatorLimits, ControlOutput
 
 FloatArray = npt.NDArray[np.float64]
 
