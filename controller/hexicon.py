@@ -210,10 +210,10 @@ class MpcConfig:
 
     period_s: float = 1.0
     horizon: int = 60
-    q_error: float = 100.0
-    q_rate: float = 2000.0
+    q_error: float = 5000.0
+    q_rate: float = 50000.0
     r_input: float = 0.01
-    rho_power: float = 0.05
+    rho_power: float = 0.02
     pitch_rate_max_deg_s: float = 2.0
     drag_linearisation_rate_deg_s: float = 0.2
     time_budget_s: float = 0.5
@@ -268,7 +268,7 @@ def make_mpc(design: HexiconDesign, config: MpcConfig | None = None) -> MpcState
     a, b, _ = _matrices(cfg, design)
     n = cfg.horizon
     nx, nu = 2, 3
-    q = sp.diags([cfg.q_error, cfg.q_rate])
+    q = sp.diags([float(cfg.q_error), float(cfg.q_rate)])
     p_mat = sp.block_diag(
         [sp.kron(sp.eye(n + 1), q), sp.kron(sp.eye(n), cfg.r_input * sp.eye(nu))], format="csc"
     )

@@ -7,10 +7,14 @@ D + 2 k X at the downwind distance X > 0, in which the speed is (ayotte-2015, eq
 
 The rotor-averaged deficit of a downwind rotor j from the wake of rotor i is that deficit
 times the fraction of rotor j's disc the wake covers (area of the intersection of two circles
-over pi R^2), and deficits of several wakes combine as the root of the sum of squares of the
-deficits relative to the free stream (FLORIS' ``sosfs`` superposition):
+over pi R^2). Several wakes on one rotor combine point by point as the root of the sum of
+squares of the deficits relative to the free stream (FLORIS' ``sosfs`` superposition):
 
-    U_j = U_inf (1 - sqrt(sum_i (alpha_i (D / (D + 2 k X_ij))^2 f_ij)^2)).
+    U(p) = U_inf (1 - sqrt(sum_i delta_i(p)^2)),   delta_i(p) = alpha_i (D / (D + 2 k X_ij))^2
+                                                   inside wake i, else 0,
+
+averaged over the disc: exactly (lens area) for one wake, and on a fixed equal-area polar
+grid of 512 points when two or more wakes overlap the rotor.
 
 All rotors share one hub height (no vertical offset). Written on plain floats: three rotors,
 evaluated every plant step. FLORIS' ``jensen`` model (the field's reference) evaluates the same
@@ -23,6 +27,17 @@ from __future__ import annotations
 import math
 
 __all__ = ["circle_overlap_fraction", "jensen_speed_factors"]
+
+_RINGS, _SECTORS = 16, 32
+#: Equal-area polar quadrature points of the unit disc (ring centres at sqrt((k + ½)/K)).
+_DISC = tuple(
+    (
+        math.sqrt((k + 0.5) / _RINGS) * math.cos(2 * math.pi * (s + 0.5 * (k % 2)) / _SECTORS),
+        math.sqrt((k + 0.5) / _RINGS) * math.sin(2 * math.pi * (s + 0.5 * (k % 2)) / _SECTORS),
+    )
+    for k in range(_RINGS)
+    for s in range(_SECTORS)
+)
 
 
 def circle_overlap_fraction(rotor_radius_m: float, wake_radius_m: float, offset_m: float) -> float:
@@ -84,6 +99,7 @@ def jensen_speed_factors(
     out = []
     for j in range(n):
         total = 0.0
+        wakes: list[tuple[float, float, float]] = []  # (deficit, wake radius, lateral offset)
         for i in range(n):
             if i == j:
                 continue
@@ -97,7 +113,26 @@ def jensen_speed_factors(
             alpha = 1.0 - math.sqrt(1.0 - ct)
             grow = rotor_diameter_m / (rotor_diameter_m + 2.0 * wake_decay * down)
             frac = circle_overlap_fraction(radius, radius + wake_decay * down, cross)
-            deficit = alpha * grow * grow * frac
-            total += deficit * deficit
-        out.append(max(0.0, 1.0 - math.sqrt(total)))
+            if frac <= 0.0:
+                continue
+            deficit = alpha * grow * grow
+            wakes.append((deficit, radius + wake_decay * down, cross))
+            total += deficit * frac
+        if len(wakes) > 1:
+            total = _disc_average(wakes, radius)
+        out.append(max(0.0, 1.0 - total))
     return tuple(out)
+
+
+def _disc_average(wakes: list[tuple[float, float, float]], radius: float) -> float:
+    """Disc-averaged sosfs deficit mean_p sqrt(sum_i delta_i(p)^2) on the polar grid; wakes
+    are circles in the rotor plane at lateral offsets (hub heights are equal)."""
+    acc = 0.0
+    for py, pz in _DISC:
+        y, z = py * radius, pz * radius
+        s2 = 0.0
+        for deficit, rw, off in wakes:
+            if (y - off) * (y - off) + z * z < rw * rw:
+                s2 += deficit * deficit
+        acc += math.sqrt(s2)
+    return acc / len(_DISC)
