@@ -19,8 +19,12 @@ from bus_schemas.messages import (
     ControllerStatus,
     CycleTiming,
     PlantState,
+    PlatformControllerStatus,
+    PlatformFrame,
     SensorFrame,
     TimingSummary,
+    TurbineCommand,
+    TurbineFrame,
 )
 
 KEY_PREFIX = "fowt"
@@ -81,9 +85,21 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(TimingSummary, 6, 2, "timing/summary"),
 )
 
-BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in MESSAGES}
-BY_ID: dict[int, MessageType] = {m.message_id: m for m in MESSAGES}
-BY_SUFFIX: dict[str, MessageType] = {m.key_suffix: m for m in MESSAGES}
+#: Messages of multi-turbine platforms (the Hexicon H3 family): per-turbine ones are keyed
+#: ``fowt/<platform>/<turbine>/<suffix>`` (``key(f"{platform}/{turbine}")``), platform-wide
+#: ones ``fowt/<platform>/<suffix>``. Kept apart from :data:`MESSAGES` (the single-turbine
+#: run's channels) so single-turbine logs are unchanged.
+PLATFORM_MESSAGES: tuple[MessageType, ...] = (
+    _mt(TurbineFrame, 7, 1, "rotor"),
+    _mt(TurbineCommand, 8, 1, "rotor/command"),
+    _mt(PlatformFrame, 9, 1, "platform"),
+    _mt(PlatformControllerStatus, 10, 1, "platform/status"),
+)
+ALL_MESSAGES: tuple[MessageType, ...] = MESSAGES + PLATFORM_MESSAGES
+
+BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in ALL_MESSAGES}
+BY_ID: dict[int, MessageType] = {m.message_id: m for m in ALL_MESSAGES}
+BY_SUFFIX: dict[str, MessageType] = {m.key_suffix: m for m in ALL_MESSAGES}
 
 SENSORS = BY_CLASS[SensorFrame]
 COMMAND = BY_CLASS[ActuatorCommand]
@@ -91,6 +107,10 @@ TRUTH = BY_CLASS[PlantState]
 CONTROLLER_STATUS = BY_CLASS[ControllerStatus]
 CYCLE_TIMING = BY_CLASS[CycleTiming]
 TIMING_SUMMARY = BY_CLASS[TimingSummary]
+TURBINE_FRAME = BY_CLASS[TurbineFrame]
+TURBINE_COMMAND = BY_CLASS[TurbineCommand]
+PLATFORM_FRAME = BY_CLASS[PlatformFrame]
+PLATFORM_STATUS = BY_CLASS[PlatformControllerStatus]
 
 
 def identify(payload: bytes | bytearray | memoryview) -> MessageType:
@@ -110,6 +130,7 @@ def decode_any(payload: bytes | bytearray | memoryview) -> tuple[MessageType, ms
 
 
 __all__ = [
+    "ALL_MESSAGES",
     "BY_CLASS",
     "BY_ID",
     "BY_SUFFIX",
@@ -123,6 +144,11 @@ __all__ = [
     "TRUTH",
     "DecodeError",
     "MessageType",
+    "PLATFORM_FRAME",
+    "PLATFORM_MESSAGES",
+    "PLATFORM_STATUS",
+    "TURBINE_COMMAND",
+    "TURBINE_FRAME",
     "decode_any",
     "identify",
 ]
