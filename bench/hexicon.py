@@ -18,8 +18,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import machine, save  # noqa: E402
-from hil.hexicon import (  # noqa: E402
+from bench._common import machine, save
+from hil.hexicon import (
     CONTROLLERS,
     compute_kpis,
     initial_state,
@@ -27,8 +27,8 @@ from hil.hexicon import (  # noqa: E402
     plant_input,
     run_in_process,
 )
-from plant.hexicon.model import load_hexicon, step_rk4  # noqa: E402
-from plant.hexicon.wakes import jensen_speed_factors  # noqa: E402
+from plant.hexicon.model import load_hexicon, step_rk4
+from plant.hexicon.wakes import jensen_speed_factors
 
 
 def _per_call(fn: Any, n: int) -> float:
@@ -48,25 +48,38 @@ def costs() -> dict[str, float]:
     u = plant_input(cmd, 15.0, math.radians(140.0))
     xs, ys = p.turbine_x_m, p.turbine_y_m
     res: dict[str, float] = {}
-    res["plant_rk4_step_us"] = 1e6 * sorted(
-        _per_call(lambda: step_rk4(x, u, 0.05, p), 500) for _ in range(5)
-    )[2]
-    res["jensen_eval_us"] = 1e6 * sorted(
-        _per_call(
-            lambda: jensen_speed_factors(xs, ys, math.radians(140.0), (0.5, 0.5, 0.5), 154.0, 0.05),
-            2000,
-        )
-        for _ in range(5)
-    )[2]
-    res["jensen_eval_two_wakes_us"] = 1e6 * sorted(
-        _per_call(
-            lambda: jensen_speed_factors(
-                (0.0, 462.0, 924.0), (0.0, 77.0, -46.0), math.radians(180.0), (0.5,) * 3, 154.0, 0.05
-            ),
-            200,
-        )
-        for _ in range(5)
-    )[2]
+    res["plant_rk4_step_us"] = (
+        1e6 * sorted(_per_call(lambda: step_rk4(x, u, 0.05, p), 500) for _ in range(5))[2]
+    )
+    res["jensen_eval_us"] = (
+        1e6
+        * sorted(
+            _per_call(
+                lambda: jensen_speed_factors(
+                    xs, ys, math.radians(140.0), (0.5, 0.5, 0.5), 154.0, 0.05
+                ),
+                2000,
+            )
+            for _ in range(5)
+        )[2]
+    )
+    res["jensen_eval_two_wakes_us"] = (
+        1e6
+        * sorted(
+            _per_call(
+                lambda: jensen_speed_factors(
+                    (0.0, 462.0, 924.0),
+                    (0.0, 77.0, -46.0),
+                    math.radians(180.0),
+                    (0.5,) * 3,
+                    154.0,
+                    0.05,
+                ),
+                200,
+            )
+            for _ in range(5)
+        )[2]
+    )
     try:
         import floris  # noqa: F401
 
@@ -79,8 +92,13 @@ def costs() -> dict[str, float]:
         import floris as fl
 
         fm = fl.FlorisModel("defaults")
-        fm.set(layout_x=list(xs), layout_y=list(ys), wind_speeds=[10.0], wind_directions=[270.0],
-               turbulence_intensities=[0.06])
+        fm.set(
+            layout_x=list(xs),
+            layout_y=list(ys),
+            wind_speeds=[10.0],
+            wind_directions=[270.0],
+            turbulence_intensities=[0.06],
+        )
         fm.core.wake.model_strings["velocity_model"] = "jensen"
         fm.run()
         res["floris_run_ms"] = 1e3 * sorted(_per_call(fm.run, 20) for _ in range(5))[2]

@@ -147,7 +147,7 @@ def load_design(path: str | Path | None = None) -> HexiconDesign:
     if missing:
         raise ValueError(f"hexicon design data: missing keys {missing}")
     vals = {k: tuple(raw[k]) if isinstance(raw[k], list) else raw[k] for k in keys}
-    return HexiconDesign(**vals)
+    return HexiconDesign(**vals)  # type: ignore[arg-type]  # checked in __post_init__
 
 
 def _wrap(a: float) -> float:
@@ -180,7 +180,9 @@ def bang_bang_step(
     sign = 1 if e > 0.0 else -1
     pitch = (hi, lo, hi) if sign > 0 else (lo, hi, lo)
     switches = state.switches + (1 if state.last_sign and sign != state.last_sign else 0)
-    return BangBangState(state.steps + 1, switches, sign), HexiconCommand(pitch, _torques(design, m))
+    return BangBangState(state.steps + 1, switches, sign), HexiconCommand(
+        pitch, _torques(design, m)
+    )
 
 
 # ---------------------------------------------------------------------- MPC
@@ -285,16 +287,23 @@ def make_mpc(design: HexiconDesign, config: MpcConfig | None = None) -> MpcState
     u_vec = np.zeros(n_eq + 2 * n * nu)
     solver = osqp.OSQP()
     solver.setup(
-        p_mat, q_vec, a_all, l_vec, u_vec, verbose=False, warm_starting=True,
-        eps_abs=1e-5, eps_rel=1e-5, max_iter=4000, polishing=True,
+        p_mat,
+        q_vec,
+        a_all,
+        l_vec,
+        u_vec,
+        verbose=False,
+        warm_starting=True,
+        eps_abs=1e-5,
+        eps_rel=1e-5,
+        max_iter=4000,
+        polishing=True,
         time_limit=cfg.time_budget_s,
     )
     return MpcState(cfg, design, solver, nx, nu, l_vec, u_vec)
 
 
-def _bounds(
-    st: MpcState, e0: float, r0: float, dbeta: float, wmax: float, dwmax: float
-) -> None:
+def _bounds(st: MpcState, e0: float, r0: float, dbeta: float, wmax: float, dwmax: float) -> None:
     cfg = st.config
     n, nx, nu = cfg.horizon, st.n_x, st.n_u
     _, _, evec = _matrices(cfg, st.design)

@@ -35,8 +35,9 @@ from plant.hexicon.model import (
     load_hexicon,
     outputs,
     rated_pitch_rad,
-    step_rk4,
     steady_operating_point,
+    step_rk4,
+    torque_law_nm,
 )
 
 __all__ = [
@@ -102,8 +103,15 @@ class HexiconScenario:
 
 
 _WIND_KEYS = set(WindProfile.__dataclass_fields__) - {"_turb", "_turb_dt"}
-_SCEN_KEYS = {"duration_s", "plant_dt_s", "control_period_s", "inertia_factor", "drag_factor",
-              "platform", "comment"}
+_SCEN_KEYS = {
+    "duration_s",
+    "plant_dt_s",
+    "control_period_s",
+    "inertia_factor",
+    "drag_factor",
+    "platform",
+    "comment",
+}
 
 
 def scenario_from_dict(name: str, raw: dict[str, Any]) -> HexiconScenario:
@@ -135,8 +143,6 @@ def initial_state(p: HexiconParams, wind_m_s: float) -> tuple[float, ...]:
     tp = p.turbine
     th = rated_pitch_rad(tp, wind_m_s)
     w, _, _, _ = steady_operating_point(tp, wind_m_s, th)
-    from plant.hexicon.model import torque_law_nm
-
     q = torque_law_nm(tp, w)
     return (0.0, 0.0, w, th, q, w, th, q, w, th, q)
 

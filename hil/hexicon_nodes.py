@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import msgspec
+from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 
 from bus_schemas.messages import (
@@ -39,16 +40,19 @@ from bus_schemas.messages import (
     TurbineFrame,
 )
 from bus_schemas.registry import (
+    BY_SUFFIX,
     KEY_PREFIX,
     PLATFORM_FRAME,
     PLATFORM_MESSAGES,
     PLATFORM_STATUS,
     TURBINE_COMMAND,
     TURBINE_FRAME,
-    BY_SUFFIX,
     DecodeError,
 )
+from controller.hexicon import HexiconCommand, HexiconMeasurement, load_design
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
+from hil.hexicon import ControllerCore, initial_state, load_scenarios, plant_input
+from plant.hexicon.model import outputs, step_rk4, torque_law_nm
 
 TURBINES = ("t1", "t2", "t3")
 _STARTUP_TIMEOUT_S = 30.0
@@ -73,9 +77,6 @@ def run_plant_node(
     scenario: str, platform: str, listen: str, mode: str, duration_s: float | None
 ) -> int:
     """The plant process: publish frames each period, integrate with the answering commands."""
-    from hil.hexicon import initial_state, load_scenarios, plant_input
-    from controller.hexicon import HexiconCommand  # only the command's tuple type
-    from plant.hexicon.model import outputs, step_rk4, torque_law_nm
 
     scn = load_scenarios()[scenario]
     p = scn.params()
@@ -97,7 +98,8 @@ def run_plant_node(
         _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S)
         time.sleep(0.2)  # let the subscribers' declarations propagate
         x = initial_state(p, wind.speed_m_s(0.0))
-        cmd = HexiconCommand((x[3], x[6], x[9]), tuple(torque_law_nm(p.turbine, w) for w in (x[2], x[5], x[8])))  # type: ignore[arg-type]
+        q0 = [torque_law_nm(p.turbine, w) for w in (x[2], x[5], x[8])]
+        cmd = HexiconCommand((x[3], x[6], x[9]), (q0[0], q0[1], q0[2]))
         n = round((duration_s or scn.duration_s) / scn.control_period_s)
         period_ns = round(scn.control_period_s * 1e9)
         misses = held = 0
@@ -109,17 +111,26 @@ def run_plant_node(
             now = time.monotonic_ns()
             for i, name in enumerate(TURBINES):
                 fr = TurbineFrame(
-                    seq=k, sample_time_ns=k * period_ns, publish_time_ns=now, turbine_index=i + 1,
-                    rotor_speed_measured_rad_s=x[2 + 3 * i], blade_pitch_measured_rad=x[3 + 3 * i],
+                    seq=k,
+                    sample_time_ns=k * period_ns,
+                    publish_time_ns=now,
+                    turbine_index=i + 1,
+                    rotor_speed_measured_rad_s=x[2 + 3 * i],
+                    blade_pitch_measured_rad=x[3 + 3 * i],
                     generator_torque_measured_nm=x[4 + 3 * i],
                     electrical_power_measured_w=out.powers_w[i],
                     wind_speed_measured_m_s=out.rotor_winds_m_s[i],
                 )
                 bus.put(TURBINE_FRAME.key(f"{platform}/{name}"), TURBINE_FRAME.codec.encode(fr))
             pf = PlatformFrame(
-                seq=k, sample_time_ns=k * period_ns, publish_time_ns=now, final=int(k == n),
-                platform_heading_measured_rad=x[0], platform_yaw_rate_measured_rad_s=x[1],
-                wind_direction_measured_rad=b, wind_speed_measured_m_s=v,
+                seq=k,
+                sample_time_ns=k * period_ns,
+                publish_time_ns=now,
+                final=int(k == n),
+                platform_heading_measured_rad=x[0],
+                platform_yaw_rate_measured_rad_s=x[1],
+                wind_direction_measured_rad=b,
+                wind_speed_measured_m_s=v,
                 platform_power_w=sum(out.powers_w),
             )
             bus.put(PLATFORM_FRAME.key(platform), PLATFORM_FRAME.codec.encode(pf))
@@ -150,13 +161,26 @@ def run_plant_node(
                 )
             for j in range(scn.steps_per_period):
                 tj = t + j * scn.plant_dt_s
-                x = step_rk4(x, plant_input(cmd, wind.speed_m_s(tj), wind.direction_rad(tj)), scn.plant_dt_s, p)
+                x = step_rk4(
+                    x,
+                    plant_input(cmd, wind.speed_m_s(tj), wind.direction_rad(tj)),
+                    scn.plant_dt_s,
+                    p,
+                )
             if mode == "realtime":
                 sleep_ns = t0 + (k + 1) * period_ns - time.monotonic_ns()
                 if sleep_ns > 0:
                     time.sleep(sleep_ns / 1e9)
-        print(json.dumps({"plant_cycles": n, "deadline_misses": misses, "commands_held": held,
-                          "commands_rejected": rejected}))
+        print(
+            json.dumps(
+                {
+                    "plant_cycles": n,
+                    "deadline_misses": misses,
+                    "commands_held": held,
+                    "commands_rejected": rejected,
+                }
+            )
+        )
         time.sleep(0.3)
         return 0
     finally:
@@ -169,8 +193,6 @@ def run_controller_node(
     controller: str, platform: str, listen: str, connect: str, period_s: float
 ) -> int:
     """The controller process: one core commanding the three turbines each cycle."""
-    from controller.hexicon import HexiconMeasurement, load_design
-    from hil.hexicon import ControllerCore
 
     core = ControllerCore(controller, load_design(), period_s)
     bus = Bus(BusConfig(listen=(listen,), connect=(connect,)))
@@ -212,16 +234,25 @@ def run_controller_node(
             del frames[msg.seq]
             t_start = time.perf_counter_ns()
             m = HexiconMeasurement(
-                pf.platform_heading_measured_rad, pf.platform_yaw_rate_measured_rad_s,
-                pf.wind_direction_measured_rad, pf.wind_speed_measured_m_s,
-                tuple(slot[f"t{i}"].rotor_speed_measured_rad_s for i in (1, 2, 3)),  # type: ignore[arg-type]
+                pf.platform_heading_measured_rad,
+                pf.platform_yaw_rate_measured_rad_s,
+                pf.wind_direction_measured_rad,
+                pf.wind_speed_measured_m_s,
+                (
+                    slot["t1"].rotor_speed_measured_rad_s,
+                    slot["t2"].rotor_speed_measured_rad_s,
+                    slot["t3"].rotor_speed_measured_rad_s,
+                ),
             )
             cmd = core.step(m, period_s)
             now = time.monotonic_ns()
             for i, name in enumerate(TURBINES):
                 tc = TurbineCommand(
-                    seq=seq_out, answered_seq=pf.seq, sample_time_ns=pf.sample_time_ns,
-                    publish_time_ns=now, turbine_index=i + 1,
+                    seq=seq_out,
+                    answered_seq=pf.seq,
+                    sample_time_ns=pf.sample_time_ns,
+                    publish_time_ns=now,
+                    turbine_index=i + 1,
                     blade_pitch_commanded_rad=cmd.pitch_rad[i],
                     generator_torque_commanded_nm=cmd.torque_nm[i],
                 )
@@ -231,10 +262,15 @@ def run_controller_node(
                 math.cos(m.wind_direction_rad - m.heading_rad),
             )
             st = PlatformControllerStatus(
-                seq=seq_out, answered_seq=pf.seq, sample_time_ns=pf.sample_time_ns,
-                publish_time_ns=time.monotonic_ns(), compute_time_ns=time.perf_counter_ns() - t_start,
-                controller=int(controller == "mpc"), overruns=core.overruns,
-                heading_error_rad=err, solve_time_s=core.last_solve_s,
+                seq=seq_out,
+                answered_seq=pf.seq,
+                sample_time_ns=pf.sample_time_ns,
+                publish_time_ns=time.monotonic_ns(),
+                compute_time_ns=time.perf_counter_ns() - t_start,
+                controller=int(controller == "mpc"),
+                overruns=core.overruns,
+                heading_error_rad=err,
+                solve_time_s=core.last_solve_s,
             )
             bus.put(PLATFORM_STATUS.key(platform), PLATFORM_STATUS.codec.encode(st))
             seq_out += 1
@@ -256,14 +292,17 @@ class PlatformMcap:
         self.count = 0
         for mt in PLATFORM_MESSAGES:
             sid = self._w.register_schema(
-                name=f"fowt.{mt.name}", encoding="jsonschema",
+                name=f"fowt.{mt.name}",
+                encoding="jsonschema",
                 data=json.dumps(mt.json_schema()).encode(),
             )
             per_turbine = mt in (TURBINE_FRAME, TURBINE_COMMAND)
             for ident in [f"{platform}/{t}" for t in TURBINES] if per_turbine else [platform]:
                 key = mt.key(ident)
                 self._channels[key] = self._w.register_channel(
-                    topic=key, message_encoding="json", schema_id=sid,
+                    topic=key,
+                    message_encoding="json",
+                    schema_id=sid,
                     metadata={"version": str(mt.version), "message_id": str(mt.message_id)},
                 )
 
@@ -272,8 +311,13 @@ class PlatformMcap:
         if cid is None:
             return
         now = time.time_ns()
-        self._w.add_message(cid, log_time=int(msg.sample_time_ns), data=msgspec.json.encode(msg),
-                            publish_time=now, sequence=self.count)
+        self._w.add_message(
+            cid,
+            log_time=int(msg.sample_time_ns),
+            data=msgspec.json.encode(msg),
+            publish_time=now,
+            sequence=self.count,
+        )
         self.count += 1
 
     def close(self, metadata: dict[str, str]) -> None:
@@ -297,7 +341,6 @@ def run_over_zenoh(
     Returns the plant's summary (cycles, deadline misses, held/rejected commands), the
     record count and the MCAP path.
     """
-    from hil.hexicon import load_scenarios
 
     scn = load_scenarios()[scenario]
     out.mkdir(parents=True, exist_ok=True)
@@ -308,15 +351,43 @@ def run_over_zenoh(
     py = sys.executable
     dur = [] if duration_s is None else ["--duration", repr(duration_s)]
     plant = subprocess.Popen(
-        [py, "-m", "hil.hexicon_nodes", "plant", "--scenario", scenario, "--platform", platform,
-         "--listen", plant_ep, "--mode", mode, *dur],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        [
+            py,
+            "-m",
+            "hil.hexicon_nodes",
+            "plant",
+            "--scenario",
+            scenario,
+            "--platform",
+            platform,
+            "--listen",
+            plant_ep,
+            "--mode",
+            mode,
+            *dur,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
     )
     ctrl = subprocess.Popen(
-        [py, "-m", "hil.hexicon_nodes", "controller", "--controller", controller,
-         "--platform", platform, "--listen", ctrl_ep, "--connect", plant_ep,
-         "--period", repr(scn.control_period_s)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        [
+            py,
+            "-m",
+            "hil.hexicon_nodes",
+            "controller",
+            "--controller",
+            controller,
+            "--platform",
+            platform,
+            "--listen",
+            ctrl_ep,
+            "--connect",
+            plant_ep,
+            "--period",
+            repr(scn.control_period_s),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
     )
     mcap_path = out / "run.mcap"
     log = PlatformMcap(mcap_path, platform)
@@ -343,7 +414,7 @@ def run_over_zenoh(
     deadline = time.monotonic() + timeout_s
     final = False
     try:
-        while time.monotonic() < deadline and plant.poll() is None or not q.empty():
+        while (time.monotonic() < deadline and plant.poll() is None) or not q.empty():
             try:
                 key, msg = q.get(timeout=0.1)
             except queue.Empty:
@@ -354,7 +425,7 @@ def run_over_zenoh(
             if isinstance(msg, PlatformFrame) and msg.final:
                 final = True
         p_out, p_err = plant.communicate(timeout=30)
-        c_out, c_err = ctrl.communicate(timeout=30)
+        _c_out, c_err = ctrl.communicate(timeout=30)
     finally:
         token.undeclare()
         bus.close()
@@ -367,18 +438,26 @@ def run_over_zenoh(
     if lines:
         summary = json.loads(lines[-1])
     summary.update(
-        {"plant_rc": plant.returncode, "controller_rc": ctrl.returncode, "records": log.count,
-         "recorder_rejected": rejected, "final_seen": final, "mcap": str(mcap_path),
-         "plant_stderr": p_err.decode()[-2000:], "controller_stderr": c_err.decode()[-2000:]}
+        {
+            "plant_rc": plant.returncode,
+            "controller_rc": ctrl.returncode,
+            "records": log.count,
+            "recorder_rejected": rejected,
+            "final_seen": final,
+            "mcap": str(mcap_path),
+            "plant_stderr": p_err.decode()[-2000:],
+            "controller_stderr": c_err.decode()[-2000:],
+        }
     )
-    log.close({k: str(v) for k, v in summary.items() if k not in ("plant_stderr", "controller_stderr")}
-              | {"scenario": scenario, "controller": controller, "mode": mode})
+    log.close(
+        {k: str(v) for k, v in summary.items() if k not in ("plant_stderr", "controller_stderr")}
+        | {"scenario": scenario, "controller": controller, "mode": mode}
+    )
     return summary
 
 
 def read_platform_run(path: Path) -> dict[str, list[Any]]:
     """Decoded messages of a platform MCAP by topic (JSON dicts in log order)."""
-    from mcap.reader import make_reader
 
     by_topic: dict[str, list[Any]] = {}
     with open(path, "rb") as fh:

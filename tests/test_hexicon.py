@@ -7,16 +7,17 @@ when it is not installed.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
 from controller.hexicon import (
+    BangBangState,
     HexiconMeasurement,
     MpcConfig,
     bang_bang_step,
-    BangBangState,
     load_design,
     make_mpc,
     mpc_step,
@@ -25,8 +26,8 @@ from plant.hexicon.model import (
     load_hexicon,
     outputs,
     rated_pitch_rad,
-    step_rk4,
     steady_operating_point,
+    step_rk4,
 )
 from plant.hexicon.wakes import circle_overlap_fraction, jensen_speed_factors
 
@@ -326,8 +327,10 @@ def test_closed_loop_over_zenoh_tracks_15_deg_step(controller: str, tmp_path) ->
     d = load_design()
     lo, hi = math.degrees(d.rated_pitch_rad(15.0)), 25.0
     for t in ("t1", "t2", "t3"):
-        cmds = [math.degrees(c["blade_pitch_commanded_rad"]) for c in run[f"fowt/h3/{t}/rotor/command"]]
+        cmds = [
+            math.degrees(c["blade_pitch_commanded_rad"]) for c in run[f"fowt/h3/{t}/rotor/command"]
+        ]
         assert len(cmds) == 150
         assert all(lo - 1e-6 <= c <= hi + 1e-6 for c in cmds)
         if controller == "mpc":
-            assert max(abs(b - a) for a, b in zip(cmds, cmds[1:])) <= 2.0 + 1e-3
+            assert max(abs(b - a) for a, b in itertools.pairwise(cmds)) <= 2.0 + 1e-3

@@ -84,7 +84,12 @@ class WindProfile:
         if self.turbulence_sigma_m_s > 0.0:
             mean = max(self.speed_start_m_s, 1.0)  # spectrum shape at the starting speed
             series = synthesize_turbulence(
-                mean, self.turbulence_sigma_m_s, 110.0, 77.0, self.duration_s, 0.25,
+                mean,
+                self.turbulence_sigma_m_s,
+                110.0,
+                77.0,
+                self.duration_s,
+                0.25,
                 self.turbulence_seed,
             )
             object.__setattr__(self, "_turb", tuple(float(v) - mean for v in series))

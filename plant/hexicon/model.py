@@ -244,7 +244,9 @@ def _rotor_winds(x: tuple[float, ...], u: tuple[float, ...], p: HexiconParams) -
     return factors
 
 
-def f(t: float, x: tuple[float, ...], u: tuple[float, ...], params: HexiconParams) -> tuple[float, ...]:
+def f(
+    t: float, x: tuple[float, ...], u: tuple[float, ...], params: HexiconParams
+) -> tuple[float, ...]:
     """Time derivative of the platform state (equations in the module docstring).
 
     Parameters
@@ -309,7 +311,9 @@ def step_rk4(
     )
 
 
-def outputs(t: float, x: tuple[float, ...], u: tuple[float, ...], params: HexiconParams) -> HexiconOutputs:
+def outputs(
+    t: float, x: tuple[float, ...], u: tuple[float, ...], params: HexiconParams
+) -> HexiconOutputs:
     """Wakes, rotor winds, thrusts, powers and yaw moments at one instant (see module docs)."""
     p = params
     tp = p.turbine
@@ -399,6 +403,7 @@ def steady_operating_point(
 
     Solves ½ρπR³V²Cq(ωR/V, θ) = N T_law(ω) for ω by bisection on [0.05, 2 ω_r].
     """
+
     def resid(w: float) -> float:
         o = tb.outputs(0.0, (w, pitch_rad, 0.0), (0.0, 0.0, wind_m_s), tp)
         return o.aero_torque_nm - tp.gearbox_ratio * torque_law_nm(tp, w)
