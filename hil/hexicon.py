@@ -129,9 +129,9 @@ def scenario_from_dict(name: str, raw: dict[str, Any]) -> HexiconScenario:
 
 
 def load_scenarios(path: str | Path | None = None) -> dict[str, HexiconScenario]:
-    """Scenarios of ``hil/scenarios/hexicon_table6.toml`` (or a file of the same layout)."""
+    """Scenarios of ``hil/hexicon_scenarios/table6.toml`` (or a file of the same layout)."""
     if path is None:
-        data = (Path(__file__).parent / "scenarios" / "hexicon_table6.toml").read_bytes()
+        data = (Path(__file__).parent / "hexicon_scenarios" / "table6.toml").read_bytes()
     else:
         data = Path(path).read_bytes()
     raw = tomllib.loads(data.decode("utf-8"))

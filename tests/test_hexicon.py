@@ -334,3 +334,29 @@ def test_closed_loop_over_zenoh_tracks_15_deg_step(controller: str, tmp_path) ->
         assert all(lo - 1e-6 <= c <= hi + 1e-6 for c in cmds)
         if controller == "mpc":
             assert max(abs(b - a) for a, b in itertools.pairwise(cmds)) <= 2.0 + 1e-3
+
+
+# ----------------------------------------------------------------------------- bus messages
+def test_platform_messages_round_trip_with_turbine_keys() -> None:
+    """Each platform message encodes and decodes to itself; per-turbine keys carry the
+    platform and the turbine; out-of-range values are rejected with a RangeError."""
+    from bus_schemas.codec import RangeError
+    from bus_schemas.messages import TurbineCommand
+    from bus_schemas.registry import PLATFORM_MESSAGES, TURBINE_COMMAND, decode_any
+
+    for mt in PLATFORM_MESSAGES:
+        msg = mt.cls(**{f.name: (1 if not f.is_float else 0.25) for f in mt.codec.fields})
+        got_mt, got = decode_any(mt.codec.encode(msg))
+        assert got_mt is mt and got == msg
+    assert TURBINE_COMMAND.key("h3/t2") == "fowt/h3/t2/rotor/command"
+    bad = TurbineCommand(
+        seq=0,
+        answered_seq=0,
+        sample_time_ns=0,
+        publish_time_ns=0,
+        turbine_index=1,
+        blade_pitch_commanded_rad=3.0,
+        generator_torque_commanded_nm=0.0,
+    )
+    with pytest.raises(RangeError):
+        TURBINE_COMMAND.codec.decode(TURBINE_COMMAND.codec.encode(bad))
