@@ -45,13 +45,23 @@ def run(
     ),
     mode: Annotated[str, typer.Option(help="lockstep or realtime")] = "lockstep",
     duration: Annotated[float | None, typer.Option(help="override the length (s)")] = None,
+    realtime_priority: Annotated[
+        int, typer.Option(help="SCHED_FIFO priority of plant and controller (0: normal)")
+    ] = 0,
 ) -> None:
     from hil.hexicon_nodes import run_over_zenoh  # noqa: PLC0415 - deferred (module comment)
 
     _check(scenario, controller)
     if mode not in ("lockstep", "realtime"):
         raise typer.BadParameter(f"--mode {mode!r}: expected lockstep or realtime")
-    s = run_over_zenoh(scenario, controller, out, mode=mode, duration_s=duration)
+    s = run_over_zenoh(
+        scenario,
+        controller,
+        out,
+        mode=mode,
+        duration_s=duration,
+        realtime_priority=realtime_priority,
+    )
     if s.get("plant_rc") != 0 or s.get("controller_rc") != 0:
         typer.echo(json.dumps(s, indent=1), err=True)
         raise typer.Exit(1)
@@ -108,3 +118,14 @@ def campaign(
             )
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
+
+
+@app.command("identify", short_help="PRBS experiments (seed table 5) and an N4SID model.")
+def identify(
+    duration: Annotated[float, typer.Option(help="seconds per experiment")] = 3000.0,
+    block_rows: Annotated[int, typer.Option(help="N4SID block rows")] = 10,
+) -> None:
+    """Runs the six table-5 experiments in process, fits on 1-5, validates on 6 (JSON)."""
+    from controller.design.hexicon_identify import identify as run_identify  # noqa: PLC0415
+
+    typer.echo(json.dumps(run_identify(duration, block_rows), indent=1))

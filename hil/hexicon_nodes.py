@@ -52,6 +52,7 @@ from bus_schemas.registry import (
 from controller.hexicon import HexiconCommand, HexiconMeasurement, load_design
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
 from hil.hexicon import ControllerCore, initial_state, load_scenarios, plant_input
+from hil.rt import set_realtime_priority
 from plant.hexicon.model import outputs, step_rk4, torque_law_nm
 
 TURBINES = ("t1", "t2", "t3")
@@ -335,6 +336,7 @@ def run_over_zenoh(
     duration_s: float | None = None,
     platform: str = "h3",
     timeout_s: float = 600.0,
+    realtime_priority: int = 0,
 ) -> dict[str, Any]:
     """Run plant and controller as two processes over Zenoh, record to ``out/run.mcap``.
 
@@ -350,6 +352,7 @@ def run_over_zenoh(
         ctrl_ep = free_tcp_endpoint()
     py = sys.executable
     dur = [] if duration_s is None else ["--duration", repr(duration_s)]
+    rt = ["--realtime-priority", str(realtime_priority)] if realtime_priority else []
     plant = subprocess.Popen(
         [
             py,
@@ -365,6 +368,7 @@ def run_over_zenoh(
             "--mode",
             mode,
             *dur,
+            *rt,
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -385,6 +389,7 @@ def run_over_zenoh(
             plant_ep,
             "--period",
             repr(scn.control_period_s),
+            *rt,
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -475,13 +480,18 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("--listen", required=True)
     pp.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep")
     pp.add_argument("--duration", type=float, default=None)
+    pp.add_argument("--realtime-priority", type=int, default=0)
     cp = sub.add_parser("controller")
     cp.add_argument("--controller", choices=("bang_bang", "mpc"), required=True)
     cp.add_argument("--platform", default="h3")
     cp.add_argument("--listen", required=True)
     cp.add_argument("--connect", required=True)
     cp.add_argument("--period", type=float, default=1.0)
+    cp.add_argument("--realtime-priority", type=int, default=0)
     a = ap.parse_args(argv)
+    if a.realtime_priority:
+        # before the Zenoh session opens, so its threads inherit the policy (hil/rt.py)
+        print(set_realtime_priority(a.realtime_priority), file=sys.stderr)
     if a.node == "plant":
         return run_plant_node(a.scenario, a.platform, a.listen, a.mode, a.duration)
     return run_controller_node(a.controller, a.platform, a.listen, a.connect, a.period)
