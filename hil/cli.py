@@ -773,7 +773,9 @@ preset_app = typer.Typer(
 )
 app.add_typer(analyze_app, name="analyze")
 app.add_typer(preset_app, name="preset")
-app.add_typer(hexicon_app, name="hexicon")
+app.add_typer(
+    hexicon_app, name="hexicon", short_help="The Hexicon H3 multi-turbine platform family."
+)
 
 
 T = TypeVar("T")

@@ -15,6 +15,7 @@ CONTROLLERS = ("bang_bang", "mpc")
 app = typer.Typer(
     help="Hexicon H3-18MW: three turbines on one yawing platform (ayotte-2015).",
     no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 

@@ -426,6 +426,10 @@ COMMANDS = [
     ["analyze", "linear"],
     ["analyze", "forecast"],
     ["preset", "import-openfast"],
+    ["hexicon"],
+    ["hexicon", "run"],
+    ["hexicon", "campaign"],
+    ["hexicon", "identify"],
 ]
 
 
