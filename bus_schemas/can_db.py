@@ -18,7 +18,10 @@ CAN id map (11-bit standard ids; a lower id wins arbitration, so the command goe
 message                 classic CAN (8-byte parts)  CAN FD (one frame)
 ======================  ==========================  ===========================
 ActuatorCommand (v1)    0x100 + part (4 parts)       0x500 (24 bytes)
+TurbineCommand (v1)     0x110 + part (4 parts)       0x510 (20 bytes)
 SensorFrame (v1)        0x120 + part (7 parts)       0x520 (48 bytes)
+TurbineFrame (v1)       0x140 + part (4 parts)       0x540 (24 bytes)
+PlatformFrame (v1)      0x160 + part (4 parts)       0x560 (32 bytes)
 ======================  ==========================  ===========================
 
 Frame layout (every frame, classic or FD), little-endian (Intel) bit numbering::
@@ -80,7 +83,13 @@ from cantools.database.can.formats.dbc import (
 from cantools.database.conversion import BaseConversion
 
 from bus_schemas.codec import FieldSpec
-from bus_schemas.messages import ActuatorCommand, SensorFrame
+from bus_schemas.messages import (
+    ActuatorCommand,
+    PlatformFrame,
+    SensorFrame,
+    TurbineCommand,
+    TurbineFrame,
+)
 from bus_schemas.registry import BY_CLASS, MessageType
 
 #: The DBC file shipped with the package (equal to :func:`dbc_text`).
@@ -90,6 +99,12 @@ DBC_PATH = Path(__file__).with_name("fowt.dbc")
 CAN_IDS: dict[type[msgspec.Struct], tuple[int, int]] = {
     ActuatorCommand: (0x100, 0x500),
     SensorFrame: (0x120, 0x520),
+    # Multi-turbine platform (Hexicon H3 family): one id per message type; the turbine is the
+    # message's ``turbine_index`` signal. (The family runs over Zenoh today; on one shared CAN
+    # bus the three turbines' multi-part frames would need per-turbine id offsets.)
+    TurbineCommand: (0x110, 0x510),
+    TurbineFrame: (0x140, 0x540),
+    PlatformFrame: (0x160, 0x560),
 }
 CAN_MESSAGES: tuple[MessageType, ...] = tuple(BY_CLASS[cls] for cls in CAN_IDS)
 
@@ -127,8 +142,20 @@ TIME_SCALE_NS = 1000
 
 PLANT_NODE = "Plant"
 CONTROLLER_NODE = "Controller"
-_SENDER = {SensorFrame: PLANT_NODE, ActuatorCommand: CONTROLLER_NODE}
-_RECEIVER = {SensorFrame: CONTROLLER_NODE, ActuatorCommand: PLANT_NODE}
+_SENDER = {
+    SensorFrame: PLANT_NODE,
+    ActuatorCommand: CONTROLLER_NODE,
+    TurbineFrame: PLANT_NODE,
+    PlatformFrame: PLANT_NODE,
+    TurbineCommand: CONTROLLER_NODE,
+}
+_RECEIVER = {
+    SensorFrame: CONTROLLER_NODE,
+    ActuatorCommand: PLANT_NODE,
+    TurbineFrame: CONTROLLER_NODE,
+    PlatformFrame: CONTROLLER_NODE,
+    TurbineCommand: PLANT_NODE,
+}
 
 
 @dataclass(frozen=True)

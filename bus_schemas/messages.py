@@ -368,3 +368,87 @@ WavePreviewPerfect: type[msgspec.Struct] = msgspec.defstruct(
 WavePreviewPerfect.__doc__ = (
     "Perfect preview of the surge wave-excitation force over 20 s (bench oracle; see above)."
 )
+
+
+# ------------------------------------------------------------------ multi-turbine platform
+#: Multi-turbine platforms (the Hexicon H3 family) publish under
+#: ``fowt/<platform>/<turbine>/<suffix>`` (per turbine) and ``fowt/<platform>/<suffix>``
+#: (platform-wide): :meth:`bus_schemas.registry.MessageType.key` with ``"<platform>/<turbine>"``.
+
+
+class TurbineFrame(msgspec.Struct, frozen=True, kw_only=True):
+    """One turbine's sensor sample on a multi-turbine platform (every control period).
+
+    ``seq`` is the platform's cycle number (the same for the three turbines and the
+    :class:`PlatformFrame` of the cycle).
+    """
+
+    seq: Seq
+    sample_time_ns: TimeNs
+    publish_time_ns: TimeNs
+    turbine_index: Flag
+    rotor_speed_measured_rad_s: Annotated[float, M("rad/s", -5.0, 10.0, "rotor (LSS) speed")]
+    blade_pitch_measured_rad: Annotated[float, M("rad", -0.5, 1.8, "collective blade pitch")]
+    generator_torque_measured_nm: Annotated[float, M("N m", -1e6, 1e8, "generator torque (HSS)")]
+    electrical_power_measured_w: Annotated[float, M("W", -1e8, 1e8, "electrical power")]
+    wind_speed_measured_m_s: Annotated[
+        float, M("m/s", -80.0, 80.0, "nacelle anemometer (waked inflow)")
+    ]
+
+
+class PlatformFrame(msgspec.Struct, frozen=True, kw_only=True):
+    """Platform heading and yaw rate, and the met mast's free-stream wind (every period).
+
+    Angles counter-clockwise from above; the wind direction is where the wind comes from.
+    ``final`` = 1 on the plant's last frame of a run.
+    """
+
+    seq: Seq
+    sample_time_ns: TimeNs
+    publish_time_ns: TimeNs
+    final: Flag
+    platform_heading_measured_rad: Annotated[
+        float, M("rad", -100.0, 100.0, "platform heading (gyrocompass), unwrapped")
+    ]
+    platform_yaw_rate_measured_rad_s: Annotated[
+        float, M("rad/s", -1.0, 1.0, "platform yaw rate (gyro)")
+    ]
+    wind_direction_measured_rad: Annotated[
+        float, M("rad", -100.0, 100.0, "met-mast wind direction (from), unwrapped")
+    ]
+    wind_speed_measured_m_s: Annotated[float, M("m/s", 0.0, 80.0, "met-mast wind speed")]
+    platform_power_w: Annotated[float, M("W", -1e9, 1e9, "platform electrical power (truth)")]
+
+
+class TurbineCommand(msgspec.Struct, frozen=True, kw_only=True):
+    """Pitch and torque demand of one turbine of a platform, answering cycle ``answered_seq``."""
+
+    seq: Seq
+    answered_seq: Seq
+    sample_time_ns: TimeNs
+    publish_time_ns: TimeNs
+    turbine_index: Flag
+    blade_pitch_commanded_rad: Annotated[
+        float, M("rad", -0.2, 1.6, "collective blade pitch demand")
+    ]
+    generator_torque_commanded_nm: Annotated[
+        float, M("N m", 0.0, 5e7, "generator torque demand (HSS)")
+    ]
+
+
+class PlatformControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
+    """The heading controller's internals every period (one per platform).
+
+    ``controller``: 0 bang-bang, 1 MPC. ``overruns``: QP solves that failed or exceeded
+    their budget so far (the previous input was held).
+    """
+
+    seq: Seq
+    answered_seq: Seq
+    sample_time_ns: TimeNs
+    publish_time_ns: TimeNs
+    compute_time_ns: TimeNs
+    controller: Flag
+    overruns: Count
+    heading_error_rad: Annotated[float, M("rad", -4.0, 4.0, "wrap(wind direction - heading)")]
+    solve_time_s: Annotated[float, M("s", 0.0, 100.0, "QP solve time of this period")]

@@ -19,8 +19,12 @@ from bus_schemas.messages import (
     ControllerStatus,
     CycleTiming,
     PlantState,
+    PlatformControllerStatus,
+    PlatformFrame,
     SensorFrame,
     TimingSummary,
+    TurbineCommand,
+    TurbineFrame,
     WavePreviewPerfect,
 )
 
@@ -83,9 +87,21 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(WavePreviewPerfect, 7, 1, "preview/wave_perfect"),
 )
 
-BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in MESSAGES}
-BY_ID: dict[int, MessageType] = {m.message_id: m for m in MESSAGES}
-BY_SUFFIX: dict[str, MessageType] = {m.key_suffix: m for m in MESSAGES}
+#: Messages of multi-turbine platforms (the Hexicon H3 family): per-turbine ones are keyed
+#: ``fowt/<platform>/<turbine>/<suffix>`` (``key(f"{platform}/{turbine}")``), platform-wide
+#: ones ``fowt/<platform>/<suffix>``. Kept apart from :data:`MESSAGES` (the single-turbine
+#: run's channels) so single-turbine logs are unchanged.
+PLATFORM_MESSAGES: tuple[MessageType, ...] = (
+    _mt(TurbineFrame, 8, 1, "rotor"),
+    _mt(TurbineCommand, 9, 1, "rotor/command"),
+    _mt(PlatformFrame, 10, 1, "platform"),
+    _mt(PlatformControllerStatus, 11, 1, "platform/status"),
+)
+ALL_MESSAGES: tuple[MessageType, ...] = MESSAGES + PLATFORM_MESSAGES
+
+BY_CLASS: dict[type[msgspec.Struct], MessageType] = {m.cls: m for m in ALL_MESSAGES}
+BY_ID: dict[int, MessageType] = {m.message_id: m for m in ALL_MESSAGES}
+BY_SUFFIX: dict[str, MessageType] = {m.key_suffix: m for m in ALL_MESSAGES}
 
 SENSORS = BY_CLASS[SensorFrame]
 COMMAND = BY_CLASS[ActuatorCommand]
@@ -94,6 +110,10 @@ CONTROLLER_STATUS = BY_CLASS[ControllerStatus]
 CYCLE_TIMING = BY_CLASS[CycleTiming]
 TIMING_SUMMARY = BY_CLASS[TimingSummary]
 WAVE_PREVIEW_PERFECT = BY_CLASS[WavePreviewPerfect]
+TURBINE_FRAME = BY_CLASS[TurbineFrame]
+TURBINE_COMMAND = BY_CLASS[TurbineCommand]
+PLATFORM_FRAME = BY_CLASS[PlatformFrame]
+PLATFORM_STATUS = BY_CLASS[PlatformControllerStatus]
 
 
 def identify(payload: bytes | bytearray | memoryview) -> MessageType:
@@ -113,6 +133,7 @@ def decode_any(payload: bytes | bytearray | memoryview) -> tuple[MessageType, ms
 
 
 __all__ = [
+    "ALL_MESSAGES",
     "BY_CLASS",
     "BY_ID",
     "BY_SUFFIX",
@@ -121,9 +142,14 @@ __all__ = [
     "CYCLE_TIMING",
     "KEY_PREFIX",
     "MESSAGES",
+    "PLATFORM_FRAME",
+    "PLATFORM_MESSAGES",
+    "PLATFORM_STATUS",
     "SENSORS",
     "TIMING_SUMMARY",
     "TRUTH",
+    "TURBINE_COMMAND",
+    "TURBINE_FRAME",
     "WAVE_PREVIEW_PERFECT",
     "DecodeError",
     "MessageType",

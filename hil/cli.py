@@ -26,6 +26,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
+from hil.hexicon_cli import app as hexicon_app
 from hil.scenario import (
     MAX_DURATION_S,
     Scenario,
@@ -795,6 +796,9 @@ preset_app = typer.Typer(
 )
 app.add_typer(analyze_app, name="analyze")
 app.add_typer(preset_app, name="preset")
+app.add_typer(
+    hexicon_app, name="hexicon", short_help="The Hexicon H3 multi-turbine platform family."
+)
 
 
 T = TypeVar("T")

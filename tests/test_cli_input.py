@@ -461,6 +461,10 @@ COMMANDS = [
     ["analyze", "forecast"],
     ["analyze", "damping-map"],
     ["preset", "import-openfast"],
+    ["hexicon"],
+    ["hexicon", "run"],
+    ["hexicon", "campaign"],
+    ["hexicon", "identify"],
 ]
 
 

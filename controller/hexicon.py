@@ -1,0 +1,364 @@
+"""Heading controllers of the Hexicon H3 platform: the seed's bang-bang and an OSQP MPC.
+
+Both are pure cores ``step(state, measurement, dt) -> (state, command)`` commanding the three
+turbines' pitch and generator torque from one measurement of the platform. The heading error
+is e = wrap(β - ψ) (β: met-mast wind direction, ψ: platform heading; e > 0: the platform lags
+the wind). The pitch floor is the rated pitch θ_r(V) at the met wind speed (power limit:
+P_i <= P_rated holds for θ_i >= θ_r(V)); the ceiling is 25°. Torque: K ω_g² below rated speed,
+P_rated/(η ω_g) above (the same law on every turbine).
+
+bang_bang (ayotte-2015 section 5.3): e > 0 -> θ_1 = θ_3 = 25°, θ_2 = θ_r(V); otherwise
+θ_1 = θ_3 = θ_r(V), θ_2 = 25°.
+
+mpc: linear model about e = 0 sampled at the control period T_s, with inputs w_i = g(V)
+(θ_i - θ_r(V)) (the thrust each turbine sheds, N, g the secant thrust-per-pitch slope of the
+design data) and the measured wind-direction rate β' as a disturbance::
+
+    e_{k+1} = e_k - T_s r_k + T_s β'_k
+    r_{k+1} = (1 - T_s d / I) r_k - (T_s / I) Σ_i y_i w_{i,k}
+
+(d = 2 c r_n: the quadratic drag c r|r| linearised at r_n; Σ y_i T_0 = 0 by the layout's
+symmetry). Cost Σ q_e e_k² + q_r r_k² + r_w |w_k|² + ρ Σ w (the linear term charges the shed
+thrust, a proxy of lost power); constraints 0 <= w <= g (25° - θ_r), |w_k - w_{k-1}| <= g θ'_max
+T_s. One sparse QP per period, set up once and warm-started (OSQP); a solve that fails or
+exceeds its time budget holds the previous input and is counted as an overrun.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from bisect import bisect_right
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+__all__ = [
+    "BangBangState",
+    "HexiconCommand",
+    "HexiconDesign",
+    "HexiconMeasurement",
+    "MpcConfig",
+    "MpcState",
+    "bang_bang_step",
+    "load_design",
+    "make_mpc",
+    "mpc_step",
+]
+
+
+class HexiconMeasurement(NamedTuple):
+    """One control-period measurement (SI, rad)."""
+
+    heading_rad: float
+    yaw_rate_rad_s: float
+    wind_direction_rad: float
+    wind_speed_m_s: float
+    rotor_speeds_rad_s: tuple[float, float, float]
+
+
+class HexiconCommand(NamedTuple):
+    """Per-turbine pitch (rad) and HSS generator torque (N m) demands."""
+
+    pitch_rad: tuple[float, float, float]
+    torque_nm: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class HexiconDesign:
+    """Design data of ``controller/presets/hexicon_h3_control.json`` (see controller.design)."""
+
+    wind_grid_m_s: tuple[float, ...]
+    rated_pitch_deg: tuple[float, ...]
+    thrust_slope_n_per_rad: tuple[float, ...]
+    pitch_max_deg: float
+    turbine_x_m: tuple[float, ...]
+    turbine_y_m: tuple[float, ...]
+    yaw_inertia_kg_m2: float
+    drag_constant_kg_m2: float
+    torque_gain_nm_s2: float
+    rated_rotor_speed_rad_s: float
+    rated_power_w: float
+    generator_efficiency: float
+    gearbox_ratio: float
+    torque_max_nm: float
+
+    def __post_init__(self) -> None:
+        n = len(self.wind_grid_m_s)
+        if n < 2 or len(self.rated_pitch_deg) != n or len(self.thrust_slope_n_per_rad) != n:
+            raise ValueError(
+                "HexiconDesign: expected wind_grid_m_s, rated_pitch_deg and "
+                "thrust_slope_n_per_rad of one length >= 2"
+            )
+        if len(self.turbine_x_m) != 3 or len(self.turbine_y_m) != 3:
+            raise ValueError("HexiconDesign: expected 3 turbine positions (m)")
+        if not (self.yaw_inertia_kg_m2 > 0 and self.drag_constant_kg_m2 > 0):
+            raise ValueError("HexiconDesign: expected yaw inertia and drag constant > 0 (kg m^2)")
+
+    def _interp(self, table: tuple[float, ...], v: float) -> float:
+        xs = self.wind_grid_m_s
+        if v <= xs[0]:
+            return table[0]
+        if v >= xs[-1]:
+            return table[-1]
+        i = bisect_right(xs, v) - 1
+        a = (v - xs[i]) / (xs[i + 1] - xs[i])
+        return table[i] + (table[i + 1] - table[i]) * a
+
+    def rated_pitch_rad(self, wind_m_s: float) -> float:
+        """θ_r(V) (rad), linear in the design table."""
+        return math.radians(self._interp(self.rated_pitch_deg, wind_m_s))
+
+    def thrust_slope(self, wind_m_s: float) -> float:
+        """g(V) (N/rad)."""
+        return self._interp(self.thrust_slope_n_per_rad, wind_m_s)
+
+    def torque_nm(self, omega_rad_s: float) -> float:
+        """K ω_g² below rated speed (blended over the last 5 %), P/(η ω_g) above, <= T_max."""
+        wg = max(omega_rad_s, 0.0) * self.gearbox_ratio
+        wr = self.rated_rotor_speed_rad_s * self.gearbox_ratio
+        q_rated = self.rated_power_w / (self.generator_efficiency * wr)
+        if wg < wr:
+            q = self.torque_gain_nm_s2 * wg * wg
+            blend = 0.95 * wr
+            if wg > blend:
+                q0 = self.torque_gain_nm_s2 * blend * blend
+                q = q0 + (q_rated - q0) * (wg - blend) / (wr - blend)
+        else:
+            q = self.rated_power_w / (self.generator_efficiency * wg)
+        return min(max(q, 0.0), self.torque_max_nm)
+
+
+def load_design(path: str | Path | None = None) -> HexiconDesign:
+    """Load the shipped design data (or a JSON file of the same keys)."""
+    if path is None:
+        text = (resources.files("controller.presets") / "hexicon_h3_control.json").read_text()
+    else:
+        text = Path(path).read_text(encoding="utf-8")
+    raw: dict[str, Any] = json.loads(text)
+    keys = HexiconDesign.__dataclass_fields__.keys()
+    missing = [k for k in keys if k not in raw]
+    if missing:
+        raise ValueError(f"hexicon design data: missing keys {missing}")
+    vals = {k: tuple(raw[k]) if isinstance(raw[k], list) else raw[k] for k in keys}
+    return HexiconDesign(**vals)  # type: ignore[arg-type]  # checked in __post_init__
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def _torques(design: HexiconDesign, m: HexiconMeasurement) -> tuple[float, float, float]:
+    t = tuple(design.torque_nm(w) for w in m.rotor_speeds_rad_s)
+    return (t[0], t[1], t[2])
+
+
+# ---------------------------------------------------------------------- bang-bang
+@dataclass(frozen=True)
+class BangBangState:
+    """Counts of the bang-bang core (no memory is needed by the law itself)."""
+
+    steps: int = 0
+    switches: int = 0
+    last_sign: int = 0
+
+
+def bang_bang_step(
+    state: BangBangState, m: HexiconMeasurement, dt: float, design: HexiconDesign
+) -> tuple[BangBangState, HexiconCommand]:
+    """The seed's bang-bang heading law (module docstring); ``dt`` unused."""
+    e = _wrap(m.wind_direction_rad - m.heading_rad)
+    lo = design.rated_pitch_rad(m.wind_speed_m_s)
+    hi = math.radians(design.pitch_max_deg)
+    lo = min(lo, hi)
+    sign = 1 if e > 0.0 else -1
+    pitch = (hi, lo, hi) if sign > 0 else (lo, hi, lo)
+    switches = state.switches + (1 if state.last_sign and sign != state.last_sign else 0)
+    return BangBangState(state.steps + 1, switches, sign), HexiconCommand(
+        pitch, _torques(design, m)
+    )
+
+
+# ---------------------------------------------------------------------- MPC
+@dataclass(frozen=True)
+class MpcConfig:
+    """MPC tuning.
+
+    Parameters
+    ----------
+    period_s : float
+        Control period T_s (s), > 0.
+    horizon : int
+        Prediction steps N, 2..400.
+    q_error, q_rate : float
+        Weights on e² (1/rad²) and r² (s²/rad²).
+    r_input : float
+        Weight on (w / 1e5 N)².
+    rho_power : float
+        Linear weight on w / 1e5 N (the shed-thrust/power penalty).
+    pitch_rate_max_deg_s : float
+        Rate limit of the pitch demand (deg/s), > 0.
+    drag_linearisation_rate_deg_s : float
+        r_n of the drag linearisation (deg/s), > 0.
+    time_budget_s : float
+        A solve longer than this is an overrun (s), > 0.
+    """
+
+    period_s: float = 1.0
+    horizon: int = 60
+    q_error: float = 5000.0
+    q_rate: float = 50000.0
+    r_input: float = 0.01
+    rho_power: float = 0.02
+    pitch_rate_max_deg_s: float = 2.0
+    drag_linearisation_rate_deg_s: float = 0.2
+    time_budget_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not (self.period_s > 0 and 2 <= self.horizon <= 400):
+            raise ValueError("MpcConfig: expected period_s > 0 s and 2 <= horizon <= 400 steps")
+        for name in ("q_error", "q_rate", "r_input", "rho_power"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"MpcConfig.{name}: expected >= 0")
+        for name in ("pitch_rate_max_deg_s", "drag_linearisation_rate_deg_s", "time_budget_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"MpcConfig.{name}: expected > 0")
+
+
+_W_SCALE = 1.0e5  # N per unit of the QP's input variable
+
+
+@dataclass
+class MpcState:
+    """Solver, previous input and counters (the solver object is the warm-start memory)."""
+
+    config: MpcConfig
+    design: HexiconDesign
+    solver: Any
+    n_x: int
+    n_u: int
+    l_vec: np.ndarray
+    u_vec: np.ndarray
+    prev_w: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    prev_dir: float | None = None
+    steps: int = 0
+    overruns: int = 0
+    solve_times_s: list[float] = field(default_factory=list)
+
+
+def _matrices(cfg: MpcConfig, d: HexiconDesign) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ts = cfg.period_s
+    inertia = d.yaw_inertia_kg_m2
+    lin_drag = 2.0 * d.drag_constant_kg_m2 * math.radians(cfg.drag_linearisation_rate_deg_s)
+    a = np.array([[1.0, -ts], [0.0, 1.0 - ts * lin_drag / inertia]])
+    b = np.zeros((2, 3))
+    for i in range(3):
+        b[1, i] = -ts * d.turbine_y_m[i] * _W_SCALE / inertia
+    e = np.array([ts, 0.0])
+    return a, b, e
+
+
+def make_mpc(design: HexiconDesign, config: MpcConfig | None = None) -> MpcState:
+    """Build and set up the sparse QP once (variables z = [x_0..x_N, w_0..w_{N-1}])."""
+    cfg = config or MpcConfig()
+    a, b, _ = _matrices(cfg, design)
+    n = cfg.horizon
+    nx, nu = 2, 3
+    q = sp.diags([float(cfg.q_error), float(cfg.q_rate)])
+    p_mat = sp.block_diag(
+        [sp.kron(sp.eye(n + 1), q), sp.kron(sp.eye(n), cfg.r_input * sp.eye(nu))], format="csc"
+    )
+    q_vec = np.hstack([np.zeros((n + 1) * nx), cfg.rho_power * np.ones(n * nu)])
+    ax = sp.kron(sp.eye(n + 1), -sp.eye(nx)) + sp.kron(sp.eye(n + 1, k=-1), sp.csc_matrix(a))
+    bu = sp.kron(sp.vstack([sp.csc_matrix((1, n)), sp.eye(n)]), sp.csc_matrix(b))
+    a_eq = sp.hstack([ax, bu])
+    a_box = sp.hstack([sp.csc_matrix((n * nu, (n + 1) * nx)), sp.eye(n * nu)])
+    diff = sp.eye(n) - sp.eye(n, k=-1)
+    a_rate = sp.hstack([sp.csc_matrix((n * nu, (n + 1) * nx)), sp.kron(diff, sp.eye(nu))])
+    a_all = sp.vstack([a_eq, a_box, a_rate], format="csc")
+    n_eq = (n + 1) * nx
+    l_vec = np.zeros(n_eq + 2 * n * nu)
+    u_vec = np.zeros(n_eq + 2 * n * nu)
+    solver = osqp.OSQP()
+    solver.setup(
+        p_mat,
+        q_vec,
+        a_all,
+        l_vec,
+        u_vec,
+        verbose=False,
+        warm_starting=True,
+        eps_abs=1e-5,
+        eps_rel=1e-5,
+        max_iter=4000,
+        polishing=True,
+        time_limit=cfg.time_budget_s,
+    )
+    return MpcState(cfg, design, solver, nx, nu, l_vec, u_vec)
+
+
+def _bounds(st: MpcState, e0: float, r0: float, dbeta: float, wmax: float, dwmax: float) -> None:
+    cfg = st.config
+    n, nx, nu = cfg.horizon, st.n_x, st.n_u
+    _, _, evec = _matrices(cfg, st.design)
+    n_eq = (n + 1) * nx
+    beq = np.tile(-evec * dbeta, n + 1)
+    beq[:nx] = [-e0, -r0]
+    st.l_vec[:n_eq] = beq
+    st.u_vec[:n_eq] = beq
+    st.l_vec[n_eq : n_eq + n * nu] = 0.0
+    st.u_vec[n_eq : n_eq + n * nu] = wmax
+    r0_ = n_eq + n * nu
+    st.l_vec[r0_:] = -dwmax
+    st.u_vec[r0_:] = dwmax
+    st.l_vec[r0_ : r0_ + nu] = st.prev_w - dwmax
+    st.u_vec[r0_ : r0_ + nu] = st.prev_w + dwmax
+
+
+def mpc_step(
+    st: MpcState, m: HexiconMeasurement, dt: float
+) -> tuple[MpcState, HexiconCommand, dict[str, float]]:
+    """One MPC period: update bounds (state, β', V), warm-started solve, apply w_0.
+
+    Returns the (mutated) state, the command and info {solve_s, overrun, status}.
+    """
+    d = st.design
+    cfg = st.config
+    e0 = _wrap(m.wind_direction_rad - m.heading_rad)
+    dbeta = 0.0
+    if st.prev_dir is not None and dt > 0:
+        dbeta = _wrap(m.wind_direction_rad - st.prev_dir) / dt
+        dbeta = max(-0.01, min(0.01, dbeta))  # a direction step is not a rate
+    st.prev_dir = m.wind_direction_rad
+    lo = d.rated_pitch_rad(m.wind_speed_m_s)
+    hi = math.radians(d.pitch_max_deg)
+    lo = min(lo, hi)
+    g = d.thrust_slope(m.wind_speed_m_s)
+    wmax = g * (hi - lo) / _W_SCALE
+    dwmax = g * math.radians(cfg.pitch_rate_max_deg_s) * cfg.period_s / _W_SCALE
+    st.prev_w = np.clip(st.prev_w, 0.0, wmax)
+    _bounds(st, e0, m.yaw_rate_rad_s, dbeta, wmax, dwmax)
+    st.solver.update(l=st.l_vec, u=st.u_vec)
+    t0 = time.perf_counter()
+    res = st.solver.solve(raise_error=False)
+    solve_s = time.perf_counter() - t0
+    st.solve_times_s.append(solve_s)
+    status = str(res.info.status)
+    ok = status == "solved" and solve_s <= cfg.time_budget_s
+    n_state = (cfg.horizon + 1) * st.n_x
+    if ok:
+        w = np.clip(np.asarray(res.x[n_state : n_state + st.n_u]), 0.0, wmax)
+    else:
+        st.overruns += 1
+        w = st.prev_w.copy()
+    st.prev_w = w
+    st.steps += 1
+    pitch = tuple(float(lo + wi * _W_SCALE / g) for wi in w)
+    cmd = HexiconCommand((pitch[0], pitch[1], pitch[2]), _torques(d, m))
+    return st, cmd, {"solve_s": solve_s, "overrun": float(not ok), "status_solved": float(ok)}

@@ -1,0 +1,1 @@
+"""Scenarios of the Hexicon H3 platform family (hil.hexicon), apart from the single-turbine ones."""
