@@ -119,12 +119,21 @@ def free_tcp_endpoint() -> str:
     return f"tcp/127.0.0.1:{port}"
 
 
+class BusOpenError(RuntimeError):
+    """The Zenoh session could not be opened (refused certificate, no peer, port in use)."""
+
+
 class Bus:
     """One Zenoh session with typed publish and raw subscribe helpers."""
 
     def __init__(self, config: BusConfig) -> None:
         self.config = config
-        self.session = zenoh.open(config.zenoh_config())
+        try:
+            self.session = zenoh.open(config.zenoh_config())
+        except zenoh.ZError as exc:  # a refused TLS handshake, an endpoint in use, ...
+            raise BusOpenError(
+                f"the Zenoh session did not open ({config.describe()}): {exc}"
+            ) from exc
         self._publishers: dict[str, Any] = {}
         self._subscribers: list[Any] = []
 

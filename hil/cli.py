@@ -26,6 +26,7 @@ from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
+from hil.bus import BusOpenError
 from hil.hexicon_cli import app as hexicon_app
 from hil.scenario import (
     MAX_DURATION_S,
@@ -1175,4 +1176,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(getattr(exc, "exit_code", 1))
     except typer.Abort:
         sys.exit(130)
+    except BusOpenError as exc:  # a node whose session was refused: one line, not a traceback
+        _stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
+        sys.exit(1)
     sys.exit(rv if isinstance(rv, int) else 0)

@@ -557,3 +557,22 @@ def test_without_zenoh_config_the_loopback_defaults_apply() -> None:
     )
     assert isinstance(bus, BusConfig)
     assert bus.listen == ("tcp/127.0.0.1:7448",) and bus.connect == ("tcp/127.0.0.1:7447",)
+
+
+def test_refused_zenoh_session_is_one_line(tmp_path: Path) -> None:
+    """A node whose Zenoh session cannot open (here: a client whose only endpoint, a closed
+    loopback port, refuses it) ends with one ``error:`` line and exit 1, not a traceback."""
+    from hil.bus import free_tcp_endpoint
+
+    closed = free_tcp_endpoint()  # nothing listens there once the probe socket is closed
+    cfg = tmp_path / "client.json5"
+    cfg.write_text(
+        '{ mode: "client", connect: { endpoints: ["' + closed + '"], timeout_ms: 500,'
+        " exit_on_failure: true }, scouting: { multicast: { enabled: false },"
+        " gossip: { enabled: false } } }"
+    )
+    proc = _fowt(["controller", "nrel5mw-ramp", "--zenoh-config", str(cfg)], tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and "Zenoh session did not open" in lines[0], proc.stderr
