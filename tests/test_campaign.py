@@ -231,11 +231,11 @@ scenario = "iea15mw-lc5"
 probability = 0.11
 
 [[cases]]
-name = "broken"               # fails at run time: the platform preset file does not exist
+name = "broken"               # fails at run time: the platform file is not a platform preset
 scenario = "iea15mw-lc2"
 probability = 0.0
 [cases.overrides]
-platform = "does-not-exist/volturnus.toml"
+platform = "BROKEN_PLATFORM"
 
 [[controllers]]
 name = "baseline"
@@ -256,7 +256,10 @@ KPI_COLS = list(ck.KPIS)
 def small(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     root = tmp_path_factory.mktemp("campaign")
     path = root / "small.toml"
-    path.write_text(_SMALL)
+    # an existing file passes the scenario's load-time check; reading it as a preset fails
+    broken = root / "broken-volturnus.toml"
+    broken.write_text('name = "not a platform preset"\n')
+    path.write_text(_SMALL.replace("BROKEN_PLATFORM", str(broken)))
     c = load_campaign(str(path))
     r2 = run_campaign(c, root / "w2", workers=2, record="mcap", progress=False)
     return {"root": root, "campaign": c, "r2": r2}
