@@ -195,7 +195,7 @@ def _choice(*allowed: str) -> Callable[[str], str]:
 
 
 #: Nodes the plant can wait for (their liveliness tokens ``fowt/<turbine>/alive/<name>``).
-_PEERS = ("controller", "recorder", "launcher")
+_PEERS = ("controller", "recorder", "launcher", "fuzzer")  # fuzzer: python -m hil.fuzz
 
 
 def _require_list(value: str) -> str:
