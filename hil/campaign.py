@@ -40,7 +40,6 @@ import hashlib
 import json
 import math
 import os
-import re
 import time
 import tomllib
 import traceback
@@ -58,8 +57,10 @@ from hil.scenario import (
     ControllerSection,
     Scenario,
     ScenarioError,
-    _hint_for_unknown,
+    _known_fields,
+    key_at_text,
     scenario_text,
+    unknown_key_text,
 )
 
 if TYPE_CHECKING:
@@ -270,14 +271,9 @@ def _convert(d: dict[str, Any], where: str) -> Scenario:
         return msgspec.convert(d, Scenario)
     except msgspec.ValidationError as exc:
         msg = str(exc)
-        m = re.match(r"Object contains unknown field `([^`]+)`(?: - at `([^`]*)`)?", msg)
-        if m:
-            key, path = m.group(1), (m.group(2) or "$").lstrip("$").lstrip(".")
-            full = f"{path}.{key}" if path else key
-            from hil.scenario import _known_fields  # noqa: PLC0415
-
-            hint = _hint_for_unknown(key, _known_fields(m.group(2) or "$"))
-            raise CampaignError(f"{where}: unknown scenario key {full!r}{hint}") from exc
+        unknown = unknown_key_text(msg, _known_fields)
+        if unknown is not None:
+            raise CampaignError(f"{where}: unknown scenario key {unknown}") from exc
         raise CampaignError(f"{where}: {msg}") from exc
 
 
@@ -368,17 +364,10 @@ def parse_campaign(text: str, source: str = "<string>", base_dir: Path | None = 
         spec = msgspec.convert(raw, CampaignFile)
     except msgspec.ValidationError as exc:
         msg = str(exc)
-        m = re.match(r"Object contains unknown field `([^`]+)`(?: - at `([^`]*)`)?", msg)
-        if m:
-            key, path = m.group(1), m.group(2) or "$"
-            where = path.lstrip("$").lstrip(".")
-            full = f"{where}.{key}" if where else key
-            hint = _hint_for_unknown(key, _known(path))
-            raise CampaignError(f"{source}: unknown key {full!r}{hint}") from exc
-        at = re.search(r" - at `\$\.?([^`]*)`", msg)
-        if at:
-            msg = f"key {at.group(1)!r}: {msg[: at.start()]}"
-        raise CampaignError(f"{source}: {msg}") from exc
+        unknown = unknown_key_text(msg, _known)
+        if unknown is not None:
+            raise CampaignError(f"{source}: unknown key {unknown}") from exc
+        raise CampaignError(f"{source}: {key_at_text(msg)}") from exc
     try:
         runs = expand(spec, base_dir or Path.cwd())
     except CampaignError as exc:

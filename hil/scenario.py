@@ -19,6 +19,7 @@ import importlib.util
 import math
 import re
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal, get_args
@@ -689,6 +690,33 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
 _UNIT_SUFFIX = re.compile(r"_(s|ms|us|ns|m_s|km_h|rad|deg|rad_s|rpm|nm|n|w|kw|mw|m|hz)$")
 
 
+_UNKNOWN_FIELD = re.compile(r"Object contains unknown field `([^`]+)`(?: - at `([^`]*)`)?")
+_AT_PATH = re.compile(r" - at `\$\.?([^`]*)`")
+
+
+def unknown_key_text(msg: str, known: Callable[[str], list[str]]) -> str | None:
+    """``'section.key'; did you mean ...`` for msgspec's unknown-field message, else None.
+
+    ``known(path)`` gives the keys known at msgspec's error path (``"$"``, ``"$.timing"``).
+    Shared by the scenario and campaign loaders, so both name a wrong key the same way.
+    """
+    m = _UNKNOWN_FIELD.match(msg)
+    if m is None:
+        return None
+    key, path = m.group(1), m.group(2) or "$"
+    where = path.lstrip("$").lstrip(".")
+    full = f"{where}.{key}" if where else key
+    return f"{full!r}{_hint_for_unknown(key, known(path))}"
+
+
+def key_at_text(msg: str, suffix: str = "") -> str:
+    """msgspec's ``... - at `$.a.b``` as ``key 'a.b': ...`` (``suffix`` appended), else msg."""
+    at = _AT_PATH.search(msg)
+    if at is None:
+        return msg
+    return f"key {at.group(1)!r}: {msg[: at.start()]}{suffix}"
+
+
 def _hint_for_unknown(key: str, known: list[str]) -> str:
     stem = _UNIT_SUFFIX.sub("", key)
     same_stem = [k for k in known if _UNIT_SUFFIX.sub("", k) == stem]
@@ -783,20 +811,14 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         return msgspec.convert(raw, Scenario)
     except msgspec.ValidationError as exc:
         msg = str(exc)
-        m = re.match(r"Object contains unknown field `([^`]+)`(?: - at `([^`]*)`)?", msg)
-        if m:
-            key, path = m.group(1), m.group(2) or "$"
-            where = path.lstrip("$").lstrip(".")
-            full = f"{where}.{key}" if where else key
-            hint = _hint_for_unknown(key, _known_fields(path))
-            raise ScenarioError(f"{source}: unknown key {full!r}{hint}") from exc
-        at = re.search(r" - at `\$\.?([^`]*)`", msg)
-        if at:
-            kinds = ""
-            if re.fullmatch(r"faults\[\d+\]\.kind", at.group(1)):
-                kinds = f" (kinds: {', '.join(get_args(FaultKind))})"
-            msg = f"key {at.group(1)!r}: {msg[: at.start()]}{kinds}"
-        raise ScenarioError(f"{source}: {msg}") from exc
+        unknown = unknown_key_text(msg, _known_fields)
+        if unknown is not None:
+            raise ScenarioError(f"{source}: unknown key {unknown}") from exc
+        at = _AT_PATH.search(msg)
+        kinds = ""
+        if at is not None and re.fullmatch(r"faults\[\d+\]\.kind", at.group(1)):
+            kinds = f" (kinds: {', '.join(get_args(FaultKind))})"
+        raise ScenarioError(f"{source}: {key_at_text(msg, kinds)}") from exc
 
 
 def _package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[str]:
