@@ -43,13 +43,31 @@ condensed statically, s̈ = ṡ = 0, which leaves the platform periods within 1 
   offset, the model (the linearisations reproduce the 2020 v1.0 turbine with a 1,263 t tower,
   about 160 t lighter than the deck imported here), not the aerodynamics;
 * what opens the gap with wind is the rotor-speed loop (φ̇ → U_n → aerodynamic torque → ω →
-  thrust → pitch moment). Its torque side agrees (∂ω̇/∂φ̇ −2.37 vs −2.30, ∂ω̇/∂ω −0.143 vs −0.127
-  1/s at 15 m/s); its thrust side ∂T/∂ω, from the Cp/Ct/Cq table of the current rotor, is about
-  twice lin_10's at 15 m/s (the tower row ∂s̈/∂ω −0.745 vs −0.383; 1.3x at 19 m/s, about
-  equal at 24 m/s). With the 5 % softer pitch, the rotor-speed loop lengthens the pitch period by
-  5.5 % (15 m/s) and 9.3 % (19 m/s) here, by 1.5 % and 3.9 % in the linearisations. The table
-  derivative is not an interpolation artefact (a bicubic fit of the same table gives ∂C_t/∂λ
-  within 15 %);
+  thrust → pitch moment): free rotor, the pitch period is 5.5 % (15 m/s) and 9.3 % (19 m/s)
+  longer than locked here, 1.5 % and 3.9 % in the linearisations;
+* the rotor's aerodynamic derivatives are not what differs (``bench/modes_vs_openfast.py``,
+  second table). The linearisations' own, read from AeroDyn's output Jacobians (rows
+  ``RtAeroFxh``/``RtAeroMxh`` of C and D, no mass matrix involved), against the table's here:
+  ∂T/∂Ω −7.56e5 vs −8.49e5 N s (1.12x) at 15 m/s, −2.41e6 vs −3.00e6 (1.25x) at 19 m/s;
+  ∂Q/∂Ω 1.11x and 1.09x, ∂Q/∂U 1.05x and 1.06x, ∂T/∂U 1.03x and 1.12x. (An earlier reading of
+  "about twice" compared A entries ∂s̈/∂ω, which carry the other tower's inverse mass matrix.)
+  Put into this A in place of the table's, they move the pitch period from 30.09 to 29.91 s
+  (15 m/s, lin 28.43) and from 31.27 to 30.86 s (19 m/s, lin 29.09);
+* the linearisations use the equilibrium wake, not a frozen wake: a blade-element model of the
+  deck's blade (:mod:`plant.rotor_bem`) with the induction re-converged reproduces their
+  ∂T/∂Ω, ∂Q/∂Ω, ∂Q/∂U within 2-10 % at 15 and 19 m/s, with the induced velocities held
+  (AeroDyn's ``FrozenWake``) it is 18-29 % off, and frozen-wake derivatives lengthen the
+  period here further (30.81 s at 15 m/s). The table's derivatives (equilibrium wake, steady
+  BEM) are therefore the right ones to compare with, and also the right physics for the
+  time-domain plant's slow motions;
+* two smaller differences, found and not the gap: the linearisations' rotor pitching moment
+  (``RtAeroMyh``) depends on the platform pitch rate (−6.5e8 N m s/rad at 15 m/s, 14 % more
+  aerodynamic pitch damping than the thrust's h² ∂T/∂U; absent here: adding it lengthens the
+  period by 0.5 %); with the tower condensed, all surge, heave, pitch and rotor-row entries of
+  the linearisation put into this A still leave the pitch period 3.4 % (15 m/s) and 4.4 %
+  (19 m/s) long, so the remainder sits in what couples the rotor-speed pole with the platform
+  through this model's mass matrix and radiation states (the 2020 turbine's masses); not
+  resolved;
 * below rated the linearisations are not open loop in generator torque: ∂ω̇/∂ω is −0.098 1/s at
   5 m/s and −1.118 1/s at 9 m/s against an aerodynamic −0.039 and −0.069 here, i.e. ServoDyn's
   generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad). At 5 m/s the two
