@@ -30,20 +30,10 @@ WANTED = {
     "pitch": "Platform pitch tilt",
     "tower_fore_aft": "1st tower fore-aft",
 }
-# Outside 5 % (measured; the reasons in plant/modes.py, "Against the OpenFAST linearisations").
-KNOWN_GAPS = {
-    (9.0, "pitch"): "-11.8 %: lin_04's A holds ServoDyn's generator-torque law (dw/dt per w "
-    "-1.118 1/s against -0.069 aerodynamic here, a slope of about 3.3e8 N m s/rad); the bench "
-    "analyses the open-loop case (torque held); with that slope in the loop, 2.4 % "
-    "(test_below_rated_with_the_linearisations_torque_law_in_the_loop)",
-    (15.0, "pitch"): "+5.8 %: the rotor-speed loop lengthens the pitch period 5.5 % here, 1.5 % "
-    "in lin_10. Not the aerodynamic derivatives (lin_10's own AeroDyn Jacobians in this A: "
-    "+5.2 %), not a frozen wake (lin_10 is equilibrium-wake: tests/test_rotor_bem.py; frozen "
-    "derivatives here: +8.4 %); with all rigid-body and rotor-row entries of lin_10 in the "
-    "condensed A still +3.4 %; rotor speed locked, +1.8 % (plant/modes.py)",
-    (19.0, "pitch"): "+7.5 %: as at 15 m/s (lin_14's derivatives in this A: +6.1 %; all "
-    "rigid-body and rotor-row entries: +4.4 %); rotor speed locked, +2.2 %",
-}
+# Below rated the linearisations hold ServoDyn's generator-torque law in A (the rotor-speed row
+# ∂ω̇/∂ω is -0.098 and -1.118 1/s at 5 and 9 m/s against an aerodynamic -0.039 and -0.069 here);
+# above rated the torque is constant (ServoDyn region 3), the open-loop case of the bench.
+BELOW_RATED = (5.0, 9.0)
 
 
 def _read_lin(path: Path) -> tuple[np.ndarray, list[str], list[float]]:
@@ -69,8 +59,24 @@ def _lin_or_skip(path: Path) -> tuple[np.ndarray, list[str], list[float]]:
     return _read_lin(path)
 
 
-def _openfast_modes(path: Path) -> dict[str, Mode]:
+def _openfast_modes(path: Path, azimuth_averaged: bool = True) -> dict[str, Mode]:
+    """Natural modes of a ``.lin`` file's A matrix.
+
+    ``azimuth_averaged``: drop the generator-azimuth state ψ (its row and column). Each file is
+    one linearisation at one rotor azimuth (ψ = 0.014 rad), and its A carries ∂F/∂ψ, the slope
+    of the 3P-periodic rotor loads (shear 0.12, tilt, the tower's potential-flow influence) at
+    that azimuth: 0.27 m/s² per rad in the tower row and 0.017 1/s² in the rotor-speed row at
+    15 m/s. Averaged over a revolution, the derivative of a periodic load is zero, so the
+    azimuth-averaged (MBC) model that a rotor-disc model like the bench's stands for has no ψ
+    column; the usual practice removes the state. Kept, the slope at ψ = 0 shortens the pitch
+    period by 3.4 % (15 m/s) and 4.3 % (19 m/s) and changes nothing at 5 m/s.
+    """
     a, names, _ = _lin_or_skip(path)
+    if azimuth_averaged:
+        az = next(i for i, s in enumerate(names) if s.startswith("ED Variable speed generator"))
+        keep = [i for i in range(len(names)) if i != az]
+        a = a[np.ix_(keep, keep)]
+        names = [names[i] for i in keep]
     pos = [next(i for i, s in enumerate(names) if s.startswith("ED " + w)) for w in WANTED.values()]
     vel = [
         next(i for i, s in enumerate(names) if "First time derivative of " + w in s)
@@ -78,6 +84,18 @@ def _openfast_modes(path: Path) -> dict[str, Mode]:
     ]
     found = identify_modes(a, pos, vel, list(WANTED), (1.0, 1.0, PITCH_LENGTH_M, 1.0))
     return {m.name: m for m in found}
+
+
+def _lin_torque_slope(params: FloatingParams, wind: float, path: Path) -> float:
+    """Generator-torque slope k (N m s/rad) of the linearisation's rotor-speed row.
+
+    k = −(∂ω̇/∂ω|lin − ∂ω̇/∂ω|aero, here) J: the part of the linearisation's ∂ω̇/∂ω that is not
+    aerodynamic, ServoDyn's torque law (about 1.9e7 at 5 m/s, 3.3e8 at 9 m/s).
+    """
+    a_of, names, _ = _lin_or_skip(path)
+    w = next(i for i, s in enumerate(names) if "First time derivative of Variable speed" in s)
+    a = linearize(params, operating_point(params, wind))
+    return float(-(a_of[w, w] - a[8, 8]) * params.turbine.drivetrain_inertia_kg_m2)
 
 
 @pytest.fixture(scope="module")
@@ -92,19 +110,24 @@ def modes(params: FloatingParams) -> dict[str, Mode]:
 
 @pytest.fixture(scope="module")
 def openfast_modes() -> dict[str, Mode]:
-    return _openfast_modes(LIN)
+    return _openfast_modes(LIN, azimuth_averaged=False)
 
 
 _BENCH_CACHE: dict[float, dict[str, Mode]] = {}
 
 
 def _bench_modes(params: FloatingParams, wind: float) -> dict[str, Mode]:
+    """The bench's modes in the linearisation's case (torque law below rated, held above)."""
     if wind not in _BENCH_CACHE:
-        _BENCH_CACHE[wind] = {m.name: m for m in natural_modes(params, wind)}
+        path = LIN_DIR / f"lin_{LIN_FILES[wind]}.1.lin"
+        slope = _lin_torque_slope(params, wind, path) if wind in BELOW_RATED else 0.0
+        modes = natural_modes(params, wind, torque_slope_nm_s_rad=slope)
+        _BENCH_CACHE[wind] = {m.name: m for m in modes}
     return _BENCH_CACHE[wind]
 
 
 def test_openfast_linearisation_gives_the_quoted_periods(openfast_modes: dict[str, Mode]) -> None:
+    """DESIGN.md's periods of lin_00 as written in the file (generator azimuth kept)."""
     for name, period in OPENFAST_PERIODS_S.items():
         assert openfast_modes[name].period_s == pytest.approx(period, rel=5e-3), name
 
@@ -112,41 +135,55 @@ def test_openfast_linearisation_gives_the_quoted_periods(openfast_modes: dict[st
 @pytest.mark.parametrize("name", ["surge", "heave", "pitch"])
 @pytest.mark.parametrize("wind", list(LIN_FILES))
 def test_platform_periods_match_openfast_at_every_operating_point(
-    params: FloatingParams, wind: float, name: str, request: pytest.FixtureRequest
+    params: FloatingParams, wind: float, name: str
 ) -> None:
     """Damped surge, heave and pitch periods within 5 % of the OpenFAST linearisation.
 
-    Open loop in both (no controller; blade pitch and generator torque held; rotor speed free),
-    except that the linearisations below rated hold ServoDyn's generator-torque law in A. The
-    cases outside 5 % are expected failures with their measured reason (``KNOWN_GAPS``; strict,
-    so that a fix shows up as a failure to be removed from the list).
+    The case compared is the linearisations': no pitch controller (blade pitch held); generator
+    torque held above rated (ServoDyn's region 3, the bench's open-loop case) and, below rated
+    (5, 9 m/s), ServoDyn's torque law, which the linearisations hold in A, put in the bench's
+    loop with the slope read from the file (``_lin_torque_slope``; ``fowt analyze modes
+    --torque-slope``). The linearisation is azimuth-averaged (``_openfast_modes``). Measured:
+    surge -0.8..+2.7 %, heave +0.3 %, pitch -0.2..+3.5 % (12 m/s +3.5, 15 +2.2, 19 +2.8,
+    24 +1.1); the locked-rotor offset of about +2 % is the 2020 turbine of the linearisations
+    (plant/modes.py). Open loop at 9 m/s would be -5.2 % in surge and -12.5 % in pitch.
     """
-    if (wind, name) in KNOWN_GAPS:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=KNOWN_GAPS[(wind, name)]))
     ref = _openfast_modes(LIN_DIR / f"lin_{LIN_FILES[wind]}.1.lin")
     got = _bench_modes(params, wind)
     assert got[name].period_s == pytest.approx(ref[name].period_s, rel=0.05)
 
 
+def test_single_azimuth_slope_is_what_shortened_the_linearisations_pitch(
+    params: FloatingParams,
+) -> None:
+    """With the azimuth state kept, lin_10's pitch is 28.43 s; azimuth-averaged 29.44 s.
+
+    The bench (30.09 s open loop at 15 m/s) is 5.8 % longer than the former and 2.2 % longer
+    than the latter; the azimuth column is the only difference between the two references.
+    """
+    path = LIN_DIR / "lin_10.1.lin"
+    raw = _openfast_modes(path, azimuth_averaged=False)["pitch"].period_s
+    avg = _openfast_modes(path)["pitch"].period_s
+    assert raw == pytest.approx(28.43, abs=0.02)
+    assert avg == pytest.approx(29.44, abs=0.02)
+    got = _bench_modes(params, 15.0)["pitch"].period_s
+    assert got / raw - 1.0 > 0.05
+    assert abs(got / avg - 1.0) < 0.03
+
+
 @pytest.mark.parametrize("wind", [5.0, 9.0])
-def test_below_rated_with_the_linearisations_torque_law_in_the_loop(
+def test_below_rated_open_loop_differs_from_the_torque_law_case(
     params: FloatingParams, wind: float
 ) -> None:
-    """Below rated, with the generator-torque slope the linearisation holds: periods within 5 %.
-
-    The slope k is read from the ``.lin`` A matrix: k = −(∂ω̇/∂ω|lin − ∂ω̇/∂ω|aero, here) J
-    (about 1.9e7 N m s/rad at 5 m/s and 3.3e8 at 9 m/s), so that the rotor-speed dynamics
-    are those of the linearisation; then pitch is within 0.4 % (5 m/s) and 2.4 % (9 m/s).
-    """
-    path = LIN_DIR / f"lin_{LIN_FILES[wind]}.1.lin"
-    a_of, _, _ = _lin_or_skip(path)
-    a = linearize(params, operating_point(params, wind))
-    slope = -(a_of[9, 9] - a[8, 8]) * params.turbine.drivetrain_inertia_kg_m2
-    assert slope > 0.0
-    got = {m.name: m for m in natural_modes(params, wind, torque_slope_nm_s_rad=slope)}
-    ref = _openfast_modes(path)
-    for name in ("surge", "heave", "pitch"):
-        assert got[name].period_s == pytest.approx(ref[name].period_s, rel=0.05), name
+    """Below rated the torque law is what the comparison needs: open loop, pitch is 12 % short
+    at 9 m/s (24.69 s against 28.23 s); with the linearisation's slope, 1.6 % long."""
+    ref = _openfast_modes(LIN_DIR / f"lin_{LIN_FILES[wind]}.1.lin")
+    open_loop = {m.name: m for m in natural_modes(params, wind)}
+    closed = _bench_modes(params, wind)
+    assert _lin_torque_slope(params, wind, LIN_DIR / f"lin_{LIN_FILES[wind]}.1.lin") > 0.0
+    assert abs(closed["pitch"].period_s / ref["pitch"].period_s - 1.0) < 0.05
+    if wind == 9.0:
+        assert open_loop["pitch"].period_s / ref["pitch"].period_s - 1.0 < -0.10
 
 
 def test_trim_at_15_m_s_matches_openfast(params: FloatingParams) -> None:
