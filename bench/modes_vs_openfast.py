@@ -6,8 +6,10 @@ Usage::
 
 For each wind speed of ``../shared/reference/openfast/IEA-15-240-RWT-UMaineSemi/linearizations``
 (5, 9, 12, 15, 19, 24 m/s): the bench's damped surge, heave and pitch periods
-(:func:`plant.modes.natural_modes`, open loop) and those of the ``.lin`` file's A matrix
-(:func:`plant.modes.identify_modes`), their difference in per cent, and the diagnostic of
+(:func:`plant.modes.natural_modes`) open loop and in the linearisations' case (below rated,
+their ServoDyn torque law in the loop), and those of the ``.lin`` file's A matrix
+(:func:`plant.modes.identify_modes`) as written and azimuth-averaged (the generator-azimuth
+state dropped; ``tests/test_modes.py``), their differences in per cent, and the diagnostic of
 ``plant/modes.py``: both A matrices with the tower condensed statically (s̈ = ṡ = 0) and the
 rotor speed locked, which removes the rotor-speed loop. Needs ``../shared`` (reference data);
 prints a message and exits 2 without it.
@@ -54,6 +56,7 @@ LIN_DIR = (
 ROTOR_DIR = LIN_DIR.parents[1] / "IEA-15-240-RWT"
 LIN_FILES = {5.0: "00", 9.0: "04", 12.0: "07", 15.0: "10", 19.0: "14", 24.0: "19"}
 DOFS = ("surge", "heave", "pitch")
+BELOW_RATED = (5.0, 9.0)
 
 
 def _read_lin(path: Path) -> tuple[np.ndarray, list[float]]:
@@ -193,43 +196,70 @@ def main() -> int:
         return 2
     params = load_floating("iea15mw_volturnus")
     rows = []
-    print("open loop (blade pitch and generator torque held, rotor speed free)")
-    print(f"{'U m/s':>6} {'DOF':>6} {'bench s':>8} {'lin s':>8} {'diff %':>7}   "
-          f"{'locked bench':>12} {'locked lin':>10} {'diff %':>7}")  # fmt: skip
+    print("bench: open loop (blade pitch, generator torque held; rotor speed free) and the")
+    print("linearisations' case (below rated their ServoDyn torque law in the loop, slope from")
+    print("the file); lin: A as written (azimuth 0.014 rad) and azimuth-averaged (generator")
+    print("azimuth state dropped: the mean of the 3P load slope over a revolution is zero)")
+    print(f"{'U':>4} {'DOF':>6} {'open':>8} {'case':>8} {'lin':>8} {'lin avg':>8} "
+          f"{'open/lin':>9} {'case/avg':>9}   {'locked':>7} {'lin lck':>7} "
+          f"{'diff':>6}")  # fmt: skip
     for wind, tag in LIN_FILES.items():
         a_of, op_of = _read_lin(LIN_DIR / f"lin_{tag}.1.lin")
         op = operating_point(params, wind)
         a = linearize(params, op)
         of = _periods(a_of, [0, 1, 2, 3], [5, 6, 7, 8])
+        keep = [i for i in range(a_of.shape[0]) if i != 4]
+        ofa = _periods(a_of[np.ix_(keep, keep)], [0, 1, 2, 3], [4, 5, 6, 7])
         us = _periods(a, [0, 1, 2, 3], [4, 5, 6, 7])
+        # Below rated: ServoDyn's torque law of the linearisation, k = −(∂ω̇/∂ω|lin − aero) J.
+        slope = -(a_of[9, 9] - a[8, 8]) * params.turbine.drivetrain_inertia_kg_m2
+        slope = slope if wind in BELOW_RATED else 0.0
+        ac = a.copy()
+        ac[10, 8] += slope * params.turbine.inv_torque_tau
+        uc = _periods(ac, [0, 1, 2, 3], [4, 5, 6, 7])
         # OpenFAST states: q0..3, generator azimuth 4, rates 5..8, rotor speed 9, HydroDyn after.
         ofl = _periods(_condense_lock(a_of, 3, 8, [4, 9]), [0, 1, 2], [3, 4, 5])
         # Bench states: q0..3, rates 4..7, rotor speed 8, blade pitch 9, torque 10, radiation.
         usl = _periods(_condense_lock(a, 3, 7, [8, 9, 10]), [0, 1, 2], [3, 4, 5])
         for dof in DOFS:
             d = 100.0 * (us[dof] / of[dof] - 1.0)
+            dc = 100.0 * (uc[dof] / ofa[dof] - 1.0)
             dl = 100.0 * (usl[dof] / ofl[dof] - 1.0)
-            print(f"{wind:6.0f} {dof:>6} {us[dof]:8.2f} {of[dof]:8.2f} {d:+7.1f}   "
-                  f"{usl[dof]:12.2f} {ofl[dof]:10.2f} {dl:+7.1f}")  # fmt: skip
+            print(f"{wind:4.0f} {dof:>6} {us[dof]:8.2f} {uc[dof]:8.2f} {of[dof]:8.2f} "
+                  f"{ofa[dof]:8.2f} {d:+8.1f}% {dc:+8.1f}%   {usl[dof]:7.2f} {ofl[dof]:7.2f} "
+                  f"{dl:+5.1f}%")  # fmt: skip
             rows.append(
                 {
                     "wind_m_s": wind,
                     "dof": dof,
-                    "bench_s": us[dof],
+                    "bench_open_loop_s": us[dof],
+                    "bench_case_s": uc[dof],
+                    "torque_slope_nm_s_rad": slope,
                     "openfast_s": of[dof],
-                    "diff_percent": d,
+                    "openfast_azimuth_averaged_s": ofa[dof],
+                    "open_loop_vs_openfast_percent": d,
+                    "case_vs_azimuth_averaged_percent": dc,
                     "rotor_locked_bench_s": usl[dof],
                     "rotor_locked_openfast_s": ofl[dof],
                     "rotor_locked_diff_percent": dl,
                 }
             )
-        print(f"{'':6} trim: surge {op.state[0]:.2f} m (lin {op_of[0]:.2f}), platform pitch "
+        print(f"{'':4} trim: surge {op.state[0]:.2f} m (lin {op_of[0]:.2f}), platform pitch "
               f"{op.state[2]:.4f} rad (lin {op_of[2]:.4f}), tower {us.get('tower_fore_aft', 0):.2f}"
-              f" s (lin {of.get('tower_fore_aft', 0):.2f})")  # fmt: skip
+              f" s (lin {of.get('tower_fore_aft', 0):.2f}); torque slope {slope:.3g} "
+              "N m s/rad")  # fmt: skip
     deriv_rows = _derivative_table(params)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(
-        json.dumps({"case": "open loop", "rows": rows, "aero_derivatives": deriv_rows}, indent=2)
+        json.dumps(
+            {
+                "case": "open loop; case: below rated the linearisation's torque law in the loop",
+                "reference": "lin A as written, and azimuth-averaged (generator azimuth dropped)",
+                "rows": rows,
+                "aero_derivatives": deriv_rows,
+            },
+            indent=2,
+        )
         + "\n"
     )
     print(f"wrote {args.out}")
@@ -268,8 +298,11 @@ def _derivative_table(params: FloatingParams) -> list[dict[str, object]]:
             extra = ""
             if name == "lin":
                 own = _periods(a_of, [0, 1, 2, 3], [5, 6, 7, 8])["pitch"]
+                keep = [i for i in range(a_of.shape[0]) if i != 4]
+                avg = _periods(a_of[np.ix_(keep, keep)], [0, 1, 2, 3], [4, 5, 6, 7])["pitch"]
                 row["openfast_pitch_period_s"] = own
-                extra = f"  (OpenFAST's own: {own:.2f})"
+                row["openfast_azimuth_averaged_pitch_period_s"] = avg
+                extra = f"  (OpenFAST's own: {own:.2f}, azimuth-averaged {avg:.2f})"
             row.update({k: float(d[k]) for k in DERIVS})
             out.append(row)
             cells = " ".join(f"{d[k]:10.3e} ({d[k] / sets['lin'][k]:5.2f})" for k in DERIVS)

@@ -855,7 +855,8 @@ def analyze_modes(
         OPEN_LOOP_CASE
         if torque_slope == 0.0
         else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
-        "blade pitch held, rotor speed free"
+        "blade pitch held, rotor speed free; rotor aerodynamics quasi-steady from the Cp/Ct/Cq "
+        "table (equilibrium wake)"
     )
     if as_json:
         out = {

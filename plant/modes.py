@@ -42,39 +42,50 @@ condensed statically, s̈ = ṡ = 0, which leaves the platform periods within 1 
   stiffness/inertia ∂φ̈/∂φ is 0.941-0.949 of theirs at every wind speed: a wind-independent
   offset, the model (the linearisations reproduce the 2020 v1.0 turbine with a 1,263 t tower,
   about 160 t lighter than the deck imported here), not the aerodynamics;
-* what opens the gap with wind is the rotor-speed loop (φ̇ → U_n → aerodynamic torque → ω →
-  thrust → pitch moment): free rotor, the pitch period is 5.5 % (15 m/s) and 9.3 % (19 m/s)
-  longer than locked here, 1.5 % and 3.9 % in the linearisations;
-* the rotor's aerodynamic derivatives are not what differs (``bench/modes_vs_openfast.py``,
-  second table). The linearisations' own, read from AeroDyn's output Jacobians (rows
-  ``RtAeroFxh``/``RtAeroMxh`` of C and D, no mass matrix involved), against the table's here:
-  ∂T/∂Ω −7.56e5 vs −8.49e5 N s (1.12x) at 15 m/s, −2.41e6 vs −3.00e6 (1.25x) at 19 m/s;
-  ∂Q/∂Ω 1.11x and 1.09x, ∂Q/∂U 1.05x and 1.06x, ∂T/∂U 1.03x and 1.12x. (An earlier reading of
-  "about twice" compared A entries ∂s̈/∂ω, which carry the other tower's inverse mass matrix.)
-  Put into this A in place of the table's, they move the pitch period from 30.09 to 29.91 s
-  (15 m/s, lin 28.43) and from 31.27 to 30.86 s (19 m/s, lin 29.09);
+* each ``.lin`` file is one linearisation at one rotor azimuth (0.014 rad), and its A holds the
+  generator azimuth ψ as a state with a non-zero column: ∂F/∂ψ, the slope at that azimuth of
+  the 3P-periodic rotor loads (shear, tilt, the tower's potential-flow influence), 0.27 m/s² per
+  rad in the tower row and 0.017 1/s² in the rotor-speed row at 15 m/s. Averaged over a
+  revolution the derivative of a periodic load is zero, so the azimuth-averaged model, the one a
+  rotor disc like this one stands for, has no ψ column (the usual practice with OpenFAST
+  linearisations drops the state after averaging over azimuths). Kept, the slope at ψ = 0 acts
+  through the rotor-speed loop and shortens the pitch period by 3.4 % (15 m/s: 28.43 s as
+  written, 29.44 s averaged) and 4.3 % (19 m/s: 29.09 / 30.41 s), 0.1 % at 5 m/s. That was the
+  pitch gap at 15 and 19 m/s (+5.8 %, +7.5 % against the files as written; +2.2 %, +2.8 %
+  azimuth-averaged, the ~2 % locked-rotor offset above);
+* the rotor's aerodynamic derivatives agree (``bench/modes_vs_openfast.py``, second table). The
+  linearisations' own, read from AeroDyn's output Jacobians (rows ``RtAeroFxh``/``RtAeroMxh``
+  of C and D, no mass matrix involved), against the table's here: ∂T/∂Ω −7.56e5 vs −8.49e5 N s
+  (1.12x) at 15 m/s, −2.41e6 vs −3.00e6 (1.25x) at 19 m/s; ∂Q/∂Ω 1.11x and 1.09x, ∂Q/∂U 1.05x
+  and 1.06x, ∂T/∂U 1.03x and 1.12x (an earlier "about twice" compared A entries ∂s̈/∂ω, which
+  carry the other tower's inverse mass matrix). Put into this A in place of the table's, they
+  move the pitch period from 30.09 to 29.91 s (15 m/s) and from 31.27 to 30.86 s (19 m/s);
 * the linearisations use the equilibrium wake, not a frozen wake: a blade-element model of the
   deck's blade (:mod:`plant.rotor_bem`) with the induction re-converged reproduces their
-  ∂T/∂Ω, ∂Q/∂Ω, ∂Q/∂U within 2-10 % at 15 and 19 m/s, with the induced velocities held
-  (AeroDyn's ``FrozenWake``) it is 18-29 % off, and frozen-wake derivatives lengthen the
-  period here further (30.81 s at 15 m/s). The table's derivatives (equilibrium wake, steady
-  BEM) are therefore the right ones to compare with, and also the right physics for the
-  time-domain plant's slow motions;
-* two smaller differences, found and not the gap: the linearisations' rotor pitching moment
+  ∂T/∂Ω, ∂Q/∂Ω, ∂Q/∂U within 2-10 % at 15 and 19 m/s; with the induced velocities held
+  (AeroDyn's ``FrozenWake``) it is 18-29 % off. This analysis therefore uses the table's
+  derivatives (equilibrium wake, steady BEM): what the linearisations hold, and the physics of
+  the time-domain plant (no dynamic inflow), whose table is the limit of motions slower than the
+  wake's time constant τ ≈ 1.1 R/(U(1 − 1.3a)) (Øye's, about 10 s at 15 m/s, 30 s at 5 m/s); a
+  frozen wake is the limit of motions much faster than it, and the 25-30 s platform periods lie
+  between. With frozen-wake derivatives the pitch period here would be 30.81 s (15 m/s) and
+  31.14 s (19 m/s);
+* a smaller difference, found and not modelled: the linearisations' rotor pitching moment
   (``RtAeroMyh``) depends on the platform pitch rate (−6.5e8 N m s/rad at 15 m/s, 14 % more
-  aerodynamic pitch damping than the thrust's h² ∂T/∂U; absent here: adding it lengthens the
-  period by 0.5 %); with the tower condensed, all surge, heave, pitch and rotor-row entries of
-  the linearisation put into this A still leave the pitch period 3.4 % (15 m/s) and 4.4 %
-  (19 m/s) long, so the remainder sits in what couples the rotor-speed pole with the platform
-  through this model's mass matrix and radiation states (the 2020 turbine's masses); not
-  resolved;
+  aerodynamic pitch damping than the thrust's h² ∂T/∂U; adding it here changes the pitch
+  period by +0.5 %);
 * below rated the linearisations are not open loop in generator torque: ∂ω̇/∂ω is −0.098 1/s at
   5 m/s and −1.118 1/s at 9 m/s against an aerodynamic −0.039 and −0.069 here, i.e. ServoDyn's
-  generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad). At 5 m/s the two
-  differences (softer pitch here, no torque slope here) cancel; at 9 m/s the missing slope makes
-  the pitch period 12 % short here. ``natural_modes(..., torque_slope_nm_s_rad=k)`` (``fowt
-  analyze modes --torque-slope``) puts such a law in the loop: with the slope read from the
-  ``.lin`` files, surge, heave and pitch agree within 0.5 % (5 m/s) and 2.4 % (9 m/s).
+  generator-torque law is in their A (slopes about 1.9e7 and 3.3e8 N m s/rad); above rated
+  their torque is constant (ServoDyn's region 3), this module's open-loop case.
+  ``natural_modes(..., torque_slope_nm_s_rad=k)`` (``fowt analyze modes --torque-slope``) puts
+  such a law in the loop: with the slope read from the ``.lin`` files, surge, heave and pitch
+  agree within 0.8 % (5 m/s) and 1.6 % (9 m/s) with the azimuth-averaged linearisations; open
+  loop, 9 m/s is 5.2 % short in surge and 12.5 % in pitch.
+
+In that case (torque law below rated, held above) against the azimuth-averaged linearisations,
+surge is within −0.8..+2.7 %, heave +0.3 %, pitch −0.2..+3.5 % at 5, 9, 12, 15, 19, 24 m/s
+(``tests/test_modes.py``, ``bench/modes_vs_openfast.py``).
 
 Tower fore-aft mode: 1.93 s here. The six linearisations give 2.23 s with the 2020 tower; an
 OpenFAST linearisation of the current deck (the one imported here, 1,466.5 t tower) gives
@@ -125,7 +136,7 @@ PITCH_LENGTH_M = 100.0
 #: The case :func:`natural_modes` analyses (no controller in the loop).
 OPEN_LOOP_CASE = (
     "open loop: no controller; blade pitch and generator torque held at the operating point, "
-    "rotor speed free"
+    "rotor speed free; rotor aerodynamics quasi-steady from the Cp/Ct/Cq table (equilibrium wake)"
 )
 
 

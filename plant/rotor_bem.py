@@ -1,8 +1,9 @@
 """Steady blade-element momentum (BEM) rotor with equilibrium-wake and frozen-wake derivatives.
 
-Offline analysis (no part of the time-domain plant, which uses the Cp/Ct/Cq table of
-:mod:`plant.aero`). Used to generate the frozen-wake derivative table of a rotor
-(:func:`derivative_table`) that :func:`plant.modes.linearize` reads with ``wake="frozen"``.
+Offline analysis, no part of the time-domain plant (which uses the Cp/Ct/Cq table of
+:mod:`plant.aero`) nor of the product's run time: it reads an OpenFAST deck's AeroDyn blade and
+polars. Used by ``bench/modes_vs_openfast.py`` and ``tests/test_rotor_bem.py`` to find which
+wake model the OpenFAST linearisations hold (the equilibrium wake; ``plant/modes.py``).
 
 Blade element (station at span s, radius r = s cos β_c with precone β_c, B blades):
 
@@ -28,8 +29,10 @@ Frozen wake (OpenFAST's linearisation of AeroDyn with ``FrozenWake``): the induc
 u_a = a V_x and u_t = a' V_y of the operating point are held while Ω, U or θ are perturbed,
 so that W and φ follow the perturbation directly and the circulation is not re-balanced with
 the momentum of the wake. The equilibrium-wake derivatives re-converge a and a' (steady BEM,
-the physics of a Cp/Ct/Cq table, right for motions slower than the wake's time constant
-τ ≈ 1.1 R / (U (1 − 1.3 a)), about 20-30 s for the IEA 15 MW).
+the physics of a Cp/Ct/Cq table, the limit of motions slower than the wake's time constant
+τ ≈ 1.1 R / (U (1 − 1.3 a)), about 10 s at 15 m/s and 30 s at 5 m/s for the IEA 15 MW).
+OpenFAST's linearisations of the IEA 15 MW VolturnUS-S hold the equilibrium wake
+(``tests/test_rotor_bem.py``).
 
 Reference: Ning, S. A. (2014), "A simple solution method for the blade element momentum
 equations with guaranteed convergence", Wind Energy 17, 1327-1345 (the formulation; this is
@@ -50,7 +53,6 @@ import numpy.typing as npt
 __all__ = [
     "BladeGeometry",
     "RotorLoads",
-    "derivative_table",
     "derivatives",
     "load_aerodyn_blade",
     "rotor_loads",
@@ -280,44 +282,3 @@ def derivatives(
         "dQ_dOmega_N_m_s": (wp.torque_nm - wm.torque_nm) / (2 * dw),
         "dQ_dU_N_s": (up.torque_nm - um.torque_nm) / (2 * du),
     }
-
-
-def derivative_table(
-    g: BladeGeometry, tsr: Sequence[float], pitch_rad: Sequence[float], rotor_radius_m: float
-) -> dict[str, FloatArray]:
-    """Dimensionless equilibrium- and frozen-wake derivatives over (λ, θ) (:func:`derivatives`).
-
-    With k = ½ρπR² and the reference speed U = 1 m/s (Ω = λ U / R), the dimensionless forms are
-    C_t = T/(k U²), C_q = Q/(k R U²), and
-
-        t_ω = ∂T/∂Ω / (k U R),  t_u = ∂T/∂U / (k U),
-        q_ω = ∂Q/∂Ω / (k U R²), q_u = ∂Q/∂U / (k U R),
-
-    so that at any wind speed ∂T/∂Ω = k U R t_ω(λ, θ) etc. (no Reynolds-number dependence in
-    the polars). Returns arrays of shape (len(pitch), len(tsr)) keyed ``"ct"``, ``"cq"`` and
-    ``"<wake>_<t|q>_<omega|u>"``.
-    """
-    k = 0.5 * g.air_density_kg_m3 * math.pi * rotor_radius_m**2
-    rr = rotor_radius_m
-    out: dict[str, FloatArray] = {}
-    shape = (len(pitch_rad), len(tsr))
-    keys = ["ct", "cq"] + [
-        f"{w}_{f}_{v}" for w in ("equilibrium", "frozen") for f in "tq" for v in ("omega", "u")
-    ]
-    for key in keys:
-        out[key] = np.full(shape, np.nan)
-    for i, th in enumerate(pitch_rad):
-        for j, lam in enumerate(tsr):
-            omega = lam / rr
-            for wake in ("equilibrium", "frozen"):
-                try:
-                    d = derivatives(g, omega, 1.0, th, wake)
-                except ValueError:
-                    continue
-                out["ct"][i, j] = d["thrust_n"] / k
-                out["cq"][i, j] = d["torque_nm"] / (k * rr)
-                out[f"{wake}_t_omega"][i, j] = d["dT_dOmega_N_s"] / (k * rr)
-                out[f"{wake}_t_u"][i, j] = d["dT_dU_N_s_m"] / k
-                out[f"{wake}_q_omega"][i, j] = d["dQ_dOmega_N_m_s"] / (k * rr * rr)
-                out[f"{wake}_q_u"][i, j] = d["dQ_dU_N_s"] / (k * rr)
-    return out
