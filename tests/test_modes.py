@@ -144,7 +144,7 @@ def test_platform_periods_match_openfast_at_every_operating_point(
     (5, 9 m/s), ServoDyn's torque law, which the linearisations hold in A, put in the bench's
     loop with the slope read from the file (``_lin_torque_slope``; ``fowt analyze modes
     --torque-slope``). The linearisation is azimuth-averaged (``_openfast_modes``). Measured:
-    surge -0.8..+2.7 %, heave +0.3 %, pitch -0.2..+3.5 % (12 m/s +3.5, 15 +2.2, 19 +2.8,
+    surge -0.8..+2.7 %, heave +0.3 %, pitch +0.3..+3.5 % (12 m/s +3.5, 15 +2.2, 19 +2.8,
     24 +1.1); the locked-rotor offset of about +2 % is the 2020 turbine of the linearisations
     (plant/modes.py). Open loop at 9 m/s would be -5.2 % in surge and -12.5 % in pitch.
     """
