@@ -204,6 +204,8 @@ class RunLog:
     yaw_rate: list[float] = field(default_factory=list)
     direction: list[float] = field(default_factory=list)
     speed: list[float] = field(default_factory=list)
+    # the met wind speed the controller measured (its pitch floor); empty: noise-free
+    speed_measured: list[float] = field(default_factory=list)
     pitch_cmd: list[tuple[float, float, float]] = field(default_factory=list)
     pitch: list[tuple[float, float, float]] = field(default_factory=list)
     power: list[float] = field(default_factory=list)
@@ -296,6 +298,7 @@ def run_in_process(
         u = plant_input(cmd, v, b)
         out = outputs(t, x, u, p)
         _record(log, t, x, v, b, cmd, out.powers_w, out.wind_factors, core.last_solve_s)
+        log.speed_measured.append(meas.wind_speed_m_s)
         for j in range(scn.steps_per_period):
             tj = t + j * dt
             u = plant_input(cmd, wind.speed_m_s(tj), wind.direction_rad(tj))
@@ -350,8 +353,9 @@ def compute_kpis(
     to the initial error, after the first zero crossing; 0 for none), settling time (first time
     after which |e| stays <= 1°; NaN if never); energy ratio ∫P / ∫P_wake-free; pitch travel
     Σ_i Σ_k |Δθ_i| (deg, actual pitch); constraint violations (commanded pitch outside
-    [θ_r(V) - 0.01°, 25° + 0.01°], counted per turbine and period); MPC solve time p99 and
-    overruns.
+    [θ_r(V_m) - 0.01°, 25° + 0.01°], counted per turbine and period, V_m the met wind speed
+    the controller measured: its constraint; the true speed without a measured one); MPC
+    solve time p99 and overruns.
     """
     d = design or load_design()
     p = scn.params()
@@ -383,7 +387,8 @@ def compute_kpis(
     pitch = np.degrees(np.asarray(log.pitch))
     travel = float(np.sum(np.abs(np.diff(pitch, axis=0))))
     cmd = np.degrees(np.asarray(log.pitch_cmd))
-    floor = np.array([math.degrees(d.rated_pitch_rad(v)) for v in log.speed])
+    v_floor = log.speed_measured if len(log.speed_measured) == len(log.speed) else log.speed
+    floor = np.array([math.degrees(d.rated_pitch_rad(v)) for v in v_floor])
     viol = int(np.sum(cmd < floor[:, None] - 0.01) + np.sum(cmd > d.pitch_max_deg + 0.01))
     solves = np.asarray(log.solve_s)
     return {
