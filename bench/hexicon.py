@@ -116,6 +116,18 @@ def costs() -> dict[str, float]:
     res["mpc_solve_p50_ms"] = 1e3 * times[len(times) // 2]
     res["mpc_solve_p99_ms"] = 1e3 * times[int(0.99 * len(times))]
     res["mpc_solve_max_ms"] = 1e3 * times[-1]
+    from controller.hexicon import id_mpc_step, load_identified, make_id_mpc
+
+    sti = make_id_mpc(load_design(), load_identified())
+    times = []
+    for k in range(300):
+        m = HexiconMeasurement(0.0, 0.0, math.radians(15.0 * (k % 50 < 25)), 15.0, (1.0, 1.0, 1.0))
+        sti, _, info = id_mpc_step(sti, m, 18e6, 1.0)
+        times.append(info["solve_s"])
+    times.sort()
+    res["mpc_id_solve_p50_ms"] = 1e3 * times[len(times) // 2]
+    res["mpc_id_solve_p99_ms"] = 1e3 * times[int(0.99 * len(times))]
+    res["mpc_id_overruns_of_300"] = float(sti.overruns)
     return res
 
 

@@ -44,12 +44,23 @@ __all__ = [
     "HexiconCommand",
     "HexiconDesign",
     "HexiconMeasurement",
+    "IdMpcConfig",
+    "IdMpcState",
+    "IdentifiedModel",
     "MpcConfig",
     "MpcState",
+    "PrbsExcitation",
+    "PrbsState",
     "bang_bang_step",
+    "id_mpc_step",
     "load_design",
+    "load_identified",
+    "make_id_mpc",
     "make_mpc",
+    "make_prbs",
     "mpc_step",
+    "prbs",
+    "prbs_step",
 ]
 
 
@@ -154,6 +165,13 @@ def _wrap(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
 
 
+def _filter_direction(prev: float | None, beta: float, dt: float, tau: float) -> float:
+    """First-order low-pass of the wind direction (rad): β_f += min(1, dt/τ) wrap(β - β_f)."""
+    if prev is None or tau <= 0:
+        return beta
+    return prev + min(1.0, dt / tau) * _wrap(beta - prev)
+
+
 def _torques(design: HexiconDesign, m: HexiconMeasurement) -> tuple[float, float, float]:
     t = tuple(design.torque_nm(w) for w in m.rotor_speeds_rad_s)
     return (t[0], t[1], t[2])
@@ -208,6 +226,10 @@ class MpcConfig:
         r_n of the drag linearisation (deg/s), > 0.
     time_budget_s : float
         A solve longer than this is an overrun (s), > 0.
+    direction_filter_s : float
+        Time constant τ of the first-order low-pass on the measured wind direction (s),
+        >= 0 (0: none): β_f += min(1, T_s/τ) (β_m - β_f); the vane's noise would otherwise
+        enter e and β' at every period.
     """
 
     period_s: float = 1.0
@@ -219,6 +241,8 @@ class MpcConfig:
     pitch_rate_max_deg_s: float = 2.0
     drag_linearisation_rate_deg_s: float = 0.2
     time_budget_s: float = 0.5
+    direction_filter_s: float = 10.0
+    rate_filter_s: float = 60.0
 
     def __post_init__(self) -> None:
         if not (self.period_s > 0 and 2 <= self.horizon <= 400):
@@ -247,6 +271,8 @@ class MpcState:
     u_vec: np.ndarray
     prev_w: np.ndarray = field(default_factory=lambda: np.zeros(3))
     prev_dir: float | None = None
+    dir_filt: float | None = None
+    rate_filt: float = 0.0
     steps: int = 0
     overruns: int = 0
     solve_times_s: list[float] = field(default_factory=list)
@@ -330,12 +356,14 @@ def mpc_step(
     """
     d = st.design
     cfg = st.config
-    e0 = _wrap(m.wind_direction_rad - m.heading_rad)
+    st.dir_filt = _filter_direction(st.dir_filt, m.wind_direction_rad, dt, cfg.direction_filter_s)
+    e0 = _wrap(st.dir_filt - m.heading_rad)
     dbeta = 0.0
     if st.prev_dir is not None and dt > 0:
-        dbeta = _wrap(m.wind_direction_rad - st.prev_dir) / dt
-        dbeta = max(-0.01, min(0.01, dbeta))  # a direction step is not a rate
-    st.prev_dir = m.wind_direction_rad
+        raw = max(-0.01, min(0.01, _wrap(st.dir_filt - st.prev_dir) / dt))  # not a step
+        st.rate_filt += min(1.0, dt / cfg.rate_filter_s) * (raw - st.rate_filt)
+        dbeta = st.rate_filt
+    st.prev_dir = st.dir_filt
     lo = d.rated_pitch_rad(m.wind_speed_m_s)
     hi = math.radians(d.pitch_max_deg)
     lo = min(lo, hi)
@@ -509,17 +537,21 @@ def load_identified(path: str | Path | None = None) -> IdentifiedModel:
 class IdMpcConfig:
     """Tuning of the MPC on the identified model (units: deg, MW; see :func:`make_id_mpc`)."""
 
-    horizon: int = 40
+    horizon: int = 30
     q_error: float = 1.0
     r_input: float = 1e-3
     r_rate: float = 1e-2
     rho_power: float = 0.05
     pitch_rate_max_deg_s: float = 2.0
     time_budget_s: float = 0.5
+    direction_filter_s: float = 10.0
+    rate_filter_s: float = 60.0
 
     def __post_init__(self) -> None:
         if not 2 <= self.horizon <= 400:
             raise ValueError("IdMpcConfig.horizon: expected 2..400 steps")
+        if not self.direction_filter_s >= 0:
+            raise ValueError("IdMpcConfig.direction_filter_s: expected >= 0 s")
         for name in ("q_error", "r_input", "r_rate", "rho_power"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"IdMpcConfig.{name}: expected >= 0")
@@ -540,8 +572,11 @@ class IdMpcState:
     u_vec: np.ndarray
     q_vec: np.ndarray
     x_hat: np.ndarray
+    statuses: dict[str, int] = field(default_factory=dict)
     prev_pitch_deg: np.ndarray | None = None
     prev_dir: float | None = None
+    dir_filt: float | None = None
+    rate_filt: float = 0.0
     steps: int = 0
     overruns: int = 0
     solve_times_s: list[float] = field(default_factory=list)
@@ -607,10 +642,11 @@ def make_id_mpc(
         u_vec,
         verbose=False,
         warm_starting=True,
-        eps_abs=1e-4,
-        eps_rel=1e-4,
-        max_iter=4000,
+        eps_abs=1e-3,
+        eps_rel=1e-3,
+        max_iter=8000,
         polishing=False,
+        adaptive_rho=True,
         time_limit=cfg.time_budget_s,
     )
     return IdMpcState(cfg, design, m, solver, l_vec, u_vec, q_vec, np.zeros(nn))
@@ -626,7 +662,8 @@ def id_mpc_step(
     cfg, m, d = st.config, st.model, st.design
     n, nn = cfg.horizon, m.a.shape[0]
     ts = m.sample_time_s
-    beta_deg = math.degrees(meas.wind_direction_rad)
+    st.dir_filt = _filter_direction(st.dir_filt, meas.wind_direction_rad, dt, cfg.direction_filter_s)
+    beta_deg = math.degrees(st.dir_filt)
     dvec = np.array([meas.wind_speed_m_s, beta_deg])
     dev_d = dvec - m.u_mean[:2]
     lo = math.degrees(min(d.rated_pitch_rad(meas.wind_speed_m_s), math.radians(d.pitch_max_deg)))
@@ -637,11 +674,13 @@ def id_mpc_step(
     y = np.array([math.degrees(meas.yaw_rate_rad_s), power_w / 1e6])
     y_hat = m.c @ st.x_hat + m.d @ u_now + m.y_mean
     x0 = st.x_hat + m.kalman_gain @ (y - y_hat)
-    e0 = math.degrees(_wrap(meas.wind_direction_rad - meas.heading_rad))
+    e0 = math.degrees(_wrap(st.dir_filt - meas.heading_rad))
     dbeta = 0.0
     if st.prev_dir is not None and dt > 0:
-        dbeta = max(-0.5, min(0.5, math.degrees(_wrap(meas.wind_direction_rad - st.prev_dir)) / dt))
-    st.prev_dir = meas.wind_direction_rad
+        raw = max(-0.5, min(0.5, math.degrees(_wrap(st.dir_filt - st.prev_dir)) / dt))
+        st.rate_filt += min(1.0, dt / cfg.rate_filter_s) * (raw - st.rate_filt)
+        dbeta = st.rate_filt
+    st.prev_dir = st.dir_filt
     bth, bd = m.b[:, 2:], m.b[:, :2]
     th_bar = m.u_mean[2:]
     cx = bd @ dev_d - bth @ th_bar
@@ -669,9 +708,12 @@ def id_mpc_step(
     res = st.solver.solve(raise_error=False)
     solve_s = time.perf_counter() - t0
     st.solve_times_s.append(solve_s)
+    st.statuses[str(res.info.status)] = st.statuses.get(str(res.info.status), 0) + 1
     ok = str(res.info.status) == "solved" and solve_s <= cfg.time_budget_s
     if ok:
-        th = np.clip(np.asarray(res.x[nx + ne : nx + ne + 3]), lo, hi)
+        # OSQP's tolerance (1e-3) may leave the rate limit by a hair: clip to it too
+        th = np.clip(np.asarray(res.x[nx + ne : nx + ne + 3]), prev - dmax, prev + dmax)
+        th = np.clip(th, lo, hi)
     else:
         st.overruns += 1
         th = np.clip(prev, lo, hi)
