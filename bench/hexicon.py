@@ -131,12 +131,17 @@ def costs() -> dict[str, float]:
     return res
 
 
-def campaign() -> dict[str, dict[str, dict[str, float]]]:
+def campaign(
+    noise: bool = True, names: tuple[str, ...] | None = None
+) -> dict[str, dict[str, dict[str, float]]]:
+    """Every controller on every scenario (in process; ``noise``: the preset's sensors)."""
     out: dict[str, dict[str, dict[str, float]]] = {}
     for name, scn in load_scenarios().items():
+        if names is not None and name not in names:
+            continue
         out[name] = {}
         for c in CONTROLLERS:
-            out[name][c] = compute_kpis(run_in_process(scn, c), scn)
+            out[name][c] = compute_kpis(run_in_process(scn, c, noise=noise), scn)
     return out
 
 
@@ -170,6 +175,9 @@ def main() -> None:
         result["campaign"] = campaign()
         result["table_markdown"] = table(result["campaign"])
         print(result["table_markdown"])
+        result["campaign_noise_free"] = campaign(False, ("s1_step15", "s3_dirramp10"))
+        result["table_markdown_noise_free"] = table(result["campaign_noise_free"])
+        print(result["table_markdown_noise_free"])
     print(f"saved {save('hexicon' if not a.costs else 'hexicon_costs', result)}")
 
 

@@ -417,7 +417,9 @@ class PlatformFrame(msgspec.Struct, frozen=True, kw_only=True):
         float, M("rad", -100.0, 100.0, "met-mast wind direction (from), unwrapped")
     ]
     wind_speed_measured_m_s: Annotated[float, M("m/s", 0.0, 80.0, "met-mast wind speed")]
-    platform_power_w: Annotated[float, M("W", -1e9, 1e9, "platform electrical power (sum of the turbine transducers)")]
+    platform_power_w: Annotated[
+        float, M("W", -1e9, 1e9, "platform electrical power (sum of the turbine transducers)")
+    ]
 
 
 class TurbineCommand(msgspec.Struct, frozen=True, kw_only=True):

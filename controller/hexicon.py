@@ -230,6 +230,13 @@ class MpcConfig:
         Time constant τ of the first-order low-pass on the measured wind direction (s),
         >= 0 (0: none): β_f += min(1, T_s/τ) (β_m - β_f); the vane's noise would otherwise
         enter e and β' at every period.
+    rate_filter_s : float
+        Time constant of the low-pass on the direction rate β' (s), > 0.
+    estimator : bool
+        Estimate (e, r) with the steady-state Kalman filter of the linear model (measured
+        e and r with standard deviations ``sigma_error_rad``, ``sigma_rate_rad_s``; process
+        noise ``q_error_rad``, ``q_rate_rad_s`` per period) instead of using the noisy
+        measurement directly.
     """
 
     period_s: float = 1.0
@@ -243,6 +250,11 @@ class MpcConfig:
     time_budget_s: float = 0.5
     direction_filter_s: float = 10.0
     rate_filter_s: float = 60.0
+    estimator: bool = True
+    sigma_error_rad: float = 2.6e-3
+    sigma_rate_rad_s: float = 5e-5
+    q_error_rad: float = 2e-4
+    q_rate_rad_s: float = 5e-5
 
     def __post_init__(self) -> None:
         if not (self.period_s > 0 and 2 <= self.horizon <= 400):
@@ -276,6 +288,9 @@ class MpcState:
     steps: int = 0
     overruns: int = 0
     solve_times_s: list[float] = field(default_factory=list)
+    kalman_gain: np.ndarray | None = None
+    x_hat: np.ndarray | None = None
+    prev_pitch: np.ndarray | None = None
 
 
 def _matrices(cfg: MpcConfig, d: HexiconDesign) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -326,7 +341,15 @@ def make_mpc(design: HexiconDesign, config: MpcConfig | None = None) -> MpcState
         polishing=True,
         time_limit=cfg.time_budget_s,
     )
-    return MpcState(cfg, design, solver, nx, nu, l_vec, u_vec)
+    gain = None
+    if cfg.estimator:
+        import scipy.linalg  # noqa: PLC0415 - design-time only
+
+        qn = np.diag([cfg.q_error_rad**2, cfg.q_rate_rad_s**2])
+        rn = np.diag([cfg.sigma_error_rad**2, cfg.sigma_rate_rad_s**2])
+        pn = scipy.linalg.solve_discrete_are(a.T, np.eye(2), qn, rn)
+        gain = pn @ np.linalg.inv(pn + rn)
+    return MpcState(cfg, design, solver, nx, nu, l_vec, u_vec, kalman_gain=gain)
 
 
 def _bounds(st: MpcState, e0: float, r0: float, dbeta: float, wmax: float, dwmax: float) -> None:
@@ -358,11 +381,22 @@ def mpc_step(
     cfg = st.config
     st.dir_filt = _filter_direction(st.dir_filt, m.wind_direction_rad, dt, cfg.direction_filter_s)
     e0 = _wrap(st.dir_filt - m.heading_rad)
+    r0 = m.yaw_rate_rad_s
     dbeta = 0.0
     if st.prev_dir is not None and dt > 0:
-        raw = max(-0.01, min(0.01, _wrap(st.dir_filt - st.prev_dir) / dt))  # not a step
+        step = _wrap(st.dir_filt - st.prev_dir)
+        raw = max(-0.01, min(0.01, step / dt))  # not a step
         st.rate_filt += min(1.0, dt / cfg.rate_filter_s) * (raw - st.rate_filt)
         dbeta = st.rate_filt
+        if st.kalman_gain is not None and st.x_hat is not None:
+            # predict with the last input and the direction change, correct with (e, r)
+            a_m, b_m, _ = _matrices(cfg, d)
+            pred = a_m @ st.x_hat + b_m @ st.prev_w + np.array([step, 0.0])
+            z = np.array([e0, r0])
+            st.x_hat = pred + st.kalman_gain @ (z - pred)
+            e0, r0 = float(st.x_hat[0]), float(st.x_hat[1])
+    if st.kalman_gain is not None and st.x_hat is None:
+        st.x_hat = np.array([e0, r0])
     st.prev_dir = st.dir_filt
     lo = d.rated_pitch_rad(m.wind_speed_m_s)
     hi = math.radians(d.pitch_max_deg)
@@ -371,7 +405,7 @@ def mpc_step(
     wmax = g * (hi - lo) / _W_SCALE
     dwmax = g * math.radians(cfg.pitch_rate_max_deg_s) * cfg.period_s / _W_SCALE
     st.prev_w = np.clip(st.prev_w, 0.0, wmax)
-    _bounds(st, e0, m.yaw_rate_rad_s, dbeta, wmax, dwmax)
+    _bounds(st, e0, r0, dbeta, wmax, dwmax)
     st.solver.update(l=st.l_vec, u=st.u_vec)
     t0 = time.perf_counter()
     res = st.solver.solve(raise_error=False)
@@ -385,9 +419,18 @@ def mpc_step(
     else:
         st.overruns += 1
         w = st.prev_w.copy()
+    # the actuator's limit is on the pitch: hold it to θ_prev ± θ'_max T_s (the floor θ_r(V)
+    # and g(V) move with the measured wind), then the floor and ceiling
+    th = lo + w * _W_SCALE / g
+    if st.prev_pitch is not None:
+        step = math.radians(cfg.pitch_rate_max_deg_s) * cfg.period_s
+        th = np.clip(th, st.prev_pitch - step, st.prev_pitch + step)
+    th = np.clip(th, lo, hi)
+    w = g * (th - lo) / _W_SCALE
+    st.prev_pitch = th
     st.prev_w = w
     st.steps += 1
-    pitch = tuple(float(lo + wi * _W_SCALE / g) for wi in w)
+    pitch = tuple(float(v) for v in th)
     cmd = HexiconCommand((pitch[0], pitch[1], pitch[2]), _torques(d, m))
     return st, cmd, {"solve_s": solve_s, "overrun": float(not ok), "status_solved": float(ok)}
 
@@ -400,7 +443,9 @@ def prbs(n: int, hold_min: int, hold_max: int, rng: np.random.Generator) -> np.n
     whose hold times set its band: 1/(hold_max T_s) .. 1/(hold_min T_s)).
     """
     if not (n >= 1 and 1 <= hold_min <= hold_max):
-        raise ValueError(f"prbs: expected n >= 1 and 1 <= hold_min <= hold_max, got {n, hold_min, hold_max}")
+        raise ValueError(
+            f"prbs: expected n >= 1 and 1 <= hold_min <= hold_max, got {n, hold_min, hold_max}"
+        )
     out = np.zeros(n)
     level, k = float(rng.integers(0, 2)), 0
     while k < n:
@@ -464,7 +509,10 @@ def prbs_step(
     k = min(st.steps, st.levels.shape[1] - 1)
     floor = design.rated_pitch_rad(m.wind_speed_m_s)
     pitch = tuple(
-        max(math.radians(s.pitch_lo_deg + (s.pitch_hi_deg - s.pitch_lo_deg) * st.levels[i, k]), floor)
+        max(
+            math.radians(s.pitch_lo_deg + (s.pitch_hi_deg - s.pitch_lo_deg) * st.levels[i, k]),
+            floor,
+        )
         for i in range(3)
     )
     st.steps += 1
@@ -503,10 +551,9 @@ class IdentifiedModel:
             "kalman_gain": (n, 2),
         }
         for name, shape in shapes.items():
-            if getattr(self, name).shape != shape:
-                raise ValueError(
-                    f"IdentifiedModel.{name}: expected shape {shape}, got {getattr(self, name).shape}"
-                )
+            got = getattr(self, name).shape
+            if got != shape:
+                raise ValueError(f"IdentifiedModel.{name}: expected shape {shape}, got {got}")
         if not self.sample_time_s > 0:
             raise ValueError("IdentifiedModel.sample_time_s: expected > 0 s")
 
@@ -530,7 +577,9 @@ def load_identified(path: str | Path | None = None) -> IdentifiedModel:
             sample_time_s=float(raw["sample_time_s"]),
         )
     except KeyError as exc:
-        raise ValueError(f"identified model {path or 'hexicon_h3_identified.json'}: missing key {exc}") from exc
+        raise ValueError(
+            f"identified model {path or 'hexicon_h3_identified.json'}: missing key {exc}"
+        ) from exc
 
 
 @dataclass(frozen=True)
@@ -610,9 +659,7 @@ def make_id_mpc(
     diff = sp.eye(n) - sp.eye(n, k=-1)
     dd = sp.kron(diff.T @ diff, sp.eye(3))
     p_u = cfg.r_input * sp.eye(nu) + cfg.r_rate * dd
-    p_mat = sp.block_diag(
-        [sp.csc_matrix((nx, nx)), cfg.q_error * sp.eye(ne), p_u], format="csc"
-    )
+    p_mat = sp.block_diag([sp.csc_matrix((nx, nx)), cfg.q_error * sp.eye(ne), p_u], format="csc")
     q_vec = np.zeros(nz)
     cp, dpth = m.c[1], m.d[1, 2:]
     for k in range(n):
@@ -662,7 +709,9 @@ def id_mpc_step(
     cfg, m, d = st.config, st.model, st.design
     n, nn = cfg.horizon, m.a.shape[0]
     ts = m.sample_time_s
-    st.dir_filt = _filter_direction(st.dir_filt, meas.wind_direction_rad, dt, cfg.direction_filter_s)
+    st.dir_filt = _filter_direction(
+        st.dir_filt, meas.wind_direction_rad, dt, cfg.direction_filter_s
+    )
     beta_deg = math.degrees(st.dir_filt)
     dvec = np.array([meas.wind_speed_m_s, beta_deg])
     dev_d = dvec - m.u_mean[:2]

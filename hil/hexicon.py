@@ -160,7 +160,10 @@ def measure(x: tuple[float, ...], speed: float, direction: float) -> HexiconMeas
 
 
 def truth_sample(
-    x: tuple[float, ...], speed: float, direction: float, powers: tuple[float, ...],
+    x: tuple[float, ...],
+    speed: float,
+    direction: float,
+    powers: tuple[float, ...],
     rotor_winds: tuple[float, ...],
 ) -> HexiconSample:
     """The true values of every sensor channel (:mod:`plant.hexicon.sensors`)."""

@@ -149,7 +149,12 @@ def identify(
     if transport not in ("zenoh", "can"):
         raise typer.BadParameter(f"--transport {transport!r}: expected zenoh or can")
     res = identify_over_bus(
-        out, duration, block_rows, seed, write_preset=write_preset, transport=transport,
+        out,
+        duration,
+        block_rows,
+        seed,
+        write_preset=write_preset,
+        transport=transport,
         reuse=reuse,
     )
     typer.echo(json.dumps(res, indent=1))

@@ -97,7 +97,9 @@ def kalman_gain(m: Identified, residual_var: np.ndarray, q_scale: float = 1e-2) 
     return gain
 
 
-def model_artefact(m: Identified, gain: np.ndarray, ts: float, info: dict[str, Any]) -> dict[str, Any]:
+def model_artefact(
+    m: Identified, gain: np.ndarray, ts: float, info: dict[str, Any]
+) -> dict[str, Any]:
     """The JSON design artefact of :func:`controller.hexicon.load_identified`."""
     return {
         "comment": (
@@ -169,9 +171,7 @@ def identify_over_bus(
     y_est = est[list(OUTPUTS)].to_numpy()
     yh_est = simulate(m, est[list(INPUTS)].to_numpy())
     fit_est = fit_percent(y_est, yh_est)
-    fit_val = fit_percent(
-        val[list(OUTPUTS)].to_numpy(), simulate(m, val[list(INPUTS)].to_numpy())
-    )
+    fit_val = fit_percent(val[list(OUTPUTS)].to_numpy(), simulate(m, val[list(INPUTS)].to_numpy()))
     gain = kalman_gain(m, np.var(y_est - yh_est, axis=0))
     result: dict[str, Any] = {
         "order": m.order,

@@ -610,8 +610,20 @@ def run_over_zenoh(
                 raise RuntimeError(why)
             out.mkdir(parents=True, exist_ok=True)
             argv = _cli_argv(
-                scenario, controller, out, mode, duration_s, platform, realtime_priority,
-                noise, experiment, seed, can_interface, can_channel, can_fd, identified,
+                scenario,
+                controller,
+                out,
+                mode,
+                duration_s,
+                platform,
+                realtime_priority,
+                noise,
+                experiment,
+                seed,
+                can_interface,
+                can_channel,
+                can_fd,
+                identified,
                 mcap_name,
             )
             return _netns_rerun(argv, out)
@@ -635,9 +647,23 @@ def run_over_zenoh(
     idf = ["--experiment", str(experiment), "--seed", str(seed)]
     plant = subprocess.Popen(
         [
-            py, "-m", "hil.hexicon_nodes", "plant", "--scenario", scenario,
-            "--platform", platform, "--listen", plant_ep, "--mode", mode,
-            *dur, *rt, *can_args, *idf, *([] if noise else ["--no-noise"]),
+            py,
+            "-m",
+            "hil.hexicon_nodes",
+            "plant",
+            "--scenario",
+            scenario,
+            "--platform",
+            platform,
+            "--listen",
+            plant_ep,
+            "--mode",
+            mode,
+            *dur,
+            *rt,
+            *can_args,
+            *idf,
+            *([] if noise else ["--no-noise"]),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -645,10 +671,26 @@ def run_over_zenoh(
     samples = round(duration_s or scn.duration_s) if experiment else 0
     ctrl = subprocess.Popen(
         [
-            py, "-m", "hil.hexicon_nodes", "controller", "--controller", controller,
-            "--platform", platform, "--listen", ctrl_ep, "--connect", plant_ep,
-            "--period", repr(scn.control_period_s), *rt, *can_args, *idf,
-            "--samples", str(samples), *(["--identified", identified] if identified else []),
+            py,
+            "-m",
+            "hil.hexicon_nodes",
+            "controller",
+            "--controller",
+            controller,
+            "--platform",
+            platform,
+            "--listen",
+            ctrl_ep,
+            "--connect",
+            plant_ep,
+            "--period",
+            repr(scn.control_period_s),
+            *rt,
+            *can_args,
+            *idf,
+            "--samples",
+            str(samples),
+            *(["--identified", identified] if identified else []),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -685,7 +727,9 @@ def run_over_zenoh(
 
             def deliver(msg: Any, mt: MessageType = mt) -> None:
                 ident = (
-                    f"{platform}/t{msg.turbine_index}" if hasattr(msg, "turbine_index") else platform
+                    f"{platform}/t{msg.turbine_index}"
+                    if hasattr(msg, "turbine_index")
+                    else platform
                 )
                 q.put((mt.key(ident), msg))
 
@@ -740,8 +784,11 @@ def run_over_zenoh(
     )
     if can is not None:
         summary.update(
-            {"can_interface": can["interface"], "can_frames_received": can_frames,
-             "can_rejected": can_rej}
+            {
+                "can_interface": can["interface"],
+                "can_frames_received": can_frames,
+                "can_rejected": can_rej,
+            }
         )
     kind = "identification" if experiment else "run"
     log.close(
@@ -761,14 +808,41 @@ def run_over_zenoh(
 
 
 def _cli_argv(
-    scenario: str, controller: str, out: Path, mode: str, duration_s: float | None,
-    platform: str, realtime_priority: int, noise: bool, experiment: int, seed: int,
-    can_interface: str, can_channel: str, can_fd: bool, identified: str | None, mcap_name: str,
+    scenario: str,
+    controller: str,
+    out: Path,
+    mode: str,
+    duration_s: float | None,
+    platform: str,
+    realtime_priority: int,
+    noise: bool,
+    experiment: int,
+    seed: int,
+    can_interface: str,
+    can_channel: str,
+    can_fd: bool,
+    identified: str | None,
+    mcap_name: str,
 ) -> list[str]:
     argv = [
-        "--scenario", scenario, "--controller", controller, "--out", str(out.resolve()),
-        "--mode", mode, "--platform", platform, "--experiment", str(experiment),
-        "--seed", str(seed), "--can-interface", can_interface, "--mcap-name", mcap_name,
+        "--scenario",
+        scenario,
+        "--controller",
+        controller,
+        "--out",
+        str(out.resolve()),
+        "--mode",
+        mode,
+        "--platform",
+        platform,
+        "--experiment",
+        str(experiment),
+        "--seed",
+        str(seed),
+        "--can-interface",
+        can_interface,
+        "--mcap-name",
+        mcap_name,
     ]
     if duration_s is not None:
         argv += ["--duration", repr(duration_s)]
@@ -844,11 +918,22 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     if a.node == "run":
         res = run_over_zenoh(
-            a.scenario, a.controller, Path(a.out), mode=a.mode, duration_s=a.duration,
-            platform=a.platform, realtime_priority=a.realtime_priority, noise=not a.no_noise,
-            experiment=a.experiment, seed=a.seed, transport="can",
-            can_interface=a.can_interface or "udp_multicast", can_channel=a.can_channel,
-            can_fd=a.can_fd, identified=a.identified, mcap_name=a.mcap_name,
+            a.scenario,
+            a.controller,
+            Path(a.out),
+            mode=a.mode,
+            duration_s=a.duration,
+            platform=a.platform,
+            realtime_priority=a.realtime_priority,
+            noise=not a.no_noise,
+            experiment=a.experiment,
+            seed=a.seed,
+            transport="can",
+            can_interface=a.can_interface or "udp_multicast",
+            can_channel=a.can_channel,
+            can_fd=a.can_fd,
+            identified=a.identified,
+            mcap_name=a.mcap_name,
         )
         (Path(a.out) / "launch.json").write_text(json.dumps(res, indent=1) + "\n")
         return 0 if res.get("plant_rc") == 0 and res.get("controller_rc") == 0 else 1
@@ -860,12 +945,27 @@ def main(argv: list[str] | None = None) -> int:
         can = {"interface": a.can_interface, "channel": a.can_channel, "fd": a.can_fd}
     if a.node == "plant":
         return run_plant_node(
-            a.scenario, a.platform, a.listen, a.mode, a.duration, noise=not a.no_noise,
-            experiment=a.experiment, seed=a.seed, can=can,
+            a.scenario,
+            a.platform,
+            a.listen,
+            a.mode,
+            a.duration,
+            noise=not a.no_noise,
+            experiment=a.experiment,
+            seed=a.seed,
+            can=can,
         )
     return run_controller_node(
-        a.controller, a.platform, a.listen, a.connect, a.period, experiment=a.experiment,
-        samples=a.samples, seed=a.seed, can=can, identified=a.identified,
+        a.controller,
+        a.platform,
+        a.listen,
+        a.connect,
+        a.period,
+        experiment=a.experiment,
+        samples=a.samples,
+        seed=a.seed,
+        can=can,
+        identified=a.identified,
     )
 
 

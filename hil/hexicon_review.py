@@ -87,8 +87,8 @@ def run_log(messages: dict[str, list[dict[str, Any]]], platform: str = "h3") -> 
         if k in measured:
             log.speed_measured.append(measured[k]["wind_speed_measured_m_s"])
         log.power.append(f["platform_power_w"])
-        log.pitch_cmd.append(tuple(c[k]["blade_pitch_commanded_rad"] for c in cmds))  # type: ignore[arg-type]
-        log.pitch.append(tuple(r[k]["blade_pitch_measured_rad"] for r in rot_by))  # type: ignore[arg-type]
+        log.pitch_cmd.append(tuple(c[k]["blade_pitch_commanded_rad"] for c in cmds))
+        log.pitch.append(tuple(r[k]["blade_pitch_measured_rad"] for r in rot_by))
         log.solve_s.append(status[k]["solve_time_s"] if k in status else 0.0)
     if status:
         log.overruns = int(max(s["overruns"] for s in status.values()))
@@ -168,7 +168,10 @@ def summarize(run: RunData) -> dict[str, Any]:
         "kind": "hexicon",
         "run": info,
         "scenario": {"name": scen_name or None},
-        "kpi": {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in kpi.items()},
+        "kpi": {
+            k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in kpi.items()
+        },
         "timing": timing,
     }
 
@@ -194,8 +197,10 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
         axes[0].set_ylabel("[deg]")
         axes[0].legend(loc="best", fontsize="small")
         err = np.degrees(
-            np.arctan2(np.sin(np.subtract(log.direction, log.heading)),
-                       np.cos(np.subtract(log.direction, log.heading)))
+            np.arctan2(
+                np.sin(np.subtract(log.direction, log.heading)),
+                np.cos(np.subtract(log.direction, log.heading)),
+            )
         )
         axes[1].plot(t, err, color="k")
         axes[1].axhspan(-1.0, 1.0, color="g", alpha=0.15, label="±1° (settling band)")
@@ -210,11 +215,17 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
             from controller.hexicon import load_design  # noqa: PLC0415
 
             d = load_design()
-            axes[2].plot(t, [math.degrees(d.rated_pitch_rad(v)) for v in log.speed], "k--",
-                         lw=0.8, label="floor θ_r(V)")
+            axes[2].plot(
+                t,
+                [math.degrees(d.rated_pitch_rad(v)) for v in log.speed],
+                "k--",
+                lw=0.8,
+                label="floor θ_r(V)",
+            )
             p = scn.params()
-            axes[3].plot(t, [wake_free_power_w(p, v) / 1e6 for v in log.speed], "k--",
-                         label="wake-free")
+            axes[3].plot(
+                t, [wake_free_power_w(p, v) / 1e6 for v in log.speed], "k--", label="wake-free"
+            )
         axes[2].set_ylabel("pitch (true; dotted: demand)\n[deg]")
         axes[2].legend(loc="best", fontsize="small")
         axes[3].plot(t, np.asarray(log.power) / 1e6, label="platform (true)")
@@ -259,7 +270,8 @@ def render(summary: dict[str, Any], console: Any) -> None:
     tm.add_column("item")
     tm.add_column("value", justify="right")
     for k, v in summary["timing"].items():
+        text = str(v)
         if isinstance(v, dict):
-            v = ", ".join(f"{a} {b:.1f}" if b is not None else f"{a} -" for a, b in v.items())
-        tm.add_row(k, str(v))
+            text = ", ".join(f"{a} {b:.1f}" if b is not None else f"{a} -" for a, b in v.items())
+        tm.add_row(k, text)
     console.print(tm)

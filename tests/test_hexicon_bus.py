@@ -45,7 +45,9 @@ def test_sensor_channels_are_seeded_and_match_the_preset() -> None:
 
     truth = HexiconSample(
         {"heading": 0.1, "yaw_rate": 0.0, "wind_direction": 0.2, "wind_speed": 12.0},
-        tuple({"rotor_speed": 1.0, "pitch": 0.1, "power": 5e6, "nacelle_wind": 11.0} for _ in range(3)),  # type: ignore[arg-type]
+        tuple(
+            {"rotor_speed": 1.0, "pitch": 0.1, "power": 5e6, "nacelle_wind": 11.0} for _ in range(3)
+        ),  # type: ignore[arg-type]
     )
 
     def series(seed: int) -> np.ndarray:
@@ -67,8 +69,16 @@ def test_identification_experiment_over_the_bus(tmp_path: Path) -> None:
     rated pitch of the measured wind (to 1e-9 rad); the measured frames differ from the truth
     (noise) and the excitation never saw the truth (its floor follows the measured speed)."""
     n = 200
-    s = run_over_zenoh("s1_step15", "prbs", tmp_path, duration_s=float(n), experiment=3, seed=5,
-                       mcap_name="exp3.mcap", timeout_s=300.0)
+    s = run_over_zenoh(
+        "s1_step15",
+        "prbs",
+        tmp_path,
+        duration_s=float(n),
+        experiment=3,
+        seed=5,
+        mcap_name="exp3.mcap",
+        timeout_s=300.0,
+    )
     assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s
     assert s["plant_cycles"] == n and s["commands_rejected"] == 0
     run = read_platform_run(tmp_path / "exp3.mcap")
@@ -79,17 +89,24 @@ def test_identification_experiment_over_the_bus(tmp_path: Path) -> None:
     assert [math.degrees(f["wind_direction_measured_rad"]) for f in truth] == pytest.approx(
         dirs, abs=1e-9
     )
-    assert any(abs(a["wind_speed_measured_m_s"] - b["wind_speed_measured_m_s"]) > 1e-3
-               for a, b in zip(meas, truth, strict=True))
+    assert any(
+        abs(a["wind_speed_measured_m_s"] - b["wind_speed_measured_m_s"]) > 1e-3
+        for a, b in zip(meas, truth, strict=True)
+    )
     lo, hi = TABLE5[2][2]
     levels = PrbsExcitation(lo, hi, n, 2, 5).signals()
     d = load_design()
     for i, t in enumerate(("t1", "t2", "t3")):
-        cmds = {c["answered_seq"]: c["blade_pitch_commanded_rad"] for c in run[f"fowt/h3/{t}/rotor/command"]}
+        cmds = {
+            c["answered_seq"]: c["blade_pitch_commanded_rad"]
+            for c in run[f"fowt/h3/{t}/rotor/command"]
+        }
         assert len(cmds) == n
         for k in range(n):
-            want = max(math.radians(lo + (hi - lo) * levels[i, k]),
-                       d.rated_pitch_rad(meas[k]["wind_speed_measured_m_s"]))
+            want = max(
+                math.radians(lo + (hi - lo) * levels[i, k]),
+                d.rated_pitch_rad(meas[k]["wind_speed_measured_m_s"]),
+            )
             assert cmds[k] == pytest.approx(want, abs=1e-9)
 
 
@@ -110,7 +127,7 @@ def test_identify_over_bus_fits_and_saves_a_loadable_model(tmp_path: Path) -> No
     make_id_mpc(load_design(), m)
 
 
-# ----------------------------------------------------------------------------- MPC on the identified model
+# ----------------------------------------------------------------------------- identified MPC
 def test_identified_mpc_respects_constraints_and_turns_the_platform() -> None:
     """The shipped identified-model MPC on scenario 1 (15° step at 15 m/s, noisy sensors,
     in process, 200 s): no commanded pitch outside [θ_r(V_m), 25°], and the heading error
@@ -192,8 +209,9 @@ def test_platform_run_over_can_matches_zenoh(tmp_path: Path) -> None:
     (3 x 4 TurbineFrame + 4 PlatformFrame parts per cycle, 3 x 4 command parts per
     answered cycle), and the KPIs are within 1 % (0.05° on the RMS) of the Zenoh run's:
     only the DBC quantisation differs."""
-    can = run_over_zenoh("s1_step15", "mpc", tmp_path / "can", duration_s=30.0,
-                         transport="can", timeout_s=300.0)
+    can = run_over_zenoh(
+        "s1_step15", "mpc", tmp_path / "can", duration_s=30.0, transport="can", timeout_s=300.0
+    )
     assert can.get("plant_rc") == 0 and can.get("controller_rc") == 0, can
     assert can["commands_rejected"] == 0 and can["can_rejected"] == 0
     assert can["can_frames_received"] == 31 * 16 + 30 * 12

@@ -144,7 +144,7 @@ class SampledWind:
             )
 
     def _k(self, t: float) -> int:
-        return min(max(int(math.floor(t / self.period_s + 1e-9)), 0), len(self.speeds_m_s) - 1)
+        return min(max(math.floor(t / self.period_s + 1e-9), 0), len(self.speeds_m_s) - 1)
 
     def speed_m_s(self, t: float) -> float:
         """V(t) (m/s)."""
