@@ -116,15 +116,32 @@ def costs() -> dict[str, float]:
     res["mpc_solve_p50_ms"] = 1e3 * times[len(times) // 2]
     res["mpc_solve_p99_ms"] = 1e3 * times[int(0.99 * len(times))]
     res["mpc_solve_max_ms"] = 1e3 * times[-1]
+    from controller.hexicon import id_mpc_step, load_identified, make_id_mpc
+
+    sti = make_id_mpc(load_design(), load_identified())
+    times = []
+    for k in range(300):
+        m = HexiconMeasurement(0.0, 0.0, math.radians(15.0 * (k % 50 < 25)), 15.0, (1.0, 1.0, 1.0))
+        sti, _, info = id_mpc_step(sti, m, 18e6, 1.0)
+        times.append(info["solve_s"])
+    times.sort()
+    res["mpc_id_solve_p50_ms"] = 1e3 * times[len(times) // 2]
+    res["mpc_id_solve_p99_ms"] = 1e3 * times[int(0.99 * len(times))]
+    res["mpc_id_overruns_of_300"] = float(sti.overruns)
     return res
 
 
-def campaign() -> dict[str, dict[str, dict[str, float]]]:
+def campaign(
+    noise: bool = True, names: tuple[str, ...] | None = None
+) -> dict[str, dict[str, dict[str, float]]]:
+    """Every controller on every scenario (in process; ``noise``: the preset's sensors)."""
     out: dict[str, dict[str, dict[str, float]]] = {}
     for name, scn in load_scenarios().items():
+        if names is not None and name not in names:
+            continue
         out[name] = {}
         for c in CONTROLLERS:
-            out[name][c] = compute_kpis(run_in_process(scn, c), scn)
+            out[name][c] = compute_kpis(run_in_process(scn, c, noise=noise), scn)
     return out
 
 
@@ -158,6 +175,9 @@ def main() -> None:
         result["campaign"] = campaign()
         result["table_markdown"] = table(result["campaign"])
         print(result["table_markdown"])
+        result["campaign_noise_free"] = campaign(False, ("s1_step15", "s3_dirramp10"))
+        result["table_markdown_noise_free"] = table(result["campaign_noise_free"])
+        print(result["table_markdown_noise_free"])
     print(f"saved {save('hexicon' if not a.costs else 'hexicon_costs', result)}")
 
 

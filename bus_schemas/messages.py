@@ -417,7 +417,9 @@ class PlatformFrame(msgspec.Struct, frozen=True, kw_only=True):
         float, M("rad", -100.0, 100.0, "met-mast wind direction (from), unwrapped")
     ]
     wind_speed_measured_m_s: Annotated[float, M("m/s", 0.0, 80.0, "met-mast wind speed")]
-    platform_power_w: Annotated[float, M("W", -1e9, 1e9, "platform electrical power (truth)")]
+    platform_power_w: Annotated[
+        float, M("W", -1e9, 1e9, "platform electrical power (sum of the turbine transducers)")
+    ]
 
 
 class TurbineCommand(msgspec.Struct, frozen=True, kw_only=True):
@@ -439,8 +441,9 @@ class TurbineCommand(msgspec.Struct, frozen=True, kw_only=True):
 class PlatformControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     """The heading controller's internals every period (one per platform).
 
-    ``controller``: 0 bang-bang, 1 MPC. ``overruns``: QP solves that failed or exceeded
-    their budget so far (the previous input was held).
+    ``controller``: 0 bang-bang, 1 MPC, 2 MPC on the identified model, 3 PRBS excitation
+    (identification). ``overruns``: QP solves that failed or exceeded their budget so far
+    (the previous input was held).
     """
 
     seq: Seq

@@ -23,9 +23,13 @@ from controller.hexicon import (
     HexiconCommand,
     HexiconDesign,
     HexiconMeasurement,
+    IdentifiedModel,
     MpcConfig,
     bang_bang_step,
+    id_mpc_step,
     load_design,
+    load_identified,
+    make_id_mpc,
     make_mpc,
     mpc_step,
 )
@@ -39,6 +43,7 @@ from plant.hexicon.model import (
     step_rk4,
     torque_law_nm,
 )
+from plant.hexicon.sensors import HexiconSample, HexiconSensors, load_sensor_table
 
 __all__ = [
     "HexiconScenario",
@@ -48,7 +53,9 @@ __all__ = [
     "run_in_process",
 ]
 
-CONTROLLERS = ("bang_bang", "mpc")
+#: bang_bang: the seed's law; mpc: OSQP MPC on the physical linearisation; mpc_id: OSQP MPC on
+#: the identified (N4SID) model of ``controller/presets/hexicon_h3_identified.json``.
+CONTROLLERS = ("bang_bang", "mpc", "mpc_id")
 
 
 @dataclass(frozen=True)
@@ -148,8 +155,47 @@ def initial_state(p: HexiconParams, wind_m_s: float) -> tuple[float, ...]:
 
 
 def measure(x: tuple[float, ...], speed: float, direction: float) -> HexiconMeasurement:
-    """Sensor sample of the plant state (noise-free heading, rate, met wind and rotor speeds)."""
+    """Noise-free sample of the plant state (heading, rate, met wind and rotor speeds)."""
     return HexiconMeasurement(x[0], x[1], direction, speed, (x[2], x[5], x[8]))
+
+
+def truth_sample(
+    x: tuple[float, ...],
+    speed: float,
+    direction: float,
+    powers: tuple[float, ...],
+    rotor_winds: tuple[float, ...],
+) -> HexiconSample:
+    """The true values of every sensor channel (:mod:`plant.hexicon.sensors`)."""
+    plat = {"heading": x[0], "yaw_rate": x[1], "wind_direction": direction, "wind_speed": speed}
+    tur = tuple(
+        {
+            "rotor_speed": x[2 + 3 * i],
+            "pitch": x[3 + 3 * i],
+            "power": powers[i],
+            "nacelle_wind": rotor_winds[i],
+        }
+        for i in range(3)
+    )
+    return HexiconSample(plat, (tur[0], tur[1], tur[2]))
+
+
+def measurement_of(s: HexiconSample) -> tuple[HexiconMeasurement, float]:
+    """The controller's view of a (measured) sample and the measured platform power (W)."""
+    pl = s.platform
+    m = HexiconMeasurement(
+        pl["heading"],
+        pl["yaw_rate"],
+        pl["wind_direction"],
+        pl["wind_speed"],
+        (s.turbines[0]["rotor_speed"], s.turbines[1]["rotor_speed"], s.turbines[2]["rotor_speed"]),
+    )
+    return m, sum(t["power"] for t in s.turbines)
+
+
+def make_sensors(scn: HexiconScenario, noise: bool = True) -> HexiconSensors:
+    """The preset's sensor suite (``noise=False``: perfect sensors)."""
+    return HexiconSensors(load_sensor_table(scn.platform) if noise else {})
 
 
 @dataclass
@@ -161,6 +207,8 @@ class RunLog:
     yaw_rate: list[float] = field(default_factory=list)
     direction: list[float] = field(default_factory=list)
     speed: list[float] = field(default_factory=list)
+    # the met wind speed the controller measured (its pitch floor); empty: noise-free
+    speed_measured: list[float] = field(default_factory=list)
     pitch_cmd: list[tuple[float, float, float]] = field(default_factory=list)
     pitch: list[tuple[float, float, float]] = field(default_factory=list)
     power: list[float] = field(default_factory=list)
@@ -172,22 +220,44 @@ class RunLog:
 class ControllerCore:
     """Either controller behind one ``step(measurement, dt) -> command`` call."""
 
-    def __init__(self, kind: str, design: HexiconDesign, period_s: float) -> None:
+    def __init__(
+        self,
+        kind: str,
+        design: HexiconDesign,
+        period_s: float,
+        identified: IdentifiedModel | None = None,
+    ) -> None:
         if kind not in CONTROLLERS:
             raise ValueError(f"unknown hexicon controller {kind!r}; expected one of {CONTROLLERS}")
         self.kind = kind
         self.design = design
         self.bb = BangBangState()
         self.mpc = make_mpc(design, MpcConfig(period_s=period_s)) if kind == "mpc" else None
+        self.id_mpc = None
+        if kind == "mpc_id":
+            model = identified if identified is not None else load_identified()
+            if abs(model.sample_time_s - period_s) > 1e-9:
+                raise ValueError(
+                    f"identified model sampled at {model.sample_time_s} s, control period "
+                    f"{period_s} s: expected the same"
+                )
+            self.id_mpc = make_id_mpc(design, model)
         self.last_solve_s = 0.0
 
     @property
     def overruns(self) -> int:
+        if self.id_mpc is not None:
+            return self.id_mpc.overruns
         return self.mpc.overruns if self.mpc is not None else 0
 
-    def step(self, m: HexiconMeasurement, dt: float) -> HexiconCommand:
+    def step(self, m: HexiconMeasurement, dt: float, power_w: float = 0.0) -> HexiconCommand:
+        """One control period from a measurement (and the measured platform power, W)."""
         if self.mpc is not None:
             self.mpc, cmd, info = mpc_step(self.mpc, m, dt)
+            self.last_solve_s = info["solve_s"]
+            return cmd
+        if self.id_mpc is not None:
+            self.id_mpc, cmd, info = id_mpc_step(self.id_mpc, m, power_w, dt)
             self.last_solve_s = info["solve_s"]
             return cmd
         self.bb, cmd = bang_bang_step(self.bb, m, dt, self.design)
@@ -199,30 +269,51 @@ def plant_input(cmd: HexiconCommand, speed: float, direction: float) -> tuple[fl
     return (p[0], q[0], p[1], q[1], p[2], q[2], speed, direction)
 
 
-def run_in_process(scn: HexiconScenario, controller: str) -> RunLog:
-    """Run a scenario with both cores in this process (see module docstring)."""
+def run_in_process(
+    scn: HexiconScenario,
+    controller: str,
+    noise: bool = True,
+    identified: IdentifiedModel | None = None,
+) -> RunLog:
+    """Run a scenario with both cores in this process (see module docstring).
+
+    ``noise``: the controller sees the preset's sensor channels (else the truth).
+    """
     p = scn.params()
     design = load_design()
-    core = ControllerCore(controller, design, scn.control_period_s)
+    core = ControllerCore(controller, design, scn.control_period_s, identified)
+    sensors = make_sensors(scn, noise)
     wind = scn.wind
     x = initial_state(p, wind.speed_m_s(0.0))
     log = RunLog()
     n_periods = round(scn.duration_s / scn.control_period_s)
     dt = scn.plant_dt_s
     t = 0.0
+    prev_cmd = _initial_command(x, p)
     for k in range(n_periods):
         t = k * scn.control_period_s
         v, b = wind.speed_m_s(t), wind.direction_rad(t)
-        cmd = core.step(measure(x, v, b), scn.control_period_s)
+        pre = outputs(t, x, plant_input(prev_cmd, v, b), p)
+        truth = truth_sample(x, v, b, pre.powers_w, pre.rotor_winds_m_s)
+        meas, power_w = measurement_of(sensors.measure(round(t * 1e9), truth))
+        cmd = core.step(meas, scn.control_period_s, power_w)
+        prev_cmd = cmd
         u = plant_input(cmd, v, b)
         out = outputs(t, x, u, p)
         _record(log, t, x, v, b, cmd, out.powers_w, out.wind_factors, core.last_solve_s)
+        log.speed_measured.append(meas.wind_speed_m_s)
         for j in range(scn.steps_per_period):
             tj = t + j * dt
             u = plant_input(cmd, wind.speed_m_s(tj), wind.direction_rad(tj))
             x = step_rk4(x, u, dt, p)
     log.overruns = core.overruns
     return log
+
+
+def _initial_command(x: tuple[float, ...], p: HexiconParams) -> HexiconCommand:
+    """The command held before the first answer: steady pitch, torque law."""
+    q = tuple(torque_law_nm(p.turbine, x[2 + 3 * i]) for i in range(3))
+    return HexiconCommand((x[3], x[6], x[9]), (q[0], q[1], q[2]))
 
 
 def _record(
@@ -265,8 +356,9 @@ def compute_kpis(
     to the initial error, after the first zero crossing; 0 for none), settling time (first time
     after which |e| stays <= 1°; NaN if never); energy ratio ∫P / ∫P_wake-free; pitch travel
     Σ_i Σ_k |Δθ_i| (deg, actual pitch); constraint violations (commanded pitch outside
-    [θ_r(V) - 0.01°, 25° + 0.01°], counted per turbine and period); MPC solve time p99 and
-    overruns.
+    [θ_r(V_m) - 0.01°, 25° + 0.01°], counted per turbine and period, V_m the met wind speed
+    the controller measured: its constraint; the true speed without a measured one); MPC
+    solve time p99 and overruns.
     """
     d = design or load_design()
     p = scn.params()
@@ -298,7 +390,8 @@ def compute_kpis(
     pitch = np.degrees(np.asarray(log.pitch))
     travel = float(np.sum(np.abs(np.diff(pitch, axis=0))))
     cmd = np.degrees(np.asarray(log.pitch_cmd))
-    floor = np.array([math.degrees(d.rated_pitch_rad(v)) for v in log.speed])
+    v_floor = log.speed_measured if len(log.speed_measured) == len(log.speed) else log.speed
+    floor = np.array([math.degrees(d.rated_pitch_rad(v)) for v in v_floor])
     viol = int(np.sum(cmd < floor[:, None] - 0.01) + np.sum(cmd > d.pitch_max_deg + 0.01))
     solves = np.asarray(log.solve_s)
     return {

@@ -10,7 +10,7 @@ import typer
 
 # The plant, controller (OSQP) and Zenoh imports are deferred to the commands, so
 # ``fowt --help`` and the other commands do not pay for them.
-CONTROLLERS = ("bang_bang", "mpc")
+CONTROLLERS = ("bang_bang", "mpc", "mpc_id")
 
 app = typer.Typer(
     help="Hexicon H3-18MW: three turbines on one yawing platform (ayotte-2015).",
@@ -40,7 +40,9 @@ def scenarios() -> None:
 @app.command("run", short_help="Plant and controller processes over Zenoh, recorded to MCAP.")
 def run(
     scenario: str,
-    controller: Annotated[str, typer.Option(help="bang_bang or mpc")] = "mpc",
+    controller: Annotated[
+        str, typer.Option(help="bang_bang, mpc (physical model) or mpc_id (identified model)")
+    ] = "mpc",
     out: Annotated[Path, typer.Option(help="output directory (run.mcap, summary.json)")] = Path(
         "runs/hexicon"
     ),
@@ -49,20 +51,42 @@ def run(
     realtime_priority: Annotated[
         int, typer.Option(help="SCHED_FIFO priority of plant and controller (0: normal)")
     ] = 0,
+    transport: Annotated[str, typer.Option(help="zenoh or can")] = "zenoh",
+    can_interface: Annotated[
+        str, typer.Option(help="udp_multicast (private netns) or socketcan")
+    ] = "udp_multicast",
+    can_channel: Annotated[str, typer.Option(help="CAN channel (default per interface)")] = "",
+    can_fd: Annotated[bool, typer.Option(help="one CAN FD frame per message")] = False,
+    noise: Annotated[bool, typer.Option(help="sensor channels of the preset")] = True,
+    identified: Annotated[
+        Path | None, typer.Option(help="identified-model artefact of mpc_id")
+    ] = None,
 ) -> None:
     from hil.hexicon_nodes import run_over_zenoh  # noqa: PLC0415 - deferred (module comment)
 
     _check(scenario, controller)
     if mode not in ("lockstep", "realtime"):
         raise typer.BadParameter(f"--mode {mode!r}: expected lockstep or realtime")
-    s = run_over_zenoh(
-        scenario,
-        controller,
-        out,
-        mode=mode,
-        duration_s=duration,
-        realtime_priority=realtime_priority,
-    )
+    if transport not in ("zenoh", "can"):
+        raise typer.BadParameter(f"--transport {transport!r}: expected zenoh or can")
+    try:
+        s = run_over_zenoh(
+            scenario,
+            controller,
+            out,
+            mode=mode,
+            duration_s=duration,
+            realtime_priority=realtime_priority,
+            noise=noise,
+            transport=transport,
+            can_interface=can_interface,
+            can_channel=can_channel,
+            can_fd=can_fd,
+            identified=str(identified) if identified else None,
+        )
+    except (RuntimeError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from exc
     if s.get("plant_rc") != 0 or s.get("controller_rc") != 0:
         typer.echo(json.dumps(s, indent=1), err=True)
         raise typer.Exit(1)
@@ -74,28 +98,11 @@ def run(
 
 def kpis_of_mcap(path: Path, scenario: str) -> dict[str, float]:
     """The review KPIs (:func:`hil.hexicon.compute_kpis`) of a recorded platform run."""
-    from hil.hexicon import RunLog, compute_kpis, load_scenarios  # noqa: PLC0415
+    from hil.hexicon import compute_kpis, load_scenarios  # noqa: PLC0415
     from hil.hexicon_nodes import read_platform_run  # noqa: PLC0415
+    from hil.hexicon_review import run_log  # noqa: PLC0415
 
-    run = read_platform_run(path)
-    frames = [f for f in run.get("fowt/h3/platform", []) if not f["final"]]
-    log = RunLog()
-    cmds = [run.get(f"fowt/h3/{t}/rotor/command", []) for t in ("t1", "t2", "t3")]
-    rot = [run.get(f"fowt/h3/{t}/rotor", []) for t in ("t1", "t2", "t3")]
-    status = run.get("fowt/h3/platform/status", [])
-    n = min(len(frames), *(len(c) for c in cmds))
-    for k in range(n):
-        f = frames[k]
-        log.t.append(f["sample_time_ns"] / 1e9)
-        log.heading.append(f["platform_heading_measured_rad"])
-        log.yaw_rate.append(f["platform_yaw_rate_measured_rad_s"])
-        log.direction.append(f["wind_direction_measured_rad"])
-        log.speed.append(f["wind_speed_measured_m_s"])
-        log.power.append(f["platform_power_w"])
-        log.pitch_cmd.append(tuple(c[k]["blade_pitch_commanded_rad"] for c in cmds))
-        log.pitch.append(tuple(r[k]["blade_pitch_measured_rad"] for r in rot))
-        log.solve_s.append(status[k]["solve_time_s"] if k < len(status) else 0.0)
-    log.overruns = int(status[-1]["overruns"]) if status else 0
+    log = run_log(read_platform_run(path))
     return compute_kpis(log, load_scenarios()[scenario])
 
 
@@ -121,12 +128,33 @@ def campaign(
     out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
 
 
-@app.command("identify", short_help="PRBS experiments (seed table 5) and an N4SID model.")
+@app.command("identify", short_help="PRBS experiments (seed table 5) over the bus, N4SID.")
 def identify(
-    duration: Annotated[float, typer.Option(help="seconds per experiment")] = 3000.0,
+    duration: Annotated[float, typer.Option(help="samples (s) per experiment")] = 3000.0,
     block_rows: Annotated[int, typer.Option(help="N4SID block rows")] = 10,
+    out: Annotated[Path, typer.Option(help="folder of exp<k>.mcap, identified.json")] = Path(
+        "runs/hexicon_identify"
+    ),
+    seed: Annotated[int, typer.Option(help="PRBS seed")] = 0,
+    transport: Annotated[str, typer.Option(help="zenoh or can")] = "zenoh",
+    write_preset: Annotated[
+        bool, typer.Option(help="also write controller/presets/hexicon_h3_identified.json")
+    ] = False,
+    reuse: Annotated[bool, typer.Option(help="fit the MCAP files already in --out")] = False,
 ) -> None:
-    """Runs the six table-5 experiments in process, fits on 1-5, validates on 6 (JSON)."""
-    from controller.design.hexicon_identify import identify as run_identify  # noqa: PLC0415
+    """Runs the six table-5 experiments as plant, excitation and recorder processes, merges
+    the recorded MCAP data, fits on 1-5, validates on 6 (JSON)."""
+    from hil.hexicon_identify import identify_over_bus  # noqa: PLC0415
 
-    typer.echo(json.dumps(run_identify(duration, block_rows), indent=1))
+    if transport not in ("zenoh", "can"):
+        raise typer.BadParameter(f"--transport {transport!r}: expected zenoh or can")
+    res = identify_over_bus(
+        out,
+        duration,
+        block_rows,
+        seed,
+        write_preset=write_preset,
+        transport=transport,
+        reuse=reuse,
+    )
+    typer.echo(json.dumps(res, indent=1))

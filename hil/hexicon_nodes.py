@@ -11,10 +11,28 @@ message to an MCAP file. Keys::
     fowt/<platform>/platform/status       PlatformControllerStatus
     fowt/<platform>/alive/<node>          liveliness tokens
 
+    fowt/<platform>/platform/truth        PlatformFrame of the true state (recorder only)
+    fowt/<platform>/<turbine>/rotor/truth TurbineFrame of the true state (recorder only)
+
 Modes: ``lockstep`` (the plant waits for the three commands answering each cycle; simulated
 time runs as fast as the loop) and ``realtime`` (the plant ticks every control period on the
 wall clock; commands not in by the next tick are held and counted as deadline misses).
-Sensors are the true heading, rate, met wind and rotor speeds (no noise model yet).
+
+Sensors: the frames carry the preset's sensor channels (:mod:`plant.hexicon.sensors`,
+seeded); the truth goes on the ``.../truth`` keys, which only the recorder subscribes to.
+The controller subscribes to the four measured keys by name, so it cannot see the truth.
+
+Transport: ``zenoh`` (default) or ``can``: with ``can`` the three frames and the commands
+travel as CAN frames (``bus_schemas/fowt.dbc``: TurbineFrame 0x140, PlatformFrame 0x160,
+TurbineCommand 0x110, the turbine index in the payload) on a python-can bus
+(:class:`hil.can_bus.CanBus`); truth, status and liveliness stay on the loopback Zenoh
+session. ``udp_multicast`` between processes runs in a private network namespace (the
+launcher re-runs itself under ``unshare --net``, as ``fowt run --transport can`` does);
+``virtual`` connects nodes of one process only (:func:`run_in_threads`, tests).
+
+Identification (``--controller prbs``): the plant's wind is the PRBS wind of a table-5
+experiment (:func:`controller.design.hexicon_identify.experiment_wind`) and the controller
+process is the PRBS pitch excitation (:class:`controller.hexicon.PrbsExcitation`).
 """
 
 from __future__ import annotations
@@ -22,6 +40,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import queue
 import subprocess
 import sys
@@ -48,18 +67,128 @@ from bus_schemas.registry import (
     TURBINE_COMMAND,
     TURBINE_FRAME,
     DecodeError,
+    MessageType,
 )
-from controller.hexicon import HexiconCommand, HexiconMeasurement, load_design
+from controller.hexicon import (
+    HexiconCommand,
+    HexiconMeasurement,
+    PrbsExcitation,
+    load_design,
+    make_prbs,
+    prbs_step,
+)
 from hil.bus import Bus, BusConfig, free_tcp_endpoint
-from hil.hexicon import ControllerCore, initial_state, load_scenarios, plant_input
+from hil.hexicon import (
+    ControllerCore,
+    HexiconScenario,
+    initial_state,
+    load_scenarios,
+    make_sensors,
+    plant_input,
+    truth_sample,
+)
 from hil.rt import set_realtime_priority
+from plant.hexicon.environment import SampledWind
 from plant.hexicon.model import outputs, step_rk4, torque_law_nm
 
 TURBINES = ("t1", "t2", "t3")
 _STARTUP_TIMEOUT_S = 30.0
+#: PlatformControllerStatus.controller codes.
+CONTROLLER_CODES = {"bang_bang": 0, "mpc": 1, "mpc_id": 2, "prbs": 3}
+#: Controllers a node runs (``prbs``: the identification excitation).
+NODE_CONTROLLERS = tuple(CONTROLLER_CODES)
+TRUTH = "truth"
+_NETNS_ENV = "FOWT_HEXICON_IN_NETNS"
+_CAN_TYPES = (TURBINE_FRAME, PLATFORM_FRAME, TURBINE_COMMAND)
 
 
-def _wait_for_peers(bus: Bus, platform: str, names: tuple[str, ...], timeout_s: float) -> None:
+def truth_key(mt: MessageType, ident: str) -> str:
+    """``fowt/<ident>/<suffix>/truth``: the true-state twin of a frame key."""
+    return f"{mt.key(ident)}/{TRUTH}"
+
+
+class PlatformLink:
+    """A node's bus: Zenoh for everything, or the frames and commands on CAN (module docs).
+
+    Parameters
+    ----------
+    zenoh : BusConfig
+        The node's loopback Zenoh endpoints.
+    can : dict or None
+        ``{"interface", "channel", "fd"}`` of the CAN bus, None for Zenoh only.
+    platform : str
+        The platform id of the keys.
+    """
+
+    def __init__(self, zenoh: BusConfig, can: dict[str, Any] | None, platform: str) -> None:
+        self.platform = platform
+        self.can: Any = None
+        if can is not None:
+            from hil.can_bus import CanBus, CanBusConfig  # noqa: PLC0415 - CAN runs only
+
+            cfg = CanBusConfig.for_interface(
+                can["interface"], can.get("channel") or None, bool(can.get("fd")), platform
+            )
+            self.can = CanBus(cfg)
+        try:
+            self.zenoh = Bus(zenoh)
+        except BaseException:
+            if self.can is not None:
+                self.can.close()
+            raise
+
+    @property
+    def session(self) -> Any:
+        return self.zenoh.session
+
+    def publish(self, mt: MessageType, ident: str, msg: msgspec.Struct) -> None:
+        """Send ``msg`` on ``mt.key(ident)`` (CAN when it is a CAN message of a CAN run)."""
+        if self.can is not None and mt in _CAN_TYPES:
+            self.can.publish(mt, msg)
+        else:
+            self.zenoh.put(mt.key(ident), mt.codec.encode(msg))
+
+    def put_truth(self, mt: MessageType, ident: str, msg: msgspec.Struct) -> None:
+        self.zenoh.put(truth_key(mt, ident), mt.codec.encode(msg))
+
+    def subscribe(self, mt: MessageType, idents: tuple[str, ...], cb: Any) -> None:
+        """``cb(key, message)`` for ``mt`` of each ident (on CAN: the turbine index names it)."""
+        if self.can is not None and mt in _CAN_TYPES:
+
+            def deliver(msg: Any) -> None:
+                ident = (
+                    f"{self.platform}/t{msg.turbine_index}"
+                    if hasattr(msg, "turbine_index")
+                    else self.platform
+                )
+                cb(mt.key(ident), msg)
+
+            self.can.subscribe_message(mt, deliver)
+            return
+        for ident in idents:
+
+            def on_payload(key: str, payload: bytes, mt: MessageType = mt) -> None:
+                try:
+                    msg = mt.codec.decode(payload)
+                except DecodeError:
+                    cb(key, None)
+                    return
+                cb(key, msg)
+
+            self.zenoh.subscribe(mt.key(ident), on_payload)
+
+    def can_rejected(self) -> int:
+        return int(sum(self.can.rejected.values())) if self.can is not None else 0
+
+    def close(self) -> None:
+        try:
+            self.zenoh.close()
+        finally:
+            if self.can is not None:
+                self.can.close()
+
+
+def _wait_for_peers(bus: Any, platform: str, names: tuple[str, ...], timeout_s: float) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         seen = set()
@@ -73,28 +202,59 @@ def _wait_for_peers(bus: Bus, platform: str, names: tuple[str, ...], timeout_s: 
     raise TimeoutError(f"peers {names} did not appear within {timeout_s} s")
 
 
+def identification_scenario(
+    experiment: int, samples: int, seed: int = 0, base: str = "s1_step15"
+) -> tuple[HexiconScenario, SampledWind]:
+    """The scenario (nominal platform, 1 s period) and PRBS wind of a table-5 experiment
+    (``experiment`` 1-based) of ``samples`` control periods."""
+    from controller.design.hexicon_identify import experiment_wind  # noqa: PLC0415
+
+    scn = load_scenarios()[base]
+    speeds, dirs = experiment_wind(experiment - 1, samples, seed)
+    return scn, SampledWind(tuple(speeds), tuple(dirs), scn.control_period_s)
+
+
 # ------------------------------------------------------------------------------ plant
 def run_plant_node(
-    scenario: str, platform: str, listen: str, mode: str, duration_s: float | None
+    scenario: str,
+    platform: str,
+    listen: str,
+    mode: str,
+    duration_s: float | None,
+    *,
+    noise: bool = True,
+    experiment: int = 0,
+    seed: int = 0,
+    can: dict[str, Any] | None = None,
 ) -> int:
-    """The plant process: publish frames each period, integrate with the answering commands."""
+    """The plant process: publish frames each period, integrate with the answering commands.
 
-    scn = load_scenarios()[scenario]
+    ``experiment`` > 0: the PRBS wind of that table-5 experiment (``duration_s`` samples).
+    """
+
+    if experiment:
+        n_id = round(duration_s or 3000.0)
+        scn, wind_any = identification_scenario(experiment, n_id, seed)
+        wind: Any = wind_any
+        duration_s = float(n_id) * scn.control_period_s
+    else:
+        scn = load_scenarios()[scenario]
+        wind = scn.wind
     p = scn.params()
-    wind = scn.wind
-    bus = Bus(BusConfig(listen=(listen,)))
+    sensors = make_sensors(scn, noise)
+    bus = PlatformLink(BusConfig(listen=(listen,)), can, platform)
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/plant")
     commands: queue.SimpleQueue[TurbineCommand] = queue.SimpleQueue()
     rejected = 0
 
-    def on_cmd(_key: str, payload: bytes) -> None:
+    def on_cmd(_key: str, msg: Any) -> None:
         nonlocal rejected
-        try:
-            commands.put(TURBINE_COMMAND.codec.decode(payload))
-        except DecodeError:
+        if msg is None:
             rejected += 1
+        else:
+            commands.put(msg)
 
-    bus.subscribe(f"{KEY_PREFIX}/{platform}/*/{TURBINE_COMMAND.key_suffix}", on_cmd)
+    bus.subscribe(TURBINE_COMMAND, tuple(f"{platform}/{t}" for t in TURBINES), on_cmd)
     try:
         _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S)
         time.sleep(0.2)  # let the subscribers' declarations propagate
@@ -109,32 +269,38 @@ def run_plant_node(
             t = k * scn.control_period_s
             v, b = wind.speed_m_s(t), wind.direction_rad(t)
             out = outputs(t, x, plant_input(cmd, v, b), p)
+            truth = truth_sample(x, v, b, out.powers_w, out.rotor_winds_m_s)
+            meas = sensors.measure(k * period_ns, truth)
             now = time.monotonic_ns()
             for i, name in enumerate(TURBINES):
-                fr = TurbineFrame(
+                for s, sink in ((meas, bus.publish), (truth, bus.put_truth)):
+                    tu = s.turbines[i]
+                    fr = TurbineFrame(
+                        seq=k,
+                        sample_time_ns=k * period_ns,
+                        publish_time_ns=now,
+                        turbine_index=i + 1,
+                        rotor_speed_measured_rad_s=tu["rotor_speed"],
+                        blade_pitch_measured_rad=tu["pitch"],
+                        generator_torque_measured_nm=x[4 + 3 * i],
+                        electrical_power_measured_w=tu["power"],
+                        wind_speed_measured_m_s=tu["nacelle_wind"],
+                    )
+                    sink(TURBINE_FRAME, f"{platform}/{name}", fr)
+            for s, sink in ((truth, bus.put_truth), (meas, bus.publish)):
+                pl = s.platform
+                pf = PlatformFrame(
                     seq=k,
                     sample_time_ns=k * period_ns,
                     publish_time_ns=now,
-                    turbine_index=i + 1,
-                    rotor_speed_measured_rad_s=x[2 + 3 * i],
-                    blade_pitch_measured_rad=x[3 + 3 * i],
-                    generator_torque_measured_nm=x[4 + 3 * i],
-                    electrical_power_measured_w=out.powers_w[i],
-                    wind_speed_measured_m_s=out.rotor_winds_m_s[i],
+                    final=int(k == n),
+                    platform_heading_measured_rad=pl["heading"],
+                    platform_yaw_rate_measured_rad_s=pl["yaw_rate"],
+                    wind_direction_measured_rad=pl["wind_direction"],
+                    wind_speed_measured_m_s=pl["wind_speed"],
+                    platform_power_w=sum(tu["power"] for tu in s.turbines),
                 )
-                bus.put(TURBINE_FRAME.key(f"{platform}/{name}"), TURBINE_FRAME.codec.encode(fr))
-            pf = PlatformFrame(
-                seq=k,
-                sample_time_ns=k * period_ns,
-                publish_time_ns=now,
-                final=int(k == n),
-                platform_heading_measured_rad=x[0],
-                platform_yaw_rate_measured_rad_s=x[1],
-                wind_direction_measured_rad=b,
-                wind_speed_measured_m_s=v,
-                platform_power_w=sum(out.powers_w),
-            )
-            bus.put(PLATFORM_FRAME.key(platform), PLATFORM_FRAME.codec.encode(pf))
+                sink(PLATFORM_FRAME, platform, pf)
             if k == n:
                 break
             got: dict[int, TurbineCommand] = {}
@@ -178,7 +344,9 @@ def run_plant_node(
                     "plant_cycles": n,
                     "deadline_misses": misses,
                     "commands_held": held,
-                    "commands_rejected": rejected,
+                    "commands_rejected": rejected + bus.can_rejected(),
+                    "sensor_seed": sensors.seed,
+                    "sensor_noise": sensors.enabled,
                 }
             )
         )
@@ -191,25 +359,53 @@ def run_plant_node(
 
 # ------------------------------------------------------------------------------ controller
 def run_controller_node(
-    controller: str, platform: str, listen: str, connect: str, period_s: float
+    controller: str,
+    platform: str,
+    listen: str,
+    connect: str,
+    period_s: float,
+    *,
+    experiment: int = 0,
+    samples: int = 0,
+    seed: int = 0,
+    can: dict[str, Any] | None = None,
+    identified: str | None = None,
 ) -> int:
-    """The controller process: one core commanding the three turbines each cycle."""
+    """The controller process: one core commanding the three turbines each cycle.
 
-    core = ControllerCore(controller, load_design(), period_s)
-    bus = Bus(BusConfig(listen=(listen,), connect=(connect,)))
+    It subscribes to the measured keys only (never ``.../truth``). ``prbs``: the pitch
+    excitation of table-5 experiment ``experiment`` (1-based) over ``samples`` cycles.
+    ``identified``: the identified-model artefact of ``mpc_id`` (default: the shipped one).
+    """
+
+    design = load_design()
+    core: ControllerCore | None = None
+    prbs_state = None
+    if controller == "prbs":
+        from controller.design.hexicon_identify import TABLE5  # noqa: PLC0415
+
+        if not 1 <= experiment <= len(TABLE5):
+            raise ValueError(f"--experiment {experiment}: expected 1..{len(TABLE5)}")
+        lo, hi = TABLE5[experiment - 1][2]
+        prbs_state = make_prbs(PrbsExcitation(lo, hi, max(samples, 1), experiment - 1, seed))
+    else:
+        model = None
+        if controller == "mpc_id" and identified:
+            from controller.hexicon import load_identified  # noqa: PLC0415
+
+            model = load_identified(identified)
+        core = ControllerCore(controller, design, period_s, model)
+    bus = PlatformLink(BusConfig(listen=(listen,), connect=(connect,)), can, platform)
     inbox: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
 
-    def on_any(key: str, payload: bytes) -> None:
-        suffix = key.split("/", 2)[2]
-        try:
-            if suffix == PLATFORM_FRAME.key_suffix:
-                inbox.put(("platform", PLATFORM_FRAME.codec.decode(payload)))
-            elif suffix.endswith("/" + TURBINE_FRAME.key_suffix):
-                inbox.put(("turbine", TURBINE_FRAME.codec.decode(payload)))
-        except DecodeError:
-            inbox.put(("rejected", None))
+    def on_platform(_key: str, msg: Any) -> None:
+        inbox.put(("platform", msg) if msg is not None else ("rejected", None))
 
-    bus.subscribe(f"{KEY_PREFIX}/{platform}/**", on_any)
+    def on_turbine(_key: str, msg: Any) -> None:
+        inbox.put(("turbine", msg) if msg is not None else ("rejected", None))
+
+    bus.subscribe(PLATFORM_FRAME, (platform,), on_platform)
+    bus.subscribe(TURBINE_FRAME, tuple(f"{platform}/{t}" for t in TURBINES), on_turbine)
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/controller")
     frames: dict[int, dict[str, Any]] = {}
     try:
@@ -245,7 +441,14 @@ def run_controller_node(
                     slot["t3"].rotor_speed_measured_rad_s,
                 ),
             )
-            cmd = core.step(m, period_s)
+            power_w = sum(slot[f"t{i}"].electrical_power_measured_w for i in (1, 2, 3))
+            if core is not None:
+                cmd = core.step(m, period_s, power_w)
+                overruns, solve_s = core.overruns, core.last_solve_s
+            else:
+                assert prbs_state is not None
+                prbs_state, cmd = prbs_step(prbs_state, m, design)
+                overruns, solve_s = 0, 0.0
             now = time.monotonic_ns()
             for i, name in enumerate(TURBINES):
                 tc = TurbineCommand(
@@ -257,7 +460,7 @@ def run_controller_node(
                     blade_pitch_commanded_rad=cmd.pitch_rad[i],
                     generator_torque_commanded_nm=cmd.torque_nm[i],
                 )
-                bus.put(TURBINE_COMMAND.key(f"{platform}/{name}"), TURBINE_COMMAND.codec.encode(tc))
+                bus.publish(TURBINE_COMMAND, f"{platform}/{name}", tc)
             err = math.atan2(
                 math.sin(m.wind_direction_rad - m.heading_rad),
                 math.cos(m.wind_direction_rad - m.heading_rad),
@@ -268,12 +471,12 @@ def run_controller_node(
                 sample_time_ns=pf.sample_time_ns,
                 publish_time_ns=time.monotonic_ns(),
                 compute_time_ns=time.perf_counter_ns() - t_start,
-                controller=int(controller == "mpc"),
-                overruns=core.overruns,
+                controller=CONTROLLER_CODES[controller],
+                overruns=overruns,
                 heading_error_rad=err,
-                solve_time_s=core.last_solve_s,
+                solve_time_s=solve_s,
             )
-            bus.put(PLATFORM_STATUS.key(platform), PLATFORM_STATUS.codec.encode(st))
+            bus.publish(PLATFORM_STATUS, platform, st)
             seq_out += 1
     finally:
         token.undeclare()
@@ -282,7 +485,7 @@ def run_controller_node(
 
 # ------------------------------------------------------------------------------ recorder
 class PlatformMcap:
-    """MCAP writer with one JSON channel per key of a platform (per-turbine keys too)."""
+    """MCAP writer with one JSON channel per key of a platform (per-turbine and truth keys)."""
 
     def __init__(self, path: Path, platform: str) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -298,8 +501,12 @@ class PlatformMcap:
                 data=json.dumps(mt.json_schema()).encode(),
             )
             per_turbine = mt in (TURBINE_FRAME, TURBINE_COMMAND)
+            keys = []
             for ident in [f"{platform}/{t}" for t in TURBINES] if per_turbine else [platform]:
-                key = mt.key(ident)
+                keys.append(mt.key(ident))
+                if mt in (TURBINE_FRAME, PLATFORM_FRAME):
+                    keys.append(truth_key(mt, ident))
+            for key in keys:
                 self._channels[key] = self._w.register_channel(
                     topic=key,
                     message_encoding="json",
@@ -327,6 +534,30 @@ class PlatformMcap:
         self._stream.close()
 
 
+def _netns_rerun(argv: list[str], out: Path) -> dict[str, Any]:
+    """Re-run ``python -m hil.hexicon_nodes run ...`` in a private network namespace."""
+    from hil.can_bus import netns_command  # noqa: PLC0415
+
+    env = {**os.environ, _NETNS_ENV: "1"}
+    proc = subprocess.run(
+        netns_command([sys.executable, "-m", "hil.hexicon_nodes", "run", *argv]),
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    path = out / "launch.json"
+    if proc.returncode != 0 or not path.is_file():
+        return {
+            "plant_rc": None,
+            "controller_rc": None,
+            "launch_rc": proc.returncode,
+            "launch_stderr": proc.stderr[-3000:],
+        }
+    result: dict[str, Any] = json.loads(path.read_text())
+    return result
+
+
 def run_over_zenoh(
     scenario: str,
     controller: str,
@@ -335,15 +566,71 @@ def run_over_zenoh(
     mode: str = "lockstep",
     duration_s: float | None = None,
     platform: str = "h3",
-    timeout_s: float = 600.0,
+    timeout_s: float = 3600.0,
     realtime_priority: int = 0,
+    noise: bool = True,
+    experiment: int = 0,
+    seed: int = 0,
+    transport: str = "zenoh",
+    can_interface: str = "udp_multicast",
+    can_channel: str = "",
+    can_fd: bool = False,
+    identified: str | None = None,
+    mcap_name: str = "run.mcap",
 ) -> dict[str, Any]:
-    """Run plant and controller as two processes over Zenoh, record to ``out/run.mcap``.
+    """Run plant and controller as two processes, record to ``out/<mcap_name>``.
+
+    ``experiment`` > 0 with ``controller="prbs"``: table-5 identification experiment
+    (``duration_s`` = samples). ``transport="can"``: frames and commands on CAN (module
+    docs); ``udp_multicast`` re-runs this in a private network namespace when needed.
 
     Returns the plant's summary (cycles, deadline misses, held/rejected commands), the
     record count and the MCAP path.
     """
+    if transport not in ("zenoh", "can"):
+        raise ValueError(f"transport {transport!r}: expected zenoh or can")
+    if controller not in NODE_CONTROLLERS:
+        raise ValueError(f"controller {controller!r}: expected one of {NODE_CONTROLLERS}")
+    if (controller == "prbs") != (experiment > 0):
+        raise ValueError("controller prbs goes with an identification experiment (>= 1)")
+    can: dict[str, Any] | None = None
+    if transport == "can":
+        from hil.can_bus import (  # noqa: PLC0415
+            CanBusConfig,
+            in_private_netns,
+            transport_unavailable_reason,
+        )
 
+        cfg = CanBusConfig.for_interface(can_interface, can_channel or None, can_fd, platform)
+        if can_interface == "udp_multicast" and not in_private_netns():
+            from hil.can_bus import netns_unavailable_reason  # noqa: PLC0415
+
+            why = netns_unavailable_reason()
+            if why:
+                raise RuntimeError(why)
+            out.mkdir(parents=True, exist_ok=True)
+            argv = _cli_argv(
+                scenario,
+                controller,
+                out,
+                mode,
+                duration_s,
+                platform,
+                realtime_priority,
+                noise,
+                experiment,
+                seed,
+                can_interface,
+                can_channel,
+                can_fd,
+                identified,
+                mcap_name,
+            )
+            return _netns_rerun(argv, out)
+        why = transport_unavailable_reason(cfg)
+        if why:
+            raise RuntimeError(why)
+        can = {"interface": can_interface, "channel": cfg.effective_channel, "fd": can_fd}
     scn = load_scenarios()[scenario]
     out.mkdir(parents=True, exist_ok=True)
     plant_ep = free_tcp_endpoint()
@@ -353,6 +640,11 @@ def run_over_zenoh(
     py = sys.executable
     dur = [] if duration_s is None else ["--duration", repr(duration_s)]
     rt = ["--realtime-priority", str(realtime_priority)] if realtime_priority else []
+    can_args: list[str] = []
+    if can is not None:
+        can_args = ["--can-interface", can["interface"], "--can-channel", can["channel"]]
+        can_args += ["--can-fd"] if can_fd else []
+    idf = ["--experiment", str(experiment), "--seed", str(seed)]
     plant = subprocess.Popen(
         [
             py,
@@ -369,10 +661,14 @@ def run_over_zenoh(
             mode,
             *dur,
             *rt,
+            *can_args,
+            *idf,
+            *([] if noise else ["--no-noise"]),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
+    samples = round(duration_s or scn.duration_s) if experiment else 0
     ctrl = subprocess.Popen(
         [
             py,
@@ -390,11 +686,16 @@ def run_over_zenoh(
             "--period",
             repr(scn.control_period_s),
             *rt,
+            *can_args,
+            *idf,
+            "--samples",
+            str(samples),
+            *(["--identified", identified] if identified else []),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
-    mcap_path = out / "run.mcap"
+    mcap_path = out / mcap_name
     log = PlatformMcap(mcap_path, platform)
     q: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
     rejected = 0
@@ -404,8 +705,10 @@ def run_over_zenoh(
         parts = key.split("/")
         if "alive" in parts:
             return
-        suffix = "/".join(parts[3:]) if parts[2] in TURBINES else "/".join(parts[2:])
-        mt = BY_SUFFIX.get(suffix)
+        rest = parts[3:] if parts[2] in TURBINES else parts[2:]
+        if rest and rest[-1] == TRUTH:
+            rest = rest[:-1]
+        mt = BY_SUFFIX.get("/".join(rest))
         if mt is None:
             return
         try:
@@ -413,11 +716,30 @@ def run_over_zenoh(
         except DecodeError:
             rejected += 1
 
+    can_bus_rec = None
+    if can is not None:
+        from hil.can_bus import CanBus, CanBusConfig  # noqa: PLC0415
+
+        can_bus_rec = CanBus(
+            CanBusConfig.for_interface(can["interface"], can["channel"], can_fd, platform)
+        )
+        for mt in _CAN_TYPES:
+
+            def deliver(msg: Any, mt: MessageType = mt) -> None:
+                ident = (
+                    f"{platform}/t{msg.turbine_index}"
+                    if hasattr(msg, "turbine_index")
+                    else platform
+                )
+                q.put((mt.key(ident), msg))
+
+            can_bus_rec.subscribe_message(mt, deliver)
     bus = Bus(BusConfig(connect=(plant_ep, ctrl_ep)))
     bus.subscribe(f"{KEY_PREFIX}/{platform}/**", on_sample)
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/recorder")
     deadline = time.monotonic() + timeout_s
     final = False
+    p_out = p_err = c_err = b""
     try:
         while (time.monotonic() < deadline and plant.poll() is None) or not q.empty():
             try:
@@ -427,7 +749,7 @@ def run_over_zenoh(
                     break
                 continue
             log.write(key, msg)
-            if isinstance(msg, PlatformFrame) and msg.final:
+            if isinstance(msg, PlatformFrame) and msg.final and not key.endswith(TRUTH):
                 final = True
         p_out, p_err = plant.communicate(timeout=30)
         _c_out, c_err = ctrl.communicate(timeout=30)
@@ -438,6 +760,11 @@ def run_over_zenoh(
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+        can_frames = can_rej = 0
+        if can_bus_rec is not None:
+            can_frames = can_bus_rec.frames_received
+            can_rej = int(sum(can_bus_rec.rejected.values()))
+            can_bus_rec.close()
     summary: dict[str, Any] = {}
     lines = [ln for ln in p_out.decode().splitlines() if ln.startswith("{")]
     if lines:
@@ -450,15 +777,86 @@ def run_over_zenoh(
             "recorder_rejected": rejected,
             "final_seen": final,
             "mcap": str(mcap_path),
+            "transport": transport,
             "plant_stderr": p_err.decode()[-2000:],
             "controller_stderr": c_err.decode()[-2000:],
         }
     )
+    if can is not None:
+        summary.update(
+            {
+                "can_interface": can["interface"],
+                "can_frames_received": can_frames,
+                "can_rejected": can_rej,
+            }
+        )
+    kind = "identification" if experiment else "run"
     log.close(
         {k: str(v) for k, v in summary.items() if k not in ("plant_stderr", "controller_stderr")}
-        | {"scenario": scenario, "controller": controller, "mode": mode}
+        | {
+            "kind": kind,
+            "scenario": scenario,
+            "controller": controller,
+            "mode": mode,
+            "platform": platform,
+            "experiment": str(experiment),
+            "seed": str(seed),
+            "control_period_s": repr(scn.control_period_s),
+        }
     )
     return summary
+
+
+def _cli_argv(
+    scenario: str,
+    controller: str,
+    out: Path,
+    mode: str,
+    duration_s: float | None,
+    platform: str,
+    realtime_priority: int,
+    noise: bool,
+    experiment: int,
+    seed: int,
+    can_interface: str,
+    can_channel: str,
+    can_fd: bool,
+    identified: str | None,
+    mcap_name: str,
+) -> list[str]:
+    argv = [
+        "--scenario",
+        scenario,
+        "--controller",
+        controller,
+        "--out",
+        str(out.resolve()),
+        "--mode",
+        mode,
+        "--platform",
+        platform,
+        "--experiment",
+        str(experiment),
+        "--seed",
+        str(seed),
+        "--can-interface",
+        can_interface,
+        "--mcap-name",
+        mcap_name,
+    ]
+    if duration_s is not None:
+        argv += ["--duration", repr(duration_s)]
+    if realtime_priority:
+        argv += ["--realtime-priority", str(realtime_priority)]
+    if not noise:
+        argv.append("--no-noise")
+    if can_channel:
+        argv += ["--can-channel", can_channel]
+    if can_fd:
+        argv.append("--can-fd")
+    if identified:
+        argv += ["--identified", str(Path(identified).resolve())]
+    return argv
 
 
 def read_platform_run(path: Path) -> dict[str, list[Any]]:
@@ -474,6 +872,12 @@ def read_platform_run(path: Path) -> dict[str, list[Any]]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hil.hexicon_nodes")
     sub = ap.add_subparsers(dest="node", required=True)
+
+    def can_opts(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument("--can-interface", default=None)
+        sp.add_argument("--can-channel", default="")
+        sp.add_argument("--can-fd", action="store_true")
+
     pp = sub.add_parser("plant")
     pp.add_argument("--scenario", required=True)
     pp.add_argument("--platform", default="h3")
@@ -481,20 +885,88 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep")
     pp.add_argument("--duration", type=float, default=None)
     pp.add_argument("--realtime-priority", type=int, default=0)
+    pp.add_argument("--experiment", type=int, default=0)
+    pp.add_argument("--seed", type=int, default=0)
+    pp.add_argument("--no-noise", action="store_true")
+    can_opts(pp)
     cp = sub.add_parser("controller")
-    cp.add_argument("--controller", choices=("bang_bang", "mpc"), required=True)
+    cp.add_argument("--controller", choices=NODE_CONTROLLERS, required=True)
     cp.add_argument("--platform", default="h3")
     cp.add_argument("--listen", required=True)
     cp.add_argument("--connect", required=True)
     cp.add_argument("--period", type=float, default=1.0)
     cp.add_argument("--realtime-priority", type=int, default=0)
+    cp.add_argument("--experiment", type=int, default=0)
+    cp.add_argument("--samples", type=int, default=0)
+    cp.add_argument("--seed", type=int, default=0)
+    cp.add_argument("--identified", default=None)
+    can_opts(cp)
+    rp = sub.add_parser("run")  # the launcher, re-run inside a network namespace
+    rp.add_argument("--scenario", required=True)
+    rp.add_argument("--controller", required=True)
+    rp.add_argument("--out", required=True)
+    rp.add_argument("--mode", default="lockstep")
+    rp.add_argument("--platform", default="h3")
+    rp.add_argument("--duration", type=float, default=None)
+    rp.add_argument("--realtime-priority", type=int, default=0)
+    rp.add_argument("--experiment", type=int, default=0)
+    rp.add_argument("--seed", type=int, default=0)
+    rp.add_argument("--no-noise", action="store_true")
+    rp.add_argument("--identified", default=None)
+    rp.add_argument("--mcap-name", default="run.mcap")
+    can_opts(rp)
     a = ap.parse_args(argv)
+    if a.node == "run":
+        res = run_over_zenoh(
+            a.scenario,
+            a.controller,
+            Path(a.out),
+            mode=a.mode,
+            duration_s=a.duration,
+            platform=a.platform,
+            realtime_priority=a.realtime_priority,
+            noise=not a.no_noise,
+            experiment=a.experiment,
+            seed=a.seed,
+            transport="can",
+            can_interface=a.can_interface or "udp_multicast",
+            can_channel=a.can_channel,
+            can_fd=a.can_fd,
+            identified=a.identified,
+            mcap_name=a.mcap_name,
+        )
+        (Path(a.out) / "launch.json").write_text(json.dumps(res, indent=1) + "\n")
+        return 0 if res.get("plant_rc") == 0 and res.get("controller_rc") == 0 else 1
     if a.realtime_priority:
         # before the Zenoh session opens, so its threads inherit the policy (hil/rt.py)
         print(set_realtime_priority(a.realtime_priority), file=sys.stderr)
+    can = None
+    if a.can_interface:
+        can = {"interface": a.can_interface, "channel": a.can_channel, "fd": a.can_fd}
     if a.node == "plant":
-        return run_plant_node(a.scenario, a.platform, a.listen, a.mode, a.duration)
-    return run_controller_node(a.controller, a.platform, a.listen, a.connect, a.period)
+        return run_plant_node(
+            a.scenario,
+            a.platform,
+            a.listen,
+            a.mode,
+            a.duration,
+            noise=not a.no_noise,
+            experiment=a.experiment,
+            seed=a.seed,
+            can=can,
+        )
+    return run_controller_node(
+        a.controller,
+        a.platform,
+        a.listen,
+        a.connect,
+        a.period,
+        experiment=a.experiment,
+        samples=a.samples,
+        seed=a.seed,
+        can=can,
+        identified=a.identified,
+    )
 
 
 if __name__ == "__main__":

@@ -832,14 +832,19 @@ def review(
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
     run = read_run(mcap_path)
-    summary = summarize(run)
+    from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
+
+    platform = hexicon_review.is_platform_run(run)
+    summary = hexicon_review.summarize(run) if platform else summarize(run)
     summary["run"]["source"] = str(mcap_path)
     if write_summary or plots:
         out.mkdir(parents=True, exist_ok=True)
     if write_summary:
-        (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        (out / "summary.json").write_text(
+            json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
+        )
     if plots:
-        write_plots(run, out)
+        (hexicon_review.write_plots if platform else write_plots)(run, out)
     return summary
 
 
@@ -868,6 +873,11 @@ def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
 
 def render_summary(summary: dict[str, Any], console: Console) -> None:
     """Print the summary as rich tables: run, KPIs with units, timing."""
+    if summary.get("kind") == "hexicon":
+        from hil.hexicon_review import render  # noqa: PLC0415
+
+        render(summary, console)
+        return
     run = summary.get("run", {})
     scen = summary.get("scenario", {})
     head = Table(title="Run", show_header=False)

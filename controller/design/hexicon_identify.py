@@ -31,6 +31,7 @@ import numpy.typing as npt
 import pandas as pd
 from nfoursid.nfoursid import NFourSID
 
+from controller.hexicon import prbs
 from plant.hexicon.environment import WindProfile  # noqa: F401  (documented input model)
 from plant.hexicon.model import load_hexicon, outputs, rated_pitch_rad, step_rk4, torque_law_nm
 
@@ -50,16 +51,20 @@ INPUTS = ("wind_m_s", "direction_deg", "pitch1_deg", "pitch2_deg", "pitch3_deg")
 OUTPUTS = ("yaw_rate_deg_s", "power_mw")
 
 
-def prbs(n: int, hold_min: int, hold_max: int, rng: np.random.Generator) -> FloatArray:
-    """A binary (0/1) signal of n samples switching after random holds in [hold_min, hold_max]."""
-    out = np.zeros(n)
-    level, k = float(rng.integers(0, 2)), 0
-    while k < n:
-        h = int(rng.integers(hold_min, hold_max + 1))
-        out[k : k + h] = level
-        level = 1.0 - level
-        k += h
-    return out
+#: Hold times of every PRBS (samples at 1 s): 1e-3 .. 1e-1 Hz content.
+HOLD = (10, 100)
+
+
+def experiment_wind(test: int, n: int, seed: int = 0) -> tuple[list[float], list[float]]:
+    """Wind speed (m/s) and direction (deg) samples of table-5 experiment ``test`` (0-based)
+    for the bus runs: PRBS streams ``[seed, test, 0]`` (speed) and ``[seed, test, 1]``
+    (direction); the pitches are :class:`controller.hexicon.PrbsExcitation` (streams 2-4)."""
+    if not 0 <= test < len(TABLE5):
+        raise ValueError(f"table-5 experiment {test + 1}: expected 1..{len(TABLE5)}")
+    (v_lo, v_hi), (a_lo, a_hi), _ = TABLE5[test]
+    v = v_lo + (v_hi - v_lo) * prbs(n, *HOLD, np.random.default_rng([seed, test, 0]))
+    a = a_lo + (a_hi - a_lo) * prbs(n, *HOLD, np.random.default_rng([seed, test, 1]))
+    return [float(x) for x in v], [float(x) for x in a]
 
 
 def run_experiment(

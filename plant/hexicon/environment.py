@@ -117,3 +117,39 @@ class WindProfile:
             t, self.direction_ramp_start_s, self.direction_ramp_end_s
         )
         return math.radians(deg)
+
+
+@dataclass(frozen=True)
+class SampledWind:
+    """Wind speed and direction given as samples every ``period_s``, each held over its period
+    (zero-order hold; the last sample past the end): the PRBS wind of the identification
+    experiments (ayotte-2015 table 5).
+
+    Parameters
+    ----------
+    speeds_m_s, directions_deg : tuple of float
+        Samples (m/s, deg from), of one length >= 1.
+    period_s : float
+        Sample period (s), > 0.
+    """
+
+    speeds_m_s: tuple[float, ...]
+    directions_deg: tuple[float, ...]
+    period_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (len(self.speeds_m_s) == len(self.directions_deg) >= 1 and self.period_s > 0):
+            raise ValueError(
+                "SampledWind: expected speeds and directions of one length >= 1 and period_s > 0"
+            )
+
+    def _k(self, t: float) -> int:
+        return min(max(math.floor(t / self.period_s + 1e-9), 0), len(self.speeds_m_s) - 1)
+
+    def speed_m_s(self, t: float) -> float:
+        """V(t) (m/s)."""
+        return self.speeds_m_s[self._k(t)]
+
+    def direction_rad(self, t: float) -> float:
+        """β(t) (rad)."""
+        return math.radians(self.directions_deg[self._k(t)])

@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import msgspec
 
@@ -143,6 +143,8 @@ class _HexiconFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     turbine_x_m: list[float]
     turbine_y_m: list[float]
     wake_decay: float
+    # the sensor channels (plant/hexicon/sensors.py reads and checks them)
+    sensors: dict[str, Any] = msgspec.field(default_factory=dict)
 
 
 def load_hexicon(name_or_path: str | Path = "hexicon_h3") -> HexiconParams:
