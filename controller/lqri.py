@@ -64,6 +64,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from controller import _kernels
 from controller.interface import REGIME_REGION_2, REGIME_REGION_3, ControlOutput
 
 __all__ = [
@@ -551,6 +552,11 @@ class LqriController:
         self.design = design
         self.wave_ff = wave_ff
         self.feedforward = feedforward
+        if wave_ff is not None:  # the filter matrices transposed, contiguous, for the kernel
+            self._ff_a_t = np.ascontiguousarray(wave_ff.a.transpose(0, 2, 1))
+            self._ff_b = np.ascontiguousarray(wave_ff.b)
+            self._ff_c = np.ascontiguousarray(wave_ff.c)
+            self._ff_d = np.ascontiguousarray(wave_ff.d)
 
     def _feedforward(
         self, state: LqriState, u: float, eta: float
@@ -574,9 +580,9 @@ class LqriController:
         zs = state.ff_state if state.ff_state is not None else np.zeros(ff.b.shape)
         if not math.isfinite(eta):
             return 0.0, ff.is_pitch[near], near, zs
-        out_i = float(ff.c[i] @ zs[i]) + float(ff.d[i]) * eta
-        out_j = float(ff.c[j] @ zs[j]) + float(ff.d[j]) * eta
-        zn = np.matmul(ff.a, zs[:, :, None])[:, :, 0] + ff.b * eta
+        out_i, out_j, zn = _kernels.ff_step(
+            self._ff_a_t, self._ff_b, self._ff_c, self._ff_d, zs, i, j, float(eta)
+        )
         out = (1.0 - w) * out_i + w * out_j
         return ff.gain(self.feedforward, u) * out, ff.is_pitch[near], near, zn
 
