@@ -49,6 +49,7 @@ __all__ = [
     "ekf_step",
     "ekf_update",
     "ff_step",
+    "kf_cycle",
     "kf_predict",
     "kf_update",
 ]
@@ -231,8 +232,13 @@ def kf_predict(
     P: np.ndarray,
     u: np.ndarray,
     steps: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``steps`` KF time updates :math:`x \\leftarrow Fx + Bu`, :math:`P \\leftarrow FPF^T + Q`."""
+    x_out: np.ndarray,
+    P_out: np.ndarray,
+) -> None:
+    """``steps`` KF time updates :math:`x \\leftarrow Fx + Bu`, :math:`P \\leftarrow FPF^T + Q`.
+
+    Writes the result into ``x_out`` and ``P_out`` (which may not alias ``x``, ``P``).
+    """
     n = x.size
     bu = np.zeros(n)
     for i in range(n):
@@ -240,31 +246,28 @@ def kf_predict(
         for k in range(u.size):
             acc += B[i, k] * u[k]
         bu[i] = acc
-    xc = x.copy()
-    Pc = P.copy()
+    x_out[:] = x
+    P_out[:, :] = P
     xn = np.empty(n)
     FP = np.empty((n, n))
-    Pn = np.empty((n, n))
     for _ in range(steps):
         for i in range(n):
             acc = 0.0
             for k in range(n):
-                acc += F[i, k] * xc[k]
+                acc += F[i, k] * x_out[k]
             xn[i] = acc + bu[i]
             for j in range(n):
                 acc = 0.0
                 for k in range(n):
-                    acc += F[i, k] * Pc[k, j]
+                    acc += F[i, k] * P_out[k, j]
                 FP[i, j] = acc
         for i in range(n):
             for j in range(n):
                 acc = 0.0
                 for k in range(n):
                     acc += FP[i, k] * F[j, k]
-                Pn[i, j] = acc + Q[i, j]
-        xc[:] = xn
-        Pc[:, :] = Pn
-    return xc, Pc
+                P_out[i, j] = acc + Q[i, j]
+        x_out[:] = xn
 
 
 @_jit
@@ -315,11 +318,16 @@ def kf_update(
     u: np.ndarray,
     counts: np.ndarray,
     max_misses: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Gated KF measurement update (``PlatformKF.update``).
+    x_out: np.ndarray,
+    P_out: np.ndarray,
+    counts_out: np.ndarray,
+    nis_out: np.ndarray,
+) -> bool:
+    """Gated KF measurement update (``PlatformKF.update``); returns ``degraded``.
 
     ``counts`` rows: consecutive misses, skipped, rejected, accepted (per channel); ``u`` of
-    size 0 means no feedthrough. Returns (x, P, counts, nis, degraded), all new.
+    size 0 means no feedthrough. The new x, P, counts and NIS are written into the ``*_out``
+    arrays (which may not alias the inputs).
     """
     p, n = H.shape
     y = np.empty(p)
@@ -348,8 +356,10 @@ def kf_update(
             for k in range(n):
                 acc += H[i, k] * PHt[k, j]
             S[i, j] = acc + R[i, j]
-    cnt = counts.copy()
-    nis = np.full(p, math.nan)
+    cnt = counts_out
+    cnt[:, :] = counts
+    nis = nis_out
+    nis[:] = math.nan
     idx = np.empty(p, dtype=np.int64)
     na = 0
     for i in range(p):
@@ -367,8 +377,10 @@ def kf_update(
             cnt[0, i] = 0
             idx[na] = i
             na += 1
-    xn = x.copy()
-    Pn = P.copy()
+    xn = x_out
+    xn[:] = x
+    Pn = P_out
+    Pn[:, :] = P
     if na:
         Sa = np.empty((na, na))
         for a in range(na):
@@ -426,7 +438,39 @@ def kf_update(
     for i in range(p):
         if cnt[0, i] > max_misses:
             degraded = True
-    return xn, Pn, cnt, nis, degraded
+    return degraded
+
+
+@_jit
+def kf_cycle(
+    F: np.ndarray,
+    B: np.ndarray,
+    Q: np.ndarray,
+    H: np.ndarray,
+    D: np.ndarray,
+    R: np.ndarray,
+    gate: np.ndarray,
+    x: np.ndarray,
+    P: np.ndarray,
+    u: np.ndarray,
+    steps: int,
+    z: np.ndarray,
+    valid: np.ndarray,
+    counts: np.ndarray,
+    max_misses: int,
+    x_out: np.ndarray,
+    P_out: np.ndarray,
+    counts_out: np.ndarray,
+    nis_out: np.ndarray,
+) -> bool:
+    """:func:`kf_predict` then :func:`kf_update` (feedthrough of the same ``u``) in one call."""
+    n = x.size
+    xp = np.empty(n)
+    Pp = np.empty((n, n))
+    kf_predict(F, B, Q, x, P, u, steps, xp, Pp)
+    return kf_update(
+        H, D, R, gate, xp, Pp, z, valid, u, counts, max_misses, x_out, P_out, counts_out, nis_out
+    )
 
 
 @_jit
@@ -439,10 +483,12 @@ def ff_step(
     i: int,
     j: int,
     eta: float,
-) -> tuple[float, float, np.ndarray]:
-    """Outputs of filters i and j, :math:`c z + d\\hat\\eta`, and every filter's next state.
+    zn: np.ndarray,
+) -> tuple[float, float]:
+    """Outputs of filters i and j, :math:`c z + d\\hat\\eta`; every filter's next state into zn.
 
-    ``a_t[f]`` is :math:`A_{d,f}^T` (row-major transpose of filter f's matrix).
+    ``a_t[f]`` is :math:`A_{d,f}^T` (row-major transpose of filter f's matrix); ``zn`` (m, n)
+    may not alias ``zs``.
     """
     m, n = b.shape
     out_i = 0.0
@@ -452,7 +498,7 @@ def ff_step(
         out_j += c[j, k] * zs[j, k]
     out_i += d[i] * eta
     out_j += d[j] * eta
-    zn = np.zeros((m, n))
+    zn[:, :] = 0.0
     for f in range(m):
         row = zn[f]
         for k in range(n):
@@ -462,4 +508,4 @@ def ff_step(
                 row[r] += col[r] * zk
         for r in range(n):
             row[r] += b[f, r] * eta
-    return out_i, out_j, zn
+    return out_i, out_j

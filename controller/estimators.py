@@ -510,9 +510,9 @@ class WindSpeedEKF:
             ],
             dtype=np.float64,
         )
-        prm.setflags(write=False)
         t = c.cp_table
-        self._tables = (prm, t.tsr, t.pitch_rad, t._cells)
+        # private writable copies: numba dispatches read-only arrays several times slower
+        self._tables = (prm, t.tsr.copy(), t.pitch_rad.copy(), t._cells.copy())
 
     # -------------------------------------------------------------- model
     def aero_torque(
@@ -917,11 +917,12 @@ class PlatformKF:
         n, p = c.F.shape[0], c.H.shape[0]
         self._n = n
         self._p = p
-        self._gate = np.array(c.gate, dtype=np.float64)
+        # the kernels' constants: private writable copies (numba dispatches read-only arrays
+        # several times slower); F, B, Q for the predict, H, D, R and the gate for the update
+        self._pred = (c.F.copy(), c.B.copy(), c.Q.copy())
+        self._upd = (c.H.copy(), c.D.copy(), c.R.copy(), np.array(c.gate, dtype=np.float64))
         self._all_valid = np.ones(p, dtype=np.bool_)
         self._no_input = np.zeros(0)
-        for arr in (self._gate, self._all_valid, self._no_input):
-            arr.setflags(write=False)
 
     def initial_state(self) -> PlatformKFState:
         """State before the first cycle: ``x0``, ``P0``, counters zero."""
@@ -954,8 +955,10 @@ class PlatformKF:
         """
         c = self.config
         steps = min(max(round(dt_s / c.dt_s), 1), c.max_predict_steps)
-        x, P = _kernels.kf_predict(
-            c.F, c.B, c.Q, state.x, state.P, np.asarray(u, dtype=np.float64), steps
+        n = self._n
+        x, P = np.empty(n), np.empty((n, n))
+        _kernels.kf_predict(
+            *self._pred, state.x, state.P, np.asarray(u, dtype=np.float64), steps, x, P
         )
         return state._replace(x=x, P=P)
 
@@ -993,11 +996,11 @@ class PlatformKF:
         c = self.config
         ok = self._all_valid if valid is None else np.asarray(valid, dtype=np.bool_)
         uu = self._no_input if u is None else np.asarray(u, dtype=np.float64)
-        x, P, counts, nis, degraded = _kernels.kf_update(
-            c.H,
-            c.D,
-            c.R,
-            self._gate,
+        n, p = self._n, self._p
+        x, P = np.empty(n), np.empty((n, n))
+        counts, nis = np.empty((4, p), dtype=np.int64), np.empty(p)
+        degraded = _kernels.kf_update(
+            *self._upd,
             state.x,
             state.P,
             np.asarray(z, dtype=np.float64),
@@ -1005,6 +1008,49 @@ class PlatformKF:
             uu,
             state.counts,
             c.max_consecutive_misses,
+            x,
+            P,
+            counts,
+            nis,
+        )
+        return PlatformKFState(x, P, counts, nis, degraded)
+
+    def predict_update(
+        self,
+        state: PlatformKFState,
+        u: npt.ArrayLike,
+        z: npt.ArrayLike,
+        valid: npt.ArrayLike | None,
+        dt_s: float,
+    ) -> PlatformKFState:
+        """:meth:`predict` with ``u`` over ``dt_s``, then :meth:`update` with ``z``, ``valid``
+        and the feedthrough of the same ``u``, in one compiled call (the runtime's cycle).
+
+        Returns
+        -------
+        PlatformKFState
+            The same as ``update(predict(state, u, dt_s), z, valid, u)``.
+        """
+        c = self.config
+        n, p = self._n, self._p
+        steps = min(max(round(dt_s / c.dt_s), 1), c.max_predict_steps)
+        x, P = np.empty(n), np.empty((n, n))
+        counts, nis = np.empty((4, p), dtype=np.int64), np.empty(p)
+        degraded = _kernels.kf_cycle(
+            *self._pred,
+            *self._upd,
+            state.x,
+            state.P,
+            np.asarray(u, dtype=np.float64),
+            steps,
+            np.asarray(z, dtype=np.float64),
+            self._all_valid if valid is None else np.asarray(valid, dtype=np.bool_),
+            state.counts,
+            c.max_consecutive_misses,
+            x,
+            P,
+            counts,
+            nis,
         )
         return PlatformKFState(x, P, counts, nis, degraded)
 

@@ -580,8 +580,9 @@ class LqriController:
         zs = state.ff_state if state.ff_state is not None else np.zeros(ff.b.shape)
         if not math.isfinite(eta):
             return 0.0, ff.is_pitch[near], near, zs
-        out_i, out_j, zn = _kernels.ff_step(
-            self._ff_a_t, self._ff_b, self._ff_c, self._ff_d, zs, i, j, float(eta)
+        zn = np.empty(zs.shape)
+        out_i, out_j = _kernels.ff_step(
+            self._ff_a_t, self._ff_b, self._ff_c, self._ff_d, zs, i, j, float(eta), zn
         )
         out = (1.0 - w) * out_i + w * out_j
         return ff.gain(self.feedforward, u) * out, ff.is_pitch[near], near, zn

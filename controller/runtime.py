@@ -695,8 +695,7 @@ class AdvancedController:
             bool(mask & VALID_PLATFORM_PITCH) and raw[2] != last[2],
             bool(mask & VALID_PLATFORM_SURGE) and raw[3] != last[3],
         )
-        kf_state = kf.predict(kf_state, u, dt_s)
-        kf_state = kf.update(kf_state, z, valid, u)
+        kf_state = kf.predict_update(kf_state, u, z, valid, dt_s)
         xd = kf_state.x.tolist()
         x = [a + b for a, b in zip(xd, xo, strict=True)]
         degraded = kf_state.degraded or speed_misses > self._k_miss
