@@ -52,6 +52,7 @@ __all__ = [
     "kf_cycle",
     "kf_predict",
     "kf_update",
+    "lqri_schedule",
 ]
 
 #: Layout of the EKF's constant vector (``WindSpeedEKF._prm``).
@@ -509,3 +510,45 @@ def ff_step(
         for r in range(n):
             row[r] += b[f, r] * eta
     return out_i, out_j
+
+
+@_jit
+def lqri_schedule(
+    grid: np.ndarray,
+    k_x: np.ndarray,
+    x_op: np.ndarray,
+    k_i: np.ndarray,
+    theta_op: np.ndarray,
+    rated_speed: float,
+    wind: float,
+    x: np.ndarray,
+) -> tuple[float, float, float]:
+    """LQRI gains at the scheduling wind and the state feedback (``LqriController.step``).
+
+    Linear interpolation on the wind grid (ends held): :math:`K_x(U)`, :math:`x_{op}(U)`,
+    :math:`K_i(U)`, :math:`\\theta_{op}(U)`; the rotor-speed and pitch entries of the
+    operating point are :math:`\\omega_{ref}` and :math:`\\theta_{op}(U)`. Returns
+    :math:`(K_x (x - x_{op}), K_i, \\theta_{op})`.
+    """
+    n = grid.size
+    if n == 1 or wind <= grid[0]:
+        i, a = 0, 0.0
+    elif wind >= grid[n - 1]:
+        i, a = n - 2, 1.0
+    else:
+        i = int(np.searchsorted(grid, wind, side="right")) - 1
+        a = (wind - grid[i]) / (grid[i + 1] - grid[i])
+    i1 = i + 1 if n > 1 else i
+    j = min(i + 1, n - 1)
+    ki = (1.0 - a) * k_i[i] + a * k_i[j]
+    th_op = (1.0 - a) * theta_op[i] + a * theta_op[j]
+    fb = 0.0
+    for k in range(x.size):
+        kxk = (1.0 - a) * k_x[i, k] + a * k_x[i1, k]
+        xok = (1.0 - a) * x_op[i, k] + a * x_op[i1, k]
+        if k == 6:
+            xok = rated_speed
+        elif k == 7:
+            xok = th_op
+        fb += kxk * (x[k] - xok)
+    return fb, ki, th_op

@@ -551,6 +551,14 @@ class LqriController:
             raise ValueError(f"feedforward = {feedforward!r} needs a wave-FF design")
         self.design = design
         self.wave_ff = wave_ff
+        self._schedule = (  # the gain schedule as arrays for the compiled kernel
+            np.array(design.wind_m_s, dtype=np.float64),
+            np.array(design.k_x, dtype=np.float64).reshape(len(design.wind_m_s), -1),
+            np.array(design.x_op, dtype=np.float64).reshape(len(design.wind_m_s), -1),
+            np.array(design.k_i, dtype=np.float64),
+            np.array(design.theta_op, dtype=np.float64),
+            float(design.rated_rotor_speed_rad_s),
+        )
         self.feedforward = feedforward
         if wave_ff is not None:  # the filter matrices transposed, contiguous, for the kernel
             self._ff_a_t = np.ascontiguousarray(wave_ff.a.transpose(0, 2, 1))
@@ -633,31 +641,21 @@ class LqriController:
             if above and u <= d.switch_wind_m_s - h and th_prev <= d.pitch_min_rad + 1e-4:
                 above = False
 
-        i, a = _interp(d.wind_m_s, u)
-        kx0, kx1 = d.k_x[i], d.k_x[i + 1] if len(d.k_x) > 1 else d.k_x[i]
-        xo0, xo1 = d.x_op[i], d.x_op[i + 1] if len(d.x_op) > 1 else d.x_op[i]
-        j = min(i + 1, len(d.k_i) - 1)
-        ki = (1.0 - a) * d.k_i[i] + a * d.k_i[j]
-        th_op = (1.0 - a) * d.theta_op[i] + a * d.theta_op[j]
-        x = (
-            m.platform_surge_m,
-            m.platform_pitch_rad,
-            m.tower_top_deflection_m,
-            m.platform_surge_rate_m_s,
-            m.platform_pitch_rate_rad_s,
-            m.tower_top_deflection_rate_m_s,
-            w,
-            m.blade_pitch_rad,
+        x = np.array(
+            (
+                m.platform_surge_m,
+                m.platform_pitch_rad,
+                m.tower_top_deflection_m,
+                m.platform_surge_rate_m_s,
+                m.platform_pitch_rate_rad_s,
+                m.tower_top_deflection_rate_m_s,
+                w,
+                m.blade_pitch_rad,
+            ),
+            dtype=np.float64,
         )
-        fb = 0.0
-        for k in range(8):
-            kxk = (1.0 - a) * kx0[k] + a * kx1[k]
-            xok = (1.0 - a) * xo0[k] + a * xo1[k]
-            if k == 6:
-                xok = d.rated_rotor_speed_rad_s
-            elif k == 7:
-                xok = th_op
-            fb += kxk * (x[k] - xok)
+        # K_x (x - x_op), K_i and θ_op interpolated in U (module docstring, step 3)
+        fb, ki, th_op = _kernels.lqri_schedule(*self._schedule, float(u), x)
         u_ff, ff_pitch, ff_idx, ff_z = self._feedforward(state, u, m.wave_elevation_forecast_m)
         ff_th = u_ff if (ff_pitch and above) else 0.0
         ff_tq = 0.0 if ff_pitch else u_ff
