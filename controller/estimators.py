@@ -5,7 +5,9 @@ built from its configuration, and ``predict(state, u, dt_s) -> state``,
 ``update(state, z) -> state`` and ``step(state, measurement, dt_s) -> (state, estimate)``
 that never mutate their arguments, hold no clock, do no I/O and cost a bounded, fixed amount
 of work per call (plain floats for the 3-state EKF, n x n numpy arrays for the platform
-filter; nothing grows with time). The runtime owns the state
+filter; nothing grows with time). The arithmetic of both runs in compiled kernels
+(:mod:`controller._kernels`, numba); the classes here hold the constants and keep the pure
+signatures. The runtime owns the state
 between calls. Textbook symbols (F, B, H, D, P, Q, R, K) are used inside this math module only.
 
 Rotor-effective wind-speed EKF (:class:`WindSpeedEKF`)
@@ -96,7 +98,8 @@ What is hand-written here and why: filterpy (the issue's suggestion) offers the 
 predict/update equations as pure functions (``filterpy.kalman.predict/update``, Joseph form
 included) and the tests use it as the reference, but it has no innovation gating, no
 per-channel validity, reshapes its arguments on every call and ships no type information; the
-few lines of Kalman algebra here are written for a fixed shape and a bounded cost instead.
+few lines of Kalman algebra here are written for a fixed shape and a bounded cost instead
+(compiled: :mod:`controller._kernels`).
 """
 
 from __future__ import annotations
@@ -257,8 +260,10 @@ class CpTable:
     Notes
     -----
     :meth:`lookup` interpolates bilinearly, :math:`C = c_0 + a c_1 + b (c_2 + a c_3)` with
-    :math:`a, b` the fractions in the cell, on plain floats with the four coefficients of every
-    cell precomputed; the gradient table :math:`\\partial C_p/\\partial\\lambda` is
+    :math:`a, b` the fractions in the cell, with the four coefficients of every cell
+    precomputed (one row of ``_cells`` per cell, evaluated by
+    :func:`controller._kernels.cp_lookup`); the gradient table
+    :math:`\\partial C_p/\\partial\\lambda` is
     ``numpy.gradient`` along the TSR axis (second-order central differences, one-sided at the
     edges) interpolated the same way. Outside the grid, inputs are clamped to the edge (the
     same convention as the plant's table lookup).
@@ -475,6 +480,13 @@ class WindEstimate(NamedTuple):
     aero_torque_nm: float
 
 
+def _wind_estimate(state: WindEKFState, aero_torque_nm: float) -> WindEstimate:
+    """:math:`\\hat u = u_m + u_t` and its variance :math:`P_{tt} + P_{mm} + 2 P_{tm}`."""
+    omega, u_t, u_m = state.x
+    _, _, _, p11, p12, p22 = state.p
+    return WindEstimate(u_t + u_m, p11 + p22 + 2.0 * p12, u_m, u_t, omega, aero_torque_nm)
+
+
 class WindSpeedEKF:
     """Rotor-effective wind-speed EKF of christiansen-2013 sect. 2.12 (module docstring).
 
@@ -661,10 +673,7 @@ class WindSpeedEKF:
         WindEstimate
         """
         omega, u_t, u_m = state.x
-        _, _, _, p11, p12, p22 = state.p
-        var = p11 + p22 + 2.0 * p12
-        ta = self.aero_torque(omega, u_t + u_m, blade_pitch_rad)[0]
-        return WindEstimate(u_t + u_m, var, u_m, u_t, omega, ta)
+        return _wind_estimate(state, self.aero_torque(omega, u_t + u_m, blade_pitch_rad)[0])
 
     def step(
         self, state: WindEKFState, measurement: WindEKFMeasurement, dt_s: float
@@ -699,9 +708,7 @@ class WindSpeedEKF:
             state = WindEKFState(x, p, y, state.updates + 1)
         else:
             state = WindEKFState(x, p, state.innovation_rad_s, state.updates)
-        _, _, _, p11, p12, p22 = p
-        u_t, u_m = x[1], x[2]
-        return state, WindEstimate(u_t + u_m, p11 + p22 + 2.0 * p12, u_m, u_t, x[0], ta)
+        return state, _wind_estimate(state, ta)
 
 
 # ------------------------------------------------------------------------------ platform KF
@@ -976,8 +983,9 @@ class PlatformKF:
         :math:`H_a`, :math:`R_a` precomputed per subset and :math:`S_{aa}`,
         :math:`P H_a^T` by index, then :math:`K = P H_a^T S_{aa}^{-1}` (one 1x1 to 4x4
         inverse), :math:`\\hat x \\leftarrow \\hat x + K y_a` and
-        :math:`P \\leftarrow A P A^T + K R_{aa} K^T`, :math:`A = I - K H_a`, symmetrised:
-        about 20 small numpy operations.
+        :math:`P \\leftarrow A P A^T + K R_{aa} K^T`, :math:`A = I - K H_a`, symmetrised, in
+        one compiled call (:func:`controller._kernels.kf_update`; :math:`S_{aa}^{-1}` by
+        Gauss-Jordan elimination with partial pivoting).
 
         Parameters
         ----------

@@ -64,11 +64,11 @@ on the IEA 15 MW (J = 3.1e8 kg m^2) the wave-induced rotor-speed variance is abo
 does not see (al-2019 Tab. 5-2, TripleSpar 10 MW: about 30 %, Weibull-averaged).
 
 Bounded work per cycle (p = 4 KF channels, n = 6 KF states, m = 22 FF filters of 25
-states): the EKF is plain floats; the KF about 20 numpy operations on 6x6 arrays with one
-at most 4x4 inverse, the subset matrices precomputed (:class:`controller.estimators.
-PlatformKF`); the FF one batched (m, 25, 25) product; the forecaster one ring-buffer write
-and one fixed-length dot product per call (AR/ESPRIT retrain on a fixed window); nothing
-grows with time.
+states): the EKF a few dozen floating-point operations; the KF a predict and a gated
+update on 6x6 arrays with one at most 4x4 inverse; the LQRI an 8-term feedback; the FF one
+(m, 25, 25) bank product; each one compiled call (:mod:`controller._kernels`, numba, cached
+on disk). The forecaster is one ring-buffer write and one fixed-length dot product per call
+(AR/ESPRIT retrain on a fixed window); nothing grows with time.
 """
 
 from __future__ import annotations
