@@ -43,15 +43,18 @@ import numpy as np
 
 __all__ = [
     "EKF_PARAMS",
+    "LQRI_LIMITS",
     "aero_torque",
     "cp_lookup",
     "ekf_predict",
     "ekf_step",
     "ekf_update",
+    "ff_cycle",
     "ff_step",
     "kf_cycle",
     "kf_predict",
     "kf_update",
+    "lqri_law",
     "lqri_schedule",
 ]
 
@@ -94,6 +97,18 @@ def _copy2(src: np.ndarray, dst: np.ndarray) -> None:
 def _locate(grid: np.ndarray, v: float) -> tuple[int, float]:
     n = grid.size
     if v <= grid[0]:
+        return 0, 0.0
+    if v >= grid[n - 1]:
+        return n - 2, 1.0
+    i = int(np.searchsorted(grid, v, side="right")) - 1
+    return i, (v - grid[i]) / (grid[i + 1] - grid[i])
+
+
+@_jit
+def _interp(grid: np.ndarray, v: float) -> tuple[int, float]:
+    """Cell i and weight w of v on a grid, value = (1 − w) y_i + w y_{i+1}; ends held."""
+    n = grid.size
+    if n == 1 or v <= grid[0]:
         return 0, 0.0
     if v >= grid[n - 1]:
         return n - 2, 1.0
@@ -531,6 +546,47 @@ def ff_step(
 
 
 @_jit
+def ff_cycle(
+    grid: np.ndarray,
+    is_pitch: np.ndarray,
+    gain_wind: np.ndarray,
+    gain: np.ndarray,
+    a_t: np.ndarray,
+    b: np.ndarray,
+    c: np.ndarray,
+    d: np.ndarray,
+    zs: np.ndarray,
+    wind: float,
+    eta: float,
+    zn: np.ndarray,
+) -> tuple[float, bool, int]:
+    """The wave feedforward of one cycle (``LqriController._feedforward``).
+
+    (i, w) the cell of U on the design grid (the nearer design alone where the two differ in
+    kind: a torque filter is never blended with a pitch filter);
+    :math:`u_{ff} = g(U)\\,[(1 - w)(c_i z_i + d_i\\hat\\eta) + w (c_j z_j + d_j\\hat\\eta)]`,
+    g(U) interpolated in U; every filter stepped into ``zn`` (:func:`ff_step`). A NaN
+    forecast gives 0 and holds every filter (``zn`` = ``zs``). Returns (u_ff, whether the
+    nearest design's output is pitch, its index).
+    """
+    n = grid.size
+    i, w = _interp(grid, wind)
+    j = min(i + 1, n - 1)
+    if is_pitch[i] != is_pitch[j]:  # never blend a torque with a pitch filter
+        i = j if w >= 0.5 else i
+        j, w = i, 0.0
+    near = j if w >= 0.5 else i
+    if not math.isfinite(eta):
+        _copy2(zs, zn)
+        return 0.0, is_pitch[near], near
+    out_i, out_j = ff_step(a_t, b, c, d, zs, i, j, eta, zn)
+    out = (1.0 - w) * out_i + w * out_j
+    gi, gw = _interp(gain_wind, wind)
+    g = (1.0 - gw) * gain[gi] + gw * gain[min(gi + 1, gain.size - 1)]
+    return g * out, is_pitch[near], near
+
+
+@_jit
 def lqri_schedule(
     grid: np.ndarray,
     k_x: np.ndarray,
@@ -549,13 +605,7 @@ def lqri_schedule(
     :math:`(K_x (x - x_{op}), K_i, \\theta_{op})`.
     """
     n = grid.size
-    if n == 1 or wind <= grid[0]:
-        i, a = 0, 0.0
-    elif wind >= grid[n - 1]:
-        i, a = n - 2, 1.0
-    else:
-        i = int(np.searchsorted(grid, wind, side="right")) - 1
-        a = (wind - grid[i]) / (grid[i + 1] - grid[i])
+    i, a = _interp(grid, wind)
     i1 = i + 1 if n > 1 else i
     j = min(i + 1, n - 1)
     ki = (1.0 - a) * k_i[i] + a * k_i[j]
@@ -570,3 +620,78 @@ def lqri_schedule(
             xok = th_op
         fb += kxk * (x[k] - xok)
     return fb, ki, th_op
+
+
+#: Layout of the LQRI's constant vector (``LqriController._limits``).
+LQRI_LIMITS = (
+    "pitch_min",  # θ_min [rad]
+    "pitch_max",  # θ_max [rad]
+    "pitch_rate_max",  # [rad/s]
+    "torque_max",  # [N m]
+    "torque_rate_max",  # [N m/s]
+    "rated_torque",  # [N m]
+    "torque_gain",  # K of K ω² [N m s²]
+    "rated_speed",  # ω_ref [rad/s]
+    "regime_3",  # code of region 3 (pitch regime)
+    "regime_2",  # code of region 2 (fallback law)
+)
+
+
+@_jit
+def lqri_law(
+    lim: np.ndarray,
+    above: bool,
+    entering: bool,
+    z: float,
+    th_prev: float,
+    tq_prev: float,
+    fb: float,
+    ki: float,
+    th_op: float,
+    ff_th: float,
+    ff_tq: float,
+    w: float,
+    law: float,
+    pb: float,
+    regime_below: int,
+    dt_s: float,
+) -> tuple[float, float, float, int]:
+    """LQRI pitch law, torque law, limits and anti-windup (``LqriController.step``, 2-4).
+
+    Above rated: :math:`z \\leftarrow z + T_s(\\omega - \\omega_{ref})` (re-initialised so that
+    the output equals the previous command when ``entering``), :math:`\\theta_c = \\theta_{op}
+    - K_x(x - x_{op}) - K_i z + u_{ff,\\theta}`, saturated and rate limited, z back-calculated
+    when limited; torque the law's (or :math:`T_{rated}`) plus the torque FF. Below rated:
+    the below-rated pitch (or θ_min) and torque law (or min(K ω², T_rated)), z = 0. Then the
+    torque saturation and rate limit. Returns (θ_c [rad], T_g [N m], z [rad s], regime).
+    """
+    pmin, pmax = lim[0], lim[1]
+    rate = lim[2] * dt_s
+    if above:
+        if entering:  # bumpless: LQRI output equals the previous command
+            z = (th_op - fb + ff_th - th_prev) / ki
+        z += dt_s * (w - lim[7])
+        th_raw = th_op - fb - ki * z + ff_th
+        th = min(max(th_raw, pmin), pmax)
+        th = min(max(th, th_prev - rate), th_prev + rate)
+        if th != th_raw:  # anti-windup by back-calculation on the total command
+            z = (th_op - fb + ff_th - th) / ki
+        # region 3 of the torque law is T_rated; at fine pitch (a lull) it is the
+        # region-2.5 law, so the rotor is not braked below its minimum speed
+        tq = (law if math.isfinite(law) else lim[5]) + ff_tq
+        regime = int(lim[8])
+    else:
+        th = pb if math.isfinite(pb) else pmin
+        th = min(max(th, pmin), pmax)
+        th = min(max(th, th_prev - rate), th_prev + rate)
+        if math.isfinite(law):
+            tq = law + ff_tq
+            regime = regime_below
+        else:
+            tq = min(lim[6] * w * w, lim[5]) + ff_tq
+            regime = int(lim[9])
+        z = 0.0  # the LQRI integrator rests; entering the pitch regime re-initialises it
+    tq = min(max(tq, 0.0), lim[3])
+    tlim = lim[4] * dt_s
+    tq = min(max(tq, tq_prev - tlim), tq_prev + tlim)
+    return th, tq, z, regime
