@@ -579,6 +579,31 @@ class AdvancedController:
         self.forecaster = make_forecaster(kind, _forecaster_config(fc, kind, distance))
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Run every compiled kernel once on a throw-away state (results discarded).
+
+        The kernels (:mod:`controller._kernels`) are compiled on a machine's first run and
+        loaded from numba's on-disk cache afterwards; either happens on a kernel's first
+        call (about 1 s to load all of them from the cache, tens of seconds to compile).
+        Doing it here, while the node starts, keeps that cost out of the first control
+        cycle. Nothing is kept: the cores are pure.
+        """
+        d = self.lqri.design
+        h = self.dt_s
+        ekf0 = self.ekf.initial_state(d.rated_rotor_speed_rad_s, 0.0, d.rated_torque_nm)
+        self.ekf.step(ekf0, WindEKFMeasurement(d.rated_rotor_speed_rad_s, 0.0, 0.0, True), h)
+        kf = self.kfs[0]
+        m, p = kf.config.B.shape[1], kf.config.H.shape[0]
+        kf.predict_update(kf.initial_state(), (0.0,) * m, (0.0,) * p, (True,) * p, h)
+        meas = LqriMeasurement(
+            wind_speed_estimate_m_s=d.switch_wind_m_s,
+            rotor_speed_rad_s=d.rated_rotor_speed_rad_s,
+            blade_pitch_rad=d.pitch_min_rad,
+            wave_elevation_forecast_m=0.0,
+        )
+        self.lqri.step(self.lqri.initial_state(), meas, h)
 
     def actuator_limits(self) -> ActuatorLimits:
         """The LQRI design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
