@@ -5,7 +5,9 @@ built from its configuration, and ``predict(state, u, dt_s) -> state``,
 ``update(state, z) -> state`` and ``step(state, measurement, dt_s) -> (state, estimate)``
 that never mutate their arguments, hold no clock, do no I/O and cost a bounded, fixed amount
 of work per call (plain floats for the 3-state EKF, n x n numpy arrays for the platform
-filter; nothing grows with time). The runtime owns the state
+filter; nothing grows with time). The arithmetic of both runs in compiled kernels
+(:mod:`controller._kernels`, numba); the classes here hold the constants and keep the pure
+signatures. The runtime owns the state
 between calls. Textbook symbols (F, B, H, D, P, Q, R, K) are used inside this math module only.
 
 Rotor-effective wind-speed EKF (:class:`WindSpeedEKF`)
@@ -96,19 +98,21 @@ What is hand-written here and why: filterpy (the issue's suggestion) offers the 
 predict/update equations as pure functions (``filterpy.kalman.predict/update``, Joseph form
 included) and the tests use it as the reference, but it has no innovation gating, no
 per-channel validity, reshapes its arguments on every call and ships no type information; the
-few lines of Kalman algebra here are written for a fixed shape and a bounded cost instead.
+few lines of Kalman algebra here are written for a fixed shape and a bounded cost instead
+(compiled: :mod:`controller._kernels`).
 """
 
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 from dataclasses import dataclass, field
 from statistics import NormalDist
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+
+from controller import _kernels
 
 __all__ = [
     "CpTable",
@@ -256,8 +260,10 @@ class CpTable:
     Notes
     -----
     :meth:`lookup` interpolates bilinearly, :math:`C = c_0 + a c_1 + b (c_2 + a c_3)` with
-    :math:`a, b` the fractions in the cell, on plain floats with the four coefficients of every
-    cell precomputed; the gradient table :math:`\\partial C_p/\\partial\\lambda` is
+    :math:`a, b` the fractions in the cell, with the four coefficients of every cell
+    precomputed (one row of ``_cells`` per cell, evaluated by
+    :func:`controller._kernels.cp_lookup`); the gradient table
+    :math:`\\partial C_p/\\partial\\lambda` is
     ``numpy.gradient`` along the TSR axis (second-order central differences, one-sided at the
     edges) interpolated the same way. Outside the grid, inputs are clamped to the edge (the
     same convention as the plant's table lookup).
@@ -267,9 +273,7 @@ class CpTable:
     tsr: FloatArray
     cp: FloatArray
     dcp_dtsr: FloatArray = field(init=False)
-    _tsr: list[float] = field(init=False, repr=False)
-    _pitch: list[float] = field(init=False, repr=False)
-    _cells: list[tuple[float, ...]] = field(init=False, repr=False)
+    _cells: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         pitch = np.array(self.pitch_rad, dtype=np.float64)
@@ -295,9 +299,7 @@ class CpTable:
         set_(self, "tsr", tsr)
         set_(self, "cp", cp)
         set_(self, "dcp_dtsr", grad)
-        set_(self, "_tsr", tsr.tolist())
-        set_(self, "_pitch", pitch.tolist())
-        cells: list[tuple[float, ...]] = []
+        cells = np.empty(((tsr.size - 1) * (pitch.size - 1), 8))
         for i in range(tsr.size - 1):
             for j in range(pitch.size - 1):
                 coeffs: list[float] = []
@@ -305,17 +307,9 @@ class CpTable:
                     c00, c10 = float(mat[i, j]), float(mat[i + 1, j])
                     c01, c11 = float(mat[i, j + 1]), float(mat[i + 1, j + 1])
                     coeffs += [c00, c10 - c00, c01 - c00, c11 - c10 - c01 + c00]
-                cells.append(tuple(coeffs))
+                cells[i * (pitch.size - 1) + j] = coeffs
+        cells.setflags(write=False)
         set_(self, "_cells", cells)
-
-    @staticmethod
-    def _locate(grid: list[float], v: float) -> tuple[int, float]:
-        if v <= grid[0]:
-            return 0, 0.0
-        if v >= grid[-1]:
-            return len(grid) - 2, 1.0
-        i = bisect_right(grid, v) - 1
-        return i, (v - grid[i]) / (grid[i + 1] - grid[i])
 
     def lookup(self, tsr: float, pitch_rad: float) -> tuple[float, float]:
         """:math:`(C_p, \\partial C_p/\\partial\\lambda)` at :math:`(\\lambda, \\theta)`.
@@ -333,13 +327,7 @@ class CpTable:
             :math:`C_p` [-] and :math:`\\partial C_p/\\partial\\lambda` [-]; the gradient is 0
             outside the TSR range, consistent with the clamped :math:`C_p`.
         """
-        i, a = self._locate(self._tsr, tsr)
-        j, b = self._locate(self._pitch, pitch_rad)
-        p0, p1, p2, p3, g0, g1, g2, g3 = self._cells[i * (len(self._pitch) - 1) + j]
-        cp = p0 + a * p1 + b * (p2 + a * p3)
-        if tsr <= self._tsr[0] or tsr >= self._tsr[-1]:
-            return cp, 0.0
-        return cp, g0 + a * g1 + b * (g2 + a * g3)
+        return _kernels.cp_lookup(self.tsr, self.pitch_rad, self._cells, tsr, pitch_rad)
 
 
 # ------------------------------------------------------------------------------ wind EKF
@@ -492,6 +480,13 @@ class WindEstimate(NamedTuple):
     aero_torque_nm: float
 
 
+def _wind_estimate(state: WindEKFState, aero_torque_nm: float) -> WindEstimate:
+    """:math:`\\hat u = u_m + u_t` and its variance :math:`P_{tt} + P_{mm} + 2 P_{tm}`."""
+    omega, u_t, u_m = state.x
+    _, _, _, p11, p12, p22 = state.p
+    return WindEstimate(u_t + u_m, p11 + p22 + 2.0 * p12, u_m, u_t, omega, aero_torque_nm)
+
+
 class WindSpeedEKF:
     """Rotor-effective wind-speed EKF of christiansen-2013 sect. 2.12 (module docstring).
 
@@ -509,6 +504,27 @@ class WindSpeedEKF:
         self._q_m = c.mean_wind_drift_m_s**2 / c.mean_wind_drift_time_s
         self._r = c.rotor_speed_noise_std_rad_s**2
         self._tsr_min = float(c.cp_table.tsr[0])
+        # the constants of the compiled kernels, in the order of _kernels.EKF_PARAMS
+        prm = np.array(
+            [
+                self._k,
+                self._inv_j,
+                self._pi_2l,
+                self._q_m,
+                self._r,
+                self._tsr_min,
+                c.rotor_radius_m,
+                c.gearbox_ratio,
+                c.wind_min_m_s,
+                c.wind_max_m_s,
+                c.turbulence_intensity,
+                c.rotor_speed_process_psd,
+            ],
+            dtype=np.float64,
+        )
+        t = c.cp_table
+        # private writable copies: numba dispatches read-only arrays several times slower
+        self._tables = (prm, t.tsr.copy(), t.pitch_rad.copy(), t._cells.copy())
 
     # -------------------------------------------------------------- model
     def aero_torque(
@@ -531,16 +547,9 @@ class WindSpeedEKF:
             :math:`T_a` [N m, LSS], :math:`\\partial T_a/\\partial\\omega` [N m s/rad],
             :math:`\\partial T_a/\\partial v` [N m s/m].
         """
-        c = self.config
-        v = min(max(wind_m_s, c.wind_min_m_s), c.wind_max_m_s)
-        lam = max(rotor_speed_rad_s * c.rotor_radius_m / v, 0.5 * self._tsr_min)
-        cp, dcp = c.cp_table.lookup(lam, pitch_rad)
-        kv = self._k * v
-        cq = cp / lam
-        ta = kv * v * cq
-        dta_dv = kv * (3.0 * cq - dcp)
-        dta_dw = kv * c.rotor_radius_m * (dcp - cq) / lam
-        return ta, dta_dw, dta_dv
+        return _kernels.aero_torque(
+            *self._tables, float(rotor_speed_rad_s), float(wind_m_s), float(pitch_rad)
+        )
 
     def steady_wind(
         self, rotor_speed_rad_s: float, pitch_rad: float, generator_torque_nm: float
@@ -621,38 +630,11 @@ class WindSpeedEKF:
         -------
         WindEKFState
         """
-        c = self.config
         pitch, torque = u
-        omega, u_t, u_m = state.x
-        ta, dta_dw, dta_dv = self.aero_torque(omega, u_t + u_m, pitch)
-        a = self._pi_2l * u_m
-        inv_j = self._inv_j
-        x = (
-            omega + dt_s * (ta - c.gearbox_ratio * torque) * inv_j,
-            u_t - dt_s * a * u_t,
-            u_m,
+        x, p = _kernels.ekf_predict(
+            *self._tables, state.x, state.p, float(pitch), float(torque), float(dt_s)
         )
-        # F = [[f00, g, g], [0, f11, f12], [0, 0, 1]]; P <- F P F^T + dt diag(q), unrolled.
-        f00 = 1.0 + dt_s * dta_dw * inv_j
-        g = dt_s * dta_dv * inv_j
-        f11 = 1.0 - dt_s * a
-        f12 = -dt_s * self._pi_2l * u_t
-        p00, p01, p02, p11, p12, p22 = state.p
-        m00 = f00 * p00 + g * (p01 + p02)  # M = F P
-        m01 = f00 * p01 + g * (p11 + p12)
-        m02 = f00 * p02 + g * (p12 + p22)
-        m11 = f11 * p11 + f12 * p12
-        m12 = f11 * p12 + f12 * p22
-        q_t = 2.0 * a * (c.turbulence_intensity * u_m) ** 2  # = π u_m³ I_t² / L
-        p_new = (
-            f00 * m00 + g * (m01 + m02) + dt_s * c.rotor_speed_process_psd,
-            f11 * m01 + f12 * m02,
-            m02,
-            f11 * m11 + f12 * m12 + dt_s * q_t,
-            m12,
-            p22 + dt_s * self._q_m,
-        )
-        return WindEKFState(x, p_new, state.innovation_rad_s, state.updates)
+        return WindEKFState(x, p, state.innovation_rad_s, state.updates)
 
     def update(self, state: WindEKFState, z: float) -> WindEKFState:
         """Measurement update with the rotor speed ``z`` [rad/s] (H = [1, 0, 0], Joseph form).
@@ -674,23 +656,8 @@ class WindSpeedEKF:
         """
         if not math.isfinite(z):
             return state
-        c = self.config
-        p00, p01, p02, p11, p12, p22 = state.p
-        omega, u_t, u_m = state.x
-        y = z - omega
-        s = p00 + self._r
-        k0, k1, k2 = p00 / s, p01 / s, p02 / s
-        u_m = min(max(u_m + k2 * y, c.wind_min_m_s), c.wind_max_m_s)
-        x = (omega + k0 * y, u_t + k1 * y, u_m)
-        p_new = (
-            p00 - 2.0 * k0 * p00 + s * k0 * k0,
-            p01 - k0 * p01 - p00 * k1 + s * k0 * k1,
-            p02 - k0 * p02 - p00 * k2 + s * k0 * k2,
-            p11 - 2.0 * k1 * p01 + s * k1 * k1,
-            p12 - k1 * p02 - p01 * k2 + s * k1 * k2,
-            p22 - 2.0 * k2 * p02 + s * k2 * k2,
-        )
-        return WindEKFState(x, p_new, y, state.updates + 1)
+        x, p, y = _kernels.ekf_update(self._tables[0], state.x, state.p, float(z))
+        return WindEKFState(x, p, y, state.updates + 1)
 
     def estimate(self, state: WindEKFState, blade_pitch_rad: float = 0.0) -> WindEstimate:
         """Wind estimate and its variance from a state.
@@ -706,10 +673,7 @@ class WindSpeedEKF:
         WindEstimate
         """
         omega, u_t, u_m = state.x
-        _, _, _, p11, p12, p22 = state.p
-        var = p11 + p22 + 2.0 * p12
-        ta = self.aero_torque(omega, u_t + u_m, blade_pitch_rad)[0]
-        return WindEstimate(u_t + u_m, var, u_m, u_t, omega, ta)
+        return _wind_estimate(state, self.aero_torque(omega, u_t + u_m, blade_pitch_rad)[0])
 
     def step(
         self, state: WindEKFState, measurement: WindEKFMeasurement, dt_s: float
@@ -729,10 +693,22 @@ class WindSpeedEKF:
             (new state, :class:`WindEstimate`).
         """
         m = measurement
-        state = self.predict(state, (m.blade_pitch_rad, m.generator_torque_nm), dt_s)
-        if m.valid:
-            state = self.update(state, m.rotor_speed_rad_s)
-        return state, self.estimate(state, m.blade_pitch_rad)
+        pitch = float(m.blade_pitch_rad)
+        x, p, y, updated, ta = _kernels.ekf_step(
+            *self._tables,
+            state.x,
+            state.p,
+            float(m.rotor_speed_rad_s),
+            bool(m.valid),
+            pitch,
+            float(m.generator_torque_nm),
+            float(dt_s),
+        )
+        if updated:
+            state = WindEKFState(x, p, y, state.updates + 1)
+        else:
+            state = WindEKFState(x, p, state.innovation_rad_s, state.updates)
+        return state, _wind_estimate(state, ta)
 
 
 # ------------------------------------------------------------------------------ platform KF
@@ -855,21 +831,18 @@ class PlatformKFConfig:
 class PlatformKFState(NamedTuple):
     """State of the platform KF between calls (immutable: every call returns a new one).
 
+    The four per-channel counters are the rows of one integer array ``counts`` (a new array
+    on every call, never modified), read as tuples through the properties below.
+
     Attributes
     ----------
     x : ndarray, shape (n,)
         State estimate.
     P : ndarray, shape (n, n)
         Error covariance.
-    consecutive_misses : tuple of int
-        Per channel: updates skipped or rejected in a row.
-    skipped : tuple of int
-        Per channel: invalid or non-finite samples so far.
-    rejected : tuple of int
-        Per channel: samples rejected by the gate so far.
-    accepted : tuple of int
-        Per channel: samples used so far.
-    nis : tuple of float
+    counts : ndarray of int64, shape (4, p)
+        Per channel: consecutive misses, skipped, rejected and accepted updates.
+    nis : ndarray, shape (p,)
         Per channel: last normalised innovation squared :math:`y^2/s` (NaN if skipped).
     degraded : bool
         Some channel has more than K consecutive misses.
@@ -877,12 +850,29 @@ class PlatformKFState(NamedTuple):
 
     x: FloatArray
     P: FloatArray
-    consecutive_misses: tuple[int, ...]
-    skipped: tuple[int, ...]
-    rejected: tuple[int, ...]
-    accepted: tuple[int, ...]
-    nis: tuple[float, ...]
+    counts: npt.NDArray[np.int64]
+    nis: FloatArray
     degraded: bool = False
+
+    @property
+    def consecutive_misses(self) -> tuple[int, ...]:
+        """Per channel: updates skipped or rejected in a row."""
+        return tuple(self.counts[0].tolist())
+
+    @property
+    def skipped(self) -> tuple[int, ...]:
+        """Per channel: invalid or non-finite samples so far."""
+        return tuple(self.counts[1].tolist())
+
+    @property
+    def rejected(self) -> tuple[int, ...]:
+        """Per channel: samples rejected by the gate so far."""
+        return tuple(self.counts[2].tolist())
+
+    @property
+    def accepted(self) -> tuple[int, ...]:
+        """Per channel: samples used so far."""
+        return tuple(self.counts[3].tolist())
 
 
 class PlatformMeasurement(NamedTuple):
@@ -934,32 +924,21 @@ class PlatformKF:
         n, p = c.F.shape[0], c.H.shape[0]
         self._n = n
         self._p = p
-        self._eye = np.eye(n)
-        self._eye.setflags(write=False)
-        # Transposes stored contiguous once, so that no cycle builds a transposed copy.
-        self._Ft = np.ascontiguousarray(c.F.T)
-        self._Ht = np.ascontiguousarray(c.H.T)
-        self._gate = c.gate
-        # Per subset of accepted channels (bit i of the key = channel i): the index array, the
-        # flat indices of S_aa in S, H_a and R_a, built once (2^p subsets, p = 4 here: 15).
-        self._subsets: dict[
-            int, tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], int, FloatArray, FloatArray]
-        ] = {}
-        for key in range(1, 1 << p):
-            idx = np.array([i for i in range(p) if key >> i & 1], dtype=np.intp)
-            flat = (idx[:, None] * p + idx[None, :]).ravel()
-            h_a = np.ascontiguousarray(c.H[idx])
-            r_a = np.ascontiguousarray(c.R[np.ix_(idx, idx)])
-            for arr in (idx, flat, h_a, r_a):
-                arr.setflags(write=False)
-            self._subsets[key] = (idx, flat, idx.size, h_a, r_a)
+        # the kernels' constants: private writable copies (numba dispatches read-only arrays
+        # several times slower); F, B, Q for the predict, H, D, R and the gate for the update
+        self._pred = (c.F.copy(), c.B.copy(), c.Q.copy())
+        self._upd = (c.H.copy(), c.D.copy(), c.R.copy(), np.array(c.gate, dtype=np.float64))
+        self._all_valid = np.ones(p, dtype=np.bool_)
+        self._no_input = np.zeros(0)
 
     def initial_state(self) -> PlatformKFState:
         """State before the first cycle: ``x0``, ``P0``, counters zero."""
         c = self.config
-        zeros = (0,) * self._p
         return PlatformKFState(
-            c.x0.copy(), c.P0.copy(), zeros, zeros, zeros, zeros, (math.nan,) * self._p
+            c.x0.copy(),
+            c.P0.copy(),
+            np.zeros((4, self._p), dtype=np.int64),
+            np.full(self._p, math.nan),
         )
 
     def predict(self, state: PlatformKFState, u: npt.ArrayLike, dt_s: float) -> PlatformKFState:
@@ -983,12 +962,11 @@ class PlatformKF:
         """
         c = self.config
         steps = min(max(round(dt_s / c.dt_s), 1), c.max_predict_steps)
-        bu = c.B @ np.asarray(u, dtype=np.float64)
-        F, Ft, Q = c.F, self._Ft, c.Q
-        x, P = state.x, state.P
-        for _ in range(steps):
-            x = F @ x + bu
-            P = F @ P @ Ft + Q
+        n = self._n
+        x, P = np.empty(n), np.empty((n, n))
+        _kernels.kf_predict(
+            *self._pred, state.x, state.P, np.asarray(u, dtype=np.float64), steps, x, P
+        )
         return state._replace(x=x, P=P)
 
     def update(
@@ -1005,8 +983,9 @@ class PlatformKF:
         :math:`H_a`, :math:`R_a` precomputed per subset and :math:`S_{aa}`,
         :math:`P H_a^T` by index, then :math:`K = P H_a^T S_{aa}^{-1}` (one 1x1 to 4x4
         inverse), :math:`\\hat x \\leftarrow \\hat x + K y_a` and
-        :math:`P \\leftarrow A P A^T + K R_{aa} K^T`, :math:`A = I - K H_a`, symmetrised:
-        about 20 small numpy operations.
+        :math:`P \\leftarrow A P A^T + K R_{aa} K^T`, :math:`A = I - K H_a`, symmetrised, in
+        one compiled call (:func:`controller._kernels.kf_update`; :math:`S_{aa}^{-1}` by
+        Gauss-Jordan elimination with partial pivoting).
 
         Parameters
         ----------
@@ -1023,56 +1002,65 @@ class PlatformKF:
         PlatformKFState
         """
         c = self.config
-        p = self._p
-        x, P = state.x, state.P
-        y = np.asarray(z, dtype=np.float64) - c.H @ x
-        if u is not None:
-            y -= c.D @ np.asarray(u, dtype=np.float64)
-        PHt = P @ self._Ht
-        S = c.H @ PHt + c.R
-        ys = y.tolist()
-        ss = S.diagonal().tolist()
-        gate = self._gate
-        misses = list(state.consecutive_misses)
-        skipped = list(state.skipped)
-        rejected = list(state.rejected)
-        accepted = list(state.accepted)
-        nis = [math.nan] * p
-        key = 0
-        for i in range(p):
-            e = ys[i] * ys[i] / ss[i]
-            if not ((valid is None or valid[i]) and math.isfinite(e)):  # type: ignore[index]
-                skipped[i] += 1
-                misses[i] += 1
-            elif e > gate[i]:
-                nis[i] = e
-                rejected[i] += 1
-                misses[i] += 1
-            else:
-                nis[i] = e
-                accepted[i] += 1
-                misses[i] = 0
-                key |= 1 << i
-        if key:
-            idx, flat, k, H, R = self._subsets[key]
-            if k < p:
-                y, PHt, S = y[idx], PHt[:, idx], S.take(flat).reshape(k, k)
-            K = PHt @ np.linalg.inv(S)
-            x = x + K @ y
-            A = self._eye - K @ H
-            P = A @ P @ A.T + K @ R @ K.T
-        P = 0.5 * (P + P.T)
-        degraded = max(misses) > c.max_consecutive_misses
-        return PlatformKFState(
+        ok = self._all_valid if valid is None else np.asarray(valid, dtype=np.bool_)
+        uu = self._no_input if u is None else np.asarray(u, dtype=np.float64)
+        n, p = self._n, self._p
+        x, P = np.empty(n), np.empty((n, n))
+        counts, nis = np.empty((4, p), dtype=np.int64), np.empty(p)
+        degraded = _kernels.kf_update(
+            *self._upd,
+            state.x,
+            state.P,
+            np.asarray(z, dtype=np.float64),
+            ok,
+            uu,
+            state.counts,
+            c.max_consecutive_misses,
             x,
             P,
-            tuple(misses),
-            tuple(skipped),
-            tuple(rejected),
-            tuple(accepted),
-            tuple(nis),
-            degraded,
+            counts,
+            nis,
         )
+        return PlatformKFState(x, P, counts, nis, degraded)
+
+    def predict_update(
+        self,
+        state: PlatformKFState,
+        u: npt.ArrayLike,
+        z: npt.ArrayLike,
+        valid: npt.ArrayLike | None,
+        dt_s: float,
+    ) -> PlatformKFState:
+        """:meth:`predict` with ``u`` over ``dt_s``, then :meth:`update` with ``z``, ``valid``
+        and the feedthrough of the same ``u``, in one compiled call (the runtime's cycle).
+
+        Returns
+        -------
+        PlatformKFState
+            The same as ``update(predict(state, u, dt_s), z, valid, u)``.
+        """
+        c = self.config
+        n, p = self._n, self._p
+        steps = min(max(round(dt_s / c.dt_s), 1), c.max_predict_steps)
+        x, P = np.empty(n), np.empty((n, n))
+        counts, nis = np.empty((4, p), dtype=np.int64), np.empty(p)
+        degraded = _kernels.kf_cycle(
+            *self._pred,
+            *self._upd,
+            state.x,
+            state.P,
+            np.asarray(u, dtype=np.float64),
+            steps,
+            np.asarray(z, dtype=np.float64),
+            self._all_valid if valid is None else np.asarray(valid, dtype=np.bool_),
+            state.counts,
+            c.max_consecutive_misses,
+            x,
+            P,
+            counts,
+            nis,
+        )
+        return PlatformKFState(x, P, counts, nis, degraded)
 
     def step(
         self, state: PlatformKFState, measurement: PlatformMeasurement, dt_s: float

@@ -64,6 +64,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from controller import _kernels
 from controller.interface import REGIME_REGION_2, REGIME_REGION_3, ControlOutput
 
 __all__ = [
@@ -550,7 +551,45 @@ class LqriController:
             raise ValueError(f"feedforward = {feedforward!r} needs a wave-FF design")
         self.design = design
         self.wave_ff = wave_ff
+        self._schedule = (  # the gain schedule as arrays for the compiled kernel
+            np.array(design.wind_m_s, dtype=np.float64),
+            np.array(design.k_x, dtype=np.float64).reshape(len(design.wind_m_s), -1),
+            np.array(design.x_op, dtype=np.float64).reshape(len(design.wind_m_s), -1),
+            np.array(design.k_i, dtype=np.float64),
+            np.array(design.theta_op, dtype=np.float64),
+            float(design.rated_rotor_speed_rad_s),
+        )
+        d = design
+        self._limits = np.array(  # in the order of _kernels.LQRI_LIMITS
+            [
+                d.pitch_min_rad,
+                d.pitch_max_rad,
+                d.pitch_rate_max_rad_s,
+                d.torque_max_nm,
+                d.torque_rate_max_nm_s,
+                d.rated_torque_nm,
+                d.torque_gain_nm_s2,
+                d.rated_rotor_speed_rad_s,
+                REGIME_REGION_3,
+                REGIME_REGION_2,
+            ],
+            dtype=np.float64,
+        )
         self.feedforward = feedforward
+        if wave_ff is not None:  # the filter matrices transposed, contiguous, for the kernel
+            g_wind, g = (
+                ((0.0,), (0.0,)) if feedforward == "off" else wave_ff.gain_table[feedforward]
+            )
+            self._ff = (
+                np.array(wave_ff.wind_m_s, dtype=np.float64),
+                np.array(wave_ff.is_pitch, dtype=np.bool_),
+                np.array(g_wind, dtype=np.float64),
+                np.array(g, dtype=np.float64),
+                np.ascontiguousarray(wave_ff.a.transpose(0, 2, 1)),
+                np.ascontiguousarray(wave_ff.b),
+                np.ascontiguousarray(wave_ff.c),
+                np.ascontiguousarray(wave_ff.d),
+            )
 
     def _feedforward(
         self, state: LqriState, u: float, eta: float
@@ -559,26 +598,15 @@ class LqriController:
 
         :math:`u_{ff} = (1 - w)(c_i z_i + d_i \\hat\\eta) + w (c_{i+1} z_{i+1} + d_{i+1}
         \\hat\\eta)` with (i, w) the cell of U on the design grid; a NaN forecast holds all
-        states and gives 0.
+        states and gives 0. One compiled call (:func:`controller._kernels.ff_cycle`).
         """
         ff = self.wave_ff
         if ff is None or self.feedforward == "off":
             return 0.0, False, -1, None
-        grid = ff.wind_m_s
-        i, w = _interp(grid, u)
-        j = min(i + 1, len(grid) - 1)
-        if ff.is_pitch[i] != ff.is_pitch[j]:  # never blend a torque with a pitch filter
-            i = j if w >= 0.5 else i
-            j, w = i, 0.0
-        near = j if w >= 0.5 else i
         zs = state.ff_state if state.ff_state is not None else np.zeros(ff.b.shape)
-        if not math.isfinite(eta):
-            return 0.0, ff.is_pitch[near], near, zs
-        out_i = float(ff.c[i] @ zs[i]) + float(ff.d[i]) * eta
-        out_j = float(ff.c[j] @ zs[j]) + float(ff.d[j]) * eta
-        zn = np.matmul(ff.a, zs[:, :, None])[:, :, 0] + ff.b * eta
-        out = (1.0 - w) * out_i + w * out_j
-        return ff.gain(self.feedforward, u) * out, ff.is_pitch[near], near, zn
+        zn = np.empty(zs.shape)
+        u_ff, is_pitch, near = _kernels.ff_cycle(*self._ff, zs, float(u), float(eta), zn)
+        return u_ff, bool(is_pitch), near, zn
 
     def initial_state(self) -> LqriState:
         """State before the first call."""
@@ -626,65 +654,43 @@ class LqriController:
             if above and u <= d.switch_wind_m_s - h and th_prev <= d.pitch_min_rad + 1e-4:
                 above = False
 
-        i, a = _interp(d.wind_m_s, u)
-        kx0, kx1 = d.k_x[i], d.k_x[i + 1] if len(d.k_x) > 1 else d.k_x[i]
-        xo0, xo1 = d.x_op[i], d.x_op[i + 1] if len(d.x_op) > 1 else d.x_op[i]
-        j = min(i + 1, len(d.k_i) - 1)
-        ki = (1.0 - a) * d.k_i[i] + a * d.k_i[j]
-        th_op = (1.0 - a) * d.theta_op[i] + a * d.theta_op[j]
-        x = (
-            m.platform_surge_m,
-            m.platform_pitch_rad,
-            m.tower_top_deflection_m,
-            m.platform_surge_rate_m_s,
-            m.platform_pitch_rate_rad_s,
-            m.tower_top_deflection_rate_m_s,
-            w,
-            m.blade_pitch_rad,
+        x = np.array(
+            (
+                m.platform_surge_m,
+                m.platform_pitch_rad,
+                m.tower_top_deflection_m,
+                m.platform_surge_rate_m_s,
+                m.platform_pitch_rate_rad_s,
+                m.tower_top_deflection_rate_m_s,
+                w,
+                m.blade_pitch_rad,
+            ),
+            dtype=np.float64,
         )
-        fb = 0.0
-        for k in range(8):
-            kxk = (1.0 - a) * kx0[k] + a * kx1[k]
-            xok = (1.0 - a) * xo0[k] + a * xo1[k]
-            if k == 6:
-                xok = d.rated_rotor_speed_rad_s
-            elif k == 7:
-                xok = th_op
-            fb += kxk * (x[k] - xok)
+        # K_x (x - x_op), K_i and θ_op interpolated in U (module docstring, step 3)
+        fb, ki, th_op = _kernels.lqri_schedule(*self._schedule, float(u), x)
         u_ff, ff_pitch, ff_idx, ff_z = self._feedforward(state, u, m.wave_elevation_forecast_m)
         ff_th = u_ff if (ff_pitch and above) else 0.0
         ff_tq = 0.0 if ff_pitch else u_ff
-        z = state.integrator_rad
-        lim = d.pitch_rate_max_rad_s * dt_s
-        law = m.torque_law_nm
-        if above:
-            if entering:  # bumpless: LQRI output equals the previous command
-                z = (th_op - fb + ff_th - th_prev) / ki
-            z += dt_s * (w - d.rated_rotor_speed_rad_s)
-            th_raw = th_op - fb - ki * z + ff_th
-            th = min(max(th_raw, d.pitch_min_rad), d.pitch_max_rad)
-            th = min(max(th, th_prev - lim), th_prev + lim)
-            if th != th_raw:  # anti-windup by back-calculation on the total command
-                z = (th_op - fb + ff_th - th) / ki
-            # region 3 of the torque law is T_rated; at fine pitch (a lull) it is the
-            # region-2.5 law, so the rotor is not braked below its minimum speed
-            tq = (law if math.isfinite(law) else d.rated_torque_nm) + ff_tq
-            regime = REGIME_REGION_3
-        else:
-            pb = m.pitch_below_rated_rad
-            th = pb if math.isfinite(pb) else d.pitch_min_rad
-            th = min(max(th, d.pitch_min_rad), d.pitch_max_rad)
-            th = min(max(th, th_prev - lim), th_prev + lim)
-            if math.isfinite(law):
-                tq = law + ff_tq
-                regime = m.regime_below_rated
-            else:
-                tq = min(d.torque_gain_nm_s2 * w * w, d.rated_torque_nm) + ff_tq
-                regime = REGIME_REGION_2
-            z = 0.0  # the LQRI integrator rests; entering the pitch regime re-initialises it
-        tq = min(max(tq, 0.0), d.torque_max_nm)
-        tlim = d.torque_rate_max_nm_s * dt_s
-        tq = min(max(tq, tq_prev - tlim), tq_prev + tlim)
+        # limits, anti-windup and the torque law (module docstring, steps 2-4)
+        th, tq, z, regime = _kernels.lqri_law(
+            self._limits,
+            above,
+            entering,
+            state.integrator_rad,
+            th_prev,
+            tq_prev,
+            fb,
+            ki,
+            th_op,
+            ff_th,
+            ff_tq,
+            w,
+            m.torque_law_nm,
+            m.pitch_below_rated_rad,
+            m.regime_below_rated,
+            dt_s,
+        )
         new = LqriState(
             first_call=False,
             above_rated=above,

@@ -64,11 +64,11 @@ on the IEA 15 MW (J = 3.1e8 kg m^2) the wave-induced rotor-speed variance is abo
 does not see (al-2019 Tab. 5-2, TripleSpar 10 MW: about 30 %, Weibull-averaged).
 
 Bounded work per cycle (p = 4 KF channels, n = 6 KF states, m = 22 FF filters of 25
-states): the EKF is plain floats; the KF about 20 numpy operations on 6x6 arrays with one
-at most 4x4 inverse, the subset matrices precomputed (:class:`controller.estimators.
-PlatformKF`); the FF one batched (m, 25, 25) product; the forecaster one ring-buffer write
-and one fixed-length dot product per call (AR/ESPRIT retrain on a fixed window); nothing
-grows with time.
+states): the EKF a few dozen floating-point operations; the KF a predict and a gated
+update on 6x6 arrays with one at most 4x4 inverse; the LQRI an 8-term feedback; the FF one
+(m, 25, 25) bank product; each one compiled call (:mod:`controller._kernels`, numba, cached
+on disk). The forecaster is one ring-buffer write and one fixed-length dot product per call
+(AR/ESPRIT retrain on a fixed window); nothing grows with time.
 """
 
 from __future__ import annotations
@@ -579,6 +579,31 @@ class AdvancedController:
         self.forecaster = make_forecaster(kind, _forecaster_config(fc, kind, distance))
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Run every compiled kernel once on a throw-away state (results discarded).
+
+        The kernels (:mod:`controller._kernels`) are compiled on a machine's first run and
+        loaded from numba's on-disk cache afterwards; either happens on a kernel's first
+        call (about 1 s to load all of them from the cache, tens of seconds to compile).
+        Doing it here, while the node starts, keeps that cost out of the first control
+        cycle. Nothing is kept: the cores are pure.
+        """
+        d = self.lqri.design
+        h = self.dt_s
+        ekf0 = self.ekf.initial_state(d.rated_rotor_speed_rad_s, 0.0, d.rated_torque_nm)
+        self.ekf.step(ekf0, WindEKFMeasurement(d.rated_rotor_speed_rad_s, 0.0, 0.0, True), h)
+        kf = self.kfs[0]
+        m, p = kf.config.B.shape[1], kf.config.H.shape[0]
+        kf.predict_update(kf.initial_state(), (0.0,) * m, (0.0,) * p, (True,) * p, h)
+        meas = LqriMeasurement(
+            wind_speed_estimate_m_s=d.switch_wind_m_s,
+            rotor_speed_rad_s=d.rated_rotor_speed_rad_s,
+            blade_pitch_rad=d.pitch_min_rad,
+            wave_elevation_forecast_m=0.0,
+        )
+        self.lqri.step(self.lqri.initial_state(), meas, h)
 
     def actuator_limits(self) -> ActuatorLimits:
         """The LQRI design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
@@ -695,8 +720,7 @@ class AdvancedController:
             bool(mask & VALID_PLATFORM_PITCH) and raw[2] != last[2],
             bool(mask & VALID_PLATFORM_SURGE) and raw[3] != last[3],
         )
-        kf_state = kf.predict(kf_state, u, dt_s)
-        kf_state = kf.update(kf_state, z, valid, u)
+        kf_state = kf.predict_update(kf_state, u, z, valid, dt_s)
         xd = kf_state.x.tolist()
         x = [a + b for a, b in zip(xd, xo, strict=True)]
         degraded = kf_state.degraded or speed_misses > self._k_miss

@@ -1,0 +1,104 @@
+"""First-run compile time and warm start of the advanced controller's compiled kernels.
+
+The kernels of :mod:`controller._kernels` are compiled by numba on a machine's first run
+and cached on disk. This benchmark starts two fresh Python processes with an empty,
+private ``NUMBA_CACHE_DIR``: the first compiles (cold), the second loads the cache (warm).
+Each process times the import of the controller stack, the construction of the
+``iea15mw-lc2-lqri-ff`` core (which warms every kernel up, see
+``AdvancedController._warm_up``) and its first ``step``; the process's total wall time is
+measured from outside. ``--repeats`` pairs are run (the machine is shared: the load average
+is saved beside the figures).
+
+Usage: ``python bench/controller_compile.py [--repeats 2]``; saves
+``bench/results/controller_compile.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import machine, save
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CHILD = """
+import json, time
+t0 = time.perf_counter()
+from hil.controller_node import ControllerRuntime
+from hil.scenario import load_scenario
+from bus_schemas import SensorFrame
+t1 = time.perf_counter()
+scenario = load_scenario("iea15mw-lc2-lqri-ff")
+core = ControllerRuntime(scenario).controller
+t2 = time.perf_counter()
+frame = SensorFrame(seq=0, sample_time_ns=25_000_000, publish_time_ns=0, valid_mask=0xFFFF,
+                    generator_speed_measured_rad_s=0.75, rotor_speed_measured_rad_s=0.75,
+                    blade_pitch_measured_rad=0.0, generator_torque_measured_nm=1.5e7,
+                    electrical_power_measured_w=1.0e7, wind_speed_measured_m_s=10.0,
+                    nacelle_acc_fore_aft_measured_m_s2=0.0, platform_pitch_measured_rad=0.05,
+                    platform_pitch_rate_measured_rad_s=0.0, platform_surge_measured_m=10.0,
+                    wave_elevation_gauge_measured_m=0.0)
+state = core.initial_state()
+t3 = time.perf_counter()
+core.step(state, frame, scenario.timing.control_period_s)
+t4 = time.perf_counter()
+print(json.dumps({"import_s": t1 - t0, "construct_with_warm_up_s": t2 - t1,
+                  "first_step_ms": (t4 - t3) * 1e3}))
+"""
+
+
+def child(cache_dir: str) -> dict[str, Any]:
+    """One fresh process with ``cache_dir`` as numba's cache; its figures."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=900,
+    )
+    wall = time.perf_counter() - t0
+    out: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    out["process_wall_s"] = wall
+    return {k: round(v, 3) for k, v in out.items()}
+
+
+def main() -> None:
+    """Run the cold/warm pairs, print and save."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=2, help="cold/warm pairs")
+    args = ap.parse_args()
+    runs = []
+    load_before = os.getloadavg()
+    for _ in range(args.repeats):
+        with tempfile.TemporaryDirectory(prefix="fowt-numba-cache-") as cache:
+            cold = child(cache)
+            warm = child(cache)
+        runs.append({"cold": cold, "warm": warm})
+        print("cold", cold, "warm", warm)
+    save(
+        "controller_compile",
+        {
+            "machine": machine(),
+            "load_average_before": list(load_before),
+            "load_average_after": list(os.getloadavg()),
+            "runs": runs,
+        },
+    )
+
+
+if __name__ == "__main__":
+    main()
