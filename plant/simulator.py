@@ -40,6 +40,7 @@ base (:class:`TowerBaseLoads`), and the low-speed-shaft torque N T_g.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -55,11 +56,10 @@ from bus_schemas.messages import (
     VALID_TORQUE,
     VALID_WIND,
 )
-from plant import platform as _platform
-from plant.integrate import rk4_step
-from plant.platform import FloatingParams, FloatingPreset, relative_wind, tower_modal
-from plant.turbine import TurbineParams, f, outputs
-from plant.waves import PhasorStepper, WaveField
+from plant import _kernels as _k
+from plant.platform import FloatingParams, FloatingPreset, step_constants, tower_modal
+from plant.turbine import TurbineOutputs, TurbineParams, outputs
+from plant.waves import WaveField
 from plant.wind import WindSpec, make_wind_function, wind_speed
 from sensors import ChannelSpec, ChannelSuite, NoiseSpec, SensorSuite
 from sensors.faults import FaultSchedule, FaultSpec
@@ -79,10 +79,35 @@ TURBINE_ONLY_MASK = (
 #: SensorFrame measured fields filled from channels (the rotor speed is derived).
 MEASURED_FIELDS = tuple(k for k in VALID_BITS if k != "rotor_speed_measured_rad_s")
 
-_step_floating: Callable[..., State] | None = getattr(_platform, "step_floating", None)
-
 #: Platform and tower positions and rates (state order) reported by a bottom-fixed plant.
 _NO_PLATFORM: State = (0.0,) * 8
+
+#: Channel name (SensorFrame field) -> the PlantState field it measures. The anemometer sits
+#: on the moving nacelle and reads the relative wind.
+CHANNEL_TRUTH = {
+    "generator_speed_measured_rad_s": "generator_speed_rad_s",
+    "blade_pitch_measured_rad": "blade_pitch_rad",
+    "generator_torque_measured_nm": "generator_torque_nm",
+    "electrical_power_measured_w": "electrical_power_w",
+    "wind_speed_measured_m_s": "relative_wind_speed_m_s",
+    "nacelle_acc_fore_aft_measured_m_s2": "nacelle_acc_fore_aft_m_s2",
+    "platform_pitch_measured_rad": "platform_pitch_rad",
+    "platform_pitch_rate_measured_rad_s": "platform_pitch_rate_rad_s",
+    "platform_surge_measured_m": "platform_surge_m",
+    "wave_elevation_gauge_measured_m": "wave_elevation_gauge_m",
+}
+
+#: Steps between exact recomputations of the wave phasors (PhasorStepper's default).
+WAVE_RESYNC_STEPS = 1024
+
+#: Still water: empty stepper arrays (phasors, rotations, z₀, ω, coefficients).
+_NO_WAVES: tuple[np.ndarray, ...] = (
+    np.zeros(0, dtype=np.complex128),
+    np.zeros(0, dtype=np.complex128),
+    np.zeros(0, dtype=np.complex128),
+    np.zeros(0),
+    np.zeros((5, 0), dtype=np.complex128),
+)
 
 
 @dataclass(frozen=True)
@@ -247,31 +272,6 @@ class PlantConfig:
             raise ValueError(f"steps_per_cycle must be >= 1, got {self.steps_per_cycle}")
 
 
-def _rk4_varying(
-    t: float,
-    x: State,
-    u0: tuple[float, ...],
-    um: tuple[float, ...],
-    u1: tuple[float, ...],
-    h: float,
-    p: FloatingParams,
-) -> State:
-    """Classic RK4 with stage inputs: k1 at (t, u0), k2 and k3 at (t + h/2, um), k4 at u1."""
-    fl = _platform.f
-    h2 = 0.5 * h
-    k1 = fl(t, x, u0, p)
-    k2 = fl(t + h2, tuple([a + h2 * b for a, b in zip(x, k1, strict=True)]), um, p)
-    k3 = fl(t + h2, tuple([a + h2 * b for a, b in zip(x, k2, strict=True)]), um, p)
-    k4 = fl(t + h, tuple([a + h * b for a, b in zip(x, k3, strict=True)]), u1, p)
-    h6 = h / 6.0
-    return tuple(
-        [
-            a + h6 * (b1 + 2.0 * (b2 + b3) + b4)
-            for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)
-        ]
-    )
-
-
 class PlantSimulator:
     """Integrates the plant over control periods and produces its messages."""
 
@@ -290,14 +290,74 @@ class PlantSimulator:
             config.sensor_faults, config.sensor_seed, config.sensor_channels
         )
         self._faulty = bool(self.faults)
-        self._stepper: PhasorStepper | None = None
-        self._wave_now: list[float] = [0.0] * 5
-        if self.floating is not None and self.floating.waves.n_components:
-            self._reset_waves(0.0)
+        # The channels' true values in suite order (one attrgetter call) and their frame bits.
+        self._channel_truths: Callable[[PlantState], list[float]] | None = None
+        self._channel_bits: list[tuple[str, int]] = []
+        if self.channels is not None:
+            keys = list(self.channels)
+            if all(k in CHANNEL_TRUTH for k in keys):
+                get = operator.attrgetter(*(CHANNEL_TRUTH[k] for k in keys))
+                if len(keys) == 1:
+                    self._channel_truths = lambda s: [get(s)]
+                else:
+                    self._channel_truths = lambda s: list(get(s))
+            self._channel_bits = [(k, VALID_BITS[k] if k in MEASURED_FIELDS else 0) for k in keys]
+        # Compiled period (plant._kernels): the state as an array beside the tuple returned
+        # last (reused when the caller passes that tuple back), the radiation accelerations of
+        # the last step's end, the wind at the steps' middles and the two demands.
+        self._x_tuple: object = None
+        self._x_arr = np.zeros(0)
+        self._have_z = False
+        self._winds = np.zeros(self.n)
+        self._demand = np.zeros(4)
+        self._truth_out = np.zeros(10)
+        self._wave_now = np.zeros(5)
+        self._wave_arrays: tuple[np.ndarray, ...] = _NO_WAVES
+        self._wave_clock = np.zeros(4)
+        tp = self.params
+        self._tp = np.array(
+            [
+                tp.rotor_radius_m,
+                tp.k_torque,
+                tp.gearbox_ratio,
+                tp.inv_inertia,
+                tp.pitch_min_rad,
+                tp.pitch_max_rad,
+                tp.inv_pitch_tau,
+                tp.pitch_rate_max_rad_s,
+                tp.torque_max_nm,
+                tp.inv_torque_tau,
+                tp.torque_rate_max_nm_s,
+            ]
+        )
+        if self.floating is not None:
+            fl = self.floating
+            self._step_consts = step_constants(fl.params, self.h)
+            self._z = np.zeros(fl.params.n_radiation + 8)
+            ld = fl.loads
+            self._loads = np.array(
+                [
+                    ld.hub_arm_m,
+                    ld.overhang_moment_kg_m,
+                    ld.c_phi_kg_m,
+                    ld.c_s_kg,
+                    ld.c_phiphi_kg_m2,
+                    ld.c_ss_kg_m,
+                    ld.nacelle_height_m,
+                    ld.gravity_m_s2,
+                ]
+            )
+            if fl.waves.n_components:
+                self._reset_waves(0.0)
 
     # ------------------------------------------------------------------ waves
     def _reset_waves(self, t_s: float) -> None:
-        """(Re)build the wave stepper at ``t_s`` with Δt = h/2 (module docstring)."""
+        """(Re)build the wave stepper at ``t_s`` with Δt = h/2 (module docstring).
+
+        The stepper of :class:`plant.waves.PhasorStepper` (p = z e^{iωt₀}, r = e^{iωΔt},
+        exact recomputation every 1024 steps) as arrays for :func:`plant._kernels.phasor_advance`
+        (tests/test_plant_kernels.py compares the two).
+        """
         fp = self.floating
         assert fp is not None
         w = fp.waves
@@ -310,14 +370,34 @@ class PlantSimulator:
                 np.exp(-1j * w.wavenumber_rad_m * proj)[None, :],
             ]
         )
-        phasor0 = w.amplitude_m * np.exp(1j * w.phase_rad)
-        self._stepper = PhasorStepper(w.omega_rad_s, phasor0, coeff, t_s, 0.5 * self.h)
-        self._wave_now = self._stepper.values().tolist()
+        omega = np.array(w.omega_rad_s, dtype=np.float64)
+        z0 = np.asarray(w.amplitude_m * np.exp(1j * w.phase_rad), dtype=np.complex128)
+        dt = 0.5 * self.h
+        p = z0 * np.exp(1j * omega * t_s)
+        r = np.exp(1j * omega * dt)
+        self._wave_arrays = (p, r, z0, omega, np.ascontiguousarray(coeff))
+        self._wave_clock = np.array([0.0, float(WAVE_RESYNC_STEPS), float(t_s), dt])
+        _k.phasor_values(self._wave_arrays[4], p, self._wave_now)
+
+    @property
+    def wave_time_s(self) -> float:
+        """Time of the wave stepper t₀ + n Δt (s)."""
+        c = self._wave_clock
+        return float(c[2] + c[0] * c[3])
 
     def wave_values(self) -> tuple[float, float, float, float, float]:
         """Current (F_x N, F_z N, M_φ N m, η platform m, η gauge m) at the last step's end."""
-        v = self._wave_now
+        v = self._wave_now.tolist()
         return (v[0], v[1], v[2], v[3], v[4])
+
+    def _state_array(self, x: State) -> np.ndarray:
+        """x as an array: the kept one when ``x`` is the tuple returned last, else a copy."""
+        if x is self._x_tuple:
+            return self._x_arr
+        self._have_z = False
+        self._x_tuple = x
+        self._x_arr = np.array(x, dtype=np.float64)
+        return self._x_arr
 
     # ------------------------------------------------------------------ initial state
     def initial_state(self) -> State:
@@ -391,13 +471,20 @@ class PlantSimulator:
         """
         if self.floating is not None:
             return self._advance_floating(t_s, x, previous, command, switch_step)
-        h, p, wind = self.h, self.params, self._wind
+        h, wind = self.h, self._wind
+        winds = self._winds
         for i in range(self.n):
-            t = t_s + i * h
-            demand = previous if i < switch_step else command
-            u = (demand[0], demand[1], wind(t + 0.5 * h))
-            x = rk4_step(f, t, x, u, h, p)
-        return x
+            winds[i] = wind(t_s + i * h + 0.5 * h)
+        d = self._demand
+        d[0], d[1], d[2], d[3] = previous[0], previous[1], command[0], command[1]
+        xa = np.array(x, dtype=np.float64)
+        table = self.params.table
+        _k.turbine_advance(
+            xa, h, switch_step, d, winds, self._tp, table._tsr_array, table._pitch_array,
+            table._cell_array,
+        )  # fmt: skip
+        a0, a1, a2 = xa.tolist()
+        return (a0, a1, a2)
 
     def _advance_floating(
         self,
@@ -407,34 +494,25 @@ class PlantSimulator:
         command: tuple[float, float],
         switch_step: int,
     ) -> State:
-        fp = self.floating
-        assert fp is not None
-        h, p, wind = self.h, fp.params, self._wind
-        st = self._stepper
-        if st is not None and abs(st.t_s - t_s) > 0.25 * h:
+        """One period of :func:`plant._kernels.advance_floating` (module docstring)."""
+        h, wind = self.h, self._wind
+        if self._wave_arrays[0].size and abs(self.wave_time_s - t_s) > 0.25 * h:
             self._reset_waves(t_s)  # called out of sequence: resynchronise the waves
-            st = self._stepper
-        w0 = self._wave_now
+        xa = self._state_array(x)
+        winds = self._winds
         for i in range(self.n):
-            t = t_s + i * h
-            d = previous if i < switch_step else command
-            if st is not None:
-                st.advance()
-                wm = st.values().tolist()
-                st.advance()
-                w1 = st.values().tolist()
-            else:
-                wm = w1 = w0
-            um = (d[0], d[1], wind(t + 0.5 * h), wm[0], wm[1], wm[2])
-            if _step_floating is not None:
-                x = _step_floating(t, x, um, h, p)
-            else:
-                u0 = (d[0], d[1], wind(t), w0[0], w0[1], w0[2])
-                u1 = (d[0], d[1], wind(t + h), w1[0], w1[1], w1[2])
-                x = _rk4_varying(t, x, u0, um, u1, h, p)
-            w0 = w1
-        self._wave_now = w0
-        return x
+            winds[i] = wind(t_s + i * h + 0.5 * h)
+        d = self._demand
+        d[0], d[1], d[2], d[3] = previous[0], previous[1], command[0], command[1]
+        wp, wr, wz, wo, wc = self._wave_arrays
+        _k.advance_floating(
+            xa, switch_step, d, winds, self._wave_now, wp, wr, wz, wo, wc, self._wave_clock,
+            self._z, self._have_z, *self._step_consts,
+        )  # fmt: skip
+        self._have_z = True
+        y = tuple(xa.tolist())
+        self._x_tuple = y
+        return y
 
     # ------------------------------------------------------------------ messages
     def truth(
@@ -446,7 +524,7 @@ class PlantSimulator:
         """
         t = t_ns * 1e-9
         u_wind = self._wind(t)
-        w = self._wave_now  # zeros without waves
+        w = self._wave_now.tolist()  # zeros without waves
         fp = self.floating
         if fp is None:
             tp = self.params
@@ -460,13 +538,14 @@ class PlantSimulator:
             p = fp.params
             tp = p.turbine
             q = x
-            dx = _platform.f(t, x, (applied[0], applied[1], u_wind, w[0], w[1], w[2]), p)
-            u_rel = relative_wind(x, u_wind, p)
+            res = self._truth_out
+            _k.floating_truth(
+                self._state_array(x), applied[0], applied[1], u_wind, self._wave_now, *p._kern,
+                self._loads, tp.generator_efficiency, res,
+            )  # fmt: skip
+            u_rel, t_aero, thrust, p_el, w_gen, tsr, cp, ct, tbm, nacelle_acc = res.tolist()
             omega, theta, torque = x[8], x[9], x[10]
-            out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
-            loads = fp.loads
-            tbm = loads.moment_nm(out.rotor_thrust_n, x[2], x[3], dx[4], dx[6], dx[7])
-            nacelle_acc = dx[4] + loads.nacelle_height_m * dx[6] + dx[7]
+            out = TurbineOutputs(t_aero, thrust, p_el, w_gen, tsr, cp, ct, t_aero * omega)
         return PlantState(
             seq=seq,
             sample_time_ns=t_ns,
@@ -515,27 +594,25 @@ class PlantSimulator:
         if self.channels is None:
             frame = self._noise_frame(seq, truth, publish_ns)
             return self._fault_noise_frame(frame) if self._faulty else frame
-        truths = {
-            "generator_speed_measured_rad_s": truth.generator_speed_rad_s,
-            "blade_pitch_measured_rad": truth.blade_pitch_rad,
-            "generator_torque_measured_nm": truth.generator_torque_nm,
-            "electrical_power_measured_w": truth.electrical_power_w,
-            "wind_speed_measured_m_s": truth.relative_wind_speed_m_s,
-            "nacelle_acc_fore_aft_measured_m_s2": truth.nacelle_acc_fore_aft_m_s2,
-            "platform_pitch_measured_rad": truth.platform_pitch_rad,
-            "platform_pitch_rate_measured_rad_s": truth.platform_pitch_rate_rad_s,
-            "platform_surge_measured_m": truth.platform_surge_m,
-            "wave_elevation_gauge_measured_m": truth.wave_elevation_gauge_m,
-        }
-        readings = self.channels.step(truth.sample_time_ns, truths)
-        if self._faulty:
-            self.faults.apply(truth.sample_time_ns, readings)
+        get = self._channel_truths
+        if get is None:  # a channel without a true value: the suite's KeyError naming it
+            self.channels.step(truth.sample_time_ns, {})
+            raise AssertionError("unreachable: the suite raised KeyError")
+        vals, oks = self.channels.step_values(truth.sample_time_ns, get(truth))
         values = dict.fromkeys(MEASURED_FIELDS, 0.0)
         mask = 0
-        for name, (value, ok) in readings.items():
-            if ok and name in values:
-                values[name] = value
-                mask |= VALID_BITS[name]
+        if self._faulty:
+            readings = dict(zip(self.channels, zip(vals, oks, strict=True), strict=True))
+            self.faults.apply(truth.sample_time_ns, readings)
+            for name, (value, ok) in readings.items():
+                if ok and name in values:
+                    values[name] = value
+                    mask |= VALID_BITS[name]
+        else:
+            for (name, bit), value, ok in zip(self._channel_bits, vals, oks, strict=True):
+                if ok and bit:
+                    values[name] = value
+                    mask |= bit
         rotor = 0.0
         if mask & VALID_GENERATOR_SPEED:
             rotor = values["generator_speed_measured_rad_s"] / self.params.gearbox_ratio

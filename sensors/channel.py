@@ -63,6 +63,8 @@ from typing import Any
 
 import numpy as np
 
+from sensors import _kernels as _kern
+
 __all__ = [
     "BLOCK_SIZE",
     "ChannelSpec",
@@ -429,10 +431,83 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             named[key] = replace(given, name=key) if given.name == "" else given
         self._specs = named
         self.seed = seed
-        self.states: dict[str, ChannelState] = {
-            key: channel_init(spec, seed) for key, spec in named.items()
-        }
-        self._items = [(key, spec, self.states[key]) for key, spec in named.items()]
+        self._keys = list(named)
+        self._index = {key: i for i, key in enumerate(self._keys)}
+        n = len(named)
+        specs = list(named.values())
+        # Array state of sensors._kernels.suite_step (layouts in its module docstring).
+        self._spec_f = np.array(
+            [
+                [s.std, s.bias, s.resolution, s.dropout_probability, s.range_min, s.range_max]
+                for s in specs
+            ],
+            dtype=np.float64,
+        ).reshape(n, 6)
+        self._spec_i = np.array(
+            [[s.delay_ns, s.sample_period_ns] for s in specs], dtype=np.int64
+        ).reshape(n, 2)
+        self._st = np.zeros((n, 10), dtype=np.int64)
+        self._held = np.full(n, _NAN)
+        self._held_ok = np.zeros(n, dtype=np.bool_)
+        self._hist_t = np.zeros((n, 16), dtype=np.int64)
+        self._hist_v = np.zeros((n, 16))
+        self._rngs = [channel_init(s, seed) for s in specs]
+        self._normals = np.zeros((n, BLOCK_SIZE))
+        self._uniforms = np.zeros((n, BLOCK_SIZE))
+        for c, s in enumerate(specs):  # first blocks of the streams each channel uses
+            if s.std > 0.0:
+                self._normals[c] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+            if s.dropout_probability > 0.0:
+                self._uniforms[c] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+        self._all = np.arange(n, dtype=np.int64)
+        self._truths = np.zeros(n)
+        self._out_v = np.zeros(n)
+        self._out_ok = np.zeros(n, dtype=np.bool_)
+
+    def _run(self, idx: np.ndarray, t_ns: int) -> None:
+        """One :func:`sensors._kernels.suite_step` call; errors, growth and refills here."""
+        while True:
+            code = _kern.suite_step(
+                idx, t_ns, self._truths, self._spec_f, self._spec_i, self._st, self._held,
+                self._held_ok, self._hist_t, self._hist_v, self._normals, self._uniforms,
+                self._out_v, self._out_ok,
+            )  # fmt: skip
+            if code >= 0:
+                break
+            n = len(self._keys)
+            c = -1 - code
+            if c < n:
+                raise ValueError(
+                    f"channel {self._keys[c]!r}: t_ns expected to increase, got {t_ns} "
+                    f"after {int(self._st[c, _kern.LAST_T])}"
+                )
+            self._grow()
+        if code:
+            self._refill()
+
+    def _grow(self) -> None:
+        """Double the ring buffers (unrolled so that every ring starts at 0)."""
+        cap = self._hist_t.shape[1]
+        st = self._st
+        order = (st[:, _kern.HEAD, None] + np.arange(cap)[None, :]) % cap
+        self._hist_t = np.concatenate(
+            [np.take_along_axis(self._hist_t, order, 1), np.zeros_like(self._hist_t)], axis=1
+        )
+        self._hist_v = np.concatenate(
+            [np.take_along_axis(self._hist_v, order, 1), np.zeros_like(self._hist_v)], axis=1
+        )
+        st[:, _kern.HEAD] = 0
+
+    def _refill(self) -> None:
+        """Next blocks of the streams used up by the last call (as channel_step draws them)."""
+        st = self._st
+        for c in range(len(self._keys)):
+            if st[c, _kern.NORMAL_I] >= BLOCK_SIZE:
+                self._normals[c] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+                st[c, _kern.NORMAL_I] = 0
+            if st[c, _kern.UNIFORM_I] >= BLOCK_SIZE:
+                self._uniforms[c] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+                st[c, _kern.UNIFORM_I] = 0
 
     @classmethod
     def from_table(
@@ -497,21 +572,47 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         KeyError
             When ``truths`` lacks a channel of the suite.
         """
-        out: dict[str, tuple[float, bool]] = {}
-        for key, spec, state in self._items:
-            try:
-                x = truths[key]
-            except KeyError:
-                missing = [k for k in self._specs if k not in truths]
-                raise KeyError(f"no true value for channel(s) {missing}") from None
-            _, y, ok = channel_step(spec, state, t_ns, x)
-            out[key] = (y, ok)
-        return out
+        tv = self._truths
+        try:
+            for i, key in enumerate(self._keys):
+                tv[i] = truths[key]
+        except KeyError:
+            missing = [k for k in self._specs if k not in truths]
+            raise KeyError(f"no true value for channel(s) {missing}") from None
+        self._run(self._all, t_ns)
+        values = zip(self._out_v.tolist(), self._out_ok.tolist(), strict=True)
+        return dict(zip(self._keys, values, strict=True))
+
+    def step_values(self, t_ns: int, truths: list[float]) -> tuple[list[float], list[bool]]:
+        """:meth:`step` with the true values and the readings in the suite's channel order.
+
+        Parameters
+        ----------
+        t_ns : int
+            Time (ns), increasing from call to call.
+        truths : list of float
+            True value of each channel, in the order of ``list(suite)``.
+
+        Returns
+        -------
+        values, valid : list of float, list of bool
+            Readings (``nan`` when not valid) and their flags, in the same order.
+        """
+        self._truths[:] = truths
+        self._run(self._all, t_ns)
+        return self._out_v.tolist(), self._out_ok.tolist()
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
-        _, y, ok = channel_step(self._specs[name], self.states[name], t_ns, true_value)
-        return y, ok
+        c = self._index[name]
+        self._truths[c] = true_value
+        self._run(np.array([c], dtype=np.int64), t_ns)
+        return float(self._out_v[c]), bool(self._out_ok[c])
+
+    def counts(self, name: str) -> tuple[int, int]:
+        """(samples taken, samples lost) of channel ``name`` so far."""
+        c = self._index[name]
+        return int(self._st[c, _kern.SAMPLES]), int(self._st[c, _kern.DROPPED])
 
 
 #: Counts per revolution of the generator-speed encoder: a 1024-line quadrature encoder
