@@ -37,11 +37,41 @@ the offsets below.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
 
 import numba
 import numpy as np
 
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def njit(fn: _F) -> _F:
+    """``numba.njit(cache=True)`` (compiled on first call, cached on disk), typed as ``fn``."""
+    return cast(_F, numba.njit(cache=True)(fn))
+
+
 WIND_MIN_M_S = 1.0e-3  # = plant.turbine.WIND_MIN_M_S (kept equal by tests/test_plant_kernels.py)
+
+
+def pack(blocks: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(C, off): the blocks flattened into one float64 array and their offsets."""
+    flat = [np.ascontiguousarray(b, dtype=np.float64).ravel() for b in blocks]
+    offsets = np.zeros(len(flat) + 1, dtype=np.int64)
+    offsets[1:] = np.cumsum([f.size for f in flat])
+    return np.concatenate(flat) if flat else np.zeros(0), offsets
+
+
+@njit
+def _b1(C: np.ndarray, off: np.ndarray, b: int) -> np.ndarray:
+    return C[off[b] : off[b + 1]]
+
+
+@njit
+def _b2(C: np.ndarray, off: np.ndarray, b: int, cols: int) -> np.ndarray:
+    blk = C[off[b] : off[b + 1]]
+    return blk.reshape((blk.size // cols, cols))
+
 
 # ---------------------------------------------------------------- floating_f constants (FP)
 # f0 4 | K 16 | D 16 | Bq 9 | jh 4 | jv 4 | rot 5 (τ, 1/cos τ, κ, arm_φ, arm_s) | c_t 4 |
@@ -71,8 +101,46 @@ S_SIZE = 84
 # Mooring segment rows of floating_step: lo, hi, M⁻¹(L_m − K) 16, M⁻¹(F_0 + F_m,c) 4, x_i,
 # k_zz', k_zφ', k_φφ' (26).
 
+# ---------------------------------------------------------------- packed constants (C, off)
+# All constants of one floating plant in one flat float64 array C, block b at C[off[b]:off[b+1]]
+# (one array argument instead of a dozen: a numba call costs ~0.13 µs per array argument).
+# Matrices are stored transposed where the kernels accumulate column by column.
+B_SP = 0  # floating_step scalars and folded matrices (S_SIZE)
+B_KNOTS = 1  # mooring table knots (n)
+B_SEG26 = 2  # floating_step mooring segments (n - 1, 26)
+B_XS = 3  # Cp/Ct/Cq TSR grid
+B_YS = 4  # Cp/Ct/Cq pitch grid
+B_CELLS = 5  # Cp/Ct/Cq cells (cells, 12)
+B_ENDT = 6  # radiation ``end`` transposed (n_r + 6, n_r + 8)
+B_STARTT = 7  # radiation ``start`` transposed (11 + n_r, 8)
+B_FP = 8  # floating_f constants (F_SIZE)
+B_SEG14 = 9  # mooring table segments of mooring_force (n - 1, 14)
+B_RADT = 10  # radiation block [[A, B], [C, 0]] transposed (n_r + 3, n_r + 3)
+B_LOADS = 11  # tower-base moment constants (8)
+N_BLOCKS = 12
 
-@numba.njit(cache=True)
+# ---------------------------------------------------------------- floating state S (float64)
+# demand 4 (previous θ_c, T_c, new θ_c, T_c) | has z | wave clock 4 (n, resync, t₀, Δt) |
+# wave values 5 (F_x, F_z, M_φ, η platform, η gauge) | Δt of the wind record | z (n_r + 8) |
+# winds (steps)
+S_DEMAND, S_HAVE_Z, S_CLOCK, S_WAVE, S_WIND_DT, S_Z = 0, 4, 5, 9, 14, 15
+# Wave arrays Wc (complex, 9 rows x N): p, r = e^{iωΔt}, z₀, ω (real), C (5 rows).
+W_P, W_R, W_Z0, W_OMEGA, W_C = 0, 1, 2, 3, 4
+
+
+@njit
+def turbulent_speed(table: np.ndarray, dt: float, t: float) -> float:
+    """:meth:`plant.wind.TurbulentWind.speed_at`: U(t) linear in the record, periodic."""
+    n = table.size
+    x = t / dt
+    i = math.floor(x)
+    frac = x - i
+    i %= n
+    lo = table[i]
+    return lo + (table[i + 1 if i + 1 < n else 0] - lo) * frac
+
+
+@njit
 def coefficients_clamped(
     tsr: float, pitch: float, xs: np.ndarray, ys: np.ndarray, cells: np.ndarray
 ) -> tuple[float, float, float]:
@@ -86,7 +154,7 @@ def coefficients_clamped(
         i = nx - 2
         a = 1.0
     else:
-        i = np.searchsorted(xs, tsr, side="right") - 1
+        i = int(np.searchsorted(xs, tsr, side="right")) - 1
         x0 = xs[i]
         a = (tsr - x0) / (xs[i + 1] - x0)
     if pitch <= ys[0]:
@@ -96,7 +164,7 @@ def coefficients_clamped(
         j = ny - 2
         b = 1.0
     else:
-        j = np.searchsorted(ys, pitch, side="right") - 1
+        j = int(np.searchsorted(ys, pitch, side="right")) - 1
         y0 = ys[j]
         b = (pitch - y0) / (ys[j + 1] - y0)
     c = cells[i * (ny - 1) + j]
@@ -107,7 +175,7 @@ def coefficients_clamped(
     )
 
 
-@numba.njit(cache=True)
+@njit
 def _ct_cq_cell(
     tsr: float, pitch: float, xs: np.ndarray, ys: np.ndarray, cells: np.ndarray
 ) -> tuple[float, float]:
@@ -132,13 +200,13 @@ def _ct_cq_cell(
     return ct, cq
 
 
-@numba.njit(cache=True)
+@njit
 def _mooring(
     knots: np.ndarray, segs: np.ndarray, q0: float, q1: float, q2: float
 ) -> tuple[float, float, float]:
     """:func:`plant.platform.mooring_force` on the table's segments (rows of 14)."""
     n = segs.shape[0]
-    i = np.searchsorted(knots, q0, side="right") - 1
+    i = int(np.searchsorted(knots, q0, side="right")) - 1
     i = 0 if i < 0 else (n - 1 if i > n - 1 else i)
     s = segs[i]
     x0, fx0, dfx, fz0, dfz, my0, dmy = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
@@ -157,7 +225,7 @@ def _mooring(
     )
 
 
-@numba.njit(cache=True)
+@njit
 def _mech(
     x: np.ndarray,
     u: np.ndarray,
@@ -261,54 +329,50 @@ def _mech(
     out[10] = d_torque
 
 
-@numba.njit(cache=True)
+@njit
+def _radiation_mu(x: np.ndarray, radt: np.ndarray, nr: int) -> tuple[float, float, float]:
+    """μ = C_r ξ (the last three rows of the radiation block), summed over columns."""
+    mu0 = mu1 = mu2 = 0.0
+    for j in range(nr + 3):
+        vj = x[11 + j] if j < nr else x[4 + j - nr]
+        mu0 += radt[j, nr] * vj
+        mu1 += radt[j, nr + 1] * vj
+        mu2 += radt[j, nr + 2] * vj
+    return mu0, mu1, mu2
+
+
+@njit
 def floating_f(
-    x: np.ndarray,
-    u: np.ndarray,
-    fp: np.ndarray,
-    knots: np.ndarray,
-    segs: np.ndarray,
-    rad: np.ndarray,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    cells: np.ndarray,
-    out: np.ndarray,
+    x: np.ndarray, u: np.ndarray, C: np.ndarray, off: np.ndarray, out: np.ndarray
 ) -> None:
     """dx/dt of :func:`plant.platform.f` into ``out`` (radiation block [[A, B], [C, 0]])."""
-    nr = rad.shape[0] - 3
+    nr = x.size - 11
+    radt = _b2(C, off, B_RADT, nr + 3)
     mu0 = mu1 = mu2 = 0.0
     if nr > 0:
-        for r in range(nr + 3):
-            acc = 0.0
-            for j in range(nr):
-                acc += rad[r, j] * x[11 + j]
-            acc += rad[r, nr] * x[4] + rad[r, nr + 1] * x[5] + rad[r, nr + 2] * x[6]
-            if r < nr:
-                out[11 + r] = acc
-            elif r == nr:
-                mu0 = acc
-            elif r == nr + 1:
-                mu1 = acc
-            else:
-                mu2 = acc
-    _mech(x, u, mu0, mu1, mu2, fp, knots, segs, xs, ys, cells, out)
+        acc = np.zeros(nr + 3)
+        for j in range(nr + 3):
+            vj = x[11 + j] if j < nr else x[4 + j - nr]
+            for r in range(nr + 3):
+                acc[r] += radt[j, r] * vj
+        for r in range(nr):
+            out[11 + r] = acc[r]
+        mu0, mu1, mu2 = acc[nr], acc[nr + 1], acc[nr + 2]
+    _mech(
+        x, u, mu0, mu1, mu2, _b1(C, off, B_FP), _b1(C, off, B_KNOTS), _b2(C, off, B_SEG14, 14),
+        _b1(C, off, B_XS), _b1(C, off, B_YS), _b2(C, off, B_CELLS, 12), out,
+    )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@njit
 def floating_step(
     x: np.ndarray,
     u: np.ndarray,
     out: np.ndarray,
     z: np.ndarray,
     use_last: bool,
-    sp: np.ndarray,
-    knots: np.ndarray,
-    segs: np.ndarray,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    cells: np.ndarray,
-    end: np.ndarray,
-    start: np.ndarray,
+    C: np.ndarray,
+    off: np.ndarray,
 ) -> None:
     """One step of :func:`plant.platform.step_floating` from ``x`` into ``out``.
 
@@ -317,6 +381,12 @@ def floating_step(
     """
     m = 11
     nr = x.size - m
+    sp = _b1(C, off, B_SP)
+    knots = _b1(C, off, B_KNOTS)
+    segs = _b2(C, off, B_SEG26, 26)
+    xs = _b1(C, off, B_XS)
+    ys = _b1(C, off, B_YS)
+    cells = _b2(C, off, B_CELLS, 12)
     h = sp[0]
     tilt, ict, kap, radius = sp[1], sp[2], sp[3], sp[4]
     k_thrust, k_dom, g_dom = sp[5], sp[6], sp[7]
@@ -326,7 +396,6 @@ def floating_step(
     aero = sp[19] != 0.0
     h2 = 0.5 * h
     h6 = h / 6.0
-    v0, v1, v2 = x[4], x[5], x[6]
     om, th, tg = x[8], x[9], x[10]
     wind = u[2] if aero else 0.0
     dem = u[0]
@@ -342,14 +411,15 @@ def floating_step(
                 am[i] = z[nr + i]
                 ar[i] = z[nr + 4 + i]
         else:
-            for r in range(8):
-                acc = 0.0
-                for j in range(m + nr):
-                    acc += start[r, j] * x[j]
-                if r < 4:
-                    am[r] = acc
-                else:
-                    ar[r - 4] = acc
+            startt = _b2(C, off, B_STARTT, 8)
+            acc8 = np.zeros(8)
+            for j in range(m + nr):
+                xj = x[j]
+                for r in range(8):
+                    acc8[r] += startt[j, r] * xj
+            for i in range(4):
+                am[i] = acc8[i]
+                ar[i] = acc8[4 + i]
     au = wind if wind > 0.0 else -wind
     uw = wind * au
     b = np.empty(4)
@@ -443,147 +513,177 @@ def floating_step(
     out[9] = th + h6 * kth
     out[10] = tg + h6 * ktg
     if nr:
-        nc = nr + 6
+        endt = _b2(C, off, B_ENDT, nr + 8)
         for r in range(nr + 8):
-            acc = 0.0
-            for j in range(nr):
-                acc += end[r, j] * x[m + j]
-            acc += end[r, nr] * v0 + end[r, nr + 1] * v1 + end[r, nr + 2] * v2
-            acc += end[r, nr + 3] * out[4] + end[r, nr + 4] * out[5] + end[r, nc - 1] * out[6]
-            z[r] = acc
+            z[r] = 0.0
+        for j in range(nr + 6):
+            if j < nr:
+                vj = x[m + j]
+            elif j < nr + 3:
+                vj = x[4 + j - nr]
+            else:
+                vj = out[4 + j - nr - 3]
+            for r in range(nr + 8):
+                z[r] += endt[j, r] * vj
         for r in range(nr):
             out[m + r] = z[r]
 
 
-@numba.njit(cache=True)
-def phasor_advance(
-    p: np.ndarray, r: np.ndarray, z0: np.ndarray, omega: np.ndarray, clock: np.ndarray
-) -> None:
-    """p ← p e^{iωΔt}; every ``resync`` steps p = z0 e^{iω(t0 + nΔt)} (PhasorStepper.advance).
+@njit
+def phasor_step(wc: np.ndarray, s: np.ndarray, out: np.ndarray, n_out: int) -> None:
+    """Advance the wave phasors one Δt and write the first ``n_out`` outputs (0, 3 or 5).
 
-    ``clock`` = (n, resync, t0, Δt) as float64 (n counts the steps taken).
+    p_i ← p_i e^{iω_iΔt} (:meth:`plant.waves.PhasorStepper.advance`; every ``resync`` steps
+    exactly p_i = z_i e^{iω_i(t₀ + nΔt)}), then out_o = Re Σ_i C_oi p_i summed over i in
+    order (:meth:`~plant.waves.PhasorStepper.values`). ``s`` holds the clock at S_CLOCK.
     """
-    n = clock[0] + 1.0
-    clock[0] = n
-    resync = clock[1]
+    n = s[S_CLOCK] + 1.0
+    s[S_CLOCK] = n
+    resync = s[S_CLOCK + 1]
+    nc = wc.shape[1]
     if resync > 0.0 and n % resync == 0.0:
-        t = clock[2] + n * clock[3]
-        for i in range(p.size):
-            p[i] = z0[i] * np.exp(1j * (omega[i] * t))
+        t = s[S_CLOCK + 2] + n * s[S_CLOCK + 3]
+        for i in range(nc):
+            wc[W_P, i] = wc[W_Z0, i] * np.exp(1j * (wc[W_OMEGA, i].real * t))
     else:
-        for i in range(p.size):
-            p[i] = p[i] * r[i]
+        for i in range(nc):
+            wc[W_P, i] = wc[W_P, i] * wc[W_R, i]
+    if n_out == 0:
+        return
+    a0 = a1 = a2 = a3 = a4 = 0.0
+    if n_out == 3:
+        for i in range(nc):
+            pr = wc[W_P, i].real
+            pi = wc[W_P, i].imag
+            a0 += wc[W_C, i].real * pr - wc[W_C, i].imag * pi
+            a1 += wc[W_C + 1, i].real * pr - wc[W_C + 1, i].imag * pi
+            a2 += wc[W_C + 2, i].real * pr - wc[W_C + 2, i].imag * pi
+    else:
+        for i in range(nc):
+            pr = wc[W_P, i].real
+            pi = wc[W_P, i].imag
+            a0 += wc[W_C, i].real * pr - wc[W_C, i].imag * pi
+            a1 += wc[W_C + 1, i].real * pr - wc[W_C + 1, i].imag * pi
+            a2 += wc[W_C + 2, i].real * pr - wc[W_C + 2, i].imag * pi
+            a3 += wc[W_C + 3, i].real * pr - wc[W_C + 3, i].imag * pi
+            a4 += wc[W_C + 4, i].real * pr - wc[W_C + 4, i].imag * pi
+        out[3] = a3
+        out[4] = a4
+    out[0] = a0
+    out[1] = a1
+    out[2] = a2
 
 
-@numba.njit(cache=True)
-def phasor_values(c: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """out_o = Re Σ_i C_oi p_i (PhasorStepper.values)."""
-    for o in range(c.shape[0]):
+@njit
+def phasor_values(wc: np.ndarray, out: np.ndarray) -> None:
+    """out_o = Re Σ_i C_oi p_i for the five outputs, without advancing."""
+    for o in range(5):
         acc = 0.0
-        for i in range(p.size):
-            cc = c[o, i]
-            pp = p[i]
-            acc += cc.real * pp.real - cc.imag * pp.imag
+        for i in range(wc.shape[1]):
+            acc += wc[W_C + o, i].real * wc[W_P, i].real - wc[W_C + o, i].imag * wc[W_P, i].imag
         out[o] = acc
 
 
-@numba.njit(cache=True)
+@njit
 def advance_floating(
     x: np.ndarray,
-    switch: int,
-    demand: np.ndarray,
-    winds: np.ndarray,
-    wave_now: np.ndarray,
-    wp: np.ndarray,
-    wr: np.ndarray,
-    wz0: np.ndarray,
-    womega: np.ndarray,
+    s: np.ndarray,
     wc: np.ndarray,
-    wclock: np.ndarray,
-    z: np.ndarray,
-    use_last: bool,
-    sp: np.ndarray,
-    knots: np.ndarray,
-    segs: np.ndarray,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    cells: np.ndarray,
-    end: np.ndarray,
-    start: np.ndarray,
+    C: np.ndarray,
+    off: np.ndarray,
+    n_steps: int,
+    switch: int,
+    wind_table: np.ndarray,
+    t_s: float,
+    h: float,
 ) -> None:
-    """One control period in place: ``winds.size`` steps of :func:`floating_step`.
+    """One control period in place: ``n_steps`` steps of :func:`floating_step`.
 
-    ``demand`` = (previous pitch, previous torque, new pitch, new torque), the previous one
-    held for the first ``switch`` steps; ``winds`` the wind at each step's middle; the wave
-    stepper (p, r, z0, ω, C, clock; empty p: still water, ``wave_now`` held) is advanced
-    twice per step (Δt = h/2), the mid-step values going into the step's input.
+    ``s`` (layout S_*): the demands (the previous one held for the first ``switch`` steps),
+    the wind at each step's middle (from ``wind_table`` when it is not empty: a turbulent
+    record, :func:`turbulent_speed`), the wave clock and values, z. The wave stepper ``wc``
+    (no columns: still water, the values held) is advanced twice per step (Δt = h/2), the
+    mid-step forces going into the step's input and the end values of the last step into
+    the wave values.
     """
-    n = winds.size
+    nr = x.size - 11
+    z = s[S_Z : S_Z + nr + 8]
+    winds = s[S_Z + nr + 8 : S_Z + nr + 8 + n_steps]
     out = np.empty_like(x)
     u = np.empty(6)
-    wm = np.empty(wave_now.size)
-    w1 = np.empty(wave_now.size)
-    waves = wp.size > 0
-    for i in range(n):
+    wm = np.empty(5)
+    wave = s[S_WAVE : S_WAVE + 5]
+    waves = wc.shape[1] > 0
+    if wind_table.size:
+        for i in range(n_steps):
+            winds[i] = turbulent_speed(wind_table, s[S_WIND_DT], t_s + i * h + 0.5 * h)
+    for i in range(n_steps):
         if i < switch:
-            u[0] = demand[0]
-            u[1] = demand[1]
+            u[0] = s[S_DEMAND]
+            u[1] = s[S_DEMAND + 1]
         else:
-            u[0] = demand[2]
-            u[1] = demand[3]
+            u[0] = s[S_DEMAND + 2]
+            u[1] = s[S_DEMAND + 3]
         if waves:
-            phasor_advance(wp, wr, wz0, womega, wclock)
-            phasor_values(wc, wp, wm)
-            phasor_advance(wp, wr, wz0, womega, wclock)
-            phasor_values(wc, wp, w1)
+            phasor_step(wc, s, wm, 3)
+            u[3] = wm[0]
+            u[4] = wm[1]
+            u[5] = wm[2]
+            phasor_step(wc, s, wave, 5 if i == n_steps - 1 else 0)
         else:
-            wm[:] = wave_now
-            w1[:] = wave_now
+            u[3] = wave[0]
+            u[4] = wave[1]
+            u[5] = wave[2]
         u[2] = winds[i]
-        u[3] = wm[0]
-        u[4] = wm[1]
-        u[5] = wm[2]
-        floating_step(x, u, out, z, use_last, sp, knots, segs, xs, ys, cells, end, start)
+        floating_step(x, u, out, z, s[S_HAVE_Z] != 0.0, C, off)
         x[:] = out
-        use_last = True
-        wave_now[:] = w1
+        s[S_HAVE_Z] = 1.0
 
 
-@numba.njit(cache=True)
+@njit
 def floating_truth(
     x: np.ndarray,
-    applied_pitch: float,
-    applied_torque: float,
+    s: np.ndarray,
+    C: np.ndarray,
+    off: np.ndarray,
+    wind_table: np.ndarray,
+    t: float,
     wind: float,
-    wave: np.ndarray,
-    fp: np.ndarray,
-    knots: np.ndarray,
-    segs: np.ndarray,
-    rad: np.ndarray,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    cells: np.ndarray,
-    loads: np.ndarray,
+    pitch: float,
+    torque_demand: float,
     eff: float,
-    out: np.ndarray,
-) -> None:
+) -> tuple[float, ...]:
     """Outputs of :meth:`plant.simulator.PlantSimulator.truth` for the floating plant.
 
-    out = (U_rel, T_a, T, P_e, ω_g, λ, Cp, Ct, M_tb, a_nacelle): U_rel of
-    :func:`plant.platform.relative_wind`, rotor loads of :func:`plant.turbine.outputs`,
-    M_tb of :meth:`plant.simulator.TowerBaseLoads.moment_nm` with the accelerations of
-    :func:`floating_f`; ``loads`` = (hub arm, overhang moment, c_φ, c_s, c_φφ, c_ss, nacelle
+    Returns (U, U_rel, T_a, T, P_e, ω_g, λ, Cp, Ct, M_tb, a_nacelle, F_x^w, F_z^w, M_φ^w,
+    η platform, η gauge): U the wind at ``t`` (``wind`` unless ``wind_table`` holds a
+    turbulent record), U_rel of :func:`plant.platform.relative_wind`, rotor loads of
+    :func:`plant.turbine.outputs`, M_tb of :meth:`plant.simulator.TowerBaseLoads.moment_nm`
+    with the accelerations of :func:`floating_f` at the applied (θ, T_g) demands and the
+    waves of ``s``; block B_LOADS = (hub arm, overhang moment, c_φ, c_s, c_φφ, c_ss, nacelle
     height, g).
     """
+    if wind_table.size:
+        wind = turbulent_speed(wind_table, s[S_WIND_DT], t)
     u = np.empty(6)
-    u[0] = applied_pitch
-    u[1] = applied_torque
+    u[0] = pitch
+    u[1] = torque_demand
     u[2] = wind
-    u[3] = wave[0]
-    u[4] = wave[1]
-    u[5] = wave[2]
-    dx = np.empty(x.size)
-    floating_f(x, u, fp, knots, segs, rad, xs, ys, cells, dx)
+    u[3] = s[S_WAVE]
+    u[4] = s[S_WAVE + 1]
+    u[5] = s[S_WAVE + 2]
+    nr = x.size - 11
+    mu0 = mu1 = mu2 = 0.0
+    if nr > 0:
+        mu0, mu1, mu2 = _radiation_mu(x, _b2(C, off, B_RADT, nr + 3), nr)
+    fp = _b1(C, off, B_FP)
+    xs = _b1(C, off, B_XS)
+    ys = _b1(C, off, B_YS)
+    cells = _b2(C, off, B_CELLS, 12)
+    dx = np.empty(11)
+    knots = _b1(C, off, B_KNOTS)
+    _mech(x, u, mu0, mu1, mu2, fp, knots, _b2(C, off, B_SEG14, 14), xs, ys, cells, dx)
+    loads = _b1(C, off, B_LOADS)
     tilt, ict, kap = fp[F_ROT], fp[F_ROT + 1], fp[F_ROT + 2]
     jh2, jh3 = fp[F_JH + 2], fp[F_JH + 3]
     jv2, jv3 = fp[F_JV + 2], fp[F_JV + 3]
@@ -610,19 +710,27 @@ def floating_truth(
         - dx[6] * loads[4]
         - dx[7] * loads[5]
     )
-    out[0] = u_rel
-    out[1] = t_aero
-    out[2] = thrust
-    out[3] = eff * torque * omega * gear
-    out[4] = omega * gear
-    out[5] = tsr
-    out[6] = cp
-    out[7] = ct
-    out[8] = tbm
-    out[9] = dx[4] + loads[6] * dx[6] + dx[7]
+    return (
+        wind,
+        u_rel,
+        t_aero,
+        thrust,
+        eff * torque * omega * gear,
+        omega * gear,
+        tsr,
+        cp,
+        ct,
+        tbm,
+        dx[4] + loads[6] * dx[6] + dx[7],
+        s[S_WAVE],
+        s[S_WAVE + 1],
+        s[S_WAVE + 2],
+        s[S_WAVE + 3],
+        s[S_WAVE + 4],
+    )
 
 
-@numba.njit(cache=True)
+@njit
 def _turbine_f(
     om: float, th: float, tg: float, pc: float, tc: float, wind: float, tp: np.ndarray,
     xs: np.ndarray, ys: np.ndarray, cells: np.ndarray,
@@ -653,26 +761,32 @@ def _turbine_f(
     return d_omega, d_theta, d_torque
 
 
-@numba.njit(cache=True)
+@njit
 def turbine_advance(
-    x: np.ndarray,
-    h: float,
-    switch: int,
-    demand: np.ndarray,
-    winds: np.ndarray,
-    tp: np.ndarray,
-    xs: np.ndarray,
-    ys: np.ndarray,
-    cells: np.ndarray,
-) -> None:
-    """Classic RK4 of :func:`plant.turbine.f` (as :func:`plant.integrate.rk4_step`), one
-    step per entry of ``winds`` (the wind held at mid-step), in place on x = (ω, θ, T_g)."""
-    for i in range(winds.size):
-        pc = demand[0] if i < switch else demand[2]
-        tc = demand[1] if i < switch else demand[3]
-        w = winds[i]
+    x: np.ndarray, s: np.ndarray, C: np.ndarray, off: np.ndarray, h: float, n_steps: int,
+    switch: int, wind_table: np.ndarray, t_s: float,
+) -> None:  # fmt: skip
+    """Classic RK4 of :func:`plant.turbine.f` (as :func:`plant.integrate.rk4_step`), in place
+    on x = (ω, θ, T_g), the wind held at each step's middle.
+
+    ``s`` = (previous θ_c, T_c, new θ_c, T_c, Δt of the wind record, then the wind of each
+    step, computed here from ``wind_table`` when it is not empty); C, off blocks: tp (12,
+    :func:`_turbine_f`, then k_thrust), TSR grid, pitch grid, Cp/Ct/Cq cells.
+    """
+    tp = _b1(C, off, 0)
+    xs = _b1(C, off, 1)
+    ys = _b1(C, off, 2)
+    cells = _b2(C, off, 3, 12)
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    if wind_table.size:
+        for i in range(n_steps):
+            s[5 + i] = turbulent_speed(wind_table, s[4], t_s + i * h + 0.5 * h)
+    for i in range(n_steps):
+        pc = s[0] if i < switch else s[2]
+        tc = s[1] if i < switch else s[3]
+        w = s[5 + i]
         om, th, tg = x[0], x[1], x[2]
-        h2 = 0.5 * h
         k1 = _turbine_f(om, th, tg, pc, tc, w, tp, xs, ys, cells)
         k2 = _turbine_f(
             om + h2 * k1[0], th + h2 * k1[1], tg + h2 * k1[2], pc, tc, w, tp, xs, ys, cells
@@ -683,7 +797,32 @@ def turbine_advance(
         k4 = _turbine_f(
             om + h * k3[0], th + h * k3[1], tg + h * k3[2], pc, tc, w, tp, xs, ys, cells
         )
-        h6 = h / 6.0
         x[0] = om + h6 * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
         x[1] = th + h6 * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
         x[2] = tg + h6 * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
+
+
+@njit
+def turbine_outputs(
+    x: np.ndarray, s: np.ndarray, C: np.ndarray, off: np.ndarray, wind_table: np.ndarray,
+    t: float, wind: float, eff: float,
+) -> tuple[float, ...]:  # fmt: skip
+    """:func:`plant.turbine.outputs` at x = (ω, θ, T_g) and the wind at ``t`` (``wind``
+    unless ``wind_table`` holds a turbulent record): (U, T_a, T, P_e, ω_g, λ, Cp, Ct, T_a ω)
+    (blocks of :func:`turbine_advance`)."""
+    if wind_table.size:
+        wind = turbulent_speed(wind_table, s[4], t)
+    tp = _b1(C, off, 0)
+    omega, theta, torque = x[0], x[1], x[2]
+    if wind > WIND_MIN_M_S:
+        tsr = (omega if omega > 0.0 else 0.0) * tp[0] / wind
+        cp, ct, cq = coefficients_clamped(
+            tsr, theta, _b1(C, off, 1), _b1(C, off, 2), _b2(C, off, 3, 12)
+        )
+        u2 = wind * wind
+        t_aero = tp[1] * u2 * cq
+        thrust = tp[11] * u2 * ct
+    else:
+        tsr = cp = ct = t_aero = thrust = 0.0
+    n = tp[2]
+    return (wind, t_aero, thrust, eff * torque * omega * n, omega * n, tsr, cp, ct, t_aero * omega)

@@ -388,7 +388,8 @@ class FloatingParams:
     _tdamp: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _rad: FloatArray = field(init=False, repr=False)
     _step_cache: dict[float, _Stepper] = field(init=False, repr=False)
-    _kern: tuple[FloatArray, ...] = field(init=False, repr=False)
+    _blocks: list[FloatArray] = field(init=False, repr=False)
+    _kern: tuple[FloatArray, npt.NDArray[np.int64]] = field(init=False, repr=False)
     n_radiation: int = field(init=False)
 
     def __post_init__(self) -> None:
@@ -476,7 +477,9 @@ class FloatingParams:
         set_(self, "_rad", block)
         set_(self, "_step_cache", {})
         set_(self, "n_radiation", nr)
-        set_(self, "_kern", _f_constants(self, block))
+        blocks = _f_blocks(self, block)
+        set_(self, "_blocks", blocks)
+        set_(self, "_kern", _k.pack(blocks))
 
     @property
     def n_states(self) -> int:
@@ -526,10 +529,10 @@ def rotor_thrust(
     return tp.k_thrust * wind_rel_m_s * wind_rel_m_s * ct
 
 
-def _f_constants(p: FloatingParams, block: FloatArray) -> tuple[FloatArray, ...]:
-    """Constants of the compiled :func:`f` (:func:`plant._kernels.floating_f`): (FP, mooring
-    knots, mooring segments (n, 14), radiation block [[A, B], [C, 0]], TSR grid, pitch grid,
-    Cp/Ct/Cq cells), FP laid out as in :mod:`plant._kernels`."""
+def _f_blocks(p: FloatingParams, block: FloatArray) -> list[FloatArray]:
+    """Blocks of the packed constants (:mod:`plant._kernels`, ``B_*``) that :func:`f` uses:
+    FP, mooring knots and segments (n, 14), the radiation block [[A, B], [C, 0]] transposed,
+    the Cp/Ct/Cq grids and cells; the step's blocks empty."""
     tp = p.turbine
     fp = np.zeros(_k.F_SIZE)
     fp[_k.F_F0 : _k.F_F0 + 4] = p.static_force
@@ -558,18 +561,17 @@ def _f_constants(p: FloatingParams, block: FloatArray) -> tuple[FloatArray, ...]
         1.0 if p.aero else 0.0,
     )
     tab = p.mooring
-    knots = np.array(tab._x, dtype=np.float64)
-    segs = np.array(tab._seg, dtype=np.float64).reshape(len(tab._seg), 14)
     table = tp.table
-    return (
-        fp,
-        knots,
-        segs,
-        np.array(block, dtype=np.float64),
-        table._tsr_array,
-        table._pitch_array,
-        table._cell_array,
-    )
+    blocks = [np.zeros(0)] * _k.N_BLOCKS
+    blocks[_k.B_KNOTS] = np.array(tab._x, dtype=np.float64)
+    blocks[_k.B_XS] = table._tsr_array
+    blocks[_k.B_YS] = table._pitch_array
+    blocks[_k.B_CELLS] = table._cell_array
+    blocks[_k.B_FP] = fp
+    blocks[_k.B_SEG14] = np.array(tab._seg, dtype=np.float64)
+    blocks[_k.B_RADT] = np.array(block, dtype=np.float64).T
+    blocks[_k.B_LOADS] = np.zeros(8)
+    return blocks
 
 
 def f(
@@ -602,7 +604,8 @@ def f(
     if xa.shape != (params.n_states,):
         raise ValueError(f"f: expected {params.n_states} states, got shape {xa.shape}")
     out = np.empty_like(xa)
-    _k.floating_f(xa, np.array(u, dtype=np.float64), *params._kern, out)
+    c, o = params._kern
+    _k.floating_f(xa, np.array(u, dtype=np.float64), c, o, out)
     return tuple(out.tolist())
 
 
@@ -684,7 +687,7 @@ def _mooring_segments(
 class _Stepper:
     """The RK4 + exact-radiation step of :func:`step_floating` for one (params, h).
 
-    Every constant is computed here once (:func:`step_constants`): M⁻¹ folded into the
+    Every constant is computed here once (:func:`step_blocks`): M⁻¹ folded into the
     stiffness (with the mooring, per table segment), damping, drag, hub lever and wave-force
     maps; the step itself is the compiled :func:`plant._kernels.floating_step`. The radiation
     update also yields the radiation accelerations of the next step, reused when the next
@@ -692,7 +695,7 @@ class _Stepper:
     """
 
     def __init__(self, p: FloatingParams, h: float) -> None:
-        self.consts = step_constants(p, h)
+        self.consts = _k.pack(step_blocks(p, h))
         self.n_states = p.n_states
         self.z = np.zeros(p.n_radiation + 8)
         self.out = np.empty(p.n_states)
@@ -703,19 +706,18 @@ class _Stepper:
         if xa.shape != (self.n_states,):
             raise ValueError(f"step_floating: expected {self.n_states} states, got {xa.shape}")
         use_last = x is self.last
-        _k.floating_step(
-            xa, np.array(u, dtype=np.float64), self.out, self.z, use_last, *self.consts
-        )
+        c, o = self.consts
+        _k.floating_step(xa, np.array(u, dtype=np.float64), self.out, self.z, use_last, c, o)
         y = tuple(self.out.tolist())
         self.last = y
         return y
 
 
-def step_constants(p: FloatingParams, h: float) -> tuple[FloatArray, ...]:
-    """Constants of :func:`plant._kernels.floating_step` for one (params, h).
+def step_blocks(p: FloatingParams, h: float) -> list[FloatArray]:
+    """Blocks of the packed constants of :func:`plant._kernels.floating_step` for (params, h).
 
-    (SP, mooring knots, segments (n, 26), TSR grid, pitch grid, Cp/Ct/Cq cells, radiation
-    ``end``, ``start``), SP laid out as in :mod:`plant._kernels`: M⁻¹ folded into the wave
+    Those of :func:`f` with SP, the mooring segments (n, 26) and the radiation ``end`` and
+    ``start`` (transposed), SP laid out as in :mod:`plant._kernels`: M⁻¹ folded into the wave
     force (W = M⁻¹[:, :3]), damping (−M⁻¹D), tower drag (M⁻¹c_t, −M⁻¹D_t), quadratic drag
     (−M⁻¹[:, :3]B_q) and the thrust's pitch/tower moment arms (J).
     """
@@ -756,22 +758,17 @@ def step_constants(p: FloatingParams, h: float) -> tuple[FloatArray, ...]:
     sp[_k.S_J : _k.S_J + 4] = minv[:, 2] * arm_p + minv[:, 3] * arm_s
     knots, segs = _mooring_segments(p, minv)
     seg_array = np.array(segs, dtype=np.float64).reshape(len(segs), 26)
-    nr = p.n_radiation
-    if nr:
+    if p.n_radiation:
         end, start = _radiation_step_matrices(p, h, minv)
     else:
         end, start = np.zeros((8, 6)), np.zeros((8, N_MECH_STATES))
-    table = tp.table
-    return (
-        sp,
-        np.array(knots, dtype=np.float64),
-        seg_array,
-        table._tsr_array,
-        table._pitch_array,
-        table._cell_array,
-        np.ascontiguousarray(end),
-        np.ascontiguousarray(start),
-    )
+    blocks = list(p._blocks)
+    blocks[_k.B_SP] = sp
+    blocks[_k.B_KNOTS] = np.array(knots, dtype=np.float64)
+    blocks[_k.B_SEG26] = seg_array
+    blocks[_k.B_ENDT] = end.T
+    blocks[_k.B_STARTT] = start.T
+    return blocks
 
 
 def step_floating(

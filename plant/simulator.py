@@ -57,10 +57,10 @@ from bus_schemas.messages import (
     VALID_WIND,
 )
 from plant import _kernels as _k
-from plant.platform import FloatingParams, FloatingPreset, step_constants, tower_modal
-from plant.turbine import TurbineOutputs, TurbineParams, outputs
+from plant.platform import FloatingParams, FloatingPreset, step_blocks, tower_modal
+from plant.turbine import TurbineParams, outputs
 from plant.waves import WaveField
-from plant.wind import WindSpec, make_wind_function, wind_speed
+from plant.wind import TurbulentWind, WindSpec, make_wind_function, wind_speed
 from sensors import ChannelSpec, ChannelSuite, NoiseSpec, SensorSuite
 from sensors.faults import FaultSchedule, FaultSpec
 
@@ -82,6 +82,22 @@ MEASURED_FIELDS = tuple(k for k in VALID_BITS if k != "rotor_speed_measured_rad_
 #: Platform and tower positions and rates (state order) reported by a bottom-fixed plant.
 _NO_PLATFORM: State = (0.0,) * 8
 
+#: The measured SensorFrame fields in the order the channels' readings are gathered.
+FRAME_FIELDS = (
+    "generator_speed_measured_rad_s",
+    "blade_pitch_measured_rad",
+    "generator_torque_measured_nm",
+    "electrical_power_measured_w",
+    "wind_speed_measured_m_s",
+    "nacelle_acc_fore_aft_measured_m_s2",
+    "platform_pitch_measured_rad",
+    "platform_pitch_rate_measured_rad_s",
+    "platform_surge_measured_m",
+    "wave_elevation_gauge_measured_m",
+)
+if set(FRAME_FIELDS) != set(MEASURED_FIELDS):  # a SensorFrame field added or renamed
+    raise ImportError(f"plant.simulator.FRAME_FIELDS {FRAME_FIELDS} != {MEASURED_FIELDS}")
+
 #: Channel name (SensorFrame field) -> the PlantState field it measures. The anemometer sits
 #: on the moving nacelle and reads the relative wind.
 CHANNEL_TRUTH = {
@@ -99,15 +115,6 @@ CHANNEL_TRUTH = {
 
 #: Steps between exact recomputations of the wave phasors (PhasorStepper's default).
 WAVE_RESYNC_STEPS = 1024
-
-#: Still water: empty stepper arrays (phasors, rotations, z₀, ω, coefficients).
-_NO_WAVES: tuple[np.ndarray, ...] = (
-    np.zeros(0, dtype=np.complex128),
-    np.zeros(0, dtype=np.complex128),
-    np.zeros(0, dtype=np.complex128),
-    np.zeros(0),
-    np.zeros((5, 0), dtype=np.complex128),
-)
 
 
 @dataclass(frozen=True)
@@ -291,51 +298,73 @@ class PlantSimulator:
         )
         self._faulty = bool(self.faults)
         # The channels' true values in suite order (one attrgetter call) and their frame bits.
-        self._channel_truths: Callable[[PlantState], list[float]] | None = None
-        self._channel_bits: list[tuple[str, int]] = []
+        self._channel_truths: Callable[[PlantState], tuple[float, ...]] | None = None
+        self._slots = np.zeros((0, 2), dtype=np.int64)
+        self._record = np.zeros(len(FRAME_FIELDS))
         if self.channels is not None:
             keys = list(self.channels)
             if all(k in CHANNEL_TRUTH for k in keys):
-                get = operator.attrgetter(*(CHANNEL_TRUTH[k] for k in keys))
-                if len(keys) == 1:
-                    self._channel_truths = lambda s: [get(s)]
+                names = [CHANNEL_TRUTH[k] for k in keys]
+                if len(names) == 1:
+                    one = names[0]
+                    self._channel_truths = lambda s: (getattr(s, one),)
                 else:
-                    self._channel_truths = lambda s: list(get(s))
-            self._channel_bits = [(k, VALID_BITS[k] if k in MEASURED_FIELDS else 0) for k in keys]
+                    self._channel_truths = operator.attrgetter(*names)
+            self._slots = np.array(
+                [
+                    (FRAME_FIELDS.index(k), VALID_BITS[k]) if k in FRAME_FIELDS else (-1, 0)
+                    for k in keys
+                ],
+                dtype=np.int64,
+            ).reshape(len(keys), 2)
         # Compiled period (plant._kernels): the state as an array beside the tuple returned
-        # last (reused when the caller passes that tuple back), the radiation accelerations of
-        # the last step's end, the wind at the steps' middles and the two demands.
+        # last (reused when the caller passes that tuple back); the kernels' state ``_s``
+        # (demands, winds of the steps, wave clock and values, radiation accelerations of the
+        # last step's end: layout S_* of plant._kernels), the wave arrays and the constants.
         self._x_tuple: object = None
+        self._wave_t0, self._wave_n = 0.0, 0
         self._x_arr = np.zeros(0)
-        self._have_z = False
-        self._winds = np.zeros(self.n)
-        self._demand = np.zeros(4)
-        self._truth_out = np.zeros(10)
-        self._wave_now = np.zeros(5)
-        self._wave_arrays: tuple[np.ndarray, ...] = _NO_WAVES
-        self._wave_clock = np.zeros(4)
+        self._wc = np.zeros((9, 0), dtype=np.complex128)
         tp = self.params
-        self._tp = np.array(
-            [
-                tp.rotor_radius_m,
-                tp.k_torque,
-                tp.gearbox_ratio,
-                tp.inv_inertia,
-                tp.pitch_min_rad,
-                tp.pitch_max_rad,
-                tp.inv_pitch_tau,
-                tp.pitch_rate_max_rad_s,
-                tp.torque_max_nm,
-                tp.inv_torque_tau,
-                tp.torque_rate_max_nm_s,
-            ]
+        # A turbulent wind record is looked up inside the kernels (plant._kernels.turbulent_speed).
+        wind = config.wind
+        wind_dt = wind.dt_s if isinstance(wind, TurbulentWind) else 0.0
+        self._wind_table = np.array(
+            wind.samples_m_s if isinstance(wind, TurbulentWind) else (), dtype=np.float64
         )
-        if self.floating is not None:
+        if self.floating is None:
+            self._w0 = 5
+            self._s = np.zeros(self._w0 + self.n)
+            self._s[4] = wind_dt
+            table = tp.table
+            tpa = np.array(
+                [
+                    tp.rotor_radius_m,
+                    tp.k_torque,
+                    tp.gearbox_ratio,
+                    tp.inv_inertia,
+                    tp.pitch_min_rad,
+                    tp.pitch_max_rad,
+                    tp.inv_pitch_tau,
+                    tp.pitch_rate_max_rad_s,
+                    tp.torque_max_nm,
+                    tp.inv_torque_tau,
+                    tp.torque_rate_max_nm_s,
+                    tp.k_thrust,
+                ]
+            )
+            self._c, self._o = _k.pack(
+                [tpa, table._tsr_array, table._pitch_array, table._cell_array]
+            )
+        else:
             fl = self.floating
-            self._step_consts = step_constants(fl.params, self.h)
-            self._z = np.zeros(fl.params.n_radiation + 8)
+            nr = fl.params.n_radiation
+            self._w0 = _k.S_Z + nr + 8
+            self._s = np.zeros(self._w0 + self.n)
+            self._s[_k.S_WIND_DT] = wind_dt
             ld = fl.loads
-            self._loads = np.array(
+            blocks = step_blocks(fl.params, self.h)
+            blocks[_k.B_LOADS] = np.array(
                 [
                     ld.hub_arm_m,
                     ld.overhang_moment_kg_m,
@@ -347,6 +376,7 @@ class PlantSimulator:
                     ld.gravity_m_s2,
                 ]
             )
+            self._c, self._o = _k.pack(blocks)
             if fl.waves.n_components:
                 self._reset_waves(0.0)
 
@@ -373,28 +403,35 @@ class PlantSimulator:
         omega = np.array(w.omega_rad_s, dtype=np.float64)
         z0 = np.asarray(w.amplitude_m * np.exp(1j * w.phase_rad), dtype=np.complex128)
         dt = 0.5 * self.h
-        p = z0 * np.exp(1j * omega * t_s)
-        r = np.exp(1j * omega * dt)
-        self._wave_arrays = (p, r, z0, omega, np.ascontiguousarray(coeff))
-        self._wave_clock = np.array([0.0, float(WAVE_RESYNC_STEPS), float(t_s), dt])
-        _k.phasor_values(self._wave_arrays[4], p, self._wave_now)
+        wc = np.zeros((9, omega.size), dtype=np.complex128)
+        wc[_k.W_P] = z0 * np.exp(1j * omega * t_s)
+        wc[_k.W_R] = np.exp(1j * omega * dt)
+        wc[_k.W_Z0] = z0
+        wc[_k.W_OMEGA] = omega
+        wc[_k.W_C :] = coeff
+        self._wc = wc
+        self._s[_k.S_CLOCK : _k.S_CLOCK + 4] = (0.0, float(WAVE_RESYNC_STEPS), float(t_s), dt)
+        self._wave_t0, self._wave_n = float(t_s), 0
+        _k.phasor_values(wc, self._s[_k.S_WAVE : _k.S_WAVE + 5])
 
     @property
     def wave_time_s(self) -> float:
         """Time of the wave stepper t₀ + n Δt (s)."""
-        c = self._wave_clock
-        return float(c[2] + c[0] * c[3])
+        return self._wave_t0 + self._wave_n * (0.5 * self.h)
 
     def wave_values(self) -> tuple[float, float, float, float, float]:
         """Current (F_x N, F_z N, M_φ N m, η platform m, η gauge m) at the last step's end."""
-        v = self._wave_now.tolist()
+        if self.floating is None:
+            return (0.0, 0.0, 0.0, 0.0, 0.0)
+        v = self._s[_k.S_WAVE : _k.S_WAVE + 5].tolist()
         return (v[0], v[1], v[2], v[3], v[4])
 
     def _state_array(self, x: State) -> np.ndarray:
         """x as an array: the kept one when ``x`` is the tuple returned last, else a copy."""
         if x is self._x_tuple:
             return self._x_arr
-        self._have_z = False
+        if self.floating is not None:
+            self._s[_k.S_HAVE_Z] = 0.0
         self._x_tuple = x
         self._x_arr = np.array(x, dtype=np.float64)
         return self._x_arr
@@ -471,20 +508,19 @@ class PlantSimulator:
         """
         if self.floating is not None:
             return self._advance_floating(t_s, x, previous, command, switch_step)
-        h, wind = self.h, self._wind
-        winds = self._winds
-        for i in range(self.n):
-            winds[i] = wind(t_s + i * h + 0.5 * h)
-        d = self._demand
-        d[0], d[1], d[2], d[3] = previous[0], previous[1], command[0], command[1]
-        xa = np.array(x, dtype=np.float64)
-        table = self.params.table
-        _k.turbine_advance(
-            xa, h, switch_step, d, winds, self._tp, table._tsr_array, table._pitch_array,
-            table._cell_array,
-        )  # fmt: skip
+        h, s = self.h, self._s
+        s[0], s[1], s[2], s[3] = previous[0], previous[1], command[0], command[1]
+        table = self._wind_table
+        if not table.size:
+            wind = self._wind
+            for i in range(self.n):
+                s[5 + i] = wind(t_s + i * h + 0.5 * h)
+        xa = self._state_array(x)
+        _k.turbine_advance(xa, s, self._c, self._o, h, self.n, switch_step, table, t_s)
         a0, a1, a2 = xa.tolist()
-        return (a0, a1, a2)
+        y = (a0, a1, a2)
+        self._x_tuple = y
+        return y
 
     def _advance_floating(
         self,
@@ -495,21 +531,18 @@ class PlantSimulator:
         switch_step: int,
     ) -> State:
         """One period of :func:`plant._kernels.advance_floating` (module docstring)."""
-        h, wind = self.h, self._wind
-        if self._wave_arrays[0].size and abs(self.wave_time_s - t_s) > 0.25 * h:
+        h, s, n = self.h, self._s, self.n
+        if self._wc.shape[1] and abs(self.wave_time_s - t_s) > 0.25 * h:
             self._reset_waves(t_s)  # called out of sequence: resynchronise the waves
         xa = self._state_array(x)
-        winds = self._winds
-        for i in range(self.n):
-            winds[i] = wind(t_s + i * h + 0.5 * h)
-        d = self._demand
-        d[0], d[1], d[2], d[3] = previous[0], previous[1], command[0], command[1]
-        wp, wr, wz, wo, wc = self._wave_arrays
-        _k.advance_floating(
-            xa, switch_step, d, winds, self._wave_now, wp, wr, wz, wo, wc, self._wave_clock,
-            self._z, self._have_z, *self._step_consts,
-        )  # fmt: skip
-        self._have_z = True
+        s[0], s[1], s[2], s[3] = previous[0], previous[1], command[0], command[1]
+        table = self._wind_table
+        if not table.size:
+            wind, w0 = self._wind, self._w0
+            for i in range(n):
+                s[w0 + i] = wind(t_s + i * h + 0.5 * h)
+        _k.advance_floating(xa, s, self._wc, self._c, self._o, n, switch_step, table, t_s, h)
+        self._wave_n += 2 * n
         y = tuple(xa.tolist())
         self._x_tuple = y
         return y
@@ -523,63 +556,82 @@ class PlantSimulator:
         A bottom-fixed plant reports its platform, tower and wave fields as 0 (``floating=0``).
         """
         t = t_ns * 1e-9
-        u_wind = self._wind(t)
-        w = self._wave_now.tolist()  # zeros without waves
+        table = self._wind_table
+        u_wind = 0.0 if table.size else self._wind(t)
         fp = self.floating
         if fp is None:
             tp = self.params
-            q = _NO_PLATFORM
             omega, theta, torque = x[0], x[1], x[2]
-            u_rel = u_wind
-            out = outputs(t, (omega, theta, torque), (applied[0], applied[1], u_rel), tp)
-            tbm = out.rotor_thrust_n * tp.hub_height_m
-            nacelle_acc = 0.0
-        else:
-            p = fp.params
-            tp = p.turbine
-            q = x
-            res = self._truth_out
-            _k.floating_truth(
-                self._state_array(x), applied[0], applied[1], u_wind, self._wave_now, *p._kern,
-                self._loads, tp.generator_efficiency, res,
+            u_wind, t_aero, thrust, p_el, w_gen, tsr, cp, ct, _ = _k.turbine_outputs(
+                self._state_array(x), self._s, self._c, self._o, table, t, u_wind,
+                tp.generator_efficiency,
             )  # fmt: skip
-            u_rel, t_aero, thrust, p_el, w_gen, tsr, cp, ct, tbm, nacelle_acc = res.tolist()
-            omega, theta, torque = x[8], x[9], x[10]
-            out = TurbineOutputs(t_aero, thrust, p_el, w_gen, tsr, cp, ct, t_aero * omega)
+            u_rel = u_wind
+            tbm = thrust * tp.hub_height_m
+            return PlantState(
+                seq=seq,
+                sample_time_ns=t_ns,
+                publish_time_ns=publish_ns,
+                rotor_speed_rad_s=omega,
+                generator_speed_rad_s=w_gen,
+                blade_pitch_rad=theta,
+                generator_torque_nm=torque,
+                aero_torque_nm=t_aero,
+                rotor_thrust_n=thrust,
+                wind_speed_m_s=u_wind,
+                relative_wind_speed_m_s=u_rel,
+                electrical_power_w=p_el,
+                tip_speed_ratio=tsr,
+                power_coefficient=cp,
+                thrust_coefficient=ct,
+                blade_pitch_applied_rad=applied[0],
+                generator_torque_applied_nm=applied[1],
+                floating=0,
+                tower_base_moment_nm=tbm,
+                shaft_torque_nm=tp.gearbox_ratio * torque,
+            )
+        tp = fp.params.turbine
+        (
+            u_wind, u_rel, t_aero, thrust, p_el, w_gen, tsr, cp, ct, tbm, nacelle_acc,
+            wx, _, wp, eta_p, eta_g,
+        ) = _k.floating_truth(
+            self._state_array(x), self._s, self._c, self._o, table, t, u_wind, applied[0],
+            applied[1], tp.generator_efficiency,
+        )  # fmt: skip
         return PlantState(
             seq=seq,
             sample_time_ns=t_ns,
             publish_time_ns=publish_ns,
-            rotor_speed_rad_s=omega,
-            generator_speed_rad_s=out.generator_speed_rad_s,
-            blade_pitch_rad=theta,
-            generator_torque_nm=torque,
-            aero_torque_nm=out.aero_torque_nm,
-            rotor_thrust_n=out.rotor_thrust_n,
+            rotor_speed_rad_s=x[8],
+            generator_speed_rad_s=w_gen,
+            blade_pitch_rad=x[9],
+            generator_torque_nm=x[10],
+            aero_torque_nm=t_aero,
+            rotor_thrust_n=thrust,
             wind_speed_m_s=u_wind,
             relative_wind_speed_m_s=u_rel,
-            electrical_power_w=out.electrical_power_w,
-            tip_speed_ratio=out.tip_speed_ratio,
-            power_coefficient=out.cp,
-            thrust_coefficient=out.ct,
+            electrical_power_w=p_el,
+            tip_speed_ratio=tsr,
+            power_coefficient=cp,
+            thrust_coefficient=ct,
             blade_pitch_applied_rad=applied[0],
             generator_torque_applied_nm=applied[1],
-            floating=0 if fp is None else 1,
-            platform_surge_m=q[0],
-            platform_heave_m=q[1],
-            platform_pitch_rad=q[2],
-            platform_surge_velocity_m_s=q[4],
-            platform_heave_velocity_m_s=q[5],
-            platform_pitch_rate_rad_s=q[6],
-            tower_top_displacement_m=q[3],
-            tower_top_velocity_m_s=q[7],
+            floating=1,
+            platform_surge_m=x[0],
+            platform_heave_m=x[1],
+            platform_pitch_rad=x[2],
+            platform_surge_velocity_m_s=x[4],
+            platform_heave_velocity_m_s=x[5],
+            platform_pitch_rate_rad_s=x[6],
+            tower_top_displacement_m=x[3],
+            tower_top_velocity_m_s=x[7],
             nacelle_acc_fore_aft_m_s2=nacelle_acc,
-            wave_elevation_platform_m=w[3],
-            wave_elevation_gauge_m=w[4],
-            wave_force_surge_n=w[0],
-            wave_moment_pitch_nm=w[2],
+            wave_elevation_platform_m=eta_p,
+            wave_elevation_gauge_m=eta_g,
+            wave_force_surge_n=wx,
+            wave_moment_pitch_nm=wp,
             tower_base_moment_nm=tbm,
-            shaft_torque_nm=tp.gearbox_ratio * torque,
+            shaft_torque_nm=tp.gearbox_ratio * x[10],
         )
 
     def sensor_frame(self, seq: int, truth: PlantState, publish_ns: int) -> SensorFrame:
@@ -598,32 +650,41 @@ class PlantSimulator:
         if get is None:  # a channel without a true value: the suite's KeyError naming it
             self.channels.step(truth.sample_time_ns, {})
             raise AssertionError("unreachable: the suite raised KeyError")
-        vals, oks = self.channels.step_values(truth.sample_time_ns, get(truth))
-        values = dict.fromkeys(MEASURED_FIELDS, 0.0)
-        mask = 0
         if self._faulty:
+            vals, oks = self.channels.step_values(truth.sample_time_ns, get(truth))
             readings = dict(zip(self.channels, zip(vals, oks, strict=True), strict=True))
             self.faults.apply(truth.sample_time_ns, readings)
+            values = dict.fromkeys(MEASURED_FIELDS, 0.0)
+            mask = 0
             for name, (value, ok) in readings.items():
                 if ok and name in values:
                     values[name] = value
                     mask |= VALID_BITS[name]
+            v = [values[name] for name in FRAME_FIELDS]
         else:
-            for (name, bit), value, ok in zip(self._channel_bits, vals, oks, strict=True):
-                if ok and bit:
-                    values[name] = value
-                    mask |= bit
+            rec = self._record
+            mask = self.channels.step_into(truth.sample_time_ns, get(truth), self._slots, rec)
+            v = rec.tolist()
         rotor = 0.0
         if mask & VALID_GENERATOR_SPEED:
-            rotor = values["generator_speed_measured_rad_s"] / self.params.gearbox_ratio
+            rotor = v[0] / self.params.gearbox_ratio
             mask |= VALID_ROTOR_SPEED
         return SensorFrame(
             seq=seq,
             sample_time_ns=truth.sample_time_ns,
             publish_time_ns=publish_ns,
             valid_mask=mask,
+            generator_speed_measured_rad_s=v[0],
             rotor_speed_measured_rad_s=rotor,
-            **values,
+            blade_pitch_measured_rad=v[1],
+            generator_torque_measured_nm=v[2],
+            electrical_power_measured_w=v[3],
+            wind_speed_measured_m_s=v[4],
+            nacelle_acc_fore_aft_measured_m_s2=v[5],
+            platform_pitch_measured_rad=v[6],
+            platform_pitch_rate_measured_rad_s=v[7],
+            platform_surge_measured_m=v[8],
+            wave_elevation_gauge_measured_m=v[9],
         )
 
     def _fault_noise_frame(self, frame: SensorFrame) -> SensorFrame:

@@ -19,63 +19,78 @@ bit for bit).
 
 Layouts (rows are channels)
 ---------------------------
-* ``spec_f`` (n, 6): σ, b, r, p, y_min, y_max;  ``spec_i`` (n, 2): d (ns), T (ns).
-* ``st`` (n, 10) int64: last call time (ns), has a last call, last sample index k, has a
-  sample, ring head, ring count, next normal, next uniform, samples taken, samples lost.
-* ``held`` (n,) float64 value and ``held_ok`` (n,) bool flag of the last sample.
+* ``f`` (n, 8) float64: σ, b, r, p, y_min, y_max, held value, reading.
+* ``i`` (n, 12) int64: d (ns), T (ns), last call time (ns), has a last call, last sample
+  index k, has a sample, ring head, ring count, next normal, next uniform, samples taken,
+  samples lost.
+* ``ok`` (n, 2) bool: held flag, reading flag.
 * ``hist_t`` (n, cap) int64 and ``hist_v`` (n, cap) float64: the ring buffers.
+* ``rn`` (n, 2, BLOCK) float64: the current blocks of N(0, 1) and U[0, 1) draws.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
 
 import numba
 import numpy as np
 
-LAST_T, HAS_LAST, SAMPLE_K, HAS_SAMPLE, HEAD, COUNT, NORMAL_I, UNIFORM_I, SAMPLES, DROPPED = range(
-    10
-)
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def njit(fn: _F) -> _F:
+    """``numba.njit(cache=True)`` (compiled on first call, cached on disk), typed as ``fn``."""
+    return cast(_F, numba.njit(cache=True)(fn))
+
+
+DELAY, PERIOD, LAST_T, HAS_LAST, SAMPLE_K, HAS_SAMPLE, HEAD, COUNT = range(8)
+NORMAL_I, UNIFORM_I, SAMPLES, DROPPED = range(8, 12)
+STD, BIAS, RES, P_DROP, Y_MIN, Y_MAX, HELD, READING = range(8)
 
 #: Return codes of :func:`suite_step` besides 0 (done) and 1 (done, a block to refill):
 #: -1 - c: channel c's time does not increase; -1 - n - c: channel c's ring buffer is full.
 
 
-@numba.njit(cache=True)
+@njit
 def suite_step(
-    idx: np.ndarray,
+    which: int,
     t_ns: int,
-    truths: np.ndarray,
-    spec_f: np.ndarray,
-    spec_i: np.ndarray,
+    truths: tuple[float, ...],
+    f: np.ndarray,
     st: np.ndarray,
-    held: np.ndarray,
-    held_ok: np.ndarray,
+    ok: np.ndarray,
     hist_t: np.ndarray,
     hist_v: np.ndarray,
-    normals: np.ndarray,
-    uniforms: np.ndarray,
-    out_v: np.ndarray,
-    out_ok: np.ndarray,
-) -> int:
-    """Measure the channels ``idx`` at ``t_ns`` (true values ``truths[c]``) into out_v/out_ok.
+    rn: np.ndarray,
+    slots: np.ndarray,
+    record: np.ndarray,
+) -> tuple[int, int]:
+    """Measure channel ``which`` (-1: every channel) at ``t_ns``, true values ``truths[c]``.
 
-    Checks every channel first and changes nothing when one fails (return code < 0).
+    The readings go to f[:, READING] and ok[:, 1], and are scattered into ``record``: with
+    ``slots`` (n, 2) = (index in ``record``, or -1 or beyond it: none; bit), record = 0
+    except the valid
+    readings at their index, and the returned mask the OR of their bits. Returns (code,
+    mask); checks the channels first and changes nothing when one fails (code < 0).
     """
-    n = spec_f.shape[0]
+    n = f.shape[0]
     cap = hist_t.shape[1]
-    block = normals.shape[1]
-    for c in idx:
+    block = rn.shape[2]
+    lo = 0 if which < 0 else which
+    hi = n if which < 0 else which + 1
+    for c in range(lo, hi):
         if st[c, HAS_LAST] and t_ns <= st[c, LAST_T]:
-            return -1 - c
-        if (spec_i[c, 0] or spec_i[c, 1]) and st[c, COUNT] >= cap:
-            return -1 - n - c
+            return -1 - c, 0
+        if (st[c, DELAY] or st[c, PERIOD]) and st[c, COUNT] >= cap:
+            return -1 - n - c, 0
     refill = 0
-    for c in idx:
+    for c in range(lo, hi):
         st[c, LAST_T] = t_ns
         st[c, HAS_LAST] = 1
-        delay = spec_i[c, 0]
-        period = spec_i[c, 1]
+        delay = st[c, DELAY]
+        period = st[c, PERIOD]
         buffered = delay != 0 or period != 0
         true_value = truths[c]
         if buffered:
@@ -86,8 +101,8 @@ def suite_step(
         if period:
             k = t_ns // period
             if st[c, HAS_SAMPLE] and k == st[c, SAMPLE_K]:
-                out_v[c] = held[c]
-                out_ok[c] = held_ok[c]
+                f[c, READING] = f[c, HELD]
+                ok[c, 1] = ok[c, 0]
                 continue
             st[c, SAMPLE_K] = k
             st[c, HAS_SAMPLE] = 1
@@ -111,37 +126,45 @@ def suite_step(
                 nxt = (head + 1) % cap
                 x = x0 + (hist_v[c, nxt] - x0) * ((tau - t0) / (hist_t[c, nxt] - t0))
         else:
-            x = true_value
-        y = x + spec_f[c, 1]
-        std = spec_f[c, 0]
+            x = float(true_value)
+        y = x + f[c, BIAS]
+        std = f[c, STD]
         if std > 0.0:
             i = st[c, NORMAL_I]
-            y += std * normals[c, i]
+            y += std * rn[c, 0, i]
             st[c, NORMAL_I] = i + 1
             if i + 1 >= block:
                 refill = 1
-        if y < spec_f[c, 4]:
-            y = spec_f[c, 4]
-        elif y > spec_f[c, 5]:
-            y = spec_f[c, 5]
+        if y < f[c, Y_MIN]:
+            y = f[c, Y_MIN]
+        elif y > f[c, Y_MAX]:
+            y = f[c, Y_MAX]
         valid = math.isfinite(y)
-        r = spec_f[c, 2]
+        r = f[c, RES]
         if valid and r > 0.0:
             y = r * np.rint(y / r)
-        p = spec_f[c, 3]
+        p = f[c, P_DROP]
         if p > 0.0:
             j = st[c, UNIFORM_I]
             st[c, UNIFORM_I] = j + 1
             if j + 1 >= block:
                 refill = 1
-            if uniforms[c, j] < p:
+            if rn[c, 1, j] < p:
                 valid = False
                 st[c, DROPPED] += 1
         if not valid:
             y = math.nan
         st[c, SAMPLES] += 1
-        held[c] = y
-        held_ok[c] = valid
-        out_v[c] = y
-        out_ok[c] = valid
-    return refill
+        f[c, HELD] = y
+        ok[c, 0] = valid
+        f[c, READING] = y
+        ok[c, 1] = valid
+    mask = 0
+    if record.size:
+        record[:] = 0.0
+        for c in range(lo, hi):
+            k = slots[c, 0]
+            if 0 <= k < record.size and ok[c, 1]:
+                record[k] = f[c, READING]
+                mask |= slots[c, 1]
+    return refill, mask

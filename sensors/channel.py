@@ -79,6 +79,8 @@ __all__ = [
 BLOCK_SIZE = 4096
 
 _NAN = math.nan
+_NO_SLOTS = np.zeros((0, 2), dtype=np.int64)
+_NO_RECORD = np.zeros(0)
 _isfinite = math.isfinite
 
 
@@ -434,43 +436,46 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         self._keys = list(named)
         self._index = {key: i for i, key in enumerate(self._keys)}
         n = len(named)
-        specs = list(named.values())
+        spec_list = list(named.values())
         # Array state of sensors._kernels.suite_step (layouts in its module docstring).
-        self._spec_f = np.array(
-            [
-                [s.std, s.bias, s.resolution, s.dropout_probability, s.range_min, s.range_max]
-                for s in specs
-            ],
-            dtype=np.float64,
-        ).reshape(n, 6)
-        self._spec_i = np.array(
-            [[s.delay_ns, s.sample_period_ns] for s in specs], dtype=np.int64
-        ).reshape(n, 2)
-        self._st = np.zeros((n, 10), dtype=np.int64)
-        self._held = np.full(n, _NAN)
-        self._held_ok = np.zeros(n, dtype=np.bool_)
+        self._f = np.zeros((n, 8))
+        self._f[:, _kern.HELD] = _NAN
+        self._i = np.zeros((n, 12), dtype=np.int64)
+        for c, sp in enumerate(spec_list):
+            self._f[c, :6] = (
+                sp.std,
+                sp.bias,
+                sp.resolution,
+                sp.dropout_probability,
+                sp.range_min,
+                sp.range_max,
+            )
+            self._i[c, _kern.DELAY] = sp.delay_ns
+            self._i[c, _kern.PERIOD] = sp.sample_period_ns
+        self._ok = np.zeros((n, 2), dtype=np.bool_)
         self._hist_t = np.zeros((n, 16), dtype=np.int64)
         self._hist_v = np.zeros((n, 16))
-        self._rngs = [channel_init(s, seed) for s in specs]
-        self._normals = np.zeros((n, BLOCK_SIZE))
-        self._uniforms = np.zeros((n, BLOCK_SIZE))
-        for c, s in enumerate(specs):  # first blocks of the streams each channel uses
-            if s.std > 0.0:
-                self._normals[c] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
-            if s.dropout_probability > 0.0:
-                self._uniforms[c] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
-        self._all = np.arange(n, dtype=np.int64)
-        self._truths = np.zeros(n)
-        self._out_v = np.zeros(n)
-        self._out_ok = np.zeros(n, dtype=np.bool_)
+        self._rngs = [channel_init(sp, seed) for sp in spec_list]
+        self._rn = np.zeros((n, 2, BLOCK_SIZE))
+        for c, sp in enumerate(spec_list):  # first blocks of the streams each channel uses
+            if sp.std > 0.0:
+                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+            if sp.dropout_probability > 0.0:
+                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
 
-    def _run(self, idx: np.ndarray, t_ns: int) -> None:
+    def _run(
+        self,
+        which: int,
+        t_ns: int,
+        truths: tuple[float, ...],
+        slots: np.ndarray = _NO_SLOTS,
+        record: np.ndarray = _NO_RECORD,
+    ) -> int:
         """One :func:`sensors._kernels.suite_step` call; errors, growth and refills here."""
         while True:
-            code = _kern.suite_step(
-                idx, t_ns, self._truths, self._spec_f, self._spec_i, self._st, self._held,
-                self._held_ok, self._hist_t, self._hist_v, self._normals, self._uniforms,
-                self._out_v, self._out_ok,
+            code, mask = _kern.suite_step(
+                which, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
+                self._rn, slots, record,
             )  # fmt: skip
             if code >= 0:
                 break
@@ -479,16 +484,17 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             if c < n:
                 raise ValueError(
                     f"channel {self._keys[c]!r}: t_ns expected to increase, got {t_ns} "
-                    f"after {int(self._st[c, _kern.LAST_T])}"
+                    f"after {int(self._i[c, _kern.LAST_T])}"
                 )
             self._grow()
         if code:
             self._refill()
+        return mask
 
     def _grow(self) -> None:
         """Double the ring buffers (unrolled so that every ring starts at 0)."""
         cap = self._hist_t.shape[1]
-        st = self._st
+        st = self._i
         order = (st[:, _kern.HEAD, None] + np.arange(cap)[None, :]) % cap
         self._hist_t = np.concatenate(
             [np.take_along_axis(self._hist_t, order, 1), np.zeros_like(self._hist_t)], axis=1
@@ -500,13 +506,13 @@ class SensorSuite(Mapping[str, ChannelSpec]):
 
     def _refill(self) -> None:
         """Next blocks of the streams used up by the last call (as channel_step draws them)."""
-        st = self._st
+        st = self._i
         for c in range(len(self._keys)):
             if st[c, _kern.NORMAL_I] >= BLOCK_SIZE:
-                self._normals[c] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
                 st[c, _kern.NORMAL_I] = 0
             if st[c, _kern.UNIFORM_I] >= BLOCK_SIZE:
-                self._uniforms[c] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
                 st[c, _kern.UNIFORM_I] = 0
 
     @classmethod
@@ -572,25 +578,23 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         KeyError
             When ``truths`` lacks a channel of the suite.
         """
-        tv = self._truths
         try:
-            for i, key in enumerate(self._keys):
-                tv[i] = truths[key]
+            tv = tuple([float(truths[key]) for key in self._keys])
         except KeyError:
             missing = [k for k in self._specs if k not in truths]
             raise KeyError(f"no true value for channel(s) {missing}") from None
-        self._run(self._all, t_ns)
-        values = zip(self._out_v.tolist(), self._out_ok.tolist(), strict=True)
+        self._run(-1, t_ns, tv)
+        values = zip(self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist(), strict=True)
         return dict(zip(self._keys, values, strict=True))
 
-    def step_values(self, t_ns: int, truths: list[float]) -> tuple[list[float], list[bool]]:
+    def step_values(self, t_ns: int, truths: tuple[float, ...]) -> tuple[list[float], list[bool]]:
         """:meth:`step` with the true values and the readings in the suite's channel order.
 
         Parameters
         ----------
         t_ns : int
             Time (ns), increasing from call to call.
-        truths : list of float
+        truths : tuple of float
             True value of each channel, in the order of ``list(suite)``.
 
         Returns
@@ -598,21 +602,52 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         values, valid : list of float, list of bool
             Readings (``nan`` when not valid) and their flags, in the same order.
         """
-        self._truths[:] = truths
-        self._run(self._all, t_ns)
-        return self._out_v.tolist(), self._out_ok.tolist()
+        if len(truths) != len(self._keys):
+            raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
+        self._run(-1, t_ns, truths)
+        return self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist()
+
+    def step_into(
+        self, t_ns: int, truths: tuple[float, ...], slots: np.ndarray, record: np.ndarray
+    ) -> int:
+        """:meth:`step_values`, the readings scattered into a caller's record.
+
+        Parameters
+        ----------
+        t_ns : int
+            Time (ns), increasing from call to call.
+        truths : tuple of float
+            True value of each channel, in the order of ``list(suite)``.
+        slots : ndarray of int64, shape (len(suite), 2)
+            Per channel: its index in ``record`` (-1 or beyond it: not recorded) and its bit.
+        record : ndarray of float64
+            Set to 0, then each valid reading at its index.
+
+        Returns
+        -------
+        int
+            The OR of the bits of the valid readings.
+        """
+        if len(truths) != len(self._keys):
+            raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
+        if slots.shape != (len(self._keys), 2) or slots.dtype != np.int64:
+            raise ValueError(f"slots: expected int64 of shape ({len(self._keys)}, 2)")
+        if record.dtype != np.float64 or record.ndim != 1:
+            raise ValueError("record: expected a float64 vector (slots beyond it are skipped)")
+        return self._run(-1, t_ns, truths, slots, record)
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
         c = self._index[name]
-        self._truths[c] = true_value
-        self._run(np.array([c], dtype=np.int64), t_ns)
-        return float(self._out_v[c]), bool(self._out_ok[c])
+        tv = [0.0] * len(self._keys)
+        tv[c] = float(true_value)
+        self._run(c, t_ns, tuple(tv))
+        return float(self._f[c, _kern.READING]), bool(self._ok[c, 1])
 
     def counts(self, name: str) -> tuple[int, int]:
         """(samples taken, samples lost) of channel ``name`` so far."""
         c = self._index[name]
-        return int(self._st[c, _kern.SAMPLES]), int(self._st[c, _kern.DROPPED])
+        return int(self._i[c, _kern.SAMPLES]), int(self._i[c, _kern.DROPPED])
 
 
 #: Counts per revolution of the generator-speed encoder: a 1024-line quadrature encoder
