@@ -120,12 +120,14 @@ B_LOADS = 11  # tower-base moment constants (8)
 N_BLOCKS = 12
 
 # ---------------------------------------------------------------- floating state S (float64)
-# demand 4 (previous θ_c, T_c, new θ_c, T_c) | has z | wave clock 4 (n, resync, t₀, Δt) |
+# (unused) 4 | has z | wave clock 4 (n, resync, t₀, Δt) |
 # wave values 5 (F_x, F_z, M_φ, η platform, η gauge) | Δt of the wind record | z (n_r + 8) |
 # winds (steps)
 S_DEMAND, S_HAVE_Z, S_CLOCK, S_WAVE, S_WIND_DT, S_Z = 0, 4, 5, 9, 14, 15
-# Wave arrays Wc (complex, 9 rows x N): p, r = e^{iωΔt}, z₀, ω (real), C (5 rows).
-W_P, W_R, W_Z0, W_OMEGA, W_C = 0, 1, 2, 3, 4
+# Wave arrays Wc (float64, 17 rows x N, real and imaginary parts apart so that the loops
+# vectorise): Re p, Im p, Re r, Im r (r = e^{iωΔt}), Re z₀, Im z₀, ω, Re C (5 rows), Im C (5).
+W_PR, W_PI, W_RR, W_RI, W_ZR, W_ZI, W_OMEGA, W_CR, W_CI = 0, 1, 2, 3, 4, 5, 6, 7, 12
+W_ROWS = 17
 
 
 @njit
@@ -373,11 +375,13 @@ def floating_step(
     use_last: bool,
     C: np.ndarray,
     off: np.ndarray,
+    wk: np.ndarray,
 ) -> None:
     """One step of :func:`plant.platform.step_floating` from ``x`` into ``out``.
 
     ``z`` (n_r + 8) holds (ξ1, a_μ, a_r) of the previous step's end (used when ``use_last``)
-    and receives this step's. Stage order, constants and sums as the step's docstring.
+    and receives this step's; ``wk`` (>= 56) is scratch. Stage order, constants and sums as
+    the step's docstring.
     """
     m = 11
     nr = x.size - m
@@ -403,8 +407,10 @@ def floating_step(
     dem = u[1]
     td = 0.0 if dem < 0.0 else (t_hi if dem > t_hi else dem)
     f0, f1, f2 = u[3], u[4], u[5]
-    am = np.zeros(4)
-    ar = np.zeros(4)
+    am = wk[0:4]
+    ar = wk[4:8]
+    am[:] = 0.0
+    ar[:] = 0.0
     if nr:
         if use_last:
             for i in range(4):
@@ -412,7 +418,8 @@ def floating_step(
                 ar[i] = z[nr + 4 + i]
         else:
             startt = _b2(C, off, B_STARTT, 8)
-            acc8 = np.zeros(8)
+            acc8 = wk[48:56]
+            acc8[:] = 0.0
             for j in range(m + nr):
                 xj = x[j]
                 for r in range(8):
@@ -422,19 +429,21 @@ def floating_step(
                 ar[i] = acc8[4 + i]
     au = wind if wind > 0.0 else -wind
     uw = wind * au
-    b = np.empty(4)
-    xd = np.empty(16)
+    b = wk[8:12]
+    xd = wk[12:28]
     for i in range(4):
         w = S_W + 3 * i
         b[i] = sp[w] * f0 + sp[w + 1] * f1 + sp[w + 2] * f2 + am[i] + sp[S_TC + i] * uw
         for j in range(4):
             xd[4 * i + j] = sp[S_D + 4 * i + j] + au * sp[S_TD + 4 * i + j]
     nseg = segs.shape[0]
-    sq = np.empty(4)
-    sv = np.empty(4)
-    a = np.empty(4)
-    kq = np.zeros(4)
-    kv = np.zeros(4)
+    sq = wk[28:32]
+    sv = wk[32:36]
+    a = wk[36:40]
+    kq = wk[40:44]
+    kv = wk[44:48]
+    kq[:] = 0.0
+    kv[:] = 0.0
     for i in range(4):
         sq[i] = x[i]
         sv[i] = x[4 + i]
@@ -533,40 +542,53 @@ def floating_step(
 def phasor_step(wc: np.ndarray, s: np.ndarray, out: np.ndarray, n_out: int) -> None:
     """Advance the wave phasors one Δt and write the first ``n_out`` outputs (0, 3 or 5).
 
-    p_i ← p_i e^{iω_iΔt} (:meth:`plant.waves.PhasorStepper.advance`; every ``resync`` steps
-    exactly p_i = z_i e^{iω_i(t₀ + nΔt)}), then out_o = Re Σ_i C_oi p_i summed over i in
-    order (:meth:`~plant.waves.PhasorStepper.values`). ``s`` holds the clock at S_CLOCK.
+    p_i ← p_i e^{iω_iΔt} (:meth:`plant.waves.PhasorStepper.advance`, the complex product
+    (a + ib)(c + id) = (ac − bd) + i(ad + bc); every ``resync`` steps exactly
+    p_i = z_i e^{iω_i(t₀ + nΔt)}), then out_o = Re Σ_i C_oi p_i summed over i in order
+    (:meth:`~plant.waves.PhasorStepper.values`). ``s`` holds the clock at S_CLOCK.
     """
     n = s[S_CLOCK] + 1.0
     s[S_CLOCK] = n
     resync = s[S_CLOCK + 1]
     nc = wc.shape[1]
+    pr = wc[W_PR]
+    pim = wc[W_PI]
     if resync > 0.0 and n % resync == 0.0:
         t = s[S_CLOCK + 2] + n * s[S_CLOCK + 3]
         for i in range(nc):
-            wc[W_P, i] = wc[W_Z0, i] * np.exp(1j * (wc[W_OMEGA, i].real * t))
+            p = complex(wc[W_ZR, i], wc[W_ZI, i]) * np.exp(1j * (wc[W_OMEGA, i] * t))
+            pr[i] = p.real
+            pim[i] = p.imag
     else:
+        rr = wc[W_RR]
+        ri = wc[W_RI]
         for i in range(nc):
-            wc[W_P, i] = wc[W_P, i] * wc[W_R, i]
+            a = pr[i]
+            b = pim[i]
+            pr[i] = a * rr[i] - b * ri[i]
+            pim[i] = a * ri[i] + b * rr[i]
     if n_out == 0:
         return
+    c0r, c1r, c2r = wc[W_CR], wc[W_CR + 1], wc[W_CR + 2]
+    c0i, c1i, c2i = wc[W_CI], wc[W_CI + 1], wc[W_CI + 2]
     a0 = a1 = a2 = a3 = a4 = 0.0
     if n_out == 3:
         for i in range(nc):
-            pr = wc[W_P, i].real
-            pi = wc[W_P, i].imag
-            a0 += wc[W_C, i].real * pr - wc[W_C, i].imag * pi
-            a1 += wc[W_C + 1, i].real * pr - wc[W_C + 1, i].imag * pi
-            a2 += wc[W_C + 2, i].real * pr - wc[W_C + 2, i].imag * pi
+            a = pr[i]
+            b = pim[i]
+            a0 += c0r[i] * a - c0i[i] * b
+            a1 += c1r[i] * a - c1i[i] * b
+            a2 += c2r[i] * a - c2i[i] * b
     else:
+        c3r, c4r, c3i, c4i = wc[W_CR + 3], wc[W_CR + 4], wc[W_CI + 3], wc[W_CI + 4]
         for i in range(nc):
-            pr = wc[W_P, i].real
-            pi = wc[W_P, i].imag
-            a0 += wc[W_C, i].real * pr - wc[W_C, i].imag * pi
-            a1 += wc[W_C + 1, i].real * pr - wc[W_C + 1, i].imag * pi
-            a2 += wc[W_C + 2, i].real * pr - wc[W_C + 2, i].imag * pi
-            a3 += wc[W_C + 3, i].real * pr - wc[W_C + 3, i].imag * pi
-            a4 += wc[W_C + 4, i].real * pr - wc[W_C + 4, i].imag * pi
+            a = pr[i]
+            b = pim[i]
+            a0 += c0r[i] * a - c0i[i] * b
+            a1 += c1r[i] * a - c1i[i] * b
+            a2 += c2r[i] * a - c2i[i] * b
+            a3 += c3r[i] * a - c3i[i] * b
+            a4 += c4r[i] * a - c4i[i] * b
         out[3] = a3
         out[4] = a4
     out[0] = a0
@@ -580,7 +602,7 @@ def phasor_values(wc: np.ndarray, out: np.ndarray) -> None:
     for o in range(5):
         acc = 0.0
         for i in range(wc.shape[1]):
-            acc += wc[W_C + o, i].real * wc[W_P, i].real - wc[W_C + o, i].imag * wc[W_P, i].imag
+            acc += wc[W_CR + o, i] * wc[W_PR, i] - wc[W_CI + o, i] * wc[W_PI, i]
         out[o] = acc
 
 
@@ -596,12 +618,17 @@ def advance_floating(
     wind_table: np.ndarray,
     t_s: float,
     h: float,
+    pitch0: float,
+    torque0: float,
+    pitch1: float,
+    torque1: float,
 ) -> None:
     """One control period in place: ``n_steps`` steps of :func:`floating_step`.
 
-    ``s`` (layout S_*): the demands (the previous one held for the first ``switch`` steps),
-    the wind at each step's middle (from ``wind_table`` when it is not empty: a turbulent
-    record, :func:`turbulent_speed`), the wave clock and values, z. The wave stepper ``wc``
+    The demand (θ_c rad, T_c N m) is (pitch0, torque0) for the first ``switch`` steps, then
+    (pitch1, torque1). ``s`` (layout S_*): the wind at each step's middle (from
+    ``wind_table`` when it is not empty: a turbulent record, :func:`turbulent_speed`), the
+    wave clock and values, z. The wave stepper ``wc``
     (no columns: still water, the values held) is advanced twice per step (Δt = h/2), the
     mid-step forces going into the step's input and the end values of the last step into
     the wave values.
@@ -610,8 +637,9 @@ def advance_floating(
     z = s[S_Z : S_Z + nr + 8]
     winds = s[S_Z + nr + 8 : S_Z + nr + 8 + n_steps]
     out = np.empty_like(x)
-    u = np.empty(6)
-    wm = np.empty(5)
+    wk = np.empty(67)
+    u = wk[56:62]
+    wm = wk[62:67]
     wave = s[S_WAVE : S_WAVE + 5]
     waves = wc.shape[1] > 0
     if wind_table.size:
@@ -619,11 +647,11 @@ def advance_floating(
             winds[i] = turbulent_speed(wind_table, s[S_WIND_DT], t_s + i * h + 0.5 * h)
     for i in range(n_steps):
         if i < switch:
-            u[0] = s[S_DEMAND]
-            u[1] = s[S_DEMAND + 1]
+            u[0] = pitch0
+            u[1] = torque0
         else:
-            u[0] = s[S_DEMAND + 2]
-            u[1] = s[S_DEMAND + 3]
+            u[0] = pitch1
+            u[1] = torque1
         if waves:
             phasor_step(wc, s, wm, 3)
             u[3] = wm[0]
@@ -635,7 +663,7 @@ def advance_floating(
             u[4] = wave[1]
             u[5] = wave[2]
         u[2] = winds[i]
-        floating_step(x, u, out, z, s[S_HAVE_Z] != 0.0, C, off)
+        floating_step(x, u, out, z, s[S_HAVE_Z] != 0.0, C, off, wk)
         x[:] = out
         s[S_HAVE_Z] = 1.0
 

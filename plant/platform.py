@@ -603,9 +603,12 @@ def f(
     xa = np.array(x, dtype=np.float64)
     if xa.shape != (params.n_states,):
         raise ValueError(f"f: expected {params.n_states} states, got shape {xa.shape}")
+    ua = np.array(u, dtype=np.float64)
+    if ua.shape != (6,):
+        raise ValueError(f"f: expected 6 inputs, got shape {ua.shape}")
     out = np.empty_like(xa)
     c, o = params._kern
-    _k.floating_f(xa, np.array(u, dtype=np.float64), c, o, out)
+    _k.floating_f(xa, ua, c, o, out)
     return tuple(out.tolist())
 
 
@@ -699,6 +702,7 @@ class _Stepper:
         self.n_states = p.n_states
         self.z = np.zeros(p.n_radiation + 8)
         self.out = np.empty(p.n_states)
+        self.work = np.empty(56)
         self.last: object = None
 
     def __call__(self, x: Sequence[float], u: Sequence[float]) -> tuple[float, ...]:
@@ -707,7 +711,10 @@ class _Stepper:
             raise ValueError(f"step_floating: expected {self.n_states} states, got {xa.shape}")
         use_last = x is self.last
         c, o = self.consts
-        _k.floating_step(xa, np.array(u, dtype=np.float64), self.out, self.z, use_last, c, o)
+        ua = np.array(u, dtype=np.float64)
+        if ua.shape != (6,):
+            raise ValueError(f"step_floating: expected 6 inputs, got shape {ua.shape}")
+        _k.floating_step(xa, ua, self.out, self.z, use_last, c, o, self.work)
         y = tuple(self.out.tolist())
         self.last = y
         return y

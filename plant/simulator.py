@@ -317,6 +317,7 @@ class PlantSimulator:
                 ],
                 dtype=np.int64,
             ).reshape(len(keys), 2)
+            self.channels.bind_record(self._slots, self._record)
         # Compiled period (plant._kernels): the state as an array beside the tuple returned
         # last (reused when the caller passes that tuple back); the kernels' state ``_s``
         # (demands, winds of the steps, wave clock and values, radiation accelerations of the
@@ -324,7 +325,7 @@ class PlantSimulator:
         self._x_tuple: object = None
         self._wave_t0, self._wave_n = 0.0, 0
         self._x_arr = np.zeros(0)
-        self._wc = np.zeros((9, 0), dtype=np.complex128)
+        self._wc = np.zeros((_k.W_ROWS, 0))
         tp = self.params
         # A turbulent wind record is looked up inside the kernels (plant._kernels.turbulent_speed).
         wind = config.wind
@@ -403,12 +404,15 @@ class PlantSimulator:
         omega = np.array(w.omega_rad_s, dtype=np.float64)
         z0 = np.asarray(w.amplitude_m * np.exp(1j * w.phase_rad), dtype=np.complex128)
         dt = 0.5 * self.h
-        wc = np.zeros((9, omega.size), dtype=np.complex128)
-        wc[_k.W_P] = z0 * np.exp(1j * omega * t_s)
-        wc[_k.W_R] = np.exp(1j * omega * dt)
-        wc[_k.W_Z0] = z0
+        wc = np.zeros((_k.W_ROWS, omega.size))
+        p = z0 * np.exp(1j * omega * t_s)
+        r = np.exp(1j * omega * dt)
+        wc[_k.W_PR], wc[_k.W_PI] = p.real, p.imag
+        wc[_k.W_RR], wc[_k.W_RI] = r.real, r.imag
+        wc[_k.W_ZR], wc[_k.W_ZI] = z0.real, z0.imag
         wc[_k.W_OMEGA] = omega
-        wc[_k.W_C :] = coeff
+        wc[_k.W_CR : _k.W_CR + 5] = coeff.real
+        wc[_k.W_CI : _k.W_CI + 5] = coeff.imag
         self._wc = wc
         self._s[_k.S_CLOCK : _k.S_CLOCK + 4] = (0.0, float(WAVE_RESYNC_STEPS), float(t_s), dt)
         self._wave_t0, self._wave_n = float(t_s), 0
@@ -430,11 +434,15 @@ class PlantSimulator:
         """x as an array: the kept one when ``x`` is the tuple returned last, else a copy."""
         if x is self._x_tuple:
             return self._x_arr
+        xa = np.array(x, dtype=np.float64)
+        n = 3 if self.floating is None else self.floating.params.n_states
+        if xa.shape != (n,):
+            raise ValueError(f"plant state: expected {n} numbers, got shape {xa.shape}")
         if self.floating is not None:
             self._s[_k.S_HAVE_Z] = 0.0
         self._x_tuple = x
-        self._x_arr = np.array(x, dtype=np.float64)
-        return self._x_arr
+        self._x_arr = xa
+        return xa
 
     # ------------------------------------------------------------------ initial state
     def initial_state(self) -> State:
@@ -535,13 +543,15 @@ class PlantSimulator:
         if self._wc.shape[1] and abs(self.wave_time_s - t_s) > 0.25 * h:
             self._reset_waves(t_s)  # called out of sequence: resynchronise the waves
         xa = self._state_array(x)
-        s[0], s[1], s[2], s[3] = previous[0], previous[1], command[0], command[1]
         table = self._wind_table
         if not table.size:
             wind, w0 = self._wind, self._w0
             for i in range(n):
                 s[w0 + i] = wind(t_s + i * h + 0.5 * h)
-        _k.advance_floating(xa, s, self._wc, self._c, self._o, n, switch_step, table, t_s, h)
+        _k.advance_floating(
+            xa, s, self._wc, self._c, self._o, n, switch_step, table, t_s, h, previous[0],
+            previous[1], command[0], command[1],
+        )  # fmt: skip
         self._wave_n += 2 * n
         y = tuple(xa.tolist())
         self._x_tuple = y
@@ -663,7 +673,7 @@ class PlantSimulator:
             v = [values[name] for name in FRAME_FIELDS]
         else:
             rec = self._record
-            mask = self.channels.step_into(truth.sample_time_ns, get(truth), self._slots, rec)
+            mask = self.channels.step_into(truth.sample_time_ns, get(truth))
             v = rec.tolist()
         rotor = 0.0
         if mask & VALID_GENERATOR_SPEED:

@@ -456,6 +456,8 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         self._hist_t = np.zeros((n, 16), dtype=np.int64)
         self._hist_v = np.zeros((n, 16))
         self._rngs = [channel_init(sp, seed) for sp in spec_list]
+        self._slots = _NO_SLOTS
+        self._record = _NO_RECORD
         self._rn = np.zeros((n, 2, BLOCK_SIZE))
         for c, sp in enumerate(spec_list):  # first blocks of the streams each channel uses
             if sp.std > 0.0:
@@ -607,10 +609,25 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         self._run(-1, t_ns, truths)
         return self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist()
 
-    def step_into(
-        self, t_ns: int, truths: tuple[float, ...], slots: np.ndarray, record: np.ndarray
-    ) -> int:
-        """:meth:`step_values`, the readings scattered into a caller's record.
+    def bind_record(self, slots: np.ndarray, record: np.ndarray) -> None:
+        """Set where :meth:`step_into` scatters the readings (checked once, here).
+
+        Parameters
+        ----------
+        slots : ndarray of int64, shape (len(suite), 2)
+            Per channel: its index in ``record`` (-1 or beyond it: not recorded) and its bit.
+        record : ndarray of float64, shape (m,)
+            Set to 0 at every :meth:`step_into`, then each valid reading at its index.
+        """
+        if slots.shape != (len(self._keys), 2) or slots.dtype != np.int64:
+            raise ValueError(f"slots: expected int64 of shape ({len(self._keys)}, 2)")
+        if record.dtype != np.float64 or record.ndim != 1:
+            raise ValueError("record: expected a float64 vector (slots beyond it are skipped)")
+        self._slots = slots
+        self._record = record
+
+    def step_into(self, t_ns: int, truths: tuple[float, ...]) -> int:
+        """:meth:`step_values`, the readings scattered into the record of :meth:`bind_record`.
 
         Parameters
         ----------
@@ -618,10 +635,6 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             Time (ns), increasing from call to call.
         truths : tuple of float
             True value of each channel, in the order of ``list(suite)``.
-        slots : ndarray of int64, shape (len(suite), 2)
-            Per channel: its index in ``record`` (-1 or beyond it: not recorded) and its bit.
-        record : ndarray of float64
-            Set to 0, then each valid reading at its index.
 
         Returns
         -------
@@ -630,11 +643,7 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         """
         if len(truths) != len(self._keys):
             raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
-        if slots.shape != (len(self._keys), 2) or slots.dtype != np.int64:
-            raise ValueError(f"slots: expected int64 of shape ({len(self._keys)}, 2)")
-        if record.dtype != np.float64 or record.ndim != 1:
-            raise ValueError("record: expected a float64 vector (slots beyond it are skipped)")
-        return self._run(-1, t_ns, truths, slots, record)
+        return self._run(-1, t_ns, truths, self._slots, self._record)
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
