@@ -47,16 +47,16 @@ waves off, E = ½ q̇ᵀ(M_s + A_∞)q̇ + V(q) + ½ J ω² is conserved (:func:
 
 What is hand-written here and why
 ---------------------------------
-``f`` runs four times per RK4 step in a 100 Hz loop: the 4x4 mass-matrix inverse, stiffness and
-damping are stored as tuples of Python floats and multiplied unrolled (a numpy call costs more
-than the whole 4x4 product on floats); only the radiation block, whose size depends on the fit,
-is one numpy product of a precomputed block matrix [[A_r, B_r], [C_r, 0]]. The rotor reuses
-:func:`plant.turbine.f` and :class:`plant.aero.PerformanceTable`. The simulator's integrator,
-:func:`step_floating`, goes further (a closure per (params, h) with M⁻¹ folded into every
-constant, cached Cp/Ct/Cq cell and mooring segment, one numpy product per step for the
-radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states); with
-the shaft tilt, tower drag and offset-dependent mooring stiffness 23 µs (34 radiation states,
-``bench/step_floating_speed.py``; 18 µs before them).
+``f`` and the integrator :func:`step_floating` run several times per plant step of a real-time
+loop; both are compiled (:mod:`plant._kernels`, numba, cached on disk), with every constant
+precomputed here once: for ``f`` the matrices, mooring segments, radiation block and
+Cp/Ct/Cq cells packed in one array; for the step M⁻¹ folded into the stiffness (with the
+mooring, per table segment), damping, drag, hub lever and wave-force maps, and the radiation
+block discretised exactly (:func:`_radiation_step_matrices`). History of the step's cost per
+call (CPU, 34 radiation states): 31 µs (f in Python floats), 17 µs (a specialised closure),
+23 µs (with shaft tilt, tower drag, offset-dependent mooring), ~6 µs compiled including the
+tuple/array conversions of the public call (``bench/step_floating_speed.py``); inside
+:meth:`plant.simulator.PlantSimulator.advance`, which keeps the state as an array, ~1-2 µs.
 """
 
 from __future__ import annotations
@@ -802,11 +802,11 @@ def step_floating(
     states from the four RK4 stages and is exact for the linear block, so stiff radiation poles
     never limit the step.
 
-    Cost: the step is a closure built once per (params, h) (:func:`_build_stepper`, cached on
-    the params): stages on plain floats with M⁻¹ folded into every constant, the Cp/Ct/Cq cell
-    and mooring segment cached, and the radiation update one numpy product per step that also
-    gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous call returned).
-    About 23 µs per call on the 2-vCPU bench machine with 34 radiation states.
+    Cost: the constants are built once per (params, h) (:class:`_Stepper`, cached on the
+    params) and the step is the compiled :func:`plant._kernels.floating_step`, whose radiation
+    update also gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous
+    call returned). About 6 µs per call on the 2-vCPU bench machine with 34 radiation states,
+    most of it the conversion of the tuples.
 
     Parameters
     ----------

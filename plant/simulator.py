@@ -14,14 +14,23 @@ Two plants
 * Floating (:class:`FloatingPlant`): :func:`plant.platform.f`, state (surge, heave, pitch,
   tower-top, their rates, ω, θ, T_g, radiation states), input u = (θ_c, T_c, U, F_x^w,
   F_z^w, M_φ^w). The wave excitation and the elevations at the platform and at the gauge
-  come from one :class:`plant.waves.PhasorStepper` over the same wave field (outputs: the
+  come from one phasor stepper (that of :class:`plant.waves.PhasorStepper`, compiled in
+  :func:`plant._kernels.phasor_step`) over the same wave field (outputs: the
   three excitation components and the two elevations), built with Δt = h/2 so that RK4
   gets its stage inputs exactly: k1 at t, k2 and k3 at t + h/2, k4 at t + h (the wind too;
   the pitch and torque demands are held over the step). This is the choice for the RK4
   mid-step: a stepper at h/2 (two complex multiplies per component per step, no
-  trigonometry) rather than direct evaluation (a cosine per component per stage). If
-  :mod:`plant.platform` provides ``step_floating(t, x, u, h, params)`` (one integrator
-  step with the input held), it is used with the mid-step inputs u(t + h/2).
+  trigonometry) rather than direct evaluation (a cosine per component per stage). The
+  integrator is :func:`plant.platform.step_floating` (one step with the input held) with the
+  mid-step inputs u(t + h/2).
+
+Cost
+----
+A control period, the truth outputs and the sensor readings are one compiled call each
+(:mod:`plant._kernels`, :mod:`sensors._kernels`): the simulator keeps the state as an array
+beside the tuple it returned (a caller passing that tuple back costs no conversion), the
+turbulent wind is looked up in the kernels, and the constants are packed in one array.
+``bench/plant_cycle_speed.py`` measures a whole plant cycle against the main checkout.
 
 Sensor faults
 -------------

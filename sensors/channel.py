@@ -405,7 +405,9 @@ class SensorSuite(Mapping[str, ChannelSpec]):
     """A set of named channels, each with its own seeded state; a read-only mapping name -> spec.
 
     Exported by the package as ``sensors.ChannelSuite`` (``sensors.SensorSuite`` is the
-    older noise-only suite of :mod:`sensors.models`, kept as is).
+    older noise-only suite of :mod:`sensors.models`, kept as is). All channels step in one
+    compiled call (:func:`sensors._kernels.suite_step`, the model of :func:`channel_step` on
+    arrays; tests/test_plant_kernels.py compares the two bit for bit).
 
     Parameters
     ----------
