@@ -523,17 +523,47 @@ def floating_step(
     out[10] = tg + h6 * ktg
     if nr:
         endt = _b2(C, off, B_ENDT, nr + 8)
-        for r in range(nr + 8):
-            z[r] = 0.0
-        for j in range(nr + 6):
-            if j < nr:
-                vj = x[m + j]
-            elif j < nr + 3:
-                vj = x[4 + j - nr]
-            else:
-                vj = out[4 + j - nr - 3]
-            for r in range(nr + 8):
-                z[r] += endt[j, r] * vj
+        nv = nr + 6
+        vec = np.empty(nv)
+        for j in range(nr):
+            vec[j] = x[m + j]
+        vec[nr] = x[4]
+        vec[nr + 1] = x[5]
+        vec[nr + 2] = x[6]
+        vec[nr + 3] = out[4]
+        vec[nr + 4] = out[5]
+        vec[nr + 5] = out[6]
+        # z = end @ vec, each row summed over j in order, eight rows at a time (independent
+        # accumulators, so the additions of different rows overlap).
+        nz = nr + 8
+        r0 = 0
+        while r0 + 8 <= nz:
+            a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+            for j in range(nv):
+                vj = vec[j]
+                row = endt[j]
+                a0 += row[r0] * vj
+                a1 += row[r0 + 1] * vj
+                a2 += row[r0 + 2] * vj
+                a3 += row[r0 + 3] * vj
+                a4 += row[r0 + 4] * vj
+                a5 += row[r0 + 5] * vj
+                a6 += row[r0 + 6] * vj
+                a7 += row[r0 + 7] * vj
+            z[r0] = a0
+            z[r0 + 1] = a1
+            z[r0 + 2] = a2
+            z[r0 + 3] = a3
+            z[r0 + 4] = a4
+            z[r0 + 5] = a5
+            z[r0 + 6] = a6
+            z[r0 + 7] = a7
+            r0 += 8
+        for r in range(r0, nz):
+            acc = 0.0
+            for j in range(nv):
+                acc += endt[j, r] * vec[j]
+            z[r] = acc
         for r in range(nr):
             out[m + r] = z[r]
 
