@@ -169,6 +169,10 @@ def coefficients_clamped(
         j = int(np.searchsorted(ys, pitch, side="right")) - 1
         y0 = ys[j]
         b = (pitch - y0) / (ys[j + 1] - y0)
+    # A NaN input passes every comparison above: keep its cell inside the table (the result
+    # is NaN, never a read beyond the cells).
+    i = 0 if i < 0 else (nx - 2 if i > nx - 2 else i)
+    j = 0 if j < 0 else (ny - 2 if j > ny - 2 else j)
     c = cells[i * (ny - 1) + j]
     return (
         c[0] + a * c[1] + b * (c[2] + a * c[3]),

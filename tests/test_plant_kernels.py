@@ -193,3 +193,10 @@ def test_suite_rejects_time_that_does_not_increase_and_changes_nothing() -> None
     assert suite.counts("a") == before
     with pytest.raises(ValueError, match="expected 2 true values"):
         suite.step_values(6, (1.0,))
+
+
+def test_nan_operating_point_gives_nan_not_a_stray_read() -> None:
+    table = load_turbine("iea15mw").table
+    args = (table._tsr_array, table._pitch_array, table._cell_array)
+    assert all(math.isnan(v) for v in pk.coefficients_clamped(math.nan, 0.1, *args))
+    assert all(math.isnan(v) for v in pk.coefficients_clamped(7.0, math.nan, *args))
