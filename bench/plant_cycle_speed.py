@@ -12,7 +12,7 @@ calls them, with the command held at the initial actuator positions. Two configu
 
 Usage::
 
-    .venv/bin/python bench/plant_cycle_speed.py [--cycles 4000] [--reps 7]
+    .venv/bin/python bench/plant_cycle_speed.py [--cycles 4000] [--reps 7] [--rounds 3]
         [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
 
 Per configuration: ``reps`` repetitions of ``cycles`` consecutive cycles (after 200 warm-up
@@ -20,8 +20,10 @@ cycles), each cycle timed (wall clock): its percentiles (p50 is the figure least
 the other processes of a shared machine), the mean of the best and of the median batch of
 100 cycles, and the process CPU time per cycle. With ``--compare-python`` the same
 measurement runs in a child process with that interpreter in ``--compare-root`` (e.g. the
-main checkout, read only) right before this one, so both figures and their ratio come from
-one run on the same (shared, loaded) machine; the load average is saved beside them.
+main checkout, read only), alternating with this one for ``--rounds`` rounds; each side's
+least disturbed round (lowest p50) is reported and every round's p50 saved, so both figures
+and their ratio come from one run on the same (shared, loaded) machine; the load average is
+saved beside them.
 """
 
 from __future__ import annotations
@@ -125,27 +127,45 @@ def main() -> int:
     ap.add_argument("--child", action="store_true", help="print the figures as JSON only")
     ap.add_argument("--compare-python", type=Path, default=None)
     ap.add_argument("--compare-root", type=Path, default=None)
+    ap.add_argument("--rounds", type=int, default=3, help="alternating rounds; best p50 kept")
     args = ap.parse_args()
     if args.child:
         print(json.dumps(measure_all(args.cycles, args.reps, args.only)))
         return 0
-    result: dict[str, Any] = {"load_before": os.getloadavg()}
-    if args.compare_python is not None:
-        cmd = [str(args.compare_python), str(Path(__file__).resolve()), "--child"]
-        cmd += ["--cycles", str(args.cycles), "--reps", str(args.reps)]
-        if args.only:
-            cmd += ["--only", args.only]
-        proc = subprocess.run(
-            cmd, cwd=args.compare_root, capture_output=True, text=True, check=False
-        )
-        if proc.returncode != 0:
-            raise SystemExit(f"comparison run failed:\n{proc.stderr}")
+    result: dict[str, Any] = {"load_before": os.getloadavg(), "rounds": args.rounds}
+    ref_rounds: list[dict[str, Any]] = []
+    this_rounds: list[dict[str, Any]] = []
+    for _ in range(args.rounds):  # reference and this, alternating
+        if args.compare_python is not None:
+            cmd = [str(args.compare_python), str(Path(__file__).resolve()), "--child"]
+            cmd += ["--cycles", str(args.cycles), "--reps", str(args.reps)]
+            if args.only:
+                cmd += ["--only", args.only]
+            proc = subprocess.run(
+                cmd, cwd=args.compare_root, capture_output=True, text=True, check=False
+            )
+            if proc.returncode != 0:
+                raise SystemExit(f"comparison run failed:\n{proc.stderr}")
+            ref_rounds.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+        this_rounds.append(measure_all(args.cycles, args.reps, args.only))
+
+    def best(rounds: list[dict[str, Any]]) -> dict[str, Any]:
+        """Per configuration, the round with the lowest p50 (the least disturbed one)."""
+        return {
+            name: min((r[name] for r in rounds), key=lambda f: f["p50_us"]) for name in rounds[0]
+        }
+
+    if ref_rounds:
         result["reference"] = {
             "python": str(args.compare_python),
             "root": str(args.compare_root),
-            "runs": json.loads(proc.stdout.strip().splitlines()[-1]),
+            "runs": best(ref_rounds),
+            "p50_us_every_round": {n: [r[n]["p50_us"] for r in ref_rounds] for n in ref_rounds[0]},
         }
-    result["this"] = measure_all(args.cycles, args.reps, args.only)
+    result["this"] = best(this_rounds)
+    result["this_p50_us_every_round"] = {
+        n: [r[n]["p50_us"] for r in this_rounds] for n in this_rounds[0]
+    }
     result["load_after"] = os.getloadavg()
     for name, fig in result["this"].items():
         line = (

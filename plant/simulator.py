@@ -335,7 +335,10 @@ class PlantSimulator:
         self._wave_t0, self._wave_n = 0.0, 0
         self._x_arr = np.zeros(0)
         self._wc = np.zeros((_k.W_ROWS, 0))
+        self._has_waves = False
         tp = self.params
+        self._efficiency = tp.generator_efficiency
+        self._gearbox = tp.gearbox_ratio
         # A turbulent wind record is looked up inside the kernels (plant._kernels.turbulent_speed).
         wind = config.wind
         wind_dt = wind.dt_s if isinstance(wind, TurbulentWind) else 0.0
@@ -423,6 +426,7 @@ class PlantSimulator:
         wc[_k.W_CR : _k.W_CR + 5] = coeff.real
         wc[_k.W_CI : _k.W_CI + 5] = coeff.imag
         self._wc = wc
+        self._has_waves = omega.size > 0
         self._s[_k.S_CLOCK : _k.S_CLOCK + 4] = (0.0, float(WAVE_RESYNC_STEPS), float(t_s), dt)
         self._wave_t0, self._wave_n = float(t_s), 0
         _k.phasor_values(wc, self._s[_k.S_WAVE : _k.S_WAVE + 5])
@@ -549,7 +553,7 @@ class PlantSimulator:
     ) -> State:
         """One period of :func:`plant._kernels.advance_floating` (module docstring)."""
         h, s, n = self.h, self._s, self.n
-        if self._wc.shape[1] and abs(self.wave_time_s - t_s) > 0.25 * h:
+        if self._has_waves and abs(self._wave_t0 + self._wave_n * (0.5 * h) - t_s) > 0.25 * h:
             self._reset_waves(t_s)  # called out of sequence: resynchronise the waves
         xa = self._state_array(x)
         table = self._wind_table
@@ -609,13 +613,12 @@ class PlantSimulator:
                 tower_base_moment_nm=tbm,
                 shaft_torque_nm=tp.gearbox_ratio * torque,
             )
-        tp = fp.params.turbine
         (
             u_wind, u_rel, t_aero, thrust, p_el, w_gen, tsr, cp, ct, tbm, nacelle_acc,
             wx, _, wp, eta_p, eta_g,
         ) = _k.floating_truth(
             self._state_array(x), self._s, self._c, self._o, table, t, u_wind, applied[0],
-            applied[1], tp.generator_efficiency,
+            applied[1], self._efficiency,
         )  # fmt: skip
         return PlantState(
             seq=seq,
@@ -650,7 +653,7 @@ class PlantSimulator:
             wave_force_surge_n=wx,
             wave_moment_pitch_nm=wp,
             tower_base_moment_nm=tbm,
-            shaft_torque_nm=tp.gearbox_ratio * x[10],
+            shaft_torque_nm=self._gearbox * x[10],
         )
 
     def sensor_frame(self, seq: int, truth: PlantState, publish_ns: int) -> SensorFrame:

@@ -645,7 +645,16 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         """
         if len(truths) != len(self._keys):
             raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
-        return self._run(-1, t_ns, truths, self._slots, self._record)
+        code, mask = _kern.suite_step(
+            -1, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
+            self._rn, self._slots, self._record,
+        )  # fmt: skip
+        if code == 0:
+            return mask
+        if code > 0:
+            self._refill()
+            return mask
+        return self._run(-1, t_ns, truths, self._slots, self._record)  # nothing was changed
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
