@@ -98,6 +98,11 @@ class PerformanceTable:
     _pitch_list: list[float] = field(init=False, repr=False, compare=False)
     _cells: list[tuple[float, ...]] = field(init=False, repr=False, compare=False)
     _cq_cells: list[tuple[float, ...]] = field(init=False, repr=False, compare=False)
+    #: The same cells as a (cells, 12) array for the compiled kernels (plant._kernels), with the
+    #: grids as writable copies (numba compiles read-only arrays as another type).
+    _cell_array: FloatArray = field(init=False, repr=False, compare=False)
+    _tsr_array: FloatArray = field(init=False, repr=False, compare=False)
+    _pitch_array: FloatArray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         pitch = _as_float_array("pitch_rad", self.pitch_rad, 1)
@@ -147,6 +152,10 @@ class PerformanceTable:
         cells = _bilinear_cells(tsr, pitch, mats["cp"], mats["ct"], mats["cq"])
         set_(self, "_cells", cells)
         set_(self, "_cq_cells", [c[8:] for c in cells])
+        cell_array = np.array(cells, dtype=np.float64).reshape(len(cells), 12)
+        set_(self, "_cell_array", cell_array)
+        set_(self, "_tsr_array", np.array(tsr, dtype=np.float64))
+        set_(self, "_pitch_array", np.array(pitch, dtype=np.float64))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, PerformanceTable):

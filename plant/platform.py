@@ -47,23 +47,23 @@ waves off, E = ½ q̇ᵀ(M_s + A_∞)q̇ + V(q) + ½ J ω² is conserved (:func:
 
 What is hand-written here and why
 ---------------------------------
-``f`` runs four times per RK4 step in a 100 Hz loop: the 4x4 mass-matrix inverse, stiffness and
-damping are stored as tuples of Python floats and multiplied unrolled (a numpy call costs more
-than the whole 4x4 product on floats); only the radiation block, whose size depends on the fit,
-is one numpy product of a precomputed block matrix [[A_r, B_r], [C_r, 0]]. The rotor reuses
-:func:`plant.turbine.f` and :class:`plant.aero.PerformanceTable`. The simulator's integrator,
-:func:`step_floating`, goes further (a closure per (params, h) with M⁻¹ folded into every
-constant, cached Cp/Ct/Cq cell and mooring segment, one numpy product per step for the
-radiation): 31 → 17 µs per call (CPU time, min of 7 x 20 000 calls, 28 radiation states); with
-the shaft tilt, tower drag and offset-dependent mooring stiffness 23 µs (34 radiation states,
-``bench/step_floating_speed.py``; 18 µs before them).
+``f`` and the integrator :func:`step_floating` run several times per plant step of a real-time
+loop; both are compiled (:mod:`plant._kernels`, numba, cached on disk), with every constant
+precomputed here once: for ``f`` the matrices, mooring segments, radiation block and
+Cp/Ct/Cq cells packed in one array; for the step M⁻¹ folded into the stiffness (with the
+mooring, per table segment), damping, drag, hub lever and wave-force maps, and the radiation
+block discretised exactly (:func:`_radiation_step_matrices`). History of the step's cost per
+call (CPU, 34 radiation states): 31 µs (f in Python floats), 17 µs (a specialised closure),
+23 µs (with shaft tilt, tower drag, offset-dependent mooring), ~6 µs compiled including the
+tuple/array conversions of the public call (``bench/step_floating_speed.py``); inside
+:meth:`plant.simulator.PlantSimulator.advance`, which keeps the state as an array, ~1-2 µs.
 """
 
 from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from importlib.resources.abc import Traversable
@@ -74,6 +74,7 @@ import msgspec
 import numpy as np
 import numpy.typing as npt
 
+from plant import _kernels as _k
 from plant.turbine import WIND_MIN_M_S, TurbineParams, load_turbine
 
 if TYPE_CHECKING:
@@ -387,6 +388,8 @@ class FloatingParams:
     _tdamp: tuple[tuple[float, ...], ...] = field(init=False, repr=False)
     _rad: FloatArray = field(init=False, repr=False)
     _step_cache: dict[float, _Stepper] = field(init=False, repr=False)
+    _blocks: list[FloatArray] = field(init=False, repr=False)
+    _kern: tuple[FloatArray, npt.NDArray[np.int64]] = field(init=False, repr=False)
     n_radiation: int = field(init=False)
 
     def __post_init__(self) -> None:
@@ -474,6 +477,9 @@ class FloatingParams:
         set_(self, "_rad", block)
         set_(self, "_step_cache", {})
         set_(self, "n_radiation", nr)
+        blocks = _f_blocks(self, block)
+        set_(self, "_blocks", blocks)
+        set_(self, "_kern", _k.pack(blocks))
 
     @property
     def n_states(self) -> int:
@@ -523,131 +529,49 @@ def rotor_thrust(
     return tp.k_thrust * wind_rel_m_s * wind_rel_m_s * ct
 
 
-def _mech(
-    x: tuple[float, ...] | list[float],
-    u: tuple[float, ...],
-    mu0: float,
-    mu1: float,
-    mu2: float,
-    p: FloatingParams,
-) -> tuple[float, ...]:
-    """Derivative of the 11 mechanical + rotor states with the radiation memory force μ given.
-
-    (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q (v∘|v|) − μ + Q_T T + F_t + F^w and the rotor
-    of :func:`plant.turbine.f` (one Cp/Ct/Cq cell lookup for thrust and torque), in plain
-    floats with the precomputed tuples of :class:`FloatingParams` (no numpy).
-    """
-    q0, q1, q2, q3, v0, v1, v2, v3, omega, theta, torque = x[:11]
-    jh = p._jh
-    jv = p._jv
+def _f_blocks(p: FloatingParams, block: FloatArray) -> list[FloatArray]:
+    """Blocks of the packed constants (:mod:`plant._kernels`, ``B_*``) that :func:`f` uses:
+    FP, mooring knots and segments (n, 14), the radiation block [[A, B], [C, 0]] transposed,
+    the Cp/Ct/Cq grids and cells; the step's blocks empty."""
     tp = p.turbine
-    tilt, ict, kap, arm_p, arm_s = p._rot
-    psi = tilt + q2 + kap * q3
-    cpsi = math.cos(psi)
-    spsi = math.sin(psi)
-    # Aero off: zero wind into the rotor (no aerodynamic torque or thrust).
-    u_rel = (
-        ((u[2] - (v0 + jh[2] * v2 + jh[3] * v3)) * cpsi + (v1 + jv[2] * v2 + jv[3] * v3) * spsi)
-        * ict
-        if p.aero
-        else 0.0
+    fp = np.zeros(_k.F_SIZE)
+    fp[_k.F_F0 : _k.F_F0 + 4] = p.static_force
+    fp[_k.F_K : _k.F_K + 16] = p.stiffness.ravel()
+    fp[_k.F_D : _k.F_D + 16] = p.linear_damping.ravel()
+    fp[_k.F_BQ : _k.F_BQ + 9] = p.quadratic_damping.ravel()
+    fp[_k.F_JH : _k.F_JH + 4] = p._jh
+    fp[_k.F_JV : _k.F_JV + 4] = p._jv
+    fp[_k.F_ROT : _k.F_ROT + 5] = p._rot
+    fp[_k.F_TC : _k.F_TC + 4] = p._tdrag
+    fp[_k.F_TD : _k.F_TD + 16] = np.array(p._tdamp).ravel()
+    fp[_k.F_MI : _k.F_MI + 16] = np.array(p._minv).ravel()
+    fp[_k.F_TB : _k.F_TB + 13] = (
+        tp.rotor_radius_m,
+        tp.k_thrust,
+        tp.k_torque,
+        tp.gearbox_ratio,
+        tp.inv_inertia,
+        tp.pitch_min_rad,
+        tp.pitch_max_rad,
+        tp.inv_pitch_tau,
+        tp.pitch_rate_max_rad_s,
+        tp.torque_max_nm,
+        tp.inv_torque_tau,
+        tp.torque_rate_max_nm_s,
+        1.0 if p.aero else 0.0,
     )
-    if u_rel > WIND_MIN_M_S:
-        tsr = (omega if omega > 0.0 else 0.0) * tp.rotor_radius_m / u_rel
-        _, ct, cq = tp.table.coefficients(tsr, theta)
-        uu = u_rel * u_rel
-        thrust = tp.k_thrust * uu * ct
-        t_aero = tp.k_torque * uu * cq
-    else:
-        thrust = 0.0
-        t_aero = 0.0
-    d_omega = (t_aero - tp.gearbox_ratio * torque) * tp.inv_inertia
-    # Actuators: dy/dt = clip((clip(y_d, lo, hi) − y)/τ, ±r_max) (as plant.turbine.f).
-    dem = u[0]
-    dem = tp.pitch_min_rad if dem < tp.pitch_min_rad else dem
-    dem = tp.pitch_max_rad if dem > tp.pitch_max_rad else dem
-    d_theta = (dem - theta) * tp.inv_pitch_tau
-    r = tp.pitch_rate_max_rad_s
-    d_theta = r if d_theta > r else (-r if d_theta < -r else d_theta)
-    dem = u[1]
-    dem = 0.0 if dem < 0.0 else dem
-    dem = tp.torque_max_nm if dem > tp.torque_max_nm else dem
-    d_torque = (dem - torque) * tp.inv_torque_tau
-    r = tp.torque_rate_max_nm_s
-    d_torque = r if d_torque > r else (-r if d_torque < -r else d_torque)
-
-    fmx, fmz, fmp = mooring_force(p.mooring, q0, q1, q2)
-    f0 = p._f0
-    k0, k1, k2, k3 = p._k
-    d0, d1, d2, d3 = p._d
-    b0, b1, b2 = p._bq
-    a0 = v0 * abs(v0)
-    a1 = v1 * abs(v1)
-    a2 = v2 * abs(v2)
-    # Tower drag F_t = c_t U|U| − |U| D_t q̇ (aero off: none).
-    uw = u[2] if p.aero else 0.0
-    au = abs(uw)
-    uw *= au
-    c0, c1, c2, c3 = p._tdrag
-    t0, t1, t2, t3 = p._tdamp
-    ft0 = c0 * uw - au * (t0[0] * v0 + t0[1] * v1 + t0[2] * v2 + t0[3] * v3)
-    ft1 = c1 * uw - au * (t1[0] * v0 + t1[1] * v1 + t1[2] * v2 + t1[3] * v3)
-    ft2 = c2 * uw - au * (t2[0] * v0 + t2[1] * v1 + t2[2] * v2 + t2[3] * v3)
-    ft3 = c3 * uw - au * (t3[0] * v0 + t3[1] * v1 + t3[2] * v2 + t3[3] * v3)
-    g0 = (
-        f0[0]
-        + fmx
-        + u[3]
-        + thrust * cpsi
-        + ft0
-        - mu0
-        - (k0[0] * q0 + k0[1] * q1 + k0[2] * q2 + k0[3] * q3)
-        - (d0[0] * v0 + d0[1] * v1 + d0[2] * v2 + d0[3] * v3)
-        - (b0[0] * a0 + b0[1] * a1 + b0[2] * a2)
-    )
-    g1 = (
-        f0[1]
-        + fmz
-        + u[4]
-        - thrust * spsi
-        + ft1
-        - mu1
-        - (k1[0] * q0 + k1[1] * q1 + k1[2] * q2 + k1[3] * q3)
-        - (d1[0] * v0 + d1[1] * v1 + d1[2] * v2 + d1[3] * v3)
-        - (b1[0] * a0 + b1[1] * a1 + b1[2] * a2)
-    )
-    g2 = (
-        f0[2]
-        + fmp
-        + u[5]
-        + arm_p * thrust
-        + ft2
-        - mu2
-        - (k2[0] * q0 + k2[1] * q1 + k2[2] * q2 + k2[3] * q3)
-        - (d2[0] * v0 + d2[1] * v1 + d2[2] * v2 + d2[3] * v3)
-        - (b2[0] * a0 + b2[1] * a1 + b2[2] * a2)
-    )
-    g3 = (
-        f0[3]
-        + arm_s * thrust
-        + ft3
-        - (k3[0] * q0 + k3[1] * q1 + k3[2] * q2 + k3[3] * q3)
-        - (d3[0] * v0 + d3[1] * v1 + d3[2] * v2 + d3[3] * v3)
-    )
-    m0, m1, m2, m3 = p._minv
-    return (
-        v0,
-        v1,
-        v2,
-        v3,
-        m0[0] * g0 + m0[1] * g1 + m0[2] * g2 + m0[3] * g3,
-        m1[0] * g0 + m1[1] * g1 + m1[2] * g2 + m1[3] * g3,
-        m2[0] * g0 + m2[1] * g1 + m2[2] * g2 + m2[3] * g3,
-        m3[0] * g0 + m3[1] * g1 + m3[2] * g2 + m3[3] * g3,
-        d_omega,
-        d_theta,
-        d_torque,
-    )
+    tab = p.mooring
+    table = tp.table
+    blocks = [np.zeros(0)] * _k.N_BLOCKS
+    blocks[_k.B_KNOTS] = np.array(tab._x, dtype=np.float64)
+    blocks[_k.B_XS] = table._tsr_array
+    blocks[_k.B_YS] = table._pitch_array
+    blocks[_k.B_CELLS] = table._cell_array
+    blocks[_k.B_FP] = fp
+    blocks[_k.B_SEG14] = np.array(tab._seg, dtype=np.float64)
+    blocks[_k.B_RADT] = np.array(block, dtype=np.float64).T
+    blocks[_k.B_LOADS] = np.zeros(8)
+    return blocks
 
 
 def f(
@@ -657,6 +581,8 @@ def f(
 
     (M_s + A_∞) q̈ = F_0 − K q + F_m(q) − D q̇ − B_q(v∘|v|) − C_r ξ + Q_T T(U_rel) + F_t + F^w;
     dξ/dt = A_r ξ + B_r v; rotor states from :func:`plant.turbine.f` at U_rel = U − J_h·q̇.
+    Computed by the compiled :func:`plant._kernels.floating_f` (one Cp/Ct/Cq cell look-up
+    for thrust and torque, mooring of :func:`mooring_force`).
 
     Parameters
     ----------
@@ -674,15 +600,16 @@ def f(
     tuple of float
         dx/dt, same length as ``x``.
     """
-    p = params
-    nr = p.n_radiation
-    if not nr:
-        return _mech(x, u, 0.0, 0.0, 0.0, p)
-    z = (p._rad @ np.array([*x[N_MECH_STATES:], x[4], x[5], x[6]])).tolist()
-    return (*_mech(x, u, z[nr], z[nr + 1], z[nr + 2], p), *z[:nr])
-
-
-_Stepper = Callable[[Sequence[float], Sequence[float]], tuple[float, ...]]
+    xa = np.array(x, dtype=np.float64)
+    if xa.shape != (params.n_states,):
+        raise ValueError(f"f: expected {params.n_states} states, got shape {xa.shape}")
+    ua = np.array(u, dtype=np.float64)
+    if ua.shape != (6,):
+        raise ValueError(f"f: expected 6 inputs, got shape {ua.shape}")
+    out = np.empty_like(xa)
+    c, o = params._kern
+    _k.floating_f(xa, ua, c, o, out)
+    return tuple(out.tolist())
 
 
 def _radiation_step_matrices(
@@ -760,272 +687,95 @@ def _mooring_segments(
     return knots, out
 
 
-def _build_stepper(p: FloatingParams, h: float) -> _Stepper:
-    """The RK4 + exact-radiation step of :func:`step_floating` for one (params, h), as a closure.
+class _Stepper:
+    """The RK4 + exact-radiation step of :func:`step_floating` for one (params, h).
 
-    Every constant is computed here once and bound in the closure as a Python float: M⁻¹ is
-    folded into the stiffness (with the mooring, per table segment), damping, drag, hub lever and
-    wave-force maps, so a stage is a few dozen float multiply-adds. The Cp/Ct/Cq grid cell and
-    the mooring segment of the last stage are cached and only searched again when the operating
-    point leaves them. The radiation update is one numpy product per step, which also yields the
-    radiation accelerations of the next step (reused when the next call continues from this
-    call's result, i.e. the same tuple object).
+    Every constant is computed here once (:func:`step_blocks`): M⁻¹ folded into the
+    stiffness (with the mooring, per table segment), damping, drag, hub lever and wave-force
+    maps; the step itself is the compiled :func:`plant._kernels.floating_step`. The radiation
+    update also yields the radiation accelerations of the next step, reused when the next
+    call continues from this call's result (the same tuple object).
     """
+
+    def __init__(self, p: FloatingParams, h: float) -> None:
+        self.consts = _k.pack(step_blocks(p, h))
+        self.n_states = p.n_states
+        self.z = np.zeros(p.n_radiation + 8)
+        self.out = np.empty(p.n_states)
+        self.work = np.empty(56)
+        self.last: object = None
+
+    def __call__(self, x: Sequence[float], u: Sequence[float]) -> tuple[float, ...]:
+        xa = np.array(x, dtype=np.float64)
+        if xa.shape != (self.n_states,):
+            raise ValueError(f"step_floating: expected {self.n_states} states, got {xa.shape}")
+        use_last = x is self.last
+        c, o = self.consts
+        ua = np.array(u, dtype=np.float64)
+        if ua.shape != (6,):
+            raise ValueError(f"step_floating: expected 6 inputs, got shape {ua.shape}")
+        _k.floating_step(xa, ua, self.out, self.z, use_last, c, o, self.work)
+        y = tuple(self.out.tolist())
+        self.last = y
+        return y
+
+
+def step_blocks(p: FloatingParams, h: float) -> list[FloatArray]:
+    """Blocks of the packed constants of :func:`plant._kernels.floating_step` for (params, h).
+
+    Those of :func:`f` with SP, the mooring segments (n, 26) and the radiation ``end`` and
+    ``start`` (transposed), SP laid out as in :mod:`plant._kernels`: M⁻¹ folded into the wave
+    force (W = M⁻¹[:, :3]), damping (−M⁻¹D), tower drag (M⁻¹c_t, −M⁻¹D_t), quadratic drag
+    (−M⁻¹[:, :3]B_q) and the thrust's pitch/tower moment arms (J).
+    """
+    if not (h > 0.0 and math.isfinite(h)):
+        raise ValueError(f"step_floating: h must be > 0 s, got {h}")
     minv: FloatArray = np.array(p._minv, dtype=np.float64)  # with locked DOFs zeroed
     tp = p.turbine
-    table = tp.table
     aero = p.aero
-    h2 = 0.5 * h
-    h6 = h / 6.0
-    (
-        (w00, w01, w02),
-        (w10, w11, w12),
-        (w20, w21, w22),
-        (w30, w31, w32),
-    ) = _tuple2(minv[:, :3])  # wave force -> acceleration
-    ((d00, d01, d02, d03), (d10, d11, d12, d13), (d20, d21, d22, d23), (d30, d31, d32, d33)) = (
-        _tuple2(-minv @ p.linear_damping)
-    )
-    # Tower drag: M⁻¹ c_t (per U|U|) and −M⁻¹ D_t (per |U|), folded per step with the wind.
-    tc0, tc1, tc2, tc3 = (float(v) for v in minv @ p.tower_drag)
-    ((t00, t01, t02, t03), (t10, t11, t12, t13), (t20, t21, t22, t23), (t30, t31, t32, t33)) = (
-        _tuple2(-minv @ p.tower_drag_damping)
-    )
-    ((e00, e01, e02), (e10, e11, e12), (e20, e21, e22), (e30, e31, e32)) = _tuple2(
-        -minv[:, :3] @ p.quadratic_damping
-    )
     tilt, ict, kap, arm_p, arm_s = p._rot
-    # Thrust along the shaft: (T cos ψ, −T sin ψ) on surge and heave, T·arm on pitch and tower.
-    j0, j1, j2, j3 = (float(v) for v in minv[:, 2] * arm_p + minv[:, 3] * arm_s)
-    jh2, jh3 = p._jh[2], p._jh[3]
-    jv2, jv3 = p._jv[2], p._jv[3]
-    ict = ict if aero else 0.0  # aero off: no wind into the rotor (as f)
-    cos, sin = math.cos, math.sin
-    radius = tp.rotor_radius_m
-    k_thrust = tp.k_thrust
-    k_dom = tp.k_torque * tp.inv_inertia
-    g_dom = tp.gearbox_ratio * tp.inv_inertia
-    p_lo, p_hi, p_itau, p_rate = (
+    sp = np.zeros(_k.S_SIZE)
+    sp[:20] = (
+        h,
+        tilt,
+        ict if aero else 0.0,  # aero off: no wind into the rotor (as f)
+        kap,
+        tp.rotor_radius_m,
+        tp.k_thrust,
+        tp.k_torque * tp.inv_inertia,
+        tp.gearbox_ratio * tp.inv_inertia,
         tp.pitch_min_rad,
         tp.pitch_max_rad,
         tp.inv_pitch_tau,
         tp.pitch_rate_max_rad_s,
+        tp.torque_max_nm,
+        tp.inv_torque_tau,
+        tp.torque_rate_max_nm_s,
+        p._jh[2],
+        p._jh[3],
+        p._jv[2],
+        p._jv[3],
+        1.0 if aero else 0.0,
     )
-    t_hi, t_itau, t_rate = tp.torque_max_nm, tp.inv_torque_tau, tp.torque_rate_max_nm_s
-    xs, ys, cells = table._tsr_list, table._pitch_list, table._cells
-    nx, ny = len(xs) - 1, len(ys) - 1
+    sp[_k.S_W : _k.S_W + 12] = minv[:, :3].ravel()
+    sp[_k.S_D : _k.S_D + 16] = (-minv @ p.linear_damping).ravel()
+    sp[_k.S_TC : _k.S_TC + 4] = minv @ p.tower_drag
+    sp[_k.S_TD : _k.S_TD + 16] = (-minv @ p.tower_drag_damping).ravel()
+    sp[_k.S_E : _k.S_E + 12] = (-minv[:, :3] @ p.quadratic_damping).ravel()
+    sp[_k.S_J : _k.S_J + 4] = minv[:, 2] * arm_p + minv[:, 3] * arm_s
     knots, segs = _mooring_segments(p, minv)
-    nseg = len(segs)
-    nr = p.n_radiation
-    if nr:
+    seg_array = np.array(segs, dtype=np.float64).reshape(len(segs), 26)
+    if p.n_radiation:
         end, start = _radiation_step_matrices(p, h, minv)
     else:
-        end = start = np.zeros((0, 0))
-    m = N_MECH_STATES
-    nan = math.nan
-    # Mutable caches (closure cells): last aero cell, last mooring segment, last (output, z).
-    cell: tuple[float, ...] = (nan,) * 14
-    seg = segs[min(max(bisect_right(knots, 0.0) - 1, 0), nseg - 1)]
-    last: tuple[object, list[float]] = (None, [])
-    stages = ((0.0, 1.0, h2), (h2, 2.0, h2), (h2, 2.0, h), (h, 1.0, 0.0))
-
-    def find_cell(tsr: float, theta: float) -> tuple[float, ...] | None:
-        i = bisect_right(xs, tsr) - 1
-        j = bisect_right(ys, theta) - 1
-        if not (0 <= i < nx and 0 <= j < ny):
-            return None  # outside the grid: clamped lookup, not cached
-        x0, x1, y0, y1 = xs[i], xs[i + 1], ys[j], ys[j + 1]
-        c = cells[i * ny + j]
-        return (x0, x1, y0, y1, 1.0 / (x1 - x0), 1.0 / (y1 - y0), *c[4:])
-
-    def step(x: Sequence[float], u: Sequence[float]) -> tuple[float, ...]:
-        nonlocal cell, seg, last
-        q0, q1, q2, q3, v0, v1, v2, v3, om, th, tg = x[:m]
-        wind = u[2] if aero else 0.0
-        dem = u[0]
-        pd = p_lo if dem < p_lo else (p_hi if dem > p_hi else dem)
-        dem = u[1]
-        td = 0.0 if dem < 0.0 else (t_hi if dem > t_hi else dem)
-        f0, f1, f2 = u[3], u[4], u[5]
-        # Radiation accelerations at the start of the step and their rates.
-        if nr:
-            if x is last[0]:
-                z = last[1]
-                am0, am1, am2, am3, ar0, ar1, ar2, ar3 = z[nr:]
-            else:
-                am0, am1, am2, am3, ar0, ar1, ar2, ar3 = (start @ np.array(x)).tolist()
-        else:
-            am0 = am1 = am2 = am3 = ar0 = ar1 = ar2 = ar3 = 0.0
-        au = wind if wind > 0.0 else -wind
-        uw = wind * au
-        b0 = w00 * f0 + w01 * f1 + w02 * f2 + am0 + tc0 * uw
-        b1 = w10 * f0 + w11 * f1 + w12 * f2 + am1 + tc1 * uw
-        b2 = w20 * f0 + w21 * f1 + w22 * f2 + am2 + tc2 * uw
-        b3 = w30 * f0 + w31 * f1 + w32 * f2 + am3 + tc3 * uw
-        # Linear damping with the tower drag's, for this step's wind.
-        x00 = d00 + au * t00
-        x01 = d01 + au * t01
-        x02 = d02 + au * t02
-        x03 = d03 + au * t03
-        x10 = d10 + au * t10
-        x11 = d11 + au * t11
-        x12 = d12 + au * t12
-        x13 = d13 + au * t13
-        x20 = d20 + au * t20
-        x21 = d21 + au * t21
-        x22 = d22 + au * t22
-        x23 = d23 + au * t23
-        x30 = d30 + au * t30
-        x31 = d31 + au * t31
-        x32 = d32 + au * t32
-        x33 = d33 + au * t33
-        (lx0, lx1, ly0, ly1, ilx, ily, t0, t1, t2, t3, c0, c1, c2, c3) = cell
-        (
-            s_lo,
-            s_hi,
-            k00, k01, k02, k03,
-            k10, k11, k12, k13,
-            k20, k21, k22, k23,
-            k30, k31, k32, k33,
-            g0, g1, g2, g3,
-            s_x0, s_dkzz, s_dkzp, s_dkpp,
-        ) = seg  # fmt: skip
-        # RK4 stages: (τ of this stage, weight, step to the next stage's input).
-        sq0, sq1, sq2, sq3, sv0, sv1, sv2, sv3, som, sth, stg = x[:m]
-        kq0 = kq1 = kq2 = kq3 = kv0 = kv1 = kv2 = kv3 = kom = kth = ktg = 0.0
-        for tau, wgt, nxt in stages:
-            # Rotor: rotor-normal relative wind (shaft at ψ = τ + φ + κ s), one bilinear
-            # Ct/Cq lookup in the cached cell.
-            psi = tilt + sq2 + kap * sq3
-            cps = cos(psi)
-            sps = sin(psi)
-            ur = (
-                (wind - (sv0 + jh2 * sv2 + jh3 * sv3)) * cps + (sv1 + jv2 * sv2 + jv3 * sv3) * sps
-            ) * ict
-            if ur > WIND_MIN_M_S:
-                tsr = (som if som > 0.0 else 0.0) * radius / ur
-                if lx0 <= tsr < lx1 and ly0 <= sth < ly1:
-                    fa = (tsr - lx0) * ilx
-                    fb = (sth - ly0) * ily
-                    ct = t0 + fa * t1 + fb * (t2 + fa * t3)
-                    cq = c0 + fa * c1 + fb * (c2 + fa * c3)
-                else:
-                    found = find_cell(tsr, sth)
-                    if found is None:
-                        _, ct, cq = table.coefficients(tsr, sth)
-                    else:
-                        cell = found
-                        (lx0, lx1, ly0, ly1, ilx, ily, t0, t1, t2, t3, c0, c1, c2, c3) = cell
-                        fa = (tsr - lx0) * ilx
-                        fb = (sth - ly0) * ily
-                        ct = t0 + fa * t1 + fb * (t2 + fa * t3)
-                        cq = c0 + fa * c1 + fb * (c2 + fa * c3)
-                uu = ur * ur
-                thrust = k_thrust * uu * ct
-                dom = k_dom * uu * cq - g_dom * stg
-            else:
-                thrust = 0.0
-                dom = -g_dom * stg
-            fx = thrust * cps
-            fz = thrust * sps
-            dth = (pd - sth) * p_itau
-            dth = p_rate if dth > p_rate else (-p_rate if dth < -p_rate else dth)
-            dtg = (td - stg) * t_itau
-            dtg = t_rate if dtg > t_rate else (-t_rate if dtg < -t_rate else dtg)
-            # Mooring segment (affine in q inside it, folded with K and F_0).
-            if not (s_lo <= sq0 < s_hi):
-                i = bisect_right(knots, sq0) - 1
-                seg = segs[0 if i < 0 else (nseg - 1 if i >= nseg else i)]
-                (
-                    s_lo,
-                    s_hi,
-                    k00, k01, k02, k03,
-                    k10, k11, k12, k13,
-                    k20, k21, k22, k23,
-                    k30, k31, k32, k33,
-                    g0, g1, g2, g3,
-                    s_x0, s_dkzz, s_dkzp, s_dkpp,
-                ) = seg  # fmt: skip
-            # Offset-dependent heave/pitch mooring stiffness: forces beyond the affine fold.
-            mz = s_dkzz * sq1 + s_dkzp * sq2
-            mp = s_dkzp * sq1 + s_dkpp * sq2
-            dxs = sq0 - s_x0
-            mfx = fx - 0.5 * (sq1 * mz + sq2 * mp)
-            mfz = fz + dxs * mz
-            mfp = -dxs * mp
-            qa0 = sv0 * (sv0 if sv0 > 0.0 else -sv0)
-            qa1 = sv1 * (sv1 if sv1 > 0.0 else -sv1)
-            qa2 = sv2 * (sv2 if sv2 > 0.0 else -sv2)
-            a0 = (
-                g0 + b0 + tau * ar0 + j0 * thrust + w00 * mfx - w01 * mfz + w02 * mfp
-                + k00 * sq0 + k01 * sq1 + k02 * sq2 + k03 * sq3
-                + x00 * sv0 + x01 * sv1 + x02 * sv2 + x03 * sv3
-                + e00 * qa0 + e01 * qa1 + e02 * qa2
-            )  # fmt: skip
-            a1 = (
-                g1 + b1 + tau * ar1 + j1 * thrust + w10 * mfx - w11 * mfz + w12 * mfp
-                + k10 * sq0 + k11 * sq1 + k12 * sq2 + k13 * sq3
-                + x10 * sv0 + x11 * sv1 + x12 * sv2 + x13 * sv3
-                + e10 * qa0 + e11 * qa1 + e12 * qa2
-            )  # fmt: skip
-            a2 = (
-                g2 + b2 + tau * ar2 + j2 * thrust + w20 * mfx - w21 * mfz + w22 * mfp
-                + k20 * sq0 + k21 * sq1 + k22 * sq2 + k23 * sq3
-                + x20 * sv0 + x21 * sv1 + x22 * sv2 + x23 * sv3
-                + e20 * qa0 + e21 * qa1 + e22 * qa2
-            )  # fmt: skip
-            a3 = (
-                g3 + b3 + tau * ar3 + j3 * thrust + w30 * mfx - w31 * mfz + w32 * mfp
-                + k30 * sq0 + k31 * sq1 + k32 * sq2 + k33 * sq3
-                + x30 * sv0 + x31 * sv1 + x32 * sv2 + x33 * sv3
-                + e30 * qa0 + e31 * qa1 + e32 * qa2
-            )  # fmt: skip
-            kq0 += wgt * sv0
-            kq1 += wgt * sv1
-            kq2 += wgt * sv2
-            kq3 += wgt * sv3
-            kv0 += wgt * a0
-            kv1 += wgt * a1
-            kv2 += wgt * a2
-            kv3 += wgt * a3
-            kom += wgt * dom
-            kth += wgt * dth
-            ktg += wgt * dtg
-            sq0 = q0 + nxt * sv0
-            sq1 = q1 + nxt * sv1
-            sq2 = q2 + nxt * sv2
-            sq3 = q3 + nxt * sv3
-            sv0 = v0 + nxt * a0
-            sv1 = v1 + nxt * a1
-            sv2 = v2 + nxt * a2
-            sv3 = v3 + nxt * a3
-            som = om + nxt * dom
-            sth = th + nxt * dth
-            stg = tg + nxt * dtg
-        n0 = v0 + h6 * kv0
-        n1 = v1 + h6 * kv1
-        n2 = v2 + h6 * kv2
-        y = (
-            q0 + h6 * kq0,
-            q1 + h6 * kq1,
-            q2 + h6 * kq2,
-            q3 + h6 * kq3,
-            n0,
-            n1,
-            n2,
-            v3 + h6 * kv3,
-            om + h6 * kom,
-            th + h6 * kth,
-            tg + h6 * ktg,
-        )
-        if not nr:
-            return y
-        z = (end @ np.array([*x[m:], v0, v1, v2, n0, n1, n2])).tolist()
-        out = y + tuple(z[:nr])
-        last = (out, z)
-        return out
-
-    return step
+        end, start = np.zeros((8, 6)), np.zeros((8, N_MECH_STATES))
+    blocks = list(p._blocks)
+    blocks[_k.B_SP] = sp
+    blocks[_k.B_KNOTS] = np.array(knots, dtype=np.float64)
+    blocks[_k.B_SEG26] = seg_array
+    blocks[_k.B_ENDT] = end.T
+    blocks[_k.B_STARTT] = start.T
+    return blocks
 
 
 def step_floating(
@@ -1052,11 +802,11 @@ def step_floating(
     states from the four RK4 stages and is exact for the linear block, so stiff radiation poles
     never limit the step.
 
-    Cost: the step is a closure built once per (params, h) (:func:`_build_stepper`, cached on
-    the params): stages on plain floats with M⁻¹ folded into every constant, the Cp/Ct/Cq cell
-    and mooring segment cached, and the radiation update one numpy product per step that also
-    gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous call returned).
-    About 23 µs per call on the 2-vCPU bench machine with 34 radiation states.
+    Cost: the constants are built once per (params, h) (:class:`_Stepper`, cached on the
+    params) and the step is the compiled :func:`plant._kernels.floating_step`, whose radiation
+    update also gives the next step's μ0, μ̇0 (reused when ``x`` is the tuple the previous
+    call returned). About 6 µs per call on the 2-vCPU bench machine with 34 radiation states,
+    most of it the conversion of the tuples.
 
     Parameters
     ----------
@@ -1077,11 +827,9 @@ def step_floating(
     """
     stepper = params._step_cache.get(h)
     if stepper is None:
-        if not (h > 0.0 and math.isfinite(h)):
-            raise ValueError(f"step_floating: h must be > 0 s, got {h}")
         if len(params._step_cache) >= 8:
             params._step_cache.clear()
-        stepper = params._step_cache[h] = _build_stepper(params, h)
+        stepper = params._step_cache[h] = _Stepper(params, h)
     return stepper(x, u)
 
 

@@ -63,6 +63,8 @@ from typing import Any
 
 import numpy as np
 
+from sensors import _kernels as _kern
+
 __all__ = [
     "BLOCK_SIZE",
     "ChannelSpec",
@@ -77,6 +79,8 @@ __all__ = [
 BLOCK_SIZE = 4096
 
 _NAN = math.nan
+_NO_SLOTS = np.zeros((0, 2), dtype=np.int64)
+_NO_RECORD = np.zeros(0)
 _isfinite = math.isfinite
 
 
@@ -401,7 +405,9 @@ class SensorSuite(Mapping[str, ChannelSpec]):
     """A set of named channels, each with its own seeded state; a read-only mapping name -> spec.
 
     Exported by the package as ``sensors.ChannelSuite`` (``sensors.SensorSuite`` is the
-    older noise-only suite of :mod:`sensors.models`, kept as is).
+    older noise-only suite of :mod:`sensors.models`, kept as is). All channels step in one
+    compiled call (:func:`sensors._kernels.suite_step`, the model of :func:`channel_step` on
+    arrays; tests/test_plant_kernels.py compares the two bit for bit).
 
     Parameters
     ----------
@@ -429,10 +435,89 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             named[key] = replace(given, name=key) if given.name == "" else given
         self._specs = named
         self.seed = seed
-        self.states: dict[str, ChannelState] = {
-            key: channel_init(spec, seed) for key, spec in named.items()
-        }
-        self._items = [(key, spec, self.states[key]) for key, spec in named.items()]
+        self._keys = list(named)
+        self._index = {key: i for i, key in enumerate(self._keys)}
+        n = len(named)
+        spec_list = list(named.values())
+        # Array state of sensors._kernels.suite_step (layouts in its module docstring).
+        self._f = np.zeros((n, 8))
+        self._f[:, _kern.HELD] = _NAN
+        self._i = np.zeros((n, 12), dtype=np.int64)
+        for c, sp in enumerate(spec_list):
+            self._f[c, :6] = (
+                sp.std,
+                sp.bias,
+                sp.resolution,
+                sp.dropout_probability,
+                sp.range_min,
+                sp.range_max,
+            )
+            self._i[c, _kern.DELAY] = sp.delay_ns
+            self._i[c, _kern.PERIOD] = sp.sample_period_ns
+        self._ok = np.zeros((n, 2), dtype=np.bool_)
+        self._hist_t = np.zeros((n, 16), dtype=np.int64)
+        self._hist_v = np.zeros((n, 16))
+        self._rngs = [channel_init(sp, seed) for sp in spec_list]
+        self._slots = _NO_SLOTS
+        self._record = _NO_RECORD
+        self._rn = np.zeros((n, 2, BLOCK_SIZE))
+        for c, sp in enumerate(spec_list):  # first blocks of the streams each channel uses
+            if sp.std > 0.0:
+                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+            if sp.dropout_probability > 0.0:
+                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+
+    def _run(
+        self,
+        which: int,
+        t_ns: int,
+        truths: tuple[float, ...],
+        slots: np.ndarray = _NO_SLOTS,
+        record: np.ndarray = _NO_RECORD,
+    ) -> int:
+        """One :func:`sensors._kernels.suite_step` call; errors, growth and refills here."""
+        while True:
+            code, mask = _kern.suite_step(
+                which, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
+                self._rn, slots, record,
+            )  # fmt: skip
+            if code >= 0:
+                break
+            n = len(self._keys)
+            c = -1 - code
+            if c < n:
+                raise ValueError(
+                    f"channel {self._keys[c]!r}: t_ns expected to increase, got {t_ns} "
+                    f"after {int(self._i[c, _kern.LAST_T])}"
+                )
+            self._grow()
+        if code:
+            self._refill()
+        return mask
+
+    def _grow(self) -> None:
+        """Double the ring buffers (unrolled so that every ring starts at 0)."""
+        cap = self._hist_t.shape[1]
+        st = self._i
+        order = (st[:, _kern.HEAD, None] + np.arange(cap)[None, :]) % cap
+        self._hist_t = np.concatenate(
+            [np.take_along_axis(self._hist_t, order, 1), np.zeros_like(self._hist_t)], axis=1
+        )
+        self._hist_v = np.concatenate(
+            [np.take_along_axis(self._hist_v, order, 1), np.zeros_like(self._hist_v)], axis=1
+        )
+        st[:, _kern.HEAD] = 0
+
+    def _refill(self) -> None:
+        """Next blocks of the streams used up by the last call (as channel_step draws them)."""
+        st = self._i
+        for c in range(len(self._keys)):
+            if st[c, _kern.NORMAL_I] >= BLOCK_SIZE:
+                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+                st[c, _kern.NORMAL_I] = 0
+            if st[c, _kern.UNIFORM_I] >= BLOCK_SIZE:
+                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+                st[c, _kern.UNIFORM_I] = 0
 
     @classmethod
     def from_table(
@@ -497,21 +582,92 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         KeyError
             When ``truths`` lacks a channel of the suite.
         """
-        out: dict[str, tuple[float, bool]] = {}
-        for key, spec, state in self._items:
-            try:
-                x = truths[key]
-            except KeyError:
-                missing = [k for k in self._specs if k not in truths]
-                raise KeyError(f"no true value for channel(s) {missing}") from None
-            _, y, ok = channel_step(spec, state, t_ns, x)
-            out[key] = (y, ok)
-        return out
+        try:
+            tv = tuple([float(truths[key]) for key in self._keys])
+        except KeyError:
+            missing = [k for k in self._specs if k not in truths]
+            raise KeyError(f"no true value for channel(s) {missing}") from None
+        self._run(-1, t_ns, tv)
+        values = zip(self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist(), strict=True)
+        return dict(zip(self._keys, values, strict=True))
+
+    def step_values(self, t_ns: int, truths: tuple[float, ...]) -> tuple[list[float], list[bool]]:
+        """:meth:`step` with the true values and the readings in the suite's channel order.
+
+        Parameters
+        ----------
+        t_ns : int
+            Time (ns), increasing from call to call.
+        truths : tuple of float
+            True value of each channel, in the order of ``list(suite)``.
+
+        Returns
+        -------
+        values, valid : list of float, list of bool
+            Readings (``nan`` when not valid) and their flags, in the same order.
+        """
+        if len(truths) != len(self._keys):
+            raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
+        self._run(-1, t_ns, truths)
+        return self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist()
+
+    def bind_record(self, slots: np.ndarray, record: np.ndarray) -> None:
+        """Set where :meth:`step_into` scatters the readings (checked once, here).
+
+        Parameters
+        ----------
+        slots : ndarray of int64, shape (len(suite), 2)
+            Per channel: its index in ``record`` (-1 or beyond it: not recorded) and its bit.
+        record : ndarray of float64, shape (m,)
+            Set to 0 at every :meth:`step_into`, then each valid reading at its index.
+        """
+        if slots.shape != (len(self._keys), 2) or slots.dtype != np.int64:
+            raise ValueError(f"slots: expected int64 of shape ({len(self._keys)}, 2)")
+        if record.dtype != np.float64 or record.ndim != 1:
+            raise ValueError("record: expected a float64 vector (slots beyond it are skipped)")
+        self._slots = slots
+        self._record = record
+
+    def step_into(self, t_ns: int, truths: tuple[float, ...]) -> int:
+        """:meth:`step_values`, the readings scattered into the record of :meth:`bind_record`.
+
+        Parameters
+        ----------
+        t_ns : int
+            Time (ns), increasing from call to call.
+        truths : tuple of float
+            True value of each channel, in the order of ``list(suite)``.
+
+        Returns
+        -------
+        int
+            The OR of the bits of the valid readings.
+        """
+        if len(truths) != len(self._keys):
+            raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
+        code, mask = _kern.suite_step(
+            -1, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
+            self._rn, self._slots, self._record,
+        )  # fmt: skip
+        if code == 0:
+            return mask
+        if code > 0:
+            self._refill()
+            return mask
+        return self._run(-1, t_ns, truths, self._slots, self._record)  # nothing was changed
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
-        _, y, ok = channel_step(self._specs[name], self.states[name], t_ns, true_value)
-        return y, ok
+        c = self._index[name]
+        tv = [0.0] * len(self._keys)
+        tv[c] = float(true_value)
+        self._run(c, t_ns, tuple(tv))
+        return float(self._f[c, _kern.READING]), bool(self._ok[c, 1])
+
+    def counts(self, name: str) -> tuple[int, int]:
+        """(samples taken, samples lost) of channel ``name`` so far."""
+        c = self._index[name]
+        return int(self._i[c, _kern.SAMPLES]), int(self._i[c, _kern.DROPPED])
 
 
 #: Counts per revolution of the generator-speed encoder: a 1024-line quadrature encoder
