@@ -19,6 +19,9 @@ $(STAMP): pyproject.toml
 	# ROSCO's compiled controller (kind = "rosco"): the wheel's libdiscon only, without the
 	# toolbox's dependencies (--no-deps keeps the install small).
 	$(BIN)/python -m pip install --quiet --no-deps 'rosco==2.10.*'
+	# Compile the numba kernels once (about 1 min on a fresh clone; cached in __pycache__),
+	# so that no run, peer process or test starts late compiling them.
+	$(BIN)/python -m hil.warmup
 	touch $(STAMP)
 
 run: setup

@@ -1,0 +1,68 @@
+"""Compile the bench's numba kernels once, so that no run or test pays for it.
+
+The plant (:mod:`plant._kernels`), the sensor channels (:mod:`sensors._kernels`) and the
+advanced controller (:mod:`controller._kernels`) are compiled by numba on first use and the
+machine code is cached next to the sources (``__pycache__``, ``cache=True``). On a fresh
+clone the cache is empty, and the first process to use the kernels spends about 20-30 s per
+package compiling them (``bench/plant_compile_time.py``, ``bench/controller_compile.py``): a
+real-time plant or a lock-step peer would start late. ``make setup`` therefore runs this
+module once; every later process loads the cached code (about 1-2 s).
+
+It warms the kernels by running the real code paths, not by calling kernels with made-up
+arguments, so every signature a run uses is compiled: a short in-process run of the floating
+IEA 15 MW with ``lqri_ff`` (floating plant, sensor suite, observers, forecaster, LQRI and
+wave feed-forward), of the bottom-fixed NREL 5 MW with the baseline, and of the Hexicon
+platform's sensor suite (another channel count). Nothing is written outside a temporary
+folder.
+
+    python -m hil.warmup
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+from rich.console import Console
+
+# (scenario, simulated seconds): together they reach every kernel and kernel signature.
+WARM_RUNS: tuple[tuple[str, float], ...] = (
+    ("iea15mw-lc2-lqri-ff", 2.0),
+    ("nrel5mw-ramp", 1.0),
+)
+
+
+def warm_up(console: Console | None = None) -> dict[str, float]:
+    """Run the warm-up runs; return the wall time of each (s)."""
+    from hil.hexicon import load_scenarios, run_in_process
+    from hil.launch import RunRequest, launch
+
+    console = console or Console()
+    walls: dict[str, float] = {}
+    with tempfile.TemporaryDirectory(prefix="fowt-warmup-") as tmp:
+        for name, duration in WARM_RUNS:
+            t0 = time.monotonic()
+            launch(
+                RunRequest(
+                    name,
+                    mode="inprocess",
+                    duration_s=duration,
+                    out_dir=Path(tmp) / name,
+                    plots=False,
+                ),
+                Console(quiet=True),
+            )
+            walls[name] = time.monotonic() - t0
+            console.print(f"warm-up {name}: {walls[name]:.1f} s")
+    scn = next(iter(load_scenarios().values()))
+    t0 = time.monotonic()
+    run_in_process(dataclasses.replace(scn, duration_s=10.0), "bang_bang")
+    walls["hexicon"] = time.monotonic() - t0
+    console.print(f"warm-up hexicon: {walls['hexicon']:.1f} s")
+    return walls
+
+
+if __name__ == "__main__":
+    warm_up()
