@@ -27,6 +27,9 @@ from pathlib import Path
 
 from rich.console import Console
 
+from hil.hexicon import load_scenarios, run_in_process
+from hil.launch import RunRequest, launch
+
 # (scenario, simulated seconds): together they reach every kernel and kernel signature.
 WARM_RUNS: tuple[tuple[str, float], ...] = (
     ("iea15mw-lc2-lqri-ff", 2.0),
@@ -36,9 +39,6 @@ WARM_RUNS: tuple[tuple[str, float], ...] = (
 
 def warm_up(console: Console | None = None) -> dict[str, float]:
     """Run the warm-up runs; return the wall time of each (s)."""
-    from hil.hexicon import load_scenarios, run_in_process
-    from hil.launch import RunRequest, launch
-
     console = console or Console()
     walls: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="fowt-warmup-") as tmp:
