@@ -1051,17 +1051,23 @@ def run_inprocess(
     publish: Publish,
     step_controller: Callable[[SensorFrame], ActuatorCommand | None],
     log: Callable[[str], None] | None = None,
+    before_loop: Callable[[], None] | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
     ``step_controller`` is the controller runtime's cycle; the order of operations is the
     lock-step order, so a seeded in-process run reproduces a lock-step run exactly (bus
     faults included: both take :func:`_faulted_sim_cycle`). ``log`` gets the fault windows
-    and the final fault counts.
+    and the final fault counts. ``before_loop`` is called once the plant is built, before
+    the first cycle (the in-process launcher waits there for its log writer to start); the
+    run's wall time starts after it.
     """
     loop = PlantLoop(scenario, publish)
     if log is not None:
         loop.log = log
+    if before_loop is not None:
+        before_loop()
+        loop.start_wall_ns = time.monotonic_ns()
 
     def exchange(frame: SensorFrame, _sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         t0 = time.monotonic_ns()
