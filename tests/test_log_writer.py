@@ -100,3 +100,32 @@ def test_batch_log_rejects_bad_input(tmp_path: Path) -> None:
         BatchRunLog(tmp_path / "x.mcap", "t1", compression="gzip")
     with pytest.raises(ValueError, match="batch_messages"):
         BackgroundRunLog(tmp_path / "y.mcap", "t1", {}, batch_messages=0)
+
+
+def test_histogram_percentiles_are_the_first_bin_reaching_the_rank() -> None:
+    """The running summary's percentiles (one bisection of the running sums) against the
+    definition: the upper edge of the first bin whose cumulative count reaches q/100 * n
+    (capped by the exact maximum)."""
+    from hil.timing import _BINS_PER_DECADE, _MIN_NS, LatencyHistogram
+
+    rng = random.Random(7)
+    qs = (0.1, 1.0, 50.0, 99.0, 99.9, 100.0)
+    for _ in range(200):
+        h = LatencyHistogram()
+        samples = [int(10 ** rng.uniform(0, 11)) for _ in range(rng.randrange(0, 300))]
+        for s in samples:
+            h.record(s)
+        want = []
+        for q in qs:
+            if not samples:
+                want.append(0.0)
+                continue
+            acc = 0
+            for idx, c in enumerate(h.counts):
+                acc += c
+                if acc >= q / 100 * len(samples) and c > 0:
+                    edge = _MIN_NS if idx == 0 else _MIN_NS * 10 ** (idx / _BINS_PER_DECADE)
+                    want.append((edge if idx == 0 else min(edge, max(samples))) / 1e3)
+                    break
+        assert h.percentiles_us(*qs) == want
+        assert [h.percentile_us(q) for q in qs] == want
