@@ -14,13 +14,11 @@ If the parent dies, the child sees the pipe close and finishes the file, so noth
 over is lost.
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
-it holds :data:`BATCH_MESSAGES` messages, or when :data:`BATCH_WALL_S` of wall time has
-passed since the last one went, whichever comes first (the clock is read every 32
-messages). Whatever went into the pipe survives the parent (the kernel keeps it for the
-child). A killed run therefore loses at most the batch being filled: at most 1024 messages
-(about 200 control cycles of 5 messages, 5 s of simulated time at 40 Hz) and at most 50 ms
-of the loop's wall time plus 32 messages (at 1000x real time 50 ms are 50 s simulated, so
-the message count bounds first).
+it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
+parent (the kernel keeps it for the child). A killed run therefore loses at most the batch
+being filled: at most 1023 messages, about 200 control cycles of 5 messages (5 s of
+simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time). The
+batch is cut by count only, so what survives a kill does not depend on the machine's load.
 The lock-step and real-time modes do not use this path: their recorder flushes a chunk
 every 0.25 s of wall time (:class:`hil.mcap_log.RunLog`).
 """
@@ -45,11 +43,6 @@ from hil.mcap_log import MESSAGE_HEADER_BYTES, BatchRunLog
 
 #: Messages per batch (one MCAP chunk each); bench/inprocess_speed.py measured the choice.
 BATCH_MESSAGES = 1024
-#: Wall time after which a batch goes to the writer even if not full [s].
-BATCH_WALL_S = 0.05
-#: The batch's wall-time limit is checked every this many + 1 messages (a clock read costs
-#: ~0.2 us on this machine; 32 messages are ~6 cycles).
-_CLOCK_EVERY = 31
 #: Pipe buffer asked for (Linux F_SETPIPE_SZ; capped by /proc/sys/fs/pipe-max-size) [bytes]:
 #: a few batches fit, so the loop does not wait whenever the writer is briefly descheduled.
 PIPE_BYTES = 1 << 20
@@ -182,10 +175,8 @@ class BackgroundRunLog:
         self._proc.start()
         recv_end.close()
         self._batch_messages = batch_messages
-        self._wait_ns = int(BATCH_WALL_S * 1e9)
         self._encode_into = msgspec.msgpack.Encoder().encode_into
         self._new_batch()
-        self._last_send_ns = time.monotonic_ns()
         #: Messages and batches handed to the writer so far, and the time spent sending [ns].
         self.messages = 0
         self.batches = 0
@@ -225,10 +216,7 @@ class BackgroundRunLog:
         """Queue one message for the log (the simulation loop's only logging cost)."""
         self._encode_into((mt.message_id, msg), self._records, -1)
         self._n += 1
-        n = self._n
-        if n >= self._batch_messages or (
-            not n & _CLOCK_EVERY and time.monotonic_ns() - self._last_send_ns >= self._wait_ns
-        ):
+        if self._n >= self._batch_messages:
             self._send()
 
     def _send(self) -> None:
@@ -242,7 +230,6 @@ class BackgroundRunLog:
             self.messages += self._n
             self.batches += 1
             self._new_batch()
-        self._last_send_ns = time.monotonic_ns()
 
     def close(self, timeout_s: float = 120.0) -> None:
         """Send what is left, wait for the child to finish the file."""

@@ -268,7 +268,7 @@ def test_inprocess_log_is_complete_after_its_run_process_is_killed(tmp_path: Pat
     """``--mode inprocess``: the log writer is a child process; SIGKILL of the run's process
     closes the pipe, and the writer finishes a complete file with every message handed over."""
     path = tmp_path / "run.mcap"
-    n = 2 * 4096  # two full batches: each goes to the writer when it fills (hil.log_writer)
+    n = 2 * 4096  # whole batches: each goes to the writer when it fills (hil.log_writer)
     proc = subprocess.run(
         [sys.executable, "-c", _KILLED_PARENT, str(path), str(n)],
         capture_output=True,
