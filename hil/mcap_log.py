@@ -699,8 +699,10 @@ def recover(path: Path, out: Path) -> int:
                     n += 1
                 elif isinstance(rec, Metadata):
                     writer.add_metadata(rec.name, dict(rec.metadata))
-        except (McapError, EOFError, ValueError, OSError):
-            pass  # the cut: everything before it is kept
+        except (McapError, EOFError, ValueError, OSError, struct.error):
+            # The cut: everything before it is kept. mcap's reader raises struct.error when
+            # the cut falls inside a record's fixed-size fields (e.g. a MessageIndex entry).
+            pass
         if not started:
             writer.start(profile=PROFILE, library="fowt-hil")
         writer.finish()

@@ -129,3 +129,41 @@ def test_histogram_percentiles_are_the_first_bin_reaching_the_rank() -> None:
                     break
         assert h.percentiles_us(*qs) == want
         assert [h.percentile_us(q) for q in qs] == want
+
+
+def test_recover_a_log_cut_inside_any_message_index(tmp_path: Path) -> None:
+    """``recover`` (``fowt recover``) keeps every message before a cut, wherever the cut
+    falls: here inside each MessageIndex record of a file (mcap's reader raises
+    ``struct.error`` there, not an McapError)."""
+    import struct
+
+    from hil.mcap_log import MCAP_MAGIC, recover
+
+    path = tmp_path / "run.mcap"
+    log = BatchRunLog(path, "t1", batch_messages=50)
+    log.add_metadata("run", {"mode": "inprocess"})
+    rng = random.Random(3)
+    mt = MESSAGES[1]
+    for i in range(400):
+        msg = _random_message(mt, rng, i)
+        log.add_json(mt.message_id, msgspec.json.encode(msg), msg.sample_time_ns, i)  # type: ignore[attr-defined]
+    log.close()
+    data = path.read_bytes()
+    pos, cuts = len(MCAP_MAGIC), []
+    while pos + 9 <= len(data):
+        opcode, length = struct.unpack_from("<BQ", data, pos)
+        if opcode == 0x07:  # MessageIndex: cut after its channel id and part of an entry
+            cuts.append(pos + 9 + 2 + 4 + 11)
+        if opcode == 0x0F:  # DataEnd: the summary follows
+            break
+        pos += 9 + length
+    assert len(cuts) == 8
+    for k, at in enumerate(cuts):
+        cut = tmp_path / f"cut{k}.mcap"
+        cut.write_bytes(data[:at])
+        kept = sum(len(m) for m in read_run(cut).messages.values())
+        assert kept == 50 * (k + 1)  # every chunk before the cut, this one included
+        assert recover(cut, tmp_path / f"fixed{k}.mcap") == kept
+        assert (
+            check_complete_mcap(tmp_path / f"fixed{k}.mcap", validate=False).message_count == kept
+        )
