@@ -563,7 +563,7 @@ def _inprocess(
 
     from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, MessageType  # noqa: PLC0415
     from hil.controller_node import ControllerRuntime  # noqa: PLC0415
-    from hil.mcap_log import RunData, RunLog  # noqa: PLC0415
+    from hil.mcap_log import BatchRunLog, RunData  # noqa: PLC0415
     from hil.plant_node import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
 
@@ -579,7 +579,7 @@ def _inprocess(
             "command": "fowt campaign",
         },
     }
-    log = RunLog(mcap_path, turbine) if mcap_path is not None else None
+    log = BatchRunLog(mcap_path, turbine) if mcap_path is not None else None
     if log is not None:
         for name, data in metadata.items():
             log.add_metadata(name, data)
@@ -590,8 +590,8 @@ def _inprocess(
         key = mt.key(turbine)
         data = encode(msg)
         store.setdefault(key, []).append(data)
-        if log is not None:
-            log.write_json(key, msg.sample_time_ns, data, time.time_ns())  # type: ignore[attr-defined]
+        if log is not None:  # batched: one chunk per 1024 messages or 0.25 s
+            log.add_json(mt.message_id, data, msg.sample_time_ns, time.time_ns())  # type: ignore[attr-defined]
 
     runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
 

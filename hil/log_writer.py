@@ -1,48 +1,124 @@
 """A run log written by a child process, for the in-process mode.
 
-Writing one MCAP message costs about 5.6 us in ``mcap.Writer.add_message`` on this kind of
-machine, more than a whole plant step. In the in-process mode the simulation loop therefore
-only JSON-encodes each message (msgspec, under 1 us) and batches it; batches go through a
-pipe to a child process that owns the :class:`hil.mcap_log.RunLog`, so encoding and
-compression run on the other core. If the parent dies, the child sees the pipe close and
-finishes the file, so no flushed data is lost.
+The simulation loop's whole logging cost is :meth:`BackgroundRunLog.publish`: the message
+goes into one growing buffer as msgpack (message id and the Struct; msgspec, about 0.5 us:
+floats are copied as 8 bytes, not formatted). The MCAP ``publish_time`` of a message is its
+own ``publish_time_ns`` (the host's monotonic clock) moved to the unix epoch: in process,
+publishing and logging are the same moment. A full batch goes through a
+pipe to a child process, on the other core, that does the expensive part: it decodes the
+batch, JSON-encodes each message (the float formatting, 2 to 4 us for the larger
+messages), and a :class:`hil.mcap_log.BatchRunLog` writes the batch as one compressed MCAP
+Chunk with its message indexes. The JSON is the one msgspec writes for the Struct itself
+(every field is an int or a float, which msgpack carries exactly; same keys, same order).
+If the parent dies, the child sees the pipe close and finishes the file, so nothing handed
+over is lost.
+
+Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
+it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
+parent (the kernel keeps it for the child). A killed run therefore loses at most the batch
+being filled: at most 1023 messages, about 200 control cycles of 5 messages (5 s of
+simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time). The
+batch is cut by count only, so what survives a kill does not depend on the machine's load.
+The lock-step and real-time modes do not use this path: their recorder flushes a chunk
+every 0.25 s of wall time (:class:`hil.mcap_log.RunLog`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import multiprocessing
 import time
+import typing
+from array import array
 from multiprocessing.connection import Connection
 from pathlib import Path
+from typing import Any
 
 import msgspec
+import numpy as np
 
-from bus_schemas.registry import BY_ID, MessageType
-from hil.mcap_log import RunLog
+from bus_schemas.registry import MESSAGES, MessageType
+from hil.mcap_log import MESSAGE_HEADER_BYTES, BatchRunLog
 
-_BATCH = 4096
+#: Messages per batch (one MCAP chunk each); bench/inprocess_speed.py measured the choice.
+BATCH_MESSAGES = 1024
+#: Pipe buffer asked for (Linux F_SETPIPE_SZ; capped by /proc/sys/fs/pipe-max-size) [bytes]:
+#: a few batches fit, so the loop does not wait whenever the writer is briefly descheduled.
+PIPE_BYTES = 1 << 20
+
+
+_json_encode_into = msgspec.json.Encoder().encode_into
+
+
+def _loose_struct(mt: MessageType) -> type[msgspec.Struct]:
+    """A Struct with ``mt``'s fields in order, without their constraints, for decoding.
+
+    msgspec's decoders refuse the registry types' integer bounds beyond int64; this twin
+    decodes the msgpack the parent wrote, and its JSON is the registry type's (same keys,
+    same order; a float field keeps an int it was given, as the Struct's own JSON does).
+    """
+    hints = typing.get_type_hints(mt.cls)
+    fields = [(f, int if hints[f] is int else int | float) for f in mt.cls.__struct_fields__]
+    return msgspec.defstruct(f"_Loose{mt.name}", fields)
+
+
+def _decoders() -> dict[int, Any]:
+    return {mt.message_id: msgspec.msgpack.Decoder(_loose_struct(mt)).decode for mt in MESSAGES}
+
+
+_decode_batch = msgspec.msgpack.Decoder(list[tuple[int, msgspec.Raw]]).decode
+
+
+def _encode_batch(
+    blob: bytes, decoders: dict[int, Any], unix_minus_monotonic_ns: int = 0
+) -> tuple[np.ndarray, bytearray]:
+    """JSON-encode a batch: the record buffer (a 31-byte gap before each message's JSON)
+    and its (n, 4) table of message id, sample time, publish time (the message's
+    ``publish_time_ns`` on the host's monotonic clock, moved to the unix epoch by
+    ``unix_minus_monotonic_ns``), record offset."""
+    meta = array("q")
+    records = bytearray()
+    for message_id, raw in _decode_batch(blob):
+        msg = decoders[message_id](raw)
+        offset = len(records)
+        _json_encode_into(msg, records, offset + MESSAGE_HEADER_BYTES)
+        meta.extend(
+            (message_id, msg.sample_time_ns, msg.publish_time_ns + unix_minus_monotonic_ns, offset)
+        )
+    return np.frombuffer(meta, np.int64).reshape(-1, 4), records
 
 
 def _writer_main(
-    conn: Connection, path: str, turbine: str, metadata: dict[str, dict[str, str]]
+    conn: Connection,
+    path: str,
+    turbine: str,
+    metadata: dict[str, dict[str, str]],
+    compression: str,
+    ready: Any,
+    unix_minus_monotonic_ns: int,
+    stats: Any,
 ) -> None:
-    log = RunLog(Path(path), turbine)
-    keys = {mid: mt.key(turbine) for mid, mt in BY_ID.items()}
-    decoder = msgspec.msgpack.Decoder(list[tuple[int, int, bytes, int]])
+    log = BatchRunLog(Path(path), turbine, compression=compression)
+    decoders = _decoders()
+    cpu0 = time.process_time()
     try:
         for name, data in metadata.items():
             log.add_metadata(name, data)
+        ready.set()
         while True:
             try:
                 blob = conn.recv_bytes()
-            except EOFError:
+            except EOFError:  # the parent is gone
                 break
             if not blob:
                 break
-            for mid, sample_time_ns, js, recv in decoder.decode(blob):
-                log.write_json(keys[mid], sample_time_ns, js, recv)
+            meta, records = _encode_batch(blob, decoders, unix_minus_monotonic_ns)
+            log.write_batch(meta, records)
     finally:
         log.close()
+        stats[0] = time.process_time() - cpu0
+        stats[1] = log.count
 
 
 class BackgroundRunLog:
@@ -56,39 +132,113 @@ class BackgroundRunLog:
         Turbine id of the keys.
     metadata : dict
         Metadata records (name -> string map) written first.
+    compression : str
+        Chunk compression of the file (:data:`hil.mcap_log.COMPRESSIONS`).
+    batch_messages : int
+        Messages per batch (module docstring).
     """
 
-    def __init__(self, path: Path, turbine: str, metadata: dict[str, dict[str, str]]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        turbine: str,
+        metadata: dict[str, dict[str, str]],
+        compression: str = "zstd",
+        batch_messages: int = BATCH_MESSAGES,
+    ) -> None:
+        if batch_messages < 1:
+            raise ValueError(f"batch_messages: expected an integer >= 1, got {batch_messages}")
         ctx = multiprocessing.get_context("spawn")
         recv_end, send_end = ctx.Pipe(duplex=False)
+        setpipe = getattr(fcntl, "F_SETPIPE_SZ", None)
+        if setpipe is not None:
+            with contextlib.suppress(OSError):  # a smaller pipe only costs waiting
+                fcntl.fcntl(send_end.fileno(), setpipe, PIPE_BYTES)
         self._conn = send_end
+        self._ready = ctx.Event()
+        self._stats = ctx.Array("d", 2)  # the writer's CPU seconds after start-up, messages
         self._proc = ctx.Process(
             target=_writer_main,
-            args=(recv_end, str(path), turbine, metadata),
+            args=(
+                recv_end,
+                str(path),
+                turbine,
+                metadata,
+                compression,
+                self._ready,
+                time.time_ns() - time.monotonic_ns(),
+                self._stats,
+            ),
             name="fowt-log-writer",
             daemon=False,
         )
         self._proc.start()
         recv_end.close()
-        self._batch: list[tuple[int, int, bytes, int]] = []
-        self._encode = msgspec.json.encode
-        self._pack = msgspec.msgpack.encode
+        self._batch_messages = batch_messages
+        self._encode_into = msgspec.msgpack.Encoder().encode_into
+        self._new_batch()
+        #: Messages and batches handed to the writer so far, and the time spent sending [ns].
+        self.messages = 0
+        self.batches = 0
+        self.send_ns = 0
+        #: Wall time :meth:`close` waited for the writer to finish the file [ns].
+        self.close_wait_ns = 0
+        #: After :meth:`close`: the writer's CPU time from its start-up's end to the file's
+        #: end [s] and the messages it wrote (its throughput, bench/inprocess_speed.py).
+        self.writer_cpu_s = 0.0
+        self.writer_messages = 0
+
+    def wait_ready(self, timeout_s: float = 120.0) -> None:
+        """Wait until the writer has started (its imports take ~0.5 s) and opened the file.
+
+        Called before the loop's first cycle, so the loop never waits on a writer that is
+        still starting; the messages published meanwhile wait in the pipe and the batch.
+
+        Raises
+        ------
+        RuntimeError
+            If the writer exited or did not start within ``timeout_s``.
+        """
+        deadline = time.monotonic() + timeout_s
+        while not self._ready.wait(0.05):
+            if not self._proc.is_alive():
+                raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"log writer did not start within {timeout_s:g} s")
+
+    def _new_batch(self) -> None:
+        # A msgpack array32 of [message id, message] pairs; the 5-byte
+        # array header is filled in when the batch is sent.
+        self._records = bytearray(5)
+        self._n = 0
 
     def publish(self, mt: MessageType, msg: msgspec.Struct) -> None:
         """Queue one message for the log (the simulation loop's only logging cost)."""
-        batch = self._batch
-        batch.append((mt.message_id, msg.sample_time_ns, self._encode(msg), time.time_ns()))  # type: ignore[attr-defined]
-        if len(batch) >= _BATCH:
-            self._conn.send_bytes(self._pack(batch))
-            batch.clear()
+        self._encode_into((mt.message_id, msg), self._records, -1)
+        self._n += 1
+        if self._n >= self._batch_messages:
+            self._send()
+
+    def _send(self) -> None:
+        if self._n:
+            t0 = time.perf_counter_ns()
+            records = self._records
+            records[0] = 0xDD
+            records[1:5] = self._n.to_bytes(4, "big")
+            self._conn.send_bytes(records)
+            self.send_ns += time.perf_counter_ns() - t0
+            self.messages += self._n
+            self.batches += 1
+            self._new_batch()
 
     def close(self, timeout_s: float = 120.0) -> None:
         """Send what is left, wait for the child to finish the file."""
-        if self._batch:
-            self._conn.send_bytes(self._pack(self._batch))
-            self._batch.clear()
+        t0 = time.perf_counter_ns()
+        self._send()
         self._conn.send_bytes(b"")
         self._conn.close()
         self._proc.join(timeout_s)
+        self.close_wait_ns = time.perf_counter_ns() - t0
         if self._proc.exitcode != 0:
             raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
+        self.writer_cpu_s, self.writer_messages = self._stats[0], int(self._stats[1])

@@ -398,6 +398,7 @@ class PlantLoop:
         self.speed = speed
         self.period_ns = round(scenario.timing.control_period_s * 1e9)
         self.wall_period_ns = max(1, round(self.period_ns / speed))
+        self._summary_every = max(1, round(1e9 / self.period_ns))  # cycles per running summary
         self.x = self.sim.initial_state()
         self.applied = self.sim.initial_applied(self.x)  # hold the initial actuator positions
         self.k = 0
@@ -557,7 +558,7 @@ class PlantLoop:
         )
         self.k += 1
         self.result.cycles = self.k
-        if self.k % max(1, round(1e9 / self.period_ns)) == 0:
+        if self.k % self._summary_every == 0:
             self.publish_summary(final=False)
 
     def _watchdog(self, missed: bool, demand: tuple[float, float]) -> tuple[float, float]:
@@ -599,6 +600,7 @@ class PlantLoop:
         r = self.result
         wall_s = (time.monotonic_ns() - self.start_wall_ns) * 1e-9
         r.wall_s, r.sim_s = wall_s, self.t_ns * 1e-9
+        p50, p99, p999 = self.hist.percentiles_us(50, 99, 99.9)
         summary = TimingSummary(
             seq=self.summary_seq,
             sample_time_ns=self.t_ns,
@@ -618,9 +620,9 @@ class PlantLoop:
             safe_state_cycles=r.safe_state_cycles,
             faults_injected=sum(self.count_faults(self._inbox).values()),
             final=int(final),
-            latency_p50_us=self.hist.percentile_us(50),
-            latency_p99_us=self.hist.percentile_us(99),
-            latency_p999_us=self.hist.percentile_us(99.9),
+            latency_p50_us=p50,
+            latency_p99_us=p99,
+            latency_p999_us=p999,
             latency_max_us=self.hist.max_ns / 1e3,
             sim_seconds_per_wall_second=min(1e9, r.sim_s / wall_s) if wall_s > 0 else 0.0,
         )
@@ -1051,17 +1053,23 @@ def run_inprocess(
     publish: Publish,
     step_controller: Callable[[SensorFrame], ActuatorCommand | None],
     log: Callable[[str], None] | None = None,
+    before_loop: Callable[[], None] | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
     ``step_controller`` is the controller runtime's cycle; the order of operations is the
     lock-step order, so a seeded in-process run reproduces a lock-step run exactly (bus
     faults included: both take :func:`_faulted_sim_cycle`). ``log`` gets the fault windows
-    and the final fault counts.
+    and the final fault counts. ``before_loop`` is called once the plant is built, before
+    the first cycle (the in-process launcher waits there for its log writer to start); the
+    run's wall time starts after it.
     """
     loop = PlantLoop(scenario, publish)
     if log is not None:
         loop.log = log
+    if before_loop is not None:
+        before_loop()
+        loop.start_wall_ns = time.monotonic_ns()
 
     def exchange(frame: SensorFrame, _sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         t0 = time.monotonic_ns()

@@ -1,0 +1,169 @@
+"""The in-process log path: batches to a writer process, MCAP chunks written per batch.
+
+:class:`hil.log_writer.BackgroundRunLog` hands msgpack batches to a child that JSON-encodes
+them and :class:`hil.mcap_log.BatchRunLog` writes each batch as one chunk. These checks read
+the files with the mcap package's own reader: every message of every registered type comes
+out as exactly the JSON msgspec writes for the Struct itself (seeded random field values,
+including extreme floats and 64-bit integers), with per-channel sequence numbers 0, 1, ...,
+log time = run start + sample time, publish time as given, and a complete, conformant file.
+"""
+
+from __future__ import annotations
+
+import random
+import typing
+from pathlib import Path
+
+import msgspec
+import pytest
+from _mcap_conformance import check_complete_mcap
+from mcap.reader import make_reader
+
+from bus_schemas.registry import MESSAGES, MessageType
+from hil.log_writer import BATCH_MESSAGES, BackgroundRunLog
+from hil.mcap_log import BatchRunLog, read_run
+
+FLOATS = (0.0, -0.0, 1.0, 5e-324, 1.7976931348623157e308, -2.5e-9, 123456.789, 1e17)
+INTS = (0, 1, -1, 2**63 - 1, 40_000_000_000)
+
+
+def _random_message(mt: MessageType, rng: random.Random, seq: int) -> msgspec.Struct:
+    hints = typing.get_type_hints(mt.cls)
+    fields: dict[str, typing.Any] = {}
+    for name, kind in hints.items():
+        if kind is int:
+            fields[name] = (
+                rng.choice(INTS) if rng.random() < 0.5 else rng.randrange(-(2**62), 2**62)
+            )
+        else:
+            fields[name] = rng.choice(FLOATS) if rng.random() < 0.5 else rng.uniform(-1e6, 1e6)
+    fields.update(seq=seq, sample_time_ns=seq * 25_000_000, publish_time_ns=10**9 + seq)
+    return mt.cls(**fields)
+
+
+def _read_all(path: Path) -> list[tuple[str, int, int, int, bytes]]:
+    with open(path, "rb") as fh:
+        reader = make_reader(fh)
+        return [
+            (ch.topic, m.sequence, m.log_time, m.publish_time, m.data)
+            for _s, ch, m in reader.iter_messages(log_time_order=False)
+        ]
+
+
+def test_background_log_writes_the_structs_json_exactly(tmp_path: Path) -> None:
+    rng = random.Random(15)
+    path = tmp_path / "run.mcap"
+    log = BackgroundRunLog(path, "t1", {"run": {"mode": "inprocess"}})
+    log.wait_ready()
+    sent: dict[str, list[bytes]] = {}
+    n = BATCH_MESSAGES * 2 + 77  # two full batches and a partial one sent by close()
+    for i in range(n):
+        mt = MESSAGES[i % len(MESSAGES)]
+        msg = _random_message(mt, rng, i)
+        sent.setdefault(mt.key("t1"), []).append(msgspec.json.encode(msg))
+        log.publish(mt, msg)
+    log.close()
+    assert log.writer_messages == n
+    found = check_complete_mcap(path, validate=False)
+    assert found.per_topic == {k: len(v) for k, v in sent.items()}
+    got: dict[str, list[bytes]] = {}
+    for topic, _seq, _lt, _pt, data in _read_all(path):
+        got.setdefault(topic, []).append(data)
+    assert got == sent  # byte for byte, in order, per topic
+    assert read_run(path).metadata["run"] == {"mode": "inprocess"}
+
+
+def test_batch_log_sequences_and_times(tmp_path: Path) -> None:
+    """add_json: sequence per channel from 0, log time = start + sample time, publish time kept."""
+    path = tmp_path / "c.mcap"
+    start = 1_700_000_000_000_000_000
+    log = BatchRunLog(path, "t1", start_unix_ns=start, batch_messages=100)
+    by_id = {mt.message_id: mt for mt in MESSAGES}
+    rng = random.Random(2)
+    expected: dict[str, list[tuple[int, int, int]]] = {}
+    for i in range(1050):
+        mt = by_id[rng.choice([1, 2, 3])]
+        msg = _random_message(mt, rng, i)
+        seqs = expected.setdefault(mt.key("t1"), [])
+        seqs.append((len(seqs), start + msg.sample_time_ns, 777 + i))  # type: ignore[attr-defined]
+        log.add_json(mt.message_id, msgspec.json.encode(msg), msg.sample_time_ns, 777 + i)  # type: ignore[attr-defined]
+    log.close()
+    check_complete_mcap(path, validate=False)  # random values break the schemas' ranges
+    got: dict[str, list[tuple[int, int, int]]] = {}
+    for topic, seq, log_time, publish_time, _data in _read_all(path):
+        got.setdefault(topic, []).append((seq, log_time, publish_time))
+    assert got == expected
+
+
+def test_batch_log_rejects_bad_input(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="compression 'gzip'"):
+        BatchRunLog(tmp_path / "x.mcap", "t1", compression="gzip")
+    with pytest.raises(ValueError, match="batch_messages"):
+        BackgroundRunLog(tmp_path / "y.mcap", "t1", {}, batch_messages=0)
+
+
+def test_histogram_percentiles_are_the_first_bin_reaching_the_rank() -> None:
+    """The running summary's percentiles (one bisection of the running sums) against the
+    definition: the upper edge of the first bin whose cumulative count reaches q/100 * n
+    (capped by the exact maximum)."""
+    from hil.timing import _BINS_PER_DECADE, _MIN_NS, LatencyHistogram
+
+    rng = random.Random(7)
+    qs = (0.1, 1.0, 50.0, 99.0, 99.9, 100.0)
+    for _ in range(200):
+        h = LatencyHistogram()
+        samples = [int(10 ** rng.uniform(0, 11)) for _ in range(rng.randrange(0, 300))]
+        for s in samples:
+            h.record(s)
+        want = []
+        for q in qs:
+            if not samples:
+                want.append(0.0)
+                continue
+            acc = 0
+            for idx, c in enumerate(h.counts):
+                acc += c
+                if acc >= q / 100 * len(samples) and c > 0:
+                    edge = _MIN_NS if idx == 0 else _MIN_NS * 10 ** (idx / _BINS_PER_DECADE)
+                    want.append((edge if idx == 0 else min(edge, max(samples))) / 1e3)
+                    break
+        assert h.percentiles_us(*qs) == want
+        assert [h.percentile_us(q) for q in qs] == want
+
+
+def test_recover_a_log_cut_inside_any_message_index(tmp_path: Path) -> None:
+    """``recover`` (``fowt recover``) keeps every message before a cut, wherever the cut
+    falls: here inside each MessageIndex record of a file (mcap's reader raises
+    ``struct.error`` there, not an McapError)."""
+    import struct
+
+    from hil.mcap_log import MCAP_MAGIC, recover
+
+    path = tmp_path / "run.mcap"
+    log = BatchRunLog(path, "t1", batch_messages=50)
+    log.add_metadata("run", {"mode": "inprocess"})
+    rng = random.Random(3)
+    mt = MESSAGES[1]
+    for i in range(400):
+        msg = _random_message(mt, rng, i)
+        log.add_json(mt.message_id, msgspec.json.encode(msg), msg.sample_time_ns, i)  # type: ignore[attr-defined]
+    log.close()
+    data = path.read_bytes()
+    pos, cuts = len(MCAP_MAGIC), []
+    while pos + 9 <= len(data):
+        opcode, length = struct.unpack_from("<BQ", data, pos)
+        if opcode == 0x07:  # MessageIndex: cut after its channel id and part of an entry
+            cuts.append(pos + 9 + 2 + 4 + 11)
+        if opcode == 0x0F:  # DataEnd: the summary follows
+            break
+        pos += 9 + length
+    assert len(cuts) == 8
+    for k, at in enumerate(cuts):
+        cut = tmp_path / f"cut{k}.mcap"
+        cut.write_bytes(data[:at])
+        kept = sum(len(m) for m in read_run(cut).messages.values())
+        assert kept == 50 * (k + 1)  # every chunk before the cut, this one included
+        assert recover(cut, tmp_path / f"fixed{k}.mcap") == kept
+        assert (
+            check_complete_mcap(tmp_path / f"fixed{k}.mcap", validate=False).message_count == kept
+        )
