@@ -360,6 +360,8 @@ def compute_kpis(
     the controller measured: its constraint; the true speed without a measured one); MPC
     solve time p99 and overruns.
     """
+    if not log.t:
+        raise ValueError("no platform samples in the run: nothing to review")
     d = design or load_design()
     p = scn.params()
     e = np.degrees(
