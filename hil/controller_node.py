@@ -90,6 +90,7 @@ from controller.interface import REGIME_SAFE
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
 from hil.bus import Bus, BusConfig
+from hil.rt import freeze_heap
 from hil.scenario import Scenario
 
 #: Float fields of a sensor frame (checked finite before a frame may reach the core).
@@ -639,6 +640,7 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
+    freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
 
     def on_plant_liveliness(sample: zenoh.Sample) -> None:

@@ -538,6 +538,8 @@ def _launch_in_netns(req: RunRequest, can: CanBusConfig, out: Path) -> dict[str,
         cmd += ["--duration", repr(req.duration_s)]
     if not req.plots:
         cmd.append("--no-plots")
+    if req.realtime_priority:  # the child's plant and controller need it as much
+        cmd += ["--realtime-priority", str(req.realtime_priority)]
     env = {**os.environ, _NETNS_ENV: "1"}
     rc = subprocess.run(netns_command(cmd), check=False, env=env).returncode
     if rc != 0:

@@ -88,6 +88,7 @@ from bus_schemas.registry import (
     MessageType,
 )
 from hil.bus import Bus, BusConfig, PutQueue
+from hil.rt import freeze_heap
 from hil.scenario import (
     JonswapWavesSpec,
     PiersonMoskowitzWavesSpec,
@@ -888,6 +889,7 @@ def run_plant_node(
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
         loop.log = log
         loop._inbox = inbox
+        freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
         cycles = scenario.cycles
         log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
         if mode == "lockstep":
