@@ -15,6 +15,10 @@
    * ``payload_wrap``: the binary re-encoding and decoding a node's Zenoh-style callback
      adds (``hil.can_bus.CanBus.subscribe``), per message.
 
+   The measuring process runs under ``SCHED_FIFO`` at ``--realtime-priority`` (as the nodes
+   do), so the figures are the work, not the shared machine's run queue. With
+   ``--skip-soak`` only this part runs and goes to ``can_frame_cost.json``.
+
 2. Soak: ``fowt run`` of the default floating scenario (IEA 15 MW on VolturnUS-S, load case
    2) at 40 Hz (control period 0.025 s, plant step 0.0125 s), ``--transport can
    --can-interface udp_multicast``, real time at speed 1, ``--realtime-priority`` for plant
@@ -160,7 +164,7 @@ def _soak(duration_s: float, priority: int, fd: bool) -> dict[str, Any]:
     if priority:
         extra += ["--realtime-priority", str(priority)]
     load_before = os.getloadavg()
-    s = run_fowt(str(path), "realtime", duration_s, extra)
+    s = run_fowt(str(path), "realtime", duration_s, extra, inspect=_inspect)
     t = s["timing"]
     cycles = t["cycles"] or 0
     return {
@@ -181,9 +185,39 @@ def _soak(duration_s: float, priority: int, fd: bool) -> dict[str, Any]:
         "sim_seconds_per_wall_second": t.get("sim_seconds_per_wall_second"),
         "complete": t.get("complete"),
         "whole_command_wall_s": s["bench_command_wall_s"],
+        "nodes": s.get("bench_inspect"),
         "loadavg_before": load_before,
         "loadavg_after": os.getloadavg(),
     }
+
+
+def _inspect(run_dir: Path) -> dict[str, Any]:
+    """The nodes' CAN and watchdog lines, the recorder's rejections, the missed cycles."""
+    from hil.mcap_log import read_run
+
+    out: dict[str, Any] = {}
+    for name, marks in (
+        ("plant", ("plant CAN", "plant done")),
+        ("controller", ("controller stopped",)),
+        ("recorder", ("CAN", "recorder")),
+    ):
+        path = run_dir / "logs" / f"{name}.log"
+        lines = path.read_text(errors="replace").splitlines() if path.is_file() else []
+        out[f"{name}_log"] = [ln for ln in lines if any(m in ln for m in marks)][-4:]
+    run = read_run(run_dir / "run.mcap")
+    out["recorder_metadata"] = {
+        k: v for k, v in run.metadata.get("recorder", {}).items() if "reject" in k or "can" in k
+    }
+    missed = [c for c in run.topic("timing/cycle") if c["deadline_missed"]]
+    out["missed_cycles"] = [
+        {"seq": c["seq"], "latency_us": c["latency_ns"] / 1e3, "t_s": c["sample_time_ns"] / 1e9}
+        for c in missed[:20]
+    ]
+    commands = {c["answered_seq"] for c in run.topic("command")}
+    frames = {f["seq"] for f in run.topic("sensors")}
+    out["missed_seq_frame_recorded"] = [c["seq"] in frames for c in missed[:20]]
+    out["missed_seq_command_recorded"] = [c["seq"] in commands for c in missed[:20]]
+    return out
 
 
 def main() -> None:
@@ -196,6 +230,8 @@ def main() -> None:
     ap.add_argument("--frame-cost-child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.frame_cost_child:  # inside the namespace: print the figures for the parent
+        if args.realtime_priority:  # as the nodes: the costs, not the machine's queue
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.realtime_priority))
         print(json.dumps(frame_cost(args.count, args.can_fd)))
         return
     from _common import save
@@ -203,7 +239,8 @@ def main() -> None:
     from hil.can_bus import in_private_netns, netns_command, netns_unavailable_reason
 
     cmd = [sys.executable, str(Path(__file__).resolve()), "--frame-cost-child"]
-    cmd += ["--count", str(args.count)] + (["--can-fd"] if args.can_fd else [])
+    cmd += ["--count", str(args.count), "--realtime-priority", str(args.realtime_priority)]
+    cmd += ["--can-fd"] if args.can_fd else []
     if not in_private_netns():
         reason = netns_unavailable_reason()
         if reason is not None:
@@ -218,7 +255,8 @@ def main() -> None:
     if not args.skip_soak:
         result["soak"] = _soak(args.duration, args.realtime_priority, args.can_fd)
         print("soak", result["soak"])
-    save("can_soak" + ("_fd" if args.can_fd else ""), result)
+    name = "can_frame_cost" if args.skip_soak else "can_soak"
+    save(name + ("_fd" if args.can_fd else ""), result)
 
 
 if __name__ == "__main__":

@@ -650,8 +650,9 @@ def _run_processes(
             fh.write(f"\n--- {name} restarted by the launcher at {_utc()} ---\n".encode())
             fh.flush()
         # The recorder only logs: it runs niced (RECORDER_NICE) so the plant and controller,
-        # whose exchange paces the run, get the CPU first when it is scarce.
-        nice = RECORDER_NICE if name == "recorder" else 0
+        # whose exchange paces the run, get the CPU first when it is scarce. Not on CAN:
+        # its udp_multicast frames have no flow control, a starved recorder would lose some.
+        nice = RECORDER_NICE if name == "recorder" and req.transport != "can" else 0
         proc = subprocess.Popen(
             cmds[name],
             stdout=fh,
