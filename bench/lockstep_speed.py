@@ -133,7 +133,7 @@ def main() -> None:
         }
         print(name, {k: v for k, v in results[name].items() if not k.startswith("raw_")})
     save(
-        "lockstep_speed",
+        "lockstep_speed" + (f"_rt{prio}" if prio else ""),
         {
             "targets": {"sim_seconds_per_wall_second": 50, "cycle_over_raw_rtt": 1.25},
             "runs": results,
