@@ -849,7 +849,11 @@ def run_plant_node(
     # Log-only messages (nobody waits for them) are put by a background thread, so their
     # socket writes overlap with the controller's turn (hil.bus.PutQueue); the sensor frame
     # and the perfect wave preview (which the controller waits for) go out at once.
+    # Lock-step only: there the plant's thread is the run's pace; in real time it waits for
+    # the tick anyway and the puts stay in it (one thread less to schedule per cycle).
     background = {mt.key_suffix for mt in (TRUTH, CYCLE_TIMING, TIMING_SUMMARY)}
+    if mode != "lockstep":
+        background.clear()
     log_puts = PutQueue("plant-log-puts")
     profile = CycleProfile()
 
