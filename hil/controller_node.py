@@ -568,6 +568,9 @@ def run_controller_node(
         log(f"{level}: {line}" if level != "info" else line)
     # ``bus_factory``: a Zenoh Bus, or a CAN run's HybridBus (sensors and commands on CAN,
     # the rest on Zenoh) with the same surface, so this loop runs unchanged over either.
+    # No full garbage collection walking the set-up's objects mid-run; done before the
+    # subscriptions, so a controller restarted into a running plant answers at once.
+    freeze_heap()
     bus = bus_factory(bus_config)
     tid = scenario.turbine_id
     cmd_key, status_key = COMMAND.key(tid), CONTROLLER_STATUS.key(tid)
@@ -640,7 +643,6 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
-    freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
 
     def on_plant_liveliness(sample: zenoh.Sample) -> None:
