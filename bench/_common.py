@@ -27,9 +27,17 @@ def machine() -> dict[str, Any]:
 
 
 def run_fowt(
-    scenario: str, mode: str, duration_s: float, extra: list[str] | None = None
+    scenario: str,
+    mode: str,
+    duration_s: float,
+    extra: list[str] | None = None,
+    inspect: Any = None,
 ) -> dict[str, Any]:
-    """Run ``fowt run`` as a user would (separate processes), return its summary.json."""
+    """Run ``fowt run`` as a user would (separate processes), return its summary.json.
+
+    ``inspect``: an optional ``callable(run_dir) -> dict`` called on the run's folder (logs,
+    MCAP) before it is deleted; its answer goes under the summary's ``bench_inspect``.
+    """
     with tempfile.TemporaryDirectory(prefix="fowt-bench-") as tmp:
         out = Path(tmp) / "run"
         cmd = [
@@ -54,6 +62,8 @@ def run_fowt(
             raise SystemExit(f"fowt run failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}")
         summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
         summary["bench_command_wall_s"] = wall
+        if inspect is not None:
+            summary["bench_inspect"] = inspect(out)
         return summary
 
 

@@ -1,50 +1,144 @@
-"""Benchmark 2: lock-step runs over Zenoh (separate processes), 600 simulated seconds.
+"""Benchmark 2: lock-step runs over Zenoh (separate processes) against raw zenoh-python.
 
-Prints and saves simulated seconds per wall second (issue 2's target: >= 50x on a 2-core
-machine) for the foundation's bottom-fixed NREL 5 MW at 100 Hz and for the default floating
-scenario at the deck's 40 Hz. A lock-step cycle costs one Zenoh round trip between two Python
-processes plus both sides' work, so the figure scales with the control rate.
+For each configuration, in one run of this script: a raw zenoh-python ping-pong between two
+processes (``bench/_zenoh_pingpong.py``: the bench's Zenoh config, the encoded SensorFrame's
+size one way and the ActuatorCommand's back, no bench code in the loop), then ``fowt run
+SCENARIO --mode lockstep`` (plant, controller and recorder as separate processes), then the
+ping-pong again (the reference is the mean of the two, so a change of the machine's load
+during the run shows as their spread). Prints and saves:
 
-    python bench/lockstep_speed.py [--duration 600] [--only NAME]
+* ``sim_seconds_per_wall_second`` (target >= 50 at 40 Hz) and the cycle's wall time;
+* ``cycle_over_raw_rtt``: the lock-step cycle's mean wall time / the raw round trip's mean
+  (the issue's target <= 1.25);
+* the plant's own profile of its cycles (its log line ``plant lock-step cycle profile``):
+  ``sample`` (truth and sensor frame, their encoding, the frame's put), ``wait`` (until the
+  command is in the plant's hands: round trip plus the controller's turn), ``finish``
+  (applying the command and integrating), and the controller's compute per cycle (from the
+  MCAP's controller status, mean), so the exchange can be told from the compute:
+  ``exchange_us`` = wait + sensor put - controller compute, and
+  ``exchange_over_raw_rtt`` = exchange / raw round trip (means).
+
+The machine's load average is saved beside the figures (the bench machine is shared).
+
+    python bench/lockstep_speed.py [--duration 600] [--only NAME] [--count 20000]
+                                   [--realtime-priority 20]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
+from pathlib import Path
 from typing import Any
 
-from _common import run_fowt, save, scenario_variant
+import numpy as np
+from _common import run_fowt, save
+from _zenoh_pingpong import measure
 
-CONFIGS: dict[str, tuple[str, float, float]] = {
-    "foundation-100hz": ("nrel5mw-ramp", 0.01, 0.01),
-    "floating-40hz": ("default", 0.025, 0.0125),
+CONFIGS: dict[str, str] = {
+    "lc2-baseline-40hz": "iea15mw-lc2",
+    "lc2-lqri-ff-40hz": "iea15mw-lc2-lqri-ff",
 }
+
+_PROFILE = re.compile(
+    r"plant lock-step cycle profile \((\d+) cycles, mean us per cycle\): sample ([\d.]+) "
+    r"\(of which sensor put ([\d.]+)\), wait ([\d.]+), finish ([\d.]+)"
+)
+
+
+def _inspect(run_dir: Path) -> dict[str, Any]:
+    """The plant's cycle profile (its log) and the controller's compute (the MCAP)."""
+    from hil.mcap_log import read_run
+
+    out: dict[str, Any] = {}
+    m = _PROFILE.search((run_dir / "logs" / "plant.log").read_text(errors="replace"))
+    if m:
+        out["plant_profile_us"] = {
+            "cycles": int(m.group(1)),
+            "sample": float(m.group(2)),
+            "sensor_put": float(m.group(3)),
+            "wait": float(m.group(4)),
+            "finish": float(m.group(5)),
+        }
+    run = read_run(run_dir / "run.mcap")
+    status = run.topic("controller/status")
+    cycles = run.topic("timing/cycle")
+    if status:
+        c = np.array([m["compute_time_ns"] for m in status], dtype=float) / 1e3
+        out["controller_compute_us"] = {"mean": float(c.mean()), "p50": float(np.median(c))}
+    if cycles:
+        p = np.array([m["plant_compute_ns"] for m in cycles], dtype=float) / 1e3
+        out["plant_finish_compute_us"] = {"mean": float(p.mean()), "p50": float(np.median(p))}
+    return out
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--only", choices=sorted(CONFIGS), default=None)
+    ap.add_argument("--count", type=int, default=20000, help="raw ping-pong round trips")
+    ap.add_argument(
+        "--realtime-priority",
+        type=int,
+        default=0,
+        help="SCHED_FIFO for plant and controller, and for both ping-pong processes",
+    )
     args = ap.parse_args()
+    prio = args.realtime_priority
+    rt = ["--realtime-priority", str(prio)] if prio else []
     results: dict[str, Any] = {}
-    for name, (scenario, period, step) in CONFIGS.items():
+    for name, scenario in CONFIGS.items():
         if args.only and name != args.only:
             continue
-        s = run_fowt(str(scenario_variant(scenario, period, step)), "lockstep", args.duration)
+        load_before = os.getloadavg()
+        raw_before = measure(count=args.count, priority=prio)
+        s = run_fowt(scenario, "lockstep", args.duration, rt, inspect=_inspect)
+        raw_after = measure(count=args.count, priority=prio)
         t = s["timing"]
         speed = t["sim_seconds_per_wall_second"]
+        period = s["scenario"]["config"]["timing"]["control_period_s"]
+        cycle_us = 1e6 * period / speed if speed else None
+        raw_mean = 0.5 * (raw_before["round_trip_us"]["mean"] + raw_after["round_trip_us"]["mean"])
+        raw_p50 = 0.5 * (raw_before["round_trip_us"]["p50"] + raw_after["round_trip_us"]["p50"])
+        insp = s.get("bench_inspect", {})
+        prof = insp.get("plant_profile_us")
+        ctrl = insp.get("controller_compute_us", {}).get("mean")
+        exchange = None
+        if prof and ctrl is not None:
+            exchange = prof["wait"] + prof["sensor_put"] - ctrl
         results[name] = {
             "scenario": scenario,
             "control_rate_hz": round(1.0 / period),
             "duration_s": args.duration,
+            "realtime_priority": prio,
             "sim_seconds_per_wall_second": speed,
-            "cycle_wall_us": 1e6 * period / speed if speed else None,
-            "round_trip_us": t["latency_us"],
+            "met_speed_50x": speed is not None and speed >= 50,
+            "cycle_wall_us": cycle_us,
+            "raw_round_trip_us_mean": raw_mean,
+            "raw_round_trip_us_p50": raw_p50,
+            "cycle_over_raw_rtt": cycle_us / raw_mean if cycle_us else None,
+            "met_cycle_1_25": cycle_us is not None and cycle_us / raw_mean <= 1.25,
+            "plant_profile_us": prof,
+            "controller_compute_us": insp.get("controller_compute_us"),
+            "plant_finish_compute_us": insp.get("plant_finish_compute_us"),
+            "exchange_us": exchange,
+            "exchange_over_raw_rtt": exchange / raw_mean if exchange is not None else None,
+            "latency_us": t["latency_us"],
+            "raw_before": raw_before,
+            "raw_after": raw_after,
             "whole_command_wall_s": s["bench_command_wall_s"],
-            "met": speed is not None and speed >= 50,
+            "loadavg_before": load_before,
+            "loadavg_after": os.getloadavg(),
         }
-        print(name, results[name])
-    save("lockstep_speed", {"target": 50, "runs": results})
+        print(name, {k: v for k, v in results[name].items() if not k.startswith("raw_")})
+    save(
+        "lockstep_speed" + (f"_rt{prio}" if prio else ""),
+        {
+            "targets": {"sim_seconds_per_wall_second": 50, "cycle_over_raw_rtt": 1.25},
+            "runs": results,
+        },
+    )
 
 
 if __name__ == "__main__":

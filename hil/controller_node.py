@@ -90,6 +90,7 @@ from controller.interface import REGIME_SAFE
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
 from hil.bus import Bus, BusConfig
+from hil.rt import freeze_heap
 from hil.scenario import Scenario
 
 #: Float fields of a sensor frame (checked finite before a frame may reach the core).
@@ -567,6 +568,9 @@ def run_controller_node(
         log(f"{level}: {line}" if level != "info" else line)
     # ``bus_factory``: a Zenoh Bus, or a CAN run's HybridBus (sensors and commands on CAN,
     # the rest on Zenoh) with the same surface, so this loop runs unchanged over either.
+    # No full garbage collection walking the set-up's objects mid-run; done before the
+    # subscriptions, so a controller restarted into a running plant answers at once.
+    freeze_heap()
     bus = bus_factory(bus_config)
     tid = scenario.turbine_id
     cmd_key, status_key = COMMAND.key(tid), CONTROLLER_STATUS.key(tid)

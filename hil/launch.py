@@ -108,6 +108,8 @@ from hil.scenario import ProcessFault, Scenario, load_scenario, scenario_text
 
 #: Set in the environment of a launcher re-executed in a fresh network namespace.
 _NETNS_ENV = "FOWT_NETNS_CHILD"
+#: Niceness of the recorder process (log only; bench/lockstep_speed.py measured the effect).
+RECORDER_NICE = int(os.environ.get("FOWT_RECORDER_NICE", "10"))
 
 
 @dataclass(frozen=True)
@@ -540,6 +542,8 @@ def _launch_in_netns(req: RunRequest, can: CanBusConfig, out: Path) -> dict[str,
         cmd += ["--duration", repr(req.duration_s)]
     if not req.plots:
         cmd.append("--no-plots")
+    if req.realtime_priority:  # the child's plant and controller need it as much
+        cmd += ["--realtime-priority", str(req.realtime_priority)]
     env = {**os.environ, _NETNS_ENV: "1"}
     rc = subprocess.run(netns_command(cmd), check=False, env=env).returncode
     if rc != 0:
@@ -649,7 +653,17 @@ def _run_processes(
         if again:
             fh.write(f"\n--- {name} restarted by the launcher at {_utc()} ---\n".encode())
             fh.flush()
-        proc = subprocess.Popen(cmds[name], stdout=fh, stderr=subprocess.STDOUT, env=env)
+        # The recorder only logs: it runs niced (RECORDER_NICE) so the plant and controller,
+        # whose exchange paces the run, get the CPU first when it is scarce. Not on CAN:
+        # its udp_multicast frames have no flow control, a starved recorder would lose some.
+        nice = RECORDER_NICE if name == "recorder" and req.transport != "can" else 0
+        proc = subprocess.Popen(
+            cmds[name],
+            stdout=fh,
+            stderr=subprocess.STDOUT,
+            env=env,
+            preexec_fn=(lambda: os.nice(nice)) if nice else None,  # noqa: PLW1509
+        )
         procs[name] = proc
         return proc
 

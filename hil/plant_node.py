@@ -87,7 +87,8 @@ from bus_schemas.registry import (
     WAVE_PREVIEW_PERFECT,
     MessageType,
 )
-from hil.bus import Bus, BusConfig
+from hil.bus import Bus, BusConfig, PutQueue
+from hil.rt import freeze_heap
 from hil.scenario import (
     JonswapWavesSpec,
     PiersonMoskowitzWavesSpec,
@@ -847,11 +848,28 @@ def run_plant_node(
         for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
     }
 
+    # Log-only messages (nobody waits for them) are put by a background thread, so their
+    # socket writes overlap with the controller's turn (hil.bus.PutQueue); the sensor frame
+    # and the perfect wave preview (which the controller waits for) go out at once.
+    # Lock-step only: there the plant's thread is the run's pace; in real time it waits for
+    # the tick anyway and the puts stay in it (one thread less to schedule per cycle).
+    background = {mt.key_suffix for mt in (TRUTH, CYCLE_TIMING, TIMING_SUMMARY)}
+    if mode != "lockstep":
+        background.clear()
+    log_puts = PutQueue("plant-log-puts")
+    profile = CycleProfile()
+
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
         if can_bus is not None and mt is SENSORS:
             can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
             return
-        publishers[mt.key_suffix].put(mt.codec.encode(msg))
+        if mt.key_suffix in background:
+            log_puts.put(publishers[mt.key_suffix], mt.codec.encode(msg))
+            return
+        payload = mt.codec.encode(msg)
+        t0 = time.monotonic_ns()
+        publishers[mt.key_suffix].put(payload)
+        profile.put_ns += time.monotonic_ns() - t0
 
     # Real time: command faults act on arrival in the inbox; lock-step: in the loop.
     command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
@@ -877,10 +895,12 @@ def run_plant_node(
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
         loop.log = log
         loop._inbox = inbox
+        freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
         cycles = scenario.cycles
         log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
         if mode == "lockstep":
-            _run_lockstep(loop, inbox, cycles, lockstep_timeout_s, stop)
+            _run_lockstep(loop, inbox, cycles, lockstep_timeout_s, stop, profile)
+            log(profile.describe())
         else:
             _run_realtime(loop, inbox, cycles, stop)
         if stop.is_set() and not loop.result.aborted:
@@ -895,7 +915,9 @@ def run_plant_node(
             loop.result.rejected = dict(inbox.rejected)
             loop.count_faults(inbox)
             loop.publish_summary(final=True)
+            log_puts.flush()
             time.sleep(0.2)  # let the final summary reach the recorder before the link goes
+        log_puts.close()
         token.undeclare()
         if can_bus is not None:
             log(
@@ -966,8 +988,40 @@ def _faulted_sim_cycle(loop: PlantLoop, frame: SensorFrame, exchange: Exchange) 
     loop.finish_cycle(command, latency, at_arrival=False, effect_at_ns=effect_at)
 
 
+@dataclass
+class CycleProfile:
+    """Where a lock-step plant's cycles went, summed over the run [ns] (the end's log line).
+
+    ``sample``: :meth:`PlantLoop.sample` (truth, sensor frame, their encoding and the sensor
+    frame's put, ``put`` of it); ``wait``: blocked until the command answering the frame
+    was handed to this thread (the round trip over the bus plus the controller's turn);
+    ``finish``: :meth:`PlantLoop.finish_cycle` (applying the command, integrating).
+    """
+
+    cycles: int = 0
+    sample_ns: int = 0
+    put_ns: int = 0
+    wait_ns: int = 0
+    finish_ns: int = 0
+
+    def describe(self) -> str:
+        """One log line with the means per cycle [us]."""
+        n = max(1, self.cycles)
+        return (
+            f"plant lock-step cycle profile ({self.cycles} cycles, mean us per cycle): "
+            f"sample {self.sample_ns / n / 1e3:.1f} (of which sensor put "
+            f"{self.put_ns / n / 1e3:.1f}), wait {self.wait_ns / n / 1e3:.1f}, "
+            f"finish {self.finish_ns / n / 1e3:.1f}"
+        )
+
+
 def _run_lockstep(
-    loop: PlantLoop, inbox: CommandInbox, cycles: int, timeout_s: float, stop: threading.Event
+    loop: PlantLoop,
+    inbox: CommandInbox,
+    cycles: int,
+    timeout_s: float,
+    stop: threading.Event,
+    profile: CycleProfile | None = None,
 ) -> None:
     def exchange(frame: SensorFrame, sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         got = inbox.wait_for(frame.seq, timeout_s)
@@ -977,16 +1031,25 @@ def _run_lockstep(
             )
         return got[0], got[1] - sent_ns
 
+    prof = profile if profile is not None else CycleProfile()
+    clock = time.monotonic_ns
     faulted = loop.bus_faults
     for _ in range(cycles):
         if stop.is_set():
             return
+        t0 = clock()
         frame = loop.sample()
         if faulted:
             _faulted_sim_cycle(loop, frame, exchange)
             continue
+        t1 = clock()
         command, latency = exchange(frame, loop.frame_sent_ns)
+        t2 = clock()
         loop.finish_cycle(command, latency, at_arrival=False)
+        prof.sample_ns += t1 - t0
+        prof.wait_ns += t2 - t1
+        prof.finish_ns += clock() - t2
+        prof.cycles += 1
 
 
 def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threading.Event) -> None:

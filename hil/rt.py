@@ -18,9 +18,10 @@ process from locking the machine.
 
 from __future__ import annotations
 
+import gc
 import os
 
-__all__ = ["MAX_PRIORITY", "RealtimeError", "set_realtime_priority"]
+__all__ = ["MAX_PRIORITY", "RealtimeError", "freeze_heap", "set_realtime_priority"]
 
 #: Highest priority the bench asks for: well below the kernel's own threads (which use 50
 #: and 99), so interrupts and migration threads keep running.
@@ -69,3 +70,24 @@ def set_realtime_priority(priority: int) -> str:
             "grant CAP_SYS_NICE, or raise RLIMIT_RTPRIO"
         ) from exc
     return f"SCHED_FIFO priority {priority}"
+
+
+def freeze_heap() -> int:
+    """Collect once, then move every object alive now out of the garbage collector's scans.
+
+    A node's set-up leaves ~50 000-65 000 long-lived objects (numpy, scipy, cantools, the
+    plant's tables); a full (generation 2) collection walks them all, which took 72 ms in
+    the controller and 99 ms in the plant on the 2-core bench machine, and comes at moments
+    the loop does not choose: a real-time cycle that meets one misses its deadline. After
+    ``gc.freeze()`` the full collections only walk the objects made since (measured:
+    0.002 ms), while the per-cycle garbage is still collected as before. Call it when the
+    set-up is done, right before the control loop.
+
+    Returns
+    -------
+    int
+        The number of objects frozen.
+    """
+    gc.collect()
+    gc.freeze()
+    return gc.get_freeze_count()
