@@ -50,6 +50,9 @@ bench: setup
 	$(BIN)/python bench/plant_wait_signal.py
 	$(BIN)/python bench/campaign.py
 	$(BIN)/python bench/rosco.py --realtime-priority $(RTPRIO)
+	$(BIN)/python bench/controller_compute.py
+	$(BIN)/python bench/plant_cycle_speed.py
+	$(BIN)/python bench/can_soak.py --duration 600 --realtime-priority $(RTPRIO)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
