@@ -571,6 +571,10 @@ def _node_cmd(sub: str, scenario_ref: str, scenario: Scenario, *args: str) -> li
     ]
 
 
+# How long a failed run's launcher waits for a starting recorder to open its MCAP (s).
+_RECORDER_OPEN_S = 30.0
+
+
 def _run_processes(
     req: RunRequest,
     scenario: Scenario,
@@ -693,6 +697,14 @@ def _run_processes(
         if driver is not None:
             driver.finish(console)
     finally:
+        rec = procs.get("recorder")
+        if rec is not None and rec.poll() is None:
+            # A run that fails at its start (a controller refusing its DISCON library) still
+            # leaves a reviewable log: a recorder still starting up (importing, niced) gets
+            # the time to open its MCAP before it is asked to stop.
+            opened_by = time.monotonic() + _RECORDER_OPEN_S
+            while not mcap_path.exists() and rec.poll() is None and time.monotonic() < opened_by:
+                time.sleep(0.05)
         for p in procs.values():
             if p.poll() is None:
                 p.terminate()

@@ -295,6 +295,15 @@ def run_recorder_node(
     With ``can`` the recorder also listens on that CAN bus (module docstring, "CAN runs").
     Returns the number of messages written.
     """
+    # Signals first: a stop that arrives while the log is being opened still ends with a
+    # complete (possibly empty) MCAP file instead of the default SIGTERM death.
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
     can_bus: CanBus | None = None
     if can is not None:  # imported here: a Zenoh-only recorder does not load python-can
         from hil.can_bus import CanBus  # noqa: PLC0415
@@ -305,13 +314,6 @@ def run_recorder_node(
     if run_info:
         run_log.add_metadata("run", run_info)
     recorder = Recorder(run_log)
-    stop = threading.Event()
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
     written = 0
