@@ -736,11 +736,18 @@ def run_over_zenoh(
             can_bus_rec.subscribe_message(mt, deliver)
     bus = Bus(BusConfig(connect=(plant_ep, ctrl_ep)))
     bus.subscribe(f"{KEY_PREFIX}/{platform}/**", on_sample)
-    token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/recorder")
     deadline = time.monotonic() + timeout_s
     final = False
     p_out = p_err = c_err = b""
+    token = None
     try:
+        # The plant starts when it sees the recorder's token, but the commands reach this
+        # recorder only over its own link to the controller, which listens only once its
+        # core is built: a first connect attempt before that fails and Zenoh retries it
+        # seconds later, after a short lock-step run has ended (its commands unrecorded).
+        # So the token is declared once the controller is seen on this session.
+        _wait_for_peers(bus, platform, ("controller",), _STARTUP_TIMEOUT_S)
+        token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/recorder")
         while (time.monotonic() < deadline and plant.poll() is None) or not q.empty():
             try:
                 key, msg = q.get(timeout=0.1)
@@ -754,7 +761,8 @@ def run_over_zenoh(
         p_out, p_err = plant.communicate(timeout=30)
         _c_out, c_err = ctrl.communicate(timeout=30)
     finally:
-        token.undeclare()
+        if token is not None:
+            token.undeclare()
         bus.close()
         for proc in (plant, ctrl):
             if proc.poll() is None:
