@@ -94,17 +94,6 @@ def _copy2(src: np.ndarray, dst: np.ndarray) -> None:
 
 
 @_jit
-def _locate(grid: np.ndarray, v: float) -> tuple[int, float]:
-    n = grid.size
-    if v <= grid[0]:
-        return 0, 0.0
-    if v >= grid[n - 1]:
-        return n - 2, 1.0
-    i = int(np.searchsorted(grid, v, side="right")) - 1
-    return i, (v - grid[i]) / (grid[i + 1] - grid[i])
-
-
-@_jit
 def _interp(grid: np.ndarray, v: float) -> tuple[int, float]:
     """Cell i and weight w of v on a grid, value = (1 − w) y_i + w y_{i+1}; ends held."""
     n = grid.size
@@ -121,8 +110,8 @@ def cp_lookup(
     tsr_grid: np.ndarray, pitch_grid: np.ndarray, cells: np.ndarray, tsr: float, pitch: float
 ) -> tuple[float, float]:
     """:math:`(C_p, \\partial C_p/\\partial\\lambda)` at (tsr, pitch) from the cell table."""
-    i, a = _locate(tsr_grid, tsr)
-    j, b = _locate(pitch_grid, pitch)
+    i, a = _interp(tsr_grid, tsr)
+    j, b = _interp(pitch_grid, pitch)
     c = cells[i * (pitch_grid.size - 1) + j]
     cp = c[0] + a * c[1] + b * (c[2] + a * c[3])
     if tsr <= tsr_grid[0] or tsr >= tsr_grid[tsr_grid.size - 1]:

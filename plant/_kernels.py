@@ -143,32 +143,27 @@ def turbulent_speed(table: np.ndarray, dt: float, t: float) -> float:
 
 
 @njit
+def _clamped_cell(grid: np.ndarray, v: float) -> tuple[int, float]:
+    """Cell i and weight w of v on an ascending grid (at least 2 points), ends held."""
+    n = grid.size
+    if v <= grid[0]:
+        return 0, 0.0
+    if v >= grid[n - 1]:
+        return n - 2, 1.0
+    i = int(np.searchsorted(grid, v, side="right")) - 1
+    x0 = grid[i]
+    return i, (v - x0) / (grid[i + 1] - x0)
+
+
+@njit
 def coefficients_clamped(
     tsr: float, pitch: float, xs: np.ndarray, ys: np.ndarray, cells: np.ndarray
 ) -> tuple[float, float, float]:
     """(Cp, Ct, Cq) bilinear in the cell of (λ, θ), clamped to the grid (PerformanceTable)."""
     nx = xs.size
     ny = ys.size
-    if tsr <= xs[0]:
-        i = 0
-        a = 0.0
-    elif tsr >= xs[nx - 1]:
-        i = nx - 2
-        a = 1.0
-    else:
-        i = int(np.searchsorted(xs, tsr, side="right")) - 1
-        x0 = xs[i]
-        a = (tsr - x0) / (xs[i + 1] - x0)
-    if pitch <= ys[0]:
-        j = 0
-        b = 0.0
-    elif pitch >= ys[ny - 1]:
-        j = ny - 2
-        b = 1.0
-    else:
-        j = int(np.searchsorted(ys, pitch, side="right")) - 1
-        y0 = ys[j]
-        b = (pitch - y0) / (ys[j + 1] - y0)
+    i, a = _clamped_cell(xs, tsr)
+    j, b = _clamped_cell(ys, pitch)
     # A NaN input passes every comparison above: keep its cell inside the table (the result
     # is NaN, never a read beyond the cells).
     i = 0 if i < 0 else (nx - 2 if i > nx - 2 else i)
