@@ -684,3 +684,773 @@ def lqri_law(
     tlim = lim[4] * dt_s
     tq = min(max(tq, tq_prev - tlim), tq_prev + tlim)
     return th, tq, z, regime
+
+
+# ------------------------------------------------------------------------------ fused cycle
+# The advanced controller's whole per-cycle path (``controller.runtime.AdvancedController``)
+# in one compiled call. Measured on the 300 s LC2 replay (bench/controller_compute.py): the
+# cycle made of the separate kernels above cost ~38 us CPU of which ~28 us were Python glue
+# (building NamedTuples and msgspec structs, ``structs.replace`` of the baseline state twice,
+# tuple arithmetic, the schedule look-up) and numba's argument/result boxing of six calls;
+# the arithmetic itself is a few microseconds. So the per-cycle path is one kernel that
+# calls the kernels above (same functions, same operation order: the composed classes'
+# results to the last bit, ``tests/test_controller_fused.py``) with every constant packed
+# once into one float64 vector ``c`` (+ an int64 layout ``lay``: offsets, sizes, bits) and
+# the state in two flat vectors (float64 ``sf``, int64 ``si``): one array argument costs
+# ~80 ns to dispatch, a tuple of twenty ~1.9 us.
+
+#: Entries of the layout vector ``lay`` (offsets into ``c`` unless the name says a size,
+#: a count or a bit) of :func:`advanced_cycle`, in order; built by ``AdvancedController``.
+ADV_LAYOUT = (
+    "scalars",  # offset of the scalar block (ADV_SCALARS)
+    "ekf_prm",  # EKF constants (EKF_PARAMS)
+    "tsr",  # Cp table TSR grid
+    "n_tsr",
+    "pitch",  # Cp table pitch grid
+    "n_pitch",
+    "cells",  # Cp cell coefficients, (n_cells, 8)
+    "n_cells",
+    "n_kf",  # number of platform-KF designs
+    "kf_n",  # KF states n
+    "kf_p",  # KF channels p
+    "kf_m",  # KF inputs m
+    "kf_grid",  # design winds [m/s]
+    "kf_F",  # (n_kf, n, n)
+    "kf_B",  # (n_kf, n, m)
+    "kf_Q",  # (n_kf, n, n)
+    "kf_H",  # (n_kf, p, n)
+    "kf_D",  # (n_kf, p, m)
+    "kf_R",  # (n_kf, p, p)
+    "kf_gate",  # (n_kf, p)
+    "kf_xop",  # (n_kf, n)
+    "kf_uop",  # (n_kf, 2)
+    "kf_max_misses",  # K of the KF's degraded flag
+    "k_miss",  # consecutive invalid speed samples before "degraded"
+    "lq_grid",  # LQRI design winds
+    "n_lq",
+    "lq_nx",  # LQRI state size (8)
+    "lq_kx",  # (n_lq, nx)
+    "lq_xop",  # (n_lq, nx)
+    "lq_ki",
+    "lq_thop",
+    "lq_lim",  # LQRI_LIMITS
+    "ff_on",  # 1: wave feedforward on
+    "ff_grid",  # FF design winds
+    "n_ff",
+    "ff_is_pitch",  # offset into ``lay`` (!) of the n_ff is-pitch flags
+    "ff_gwind",  # gain table winds
+    "n_ffg",
+    "ff_gain",  # gain table g
+    "ff_n",  # FF filter order
+    "ff_at",  # (n_ff, ff_n, ff_n), A_d transposed
+    "ff_b",  # (n_ff, ff_n)
+    "ff_c",  # (n_ff, ff_n)
+    "ff_d",  # (n_ff,)
+    "bl",  # baseline constants (BL_CONSTANTS)
+    "bl_gs",  # baseline pitch gain table: angles, K_P, K_I (3 x n_gs)
+    "n_gs",
+    "bit_speed",  # valid_mask bits of the channels the cycle reads
+    "bit_pitch",
+    "bit_torque",
+    "bit_acc",
+    "bit_pitch_rate",
+    "bit_platform_pitch",
+    "bit_surge",
+    "st_kf_x",  # offsets into the float state sf: KF x (n), P (n x n), NIS (p), FF (n_ff, ff_n)
+    "st_kf_P",
+    "st_kf_nis",
+    "st_ff",
+    "st_size",  # size of sf
+    "st_counts",  # offset into the int state si of the KF counters (4, p)
+    "st_isize",  # size of si
+)
+(
+    _L_SCALARS,
+    _L_EKF_PRM,
+    _L_TSR,
+    _L_N_TSR,
+    _L_PITCH,
+    _L_N_PITCH,
+    _L_CELLS,
+    _L_N_CELLS,
+    _L_N_KF,
+    _L_KF_N,
+    _L_KF_P,
+    _L_KF_M,
+    _L_KF_GRID,
+    _L_KF_F,
+    _L_KF_B,
+    _L_KF_Q,
+    _L_KF_H,
+    _L_KF_D,
+    _L_KF_R,
+    _L_KF_GATE,
+    _L_KF_XOP,
+    _L_KF_UOP,
+    _L_KF_MAX_MISSES,
+    _L_K_MISS,
+    _L_LQ_GRID,
+    _L_N_LQ,
+    _L_LQ_NX,
+    _L_LQ_KX,
+    _L_LQ_XOP,
+    _L_LQ_KI,
+    _L_LQ_THOP,
+    _L_LQ_LIM,
+    _L_FF_ON,
+    _L_FF_GRID,
+    _L_N_FF,
+    _L_FF_IS_PITCH,
+    _L_FF_GWIND,
+    _L_N_FFG,
+    _L_FF_GAIN,
+    _L_FF_N,
+    _L_FF_AT,
+    _L_FF_B,
+    _L_FF_C,
+    _L_FF_D,
+    _L_BL,
+    _L_BL_GS,
+    _L_N_GS,
+    _L_BIT_SPEED,
+    _L_BIT_PITCH,
+    _L_BIT_TORQUE,
+    _L_BIT_ACC,
+    _L_BIT_PITCH_RATE,
+    _L_BIT_PLATFORM_PITCH,
+    _L_BIT_SURGE,
+    _L_ST_KF_X,
+    _L_ST_KF_P,
+    _L_ST_KF_NIS,
+    _L_ST_FF,
+    _L_ST_SIZE,
+    _L_ST_COUNTS,
+    _L_ST_ISIZE,
+) = range(len(ADV_LAYOUT))
+
+#: The scalar block of ``c`` (at ``lay[scalars]``).
+ADV_SCALARS = (
+    "gearbox",  # N [-]
+    "switch_wind",  # U_sw of the LQRI regime switch [m/s]
+    "hysteresis",  # h of the switch [m/s]
+)
+
+#: Fixed part of the float state ``sf`` (the KF and FF parts follow at ``lay[st_*]``).
+ADV_FLOAT_STATE = (
+    "ekf_omega",  # EKF x: ω [rad/s], u_t, u_m [m/s]
+    "ekf_u_t",
+    "ekf_u_m",
+    "ekf_p00",  # EKF P, upper triangle
+    "ekf_p01",
+    "ekf_p02",
+    "ekf_p11",
+    "ekf_p12",
+    "ekf_p22",
+    "ekf_innovation",  # last rotor-speed innovation [rad/s]
+    "lq_integrator",  # LQRI z [rad s]
+    "lq_pitch",  # LQRI's last pitch command [rad]
+    "lq_torque",  # LQRI's last torque command [N m]
+    "lq_feedforward",  # g (c z + d η̂), unit of its input
+    "lq_ff_pitch",  # FF part of the pitch [rad]
+    "lq_ff_torque",  # FF part of the torque [N m]
+    "bl_lpf_z1",  # baseline state (BaselineState without first_call)
+    "bl_lpf_z2",
+    "bl_speed_filtered",
+    "bl_pitch_integral",
+    "bl_torque_integral",
+    "bl_pitch",
+    "bl_torque",
+    "last_z_acc",  # last raw KF measurements (repeat detection)
+    "last_z_pitch_rate",
+    "last_z_pitch",
+    "last_z_surge",
+    "last_pitch_cmd",  # applied commands
+    "last_torque_cmd",
+)
+#: The int state ``si`` (the KF counters (4, p) follow at ``lay[st_counts]``).
+ADV_INT_STATE = (
+    "started",  # the EKF and KF were initialised from a frame
+    "ekf_updates",
+    "kf_index",  # KF design in use
+    "kf_degraded",
+    "lq_first_call",
+    "lq_above_rated",
+    "ff_index",  # FF design nearest to the scheduling wind (-1: none)
+    "ff_started",  # the FF filter states hold values
+    "bl_present",  # the baseline state holds values
+    "bl_first_call",
+    "speed_misses",  # consecutive invalid speed samples
+)
+(
+    _F_EKF_X,
+    _,
+    _,
+    _F_EKF_P,
+    _,
+    _,
+    _,
+    _,
+    _,
+    _F_EKF_Y,
+    _F_LQ_Z,
+    _F_LQ_TH,
+    _F_LQ_TQ,
+    _F_LQ_FF,
+    _F_LQ_FF_TH,
+    _F_LQ_FF_TQ,
+    _F_BL,
+    _,
+    _,
+    _,
+    _,
+    _,
+    _,
+    _F_LAST_Z,
+    _,
+    _,
+    _,
+    _F_LAST_TH,
+    _F_LAST_TQ,
+) = range(len(ADV_FLOAT_STATE))
+(
+    _I_STARTED,
+    _I_EKF_UPDATES,
+    _I_KF_INDEX,
+    _I_KF_DEGRADED,
+    _I_LQ_FIRST,
+    _I_LQ_ABOVE,
+    _I_FF_INDEX,
+    _I_FF_STARTED,
+    _I_BL_PRESENT,
+    _I_BL_FIRST,
+    _I_SPEED_MISSES,
+) = range(len(ADV_INT_STATE))
+
+#: The baseline constants (``BaselineController._k`` in its order, flags as 0/1, the pitch
+#: gain table apart at ``lay[bl_gs]``).
+BL_CONSTANTS = (
+    "order2",
+    "w_c",
+    "zeta",
+    "w_ci",
+    "w_2",
+    "K",
+    "slope15",
+    "w_rt",
+    "w_tr",
+    "slope25",
+    "w_sy",
+    "pi_mode",
+    "w_tq_ref",
+    "kp_t",
+    "ki_t",
+    "const_torque",
+    "power_rated",
+    "tq_rated",
+    "theta_3",
+    "tq_max",
+    "tq_rate",
+    "w_ref",
+    "th_min",
+    "th_max",
+    "th_rate",
+    "table",
+    "kp0",
+    "ki0",
+    "theta_k",
+    "inv_ki_ref",
+    "w_pmax",
+)
+
+
+@_jit
+def _pmax(a: float, b: float) -> float:
+    """Python's ``max(a, b)`` (the first argument unless the second is larger)."""
+    return b if b > a else a
+
+
+@_jit
+def _pmin(a: float, b: float) -> float:
+    """Python's ``min(a, b)`` (the first argument unless the second is smaller)."""
+    return b if b < a else a
+
+
+@_jit
+def baseline_gains(
+    bl: np.ndarray, gs: np.ndarray, n_gs: int, theta: float
+) -> tuple[float, float, float]:
+    """``BaselineController.pitch_gains``: (G_K K_P, G_K K_I, G_K) at pitch θ [rad]."""
+    if bl[25] != 0.0:  # table: linear interpolation of (K_P, K_I), ends held
+        n = n_gs
+        if theta <= gs[0]:
+            kp, ki = gs[n], gs[2 * n]
+        elif theta >= gs[n - 1]:
+            kp, ki = gs[2 * n - 1], gs[3 * n - 1]
+        else:
+            j = int(np.searchsorted(gs[:n], theta, side="right"))
+            a0 = gs[j - 1]
+            f = (theta - a0) / (gs[j] - a0)
+            kp = gs[n + j - 1] + f * (gs[n + j] - gs[n + j - 1])
+            ki = gs[2 * n + j - 1] + f * (gs[2 * n + j] - gs[2 * n + j - 1])
+        return kp, ki, ki * bl[29]
+    gk = 1.0 / (1.0 + theta / bl[28])
+    return gk * bl[26], gk * bl[27], gk
+
+
+@_jit
+def baseline_step(
+    bl: np.ndarray,
+    gs: np.ndarray,
+    n_gs: int,
+    first_call: bool,
+    st: np.ndarray,
+    w: float,
+    pitch_meas: float,
+    torque_meas: float,
+    dt_s: float,
+    st_out: np.ndarray,
+) -> tuple[float, float, int, float, float, float]:
+    """``BaselineController.step`` (:mod:`controller.baseline`, same operations in order).
+
+    ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev), the new state goes
+    to ``st_out``; ``w`` is the generator speed [rad/s], ``pitch_meas`` and ``torque_meas``
+    the measured pitch [rad] and torque [N m] (used on the first call). Returns the
+    :class:`ControlOutput` fields (θ, T, regime, ω_f, K_I I, G_K).
+    """
+    order2 = bl[0] != 0.0
+    w_c, zeta, w_ci, w_2, K, slope15 = bl[1], bl[2], bl[3], bl[4], bl[5], bl[6]
+    w_rt, w_tr, slope25, w_sy = bl[7], bl[8], bl[9], bl[10]
+    pi_mode = bl[11] != 0.0
+    w_tq_ref, kp_t, ki_t = bl[12], bl[13], bl[14]
+    const_torque = bl[15] != 0.0
+    power_rated, tq_rated, theta_3, tq_max, tq_rate = bl[16], bl[17], bl[18], bl[19], bl[20]
+    w_ref, th_min, th_max, th_rate = bl[21], bl[22], bl[23], bl[24]
+    w_pmax = bl[30]
+    # generator-speed low-pass filter
+    if order2:
+        c = 2.0 / dt_s
+        c2 = c * c
+        wc2 = w_c * w_c
+        cz = 2.0 * zeta * w_c * c
+        inv_a0 = 1.0 / (c2 + cz + wc2)
+        b0 = wc2 * inv_a0
+        a1 = 2.0 * (wc2 - c2) * inv_a0
+        a2 = (c2 - cz + wc2) * inv_a0
+        if first_call:
+            z1 = (1.0 - b0) * w
+            z2 = (b0 - a2) * w
+        else:
+            z1 = st[0]
+            z2 = st[1]
+        w_f = b0 * w + z1
+        z1 = 2.0 * b0 * w - a1 * w_f + z2
+        z2 = b0 * w - a2 * w_f
+    else:
+        alpha = math.exp(-dt_s * w_c)
+        prev = w if first_call else st[0]
+        w_f = (1.0 - alpha) * w + alpha * prev
+        z1 = w_f
+        z2 = 0.0
+    # previous commands
+    if first_call:
+        th_prev = _pmin(_pmax(pitch_meas, th_min), th_max)
+        tq_prev = _pmin(_pmax(torque_meas, 0.0), tq_max)
+    else:
+        th_prev = st[5]
+        tq_prev = st[6]
+    kp_eff, ki_eff, gk = baseline_gains(bl, gs, n_gs, th_prev)
+    # generator torque
+    i_t = st[4]
+    if w_f >= w_rt or th_prev >= theta_3:
+        if const_torque:
+            tq = tq_rated
+            regime = 4
+        elif w_f > w_pmax:
+            tq = power_rated / w_f
+            regime = 4
+        elif w_f > 0.0:
+            tq = tq_max
+            regime = 4
+        else:
+            tq = 0.0
+            regime = 0
+        if pi_mode:
+            i_t = (tq - kp_t * (w_f - w_tq_ref)) / ki_t
+    else:
+        if w_f <= w_ci:
+            tq = 0.0
+            regime = 0
+        elif w_f < w_2:
+            tq = slope15 * (w_f - w_ci)
+            regime = 1
+        elif w_f < w_tr:
+            tq = K * w_f * w_f
+            regime = 2
+        else:
+            tq = slope25 * (w_f - w_sy)
+            regime = 3
+        if pi_mode:
+            if tq > tq_rated:
+                tq = tq_rated
+                regime = 3
+            e_t = w_f - w_tq_ref
+            if first_call:
+                i_t = tq_prev / ki_t
+            i_t += e_t * dt_s
+            u = kp_t * e_t + ki_t * i_t
+            if u <= tq:
+                i_t = (tq - kp_t * e_t) / ki_t
+            elif u >= tq_rated:
+                tq = tq_rated
+                regime = 3
+                i_t = (tq_rated - kp_t * e_t) / ki_t
+            else:
+                tq = u
+                regime = 3
+    tq = _pmin(tq, tq_max)
+    d_tq = tq - tq_prev
+    lim = tq_rate * dt_s
+    if d_tq > lim:
+        tq = tq_prev + lim
+    elif d_tq < -lim:
+        tq = tq_prev - lim
+    # blade pitch
+    err = w_f - w_ref
+    integ = th_prev / ki_eff if first_call else st[3]
+    integ += err * dt_s
+    lo = th_min / ki_eff
+    hi = th_max / ki_eff
+    if integ < lo:
+        integ = lo
+    elif integ > hi:
+        integ = hi
+    i_term = ki_eff * integ
+    th = kp_eff * err + i_term
+    if th < th_min:
+        th = th_min
+    elif th > th_max:
+        th = th_max
+    dth = th - th_prev
+    lim = th_rate * dt_s
+    if dth > lim:
+        th = th_prev + lim
+    elif dth < -lim:
+        th = th_prev - lim
+    st_out[0] = z1
+    st_out[1] = z2
+    st_out[2] = w_f
+    st_out[3] = integ
+    st_out[4] = i_t
+    st_out[5] = th
+    st_out[6] = tq
+    return th, tq, regime, w_f, i_term, gk
+
+
+@_jit
+def advanced_cycle(
+    c: np.ndarray,
+    lay: np.ndarray,
+    sf: np.ndarray,
+    si: np.ndarray,
+    gen_speed: float,
+    pitch_meas: float,
+    torque_meas: float,
+    acc: float,
+    pitch_rate: float,
+    platform_pitch: float,
+    surge: float,
+    mask: int,
+    eta: float,
+    dt_s: float,
+    steps: int,
+    sf_out: np.ndarray,
+    si_out: np.ndarray,
+) -> tuple[
+    float,
+    float,
+    int,
+    float,
+    float,
+    float,
+    int,
+    float,
+    float,
+    float,
+    float,
+    float,
+    float,
+    float,
+    float,
+]:
+    """One cycle of the advanced controller (``controller.runtime``, steps 1-3, 5, 6).
+
+    Measurements from the frame's fields and ``mask``; wind EKF (:func:`ekf_step`); the
+    platform KF of the design nearest to :math:`u_m` with 0.25 m/s hysteresis (switching
+    re-expresses :math:`\\hat x_j = \\hat x_i + x_{op,i} - x_{op,j}`), its predict + gated
+    update (:func:`kf_cycle`) on the channels valid and not repeated; the baseline's torque
+    law and pitch PI on the commands applied (:func:`baseline_step`); the LQRI regime logic,
+    schedule (:func:`lqri_schedule`), wave FF (:func:`ff_cycle`, on the forecast ``eta``, NaN
+    when there is none) and limits (:func:`lqri_law`); the baseline's pitch integrator set to
+    follow the LQRI above rated. The state (``sf``, ``si``, read only) is copied into
+    ``sf_out``, ``si_out`` and updated there; the EKF and KF must have been started
+    (``si[started]``, done by the caller from the first frame).
+
+    Returns the :class:`ControlOutput` fields (θ_c, T_g, regime, ω_f N, integrator,
+    scheduling wind, degraded, Û, pitch, pitch rate, surge, surge velocity, tower-top
+    velocity, FF pitch, FF torque) in that order.
+    """
+    for k in range(sf.size):
+        sf_out[k] = sf[k]
+    for k in range(si.size):
+        si_out[k] = si[k]
+    sc = lay[_L_SCALARS]
+    gear = c[sc]
+    # 1. measurements
+    speed_ok = (mask & lay[_L_BIT_SPEED]) != 0
+    omega_meas = gen_speed / gear
+    pitch = pitch_meas if (mask & lay[_L_BIT_PITCH]) != 0 else sf[_F_LAST_TH]
+    torque = torque_meas if (mask & lay[_L_BIT_TORQUE]) != 0 else sf[_F_LAST_TQ]
+    # 2. wind EKF
+    o = lay[_L_EKF_PRM]
+    prm = c[o : o + len(EKF_PARAMS)]
+    o, n = lay[_L_TSR], lay[_L_N_TSR]
+    tsr = c[o : o + n]
+    o, n = lay[_L_PITCH], lay[_L_N_PITCH]
+    pgrid = c[o : o + n]
+    o, n = lay[_L_CELLS], lay[_L_N_CELLS]
+    cells = c[o : o + 8 * n].reshape((n, 8))
+    e = _F_EKF_X
+    p = _F_EKF_P
+    xe, pe, y, updated, _ta = ekf_step(
+        prm,
+        tsr,
+        pgrid,
+        cells,
+        (sf[e], sf[e + 1], sf[e + 2]),
+        (sf[p], sf[p + 1], sf[p + 2], sf[p + 3], sf[p + 4], sf[p + 5]),
+        omega_meas,
+        speed_ok,
+        pitch,
+        torque,
+        dt_s,
+    )
+    for k in range(3):
+        sf_out[e + k] = xe[k]
+    for k in range(6):
+        sf_out[p + k] = pe[k]
+    if updated:
+        sf_out[_F_EKF_Y] = y
+        si_out[_I_EKF_UPDATES] = si[_I_EKF_UPDATES] + 1
+    speed_misses = 0 if speed_ok else si[_I_SPEED_MISSES] + 1
+    si_out[_I_SPEED_MISSES] = speed_misses
+    omega = xe[0]
+    u_m = xe[2]
+    wind = xe[1] + xe[2]
+    # 3. platform KF of the nearest design (0.25 m/s hysteresis)
+    n_kf, n, pch, m = lay[_L_N_KF], lay[_L_KF_N], lay[_L_KF_P], lay[_L_KF_M]
+    kg = lay[_L_KF_GRID]
+    i = si[_I_KF_INDEX]
+    best = i
+    for j in range(n_kf):
+        if abs(c[kg + j] - u_m) < abs(c[kg + best] - u_m) - 0.25:
+            best = j
+    ox, oP, onis = lay[_L_ST_KF_X], lay[_L_ST_KF_P], lay[_L_ST_KF_NIS]
+    oxop = lay[_L_KF_XOP]
+    x_in = sf[ox : ox + n]
+    if best != i:
+        xs = np.empty(n)
+        for k in range(n):
+            xs[k] = x_in[k] + c[oxop + i * n + k] - c[oxop + best * n + k]
+        x_in = xs
+        i = best
+    si_out[_I_KF_INDEX] = i
+    xo = c[oxop + i * n : oxop + (i + 1) * n]
+    ou = lay[_L_KF_UOP] + 2 * i
+    u = np.empty(2)
+    u[0] = omega - c[ou]
+    u[1] = pitch - c[ou + 1]
+    z = np.empty(4)
+    z[0] = acc
+    z[1] = pitch_rate
+    z[2] = platform_pitch - xo[1]
+    z[3] = surge - xo[0]
+    lz = _F_LAST_Z
+    valid = np.empty(4, dtype=np.bool_)
+    valid[0] = (mask & lay[_L_BIT_ACC]) != 0 and acc != sf[lz]
+    valid[1] = (mask & lay[_L_BIT_PITCH_RATE]) != 0 and pitch_rate != sf[lz + 1]
+    valid[2] = (mask & lay[_L_BIT_PLATFORM_PITCH]) != 0 and platform_pitch != sf[lz + 2]
+    valid[3] = (mask & lay[_L_BIT_SURGE]) != 0 and surge != sf[lz + 3]
+    nn, nm, pn, pp, pm = n * n, n * m, pch * n, pch * pch, pch * m
+    oc = lay[_L_ST_COUNTS]
+    x_out = sf_out[ox : ox + n]
+    kf_degraded = kf_cycle(
+        c[lay[_L_KF_F] + i * nn : lay[_L_KF_F] + (i + 1) * nn].reshape((n, n)),
+        c[lay[_L_KF_B] + i * nm : lay[_L_KF_B] + (i + 1) * nm].reshape((n, m)),
+        c[lay[_L_KF_Q] + i * nn : lay[_L_KF_Q] + (i + 1) * nn].reshape((n, n)),
+        c[lay[_L_KF_H] + i * pn : lay[_L_KF_H] + (i + 1) * pn].reshape((pch, n)),
+        c[lay[_L_KF_D] + i * pm : lay[_L_KF_D] + (i + 1) * pm].reshape((pch, m)),
+        c[lay[_L_KF_R] + i * pp : lay[_L_KF_R] + (i + 1) * pp].reshape((pch, pch)),
+        c[lay[_L_KF_GATE] + i * pch : lay[_L_KF_GATE] + (i + 1) * pch],
+        x_in,
+        sf[oP : oP + nn].reshape((n, n)),
+        u,
+        steps,
+        z,
+        valid,
+        si[oc : oc + 4 * pch].reshape((4, pch)),
+        lay[_L_KF_MAX_MISSES],
+        x_out,
+        sf_out[oP : oP + nn].reshape((n, n)),
+        si_out[oc : oc + 4 * pch].reshape((4, pch)),
+        sf_out[onis : onis + pch],
+    )
+    si_out[_I_KF_DEGRADED] = 1 if kf_degraded else 0
+    degraded = kf_degraded or speed_misses > lay[_L_K_MISS]
+    xa = np.empty(n)
+    for k in range(n):
+        xa[k] = x_out[k] + xo[k]
+    # 5. the baseline's laws on the commands applied
+    bst = sf_out[_F_BL : _F_BL + 7]
+    if si[_I_BL_PRESENT] != 0:
+        first_bl = si[_I_BL_FIRST] != 0
+        bst_in = sf[_F_BL : _F_BL + 7].copy()
+        # its own part of the applied torque (not the FF's: its rate limit would ratchet)
+        bst_in[5] = sf[_F_LAST_TH]
+        bst_in[6] = sf[_F_LAST_TQ] - sf[_F_LQ_FF_TQ]
+    else:
+        first_bl = True
+        bst_in = np.zeros(7)
+    ob = lay[_L_BL]
+    bl = c[ob : ob + len(BL_CONSTANTS)]
+    n_gs = lay[_L_N_GS]
+    gs = c[lay[_L_BL_GS] : lay[_L_BL_GS] + 3 * n_gs]
+    w_b = gen_speed if speed_ok else omega * gear
+    th_b, tq_b, regime_b, _wf_b, iterm_b, _gk_b = baseline_step(
+        bl, gs, n_gs, first_bl, bst_in, w_b, pitch_meas, torque_meas, dt_s, bst
+    )
+    si_out[_I_BL_PRESENT] = 1
+    si_out[_I_BL_FIRST] = 0
+    # 6. regime logic + LQRI (+ wave FF)
+    lim = c[lay[_L_LQ_LIM] : lay[_L_LQ_LIM] + len(LQRI_LIMITS)]
+    pmin, pmax, rated = lim[0], lim[1], lim[7]
+    sw, hyst = c[sc + 1], c[sc + 2]
+    first_lq = si[_I_LQ_FIRST] != 0
+    w = omega
+    if first_lq:
+        th_prev = _pmin(_pmax(pitch, pmin), pmax)
+        tq_prev = tq_b if math.isfinite(tq_b) else lim[6] * w * w
+        above = u_m >= sw
+    else:
+        th_prev = sf[_F_LQ_TH]
+        tq_prev = sf[_F_LQ_TQ]
+        above = si[_I_LQ_ABOVE] != 0
+    h = 0.5 * hyst
+    if not above and (u_m >= sw + h or w >= 1.02 * rated):
+        above = True
+        entering = True
+    else:
+        entering = first_lq
+        if above and u_m <= sw - h and th_prev <= pmin + 1e-4:
+            above = False
+    nx = lay[_L_LQ_NX]
+    xl = np.empty(nx)
+    for k in range(6):
+        xl[k] = xa[k]
+    xl[6] = w
+    xl[7] = pitch
+    n_lq = lay[_L_N_LQ]
+    fb, ki, th_op = lqri_schedule(
+        c[lay[_L_LQ_GRID] : lay[_L_LQ_GRID] + n_lq],
+        c[lay[_L_LQ_KX] : lay[_L_LQ_KX] + n_lq * nx].reshape((n_lq, nx)),
+        c[lay[_L_LQ_XOP] : lay[_L_LQ_XOP] + n_lq * nx].reshape((n_lq, nx)),
+        c[lay[_L_LQ_KI] : lay[_L_LQ_KI] + n_lq],
+        c[lay[_L_LQ_THOP] : lay[_L_LQ_THOP] + n_lq],
+        rated,
+        u_m,
+        xl,
+    )
+    u_ff = 0.0
+    ff_pitch = False
+    if lay[_L_FF_ON] != 0:
+        n_ff, fn, n_g = lay[_L_N_FF], lay[_L_FF_N], lay[_L_N_FFG]
+        off = lay[_L_ST_FF]
+        zn = sf_out[off : off + n_ff * fn].reshape((n_ff, fn))
+        if si[_I_FF_STARTED] != 0:
+            zs = sf[off : off + n_ff * fn].reshape((n_ff, fn))
+        else:
+            zs = np.zeros((n_ff, fn))
+        oa = lay[_L_FF_AT]
+        u_ff, isp, near = ff_cycle(
+            c[lay[_L_FF_GRID] : lay[_L_FF_GRID] + n_ff],
+            lay[lay[_L_FF_IS_PITCH] : lay[_L_FF_IS_PITCH] + n_ff],
+            c[lay[_L_FF_GWIND] : lay[_L_FF_GWIND] + n_g],
+            c[lay[_L_FF_GAIN] : lay[_L_FF_GAIN] + n_g],
+            c[oa : oa + n_ff * fn * fn].reshape((n_ff, fn, fn)),
+            c[lay[_L_FF_B] : lay[_L_FF_B] + n_ff * fn].reshape((n_ff, fn)),
+            c[lay[_L_FF_C] : lay[_L_FF_C] + n_ff * fn].reshape((n_ff, fn)),
+            c[lay[_L_FF_D] : lay[_L_FF_D] + n_ff],
+            zs,
+            u_m,
+            eta,
+            zn,
+        )
+        ff_pitch = isp != 0
+        si_out[_I_FF_INDEX] = near
+        si_out[_I_FF_STARTED] = 1
+    ff_th = u_ff if (ff_pitch and above) else 0.0
+    ff_tq = 0.0 if ff_pitch else u_ff
+    th, tq, zi, regime = lqri_law(
+        lim,
+        above,
+        entering,
+        sf[_F_LQ_Z],
+        th_prev,
+        tq_prev,
+        fb,
+        ki,
+        th_op,
+        ff_th,
+        ff_tq,
+        w,
+        tq_b,
+        th_b,
+        regime_b,
+        dt_s,
+    )
+    si_out[_I_LQ_FIRST] = 0
+    si_out[_I_LQ_ABOVE] = 1 if above else 0
+    sf_out[_F_LQ_Z] = zi
+    sf_out[_F_LQ_TH] = th
+    sf_out[_F_LQ_TQ] = tq
+    sf_out[_F_LQ_FF] = u_ff
+    sf_out[_F_LQ_FF_TH] = ff_th
+    sf_out[_F_LQ_FF_TQ] = ff_tq
+    if above:
+        integrator = ki * zi
+        # the baseline pitch PI tracks the LQRI's command (bumpless hand-back at θ_min)
+        bst[3] = th / baseline_gains(bl, gs, n_gs, th)[1]
+    else:
+        integrator = iterm_b
+    sf_out[lz] = acc
+    sf_out[lz + 1] = pitch_rate
+    sf_out[lz + 2] = platform_pitch
+    sf_out[lz + 3] = surge
+    sf_out[_F_LAST_TH] = th
+    sf_out[_F_LAST_TQ] = tq
+    return (
+        th,
+        tq,
+        regime,
+        omega * gear,
+        integrator,
+        0.0 if u_m < 0.0 else u_m,  # max(u, 0.0)
+        1 if degraded else 0,
+        wind,
+        xa[1],
+        xa[4],
+        xa[0],
+        xa[3],
+        xa[5],
+        ff_th,
+        ff_tq,
+    )

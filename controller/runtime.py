@@ -78,7 +78,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import msgspec
 import numpy as np
@@ -104,14 +104,14 @@ from bus_schemas.messages import (
     VALID_WAVE_GAUGE,
     SensorFrame,
 )
-from controller.baseline import BaselineController, BaselineState, load_baseline
+from controller import _kernels
+from controller.baseline import BaselineController, load_baseline
 from controller.estimators import (
     PlatformKF,
     PlatformKFConfig,
     PlatformKFState,
     WindEKFConfig,
     WindEKFMeasurement,
-    WindEKFState,
     WindSpeedEKF,
     cp_table_from_rosco_text,
     encoder_rotor_speed_std,
@@ -122,7 +122,6 @@ from controller.lqri import (
     DesignNotFoundError,
     LqriController,
     LqriMeasurement,
-    LqriState,
     find_design,
     load_design_artefact,
     load_lqri_design,
@@ -145,6 +144,16 @@ __all__ = [
 FloatArray = npt.NDArray[np.float64]
 ForecasterName = Literal["dispersion", "ar", "esprit"]
 FeedforwardName = Literal["off", "balanced", "max_performance"]
+
+#: Estimates every advanced-controller status holds.
+_EST_ALWAYS = (
+    EST_WIND_SPEED
+    | EST_PLATFORM_PITCH
+    | EST_PLATFORM_PITCH_RATE
+    | EST_PLATFORM_SURGE
+    | EST_PLATFORM_SURGE_VELOCITY
+    | EST_TOWER_TOP_VELOCITY
+)
 
 _PRESET_PACKAGE = "controller.presets"
 _DESIGN_PACKAGE = "controller.presets.designs"
@@ -391,25 +400,33 @@ def discretize(
 
 
 # ------------------------------------------------------------------------------ state
-class AdvancedState(msgspec.Struct, gc=False):
+class AdvancedState(NamedTuple):
     """Everything the advanced controller carries between cycles (owned by the caller).
 
-    ``forecaster`` is the forecaster's preallocated state, updated in place.
+    The per-cycle part is two flat vectors, read by the compiled cycle
+    (:func:`controller._kernels.advanced_cycle`) and replaced by new ones every cycle (never
+    modified): ``values`` (float64: the wind EKF's x, P and innovation, the LQRI's integrator,
+    last commands and FF parts, the baseline's filter, integrators and commands, the last
+    raw KF measurements, the applied commands, then the platform KF's x, P and NIS and the
+    wave-FF filter states; names in :data:`controller._kernels.ADV_FLOAT_STATE` and
+    ``lay[st_*]``) and ``flags`` (int64: started, EKF updates, KF design index and degraded
+    flag, LQRI first call / above rated / FF index, baseline first call, speed misses, then
+    the KF's per-channel counters; :data:`controller._kernels.ADV_INT_STATE`).
+    :meth:`AdvancedController.state_parts` names their parts. ``forecaster`` is the
+    forecaster's preallocated state, updated in place; the forecast call times are ints.
     """
 
-    ekf: WindEKFState | None
-    kf: PlatformKFState
-    kf_index: int
-    lqri: LqriState
+    values: FloatArray
+    flags: npt.NDArray[np.int64]
     forecaster: Any
     next_forecast_ns: int = 0
     forecast_m: float = math.nan
     forecast_time_ns: int = 0
-    last_z: tuple[float, float, float, float] = (math.nan,) * 4
-    last_pitch_cmd_rad: float = 0.0
-    last_torque_cmd_nm: float = 0.0
-    speed_misses: int = 0
-    baseline: BaselineState | None = None
+
+    @property
+    def kf_index(self) -> int:
+        """The platform-KF design in use."""
+        return int(self.flags[_kernels.ADV_INT_STATE.index("kf_index")])
 
 
 def _forecaster_config(
@@ -579,16 +596,170 @@ class AdvancedController:
         self.forecaster = make_forecaster(kind, _forecaster_config(fc, kind, distance))
         self._forecast_period_ns = round(fc.sample_period_s * 1e9)
         self._horizon_ns = round(fc.horizon_s * 1e9)
+        self._pack()
         self._warm_up()
 
+    def _pack(self) -> None:
+        """Pack every constant of the cycle into one float64 vector and its layout.
+
+        ``self._c`` holds, at the offsets ``self._lay`` names (:data:`controller._kernels.
+        ADV_LAYOUT`): the EKF's constants and Cp table, every KF design's F, B, Q, H, D, R,
+        gate and operating point, the LQRI schedule and limits, the wave-FF filters and gain
+        table, the baseline's constants and pitch-gain table: the same arrays the classes
+        pass to their kernels. One array argument instead of about thirty keeps the cycle's
+        call cheap (numba type-checks every argument on every call).
+        """
+        L = _kernels.ADV_LAYOUT
+        lay = np.zeros(len(L), dtype=np.int64)
+        parts: list[FloatArray] = []
+        size = 0
+
+        def put(name: str, value: Any) -> None:
+            nonlocal size
+            a = np.ascontiguousarray(value, dtype=np.float64).ravel()
+            lay[L.index(name)] = size
+            parts.append(a)
+            size += a.size
+
+        def setv(name: str, value: int) -> None:
+            lay[L.index(name)] = value
+
+        s = self.settings
+        d = self.lqri.design
+        put("scalars", [s.gearbox_ratio, d.switch_wind_m_s, d.hysteresis_m_s])
+        prm, tsr, pitch, cells = self.ekf._tables
+        put("ekf_prm", prm)
+        put("tsr", tsr)
+        setv("n_tsr", tsr.size)
+        put("pitch", pitch)
+        setv("n_pitch", pitch.size)
+        put("cells", cells)
+        setv("n_cells", cells.shape[0])
+        kfs = self.kfs
+        n, m = kfs[0]._pred[1].shape
+        p = kfs[0]._upd[0].shape[0]
+        if p != 4 or n < 6 or m != 2:
+            raise ValueError(
+                f"observer design {s.observer_design!r}: expected 4 channels (IMU acceleration, "
+                f"gyro, attitude, GNSS surge), 2 inputs and at least 6 states; got {p}, {m}, {n}"
+            )
+        setv("n_kf", len(kfs))
+        setv("kf_n", n)
+        setv("kf_p", p)
+        setv("kf_m", m)
+        put("kf_grid", self._wind_grid)
+        for k, name in enumerate(("kf_F", "kf_B", "kf_Q")):
+            put(name, np.stack([kf._pred[k] for kf in kfs]))
+        for k, name in enumerate(("kf_H", "kf_D", "kf_R", "kf_gate")):
+            put(name, np.stack([kf._upd[k] for kf in kfs]))
+        put("kf_xop", np.stack(self._x_op))
+        put("kf_uop", self._u_op)
+        setv("kf_max_misses", kfs[0].config.max_consecutive_misses)
+        if any(kf.config.max_consecutive_misses != lay[L.index("kf_max_misses")] for kf in kfs):
+            raise ValueError("observer designs: expected one max_consecutive_misses for all")
+        setv("k_miss", self._k_miss)
+        grid, k_x, x_op, k_i, theta_op, _rated = self.lqri._schedule
+        put("lq_grid", grid)
+        setv("n_lq", grid.size)
+        setv("lq_nx", k_x.shape[1])
+        if k_x.shape[1] != 8:
+            raise ValueError(f"LQRI design: expected 8 states in k_x, got {k_x.shape[1]}")
+        put("lq_kx", k_x)
+        put("lq_xop", x_op)
+        put("lq_ki", k_i)
+        put("lq_thop", theta_op)
+        put("lq_lim", self.lqri._limits)
+        extra: list[int] = []
+        ff_on = self.lqri.wave_ff is not None and self.lqri.feedforward != "off"
+        setv("ff_on", int(ff_on))
+        n_ff = ff_n = 0
+        if ff_on:
+            g_grid, is_pitch, g_wind, gain, a_t, b, c, dd = self.lqri._ff
+            n_ff, ff_n = b.shape
+            put("ff_grid", g_grid)
+            setv("n_ff", n_ff)
+            setv("ff_is_pitch", len(L))
+            extra.extend(int(v) for v in is_pitch)
+            put("ff_gwind", g_wind)
+            setv("n_ffg", g_wind.size)
+            put("ff_gain", gain)
+            setv("ff_n", ff_n)
+            put("ff_at", a_t)
+            put("ff_b", b)
+            put("ff_c", c)
+            put("ff_d", dd)
+        bk = self.baseline._k
+        # BaselineController._k without its three table tuples (indices 29-31), flags as 0/1
+        put("bl", [float(v) for v in (*bk[:29], *bk[32:])])
+        bp = self.baseline.params
+        put(
+            "bl_gs",
+            [*bp.pitch_gs_angles_rad, *bp.pitch_gs_kp_s, *bp.pitch_gs_ki_dimensionless],
+        )
+        setv("n_gs", len(bp.pitch_gs_angles_rad))
+        for name, bit in (
+            ("bit_speed", VALID_GENERATOR_SPEED),
+            ("bit_pitch", VALID_PITCH),
+            ("bit_torque", VALID_TORQUE),
+            ("bit_acc", VALID_NACELLE_ACC),
+            ("bit_pitch_rate", VALID_PLATFORM_PITCH_RATE),
+            ("bit_platform_pitch", VALID_PLATFORM_PITCH),
+            ("bit_surge", VALID_PLATFORM_SURGE),
+        ):
+            setv(name, bit)
+        fs = len(_kernels.ADV_FLOAT_STATE)
+        setv("st_kf_x", fs)
+        setv("st_kf_P", fs + n)
+        setv("st_kf_nis", fs + n + n * n)
+        setv("st_ff", fs + n + n * n + p)
+        setv("st_size", fs + n + n * n + p + n_ff * ff_n)
+        setv("st_counts", len(_kernels.ADV_INT_STATE))
+        setv("st_isize", len(_kernels.ADV_INT_STATE) + 4 * p)
+        self._c = np.concatenate(parts)
+        self._lay = np.concatenate([lay, np.array(extra, dtype=np.int64)])
+        self._n, self._p = n, p
+        self._st = {name: int(lay[L.index(name)]) for name in L if name.startswith("st_")}
+        self._fi = {name: k for k, name in enumerate(_kernels.ADV_FLOAT_STATE)}
+        self._ii = {name: k for k, name in enumerate(_kernels.ADV_INT_STATE)}
+        kf = self.kfs[0].config
+        self._steps_at_dt = min(max(round(self.dt_s / kf.dt_s), 1), kf.max_predict_steps)
+        self._mask_no_forecast = _EST_ALWAYS | (EST_FEEDFORWARD if s.feedforward != "off" else 0)
+        self._mask_forecast = self._mask_no_forecast | EST_WAVE_FORECAST
+
+    def state_parts(self, state: AdvancedState) -> dict[str, Any]:
+        """The parts of a state by name (views of its vectors; for tests and inspection).
+
+        Keys: the names of :data:`controller._kernels.ADV_FLOAT_STATE` and ``ADV_INT_STATE``
+        (scalars), ``ekf_x`` (3), ``ekf_p`` (upper triangle, 6), ``kf_x`` (n), ``kf_P``
+        (n, n), ``kf_nis`` (p), ``kf_counts`` (4, p), ``ff_state`` (filters, order) or None.
+        """
+        v, f, st = state.values, state.flags, self._st
+        n, p = self._n, self._p
+        out: dict[str, Any] = {k: float(v[i]) for k, i in self._fi.items()}
+        out.update({k: int(f[i]) for k, i in self._ii.items()})
+        out["ekf_x"] = v[0:3]
+        out["ekf_p"] = v[3:9]
+        out["kf_x"] = v[st["st_kf_x"] : st["st_kf_x"] + n]
+        out["kf_P"] = v[st["st_kf_P"] : st["st_kf_P"] + n * n].reshape(n, n)
+        out["kf_nis"] = v[st["st_kf_nis"] : st["st_kf_nis"] + p]
+        out["kf_counts"] = f[st["st_counts"] : st["st_counts"] + 4 * p].reshape(4, p)
+        ff = self.lqri._ff[5].shape if self._lay[_kernels.ADV_LAYOUT.index("ff_on")] else None
+        out["ff_state"] = (
+            None
+            if ff is None or not out["ff_started"]
+            else v[st["st_ff"] : st["st_ff"] + ff[0] * ff[1]].reshape(ff)
+        )
+        return out
+
     def _warm_up(self) -> None:
-        """Run every compiled kernel once on a throw-away state (results discarded).
+        """Run the compiled cycle once on a throw-away state (results discarded).
 
         The kernels (:mod:`controller._kernels`) are compiled on a machine's first run and
         loaded from numba's on-disk cache afterwards; either happens on a kernel's first
-        call (about 1 s to load all of them from the cache, tens of seconds to compile).
-        Doing it here, while the node starts, keeps that cost out of the first control
-        cycle. Nothing is kept: the cores are pure.
+        call (about 1 s to load them from the cache, tens of seconds to compile). Doing it
+        here, while the node starts, keeps that cost out of the first control cycle. The
+        classes' own kernels are warmed too (tests and tools call them). Nothing is kept:
+        the cores are pure.
         """
         d = self.lqri.design
         h = self.dt_s
@@ -604,6 +775,29 @@ class AdvancedController:
             wave_elevation_forecast_m=0.0,
         )
         self.lqri.step(self.lqri.initial_state(), meas, h)
+        st = self.initial_state()
+        values = st.values.copy()
+        flags = st.flags.copy()
+        flags[self._ii["started"]] = 1
+        _kernels.advanced_cycle(
+            self._c,
+            self._lay,
+            values,
+            flags,
+            d.rated_rotor_speed_rad_s * self.settings.gearbox_ratio,
+            d.pitch_min_rad,
+            d.rated_torque_nm,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            (1 << 62) - 1,
+            0.0,
+            h,
+            self._steps_at_dt,
+            np.empty_like(values),
+            np.empty_like(flags),
+        )
 
     def actuator_limits(self) -> ActuatorLimits:
         """The LQRI design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
@@ -626,15 +820,21 @@ class AdvancedController:
 
     # -------------------------------------------------------------- cycle
     def initial_state(self) -> AdvancedState:
-        """State before the first cycle (the EKF initialises from the first frame)."""
+        """State before the first cycle (the EKF and KF initialise from the first frame)."""
         i = len(self.kfs) // 2
-        return AdvancedState(
-            ekf=None,
-            kf=self.kfs[i].initial_state(),
-            kf_index=i,
-            lqri=self.lqri.initial_state(),
-            forecaster=self.forecaster.init_state(),
-        )
+        kf0 = self.kfs[i].initial_state()
+        st, fi, ii = self._st, self._fi, self._ii
+        n, p = self._n, self._p
+        values = np.zeros(st["st_size"])
+        values[fi["last_z_acc"] : fi["last_z_acc"] + 4] = math.nan
+        values[st["st_kf_x"] : st["st_kf_x"] + n] = kf0.x
+        values[st["st_kf_P"] : st["st_kf_P"] + n * n] = kf0.P.ravel()
+        values[st["st_kf_nis"] : st["st_kf_nis"] + p] = kf0.nis
+        flags = np.zeros(st["st_isize"], dtype=np.int64)
+        flags[ii["kf_index"]] = i
+        flags[ii["lq_first_call"]] = 1
+        flags[ii["ff_index"]] = -1
+        return AdvancedState(values, flags, self.forecaster.init_state())
 
     def _first_kf_state(self, i: int, frame: SensorFrame) -> PlatformKFState:
         """KF state of design ``i`` with surge and pitch taken from the first frame (if valid)."""
@@ -647,18 +847,52 @@ class AdvancedController:
             x[1] = frame.platform_pitch_measured_rad - float(xo[1])
         return st._replace(x=x)
 
-    def _nearest(self, wind_m_s: float, current: int) -> int:
-        g = self._wind_grid
-        best = current
-        for j, w in enumerate(g):
-            if abs(w - wind_m_s) < abs(g[best] - wind_m_s) - 0.25:  # 0.25 m/s hysteresis
-                best = j
-        return best
+    def _start(
+        self, values: FloatArray, flags: npt.NDArray[np.int64], frame: SensorFrame
+    ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+        """New state vectors with the EKF and KF started from the first frame.
+
+        The EKF from the measured rotor speed (the design's rated speed if invalid), pitch
+        and torque (the last commands if invalid) at the steady wind of the measurements
+        (:meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
+        surge and pitch from the frame (:meth:`_first_kf_state`).
+        """
+        v, f = values.copy(), flags.copy()
+        fi, ii, st = self._fi, self._ii, self._st
+        mask = frame.valid_mask
+        omega_meas = frame.generator_speed_measured_rad_s / self.settings.gearbox_ratio
+        pitch = frame.blade_pitch_measured_rad if mask & VALID_PITCH else v[fi["last_pitch_cmd"]]
+        torque = (
+            frame.generator_torque_measured_nm if mask & VALID_TORQUE else v[fi["last_torque_cmd"]]
+        )
+        speed_ok = bool(mask & VALID_GENERATOR_SPEED)
+        w0 = omega_meas if speed_ok else self.lqri.design.rated_rotor_speed_rad_s
+        ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque))
+        u0 = ekf0.x[2]
+        i = min(range(len(self._wind_grid)), key=lambda k: abs(self._wind_grid[k] - u0))
+        kf0 = self._first_kf_state(i, frame)
+        n, p = self._n, self._p
+        v[0:3] = ekf0.x
+        v[3:9] = ekf0.p
+        v[fi["ekf_innovation"]] = ekf0.innovation_rad_s
+        v[st["st_kf_x"] : st["st_kf_x"] + n] = kf0.x
+        v[st["st_kf_P"] : st["st_kf_P"] + n * n] = kf0.P.ravel()
+        v[st["st_kf_nis"] : st["st_kf_nis"] + p] = kf0.nis
+        f[st["st_counts"] : st["st_counts"] + 4 * p] = kf0.counts.ravel()
+        f[ii["ekf_updates"]] = ekf0.updates
+        f[ii["kf_index"]] = i
+        f[ii["started"]] = 1
+        return v, f
 
     def step(
         self, state: AdvancedState, frame: SensorFrame, dt_s: float
     ) -> tuple[AdvancedState, ControlOutput]:
-        """One control cycle on a validated frame (module docstring, steps 1-5).
+        """One control cycle on a validated frame (module docstring, steps 1-6).
+
+        The wave forecaster (step 4) runs here, every ``sample_period_s``; the rest of the
+        cycle is one compiled call (:func:`controller._kernels.advanced_cycle`), the same
+        arithmetic as the classes it is made of (:class:`WindSpeedEKF`,
+        :class:`PlatformKF`, :class:`BaselineController`, :class:`LqriController`).
 
         Parameters
         ----------
@@ -666,65 +900,33 @@ class AdvancedController:
         frame : SensorFrame
             Decoded, range-checked, finite frame.
         dt_s : float
-            Control period [s].
+            Control period [s], finite and > 0.
 
         Returns
         -------
         state : AdvancedState
+            New state (the old one is not modified, except its forecaster's state, which
+            the forecaster updates in place).
         output : ControlOutput
             Command, regime and every estimate for the status message.
+
+        Raises
+        ------
+        ValueError
+            If ``dt_s`` is not finite and > 0.
         """
+        if not 0.0 < dt_s < math.inf:
+            raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
+        if dt_s == self.dt_s:
+            steps = self._steps_at_dt
+        else:
+            kf = self.kfs[0].config
+            steps = min(max(round(dt_s / kf.dt_s), 1), kf.max_predict_steps)
+        values, flags = state.values, state.flags
+        if not flags[0]:  # first frame: start both filters from the measurements
+            values, flags = self._start(values, flags, frame)
         mask = frame.valid_mask
-        s = self.settings
-        speed_ok = bool(mask & VALID_GENERATOR_SPEED)
-        omega_meas = frame.generator_speed_measured_rad_s / s.gearbox_ratio
-        pitch = frame.blade_pitch_measured_rad if mask & VALID_PITCH else state.last_pitch_cmd_rad
-        torque = (
-            frame.generator_torque_measured_nm if mask & VALID_TORQUE else state.last_torque_cmd_nm
-        )
-        # 2. wind EKF
-        ekf_state = state.ekf
-        i = state.kf_index
-        kf_state = state.kf
-        if ekf_state is None:  # first frame: start both filters from the measurements
-            w0 = omega_meas if speed_ok else self.lqri.design.rated_rotor_speed_rad_s
-            ekf_state = self.ekf.initial_state(w0, pitch, torque)
-            u0 = ekf_state.x[2]
-            i = min(range(len(self._wind_grid)), key=lambda k: abs(self._wind_grid[k] - u0))
-            kf_state = self._first_kf_state(i, frame)
-        ekf_state, west = self.ekf.step(
-            ekf_state, WindEKFMeasurement(omega_meas, pitch, torque, speed_ok), dt_s
-        )
-        speed_misses = 0 if speed_ok else state.speed_misses + 1
-        omega = west.rotor_speed_rad_s
-        # 3. platform KF, scheduled on the mean wind
-        j = self._nearest(west.mean_wind_m_s, i)
-        if j != i:
-            kf_state = kf_state._replace(x=kf_state.x + self._x_op[i] - self._x_op[j])
-            i = j
-        kf = self.kfs[i]
-        xo = self._x_op_f[i]
-        u_op = self._u_op[i]
-        u = (omega - u_op[0], pitch - u_op[1])
-        raw = (
-            frame.nacelle_acc_fore_aft_measured_m_s2,
-            frame.platform_pitch_rate_measured_rad_s,
-            frame.platform_pitch_measured_rad,
-            frame.platform_surge_measured_m,
-        )
-        z = (raw[0], raw[1], raw[2] - xo[1], raw[3] - xo[0])
-        last = state.last_z
-        valid = (
-            bool(mask & VALID_NACELLE_ACC) and raw[0] != last[0],
-            bool(mask & VALID_PLATFORM_PITCH_RATE) and raw[1] != last[1],
-            bool(mask & VALID_PLATFORM_PITCH) and raw[2] != last[2],
-            bool(mask & VALID_PLATFORM_SURGE) and raw[3] != last[3],
-        )
-        kf_state = kf.predict_update(kf_state, u, z, valid, dt_s)
-        xd = kf_state.x.tolist()
-        x = [a + b for a, b in zip(xd, xo, strict=True)]
-        degraded = kf_state.degraded or speed_misses > self._k_miss
-        # 4. wave forecast on the gauge channel
+        # 4. wave forecast on the gauge channel, every sample_period_s
         fstate = state.forecaster
         forecast_m, forecast_ns = state.forecast_m, state.forecast_time_ns
         next_ns = state.next_forecast_ns
@@ -738,103 +940,53 @@ class AdvancedController:
             forecast_ns = t_ns + self._horizon_ns
             period = self._forecast_period_ns
             next_ns = (t_ns // period + 1) * period
-        forecast_ok = bool(fstate.filled) and math.isfinite(forecast_m)
-        # 5. below-rated laws (the baseline's torque law and pitch PI on the measured speed,
-        # the EKF's when the speed sample is invalid), tracking the applied commands so that
-        # their rate limits, region-3 criterion and integrators follow what the turbine got
-        bst = state.baseline
-        if bst is not None:
-            # the law's own part of the applied torque: tracking the total (FF included)
-            # would let its rate limit ratchet the FF up against it cycle after cycle
-            bst = msgspec.structs.replace(
-                bst,
-                blade_pitch_commanded_rad=state.last_pitch_cmd_rad,
-                generator_torque_commanded_nm=state.last_torque_cmd_nm
-                - state.lqri.feedforward_torque_nm,
-            )
-        else:
-            bst = self.baseline.initial_state()
-        bframe = (
-            frame
-            if speed_ok
-            else msgspec.structs.replace(
-                frame, generator_speed_measured_rad_s=omega * s.gearbox_ratio
-            )
+        forecast_ok = fstate.filled and math.isfinite(forecast_m)
+        # 1-3, 5, 6 in one compiled call
+        new_values = np.empty_like(values)
+        new_flags = np.empty_like(flags)
+        r = _kernels.advanced_cycle(
+            self._c,
+            self._lay,
+            values,
+            flags,
+            frame.generator_speed_measured_rad_s,
+            frame.blade_pitch_measured_rad,
+            frame.generator_torque_measured_nm,
+            frame.nacelle_acc_fore_aft_measured_m_s2,
+            frame.platform_pitch_rate_measured_rad_s,
+            frame.platform_pitch_measured_rad,
+            frame.platform_surge_measured_m,
+            mask,
+            forecast_m if forecast_ok else math.nan,
+            dt_s,
+            steps,
+            new_values,
+            new_flags,
         )
-        bst, bout = self.baseline.step(bst, bframe, dt_s)
-        # 6. regime logic + LQRI
-        meas = LqriMeasurement(
-            wind_speed_estimate_m_s=west.mean_wind_m_s,
-            rotor_speed_rad_s=omega,
-            blade_pitch_rad=pitch,
-            platform_surge_m=x[0],
-            platform_pitch_rad=x[1],
-            tower_top_deflection_m=x[2],
-            platform_surge_rate_m_s=x[3],
-            platform_pitch_rate_rad_s=x[4],
-            tower_top_deflection_rate_m_s=x[5],
-            wave_elevation_forecast_m=forecast_m if forecast_ok else math.nan,
-            torque_law_nm=bout.generator_torque_commanded_nm,
-            pitch_below_rated_rad=bout.blade_pitch_commanded_rad,
-            regime_below_rated=bout.regime,
-        )
-        lqri_state, out = self.lqri.step(state.lqri, meas, dt_s)
-        integrator_rad = out.pitch_integrator_rad
-        if lqri_state.above_rated:
-            # the baseline pitch PI tracks the LQRI's command (bumpless hand-back at θ_min)
-            ki_eff = self.baseline.pitch_gains(out.blade_pitch_commanded_rad)[1]
-            bst = msgspec.structs.replace(
-                bst, pitch_speed_error_integral_rad=out.blade_pitch_commanded_rad / ki_eff
-            )
-        else:
-            integrator_rad = bout.pitch_integrator_rad
-        est_mask = (
-            EST_WIND_SPEED
-            | EST_PLATFORM_PITCH
-            | EST_PLATFORM_PITCH_RATE
-            | EST_PLATFORM_SURGE
-            | EST_PLATFORM_SURGE_VELOCITY
-            | EST_TOWER_TOP_VELOCITY
-        )
+        new = AdvancedState(new_values, new_flags, fstate, next_ns, forecast_m, forecast_ns)
         if forecast_ok:
-            est_mask |= EST_WAVE_FORECAST
-        if s.feedforward != "off":
-            est_mask |= EST_FEEDFORWARD
-        new = AdvancedState(
-            ekf=ekf_state,
-            kf=kf_state,
-            kf_index=i,
-            lqri=lqri_state,
-            forecaster=fstate,
-            next_forecast_ns=next_ns,
-            forecast_m=forecast_m,
-            forecast_time_ns=forecast_ns,
-            last_z=raw,
-            last_pitch_cmd_rad=out.blade_pitch_commanded_rad,
-            last_torque_cmd_nm=out.generator_torque_commanded_nm,
-            speed_misses=speed_misses,
-            baseline=bst,
+            est_mask, fc_m, fc_ns = self._mask_forecast, forecast_m, forecast_ns
+        else:
+            est_mask, fc_m, fc_ns = self._mask_no_forecast, 0.0, 0
+        return new, ControlOutput(
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            r[4],
+            r[5],
+            est_mask,
+            r[6],
+            r[7],
+            r[8],
+            r[9],
+            r[10],
+            r[11],
+            r[12],
+            fc_m,
+            fc_ns,
+            r[13],
+            r[14],
+            fstate.unstable_fits,
+            fstate.guarded,
         )
-        result = ControlOutput(
-            blade_pitch_commanded_rad=out.blade_pitch_commanded_rad,
-            generator_torque_commanded_nm=out.generator_torque_commanded_nm,
-            regime=out.regime,
-            generator_speed_filtered_rad_s=omega * s.gearbox_ratio,
-            pitch_integrator_rad=integrator_rad,
-            gain_schedule_factor=max(out.gain_schedule_factor, 0.0),
-            estimates_valid_mask=est_mask,
-            estimator_degraded=int(degraded),
-            wind_speed_estimated_m_s=west.wind_m_s,
-            platform_surge_estimated_m=x[0],
-            platform_pitch_estimated_rad=x[1],
-            platform_surge_velocity_estimated_m_s=x[3],
-            platform_pitch_rate_estimated_rad_s=x[4],
-            tower_top_velocity_estimated_m_s=x[5],
-            wave_elevation_forecast_m=forecast_m if forecast_ok else 0.0,
-            wave_forecast_time_ns=forecast_ns if forecast_ok else 0,
-            feedforward_pitch_rad=lqri_state.feedforward_pitch_rad,
-            feedforward_torque_nm=lqri_state.feedforward_torque_nm,
-            forecast_unstable_fits=int(getattr(fstate, "unstable_fits", 0)),
-            forecast_guarded=int(getattr(fstate, "guarded", 0)),
-        )
-        return new, result
