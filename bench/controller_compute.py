@@ -21,9 +21,17 @@ core), measured beside ROSCO's compiled controller in the same process and run:
    cycles with every part on (forecast valid and wave FF stepping), with the ratio to
    ROSCO's per-call p50/p99. The machine's load average is saved before and after.
 
+4. **Before/after in one run** (``--compare-python /work/main/.venv/bin/python
+   --compare-root /work/main``): the same frames (pickled) are replayed into the ``lqri_ff``
+   and ``baseline`` cores of that checkout by a child process with that interpreter,
+   alternating with this checkout's replays and ROSCO's for ``--rounds`` rounds; each
+   side's least disturbed round (lowest CPU p50) is reported with every round's p50, so
+   that the ratios come from one run on the same (shared) machine.
+
 Usage::
 
-    python bench/controller_compute.py [--duration 300] [--repeats 3]
+    python bench/controller_compute.py [--duration 300] [--repeats 3] [--rounds 1]
+        [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
 
 Saves ``bench/results/controller_compute.json``.
 """
@@ -31,7 +39,11 @@ Saves ``bench/results/controller_compute.json``.
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
+import pickle
+import subprocess
 import sys
 import tempfile
 import time
@@ -41,7 +53,10 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+# a comparison child (--child) imports the checkout it runs in (its working directory)
+sys.path.insert(
+    0, str(Path.cwd() if "--child" in sys.argv else Path(__file__).resolve().parents[1])
+)
 
 from _common import machine, save
 
@@ -201,30 +216,75 @@ def replay(
     return out
 
 
+COMPARED = (("lqri_ff", "iea15mw_advanced"), ("baseline", "iea15mw_baseline"))
+ROSCO = (("rosco", "iea15mw_volturnus"), ("rosco_logging0", "iea15mw_volturnus"))
+
+
+def replay_all(
+    kinds: tuple[tuple[str, str], ...], scenario: Any, frames: list[SensorFrame], repeats: int
+) -> dict[str, Any]:
+    """:func:`replay` of each (kind, preset); an error (e.g. ROSCO absent) is reported."""
+    out: dict[str, Any] = {}
+    for kind, preset in kinds:
+        try:
+            out[kind] = replay(kind, preset, scenario, frames, repeats)
+        except Exception as exc:  # ROSCO's library absent: say so, keep the rest
+            out[kind] = {"error": f"{type(exc).__name__}: {exc}"}
+    return out
+
+
+def _cpu_p50(core: dict[str, Any]) -> float:
+    return float(core["all_cycles"]["cpu_us"]["p50"]) if "all_cycles" in core else math.inf
+
+
+def _best(rounds: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per core, the round with the lowest CPU p50 (the least disturbed one)."""
+    return {kind: min((r[kind] for r in rounds), key=_cpu_p50) for kind in rounds[0]}
+
+
 def main() -> None:
-    """Record, replay, print and save."""
+    """Record, replay (alternating with the reference checkout), print and save."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--duration", type=float, default=300.0, help="recorded run [s]")
     ap.add_argument("--repeats", type=int, default=3, help="replays per core (best kept)")
+    ap.add_argument("--rounds", type=int, default=1, help="alternating rounds (best kept)")
+    ap.add_argument("--compare-python", type=Path, default=None)
+    ap.add_argument("--compare-root", type=Path, default=None)
+    ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.child is not None:  # replay pickled frames in this checkout, print JSON
+        with open(args.child, "rb") as fh:
+            frames = pickle.load(fh)
+        scenario = load_scenario(SCENARIO).with_duration(args.duration)
+        print(json.dumps(replay_all(COMPARED, scenario, frames, args.repeats)))
+        return
     load_before = os.getloadavg()
     t0 = time.monotonic()
     scenario, frames = record(args.duration)
-    cores = {}
-    for kind, preset in (
-        ("lqri_ff", "iea15mw_advanced"),
-        ("baseline", "iea15mw_baseline"),
-        ("rosco", "iea15mw_volturnus"),
-        ("rosco_logging0", "iea15mw_volturnus"),
-    ):
-        try:
-            cores[kind] = replay(kind, preset, scenario, frames, args.repeats)
-        except Exception as exc:  # ROSCO's library absent: say so, keep the rest
-            cores[kind] = {"error": f"{type(exc).__name__}: {exc}"}
-        print(kind, cores[kind])
+    ref_rounds: list[dict[str, Any]] = []
+    this_rounds: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="fowt-bench-frames-") as tmp:
+        frames_file = Path(tmp) / "frames.pickle"
+        with open(frames_file, "wb") as fh:
+            pickle.dump(frames, fh)
+        for _ in range(args.rounds):
+            if args.compare_python is not None:
+                cmd = [str(args.compare_python), str(Path(__file__).resolve())]
+                cmd += ["--child", str(frames_file), "--duration", str(args.duration)]
+                cmd += ["--repeats", str(args.repeats)]
+                proc = subprocess.run(
+                    cmd, cwd=args.compare_root, capture_output=True, text=True, check=False
+                )
+                if proc.returncode != 0:
+                    raise SystemExit(f"comparison run failed:\n{proc.stderr}")
+                ref_rounds.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+            this_rounds.append(replay_all(COMPARED + ROSCO, scenario, frames, args.repeats))
+    cores = _best(this_rounds)
+    for kind, fig in cores.items():
+        print(kind, fig)
     adv = cores["lqri_ff"]
     ratios: dict[str, Any] = {}
-    for name in ("rosco", "rosco_logging0"):
+    for name, _preset in ROSCO:
         ref = cores.get(name, {})
         if "all_cycles" not in ref:
             continue
@@ -247,7 +307,7 @@ def main() -> None:
         for part in ("all_cycles", "all_parts_on")
         if part in adv
     }
-    result = {
+    result: dict[str, Any] = {
         "machine": machine(),
         "load_average_before": list(load_before),
         "scenario": SCENARIO,
@@ -255,13 +315,39 @@ def main() -> None:
         "control_period_s": scenario.timing.control_period_s,
         "frames": len(frames),
         "repeats": args.repeats,
+        "rounds": args.rounds,
         "targets_us": {"p50": TARGET_P50_US, "p99": TARGET_P99_US},
         "cores": cores,
+        "cpu_p50_us_every_round": {k: [_cpu_p50(r[k]) for r in this_rounds] for k in cores},
         "ratios_to_rosco": ratios,
         "targets_met": met,
-        "load_average_after": list(os.getloadavg()),
-        "bench_wall_s": round(time.monotonic() - t0, 1),
     }
+    if ref_rounds:
+        reference = _best(ref_rounds)
+        speedup: dict[str, Any] = {}
+        for kind, _preset in COMPARED:
+            new, old = cores[kind], reference[kind]
+            if "all_cycles" not in new or "all_cycles" not in old:
+                continue
+            speedup[kind] = {
+                f"{part}_{clock}_{q}": round(old[part][clock][q] / new[part][clock][q], 2)
+                for part in ("all_cycles", "all_parts_on")
+                if part in new and part in old
+                for clock in ("wall_us", "cpu_us")
+                for q in ("p50", "p99")
+            }
+        result["reference"] = {
+            "python": str(args.compare_python),
+            "root": str(args.compare_root),
+            "cores": reference,
+            "cpu_p50_us_every_round": {k: [_cpu_p50(r[k]) for r in ref_rounds] for k in reference},
+        }
+        result["speedup_vs_reference"] = speedup
+        for kind, fig in reference.items():
+            print("reference", kind, fig)
+        print("speed-up vs reference (reference / this):", speedup)
+    result["load_average_after"] = list(os.getloadavg())
+    result["bench_wall_s"] = round(time.monotonic() - t0, 1)
     print("ratios to ROSCO:", ratios)
     print("targets met:", met)
     print("load average before", list(load_before), "after", result["load_average_after"])

@@ -1,5 +1,9 @@
 """Compiled kernels of the controller's cycle: wind EKF, platform KF, wave-FF filter bank.
 
+The advanced controller's whole cycle is :func:`advanced_cycle` (one call per control
+period, see its section at the end of this module); the kernels before it are its parts,
+also called one by one by the public classes.
+
 Why hand-written: the observers' public pure functions (:mod:`controller.estimators`) and the
 LQRI's wave feedforward (:mod:`controller.lqri`) each do a few dozen floating-point operations
 on 3-, 6- and 25-element states, where numpy's per-call overhead (about 1 us per operation on
@@ -31,7 +35,12 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
   :math:`z \\leftarrow A_d z + b \\hat\\eta` for every filter (A_d stored transposed so that the
   inner loop runs over contiguous memory).
 
-Every kernel allocates its outputs (no argument is modified), so the callers stay pure.
+* Baseline law (:func:`baseline_step`, :func:`baseline_gains`): ``BaselineController.step``
+  and ``pitch_gains`` of :mod:`controller.baseline`, statement by statement (its module
+  docstring has the equations), for the advanced controller's below-rated laws.
+
+Every kernel writes only its outputs (no input argument is modified), so the callers stay
+pure.
 """
 
 from __future__ import annotations

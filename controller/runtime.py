@@ -66,9 +66,18 @@ does not see (al-2019 Tab. 5-2, TripleSpar 10 MW: about 30 %, Weibull-averaged).
 Bounded work per cycle (p = 4 KF channels, n = 6 KF states, m = 22 FF filters of 25
 states): the EKF a few dozen floating-point operations; the KF a predict and a gated
 update on 6x6 arrays with one at most 4x4 inverse; the LQRI an 8-term feedback; the FF one
-(m, 25, 25) bank product; each one compiled call (:mod:`controller._kernels`, numba, cached
-on disk). The forecaster is one ring-buffer write and one fixed-length dot product per call
-(AR/ESPRIT retrain on a fixed window); nothing grows with time.
+(m, 25, 25) bank product. Steps 1-3, 5 and 6 are one compiled call
+(:func:`controller._kernels.advanced_cycle`, numba, cached on disk), which calls the same
+kernels as the classes above in the same order, so it computes what they compute to the
+last bit (``tests/test_controller_fused.py`` runs both cycle by cycle). Why one call: with
+a call per class the cycle cost ~38 us CPU on the LC2 replay, of which the arithmetic was a
+few microseconds and the rest Python glue (NamedTuples and structs built and replaced, the
+schedule look-up, the arguments and results of six calls); fused, ~9 us
+(``bench/controller_compute.py``). The constants are packed once into one vector at
+construction, and the state is two flat vectors (:class:`AdvancedState`) that each cycle
+replaces. The forecaster (step 4, every ``sample_period_s``, not every cycle) stays in
+Python: one ring-buffer write and one fixed-length dot product per call (AR/ESPRIT retrain
+on a fixed window); nothing grows with time.
 """
 
 from __future__ import annotations
