@@ -9,8 +9,13 @@ Each process times the import of the controller stack, the construction of the
 measured from outside. ``--repeats`` pairs are run (the machine is shared: the load average
 is saved beside the figures).
 
-Usage: ``python bench/controller_compile.py [--repeats 2]``; saves
-``bench/results/controller_compile.json``.
+With ``--compare-python`` and ``--compare-root`` (e.g. ``/work/main/.venv/bin/python`` and
+``/work/main``) each repeat runs that checkout's cold/warm pair first (its interpreter, its
+working directory, its own private cache), so both sides are measured in one run under the
+same load.
+
+Usage: ``python bench/controller_compile.py [--repeats 2] [--compare-python PY
+--compare-root DIR]``; saves ``bench/results/controller_compile.json``.
 """
 
 from __future__ import annotations
@@ -57,13 +62,13 @@ print(json.dumps({"import_s": t1 - t0, "construct_with_warm_up_s": t2 - t1,
 """
 
 
-def child(cache_dir: str) -> dict[str, Any]:
-    """One fresh process with ``cache_dir`` as numba's cache; its figures."""
+def child(cache_dir: str, python: str = sys.executable, root: Path = ROOT) -> dict[str, Any]:
+    """One fresh process (``python`` in ``root``) with ``cache_dir`` as numba's cache."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD],
-        cwd=ROOT,
+        [python, "-c", CHILD],
+        cwd=root,
         env=env,
         capture_output=True,
         text=True,
@@ -80,24 +85,38 @@ def main() -> None:
     """Run the cold/warm pairs, print and save."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=2, help="cold/warm pairs")
+    ap.add_argument("--compare-python", default=None, help="reference interpreter")
+    ap.add_argument("--compare-root", type=Path, default=None, help="reference checkout")
     args = ap.parse_args()
     runs = []
+    reference = []
     load_before = os.getloadavg()
     for _ in range(args.repeats):
+        if args.compare_python is not None:
+            root = args.compare_root or ROOT
+            with tempfile.TemporaryDirectory(prefix="fowt-numba-cache-") as cache:
+                cold = child(cache, args.compare_python, root)
+                warm = child(cache, args.compare_python, root)
+            reference.append({"cold": cold, "warm": warm})
+            print("reference cold", cold, "warm", warm)
         with tempfile.TemporaryDirectory(prefix="fowt-numba-cache-") as cache:
             cold = child(cache)
             warm = child(cache)
         runs.append({"cold": cold, "warm": warm})
         print("cold", cold, "warm", warm)
-    save(
-        "controller_compile",
-        {
-            "machine": machine(),
-            "load_average_before": list(load_before),
-            "load_average_after": list(os.getloadavg()),
-            "runs": runs,
-        },
-    )
+    result: dict[str, Any] = {
+        "machine": machine(),
+        "load_average_before": list(load_before),
+        "load_average_after": list(os.getloadavg()),
+        "runs": runs,
+    }
+    if reference:
+        result["reference"] = {
+            "python": args.compare_python,
+            "root": str(args.compare_root or ROOT),
+            "runs": reference,
+        }
+    save("controller_compile", result)
 
 
 if __name__ == "__main__":
