@@ -950,7 +950,8 @@ class AdvancedController:
             period = self._forecast_period_ns
             next_ns = (t_ns // period + 1) * period
         forecast_ok = fstate.filled and math.isfinite(forecast_m)
-        # 1-3, 5, 6 in one compiled call
+        # 1-3, 5, 6 in one compiled call (float() and int(): a frame built in Python may hold
+        # an int where a float belongs, and numba would compile another signature for it)
         new_values = np.empty_like(values)
         new_flags = np.empty_like(flags)
         r = _kernels.advanced_cycle(
@@ -958,16 +959,16 @@ class AdvancedController:
             self._lay,
             values,
             flags,
-            frame.generator_speed_measured_rad_s,
-            frame.blade_pitch_measured_rad,
-            frame.generator_torque_measured_nm,
-            frame.nacelle_acc_fore_aft_measured_m_s2,
-            frame.platform_pitch_rate_measured_rad_s,
-            frame.platform_pitch_measured_rad,
-            frame.platform_surge_measured_m,
-            mask,
-            forecast_m if forecast_ok else math.nan,
-            dt_s,
+            float(frame.generator_speed_measured_rad_s),
+            float(frame.blade_pitch_measured_rad),
+            float(frame.generator_torque_measured_nm),
+            float(frame.nacelle_acc_fore_aft_measured_m_s2),
+            float(frame.platform_pitch_rate_measured_rad_s),
+            float(frame.platform_pitch_measured_rad),
+            float(frame.platform_surge_measured_m),
+            int(mask),
+            float(forecast_m) if forecast_ok else math.nan,
+            float(dt_s),
             steps,
             new_values,
             new_flags,

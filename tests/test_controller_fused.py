@@ -389,3 +389,30 @@ def _baseline_frame(speed: float, pitch: float, torque: float) -> SensorFrame:
         platform_surge_measured_m=0.0,
         wave_elevation_gauge_measured_m=0.0,
     )
+
+
+def test_int_fields_reuse_the_compiled_cycle(recorded: dict[str, list[SensorFrame]]) -> None:
+    """A frame built in Python with ints where floats belong (msgspec does not convert on
+    construction) gives the same command and does not make numba compile another signature
+    of the cycle (a compile stall of tens of seconds in a real-time loop)."""
+    ctrl = _controller("balanced")
+    frames = recorded["turbulent"][:50]
+    st_a, st_b = ctrl.initial_state(), ctrl.initial_state()
+    for f in frames:
+        ints = msgspec.structs.replace(
+            f,
+            platform_pitch_rate_measured_rad_s=round(f.platform_pitch_rate_measured_rad_s),
+            nacelle_acc_fore_aft_measured_m_s2=round(f.nacelle_acc_fore_aft_measured_m_s2),
+            generator_torque_measured_nm=round(f.generator_torque_measured_nm),
+        )
+        floats = msgspec.structs.replace(
+            ints,
+            platform_pitch_rate_measured_rad_s=float(ints.platform_pitch_rate_measured_rad_s),
+            nacelle_acc_fore_aft_measured_m_s2=float(ints.nacelle_acc_fore_aft_measured_m_s2),
+            generator_torque_measured_nm=float(ints.generator_torque_measured_nm),
+        )
+        assert isinstance(ints.generator_torque_measured_nm, int)
+        st_a, out_a = ctrl.step(st_a, ints, DT)
+        st_b, out_b = ctrl.step(st_b, floats, DT)
+        assert out_a == out_b
+    assert len(_kernels.advanced_cycle.signatures) == 1
