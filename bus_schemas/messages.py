@@ -91,7 +91,7 @@ EST_WAVE_FORECAST = 1 << 6
 EST_FEEDFORWARD = 1 << 7
 
 
-class SensorFrame(msgspec.Struct, frozen=True, kw_only=True):
+class SensorFrame(msgspec.Struct, frozen=True):
     """Noisy sensor readings published by the plant every control period.
 
     Only measured values travel here; the true plant state has its own channel
@@ -126,7 +126,7 @@ class SensorFrame(msgspec.Struct, frozen=True, kw_only=True):
     ]
 
 
-class ActuatorCommand(msgspec.Struct, frozen=True, kw_only=True):
+class ActuatorCommand(msgspec.Struct, frozen=True):
     """Pitch and torque demand answering one :class:`SensorFrame`.
 
     ``answered_seq`` echoes the ``seq`` of the frame this command answers, so the plant
@@ -146,7 +146,7 @@ class ActuatorCommand(msgspec.Struct, frozen=True, kw_only=True):
     ]
 
 
-class PlantState(msgspec.Struct, frozen=True, kw_only=True):
+class PlantState(msgspec.Struct, frozen=True):
     """True plant state and loads, for logging and review only (never to a controller).
 
     Version 2 adds the floating platform (all 0 for a bottom-fixed plant), the wave
@@ -231,7 +231,7 @@ class PlantState(msgspec.Struct, frozen=True, kw_only=True):
     shaft_torque_nm: Annotated[float, M("N m", -1e9, 1e9, "low-speed-shaft torque")] = 0.0
 
 
-class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
+class ControllerStatus(msgspec.Struct, frozen=True):
     """Controller internals published every cycle beside the command.
 
     Version 2 adds the estimates, forecast and feedforward of an advanced controller. They
@@ -288,7 +288,7 @@ class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     forecast_guarded: Count = 0
 
 
-class CycleTiming(msgspec.Struct, frozen=True, kw_only=True):
+class CycleTiming(msgspec.Struct, frozen=True):
     """The plant's measurement of one control cycle, on its own clock."""
 
     seq: Seq

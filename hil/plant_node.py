@@ -542,7 +542,11 @@ class PlantLoop:
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
-        new = self._watchdog(missed, new)
+        if missed or self.safe_state:
+            new = self._watchdog(missed, new)
+        else:  # the watchdog's rule for an on-time command outside the safe state
+            self.consecutive_misses = 0
+            self.on_time_run += 1
         self.x = self.sim.advance(self.t_ns * 1e-9, self.x, previous, new, switch)
         self.applied = new
         compute = time.monotonic_ns() - t0
