@@ -339,6 +339,7 @@ class ControllerRuntime:
             blade_pitch_commanded_rad=pitch,
             generator_torque_commanded_nm=torque,
         )
+        rejected = self.rejected
         # Positional: the status's fields after ``rejected_frames`` are the core output's
         # after ``regime``, in the same order (checked at import, _STATUS_TAIL_FROM); one
         # astuple and a positional call cost ~1.1 us less than 24 keywords.
@@ -349,7 +350,7 @@ class ControllerRuntime:
             now,  # publish_time_ns
             now - t0,  # compute_time_ns
             regime,  # regime
-            self.rejected_total,  # rejected_frames
+            sum(rejected.values()) if rejected else 0,  # rejected_frames (rejected_total)
             *_astuple(out)[_STATUS_TAIL_FROM:],
         )
         self.command_seq += 1

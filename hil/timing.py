@@ -21,27 +21,31 @@ from itertools import accumulate
 _BINS_PER_DECADE = 120
 _MIN_NS = 1_000  # 1 us
 _DECADES = 8  # up to 100 s
+_N_BINS = _BINS_PER_DECADE * _DECADES + 2  # below 1 us, the log bins, the top (overflow) bin
+_log10 = math.log10
 
 
 class LatencyHistogram:
     """Log-binned latency histogram in nanoseconds."""
 
     def __init__(self) -> None:
-        self.counts = [0] * (_BINS_PER_DECADE * _DECADES + 2)
+        self.counts = [0] * _N_BINS
         self.n = 0
         self.max_ns = 0
 
     def record(self, latency_ns: int) -> None:
         """Add one latency sample."""
+        counts = self.counts
         if latency_ns < _MIN_NS:
             idx = 0
         else:
-            idx = 1 + int(_BINS_PER_DECADE * math.log10(latency_ns / _MIN_NS))
-            if idx >= len(self.counts):
-                idx = len(self.counts) - 1
-        self.counts[idx] += 1
+            idx = 1 + int(_BINS_PER_DECADE * _log10(latency_ns / _MIN_NS))
+            if idx >= _N_BINS:
+                idx = _N_BINS - 1
+        counts[idx] += 1
         self.n += 1
-        self.max_ns = max(self.max_ns, latency_ns)
+        if latency_ns > self.max_ns:  # noqa: PLR1730 - (max() is a call per cycle)
+            self.max_ns = latency_ns
 
     def percentile_us(self, q: float) -> float:
         """Upper edge of the bin holding the ``q``-th percentile (0 < q <= 100), in us."""
