@@ -22,11 +22,18 @@ configuration this script measures:
   throughput in messages per CPU second, and
   whether it or the loop bounds the speed (the loop produces 5 messages a cycle);
 * ``compression`` (lqri_ff only): the batches of that run written again in this process
-  with zstd (levels 1 and 3), lz4 and none: writer CPU per message and file size.
+  with zstd (levels 1, 3 and -1), lz4 and none: writer CPU per message and file size;
+* ``compare`` (with ``--compare-python PY --compare-root DIR``, e.g. main's venv and
+  checkout): split runs of this code and of DIR's code, each in a child process with its
+  own interpreter, alternated ``--rounds`` times in one run (the machine's load changes
+  from minute to minute): per configuration the least-CPU round of each, every round's
+  loop CPU per cycle and load average, and the ratio of the two loops' CPU per cycle.
 
 The machine is shared (2 cores, other jobs): the load average is saved with the figures.
 
     python bench/inprocess_speed.py [--duration 600] [--only NAME] [--repeat 2] [--legacy]
+    python bench/inprocess_speed.py --compare-python /work/main/.venv/bin/python \
+        --compare-root /work/main --compare-only --rounds 3 --save-as inprocess_speed_compare
 
 The figures before issue 15's logging work came from this script run on an export of the
 older commit with this venv (the script copes with the older log writer)::
@@ -306,6 +313,7 @@ def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
     for label, comp, level in (
         ("zstd-1", "zstd", 1),
         ("zstd-3", "zstd", 3),
+        ("zstd-neg1", "zstd", -1),
         ("lz4", "lz4", 0),
         ("none", "", 0),
     ):
