@@ -57,6 +57,10 @@ BATCH_MESSAGES = 1024
 PIPE_BYTES = 1 << 20
 
 
+if any(not 0 <= mt.message_id < 256 for mt in MESSAGES):  # a batch's order is one byte each
+    raise ImportError("hil.log_writer: message ids must be 0..255 (one byte in a batch)")
+
+
 def _loose_struct(mt: MessageType) -> type[msgspec.Struct]:
     """A Struct with ``mt``'s fields in order, without their constraints, for decoding.
 

@@ -1152,15 +1152,15 @@ def run_inprocess(
         return command, time.monotonic_ns() - t0
 
     faulted = loop.bus_faults
+    sample, finish, clock = loop.sample, loop.finish_cycle, time.monotonic_ns
     for _ in range(scenario.cycles):
-        frame = loop.sample()
+        frame = sample()
         if faulted:
             _faulted_sim_cycle(loop, frame, exchange)
             continue
-        t0 = time.monotonic_ns()
+        t0 = clock()
         command = step_controller(frame)
-        latency = time.monotonic_ns() - t0
-        loop.finish_cycle(command, latency, at_arrival=False)
+        finish(command, clock() - t0, at_arrival=False)
     loop.count_faults()
     loop.publish_summary(final=True)
     if loop.result.faults_injected:
