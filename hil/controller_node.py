@@ -408,7 +408,7 @@ class ControllerRuntime:
             self.frames_missing += gap
         if unseen > 0:
             tripped = self._miss(unseen, f"{gap} sensor frame(s) missing", frame.seq)
-        if self.wall_checks and delay > self.period_ns:
+        if delay > self.period_ns and self.wall_checks:  # (the cheap test first)
             self.frames_stale += 1
             tripped |= self._miss(1, f"stale sensor frame ({delay * 1e-6:.1f} ms old)", frame.seq)
             return
