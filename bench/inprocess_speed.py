@@ -22,11 +22,18 @@ configuration this script measures:
   throughput in messages per CPU second, and
   whether it or the loop bounds the speed (the loop produces 5 messages a cycle);
 * ``compression`` (lqri_ff only): the batches of that run written again in this process
-  with zstd (levels 1 and 3), lz4 and none: writer CPU per message and file size.
+  with zstd (levels 1, 3 and -1), lz4 and none: writer CPU per message and file size;
+* ``compare`` (with ``--compare-python PY --compare-root DIR``, e.g. main's venv and
+  checkout): split runs of this code and of DIR's code, each in a child process with its
+  own interpreter, alternated ``--rounds`` times in one run (the machine's load changes
+  from minute to minute): per configuration the least-CPU round of each, every round's
+  loop CPU per cycle and load average, and the ratio of the two loops' CPU per cycle.
 
 The machine is shared (2 cores, other jobs): the load average is saved with the figures.
 
     python bench/inprocess_speed.py [--duration 600] [--only NAME] [--repeat 2] [--legacy]
+    python bench/inprocess_speed.py --compare-python /work/main/.venv/bin/python \
+        --compare-root /work/main --compare-only --rounds 3 --save-as inprocess_speed_compare
 
 The figures before issue 15's logging work came from this script run on an export of the
 older commit with this venv (the script copes with the older log writer)::
@@ -182,8 +189,13 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
             timers.wrap(cls, "step", "controller")
             wrapped.add(cls)
 
+    payload = getattr(lw.BackgroundRunLog, "_payload", None)  # (absent before s2loop)
+
     def keep_send(self: Any) -> None:
-        if self._n:
+        if payload is not None:
+            if self._ids:
+                batches.append(payload(self))
+        elif self._n:
             records = self._records
             records[0] = 0xDD  # the msgpack array32 header _send writes
             records[1:5] = self._n.to_bytes(4, "big")
@@ -301,6 +313,7 @@ def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
     for label, comp, level in (
         ("zstd-1", "zstd", 1),
         ("zstd-3", "zstd", 3),
+        ("zstd-neg1", "zstd", -1),
         ("lz4", "lz4", 0),
         ("none", "", 0),
     ):
@@ -334,6 +347,66 @@ def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
     return out
 
 
+def _split_child(name: str, duration_s: float) -> None:
+    """``--split-child``: one split run, its JSON on stdout (for ``--compare-python``)."""
+    import json
+
+    r = split_run(CONFIGS[name]["scenario"], duration_s, keep_batches=False)
+    r.pop("_batches")
+    r["load_average"] = os.getloadavg()
+    print("SPLIT " + json.dumps(r), flush=True)
+
+
+def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]:
+    """Alternate split runs of this code and of ``--compare-root`` (same script, each in a
+    child process with its own interpreter), ``--rounds`` times; per configuration the
+    least-CPU round of each and every round's figures."""
+    import json
+    import subprocess
+
+    here = Path(__file__).resolve()
+    codes = {
+        "this": (sys.executable, here.parent.parent),
+        "compare": (str(args.compare_python), args.compare_root.resolve()),
+    }
+    out: dict[str, Any] = {"compare_root": str(args.compare_root), "rounds": args.rounds}
+    for name in names:
+        per: dict[str, list[dict[str, Any]]] = {"this": [], "compare": []}
+        for _ in range(args.rounds):
+            for code, (python, root) in codes.items():
+                env = {**os.environ, "PYTHONPATH": str(root)}
+                cmd = [python, str(here), "--split-child", name, "--duration", str(args.duration)]
+                proc = subprocess.run(
+                    cmd, cwd=root, env=env, capture_output=True, text=True, check=False
+                )
+                line = [ln for ln in proc.stdout.splitlines() if ln.startswith("SPLIT ")]
+                if proc.returncode != 0 or not line:
+                    raise SystemExit(f"{code} split run failed:\n{proc.stdout}\n{proc.stderr}")
+                per[code].append(json.loads(line[-1][6:]))
+        entry: dict[str, Any] = {}
+        for code, runs in per.items():
+            best = min(runs, key=lambda r: r["per_cycle_cpu_us_total"])
+            entry[code] = {
+                "per_cycle_cpu_us": best["per_cycle_cpu_us"],
+                "per_cycle_cpu_us_total": best["per_cycle_cpu_us_total"],
+                "loop_sim_s_per_cpu_s": best["loop_sim_s_per_cpu_s"],
+                "loop_sim_s_per_wall_s": best["loop_sim_s_per_wall_s"],
+                "writer_cpu_us_per_message": round(
+                    best["writer_cpu_s"] / max(1, best["writer_messages"]) * 1e6, 3
+                ),
+                "mcap_bytes": best["mcap_bytes"],
+                "rounds_per_cycle_cpu_us_total": [r["per_cycle_cpu_us_total"] for r in runs],
+                "rounds_load_average": [r["load_average"][0] for r in runs],
+            }
+        entry["loop_cpu_ratio_compare_over_this"] = round(
+            entry["compare"]["per_cycle_cpu_us_total"] / entry["this"]["per_cycle_cpu_us_total"],
+            3,
+        )
+        out[name] = entry
+        print(name, entry, flush=True)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--duration", type=float, default=600.0)
@@ -343,7 +416,15 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2, help="split runs per configuration")
     ap.add_argument("--label", default="", help="what code was measured (saved)")
     ap.add_argument("--save-as", default="inprocess_speed", help="name of the JSON")
+    ap.add_argument("--split-child", choices=sorted(CONFIGS), default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
+    ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
+    ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
+    ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
     args = ap.parse_args()
+    if args.split_child:
+        _split_child(args.split_child, args.duration)
+        return
     import hil
 
     results: dict[str, Any] = {"load_average_start": os.getloadavg()}
@@ -352,7 +433,7 @@ def main() -> None:
     results["writer_startup_and_close_cpu_s"] = round(overhead_cpu, 3)
     runs: dict[str, Any] = {}
     for name, cfg in CONFIGS.items():
-        if args.only and name != args.only:
+        if (args.only and name != args.only) or args.compare_only:
             continue
         entry: dict[str, Any] = {"scenario": cfg["scenario"], "duration_s": args.duration}
         entry["target"] = cfg["target"]
@@ -413,6 +494,11 @@ def main() -> None:
                 "target": 500,
             }
     results["runs"] = runs
+    if args.compare_python is not None:
+        if args.compare_root is None:
+            raise SystemExit("--compare-python needs --compare-root")
+        names = [n for n in CONFIGS if not args.only or n == args.only]
+        results["compare"] = compare_rounds(args, names)
     results["load_average_end"] = os.getloadavg()
     save(args.save_as, results)
 

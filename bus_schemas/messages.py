@@ -14,6 +14,12 @@ Conventions
 * ``publish_time_ns``: ``time.monotonic_ns()`` of the publishing process at publish time
   (only comparable between processes on one host; deadlines use the plant's own clock).
 * ``version``: not a field; it is in the payload header and in :data:`SCHEMA_VERSIONS`.
+* The five messages of every control cycle (:class:`SensorFrame`, :class:`ActuatorCommand`,
+  :class:`PlantState`, :class:`ControllerStatus`, :class:`CycleTiming`) take their fields
+  positionally too (in declaration order, which is also the codec's): the in-process loop
+  builds the large ones from kernel records that way (a 33-field keyword call costs about
+  1.4 us more). They hold numbers only, so they can never be in a reference cycle and are
+  declared ``gc=False`` (not tracked by Python's cycle collector: cheaper to create).
 """
 
 from __future__ import annotations
@@ -91,7 +97,7 @@ EST_WAVE_FORECAST = 1 << 6
 EST_FEEDFORWARD = 1 << 7
 
 
-class SensorFrame(msgspec.Struct, frozen=True, kw_only=True):
+class SensorFrame(msgspec.Struct, frozen=True, gc=False):
     """Noisy sensor readings published by the plant every control period.
 
     Only measured values travel here; the true plant state has its own channel
@@ -126,7 +132,7 @@ class SensorFrame(msgspec.Struct, frozen=True, kw_only=True):
     ]
 
 
-class ActuatorCommand(msgspec.Struct, frozen=True, kw_only=True):
+class ActuatorCommand(msgspec.Struct, frozen=True, gc=False):
     """Pitch and torque demand answering one :class:`SensorFrame`.
 
     ``answered_seq`` echoes the ``seq`` of the frame this command answers, so the plant
@@ -146,7 +152,7 @@ class ActuatorCommand(msgspec.Struct, frozen=True, kw_only=True):
     ]
 
 
-class PlantState(msgspec.Struct, frozen=True, kw_only=True):
+class PlantState(msgspec.Struct, frozen=True, gc=False):
     """True plant state and loads, for logging and review only (never to a controller).
 
     Version 2 adds the floating platform (all 0 for a bottom-fixed plant), the wave
@@ -231,7 +237,7 @@ class PlantState(msgspec.Struct, frozen=True, kw_only=True):
     shaft_torque_nm: Annotated[float, M("N m", -1e9, 1e9, "low-speed-shaft torque")] = 0.0
 
 
-class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
+class ControllerStatus(msgspec.Struct, frozen=True, gc=False):
     """Controller internals published every cycle beside the command.
 
     Version 2 adds the estimates, forecast and feedforward of an advanced controller. They
@@ -288,7 +294,7 @@ class ControllerStatus(msgspec.Struct, frozen=True, kw_only=True):
     forecast_guarded: Count = 0
 
 
-class CycleTiming(msgspec.Struct, frozen=True, kw_only=True):
+class CycleTiming(msgspec.Struct, frozen=True, gc=False):
     """The plant's measurement of one control cycle, on its own clock."""
 
     seq: Seq

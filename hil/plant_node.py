@@ -471,21 +471,28 @@ class PlantLoop:
     def sample(self) -> SensorFrame:
         """Publish truth and sensor frame of the current state; return the frame."""
         now = time.monotonic_ns()
-        if self.t_ns >= self._next_fault_event_ns:
+        k = self.k
+        t_ns = k * self.period_ns
+        if t_ns >= self._next_fault_event_ns:
             self._log_fault_events()
-        truth = self.sim.truth(self.k, self.t_ns, self.x, self.applied, now)
-        frame = self.sim.sensor_frame(self.k, truth, now)
+        sim = self.sim
+        truth = sim.truth(k, t_ns, self.x, self.applied, now)
+        frame = sim.sensor_frame(k, truth, now)
+        publish = self.publish
         if self._preview is not None:  # bench oracle, published before the frame it goes with
-            self.publish(WAVE_PREVIEW_PERFECT, self._wave_preview(now))
+            publish(WAVE_PREVIEW_PERFECT, self._wave_preview(now))
         self.frame_sent_ns = time.monotonic_ns()
         if self.sensor_link is None:
-            self.publish(SENSORS, frame)
+            publish(SENSORS, frame)
         else:  # the loop publishes it when the link delivers it
             self.sensor_link.submit(frame, self.frame_sent_ns)
         # The log-only messages go out while the controller works on the frame: a Zenoh
         # put costs 50-150 us, which would otherwise add to every cycle's round trip.
-        self.publish(TRUTH, truth)
-        self.flush_timing()
+        publish(TRUTH, truth)
+        pending = self._pending_timing  # flush_timing, inline (once per cycle)
+        if pending is not None:
+            publish(CYCLE_TIMING, pending)
+            self._pending_timing = None
         return frame
 
     def _log_fault_events(self) -> None:
@@ -529,32 +536,37 @@ class PlantLoop:
         t0 = time.monotonic_ns()
         missed = command is None
         previous = self.applied
+        sim = self.sim
+        t_ns = self.k * self.period_ns
         switch = 0
         if command is not None:
             new = (command.blade_pitch_commanded_rad, command.generator_torque_commanded_nm)
-            latency_sim_s = latency_ns * 1e-9 * self.speed
             if at_arrival and self.speed > 0:
-                switch = min(self.sim.n, round(latency_sim_s / self.sim.h))
+                switch = min(sim.n, round(latency_ns * 1e-9 * self.speed / sim.h))
             elif effect_at_ns:
-                switch = min(self.sim.n, round(effect_at_ns * 1e-9 / self.sim.h))
+                switch = min(sim.n, round(effect_at_ns * 1e-9 / sim.h))
             self.hist.record(latency_ns)
         else:
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
-        new = self._watchdog(missed, new)
-        self.x = self.sim.advance(self.t_ns * 1e-9, self.x, previous, new, switch)
+        if missed or self.safe_state:
+            new = self._watchdog(missed, new)
+        else:  # the watchdog's rule for an on-time command outside the safe state
+            self.consecutive_misses = 0
+            self.on_time_run += 1
+        self.x = sim.advance(t_ns * 1e-9, self.x, previous, new, switch)
         self.applied = new
-        compute = time.monotonic_ns() - t0
+        now = time.monotonic_ns()
         self._pending_timing = CycleTiming(
             seq=self.k,
-            sample_time_ns=self.t_ns,
-            publish_time_ns=time.monotonic_ns(),
+            sample_time_ns=t_ns,
+            publish_time_ns=now,
             latency_ns=latency_ns,
             deadline_missed=int(missed),
             command_held=int(missed),
             safe_state=int(self.safe_state),
-            plant_compute_ns=compute,
+            plant_compute_ns=now - t0,
             tick_lateness_ns=tick_lateness_ns,
         )
         self.k += 1
@@ -1140,15 +1152,15 @@ def run_inprocess(
         return command, time.monotonic_ns() - t0
 
     faulted = loop.bus_faults
+    sample, finish, clock = loop.sample, loop.finish_cycle, time.monotonic_ns
     for _ in range(scenario.cycles):
-        frame = loop.sample()
+        frame = sample()
         if faulted:
             _faulted_sim_cycle(loop, frame, exchange)
             continue
-        t0 = time.monotonic_ns()
+        t0 = clock()
         command = step_controller(frame)
-        latency = time.monotonic_ns() - t0
-        loop.finish_cycle(command, latency, at_arrival=False)
+        finish(command, clock() - t0, at_arrival=False)
     loop.count_faults()
     loop.publish_summary(final=True)
     if loop.result.faults_injected:

@@ -21,27 +21,39 @@ from itertools import accumulate
 _BINS_PER_DECADE = 120
 _MIN_NS = 1_000  # 1 us
 _DECADES = 8  # up to 100 s
+_N_BINS = _BINS_PER_DECADE * _DECADES + 2  # below 1 us, the log bins, the top (overflow) bin
+_log10 = math.log10
 
 
 class LatencyHistogram:
     """Log-binned latency histogram in nanoseconds."""
 
     def __init__(self) -> None:
-        self.counts = [0] * (_BINS_PER_DECADE * _DECADES + 2)
+        self.counts = [0] * _N_BINS
         self.n = 0
         self.max_ns = 0
+        # The lowest and highest bins holding a sample: the percentiles accumulate only
+        # between them (a run's latencies fill a few dozen of the 962 bins).
+        self._lo = _N_BINS
+        self._hi = -1
 
     def record(self, latency_ns: int) -> None:
         """Add one latency sample."""
+        counts = self.counts
         if latency_ns < _MIN_NS:
             idx = 0
         else:
-            idx = 1 + int(_BINS_PER_DECADE * math.log10(latency_ns / _MIN_NS))
-            if idx >= len(self.counts):
-                idx = len(self.counts) - 1
-        self.counts[idx] += 1
+            idx = 1 + int(_BINS_PER_DECADE * _log10(latency_ns / _MIN_NS))
+            if idx >= _N_BINS:
+                idx = _N_BINS - 1
+        counts[idx] += 1
         self.n += 1
-        self.max_ns = max(self.max_ns, latency_ns)
+        if idx > self._hi:  # noqa: PLR1730
+            self._hi = idx
+        if idx < self._lo:  # noqa: PLR1730
+            self._lo = idx
+        if latency_ns > self.max_ns:  # noqa: PLR1730 - (max() is a call per cycle)
+            self.max_ns = latency_ns
 
     def percentile_us(self, q: float) -> float:
         """Upper edge of the bin holding the ``q``-th percentile (0 < q <= 100), in us."""
@@ -56,13 +68,18 @@ class LatencyHistogram:
         """
         if self.n == 0:
             return [0.0] * len(qs)
-        cumulative = list(accumulate(self.counts))
+        # The bins outside [lo, hi] are empty: below lo the running sum is 0 (< any target
+        # > 0), from hi on it is n, so the bisection over [lo, hi] finds the same bin.
+        lo, hi = self._lo, self._hi
+        cumulative = list(accumulate(self.counts[lo : hi + 1]))
         out = []
         for q in qs:
             # target > 0, so the first bin reaching it holds a sample (the bin before it
             # did not reach it, so this bin's count is > 0).
-            idx = bisect_left(cumulative, q / 100.0 * self.n)
-            if idx >= len(cumulative):
+            target = q / 100.0 * self.n
+            found = bisect_left(cumulative, target)
+            idx = 0 if target <= 0 else lo + found
+            if found >= len(cumulative):
                 out.append(self.max_ns / 1e3)
             elif idx == 0:
                 out.append(_MIN_NS / 1e3)

@@ -27,7 +27,9 @@ Kernels
 * :func:`advance_floating`: one control period of the floating plant (waves at h/2, the
   demand switching after ``switch`` steps, :func:`floating_step` per plant step).
 * :func:`floating_truth`: the algebraic outputs of :meth:`plant.simulator.PlantSimulator.truth`
-  (relative wind, rotor loads, tower-base moment, nacelle acceleration).
+  (relative wind, rotor loads, tower-base moment, nacelle acceleration);
+  :func:`floating_truth_into` writes them with the state as the truth message's record and
+  the sensor channels' true values (one call per cycle for both).
 * :func:`turbine_advance`: RK4 of :func:`plant.turbine.f` (bottom-fixed plant) over a period.
 
 Constant layouts (built by :mod:`plant.platform` and :mod:`plant.simulator`) are described at
@@ -785,6 +787,87 @@ def floating_truth(
         s[S_WAVE + 3],
         s[S_WAVE + 4],
     )
+
+
+#: :func:`floating_truth_into`'s record: PlantState's fields after ``publish_time_ns``, in
+#: their declared order, ``floating`` (at :data:`TRUTH_FLOATING`) held as 1.0.
+TRUTH_FIELDS = (
+    "rotor_speed_rad_s", "generator_speed_rad_s", "blade_pitch_rad", "generator_torque_nm",
+    "aero_torque_nm", "rotor_thrust_n", "wind_speed_m_s", "relative_wind_speed_m_s",
+    "electrical_power_w", "tip_speed_ratio", "power_coefficient", "thrust_coefficient",
+    "blade_pitch_applied_rad", "generator_torque_applied_nm", "floating", "platform_surge_m",
+    "platform_heave_m", "platform_pitch_rad", "platform_surge_velocity_m_s",
+    "platform_heave_velocity_m_s", "platform_pitch_rate_rad_s", "tower_top_displacement_m",
+    "tower_top_velocity_m_s", "nacelle_acc_fore_aft_m_s2", "wave_elevation_platform_m",
+    "wave_elevation_gauge_m", "wave_force_surge_n", "wave_moment_pitch_nm",
+    "tower_base_moment_nm", "shaft_torque_nm",
+)  # fmt: skip
+TRUTH_FLOATING = TRUTH_FIELDS.index("floating")
+
+
+@njit
+def floating_truth_into(
+    rec: np.ndarray,
+    channel_fields: np.ndarray,
+    x: np.ndarray,
+    s: np.ndarray,
+    C: np.ndarray,
+    off: np.ndarray,
+    wind_table: np.ndarray,
+    t: float,
+    wind: float,
+    pitch: float,
+    torque_demand: float,
+    eff: float,
+    gear: float,
+) -> None:
+    """:func:`floating_truth` and the state written as one record, for the truth message
+    and the sensor channels without a Python step between them.
+
+    ``rec[:n]`` (n = len(:data:`TRUTH_FIELDS`)) gets PlantState's values after
+    ``publish_time_ns`` in field order (the states of ``x``, the outputs of
+    :func:`floating_truth`, the applied demands, the shaft torque N T_g); ``rec[n + j]``
+    then gets ``rec[channel_fields[j]]``, the true value of sensor channel j (the suite's
+    order), so ``rec[n:]`` is the ``truths`` of :func:`sensors._kernels.suite_step`. Copies
+    only: the values are :func:`floating_truth`'s.
+    """
+    (
+        u_wind, u_rel, t_aero, thrust, p_el, w_gen, tsr, cp, ct, tbm, acc,
+        wx, _wz, wp, eta_p, eta_g,
+    ) = floating_truth(x, s, C, off, wind_table, t, wind, pitch, torque_demand, eff)  # fmt: skip
+    rec[0] = x[8]
+    rec[1] = w_gen
+    rec[2] = x[9]
+    rec[3] = x[10]
+    rec[4] = t_aero
+    rec[5] = thrust
+    rec[6] = u_wind
+    rec[7] = u_rel
+    rec[8] = p_el
+    rec[9] = tsr
+    rec[10] = cp
+    rec[11] = ct
+    rec[12] = pitch
+    rec[13] = torque_demand
+    rec[14] = 1.0
+    rec[15] = x[0]
+    rec[16] = x[1]
+    rec[17] = x[2]
+    rec[18] = x[4]
+    rec[19] = x[5]
+    rec[20] = x[6]
+    rec[21] = x[3]
+    rec[22] = x[7]
+    rec[23] = acc
+    rec[24] = eta_p
+    rec[25] = eta_g
+    rec[26] = wx
+    rec[27] = wp
+    rec[28] = tbm
+    rec[29] = gear * x[10]
+    n = 30
+    for j in range(channel_fields.size):
+        rec[n + j] = rec[channel_fields[j]]
 
 
 @njit

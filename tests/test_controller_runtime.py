@@ -181,3 +181,35 @@ def test_lqri_ff_publishes_its_feedforward_part() -> None:
         state, out = ctrl.step(state, f, 0.025)
         assert out.estimates_valid_mask & EST_FEEDFORWARD
         assert math.isfinite(out.feedforward_pitch_rad + out.feedforward_torque_nm)
+
+
+def test_status_carries_the_core_output_field_by_field(runtime: ControllerRuntime) -> None:
+    """handle_frame builds the status positionally: every field named like one of the core's
+    output equals it, and the stamps are the frame's and the command's (400 cycles, the
+    advanced core with its estimates, forecast and feed-forward)."""
+    core_step = runtime.controller.step
+    outs: list[Any] = []
+
+    def step(state: Any, frame: SensorFrame, dt: float) -> Any:
+        state, out = core_step(state, frame, dt)
+        outs.append(out)
+        return state, out
+
+    runtime.controller.step = step  # type: ignore[method-assign]
+    for f in _frames(400):
+        result = runtime.handle_frame(f)
+        assert result is not None
+        command, status = result
+        out = outs[-1]
+        shared = [n for n in out.__struct_fields__ if n in status.__struct_fields__]
+        assert len(shared) == 18
+        for name in shared:
+            if name != "regime":  # the watchdog's safe mode overrides it
+                assert getattr(status, name) == getattr(out, name), name
+        if command.mode == 0:
+            assert status.regime == out.regime
+        assert (status.seq, status.answered_seq) == (command.seq, f.seq)
+        assert status.sample_time_ns == f.sample_time_ns
+        assert status.publish_time_ns == command.publish_time_ns
+        assert status.rejected_frames == runtime.rejected_total
+    assert len(outs) == 400

@@ -141,7 +141,7 @@ def test_floating_truth_equals_the_python_formulas() -> None:
     per_ns = round(sim.h * sim.n * 1e9)
     for k in range(400):
         t_ns = k * per_ns
-        truth = sim.truth(k, t_ns, x, applied, 0)
+        truth = sim.truth(k, t_ns, x, applied, 7)
         u = sim._wind(t_ns * 1e-9)
         w = sim.wave_values()
         dx = floating_f(0.0, x, (applied[0], applied[1], u, w[0], w[1], w[2]), p)
@@ -158,6 +158,24 @@ def test_floating_truth_equals_the_python_formulas() -> None:
         # The accelerations come from the same kernel (f); the radiation sum's order differs.
         assert truth.tower_base_moment_nm == pytest.approx(tbm, rel=1e-12, abs=1e-3)
         assert truth.nacelle_acc_fore_aft_m_s2 == pytest.approx(acc, rel=1e-12, abs=1e-12)
+        # Every other field by name (truth builds the Struct positionally).
+        assert (truth.seq, truth.sample_time_ns, truth.publish_time_ns) == (k, t_ns, 7)
+        assert truth.floating == 1
+        assert (truth.rotor_speed_rad_s, truth.blade_pitch_rad) == (x[8], x[9])
+        assert truth.generator_torque_nm == x[10]
+        assert truth.generator_speed_rad_s == out.generator_speed_rad_s
+        assert truth.tip_speed_ratio == out.tip_speed_ratio
+        assert (truth.power_coefficient, truth.thrust_coefficient) == (out.cp, out.ct)
+        assert (truth.blade_pitch_applied_rad, truth.generator_torque_applied_nm) == applied
+        assert (truth.platform_surge_m, truth.platform_heave_m) == (x[0], x[1])
+        assert (truth.platform_pitch_rad, truth.tower_top_displacement_m) == (x[2], x[3])
+        assert truth.platform_surge_velocity_m_s == x[4]
+        assert truth.platform_heave_velocity_m_s == x[5]
+        assert truth.platform_pitch_rate_rad_s == x[6]
+        assert truth.tower_top_velocity_m_s == x[7]
+        assert (truth.wave_force_surge_n, truth.wave_moment_pitch_nm) == (w[0], w[2])
+        assert truth.wave_elevation_platform_m == w[3]
+        assert truth.shaft_torque_nm == p.turbine.gearbox_ratio * x[10]
         x = sim.advance(t_ns * 1e-9, x, applied, (applied[0] + 0.01, applied[1]), 1)
 
 
