@@ -47,7 +47,7 @@ import zenoh
 
 from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
-from hil.bus import Bus, BusConfig
+from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, split_batch
 from hil.mcap_log import RunLog
 from hil.scenario import Scenario
 
@@ -173,21 +173,45 @@ class Recorder:
         self.first_cycle: int | None = None
 
     def on_sample(self, key: str, payload: bytes) -> None:
-        """Decode one sample (Zenoh's thread) and queue it for writing."""
+        """Decode one sample (Zenoh's thread) and queue it for writing.
+
+        A log batch (:data:`hil.bus.BATCH_SUFFIXES`) is split and each of its messages
+        decoded and queued under its own key, as if it had been put there on its own (its
+        receive time is the batch's); a batch that does not split is rejected whole
+        (``<batch suffix>:<reason>``), a message in it that does not decode alone.
+        """
         suffix = key.removeprefix(self.prefix)
+        if suffix in BATCH_SUFFIXES:
+            self._on_batch(suffix, payload)
+            return
         mt = BY_SUFFIX.get(suffix)
         if mt is None:
             if "/alive/" not in key:
                 self.unknown_keys[key] += 1
             return
+        self._queue(key, suffix, mt, payload, time.time_ns())
+
+    def _queue(
+        self, key: str, suffix: str, mt: MessageType, payload: bytes | memoryview, recv: int
+    ) -> None:
         try:
             msg = mt.codec.decode(payload)
         except DecodeError as exc:
             self.rejected[f"{suffix}:{exc.reason}"] += 1
             return
-        self.queue.put((key, msg, time.time_ns()))
+        self.queue.put((key, msg, recv))
         if isinstance(msg, TimingSummary) and msg.final:
             self.final_seen.set()
+
+    def _on_batch(self, batch_suffix: str, payload: bytes) -> None:
+        recv = time.time_ns()
+        try:
+            parts = split_batch(payload)
+        except DecodeError as exc:
+            self.rejected[f"{batch_suffix}:{exc.reason}"] += 1
+            return
+        for mt, part in parts:
+            self._queue(self.prefix + mt.key_suffix, mt.key_suffix, mt, part, recv)
 
     def drain(self, timeout_s: float = 0.05) -> int:
         """Write queued messages; wait up to ``timeout_s`` for the first. Returns the count."""
