@@ -184,6 +184,13 @@ CONTROLLER_BATCH_SUFFIX = "controller/batch"
 BATCH_SUFFIXES = (PLANT_BATCH_SUFFIX, CONTROLLER_BATCH_SUFFIX)
 
 
+#: A log batch leaves when it holds this many messages ...
+LOG_BATCH_MAX_MESSAGES = 32
+#: ... or, when its owner looks (once per cycle, and every half control period in the
+#: controller's main thread), once its oldest message is this old [s].
+LOG_BATCH_MAX_AGE_S = 0.05
+
+
 def batch_key(turbine: str, suffix: str) -> str:
     """``fowt/<turbine>/<suffix>`` for one of :data:`BATCH_SUFFIXES`."""
     return f"{KEY_PREFIX}/{turbine}/{suffix}"
@@ -262,7 +269,12 @@ class LogBatcher:
         Wall time after which :meth:`due` says the batch should go.
     """
 
-    def __init__(self, publisher: Any, max_messages: int = 32, max_age_s: float = 0.05) -> None:
+    def __init__(
+        self,
+        publisher: Any,
+        max_messages: int = LOG_BATCH_MAX_MESSAGES,
+        max_age_s: float = LOG_BATCH_MAX_AGE_S,
+    ) -> None:
         if max_messages < 1 or not max_age_s > 0:
             raise ValueError(
                 f"log batch: expected max_messages >= 1 and max_age_s > 0, got "
@@ -286,12 +298,15 @@ class LogBatcher:
         if len(parts) >= self.max_messages:
             self.flush()
 
-    def due(self, now_ns: int | None = None) -> bool:
-        """True when the batch holds a message older than ``max_age_s``."""
+    def age_s(self) -> float:
+        """Wall time since the oldest message in the batch was added [s] (0: empty)."""
         if not self._parts:
-            return False
-        now = time.monotonic_ns() if now_ns is None else now_ns
-        return now - self._first_ns >= self.max_age_ns
+            return 0.0
+        return (time.monotonic_ns() - self._first_ns) / 1e9
+
+    def due(self) -> bool:
+        """True when the batch holds a message older than ``max_age_s``."""
+        return bool(self._parts) and time.monotonic_ns() - self._first_ns >= self.max_age_ns
 
     def flush(self) -> None:
         """Put what the batch holds (nothing when it is empty)."""

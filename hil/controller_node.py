@@ -576,8 +576,9 @@ def run_controller_node(
     cmd_pub = bus.publisher(COMMAND.key(tid))
     # The status is log-only (nobody waits for it): it goes out a few per put on the batch
     # key (hil.bus.LogBatcher), so a cycle costs one put (the command) and wakes the
-    # recorder once instead of twice. A full batch goes from the cycle, an old one (50 ms)
-    # from the main thread's poll below, the last one when the node stops.
+    # recorder once instead of twice. A full or old (50 ms) batch goes right after a
+    # cycle's command; the main thread's poll below puts one that frames stopped coming to
+    # (twice as old), the last one goes when the node stops.
     statuses = LogBatcher(bus.publisher(batch_key(tid, CONTROLLER_BATCH_SUFFIX)))
     done = threading.Event()
     reason = ["timeout"]
@@ -604,6 +605,8 @@ def run_controller_node(
         command, status = result
         cmd_pub.put(COMMAND.codec.encode(command))
         statuses.add(CONTROLLER_STATUS.codec.encode(status))
+        if statuses.due():
+            statuses.flush()
 
     def on_frame(_key: str, payload: bytes) -> None:
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
@@ -674,7 +677,7 @@ def run_controller_node(
                 runtime.check_silence()
                 if pending and time.monotonic() - pending[0][1] > runtime.dt_s / 2:
                     cycle(pending.pop()[0])
-                if statuses.due():
+                if statuses.age_s() > 2 * statuses.max_age_ns / 1e9:
                     statuses.flush()
     finally:
         with lock:

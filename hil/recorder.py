@@ -7,6 +7,13 @@ stays readable up to its last flush if any process, this one included, is killed
 recorder stops after the plant's final timing summary (plus a short drain) or on
 SIGINT/SIGTERM, and always finishes the file.
 
+Log batches: the plant puts its truth and cycle timing, the controller its status, a few
+per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
+(:class:`hil.bus.LogBatcher`); the recorder splits them and writes each message on its own
+channel exactly as if it had been put alone (same channel, schema and JSON; the MCAP
+publish time is the batch's receive time). A batch that does not split is counted under
+``rejected`` as ``<batch suffix>:<reason>``.
+
 Its ``recorder`` metadata record holds ``messages`` (written), ``rejected`` and
 ``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest cycle number
 (``seq``) of the plant's per-cycle messages (sensor frame, truth, cycle timing) in the file,
