@@ -32,16 +32,19 @@ def run_fowt(
     duration_s: float,
     extra: list[str] | None = None,
     inspect: Any = None,
+    python: str | None = None,
+    cwd: Path | None = None,
 ) -> dict[str, Any]:
     """Run ``fowt run`` as a user would (separate processes), return its summary.json.
 
     ``inspect``: an optional ``callable(run_dir) -> dict`` called on the run's folder (logs,
     MCAP) before it is deleted; its answer goes under the summary's ``bench_inspect``.
+    ``python`` and ``cwd``: another interpreter and checkout to run (a comparison with main).
     """
     with tempfile.TemporaryDirectory(prefix="fowt-bench-") as tmp:
         out = Path(tmp) / "run"
         cmd = [
-            sys.executable,
+            python or sys.executable,
             "-m",
             "hil",
             "run",
@@ -56,7 +59,7 @@ def run_fowt(
             *(extra or []),
         ]
         t0 = time.monotonic()
-        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=cwd)
         wall = time.monotonic() - t0
         if proc.returncode != 0:
             raise SystemExit(f"fowt run failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}")

@@ -13,11 +13,16 @@ and the faster is the reference:
 * ``callback``: the subscriber callback sets a ``threading.Event`` the sender waits on;
 * ``channel``: the default FIFO handler channel, the sender blocks in ``recv()``.
 
+``observer``: a third process, a passive peer subscribed to both keys (``pingpong/**``,
+one callback per sample, niced as the launcher nices the recorder), as the recorder is in a
+bench run: each ping and each pong then goes to two peers. It is an additional reference
+(the plain two-process ping-pong stays the issue's reference).
+
 ``period_s`` > 0 paces the pings (one per period, as a real-time run), 0 sends them back to
 back (as lock-step). ``priority`` > 0 puts both processes under ``SCHED_FIFO`` before the
 sessions open (as ``--realtime-priority`` does for the nodes).
 
-    python bench/_zenoh_pingpong.py [--count 20000] [--period 0] [--priority 0]
+    python bench/_zenoh_pingpong.py [--count 20000] [--period 0] [--priority 0] [--observer]
 """
 
 from __future__ import annotations
@@ -80,6 +85,26 @@ def pong(listen: str, reply_size: int, priority: int, lowlatency: bool = True) -
     session.close()
 
 
+def observe(connect: list[str], nice: int, lowlatency: bool = True) -> None:
+    """Subscribe to both keys and count the samples until stdin closes (the recorder's part)."""
+    import zenoh
+
+    if nice:
+        os.nice(nice)
+    session = zenoh.open(_config([], connect, lowlatency))
+    seen = [0]
+
+    def on_sample(_sample: zenoh.Sample) -> None:
+        seen[0] += 1
+
+    sub = session.declare_subscriber("pingpong/**", on_sample)
+    print("ready", flush=True)
+    sys.stdin.read()
+    sub.undeclare()
+    session.close()
+    print(seen[0], flush=True)
+
+
 def _percentiles(ns: np.ndarray) -> dict[str, float]:
     us = ns / 1e3
     return {
@@ -99,12 +124,22 @@ def ping(
     period_s: float,
     priority: int,
     lowlatency: bool = True,
+    listen: str = "",
 ) -> dict[str, Any]:
-    """Measure ``count`` round trips per waiting style; return their percentiles [us]."""
+    """Measure ``count`` round trips per waiting style; return their percentiles [us].
+
+    ``listen``: an endpoint to listen on too (for the observer to connect to).
+    """
     import zenoh
 
     _set_priority(priority)
-    session = zenoh.open(_config([], [connect], lowlatency))
+    session = zenoh.open(_config([listen] if listen else [], [connect], lowlatency))
+    if listen:  # the observer connects: wait until it is there (and the pong peer)
+        deadline = time.monotonic() + 30.0
+        while len(list(session.info.peers_zid())) < 2:
+            if time.monotonic() > deadline:
+                raise SystemExit("ping: the observer did not connect within 30 s")
+            time.sleep(0.01)
     pub = session.declare_publisher(PING_KEY, express=True)
     request = bytes(request_size)
     out: dict[str, Any] = {}
@@ -172,18 +207,25 @@ def measure(
     priority: int = 0,
     sizes: tuple[int, int] | None = None,
     lowlatency: bool = True,
+    observer: bool = False,
 ) -> dict[str, Any]:
     """Run pong and ping as two processes; the ping side's figures and the sizes used.
 
     ``lowlatency``: Zenoh's low-latency unicast transport (the bench's default), else the
     default transport (QoS on, a transmission task per link), as :class:`hil.bus.BusConfig`.
+    ``observer``: a third, passive peer subscribed to both keys (module docstring).
     """
     from hil.bus import free_tcp_endpoint
+    from hil.launch import RECORDER_NICE
 
     req, rep = sizes if sizes is not None else payload_sizes()
     ep = free_tcp_endpoint()
+    ping_ep = free_tcp_endpoint() if observer else ""
+    while ping_ep == ep:
+        ping_ep = free_tcp_endpoint()
     me = [sys.executable, str(Path(__file__).resolve())]
     ll = [] if lowlatency else ["--normal-transport"]
+    obs_proc: subprocess.Popen[str] | None = None
     pong_proc = subprocess.Popen(
         [*me, "pong", "--endpoint", ep, "--reply-size", str(rep), "--priority", str(priority), *ll],
         stdin=subprocess.PIPE,
@@ -194,39 +236,56 @@ def measure(
         assert pong_proc.stdout is not None
         if pong_proc.stdout.readline().strip() != "ready":
             raise SystemExit("pong process did not start")
-        res = subprocess.run(
-            [
-                *me,
-                "ping",
-                "--endpoint",
-                ep,
-                "--request-size",
-                str(req),
-                "--count",
-                str(count),
-                "--warmup",
-                str(warmup),
-                "--period",
-                repr(period_s),
-                "--priority",
-                str(priority),
-                *ll,
-            ],
-            capture_output=True,
-            text=True,
-            check=False,
-        )
+        ping_cmd = [
+            *me,
+            "ping",
+            "--endpoint",
+            ep,
+            "--request-size",
+            str(req),
+            "--count",
+            str(count),
+            "--warmup",
+            str(warmup),
+            "--period",
+            repr(period_s),
+            "--priority",
+            str(priority),
+            *ll,
+        ]
+        if observer:
+            ping_cmd += ["--listen", ping_ep]
+            obs_proc = subprocess.Popen(
+                [
+                    *me,
+                    "observe",
+                    "--endpoint",
+                    ep,
+                    "--endpoint2",
+                    ping_ep,
+                    "--nice",
+                    str(RECORDER_NICE),
+                    *ll,
+                ],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                text=True,
+            )
+        res = subprocess.run(ping_cmd, capture_output=True, text=True, check=False)
         if res.returncode != 0:
             raise SystemExit(f"ping failed: {res.stdout}\n{res.stderr}")
         figures: dict[str, Any] = json.loads(res.stdout.strip().splitlines()[-1])
     finally:
-        if pong_proc.stdin is not None:
-            pong_proc.stdin.close()
-        try:
-            pong_proc.wait(10)
-        except subprocess.TimeoutExpired:
-            pong_proc.kill()
-            pong_proc.wait()
+        for proc in (pong_proc, obs_proc):
+            if proc is None:
+                continue
+            if proc.stdin is not None:
+                proc.stdin.close()
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
     figures.update(
         request_bytes=req,
         reply_bytes=rep,
@@ -234,6 +293,7 @@ def measure(
         period_s=period_s,
         realtime_priority=priority,
         lowlatency=lowlatency,
+        observer=observer,
         round_trip_us=figures[figures["best"]],
     )
     return figures
@@ -241,8 +301,12 @@ def measure(
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("role", nargs="?", choices=("pong", "ping"), default=None)
+    ap.add_argument("role", nargs="?", choices=("pong", "ping", "observe"), default=None)
     ap.add_argument("--endpoint", default="")
+    ap.add_argument("--endpoint2", default="", help="observe: the ping side's endpoint")
+    ap.add_argument("--listen", default="", help="ping: listen here too (for the observer)")
+    ap.add_argument("--nice", type=int, default=0)
+    ap.add_argument("--observer", action="store_true", help="a passive third peer on both keys")
     ap.add_argument("--reply-size", type=int, default=0)
     ap.add_argument("--request-size", type=int, default=0)
     ap.add_argument("--count", type=int, default=20000)
@@ -255,10 +319,14 @@ def main() -> None:
     if a.role == "pong":
         pong(a.endpoint, a.reply_size, a.priority, ll)
     elif a.role == "ping":
-        r = ping(a.endpoint, a.request_size, a.count, a.warmup, a.period, a.priority, ll)
+        r = ping(a.endpoint, a.request_size, a.count, a.warmup, a.period, a.priority, ll, a.listen)
         print(json.dumps(r))
+    elif a.role == "observe":
+        observe([a.endpoint, a.endpoint2], a.nice, ll)
     else:
-        figures = measure(a.count, a.warmup, a.period, a.priority, lowlatency=ll)
+        figures = measure(
+            a.count, a.warmup, a.period, a.priority, lowlatency=ll, observer=a.observer
+        )
         print(json.dumps(figures, indent=2))
 
 

@@ -18,10 +18,21 @@ during the run shows as their spread). Prints and saves:
   ``exchange_us`` = wait + sensor put - controller compute, and
   ``exchange_over_raw_rtt`` = exchange / raw round trip (means).
 
+Beside the plain ping-pong, a raw ping-pong with a passive third peer subscribed to both
+keys (as the recorder is; ``_zenoh_pingpong.measure(observer=True)``) is measured before
+and after too, and the cycle and exchange are also given over it (``..._with_observer``):
+an additional reference, not the issue's.
+
+``--rounds N`` runs each configuration N times (figures: means over the rounds, each
+round under ``runs``); ``--compare-python PY --compare-root DIR`` runs another checkout
+(e.g. main) right after each of this checkout's runs, so both meet the same load, and
+reports its figures under ``compare`` and ``speedup_over_compare``.
+
 The machine's load average is saved beside the figures (the bench machine is shared).
 
     python bench/lockstep_speed.py [--duration 600] [--only NAME] [--count 20000]
-                                   [--realtime-priority 20]
+                                   [--realtime-priority 20] [--rounds 1]
+                                   [--compare-python PY --compare-root DIR]
 """
 
 from __future__ import annotations
@@ -73,6 +84,44 @@ def _inspect(run_dir: Path) -> dict[str, Any]:
     return out
 
 
+def _figures(s: dict[str, Any], raw_mean: float, raw_obs_mean: float) -> dict[str, Any]:
+    """One lock-step run's figures against the raw round trips (means)."""
+    t = s["timing"]
+    speed = t["sim_seconds_per_wall_second"]
+    period = s["scenario"]["config"]["timing"]["control_period_s"]
+    cycle_us = 1e6 * period / speed if speed else None
+    insp = s.get("bench_inspect", {})
+    prof = insp.get("plant_profile_us")
+    ctrl = insp.get("controller_compute_us", {}).get("mean")
+    exchange = None
+    if prof and ctrl is not None:
+        exchange = prof["wait"] + prof["sensor_put"] - ctrl
+    return {
+        "control_rate_hz": round(1.0 / period),
+        "sim_seconds_per_wall_second": speed,
+        "met_speed_50x": speed is not None and speed >= 50,
+        "cycle_wall_us": cycle_us,
+        "cycle_over_raw_rtt": cycle_us / raw_mean if cycle_us else None,
+        "cycle_over_raw_rtt_with_observer": cycle_us / raw_obs_mean if cycle_us else None,
+        "met_cycle_1_25": cycle_us is not None and cycle_us / raw_mean <= 1.25,
+        "plant_profile_us": prof,
+        "controller_compute_us": insp.get("controller_compute_us"),
+        "plant_finish_compute_us": insp.get("plant_finish_compute_us"),
+        "exchange_us": exchange,
+        "exchange_over_raw_rtt": exchange / raw_mean if exchange is not None else None,
+        "exchange_over_raw_rtt_with_observer": (
+            exchange / raw_obs_mean if exchange is not None else None
+        ),
+        "latency_us": t["latency_us"],
+        "whole_command_wall_s": s["bench_command_wall_s"],
+    }
+
+
+def _mean(runs: list[dict[str, Any]], key: str) -> float | None:
+    vals = [r[key] for r in runs if r.get(key) is not None]
+    return float(np.mean(vals)) if vals else None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--duration", type=float, default=600.0)
@@ -84,6 +133,13 @@ def main() -> None:
         default=0,
         help="SCHED_FIFO for plant and controller, and for both ping-pong processes",
     )
+    ap.add_argument("--rounds", type=int, default=1, help="lock-step runs per configuration")
+    ap.add_argument(
+        "--compare-python",
+        default=None,
+        help="another checkout's interpreter: its run alternates with this one's each round",
+    )
+    ap.add_argument("--compare-root", type=Path, default=None, help="that checkout's root")
     args = ap.parse_args()
     prio = args.realtime_priority
     rt = ["--realtime-priority", str(prio)] if prio else []
@@ -93,45 +149,70 @@ def main() -> None:
             continue
         load_before = os.getloadavg()
         raw_before = measure(count=args.count, priority=prio)
-        s = run_fowt(scenario, "lockstep", args.duration, rt, inspect=_inspect)
+        obs_before = measure(count=args.count, priority=prio, observer=True)
+        this: list[dict[str, Any]] = []
+        other: list[dict[str, Any]] = []
+        for _ in range(args.rounds):
+            this.append(run_fowt(scenario, "lockstep", args.duration, rt, inspect=_inspect))
+            if args.compare_python:
+                other.append(
+                    run_fowt(
+                        scenario,
+                        "lockstep",
+                        args.duration,
+                        rt,
+                        inspect=_inspect,
+                        python=args.compare_python,
+                        cwd=args.compare_root,
+                    )
+                )
         raw_after = measure(count=args.count, priority=prio)
-        t = s["timing"]
-        speed = t["sim_seconds_per_wall_second"]
-        period = s["scenario"]["config"]["timing"]["control_period_s"]
-        cycle_us = 1e6 * period / speed if speed else None
+        obs_after = measure(count=args.count, priority=prio, observer=True)
         raw_mean = 0.5 * (raw_before["round_trip_us"]["mean"] + raw_after["round_trip_us"]["mean"])
         raw_p50 = 0.5 * (raw_before["round_trip_us"]["p50"] + raw_after["round_trip_us"]["p50"])
-        insp = s.get("bench_inspect", {})
-        prof = insp.get("plant_profile_us")
-        ctrl = insp.get("controller_compute_us", {}).get("mean")
-        exchange = None
-        if prof and ctrl is not None:
-            exchange = prof["wait"] + prof["sensor_put"] - ctrl
-        results[name] = {
+        obs_mean = 0.5 * (obs_before["round_trip_us"]["mean"] + obs_after["round_trip_us"]["mean"])
+        runs = [_figures(s, raw_mean, obs_mean) for s in this]
+        res: dict[str, Any] = {
             "scenario": scenario,
-            "control_rate_hz": round(1.0 / period),
             "duration_s": args.duration,
             "realtime_priority": prio,
-            "sim_seconds_per_wall_second": speed,
-            "met_speed_50x": speed is not None and speed >= 50,
-            "cycle_wall_us": cycle_us,
+            "rounds": args.rounds,
+            **{k: _mean(runs, k) for k in runs[0] if isinstance(runs[0][k], float)},
+            "met_speed_50x": all(r["met_speed_50x"] for r in runs),
+            "met_cycle_1_25": all(r["met_cycle_1_25"] for r in runs),
             "raw_round_trip_us_mean": raw_mean,
             "raw_round_trip_us_p50": raw_p50,
-            "cycle_over_raw_rtt": cycle_us / raw_mean if cycle_us else None,
-            "met_cycle_1_25": cycle_us is not None and cycle_us / raw_mean <= 1.25,
-            "plant_profile_us": prof,
-            "controller_compute_us": insp.get("controller_compute_us"),
-            "plant_finish_compute_us": insp.get("plant_finish_compute_us"),
-            "exchange_us": exchange,
-            "exchange_over_raw_rtt": exchange / raw_mean if exchange is not None else None,
-            "latency_us": t["latency_us"],
-            "raw_before": raw_before,
-            "raw_after": raw_after,
-            "whole_command_wall_s": s["bench_command_wall_s"],
-            "loadavg_before": load_before,
-            "loadavg_after": os.getloadavg(),
+            "raw_with_observer_round_trip_us_mean": obs_mean,
+            "runs": runs,
         }
-        print(name, {k: v for k, v in results[name].items() if not k.startswith("raw_")})
+        if other:
+            cmp_runs = [_figures(s, raw_mean, obs_mean) for s in other]
+            res["compare"] = {
+                "python": args.compare_python,
+                "root": str(args.compare_root),
+                "sim_seconds_per_wall_second": _mean(cmp_runs, "sim_seconds_per_wall_second"),
+                "cycle_wall_us": _mean(cmp_runs, "cycle_wall_us"),
+                "cycle_over_raw_rtt": _mean(cmp_runs, "cycle_over_raw_rtt"),
+                "exchange_us": _mean(cmp_runs, "exchange_us"),
+                "runs": cmp_runs,
+            }
+            res["speedup_over_compare"] = (
+                res["sim_seconds_per_wall_second"] / res["compare"]["sim_seconds_per_wall_second"]
+            )
+        res.update(
+            raw_before=raw_before,
+            raw_after=raw_after,
+            raw_with_observer_before=obs_before,
+            raw_with_observer_after=obs_after,
+            loadavg_before=load_before,
+            loadavg_after=os.getloadavg(),
+        )
+        results[name] = res
+        print(
+            name,
+            {k: v for k, v in res.items() if not k.startswith("raw_") and k != "runs"},
+            flush=True,
+        )
     save(
         "lockstep_speed" + (f"_rt{prio}" if prio else ""),
         {

@@ -12,15 +12,17 @@ from __future__ import annotations
 import contextlib
 import ipaddress
 import json
-import queue
 import socket
-import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import zenoh
+
+from bus_schemas.codec import DecodeError, TruncatedError
+from bus_schemas.registry import KEY_PREFIX, MessageType, identify
 
 
 class BusConfigError(ValueError):
@@ -173,49 +175,149 @@ class Bus:
             self.session.close()
 
 
-class PutQueue:
-    """Puts done by a background thread, in the order they were queued.
+#: Key suffixes of the batched log-only messages: the plant's truth and cycle timing go out
+#: together on ``fowt/<turbine>/timing/batch``, the controller's status on
+#: ``fowt/<turbine>/controller/batch`` (inside the key spaces each node may already publish
+#: on under the shipped access control, ``timing/**`` and ``controller/**``).
+PLANT_BATCH_SUFFIX = "timing/batch"
+CONTROLLER_BATCH_SUFFIX = "controller/batch"
+BATCH_SUFFIXES = (PLANT_BATCH_SUFFIX, CONTROLLER_BATCH_SUFFIX)
 
-    For log-only messages (truth, per-cycle timing, running summaries), which nobody waits
-    for: a Zenoh put on the low-latency transport writes to each peer's socket in the
-    caller's thread (25-90 us per put on this 2-core machine with one or two peers, measured
-    in bench/lockstep_speed.py's profile), and it releases the GIL while it does so. Queued
-    here (about 1 us for the caller), those writes overlap with the controller's turn
-    instead of adding to every control cycle. One thread: the puts keep their order.
+
+#: A log batch leaves when it holds this many messages ...
+LOG_BATCH_MAX_MESSAGES = 32
+#: ... or, when its owner looks (once per cycle, and every half control period in the
+#: controller's main thread), once its oldest message is this old [s].
+LOG_BATCH_MAX_AGE_S = 0.05
+
+
+def batch_key(turbine: str, suffix: str) -> str:
+    """``fowt/<turbine>/<suffix>`` for one of :data:`BATCH_SUFFIXES`."""
+    return f"{KEY_PREFIX}/{turbine}/{suffix}"
+
+
+def split_batch(payload: bytes | memoryview) -> list[tuple[MessageType, memoryview]]:
+    """The encoded messages of a log batch, in order, each with its registered type.
+
+    A batch is the plain concatenation of encoded messages (:mod:`bus_schemas.codec`:
+    fixed size per message type, the header names the type), so it splits on the
+    headers alone. Each part is then decoded (validated) by the receiver as a single
+    message would be.
+
+    Raises
+    ------
+    DecodeError
+        On a header that names no registered message, or a last message cut short (the
+        parts before it are not returned either: a malformed batch is rejected whole).
+    """
+    view = memoryview(payload)
+    parts: list[tuple[MessageType, memoryview]] = []
+    offset, end = 0, len(view)
+    while offset < end:
+        mt = identify(view[offset : offset + 4])
+        size = mt.codec.size
+        if offset + size > end:
+            raise TruncatedError(
+                f"log batch: {mt.name} at byte {offset} needs {size} bytes, {end - offset} left"
+            )
+        parts.append((mt, view[offset : offset + size]))
+        offset += size
+    return parts
+
+
+def unbatching(
+    mt: MessageType, callback: Callable[[str, bytes], None], turbine: str
+) -> Callable[[str, bytes], None]:
+    """A batch-key callback handing each ``mt`` message of a batch to ``callback``.
+
+    ``callback(key, payload)`` gets the message's own key (``mt.key(turbine)``), as if it
+    had been put there on its own; a malformed batch is skipped (the recorder counts it).
+    """
+    key = mt.key(turbine)
+
+    def on_batch(_key: str, payload: bytes) -> None:
+        try:
+            parts = split_batch(payload)
+        except DecodeError:
+            return
+        for part_mt, part in parts:
+            if part_mt is mt:
+                callback(key, bytes(part))
+
+    return on_batch
+
+
+class LogBatcher:
+    """Log-only messages (nobody waits for them) put together, a few per Zenoh put.
+
+    A Zenoh put and the receiver's wake-up cost far more than the bytes (25-90 us per put
+    on this 2-core machine against about 1 us to append), and each log-only put also wakes
+    the recorder, which competes with plant and controller for the two cores. The batch
+    leaves when it holds ``max_messages``, when the owner finds it older than ``max_age_s``
+    (:meth:`due`), and whenever the owner flushes it (before each timing summary, at the
+    end). What a SIGKILL loses of the killed process's log-only messages is therefore
+    bounded: at most ``max_messages - 1`` messages, and no more than ``max_age_s`` plus one
+    control period of wall time.
+
+    Parameters
+    ----------
+    publisher : zenoh.Publisher
+        The batch key's publisher.
+    max_messages : int
+        Messages per batch at most.
+    max_age_s : float
+        Wall time after which :meth:`due` says the batch should go.
     """
 
-    def __init__(self, name: str = "fowt-put-queue") -> None:
-        self._queue: queue.SimpleQueue[tuple[Any, bytes] | None] = queue.SimpleQueue()
+    def __init__(
+        self,
+        publisher: Any,
+        max_messages: int = LOG_BATCH_MAX_MESSAGES,
+        max_age_s: float = LOG_BATCH_MAX_AGE_S,
+    ) -> None:
+        if max_messages < 1 or not max_age_s > 0:
+            raise ValueError(
+                f"log batch: expected max_messages >= 1 and max_age_s > 0, got "
+                f"{max_messages} and {max_age_s}"
+            )
+        self.publisher = publisher
+        self.max_messages = max_messages
+        self.max_age_ns = round(max_age_s * 1e9)
+        self._parts: list[bytes] = []
+        self._first_ns = 0
+        self.puts = 0  # batches put
+        self.messages = 0  # messages put in them
         self.failed = 0  # puts that raised (a session going away at the end of a run)
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
-        self._thread.start()
 
-    def put(self, publisher: Any, payload: bytes) -> None:
-        """Queue ``publisher.put(payload)``."""
-        self._queue.put((publisher, payload))
+    def add(self, payload: bytes) -> None:
+        """Append one encoded message; put the batch when it is full."""
+        parts = self._parts
+        if not parts:
+            self._first_ns = time.monotonic_ns()
+        parts.append(payload)
+        if len(parts) >= self.max_messages:
+            self.flush()
 
-    def _run(self) -> None:
-        while True:
-            item = self._queue.get()
-            if item is None:
-                return
-            target, payload = item
-            if isinstance(target, threading.Event):  # a flush marker
-                target.set()
-                continue
-            try:
-                target.put(payload)
-            except Exception:  # the session may be closing at the end of a run: counted
-                self.failed += 1
+    def age_s(self) -> float:
+        """Wall time since the oldest message in the batch was added [s] (0: empty)."""
+        if not self._parts:
+            return 0.0
+        return (time.monotonic_ns() - self._first_ns) / 1e9
 
-    def flush(self, timeout_s: float = 5.0) -> bool:
-        """Block until every put queued so far is done (False: ``timeout_s`` passed)."""
-        done = threading.Event()
-        self._queue.put((done, b""))
-        return done.wait(timeout_s)
+    def due(self) -> bool:
+        """True when the batch holds a message older than ``max_age_s``."""
+        return bool(self._parts) and time.monotonic_ns() - self._first_ns >= self.max_age_ns
 
-    def close(self, timeout_s: float = 5.0) -> None:
-        """Do the queued puts, then stop the thread (idempotent)."""
-        if self._thread.is_alive():
-            self._queue.put(None)
-            self._thread.join(timeout_s)
+    def flush(self) -> None:
+        """Put what the batch holds (nothing when it is empty)."""
+        parts = self._parts
+        if not parts:
+            return
+        self._parts = []
+        try:
+            self.publisher.put(b"".join(parts))
+        except Exception:  # the session may be closing at the end of a run: counted
+            self.failed += 1
+            return
+        self.puts += 1
+        self.messages += len(parts)

@@ -90,7 +90,7 @@ from controller.discon import DisconError
 from controller.interface import REGIME_SAFE, ControlOutput
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
-from hil.bus import Bus, BusConfig
+from hil.bus import CONTROLLER_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
 from hil.rt import freeze_heap
 from hil.scenario import Scenario
 
@@ -578,8 +578,13 @@ def run_controller_node(
     freeze_heap()
     bus = bus_factory(bus_config)
     tid = scenario.turbine_id
-    cmd_key, status_key = COMMAND.key(tid), CONTROLLER_STATUS.key(tid)
-    cmd_pub, status_pub = bus.publisher(cmd_key), bus.publisher(status_key)
+    cmd_pub = bus.publisher(COMMAND.key(tid))
+    # The status is log-only (nobody waits for it): it goes out a few per put on the batch
+    # key (hil.bus.LogBatcher), so a cycle costs one put (the command) and wakes the
+    # recorder once instead of twice. A full or old (50 ms) batch goes right after a
+    # cycle's command; the main thread's poll below puts one that frames stopped coming to
+    # (twice as old), the last one goes when the node stops.
+    statuses = LogBatcher(bus.publisher(batch_key(tid, CONTROLLER_BATCH_SUFFIX)))
     done = threading.Event()
     reason = ["timeout"]
     lock = threading.Lock()
@@ -604,7 +609,9 @@ def run_controller_node(
             return
         command, status = result
         cmd_pub.put(COMMAND.codec.encode(command))
-        status_pub.put(CONTROLLER_STATUS.codec.encode(status))
+        statuses.add(CONTROLLER_STATUS.codec.encode(status))
+        if statuses.due():
+            statuses.flush()
 
     def on_frame(_key: str, payload: bytes) -> None:
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
@@ -675,7 +682,11 @@ def run_controller_node(
                 runtime.check_silence()
                 if pending and time.monotonic() - pending[0][1] > runtime.dt_s / 2:
                     cycle(pending.pop()[0])
+                if statuses.age_s() > 2 * statuses.max_age_ns / 1e9:
+                    statuses.flush()
     finally:
+        with lock:
+            statuses.flush()
         plant_watch.undeclare()
         token.undeclare()
         bus.close()

@@ -92,7 +92,14 @@ from bus_schemas.registry import (
 )
 from controller.discon import DisconError
 from controller.rosco import RUN_DIR_ENV
-from hil.bus import Bus, BusConfig, free_tcp_endpoint
+from hil.bus import (
+    PLANT_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    batch_key,
+    free_tcp_endpoint,
+    unbatching,
+)
 from hil.can_bus import (
     CanBusConfig,
     in_private_netns,
@@ -755,6 +762,9 @@ def _follow(
         if driver is not None:
             tid = scenario.turbine_id
             bus.subscribe(CYCLE_TIMING.key(tid), driver.on_cycle)
+            # The plant's node puts its cycle records in log batches (hil.bus.LogBatcher).
+            batches = unbatching(CYCLE_TIMING, driver.on_cycle, tid)
+            bus.subscribe(batch_key(tid, PLANT_BATCH_SUFFIX), batches)
             # The plant waits for this token (``--require ...,launcher``), so no cycle passes
             # unseen, however fast a lock-step run goes.
             token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/launcher")

@@ -56,6 +56,7 @@ and end is logged, as are the final counts.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.resources
 import math
 import signal
@@ -87,7 +88,7 @@ from bus_schemas.registry import (
     WAVE_PREVIEW_PERFECT,
     MessageType,
 )
-from hil.bus import Bus, BusConfig, PutQueue
+from hil.bus import PLANT_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
 from hil.rt import freeze_heap
 from hil.scenario import (
     JonswapWavesSpec,
@@ -748,6 +749,105 @@ class CommandInbox:
             return got
 
 
+class CommandChannel:
+    """Lock-step over Zenoh: the command key's samples received in the plant's own thread.
+
+    A subscriber callback runs in a thread of zenoh-python's (which takes the GIL), and
+    handing its command on to the waiting loop through a condition variable wakes a second
+    thread: two thread switches per cycle on two cores. Here the loop blocks in the
+    subscriber's FIFO channel (``recv`` releases the GIL while it waits) and handles the
+    payload itself through the :class:`CommandInbox` (decode, rejection counting,
+    duplicates), one switch fewer; measured in ``bench/lockstep_speed.py``.
+
+    ``recv`` has no timeout, so a waker thread checks every ``poll_s`` whether the loop has
+    been waiting that long and, if so, puts an empty sample on the command key that only
+    this session sees (``Locality.SESSION_LOCAL``): the loop wakes, runs any signal handler
+    that came meanwhile (Python runs them in the main thread between bytecodes), checks
+    its stop event and timeout, and waits again. An empty payload that no waker put (a
+    remote one) is counted as a rejected command as before.
+
+    Parameters
+    ----------
+    session : zenoh.Session
+        The plant's session.
+    key : str
+        The command key.
+    inbox : CommandInbox
+        Decodes and keeps the commands (no bus faults: lock-step applies them in the loop).
+    stop : threading.Event
+        Set by the signal handlers; a wait ends with None soon after it is set.
+    poll_s : float
+        How long a wait goes before the waker wakes it to look at the stop event [s].
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        key: str,
+        inbox: CommandInbox,
+        stop: threading.Event,
+        poll_s: float = 0.05,
+    ) -> None:
+        self.key = key
+        self.inbox = inbox
+        self.stop = stop
+        self.poll_ns = round(poll_s * 1e9)
+        self._sub = session.declare_subscriber(key, zenoh.handlers.FifoChannel(256))
+        self._waker = session.declare_publisher(
+            key, allowed_destination=zenoh.Locality.SESSION_LOCAL
+        )
+        self._waiting_since_ns = 0  # written by the loop, read by the waker
+        self._markers = 0  # wake-up samples put and not yet received
+        self._lock = threading.Lock()
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._wake, name="plant-waker", daemon=True)
+        self._thread.start()
+
+    def _wake(self) -> None:
+        while not self._closed.wait(self.poll_ns / 1e9):
+            since = self._waiting_since_ns
+            if since and time.monotonic_ns() - since >= self.poll_ns:
+                with self._lock:
+                    self._markers += 1
+                try:
+                    self._waker.put(b"")
+                except Exception:  # the session is closing
+                    return
+
+    def wait_for(self, seq: int, timeout_s: float) -> tuple[ActuatorCommand, int] | None:
+        """The command answering ``seq``, or None once ``timeout_s`` passed or stop is set."""
+        got = self.inbox.take(seq)
+        if got is not None:
+            return got
+        deadline = time.monotonic_ns() + round(timeout_s * 1e9)
+        self._waiting_since_ns = time.monotonic_ns()
+        try:
+            while True:
+                payload = self._sub.recv().payload.to_bytes()
+                if not payload:
+                    with self._lock:
+                        marker = self._markers > 0
+                        self._markers -= marker
+                    if marker:
+                        if self.stop.is_set() or time.monotonic_ns() >= deadline:
+                            return None
+                        continue
+                self.inbox.on_payload(self.key, payload)
+                got = self.inbox.take(seq)
+                if got is not None:
+                    return got
+        finally:
+            self._waiting_since_ns = 0
+
+    def close(self) -> None:
+        """Stop the waker and undeclare the subscriber (idempotent)."""
+        self._closed.set()
+        self._thread.join(1.0)
+        with contextlib.suppress(Exception):  # the session may already be going away
+            self._sub.undeclare()
+            self._waker.undeclare()
+
+
 class PeerWaitInterruptedError(Exception):
     """SIGINT or SIGTERM arrived while the plant waited for its peers (nothing ran).
 
@@ -857,28 +957,32 @@ def run_plant_node(
     tid = scenario.turbine_id
     publishers = {
         mt.key_suffix: bus.publisher(mt.key(tid))
-        for mt in (TRUTH, SENSORS, CYCLE_TIMING, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
+        for mt in (SENSORS, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
     }
 
-    # Log-only messages (nobody waits for them) are put by a background thread, so their
-    # socket writes overlap with the controller's turn (hil.bus.PutQueue); the sensor frame
-    # and the perfect wave preview (which the controller waits for) go out at once.
-    # Lock-step only: there the plant's thread is the run's pace; in real time it waits for
-    # the tick anyway and the puts stay in it (one thread less to schedule per cycle).
-    background = {mt.key_suffix for mt in (TRUTH, CYCLE_TIMING, TIMING_SUMMARY)}
-    if mode != "lockstep":
-        background.clear()
-    log_puts = PutQueue("plant-log-puts")
+    # Log-only messages (truth and cycle timing: nobody waits for them) go out a few per
+    # put on the batch key (hil.bus.LogBatcher): one put and one wake-up of the recorder
+    # for up to 16 cycles instead of two per cycle. Lock-step puts a batch when it is full
+    # or 50 ms old, on the run's pace; real time puts it after the cycle's command came (or
+    # its tick passed), so it never competes with the controller's turn. Every timing
+    # summary goes after the batch before it, so the recorder sees the final summary last.
+    batcher = LogBatcher(bus.publisher(batch_key(tid, PLANT_BATCH_SUFFIX)))
+    batched = {TRUTH.key_suffix, CYCLE_TIMING.key_suffix}
+    lockstep = mode == "lockstep"
     profile = CycleProfile()
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
         if can_bus is not None and mt is SENSORS:
             can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
             return
-        if mt.key_suffix in background:
-            log_puts.put(publishers[mt.key_suffix], mt.codec.encode(msg))
-            return
         payload = mt.codec.encode(msg)
+        if mt.key_suffix in batched:
+            batcher.add(payload)
+            if lockstep and batcher.due():
+                batcher.flush()
+            return
+        if mt is TIMING_SUMMARY:
+            batcher.flush()
         t0 = time.monotonic_ns()
         publishers[mt.key_suffix].put(payload)
         profile.put_ns += time.monotonic_ns() - t0
@@ -886,8 +990,12 @@ def run_plant_node(
     # Real time: command faults act on arrival in the inbox; lock-step: in the loop.
     command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
     inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
-    bus.subscribe(COMMAND.key(tid), inbox.on_payload)
     stop = threading.Event()
+    channel: CommandChannel | None = None
+    if mode == "lockstep" and can_bus is None:
+        channel = CommandChannel(bus.session, COMMAND.key(tid), inbox, stop)
+    else:  # real time waits with a deadline per cycle; CAN delivers from its own thread
+        bus.subscribe(COMMAND.key(tid), inbox.on_payload)
     received: list[int] = []
 
     def on_signal(signum: int, _frame: Any) -> None:
@@ -911,10 +1019,11 @@ def run_plant_node(
         cycles = scenario.cycles
         log(f"plant running {scenario.name}: {cycles} cycles, mode {mode}, speed {speed:g}")
         if mode == "lockstep":
-            _run_lockstep(loop, inbox, cycles, lockstep_timeout_s, stop, profile)
+            waiter = channel if channel is not None else inbox
+            _run_lockstep(loop, waiter, cycles, lockstep_timeout_s, stop, profile)
             log(profile.describe())
         else:
-            _run_realtime(loop, inbox, cycles, stop)
+            _run_realtime(loop, inbox, cycles, stop, batcher)
         if stop.is_set() and not loop.result.aborted:
             loop.result.aborted = "stopped by signal"
     except TimeoutError as exc:
@@ -926,11 +1035,11 @@ def run_plant_node(
             loop.result.commands_rejected = sum(inbox.rejected.values())
             loop.result.rejected = dict(inbox.rejected)
             loop.count_faults(inbox)
-            loop.publish_summary(final=True)
-            log_puts.flush()
+            loop.publish_summary(final=True)  # after the last log batch
             time.sleep(0.2)  # let the final summary reach the recorder before the link goes
-        log_puts.close()
         token.undeclare()
+        if channel is not None:
+            channel.close()
         if can_bus is not None:
             log(
                 f"plant CAN ({can_bus.config.interface} {can_bus.config.effective_channel}"
@@ -1027,9 +1136,27 @@ class CycleProfile:
         )
 
 
+class _StopRequestedError(Exception):
+    """The stop event was set while the lock-step loop waited for a command."""
+
+
 def _run_lockstep(
     loop: PlantLoop,
-    inbox: CommandInbox,
+    inbox: CommandInbox | CommandChannel,
+    cycles: int,
+    timeout_s: float,
+    stop: threading.Event,
+    profile: CycleProfile | None = None,
+) -> None:
+    try:
+        _lockstep_cycles(loop, inbox, cycles, timeout_s, stop, profile)
+    except _StopRequestedError:
+        return
+
+
+def _lockstep_cycles(
+    loop: PlantLoop,
+    inbox: CommandInbox | CommandChannel,
     cycles: int,
     timeout_s: float,
     stop: threading.Event,
@@ -1038,6 +1165,8 @@ def _run_lockstep(
     def exchange(frame: SensorFrame, sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         got = inbox.wait_for(frame.seq, timeout_s)
         if got is None:
+            if stop.is_set():
+                raise _StopRequestedError
             raise TimeoutError(
                 f"controller did not answer frame {frame.seq} within {timeout_s:g} s"
             )
@@ -1064,7 +1193,13 @@ def _run_lockstep(
         prof.cycles += 1
 
 
-def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threading.Event) -> None:
+def _run_realtime(
+    loop: PlantLoop,
+    inbox: CommandInbox,
+    cycles: int,
+    stop: threading.Event,
+    batcher: LogBatcher | None = None,
+) -> None:
     pacer = Pacer(loop.wall_period_ns)
     loop.start_wall_ns = pacer.start_ns
     lateness = 0
@@ -1088,6 +1223,10 @@ def _run_realtime(loop: PlantLoop, inbox: CommandInbox, cycles: int, stop: threa
             late_ns = got[1] - sent  # logged as this missed cycle's latency
             got = None  # it came, but later than its control period: a miss
             loop.result.commands_late += 1
+        # The log batch goes now that the command is in (or its time is up): its put never
+        # competes with the controller's turn.
+        if batcher is not None and batcher.due():
+            batcher.flush()
         # ... then pace precisely to the tick.
         lateness_next = pacer.wait_tick()
         if got is None:

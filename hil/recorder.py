@@ -1,11 +1,21 @@
 """The recorder process: every ``fowt/<turbine>/**`` sample into one MCAP file per run.
 
-Zenoh calls :meth:`Recorder.on_sample` in its own thread; the callback only decodes (so a
-bad payload is counted, never logged as data) and queues. The main thread writes the
-queue to :class:`hil.mcap_log.RunLog`, flushing a chunk at least every 0.25 s, so the file
-stays readable up to its last flush if any process, this one included, is killed. The
+The samples wait in the Zenoh subscriber's FIFO channel; every 20 ms the main thread takes
+them, :meth:`Recorder.on_sample` decodes each (so a bad payload is counted, never logged as
+data) and queues it, and the queue is written to :class:`hil.mcap_log.RunLog` (the CAN
+tap, when there is one, queues from its own thread), flushing a chunk at least every
+0.25 s, so the file stays readable up to its last flush if any process, this one
+included, is killed. A message's MCAP publish time is when the main thread took it (at
+most about 20 ms after it arrived). The
 recorder stops after the plant's final timing summary (plus a short drain) or on
 SIGINT/SIGTERM, and always finishes the file.
+
+Log batches: the plant puts its truth and cycle timing, the controller its status, a few
+per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
+(:class:`hil.bus.LogBatcher`); the recorder splits them and writes each message on its own
+channel exactly as if it had been put alone (same channel, schema and JSON; the MCAP
+publish time is the batch's receive time). A batch that does not split is counted under
+``rejected`` as ``<batch suffix>:<reason>``.
 
 Its ``recorder`` metadata record holds ``messages`` (written), ``rejected`` and
 ``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest cycle number
@@ -32,6 +42,7 @@ the reassembler's rejections.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import queue
 import signal
@@ -47,7 +58,7 @@ import zenoh
 
 from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
-from hil.bus import Bus, BusConfig
+from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, split_batch
 from hil.mcap_log import RunLog
 from hil.scenario import Scenario
 
@@ -58,6 +69,11 @@ if TYPE_CHECKING:
 
 #: How often the main thread writes what the Zenoh thread queued (s); << the 0.25 s flush.
 _DRAIN_PERIOD_S = 0.02
+
+#: Samples the subscriber's channel holds between two takes (a full channel holds Zenoh's
+#: receive back, it never drops: at the fastest lock-step, 2-3 samples per 0.4 ms cycle,
+#: that is several seconds of a stalled main thread).
+_CHANNEL_CAPACITY = 1 << 16
 
 #: Key suffix of the raw CAN frame channel.
 CAN_RAW_SUFFIX = "can/raw"
@@ -173,21 +189,45 @@ class Recorder:
         self.first_cycle: int | None = None
 
     def on_sample(self, key: str, payload: bytes) -> None:
-        """Decode one sample (Zenoh's thread) and queue it for writing."""
+        """Decode one sample and queue it for writing.
+
+        A log batch (:data:`hil.bus.BATCH_SUFFIXES`) is split and each of its messages
+        decoded and queued under its own key, as if it had been put there on its own (its
+        receive time is the batch's); a batch that does not split is rejected whole
+        (``<batch suffix>:<reason>``), a message in it that does not decode alone.
+        """
         suffix = key.removeprefix(self.prefix)
+        if suffix in BATCH_SUFFIXES:
+            self._on_batch(suffix, payload)
+            return
         mt = BY_SUFFIX.get(suffix)
         if mt is None:
             if "/alive/" not in key:
                 self.unknown_keys[key] += 1
             return
+        self._queue(key, suffix, mt, payload, time.time_ns())
+
+    def _queue(
+        self, key: str, suffix: str, mt: MessageType, payload: bytes | memoryview, recv: int
+    ) -> None:
         try:
             msg = mt.codec.decode(payload)
         except DecodeError as exc:
             self.rejected[f"{suffix}:{exc.reason}"] += 1
             return
-        self.queue.put((key, msg, time.time_ns()))
+        self.queue.put((key, msg, recv))
         if isinstance(msg, TimingSummary) and msg.final:
             self.final_seen.set()
+
+    def _on_batch(self, batch_suffix: str, payload: bytes) -> None:
+        recv = time.time_ns()
+        try:
+            parts = split_batch(payload)
+        except DecodeError as exc:
+            self.rejected[f"{batch_suffix}:{exc.reason}"] += 1
+            return
+        for mt, part in parts:
+            self._queue(self.prefix + mt.key_suffix, mt.key_suffix, mt, part, recv)
 
     def drain(self, timeout_s: float = 0.05) -> int:
         """Write queued messages; wait up to ``timeout_s`` for the first. Returns the count."""
@@ -317,8 +357,23 @@ def run_recorder_node(
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
     written = 0
+    # The samples wait in the subscriber's FIFO channel and the main thread takes them every
+    # 20 ms: no Python thread wakes per sample (a callback subscriber hands each one to a
+    # thread of zenoh-python's, which takes the GIL: two wake-ups per sample, two samples
+    # per cycle, competing with plant and controller for the two cores).
+    sub: Any = None
+
+    def take() -> None:
+        if sub is None:
+            return
+        while (sample := sub.try_recv()) is not None:
+            recorder.on_sample(str(sample.key_expr), sample.payload.to_bytes())
+
     try:
-        bus.subscribe(f"{KEY_PREFIX}/{scenario.turbine_id}/**", recorder.on_sample)
+        sub = bus.session.declare_subscriber(
+            f"{KEY_PREFIX}/{scenario.turbine_id}/**",
+            zenoh.handlers.FifoChannel(_CHANNEL_CAPACITY),
+        )
         token = bus.session.liveliness().declare_token(f"fowt/{scenario.turbine_id}/alive/recorder")
         plant_gone = threading.Event()
 
@@ -338,15 +393,21 @@ def run_recorder_node(
             # sample costs a thread switch and a GIL hand-over with Zenoh's thread, which
             # took the CPU the plant and controller need (recorder CPU -20 % in lock-step).
             time.sleep(_DRAIN_PERIOD_S)
+            take()
             written += recorder.drain(0.0)
         end = time.monotonic() + drain_s
         while time.monotonic() < end:
+            take()
             written += recorder.drain(0.02)
+        take()
         if plant_gone.is_set() and not recorder.final_seen.is_set():
             log("recorder: the plant went away without its final summary (killed?)")
         plant_watch.undeclare()
         token.undeclare()
     finally:
+        with contextlib.suppress(Exception):  # a session failing at its start: nothing to take
+            take()
+            sub.undeclare()
         bus.close()
         meta = {
             "messages": str(run_log.count),

@@ -37,6 +37,9 @@ def test_lockstep_run_over_zenoh_records_every_channel(tmp_path: Path) -> None:
     assert not run.truncated, run.error
     for suffix in ("sensors", "command", "truth", "controller/status", "timing/cycle"):
         assert len(run.topic(suffix)) == cycles, suffix
+    # Every cycle's record of each, once (truth, timing and status travel in log batches).
+    for suffix in ("sensors", "truth", "controller/status", "timing/cycle"):
+        assert [m["seq"] for m in run.topic(suffix)] == list(range(cycles)), suffix
     assert run.topic("timing/summary")[-1]["final"] == 1
     # Every command answers the frame of the same cycle, in order.
     answered = [c["answered_seq"] for c in run.topic("command")]

@@ -39,7 +39,15 @@ import pytest
 from _mcap_conformance import check_complete_mcap
 
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
-from hil.bus import Bus, BusConfig, free_tcp_endpoint
+from hil.bus import (
+    CONTROLLER_BATCH_SUFFIX,
+    PLANT_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    batch_key,
+    free_tcp_endpoint,
+    unbatching,
+)
 
 pytestmark = pytest.mark.e2e
 
@@ -59,8 +67,14 @@ class Monitor:
         self.latest: dict[str, int] = {"truth": -1, "controller/status": -1}
         self._lock = threading.Lock()
         self.bus = Bus(BusConfig(connect=connect))
-        for mt in (TRUTH, CONTROLLER_STATUS):
+        # The nodes put these log-only messages in batches (hil.bus.LogBatcher): what a
+        # killed node had not put yet was never on the bus, and the bound covers it.
+        for mt, suffix in (
+            (TRUTH, PLANT_BATCH_SUFFIX),
+            (CONTROLLER_STATUS, CONTROLLER_BATCH_SUFFIX),
+        ):
             self.bus.subscribe(mt.key("t1"), self._on(mt))
+            self.bus.subscribe(batch_key("t1", suffix), unbatching(mt, self._on(mt), "t1"))
 
     def _on(self, mt: MessageType) -> Callable[[str, bytes], None]:
         def on_sample(_key: str, payload: bytes) -> None:
