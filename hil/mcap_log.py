@@ -6,7 +6,8 @@ Writing
 message declaration (:meth:`bus_schemas.registry.MessageType.json_schema`) and writes each
 message as JSON. ``log_time`` is the run's wall-clock start plus the message's simulated
 ``sample_time_ns``, so Foxglove's timeline is simulated time; ``publish_time`` is when the
-recorder received it.
+recorder took it from its subscriber's queue (at most about 20 ms after it arrived, see
+:mod:`hil.recorder`; for a message that came in a log batch, when the batch was taken).
 
 In-process runs and campaign workers write through :class:`BatchRunLog` instead: many
 messages at once (one chunk per batch, the message records and indexes built with numpy),
