@@ -1013,6 +1013,8 @@ def run_plant_node(
             signum = received[0] if received else signal.SIGTERM
             raise PeerWaitInterruptedError(signum, list(require))
         loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+        if mode == "realtime":  # the kernels' first call must not fall into a paced cycle
+            loop.sim.warm_up(loop.x, loop.applied)
         loop.log = log
         loop._inbox = inbox
         freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
