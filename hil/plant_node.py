@@ -490,10 +490,7 @@ class PlantLoop:
         # The log-only messages go out while the controller works on the frame: a Zenoh
         # put costs 50-150 us, which would otherwise add to every cycle's round trip.
         publish(TRUTH, truth)
-        pending = self._pending_timing  # flush_timing, inline (once per cycle)
-        if pending is not None:
-            publish(CYCLE_TIMING, pending)
-            self._pending_timing = None
+        self.flush_timing()
         return frame
 
     def _log_fault_events(self) -> None:
@@ -551,11 +548,7 @@ class PlantLoop:
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
-        if missed or self.safe_state:
-            new = self._watchdog(missed, new)
-        else:  # the watchdog's rule for an on-time command outside the safe state
-            self.consecutive_misses = 0
-            self.on_time_run += 1
+        new = self._watchdog(missed, new)
         self.x = sim.advance(t_ns * 1e-9, self.x, previous, new, switch)
         self.applied = new
         now = time.monotonic_ns()
@@ -577,6 +570,10 @@ class PlantLoop:
 
     def _watchdog(self, missed: bool, demand: tuple[float, float]) -> tuple[float, float]:
         """The demand to apply this cycle after the watchdog's rule (see TimingSection)."""
+        if not missed and not self.safe_state:  # the usual cycle: nothing can switch
+            self.consecutive_misses = 0
+            self.on_time_run += 1
+            return demand
         if missed:
             self.consecutive_misses += 1
             self.on_time_run = 0
