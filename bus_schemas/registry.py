@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import msgspec
+import numpy as np
 
 from bus_schemas.codec import Codec, DecodeError, HeaderError
 from bus_schemas.messages import (
@@ -48,6 +49,20 @@ class MessageType:
     def key(self, turbine: str) -> str:
         """Zenoh key expression for ``turbine``, e.g. ``fowt/t1/sensors``."""
         return f"{KEY_PREFIX}/{turbine}/{self.key_suffix}"
+
+    @property
+    def row_dtype(self) -> np.dtype[np.void]:
+        """The message as a packed numpy record: one 8-byte field per Struct field, in order.
+
+        ``int64`` for an integer field, ``float64`` for a float one (every per-cycle message
+        holds only numbers). All fields are 8 bytes and unpadded, so an ``(n, len(fields))``
+        float64 buffer viewed with this dtype is ``n`` messages, and its integer columns can
+        be written through an ``int64`` view of the same memory: a compiled loop fills rows
+        that way, and the log writer takes them in bulk (no Struct per message).
+        """
+        return np.dtype(
+            [(f.name, np.float64 if f.is_float else np.int64) for f in self.codec.fields]
+        )
 
     def json_schema(self) -> dict[str, Any]:
         """Flat JSON Schema (draft 2020-12) of the message, units in descriptions.

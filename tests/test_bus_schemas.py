@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 import math
 import struct
+import typing
 
 import msgspec
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -239,3 +241,26 @@ def test_floating_fields_round_trip_and_appear_in_the_json_schema() -> None:
     assert "N m" in json.dumps(props["tower_base_moment_nm"])
     sprops = CONTROLLER_STATUS.json_schema()["properties"]
     assert "wave_forecast_time_ns" in sprops and "feedforward_pitch_rad" in sprops
+
+
+@pytest.mark.parametrize("mt", MESSAGES, ids=lambda mt: mt.name)
+def test_row_dtype_is_the_struct_field_for_field_in_8_byte_columns(mt: MessageType) -> None:
+    """A row buffer (float64, int columns through an int64 view) reads back as the Struct."""
+    dtype = mt.row_dtype
+    hints = typing.get_type_hints(mt.cls)
+    assert dtype.names == mt.cls.__struct_fields__
+    assert dtype.itemsize == 8 * len(dtype.names)  # packed: the 2-D buffer view holds
+    for name in dtype.names:
+        assert dtype[name] == (np.int64 if hints[name] is int else np.float64), name
+    buf = np.zeros((3, len(dtype.names)))
+    ints = buf.view(np.int64)
+    for j, name in enumerate(dtype.names):
+        if hints[name] is int:
+            ints[:, j] = [1, 2, 3 + j]
+        else:
+            buf[:, j] = [0.5, -1.25, 2.0**40 + j]
+    rows = buf.view(dtype).ravel()
+    assert len(rows) == 3
+    msg = mt.cls(**dict(zip(dtype.names, rows[2].tolist(), strict=True)))
+    for j, name in enumerate(dtype.names):
+        assert getattr(msg, name) == (3 + j if hints[name] is int else 2.0**40 + j), name
