@@ -40,6 +40,7 @@ import fcntl
 import multiprocessing
 import time
 import typing
+from collections.abc import Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -49,6 +50,8 @@ import numpy as np
 
 from bus_schemas.registry import MESSAGES, MessageType
 from hil.mcap_log import MESSAGE_HEADER_BYTES, BatchRunLog
+
+_BY_ID = {mt.message_id: mt for mt in MESSAGES}
 
 #: Messages per batch (one MCAP chunk each); bench/inprocess_speed.py measured the choice.
 BATCH_MESSAGES = 1024
@@ -271,6 +274,50 @@ class BackgroundRunLog:
             lst.append(msg)
         if len(ids) >= self._batch_messages:
             self._send()
+
+    def publish_block(self, order: np.ndarray, rows: Mapping[int, np.ndarray]) -> None:
+        """Queue many messages given as rows (:attr:`MessageType.row_dtype`) at once.
+
+        Parameters
+        ----------
+        order : ndarray of uint8
+            The block's message ids in publish order.
+        rows : mapping of message id to structured ndarray
+            Per message id, its messages in publish order as a 1-D array of that type's
+            ``row_dtype``; as many rows as the id occurs in ``order``. The rows are used
+            before this call returns (the caller may reuse its buffers).
+
+        Raises
+        ------
+        ValueError
+            If a message id is unknown, or the rows do not match ``order`` or the dtype.
+
+        Notes
+        -----
+        Reference version: each row becomes its Struct and goes through :meth:`publish`.
+        """
+        ids = np.asarray(order, np.uint8)
+        for mid, block in rows.items():
+            mt = _BY_ID.get(mid)
+            if mt is None:
+                raise ValueError(f"publish_block: unknown message id {mid}")
+            if block.dtype != mt.row_dtype or block.ndim != 1:
+                raise ValueError(f"publish_block: {mt.name} rows must be 1-D {mt.row_dtype}")
+            if len(block) != int(np.count_nonzero(ids == mid)):
+                raise ValueError(f"publish_block: {len(block)} {mt.name} rows for its ids")
+        if int(np.count_nonzero(np.isin(ids, list(rows)))) != len(ids):
+            raise ValueError("publish_block: an id in order has no rows")
+        msgs = {
+            mid: iter(
+                [
+                    _BY_ID[mid].cls(**dict(zip(r.dtype.names, r.tolist(), strict=True)))
+                    for r in block
+                ]
+            )
+            for mid, block in rows.items()
+        }
+        for mid in ids.tolist():
+            self.publish(_BY_ID[mid], next(msgs[mid]))
 
     def _payload(self) -> bytes:
         """The batch as it goes to the writer: one msgpack call for all its messages."""

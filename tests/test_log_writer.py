@@ -15,6 +15,7 @@ import typing
 from pathlib import Path
 
 import msgspec
+import numpy as np
 import pytest
 from _mcap_conformance import check_complete_mcap
 from mcap.reader import make_reader
@@ -170,3 +171,54 @@ def test_recover_a_log_cut_inside_any_message_index(tmp_path: Path) -> None:
         assert (
             check_complete_mcap(tmp_path / f"fixed{k}.mcap", validate=False).message_count == kept
         )
+
+
+def test_publish_block_rows_are_written_as_their_structs(tmp_path: Path) -> None:
+    """Rows (row_dtype) handed over in blocks, mixed with single messages: the file holds
+    each row's Struct JSON, byte for byte, in publish order per topic; bad blocks refused."""
+    rng = random.Random(7)
+    path = tmp_path / "rows.mcap"
+    log = BackgroundRunLog(path, "t1", {"run": {"mode": "inprocess"}}, batch_messages=100)
+    log.wait_ready()
+    per_cycle = [mt for mt in MESSAGES if mt.key_suffix in ("sensors", "truth", "command")]
+    sent: dict[str, list[bytes]] = {}
+    seq = 0
+    for block in range(40):
+        cycles = 1 + block % 9
+        order = [mt.message_id for _ in range(cycles) for mt in per_cycle]
+        rows = {}
+        for mt in per_cycle:
+            msgs = [_random_message(mt, rng, seq + c) for c in range(cycles)]
+            rows[mt.message_id] = np.array(
+                [msgspec.structs.astuple(m) for m in msgs], dtype=mt.row_dtype
+            )
+        for c in range(cycles):
+            for mt in per_cycle:
+                values = rows[mt.message_id][c].tolist()
+                msg = mt.cls(**dict(zip(mt.row_dtype.names, values, strict=True)))
+                sent.setdefault(mt.key("t1"), []).append(msgspec.json.encode(msg))
+        log.publish_block(np.array(order, np.uint8), rows)
+        seq += cycles
+        single = _random_message(MESSAGES[block % len(MESSAGES)], rng, seq)
+        sent.setdefault(MESSAGES[block % len(MESSAGES)].key("t1"), []).append(
+            msgspec.json.encode(single)
+        )
+        log.publish(MESSAGES[block % len(MESSAGES)], single)
+    mt0 = per_cycle[0]
+    good = np.zeros(2, mt0.row_dtype)
+    with pytest.raises(ValueError, match="rows for its ids"):
+        log.publish_block(np.array([mt0.message_id], np.uint8), {mt0.message_id: good})
+    with pytest.raises(ValueError, match="must be 1-D"):
+        log.publish_block(np.array([mt0.message_id] * 2, np.uint8), {mt0.message_id: np.zeros(2)})
+    with pytest.raises(ValueError, match="unknown message id"):
+        log.publish_block(np.array([250], np.uint8), {250: good})
+    with pytest.raises(ValueError, match="has no rows"):
+        log.publish_block(
+            np.array([mt0.message_id] * 2 + [per_cycle[1].message_id], np.uint8),
+            {mt0.message_id: good},
+        )
+    log.close()
+    got: dict[str, list[bytes]] = {}
+    for topic, _seq, _lt, _pt, data in _read_all(path):
+        got.setdefault(topic, []).append(data)
+    assert got == sent
