@@ -148,6 +148,8 @@ def turbulent_speed(table: np.ndarray, dt: float, t: float) -> float:
 def _clamped_cell(grid: np.ndarray, v: float) -> tuple[int, float]:
     """Cell i and weight w of v on an ascending grid (at least 2 points), ends held."""
     n = grid.size
+    if math.isnan(v):  # NaN passes every comparison below: cell 0, NaN weight (not grid[n])
+        return 0, v
     if v <= grid[0]:
         return 0, 0.0
     if v >= grid[n - 1]:
@@ -166,8 +168,8 @@ def coefficients_clamped(
     ny = ys.size
     i, a = _clamped_cell(xs, tsr)
     j, b = _clamped_cell(ys, pitch)
-    # A NaN input passes every comparison above: keep its cell inside the table (the result
-    # is NaN, never a read beyond the cells).
+    # _clamped_cell keeps a NaN's cell at 0 (the result is NaN); the clamp guards the cells
+    # array against any other index out of range.
     i = 0 if i < 0 else (nx - 2 if i > nx - 2 else i)
     j = 0 if j < 0 else (ny - 2 if j > ny - 2 else j)
     c = cells[i * (ny - 1) + j]
