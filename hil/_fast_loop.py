@@ -360,7 +360,8 @@ class CompiledLoop:
 
     def _last_frame(self) -> SensorFrame:
         j = int(self.ist[lk.I_N_SENSORS]) - 1
-        return SensorFrame(*self.buf[lk.MID_SENSORS][j : j + 1].view(self.dtypes[1]).tolist()[0])
+        row = self.buf[lk.MID_SENSORS][j : j + 1].view(self.dtypes[lk.MID_SENSORS])
+        return SensorFrame(*row.ravel().tolist()[0])
 
     def _forecast(self) -> None:
         """The forecaster's update of AdvancedController.step on cycle k's frame."""

@@ -520,7 +520,7 @@ def _run_inprocess(
             publish,
             step,
             before_loop=log.wait_ready,
-            runtime=runtime if publish is log.publish else None,
+            runtime=runtime,
             loop=loop,
             publish_block=log.publish_block,
         )
