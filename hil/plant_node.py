@@ -1301,6 +1301,7 @@ def run_inprocess(
         raise ValueError(f"loop='compiled': not supported here ({why})")
     plant.result.loop = "python" if why is not None else "compiled"
     plant.log(f"in-process loop: {plant.result.loop}" + (f" ({why})" if why is not None else ""))
+    fast = None if why is not None else CompiledLoop(plant, runtime, step_controller, publish_block)
     if before_loop is not None:
         before_loop()
         plant.start_wall_ns = time.monotonic_ns()
@@ -1310,8 +1311,8 @@ def run_inprocess(
         command = step_controller(frame)
         return command, time.monotonic_ns() - t0
 
-    if why is None:
-        CompiledLoop(plant, runtime, step_controller, publish_block).run(scenario.cycles)
+    if fast is not None:
+        fast.run(scenario.cycles)
     else:
         faulted = plant.bus_faults
         sample, finish, clock = plant.sample, plant.finish_cycle, time.monotonic_ns
