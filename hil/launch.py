@@ -524,6 +524,10 @@ def _run_inprocess(
             loop=loop,
             publish_block=log.publish_block,
         )
+    except ValueError as exc:
+        if str(exc).startswith("loop='compiled'"):  # asked for, not supported: say why
+            raise RunFailedError(f"--loop compiled: {exc}") from exc
+        raise
     except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
         raise RunFailedError(f"controller failed: {exc}; the run up to it: {mcap_path}") from exc
     finally:
