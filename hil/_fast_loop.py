@@ -176,8 +176,11 @@ class CompiledLoop:
         }
         self.ibuf = {mid: b.view(np.int64) for mid, b in self.buf.items()}
         self.dtypes = {mt.message_id: mt.row_dtype for mt in _TYPES}
-        # Load the kernel (numba's on-disk cache, ~0.1-0.3 s) now, before the run's clock
-        # starts: a call that stops before its first cycle (limit 0) changes nothing.
+        # Load the kernels (numba's on-disk cache, ~0.05-0.3 s) now, before the run's clock
+        # starts: the plant's for the cycles Python runs (on a copy of the simulator:
+        # PlantSimulator.warm_up), and this loop's (a call that stops before its first
+        # cycle, limit 0, changes nothing).
+        sim.warm_up(loop.x, loop.applied)
         self._pull(loop.k + 1)
         lk_reason = self._call(0, limit=0)
         assert lk_reason == lk.STOP_LIMIT
