@@ -41,6 +41,9 @@ if TYPE_CHECKING:
 
 #: ``publish_block(order, rows)`` of :class:`hil.log_writer.BackgroundRunLog`.
 PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
+#: Positions in the kernel's arguments (CompiledLoop._args) of arrays a run may replace:
+#: the plant state, wave table, ring buffers, the core's state copies.
+_REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27)
 #: Cycles per kernel call at most (a running summary stops it every simulated second anyway).
 BATCH = 64
 _TYPES: tuple[MessageType, ...] = (SENSORS, COMMAND, TRUTH, CONTROLLER_STATUS, CYCLE_TIMING)
@@ -134,6 +137,7 @@ class CompiledLoop:
         self.python_cycles = 0
         self._stops: dict[int, int] = {}
         self._kernel: Any = None
+        self._sig: tuple[Any, ...] = ()
         sim = loop.sim
         self.ist = np.zeros(lk.I_SIZE, dtype=np.int64)
         self.fst = np.zeros(lk.F_SIZE)
@@ -261,6 +265,7 @@ class CompiledLoop:
         ist[lk.I_N_LAT] = 0
         for i in lk._I_COUNT:
             ist[i] = 0
+        self._check_kernel_types()
 
     def _set_forecast(self, st: Any) -> None:
         """The forecast part of the advanced core's state as AdvancedController.step reads it."""
@@ -382,6 +387,19 @@ class CompiledLoop:
         cres = overloads.get(sig)
         if cres is not None:
             self._kernel = cres.entry_point
+            self._sig = sig
+
+    def _check_kernel_types(self) -> None:
+        """Before a batch: the arrays that may be replaced during a run (the state, the
+        core's copies, the wave table, the ring buffers) still have the bound types, else
+        the dispatcher takes over (an entry point does not check its arguments' types)."""
+        if self._kernel is None:
+            return
+        args = self._args(0, 0)
+        for i in _REPLACEABLE:
+            if numba.typeof(args[i]) != self._sig[i]:
+                self._kernel = None
+                return
 
     @property
     def stops(self) -> dict[str, int]:

@@ -287,3 +287,20 @@ def test_mcap_of_compiled_loop_equals_python_loop(name: str, tmp_path: Path) -> 
         assert len(xs) == len(ys), topic
         for i, (x, y) in enumerate(zip(xs, ys, strict=True)):
             assert x == y, f"{topic} #{i}:\n{x!r}\n{y!r}"
+
+
+def test_kernel_entry_point_is_dropped_when_an_array_type_changes() -> None:
+    """The loop calls the kernel's compiled entry point (which does not check its arguments)
+    only while the replaceable arrays keep the types it was bound with."""
+    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
+    rt = ControllerRuntime(scn)
+    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), rt, lambda _f: None)
+    assert fast._kernel is not None
+    sim = fast.loop.sim
+    wc = sim._wc
+    fast._check_kernel_types()
+    assert fast._kernel is not None
+    sim._wc = np.asfortranarray(np.vstack([wc, wc]))  # another layout: another type
+    fast._check_kernel_types()
+    assert fast._kernel is None  # the dispatcher types (and checks) every call again
+    sim._wc = wc
