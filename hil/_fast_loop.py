@@ -48,7 +48,6 @@ _REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27)
 BATCH = 64
 _TYPES: tuple[MessageType, ...] = (SENSORS, COMMAND, TRUTH, CONTROLLER_STATUS, CYCLE_TIMING)
 _BY_ID = {mt.message_id: mt for mt in _TYPES}
-_GEN_BIT = VALID_GENERATOR_SPEED
 if [mt.message_id for mt in _TYPES] != [
     lk.MID_SENSORS,
     lk.MID_COMMAND,
