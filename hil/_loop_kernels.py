@@ -35,7 +35,9 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import math
+import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import llvmlite.binding as llvm  # type: ignore[import-untyped]
@@ -51,6 +53,31 @@ from plant._kernels import TRUTH_FIELDS, TRUTH_FLOATING, advance_floating, float
 from sensors._kernels import suite_step
 
 _F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _stamp_after_callees() -> None:
+    """Make numba's cache of this module stale when a kernel it calls has changed.
+
+    numba keys a cached function by its own source file's time stamp and size only; the
+    kernels composed here live in other files (plant, sensors, controller), whose changes
+    would otherwise leave the old machine code of :func:`run_cycles` in use. When one of
+    those files is newer than this one, this file's time stamp is set to now (content
+    untouched), before the decorators below read it, so the kernel is compiled again.
+    """
+    import controller._kernels as ck  # noqa: PLC0415
+    import plant._kernels as pk  # noqa: PLC0415
+    import sensors._kernels as sk  # noqa: PLC0415
+
+    here = Path(__file__)
+    try:
+        newest = max(Path(m.__file__ or "").stat().st_mtime for m in (ck, pk, sk))
+        if newest > here.stat().st_mtime:
+            os.utime(here)
+    except OSError:  # a read-only install: its cache is the one it was shipped with
+        pass
+
+
+_stamp_after_callees()
 
 # clock_gettime by name: the cached machine code refers to the symbol, bound here in every
 # process (so the kernel stays cacheable, unlike a ctypes pointer baked in as a constant).
