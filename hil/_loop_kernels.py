@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import hashlib
 import math
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -46,6 +46,7 @@ import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
+from numba.core.caching import CacheImpl
 from numba.extending import intrinsic
 
 from controller._kernels import advanced_cycle, baseline_step
@@ -55,29 +56,55 @@ from sensors._kernels import suite_step
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 
-def _stamp_after_callees() -> None:
-    """Make numba's cache of this module stale when a kernel it calls has changed.
-
-    numba keys a cached function by its own source file's time stamp and size only; the
-    kernels composed here live in other files (plant, sensors, controller), whose changes
-    would otherwise leave the old machine code of :func:`run_cycles` in use. When one of
-    those files is newer than this one, this file's time stamp is set to now (content
-    untouched), before the decorators below read it, so the kernel is compiled again.
-    """
-    import controller._kernels as ck  # noqa: PLC0415
-    import plant._kernels as pk  # noqa: PLC0415
-    import sensors._kernels as sk  # noqa: PLC0415
-
-    here = Path(__file__)
-    try:
-        newest = max(Path(m.__file__ or "").stat().st_mtime for m in (ck, pk, sk))
-        if newest > here.stat().st_mtime:
-            os.utime(here)
-    except OSError:  # a read-only install: its cache is the one it was shipped with
-        pass
+#: The kernels' sources composed by :func:`run_cycles` (its cache key includes them).
+_CALLEE_FILES = tuple(
+    Path(__file__).resolve().parent.parent / name / "_kernels.py"
+    for name in ("plant", "sensors", "controller")
+)
 
 
-_stamp_after_callees()
+def _callees_hash() -> bytes:
+    h = hashlib.sha256()
+    for path in _CALLEE_FILES:
+        h.update(path.read_bytes())
+    return h.digest()
+
+
+def _with_callee_stamp(base: Any) -> Any:
+    """``base`` (a numba cache locator) for this file only, its source stamp extended by
+    the composed kernels' sources."""
+
+    class _Locator(base):
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if Path(py_file).resolve() != Path(__file__).resolve():
+                return None
+            return super().from_function(py_func, py_file)
+
+        def get_source_stamp(self) -> Any:
+            return (super().get_source_stamp(), _callees_hash())
+
+    _Locator.__name__ = f"LoopKernel{base.__name__}"
+    return _Locator
+
+
+def _key_cache_by_callees() -> None:
+    """numba keys a cached function by its own file's content only; :func:`run_cycles`
+    composes kernels from three other files, whose changes would otherwise leave its old
+    machine code in use (a stale cache). This module's functions get locators that add
+    those files' content to the key (numba's ``CacheImpl._locator_classes``: ahead of the
+    standard ones, each in the same order, so ``NUMBA_CACHE_DIR`` and the rest behave as
+    for every other kernel)."""
+    classes = CacheImpl._locator_classes
+    if any(getattr(c, "_fowt_loop", False) for c in classes):
+        return
+    wrapped = [_with_callee_stamp(c) for c in classes]
+    for c in wrapped:
+        c._fowt_loop = True
+    classes[:0] = wrapped
+
+
+_key_cache_by_callees()
 
 # clock_gettime by name: the cached machine code refers to the symbol, bound here in every
 # process (so the kernel stays cacheable, unlike a ctypes pointer baked in as a constant).

@@ -304,3 +304,14 @@ def test_kernel_entry_point_is_dropped_when_an_array_type_changes() -> None:
     fast._check_kernel_types()
     assert fast._kernel is None  # the dispatcher types (and checks) every call again
     sim._wc = wc
+
+
+def test_loop_kernel_cache_is_keyed_by_the_composed_kernels_sources() -> None:
+    """numba keys a cache by the function's own file; the loop kernel's key also holds the
+    plant, sensor and controller kernel files it composes (a change there recompiles it)."""
+    locator = lk.run_cycles._cache._impl._locator
+    assert type(locator).__name__.startswith("LoopKernel")
+    _own, callees = locator.get_source_stamp()
+    assert callees == lk._callees_hash()
+    assert [p.name for p in lk._CALLEE_FILES] == ["_kernels.py"] * 3
+    assert all(p.is_file() for p in lk._CALLEE_FILES)
