@@ -151,8 +151,17 @@ class _Timers:
         return max(0.0, (timed - plain) / n)
 
 
-def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict[str, Any]:
-    """One in-process run in this process, the loop's parts timed (module docstring)."""
+def split_run(
+    scenario_name: str, duration_s: float, keep_batches: bool, loop: str = "auto"
+) -> dict[str, Any]:
+    """One in-process run in this process, the loop's parts timed (module docstring).
+
+    ``loop``: the in-process loop (``auto``, ``compiled``, ``python``; code without the
+    compiled loop takes no such argument and runs its only loop). In the compiled loop the
+    kernel's calls are timed as ``kernel`` (plant, sensors, controller core and the
+    runtime's checks of every cycle it runs); ``plant`` and ``controller`` are then the
+    cycles handed back to Python (and the forecaster's updates, in ``controller``).
+    """
     from rich.console import Console
 
     import hil.launch as launch_mod
@@ -168,6 +177,26 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
     for name in ("truth", "sensor_frame", "advance"):
         timers.wrap(PlantSimulator, name, "plant")
     timers.wrap(lw.BackgroundRunLog, "publish", "logging")
+    block = getattr(lw.BackgroundRunLog, "publish_block", None)  # (absent before s3)
+    if block is not None:
+        # one "logging" interval per block (the reference publish_block calls publish:
+        # those inner intervals are replaced by the block's)
+        def timed_block(self: Any, order: Any, rows: Any) -> None:
+            snap, calls = timers.ns["logging"], timers.calls["logging"]
+            t0 = time.perf_counter_ns()
+            block(self, order, rows)
+            timers.ns["logging"] = snap + time.perf_counter_ns() - t0
+            timers.calls["logging"] = calls + 1
+
+        lw.BackgroundRunLog.publish_block = timed_block  # type: ignore[method-assign]
+    import importlib.util
+
+    kernel_mod = None  # the compiled loop (absent before s3)
+    if importlib.util.find_spec("hil._fast_loop") is not None:
+        kernel_mod = importlib.import_module("hil._fast_loop")
+    if kernel_mod is not None:
+        timers.wrap(kernel_mod.lk, "run_cycles", "kernel")
+        timers.wrap(kernel_mod.CompiledLoop, "_forecast", "controller")
     logs: list[Any] = []
     wrapped: set[type] = set()
     batches: list[bytes] = []
@@ -203,6 +232,8 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
         send(self)  # type: ignore[misc]
 
     def mark_start() -> None:
+        timers.ns.clear()  # nothing before the loop counts (the kernel's first load)
+        timers.calls.clear()
         marks["cpu0"] = time.thread_time_ns()
         marks["wall0"] = time.perf_counter_ns()
 
@@ -238,14 +269,19 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
             design_dir = ensure_designs(scenario, Console(quiet=True))
             children0 = _children_cpu_s()
             wall0 = time.perf_counter_ns()
-            launch_mod._run_inprocess(
-                scenario, out / "run.mcap", run_info(req, scenario), toml_text, design_dir
+            extra = {}
+            if "loop" in inspect.signature(launch_mod._run_inprocess).parameters:
+                extra["loop"] = loop
+            ran = launch_mod._run_inprocess(
+                scenario, out / "run.mcap", run_info(req, scenario), toml_text, design_dir, **extra
             )
             wall_total = time.perf_counter_ns() - wall0
             writer_cpu_s = _children_cpu_s() - children0
             mcap_bytes = (out / "run.mcap").stat().st_size
     finally:
         timers.restore()
+        if block is not None:
+            lw.BackgroundRunLog.publish_block = block  # type: ignore[method-assign]
         lw.BackgroundRunLog.__init__ = init_log  # type: ignore[method-assign]
         if send is not None:
             lw.BackgroundRunLog._send = send  # type: ignore[method-assign]
@@ -268,7 +304,7 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
     timers.ns["logging"] -= send_ns
     parts = {
         p: (timers.ns[p] - clock * timers.calls[p]) * cpu_per_wall / cycles / 1e3
-        for p in ("plant", "controller", "logging")
+        for p in ("plant", "controller", "logging", "kernel")
     }
     n_timed = sum(timers.calls.values())
     parts["glue"] = (
@@ -277,6 +313,7 @@ def split_run(scenario_name: str, duration_s: float, keep_batches: bool) -> dict
         - ((overhead - clock) * n_timed / cycles / 1e3)
     )
     return {
+        "loop": ran or "python",
         "cycles": cycles,
         "per_cycle_cpu_us": {k: round(v, 2) for k, v in parts.items()},
         "per_cycle_cpu_us_total": round(loop_cpu / cycles / 1e3, 2),
@@ -347,11 +384,11 @@ def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
     return out
 
 
-def _split_child(name: str, duration_s: float) -> None:
+def _split_child(name: str, duration_s: float, loop: str = "auto") -> None:
     """``--split-child``: one split run, its JSON on stdout (for ``--compare-python``)."""
     import json
 
-    r = split_run(CONFIGS[name]["scenario"], duration_s, keep_batches=False)
+    r = split_run(CONFIGS[name]["scenario"], duration_s, keep_batches=False, loop=loop)
     r.pop("_batches")
     r["load_average"] = os.getloadavg()
     print("SPLIT " + json.dumps(r), flush=True)
@@ -365,17 +402,20 @@ def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]
     import subprocess
 
     here = Path(__file__).resolve()
+    # (python, code root, --loop): this code's compiled and Python loops, and the other code
     codes = {
-        "this": (sys.executable, here.parent.parent),
-        "compare": (str(args.compare_python), args.compare_root.resolve()),
+        "this": (sys.executable, here.parent.parent, "compiled"),
+        "this_python_loop": (sys.executable, here.parent.parent, "python"),
+        "compare": (str(args.compare_python), args.compare_root.resolve(), "auto"),
     }
     out: dict[str, Any] = {"compare_root": str(args.compare_root), "rounds": args.rounds}
     for name in names:
-        per: dict[str, list[dict[str, Any]]] = {"this": [], "compare": []}
+        per: dict[str, list[dict[str, Any]]] = {code: [] for code in codes}
         for _ in range(args.rounds):
-            for code, (python, root) in codes.items():
+            for code, (python, root, loop) in codes.items():
                 env = {**os.environ, "PYTHONPATH": str(root)}
                 cmd = [python, str(here), "--split-child", name, "--duration", str(args.duration)]
+                cmd += ["--loop", loop]
                 proc = subprocess.run(
                     cmd, cwd=root, env=env, capture_output=True, text=True, check=False
                 )
@@ -387,6 +427,7 @@ def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]
         for code, runs in per.items():
             best = min(runs, key=lambda r: r["per_cycle_cpu_us_total"])
             entry[code] = {
+                "loop": best.get("loop", "python"),
                 "per_cycle_cpu_us": best["per_cycle_cpu_us"],
                 "per_cycle_cpu_us_total": best["per_cycle_cpu_us_total"],
                 "loop_sim_s_per_cpu_s": best["loop_sim_s_per_cpu_s"],
@@ -398,6 +439,11 @@ def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]
                 "rounds_per_cycle_cpu_us_total": [r["per_cycle_cpu_us_total"] for r in runs],
                 "rounds_load_average": [r["load_average"][0] for r in runs],
             }
+        entry["loop_cpu_ratio_this_python_loop_over_this"] = round(
+            entry["this_python_loop"]["per_cycle_cpu_us_total"]
+            / entry["this"]["per_cycle_cpu_us_total"],
+            3,
+        )
         entry["loop_cpu_ratio_compare_over_this"] = round(
             entry["compare"]["per_cycle_cpu_us_total"] / entry["this"]["per_cycle_cpu_us_total"],
             3,
@@ -421,9 +467,15 @@ def main() -> None:
     ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
     ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
+    ap.add_argument(
+        "--loops",
+        default="compiled,python",
+        help="in-process loops to split (comma-separated: compiled, python, auto)",
+    )
+    ap.add_argument("--loop", default="auto", help=argparse.SUPPRESS)  # (--split-child)
     args = ap.parse_args()
     if args.split_child:
-        _split_child(args.split_child, args.duration)
+        _split_child(args.split_child, args.duration, args.loop)
         return
     import hil
 
@@ -447,17 +499,34 @@ def main() -> None:
                 "whole_command_wall_s": round(s["bench_command_wall_s"], 3),
                 "met": speed is not None and speed >= cfg["target"],
             }
-        splits = [
-            split_run(cfg["scenario"], args.duration, keep_batches=name == "lc2-lqri-ff" and i == 0)
-            for i in range(args.repeat)
-        ]
-        batches = splits[0].pop("_batches")
-        for extra in splits[1:]:
-            extra.pop("_batches")
-        # The machine is shared: of the repeats, the one whose loop took the least CPU (the
-        # least disturbed), with every repeat's per-cycle split beside it.
-        split = min(splits, key=lambda r: r["per_cycle_cpu_us_total"])
-        split["repeats_per_cycle_cpu_us"] = [r["per_cycle_cpu_us"] for r in splits]
+        loops = [x.strip() for x in args.loops.split(",") if x.strip()]
+        by_loop: dict[str, Any] = {}
+        batches: list[bytes] = []
+        for li, loop in enumerate(loops):
+            splits = [
+                split_run(
+                    cfg["scenario"],
+                    args.duration,
+                    keep_batches=name == "lc2-lqri-ff" and i == 0 and li == 0,
+                    loop=loop,
+                )
+                for i in range(args.repeat)
+            ]
+            if li == 0:
+                batches = splits[0].pop("_batches")
+            for extra in splits:
+                extra.pop("_batches", None)
+            # The machine is shared: of the repeats, the one whose loop took the least CPU
+            # (the least disturbed), with every repeat's per-cycle split beside it.
+            best = min(splits, key=lambda r: r["per_cycle_cpu_us_total"])
+            best["repeats_per_cycle_cpu_us"] = [r["per_cycle_cpu_us"] for r in splits]
+            by_loop[loop] = best
+        split = by_loop[loops[0]]
+        entry["splits_by_loop"] = {
+            loop: {k: v for k, v in r.items() if k != "repeats_per_cycle_cpu_us"}
+            for loop, r in by_loop.items()
+            if loop != loops[0]
+        }
         writer_cpu = max(1e-9, split["writer_cpu_s"])
         msgs_per_cpu_s = split["messages"] / writer_cpu
         loop_msgs_per_cpu_s = split["messages"] / (

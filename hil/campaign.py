@@ -605,7 +605,7 @@ def _inprocess(
         return command
 
     try:
-        run_inprocess(scenario, publish, step)
+        run_inprocess(scenario, publish, step, runtime=runtime)
     finally:
         if log is not None:
             log.close()

@@ -428,6 +428,14 @@ def run(
     ] = None,
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
     realtime_priority: RealtimePriorityOpt = 0,
+    loop: Annotated[
+        str,
+        typer.Option(
+            help="--mode inprocess: auto | compiled | python (the cycle loop; auto: compiled "
+            "where the scenario allows it)",
+            callback=_choice("auto", "compiled", "python"),
+        ),
+    ] = "auto",
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
 
@@ -440,6 +448,8 @@ def run(
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if can is not None and mode == "inprocess":
         _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+    if loop != "auto" and mode != "inprocess":
+        _fail(f"--loop {loop}: only with --mode inprocess")
     from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
 
     if out is None:
@@ -457,6 +467,7 @@ def run(
         plots=plots,
         can=can,
         realtime_priority=realtime_priority,
+        inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
     )
     try:
         launch(req, console)

@@ -74,7 +74,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, Literal
 
 import msgspec
 from rich.console import Console
@@ -132,6 +132,7 @@ class RunRequest:
     plots: bool = True
     can: CanBusConfig | None = None
     realtime_priority: int = 0  # SCHED_FIFO for the plant and controller (0: normal)
+    inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # hil.plant_node.run_inprocess
 
 
 class RunFailedError(RuntimeError):
@@ -438,8 +439,12 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
         console.print(f"[yellow]warning:[/] {line}" if level == "warning" else line)
     t0 = time.monotonic()
     driver: ProcessFaultDriver | None = None
+    loop_ran = ""
     if req.mode == "inprocess":
-        _run_inprocess(scenario, mcap_path, info, toml_text, design_dir)
+        loop_ran = _run_inprocess(
+            scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop
+        )
+        console.print(f"in-process loop: {loop_ran}")
     else:
         if process_faults:
             driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
@@ -447,6 +452,8 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     wall = time.monotonic() - t0
     summary = review(mcap_path, out, plots=req.plots)
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
+    if loop_ran:
+        summary["run"]["inprocess_loop"] = loop_ran
     if driver is not None:
         summary["run"]["process_faults"] = driver.records
         summary["run"]["plant_killed"] = driver.plant_killed
@@ -471,7 +478,9 @@ def _run_inprocess(
     info: dict[str, str],
     toml_text: str,
     design_dir: Path | None = None,
-) -> None:
+    loop: Literal["auto", "compiled", "python"] = "auto",
+) -> str:
+    """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``)."""
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
@@ -506,11 +515,24 @@ def _run_inprocess(
         return command
 
     try:
-        run_inprocess(scenario, publish, step, before_loop=log.wait_ready)
+        result = run_inprocess(
+            scenario,
+            publish,
+            step,
+            before_loop=log.wait_ready,
+            runtime=runtime,
+            loop=loop,
+            publish_block=log.publish_block,
+        )
+    except ValueError as exc:
+        if str(exc).startswith("loop='compiled'"):  # asked for, not supported: say why
+            raise RunFailedError(f"--loop compiled: {exc}") from exc
+        raise
     except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
         raise RunFailedError(f"controller failed: {exc}; the run up to it: {mcap_path}") from exc
     finally:
         log.close()
+    return result.loop
 
 
 def _scenario_ref(ref: str) -> str:

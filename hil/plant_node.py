@@ -324,6 +324,7 @@ class PlantRunResult:
     safe_state_entries: int = 0
     safe_state_cycles: int = 0
     faults_injected: dict[str, int] = field(default_factory=dict)
+    loop: str = "python"  # in-process runs: "compiled" (hil._fast_loop) or "python"
 
     @property
     def speed(self) -> float:
@@ -1267,6 +1268,10 @@ def run_inprocess(
     step_controller: Callable[[SensorFrame], ActuatorCommand | None],
     log: Callable[[str], None] | None = None,
     before_loop: Callable[[], None] | None = None,
+    *,
+    runtime: Any = None,
+    loop: Literal["auto", "compiled", "python"] = "auto",
+    publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -1276,31 +1281,51 @@ def run_inprocess(
     and the final fault counts. ``before_loop`` is called once the plant is built, before
     the first cycle (the in-process launcher waits there for its log writer to start); the
     run's wall time starts after it.
+
+    ``loop``: ``"compiled"`` runs the cycles in batches in compiled code
+    (:mod:`hil._fast_loop`; needs ``runtime``, the :class:`hil.controller_node.
+    ControllerRuntime` that ``step_controller`` drives, and a scenario it supports, else
+    ValueError naming why), handing back to ``step_controller`` and this module's loop every
+    cycle that needs Python; ``"python"`` the loop below; ``"auto"`` the compiled one when
+    it can. The same messages either way (wall-clock stamps aside). ``publish_block``
+    (``BackgroundRunLog.publish_block``) takes the compiled loop's messages as rows; without
+    it they go to ``publish`` as Structs. ``PlantRunResult.loop`` says which loop ran.
     """
-    loop = PlantLoop(scenario, publish)
+    plant = PlantLoop(scenario, publish)
     if log is not None:
-        loop.log = log
+        plant.log = log
+    from hil._fast_loop import CompiledLoop, compiled_unsupported  # noqa: PLC0415
+
+    why = compiled_unsupported(plant, runtime) if loop != "python" else "loop='python'"
+    if loop == "compiled" and why is not None:
+        raise ValueError(f"loop='compiled': not supported here ({why})")
+    plant.result.loop = "python" if why is not None else "compiled"
+    plant.log(f"in-process loop: {plant.result.loop}" + (f" ({why})" if why is not None else ""))
+    fast = None if why is not None else CompiledLoop(plant, runtime, step_controller, publish_block)
     if before_loop is not None:
         before_loop()
-        loop.start_wall_ns = time.monotonic_ns()
+        plant.start_wall_ns = time.monotonic_ns()
 
     def exchange(frame: SensorFrame, _sent_ns: int) -> tuple[ActuatorCommand | None, int]:
         t0 = time.monotonic_ns()
         command = step_controller(frame)
         return command, time.monotonic_ns() - t0
 
-    faulted = loop.bus_faults
-    sample, finish, clock = loop.sample, loop.finish_cycle, time.monotonic_ns
-    for _ in range(scenario.cycles):
-        frame = sample()
-        if faulted:
-            _faulted_sim_cycle(loop, frame, exchange)
-            continue
-        t0 = clock()
-        command = step_controller(frame)
-        finish(command, clock() - t0, at_arrival=False)
-    loop.count_faults()
-    loop.publish_summary(final=True)
-    if loop.result.faults_injected:
-        loop.log(f"plant faults injected: {_fault_counts_text(loop.result.faults_injected)}")
-    return loop.result
+    if fast is not None:
+        fast.run(scenario.cycles)
+    else:
+        faulted = plant.bus_faults
+        sample, finish, clock = plant.sample, plant.finish_cycle, time.monotonic_ns
+        for _ in range(scenario.cycles):
+            frame = sample()
+            if faulted:
+                _faulted_sim_cycle(plant, frame, exchange)
+                continue
+            t0 = clock()
+            command = step_controller(frame)
+            finish(command, clock() - t0, at_arrival=False)
+    plant.count_faults()
+    plant.publish_summary(final=True)
+    if plant.result.faults_injected:
+        plant.log(f"plant faults injected: {_fault_counts_text(plant.result.faults_injected)}")
+    return plant.result

@@ -12,8 +12,11 @@ It warms the kernels by running the real code paths, not by calling kernels with
 arguments, so every signature a run uses is compiled: a short in-process run of the floating
 IEA 15 MW with ``lqri_ff`` (floating plant, sensor suite, observers, forecaster, LQRI and
 wave feed-forward), of the bottom-fixed NREL 5 MW with the baseline, and of the Hexicon
-platform's sensor suite (another channel count). Nothing is written outside a temporary
-folder.
+platform's sensor suite (another channel count). The in-process runs take the compiled
+loop where the scenario allows it (:mod:`hil._loop_kernels`, about 9 s to compile once its
+callees are, ``bench/loop_compile_time.py``): the floating IEA 15 MW run compiles it (one
+signature serves the baseline and the advanced controller). Nothing is written outside a
+temporary folder.
 
     python -m hil.warmup
 """

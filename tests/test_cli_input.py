@@ -312,6 +312,12 @@ CASES: list[tuple[str, list[str], list[str]]] = [
         ["analyze", "forecast", "--horizon", "nan"],
         ["'--horizon'", "finite"],
     ),
+    ("run-loop-unknown", [*RUN, "--loop", "fast"], ["'--loop'", "auto, compiled, python"]),
+    (
+        "run-loop-not-inprocess",
+        ["run", "--mode", "lockstep", "--loop", "compiled", "--out", "out"],
+        ["--loop compiled", "--mode inprocess"],
+    ),
     ("design-period-nan", ["design", "--control-period", "nan"], ["'--control-period'", "finite"]),
     ("design-period-too-long", ["design", "--control-period", "2"], ["'--control-period'", "<= 1"]),
     (

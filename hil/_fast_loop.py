@@ -1,0 +1,488 @@
+"""The compiled in-process loop's Python side: when it may run, its state in and out.
+
+:func:`hil.plant_node.run_inprocess` with ``loop="compiled"`` (or ``"auto"`` when
+:func:`compiled_unsupported` finds nothing against it) runs :class:`CompiledLoop`: batches
+of cycles in :func:`hil._loop_kernels.run_cycles`, and every cycle the kernel hands back
+through today's path (:meth:`PlantLoop.sample`, the runtime's ``handle_frame``,
+:meth:`PlantLoop.finish_cycle`). Before a batch the state the kernel needs is read from the
+plant loop, its simulator and sensor suite, the controller runtime and its core; after it
+everything the kernel changed is written back, so the Python path (and the run's end)
+finds exactly what the Python loop would have left after the same cycles.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import msgspec
+import numba
+import numpy as np
+
+from bus_schemas import CycleTiming, SensorFrame
+from bus_schemas.messages import VALID_GENERATOR_SPEED, VALID_ROTOR_SPEED, VALID_WAVE_GAUGE
+from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_STATUS,
+    CYCLE_TIMING,
+    SENSORS,
+    TRUTH,
+    MessageType,
+)
+from controller.baseline import BaselineController, BaselineState
+from controller.runtime import AdvancedController
+from hil import _loop_kernels as lk
+
+if TYPE_CHECKING:
+    from hil.controller_node import ControllerRuntime
+    from hil.plant_node import PlantLoop
+
+#: ``publish_block(order, rows)`` of :class:`hil.log_writer.BackgroundRunLog`.
+PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
+#: Positions in the kernel's arguments (CompiledLoop._args) of arrays a run may replace:
+#: the plant state, wave table, ring buffers, the core's state copies.
+_REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27)
+#: Cycles per kernel call at most (a running summary stops it every simulated second anyway).
+BATCH = 64
+_TYPES: tuple[MessageType, ...] = (SENSORS, COMMAND, TRUTH, CONTROLLER_STATUS, CYCLE_TIMING)
+_BY_ID = {mt.message_id: mt for mt in _TYPES}
+if [mt.message_id for mt in _TYPES] != [
+    lk.MID_SENSORS,
+    lk.MID_COMMAND,
+    lk.MID_TRUTH,
+    lk.MID_STATUS,
+    lk.MID_TIMING,
+]:
+    raise ImportError("hil._loop_kernels.MID_* must be the registry's message ids")
+
+
+def compiled_unsupported(loop: PlantLoop, runtime: ControllerRuntime | None) -> str | None:
+    """Why the compiled loop cannot run this scenario (None: it can)."""
+    if runtime is None:
+        return "no controller runtime given"
+    sim = loop.sim
+    if loop.bus_faults:
+        return "bus faults"
+    if loop._preview is not None or runtime.takes_preview:
+        return "perfect wave preview"
+    if sim.floating is None:
+        return "bottom-fixed plant"
+    if sim._faulty:
+        return "sensor faults"
+    if sim.channels is None or sim._channel_values is None:
+        return "sensor channels without a true value in the truth record"
+    if not sim._wind_table.size:
+        return "wind without a sampled record"
+    if runtime.clock is not time.monotonic_ns:
+        return "controller runtime with an injected clock"
+    if runtime.paced is True or not runtime.same_host_clock:
+        return "wall-clock watchdog checks on"
+    ctrl = runtime.controller
+    if isinstance(ctrl, AdvancedController):
+        if runtime.dt_s != ctrl.dt_s:
+            return "advanced controller at another period than its design"
+        return None
+    if isinstance(ctrl, BaselineController):
+        return None
+    return f"controller {type(ctrl).__name__}"
+
+
+def rows_to_structs(
+    order: np.ndarray, rows: dict[int, np.ndarray]
+) -> list[tuple[MessageType, Any]]:
+    """The messages of a block as (type, Struct) in publish order (for a plain ``publish``)."""
+    out: list[tuple[MessageType, Any]] = []
+    seen = dict.fromkeys(rows, 0)
+    lists = {mid: r.tolist() for mid, r in rows.items()}
+    for mid in order.tolist():
+        i = seen[mid]
+        seen[mid] = i + 1
+        mt = _BY_ID[mid]
+        out.append((mt, mt.cls(*lists[mid][i])))
+    return out
+
+
+class CompiledLoop:
+    """Runs an in-process run's cycles in batches (module docstring).
+
+    Parameters
+    ----------
+    loop : PlantLoop
+        The run's plant loop (its ``publish`` gets the Python path's messages).
+    runtime : ControllerRuntime
+        The controller runtime ``step_controller`` drives.
+    step_controller : callable
+        The Python path's controller cycle (publishes command and status).
+    publish_block : callable, optional
+        Takes each batch's rows (:data:`PublishBlock`); None: the rows are published as
+        Structs through ``loop.publish``.
+    """
+
+    def __init__(
+        self,
+        loop: PlantLoop,
+        runtime: ControllerRuntime,
+        step_controller: Callable[[SensorFrame], Any],
+        publish_block: PublishBlock | None = None,
+    ) -> None:
+        self.loop = loop
+        self.runtime = runtime
+        self.step_controller = step_controller
+        self.publish_block = publish_block
+        self.batches = 0
+        self.kernel_cycles = 0
+        self.python_cycles = 0
+        self._stops: dict[int, int] = {}
+        self._kernel: Any = None
+        self._sig: tuple[Any, ...] = ()
+        sim = loop.sim
+        self.ist = np.zeros(lk.I_SIZE, dtype=np.int64)
+        self.fst = np.zeros(lk.F_SIZE)
+        self.pending = np.zeros(9, dtype=np.int64)
+        ist, fst = self.ist, self.fst
+        ist[lk.I_PERIOD_NS] = loop.period_ns
+        ist[lk.I_SUMMARY_EVERY] = loop._summary_every
+        ist[lk.I_N_STEPS] = sim.n
+        ist[lk.I_GEN_MASK_ROTOR] = VALID_GENERATOR_SPEED
+        ist[lk.I_ROTOR_BIT] = VALID_ROTOR_SPEED
+        fst[lk.F_H] = sim.h
+        fst[lk.F_EFF] = sim._efficiency
+        fst[lk.F_GEAR] = sim._gearbox
+        fst[lk.F_DT] = runtime.dt_s
+        ctrl = runtime.controller
+        self.advanced = isinstance(ctrl, AdvancedController)
+        ist[lk.I_KIND] = 1 if self.advanced else 0
+        empty = np.zeros(0)
+        if self.advanced:
+            assert isinstance(ctrl, AdvancedController)
+            self.cc, self.lay = ctrl._c, ctrl._lay
+            ist[lk.I_STEPS] = ctrl._steps_at_dt
+            self.bl, self.gs, self.n_gs = empty, empty, 0
+        else:
+            assert isinstance(ctrl, BaselineController)
+            bk = ctrl._k
+            p = ctrl.params
+            self.bl = np.array([float(v) for v in (*bk[:29], *bk[32:])])
+            self.gs = np.array(
+                [*p.pitch_gs_angles_rad, *p.pitch_gs_kp_s, *p.pitch_gs_ki_dimensionless],
+                dtype=np.float64,
+            )
+            self.n_gs = len(p.pitch_gs_angles_rad)
+            self.cc, self.lay = empty, np.zeros(0, dtype=np.int64)
+        self.bst = np.zeros(7)
+        self.bst2 = np.zeros(7)
+        self.lats = np.zeros(BATCH + 1, dtype=np.int64)
+        cap = 5 * BATCH + 1
+        self.order = np.zeros(cap, dtype=np.uint8)
+        self.buf = {
+            mt.message_id: np.zeros((BATCH + 1, len(mt.row_dtype.names or ()))) for mt in _TYPES
+        }
+        self.ibuf = {mid: b.view(np.int64) for mid, b in self.buf.items()}
+        self.dtypes = {mt.message_id: mt.row_dtype for mt in _TYPES}
+        # Load the kernels (numba's on-disk cache, ~0.05-0.3 s) now, before the run's clock
+        # starts: the plant's for the cycles Python runs (on a copy of the simulator:
+        # PlantSimulator.warm_up), and this loop's (a call that stops before its first
+        # cycle, limit 0, changes nothing).
+        sim.warm_up(loop.x, loop.applied)
+        self._pull(loop.k + 1)
+        lk_reason = self._call(0, limit=0)
+        assert lk_reason == lk.STOP_LIMIT
+        self._bind_kernel()
+        self.batches = 0
+        self._stops = {}
+
+    # ------------------------------------------------------------------ state in / out
+    def _ready(self) -> bool:
+        """True when the next cycle may start in the kernel (else Python runs it)."""
+        loop, rt = self.loop, self.runtime
+        if loop.safe_state or rt.safe_mode or rt.resuming or rt._restart_core:
+            return False
+        if rt.last_seq >= 0 and rt.last_seq != loop.k - 1:
+            return False  # a gap: the watchdog counts misses (Python)
+        if loop.t_ns >= loop._next_fault_event_ns:
+            return False
+        if self.advanced and not rt.state.flags[0]:
+            return False  # the first frame starts the filters (Python)
+        if rt.paced is None and rt._paced_run + 1 >= lk.PACED_FRAMES:
+            return False
+        sim = loop.sim
+        t_s = loop.t_ns * 1e-9
+        return not (
+            sim._has_waves and abs(sim._wave_t0 + sim._wave_n * (0.5 * sim.h) - t_s) > 0.25 * sim.h
+        )
+
+    def _pull(self, cycles: int) -> None:
+        loop, rt, sim = self.loop, self.runtime, self.loop.sim
+        ist, fst = self.ist, self.fst
+        ist[lk.I_K] = loop.k
+        ev = loop._next_fault_event_ns
+        k_event = -(-ev // loop.period_ns) if ev < 2**62 else cycles
+        ist[lk.I_K_END] = min(cycles, k_event)
+        ist[lk.I_LAST_SEQ] = rt.last_seq
+        ist[lk.I_LAST_SAMPLE_NS] = rt.last_sample_time_ns
+        ist[lk.I_ACCEPTED] = rt.accepted
+        ist[lk.I_COMMAND_SEQ] = rt.command_seq
+        ist[lk.I_REJECTED_TOTAL] = rt.rejected_total
+        ist[lk.I_PACED_RUN] = rt._paced_run
+        ist[lk.I_PACED] = -1 if rt.paced is None else 0
+        ist[lk.I_LAST_PUBLISH_NS] = rt._last_publish_ns
+        ist[lk.I_LAST_RECEIVE_NS] = rt._last_receive_ns
+        ist[lk.I_HEALTHY_RUN] = rt.healthy_run
+        ist[lk.I_P_ON_TIME_RUN] = loop.on_time_run
+        ist[lk.I_FRAME_SENT_NS] = loop.frame_sent_ns
+        pt = loop._pending_timing
+        ist[lk.I_PENDING] = 0
+        if pt is not None:
+            self.pending[:] = msgspec.structs.astuple(pt)
+            ist[lk.I_PENDING] = 1
+        fst[lk.F_APPLIED_PITCH], fst[lk.F_APPLIED_TORQUE] = loop.applied
+        self.xa = sim._state_array(loop.x)
+        if self.advanced:
+            st = rt.state
+            self.cv = st.values.copy()
+            self.cf = st.flags.copy()
+            self.cv2 = np.empty_like(self.cv)
+            self.cf2 = np.empty_like(self.cf)
+            self._set_forecast(st)
+        else:
+            bs = rt.state
+            ist[lk.I_BL_FIRST] = 1 if bs.first_call else 0
+            self.bst[:] = (
+                bs.lpf_z1,
+                bs.lpf_z2,
+                bs.generator_speed_filtered_rad_s,
+                bs.pitch_speed_error_integral_rad,
+                bs.torque_speed_error_integral_rad,
+                bs.blade_pitch_commanded_rad,
+                bs.generator_torque_commanded_nm,
+            )
+            self.cv, self.cv2 = np.zeros(0), np.zeros(0)
+            self.cf, self.cf2 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        ist[lk.I_N_ORDER] = 0
+        ist[lk.I_N_LAT] = 0
+        for i in lk._I_COUNT:
+            ist[i] = 0
+        self._check_kernel_types()
+
+    def _set_forecast(self, st: Any) -> None:
+        """The forecast part of the advanced core's state as AdvancedController.step reads it."""
+        ctrl = self.runtime.controller
+        assert isinstance(ctrl, AdvancedController)
+        ist, fst = self.ist, self.fst
+        fstate = st.forecaster
+        ok = fstate.filled and math.isfinite(st.forecast_m)
+        ist[lk.I_NEXT_FC_NS] = st.next_forecast_ns
+        fst[lk.F_ETA] = float(st.forecast_m) if ok else math.nan
+        if ok:
+            ist[lk.I_EST_MASK] = ctrl._mask_forecast
+            fst[lk.F_FC_M] = st.forecast_m
+            ist[lk.I_FC_NS] = st.forecast_time_ns
+        else:
+            ist[lk.I_EST_MASK] = ctrl._mask_no_forecast
+            fst[lk.F_FC_M] = 0.0
+            ist[lk.I_FC_NS] = 0
+        ist[lk.I_UNSTABLE] = fstate.unstable_fits
+        ist[lk.I_GUARDED] = fstate.guarded
+
+    def _push(self, k0: int) -> None:
+        loop, rt, sim = self.loop, self.runtime, self.loop.sim
+        ist, fst = self.ist, self.fst
+        k = int(ist[lk.I_K])
+        done = k - k0
+        loop.frame_sent_ns = int(ist[lk.I_FRAME_SENT_NS])
+        rt._paced_run = int(ist[lk.I_PACED_RUN])
+        rt._last_publish_ns = int(ist[lk.I_LAST_PUBLISH_NS])
+        rt._last_receive_ns = int(ist[lk.I_LAST_RECEIVE_NS])
+        rt.healthy_run = int(ist[lk.I_HEALTHY_RUN])
+        loop._pending_timing = CycleTiming(*self.pending.tolist()) if ist[lk.I_PENDING] else None
+        if done == 0:
+            return
+        self.kernel_cycles += done
+        rt._silence_counted = 0
+        rt.consecutive_misses = 0
+        loop.k = k
+        loop.result.cycles = k
+        loop.consecutive_misses = 0
+        loop.on_time_run = int(ist[lk.I_P_ON_TIME_RUN])
+        loop.applied = (float(fst[lk.F_APPLIED_PITCH]), float(fst[lk.F_APPLIED_TORQUE]))
+        y = tuple(self.xa.tolist())
+        sim._x_tuple = y
+        sim._truth_of_rec = None
+        loop.x = y
+        sim._wave_n += 2 * sim.n * done
+        rt.last_seq = int(ist[lk.I_LAST_SEQ])
+        rt.last_sample_time_ns = int(ist[lk.I_LAST_SAMPLE_NS])
+        rt.accepted = int(ist[lk.I_ACCEPTED])
+        rt.command_seq = int(ist[lk.I_COMMAND_SEQ])
+        rt._last_command = (
+            float(fst[lk.F_LAST_CMD_PITCH]),
+            float(fst[lk.F_LAST_CMD_TORQUE]),
+            int(ist[lk.I_LAST_CMD_NS]),
+        )
+        if self.advanced:
+            rt.state = rt.state._replace(values=self.cv, flags=self.cf)
+        else:
+            b = self.bst.tolist()
+            rt.state = BaselineState(False, *b)
+        rec = loop.hist.record
+        for lat in self.lats[: int(ist[lk.I_N_LAT])].tolist():
+            rec(lat)
+
+    # ------------------------------------------------------------------ rows out
+    def _publish_rows(self) -> None:
+        ist = self.ist
+        n = int(ist[lk.I_N_ORDER])
+        if n == 0:
+            return
+        order = self.order[:n]
+        rows = {}
+        for mid, idx in zip(
+            (lk.MID_SENSORS, lk.MID_COMMAND, lk.MID_TRUTH, lk.MID_STATUS, lk.MID_TIMING),
+            lk._I_COUNT,
+            strict=True,
+        ):
+            c = int(ist[idx])
+            if c:
+                rows[mid] = self.buf[mid][:c].view(self.dtypes[mid]).ravel()
+        if self.publish_block is not None:
+            self.publish_block(order, rows)
+        else:
+            publish = self.loop.publish
+            for mt, msg in rows_to_structs(order, rows):
+                publish(mt, msg)
+
+    # ------------------------------------------------------------------ the run
+    def _args(self, resume: int, limit: int) -> tuple[Any, ...]:
+        sim = self.loop.sim
+        ch = sim.channels
+        assert ch is not None
+        return (
+            limit, resume, self.ist, self.fst, self.pending, self.lats,
+            self.xa, sim._s, sim._wc, sim._c, sim._o, sim._wind_table, sim._truth_rec,
+            sim._channel_fields,
+            ch._f, ch._i, ch._ok, ch._hist_t, ch._hist_v, ch._rn, sim._slots, sim._record,
+            self.cc, self.lay, self.cv, self.cf, self.cv2, self.cf2,
+            self.bl, self.gs, self.n_gs, self.bst, self.bst2,
+            self.order,
+            self.buf[1], self.ibuf[1], self.buf[2], self.ibuf[2], self.buf[3], self.ibuf[3],
+            self.buf[4], self.ibuf[4], self.buf[5], self.ibuf[5],
+        )  # fmt: skip
+
+    def _bind_kernel(self) -> None:
+        """Call the kernel's compiled entry point for this run's argument types directly.
+
+        numba's dispatcher types every argument on every call (about 9 us for these 45;
+        the entry point of the matching compiled signature about 5 us). The types are those
+        of the limit-0 call just made through the dispatcher, and stay so for the run (the
+        arrays are the run's own, and the per-batch copies keep dtype and layout).
+        """
+        kernel = lk.run_cycles
+        overloads = getattr(kernel, "overloads", None)  # (a wrapped kernel: benchmarks)
+        if overloads is None:
+            return
+        sig = tuple(numba.typeof(a) for a in self._args(0, 0))
+        cres = overloads.get(sig)
+        if cres is not None:
+            self._kernel = cres.entry_point
+            self._sig = sig
+
+    def _check_kernel_types(self) -> None:
+        """Before a batch: the arrays that may be replaced during a run (the state, the
+        core's copies, the wave table, the ring buffers) still have the bound types, else
+        the dispatcher takes over (an entry point does not check its arguments' types)."""
+        if self._kernel is None:
+            return
+        args = self._args(0, 0)
+        for i in _REPLACEABLE:
+            if numba.typeof(args[i]) != self._sig[i]:
+                self._kernel = None
+                return
+
+    @property
+    def stops(self) -> dict[str, int]:
+        """How often the kernel stopped for each reason (STOP_REASONS)."""
+        out: dict[str, int] = {}
+        for bits, n in self._stops.items():
+            for bit, name in lk.STOP_REASONS.items():
+                if bits & bit:
+                    out[name] = out.get(name, 0) + n
+        return out
+
+    def _call(self, resume: int, limit: int = BATCH) -> int:
+        kernel = self._kernel if self._kernel is not None else lk.run_cycles
+        reason = int(kernel(*self._args(resume, limit)))
+        self.batches += 1
+        self._stops[reason] = self._stops.get(reason, 0) + 1
+        return reason
+
+    def _last_frame(self) -> SensorFrame:
+        j = int(self.ist[lk.I_N_SENSORS]) - 1
+        row = self.buf[lk.MID_SENSORS][j : j + 1].view(self.dtypes[lk.MID_SENSORS])
+        return SensorFrame(*row.ravel().tolist()[0])
+
+    def _forecast(self) -> None:
+        """The forecaster's update of AdvancedController.step on cycle k's frame."""
+        rt = self.runtime
+        ctrl = rt.controller
+        assert isinstance(ctrl, AdvancedController)
+        j = int(self.ist[lk.I_N_SENSORS]) - 1
+        row = self.buf[lk.MID_SENSORS][j]
+        mask = int(self.ibuf[lk.MID_SENSORS][j, 3])
+        t_ns = int(self.ibuf[lk.MID_SENSORS][j, 1])
+        st = rt.state
+        fstate, forecast_m = ctrl.forecaster.step(
+            st.forecaster, float(row[14]), bool(mask & VALID_WAVE_GAUGE)
+        )
+        period = ctrl._forecast_period_ns
+        rt.state = st._replace(
+            forecaster=fstate,
+            next_forecast_ns=(t_ns // period + 1) * period,
+            forecast_m=forecast_m,
+            forecast_time_ns=t_ns + ctrl._horizon_ns,
+        )
+        self._set_forecast(rt.state)
+
+    def _python_cycle(self) -> None:
+        loop = self.loop
+        clock = time.monotonic_ns
+        frame = loop.sample()
+        t0 = clock()
+        command = self.step_controller(frame)
+        loop.finish_cycle(command, clock() - t0, at_arrival=False)
+        self.python_cycles += 1
+
+    def run(self, cycles: int) -> None:
+        """Run the plant loop's cycles up to ``cycles`` (the run's end)."""
+        loop = self.loop
+        sim = loop.sim
+        ch = sim.channels
+        assert ch is not None
+        clock = time.monotonic_ns
+        while loop.k < cycles:
+            if not self._ready():
+                self._python_cycle()
+                continue
+            k0 = loop.k
+            self._pull(cycles)
+            reason = self._call(0)
+            while reason & lk.STOP_FORECAST:
+                if reason & lk.STOP_REFILL:
+                    ch._refill()
+                self._forecast()
+                reason = self._call(1)
+            self._push(k0)
+            self._publish_rows()
+            if reason & lk.STOP_REFILL:
+                ch._refill()
+            if reason & lk.STOP_FRAME:  # Python's handle_frame decides on this frame
+                frame = self._last_frame()
+                t0 = clock()
+                command = self.step_controller(frame)
+                loop.finish_cycle(command, clock() - t0, at_arrival=False)
+                self.python_cycles += 1
+            if reason & lk.STOP_SUMMARY:
+                loop.publish_summary(final=False)
+            if reason & lk.STOP_BEFORE:
+                self._python_cycle()

@@ -1,0 +1,561 @@
+"""Compiled in-process loop: several control cycles per call (numba, cached on disk).
+
+The in-process loop (:func:`hil.plant_node.run_inprocess`) calls, per 25 ms cycle, the
+plant's truth and sensor kernels, the controller runtime's checks, the controller core's
+kernel, the plant's period kernel and five publishes, with Python between them (about 40 us
+of glue per cycle against about 17 us of kernels). :func:`run_cycles` composes the same
+kernels, in the same order and with the same arithmetic, for up to ``limit`` cycles in one
+call, and writes each cycle's messages as rows (:attr:`bus_schemas.registry.MessageType.
+row_dtype`) for :meth:`hil.log_writer.BackgroundRunLog.publish_block`:
+
+1. the truth record (:func:`plant._kernels.floating_truth_into`) and the sensor frame
+   (:func:`sensors._kernels.suite_step`; its random blocks are refilled by the caller
+   between calls, as :meth:`sensors.channel.SensorSuite.step_into` does), stamped with
+   the monotonic clock;
+2. the controller runtime's frame checks and watchdog bookkeeping
+   (:meth:`hil.controller_node.ControllerRuntime.handle_frame`, usual path: no gap, no
+   rejection, wall-clock checks off as in every in-process run);
+3. the core: :func:`controller._kernels.advanced_cycle` (``lqri``, ``lqri_ff``) or
+   :func:`controller._kernels.baseline_step` (``baseline``);
+4. the plant's watchdog bookkeeping and period (:func:`plant._kernels.advance_floating`),
+   the cycle's timing record.
+
+It returns before anything that needs Python (:data:`STOP_REASONS`): the wave
+forecaster's update (after the runtime's checks, so the caller runs the forecaster and
+resumes the same cycle with ``resume`` = 1), a non-finite frame, a sensor suite that needs
+Python, the running timing summary, a random block to refill, the caller's limit. Wall
+clock stamps are real: :func:`monotonic_ns` reads ``CLOCK_MONOTONIC`` through
+``clock_gettime``, the clock of ``time.monotonic_ns``.
+
+State layout: ``ist`` (int64) and ``fst`` (float64), indices ``I_*`` and ``F_*`` below.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import hashlib
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar, cast
+
+import llvmlite.binding as llvm  # type: ignore[import-untyped]
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.caching import CacheImpl
+from numba.extending import intrinsic
+
+from controller._kernels import advanced_cycle, baseline_step
+from plant._kernels import TRUTH_FIELDS, TRUTH_FLOATING, advance_floating, floating_truth_into
+from sensors._kernels import suite_step
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+#: The kernels' sources composed by :func:`run_cycles` (its cache key includes them).
+_CALLEE_FILES = tuple(
+    Path(__file__).resolve().parent.parent / name / "_kernels.py"
+    for name in ("plant", "sensors", "controller")
+)
+
+
+def _callees_hash() -> bytes:
+    h = hashlib.sha256()
+    for path in _CALLEE_FILES:
+        h.update(path.read_bytes())
+    return h.digest()
+
+
+def _with_callee_stamp(base: Any) -> Any:
+    """``base`` (a numba cache locator) for this file only, its source stamp extended by
+    the composed kernels' sources."""
+
+    class _Locator(base):
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if Path(py_file).resolve() != Path(__file__).resolve():
+                return None
+            return super().from_function(py_func, py_file)
+
+        def get_source_stamp(self) -> Any:
+            return (super().get_source_stamp(), _callees_hash())
+
+    _Locator.__name__ = f"LoopKernel{base.__name__}"
+    return _Locator
+
+
+def _key_cache_by_callees() -> None:
+    """numba keys a cached function by its own file's content only; :func:`run_cycles`
+    composes kernels from three other files, whose changes would otherwise leave its old
+    machine code in use (a stale cache). This module's functions get locators that add
+    those files' content to the key (numba's ``CacheImpl._locator_classes``: ahead of the
+    standard ones, each in the same order, so ``NUMBA_CACHE_DIR`` and the rest behave as
+    for every other kernel)."""
+    classes = CacheImpl._locator_classes
+    if any(getattr(c, "_fowt_loop", False) for c in classes):
+        return
+    wrapped = [_with_callee_stamp(c) for c in classes]
+    for c in wrapped:
+        c._fowt_loop = True
+    classes[:0] = wrapped
+
+
+_key_cache_by_callees()
+
+# clock_gettime by name: the cached machine code refers to the symbol, bound here in every
+# process (so the kernel stays cacheable, unlike a ctypes pointer baked in as a constant).
+_libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=False)
+llvm.add_symbol("clock_gettime", ctypes.cast(_libc.clock_gettime, ctypes.c_void_p).value or 0)
+_CLOCK_MONOTONIC = 1  # Linux <time.h>; time.monotonic_ns reads the same clock
+
+
+def njit(fn: _F) -> _F:
+    """``numba.njit(cache=True)`` (no fastmath), typed as ``fn``."""
+    return cast(_F, numba.njit(cache=True)(fn))
+
+
+@intrinsic
+def _clock_intrinsic(typingctx: Any) -> Any:
+    """CLOCK_MONOTONIC in ns: clock_gettime into a stack timespec, s * 10^9 + ns."""
+    sig = types.int64()
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        i32, i64 = ir.IntType(32), ir.IntType(64)
+        ts_t = ir.LiteralStructType([i64, i64])
+        fnty = ir.FunctionType(i32, [i32, ts_t.as_pointer()])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "clock_gettime")
+        ts = cgutils.alloca_once(builder, ts_t)
+        builder.call(fn, [ir.Constant(i32, _CLOCK_MONOTONIC), ts])
+        sec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 0))
+        nsec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 1))
+        return builder.add(builder.mul(sec, ir.Constant(i64, 1_000_000_000)), nsec)
+
+    return sig, codegen
+
+
+_clock_ns = cast(Callable[[], int], _clock_intrinsic)
+
+
+@njit
+def monotonic_ns() -> int:
+    """``time.monotonic_ns()`` from compiled code (CLOCK_MONOTONIC, ns)."""
+    return _clock_ns()
+
+
+@njit
+def clock_reads(n: int) -> int:
+    """Read the clock ``n`` times (its cost per read: bench); returns the last reading."""
+    t = 0
+    for _ in range(n):
+        t = _clock_ns()
+    return t
+
+
+# ---- message ids (bus_schemas.registry) and the int state ist -----------------------------
+MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING = 1, 2, 3, 4, 5
+
+(
+    I_K,  # plant cycle k (the next one to run)
+    I_PERIOD_NS,
+    I_K_END,  # stop before this cycle (run end, fault event)
+    I_SUMMARY_EVERY,
+    I_N_STEPS,
+    I_KIND,  # 0 baseline, 1 advanced
+    I_LAST_SEQ,
+    I_LAST_SAMPLE_NS,
+    I_ACCEPTED,
+    I_COMMAND_SEQ,
+    I_REJECTED_TOTAL,
+    I_PACED_RUN,
+    I_PACED,  # -1 detect, 0 off
+    I_LAST_PUBLISH_NS,
+    I_LAST_RECEIVE_NS,
+    I_HEALTHY_RUN,
+    I_P_ON_TIME_RUN,  # plant watchdog
+    I_FRAME_SENT_NS,
+    I_PENDING,  # a timing row of the previous cycle waits (row in pending)
+    I_NEXT_FC_NS,
+    I_FC_NS,  # status wave_forecast_time_ns
+    I_EST_MASK,
+    I_UNSTABLE,
+    I_GUARDED,
+    I_STEPS,  # the advanced core's KF predict steps per period
+    I_BL_FIRST,  # baseline first call
+    I_LAST_CMD_NS,  # the runtime's last command's sample time (-1: none)
+    I_N_ORDER,  # rows written so far (order), and per message id below
+    I_N_SENSORS,
+    I_N_COMMAND,
+    I_N_TRUTH,
+    I_N_STATUS,
+    I_N_TIMING,
+    I_T0_RUN,  # runner's clock before the controller (kept across a forecast stop)
+    I_T0_CTRL,  # runtime's clock at its checks (idem)
+    I_GEN_MASK_ROTOR,  # VALID_GENERATOR_SPEED
+    I_ROTOR_BIT,  # VALID_ROTOR_SPEED
+    I_N_LAT,  # latencies written to lats
+    I_SIZE,
+) = range(39)
+_I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
+
+(
+    F_APPLIED_PITCH,
+    F_APPLIED_TORQUE,
+    F_H,
+    F_EFF,
+    F_GEAR,  # plant gearbox ratio (truth, frame's rotor speed)
+    F_DT,
+    F_ETA,  # forecast handed to advanced_cycle (NaN: none)
+    F_FC_M,  # status wave_elevation_forecast_m
+    F_LAST_CMD_PITCH,
+    F_LAST_CMD_TORQUE,
+    F_SIZE,
+) = range(11)
+
+#: Reasons :func:`run_cycles` returns (bits may combine for END_OF_CYCLE ones).
+STOP_LIMIT = 1  # the caller's limit of cycles (or I_K_END) reached: before cycle k
+STOP_BEFORE = 2  # cycle k needs Python from its start (suite, pacing): nothing of it done
+STOP_FRAME = 4  # cycle k's frame (rows written) goes to Python's handle_frame
+STOP_FORECAST = 8  # cycle k stopped before the core: run the forecaster, resume
+STOP_SUMMARY = 16  # cycle k-1 done; k % summary_every == 0: publish the summary
+STOP_REFILL = 32  # cycle k-1 done; a random block of the sensor suite is used up
+STOP_REASONS = {
+    STOP_LIMIT: "limit",
+    STOP_BEFORE: "before",
+    STOP_FRAME: "frame",
+    STOP_FORECAST: "forecast",
+    STOP_SUMMARY: "summary",
+    STOP_REFILL: "refill",
+}
+PACED_FRAMES = 8  # hil.controller_node.PACED_FRAMES (checked there at import)
+PACED_TOLERANCE = 0.1
+_N_TRUTH = len(TRUTH_FIELDS)
+
+
+@njit
+def run_cycles(
+    limit: int,
+    resume: int,
+    ist: np.ndarray,
+    fst: np.ndarray,
+    pending: np.ndarray,
+    lats: np.ndarray,
+    # plant
+    xa: np.ndarray,
+    s: np.ndarray,
+    wc: np.ndarray,
+    pc: np.ndarray,
+    po: np.ndarray,
+    wind_table: np.ndarray,
+    truth_rec: np.ndarray,
+    channel_fields: np.ndarray,
+    # sensor suite
+    sf: np.ndarray,
+    si: np.ndarray,
+    sok: np.ndarray,
+    hist_t: np.ndarray,
+    hist_v: np.ndarray,
+    rn: np.ndarray,
+    slots: np.ndarray,
+    record: np.ndarray,
+    # controller core
+    cc: np.ndarray,
+    lay: np.ndarray,
+    cv: np.ndarray,
+    cf: np.ndarray,
+    cv2: np.ndarray,
+    cf2: np.ndarray,
+    bl: np.ndarray,
+    gs: np.ndarray,
+    n_gs: int,
+    bst: np.ndarray,
+    bst2: np.ndarray,
+    # rows
+    order: np.ndarray,
+    r_sen: np.ndarray,
+    r_sen_i: np.ndarray,
+    r_cmd: np.ndarray,
+    r_cmd_i: np.ndarray,
+    r_tru: np.ndarray,
+    r_tru_i: np.ndarray,
+    r_sta: np.ndarray,
+    r_sta_i: np.ndarray,
+    r_tim: np.ndarray,
+    r_tim_i: np.ndarray,
+) -> int:
+    """Run cycles from ``ist[I_K]`` until a stop (module docstring); return its bits.
+
+    ``resume`` = 1 continues cycle k after :data:`STOP_FORECAST` (the caller has set the
+    forecast in ``fst``/``ist``). ``cv``/``cf`` (advanced) and ``bst`` (baseline) hold the
+    core's state on return (the kernel swaps with ``cv2``/``cf2``/``bst2`` and copies back).
+    ``pending`` (9 int64) is the timing row of the previous cycle while ``ist[I_PENDING]``;
+    ``lats`` gets each finished cycle's latency (from ``ist[I_N_LAT]`` on).
+    Rows are appended from ``ist[I_N_*]`` on; ``order`` gets their message ids.
+    """
+    period = ist[I_PERIOD_NS]
+    n_steps = ist[I_N_STEPS]
+    h = fst[F_H]
+    dt = fst[F_DT]
+    gear = fst[F_GEAR]
+    eff = fst[F_EFF]
+    advanced = ist[I_KIND] == 1
+    done = 0
+    phase = resume
+    k = ist[I_K]
+    no = ist[I_N_ORDER]
+    v = cv
+    f = cf
+    v2 = cv2
+    f2 = cf2
+    b = bst
+    b2 = bst2
+    reason = 0
+    swaps = 0
+    gen = 0.0
+    pitch_m = 0.0
+    torque_m = 0.0
+    acc = 0.0
+    ppitch = 0.0
+    prate = 0.0
+    surge = 0.0
+    mask = 0
+    t_ns = k * period
+    publish_ns = 0
+    t0_run = ist[I_T0_RUN]
+    t0_ctrl = ist[I_T0_CTRL]
+    if phase == 1:  # the frame of cycle k is the last sensors row
+        j = ist[I_N_SENSORS] - 1
+        mask = r_sen_i[j, 3]
+        publish_ns = r_sen_i[j, 2]
+        gen = r_sen[j, 4]
+        pitch_m = r_sen[j, 6]
+        torque_m = r_sen[j, 7]
+        acc = r_sen[j, 10]
+        ppitch = r_sen[j, 11]
+        prate = r_sen[j, 12]
+        surge = r_sen[j, 13]
+    while True:
+        if phase == 0:
+            # ---- before cycle k: anything that needs Python?
+            if done >= limit or k >= ist[I_K_END]:
+                reason = STOP_LIMIT
+                break
+            t_ns = k * period
+            if ist[I_PACED] < 0 and ist[I_PACED_RUN] + 1 >= PACED_FRAMES:
+                reason = STOP_BEFORE
+                break
+            # ---- 1. truth and sensor frame (PlantLoop.sample)
+            now = _clock_ns()
+            floating_truth_into(
+                truth_rec, channel_fields, xa, s, pc, po, wind_table, t_ns * 1e-9, 0.0,
+                fst[F_APPLIED_PITCH], fst[F_APPLIED_TORQUE], eff, gear,
+            )  # fmt: skip
+            code, mask = suite_step(
+                -1, t_ns, truth_rec[_N_TRUTH:],  # type: ignore[arg-type]
+                sf, si, sok, hist_t, hist_v, rn, slots, record,
+            )  # fmt: skip
+            if code < 0:  # the suite changed nothing: Python runs the whole cycle
+                reason = STOP_BEFORE
+                break
+            refill = code > 0
+            gen = record[0]
+            rotor = 0.0
+            if mask & ist[I_GEN_MASK_ROTOR]:
+                rotor = gen / gear
+                mask |= ist[I_ROTOR_BIT]
+            pitch_m = record[1]
+            torque_m = record[2]
+            acc = record[5]
+            ppitch = record[6]
+            prate = record[7]
+            surge = record[8]
+            publish_ns = now
+            j = ist[I_N_SENSORS]
+            r_sen_i[j, 0] = k
+            r_sen_i[j, 1] = t_ns
+            r_sen_i[j, 2] = now
+            r_sen_i[j, 3] = mask
+            r_sen[j, 4] = gen
+            r_sen[j, 5] = rotor
+            for q in range(1, 10):
+                r_sen[j, 5 + q] = record[q]
+            ist[I_FRAME_SENT_NS] = _clock_ns()
+            ist[I_N_SENSORS] = j + 1
+            order[no] = MID_SENSORS
+            no += 1
+            j = ist[I_N_TRUTH]
+            r_tru_i[j, 0] = k
+            r_tru_i[j, 1] = t_ns
+            r_tru_i[j, 2] = now
+            for q in range(_N_TRUTH):
+                r_tru[j, 3 + q] = truth_rec[q]
+            r_tru_i[j, 3 + TRUTH_FLOATING] = 1
+            ist[I_N_TRUTH] = j + 1
+            order[no] = MID_TRUTH
+            no += 1
+            if ist[I_PENDING]:
+                j = ist[I_N_TIMING]
+                for q in range(9):
+                    r_tim_i[j, q] = pending[q]
+                ist[I_N_TIMING] = j + 1
+                ist[I_PENDING] = 0
+                order[no] = MID_TIMING
+                no += 1
+            # ---- 2. the runtime's checks (handle_frame): seq and time increase (the
+            # caller checked the gap), values finite (else Python rejects it)
+            total = 0.0
+            for q in range(4, 15):
+                total += r_sen[ist[I_N_SENSORS] - 1, q]
+            if not math.isfinite(total):
+                reason = STOP_FRAME | (STOP_REFILL if refill else 0)
+                break
+            t0_run = _clock_ns()
+            t0_ctrl = _clock_ns()
+            # _watchdog, usual path: gap 0, not stale (wall checks off), healthy
+            if ist[I_LAST_PUBLISH_NS] >= 0:
+                interval = publish_ns - ist[I_LAST_PUBLISH_NS]
+                if abs(interval - period) <= PACED_TOLERANCE * period:
+                    ist[I_PACED_RUN] += 1
+                else:
+                    ist[I_PACED_RUN] = 0
+            ist[I_LAST_PUBLISH_NS] = publish_ns
+            ist[I_LAST_RECEIVE_NS] = t0_ctrl
+            ist[I_HEALTHY_RUN] += 1
+            if advanced and t_ns >= ist[I_NEXT_FC_NS]:
+                ist[I_T0_RUN] = t0_run
+                ist[I_T0_CTRL] = t0_ctrl
+                reason = STOP_FORECAST | (STOP_REFILL if refill else 0)
+                break
+        else:
+            refill = False
+        phase = 0
+        # ---- 3. the core, the command and the status (rows)
+        cseq = ist[I_COMMAND_SEQ]
+        js = ist[I_N_STATUS]
+        if advanced:
+            r = advanced_cycle(
+                cc, lay, v, f, gen, pitch_m, torque_m, acc, prate, ppitch, surge, mask,
+                fst[F_ETA], dt, ist[I_STEPS], v2, f2,
+            )  # fmt: skip
+            v, v2 = v2, v
+            f, f2 = f2, f
+            swaps += 1
+            th = r[0]
+            tq = r[1]
+            r_sta_i[js, 5] = r[2]
+            r_sta[js, 7] = r[3]
+            r_sta[js, 8] = r[4]
+            r_sta[js, 9] = r[5]
+            r_sta_i[js, 10] = ist[I_EST_MASK]
+            r_sta_i[js, 11] = r[6]
+            r_sta[js, 12] = r[7]
+            r_sta[js, 13] = r[8]
+            r_sta[js, 14] = r[9]
+            r_sta[js, 15] = r[10]
+            r_sta[js, 16] = r[11]
+            r_sta[js, 17] = r[12]
+            r_sta[js, 18] = fst[F_FC_M]
+            r_sta_i[js, 19] = ist[I_FC_NS]
+            r_sta[js, 20] = r[13]
+            r_sta[js, 21] = r[14]
+            r_sta_i[js, 22] = ist[I_UNSTABLE]
+            r_sta_i[js, 23] = ist[I_GUARDED]
+        else:
+            rb = baseline_step(
+                bl, gs, n_gs, ist[I_BL_FIRST] != 0, b, gen, pitch_m, torque_m, dt, b2
+            )
+            ist[I_BL_FIRST] = 0
+            b, b2 = b2, b
+            swaps += 1
+            th = rb[0]
+            tq = rb[1]
+            r_sta_i[js, 5] = rb[2]
+            r_sta[js, 7] = rb[3]
+            r_sta[js, 8] = rb[4]
+            r_sta[js, 9] = rb[5]
+            r_sta_i[js, 10] = 0
+            r_sta_i[js, 11] = 0
+            for q in range(12, 19):
+                r_sta[js, q] = 0.0
+            r_sta_i[js, 19] = 0
+            r_sta[js, 20] = 0.0
+            r_sta[js, 21] = 0.0
+            r_sta_i[js, 22] = 0
+            r_sta_i[js, 23] = 0
+        ist[I_LAST_SEQ] = k
+        ist[I_LAST_SAMPLE_NS] = t_ns
+        ist[I_ACCEPTED] += 1
+        fst[F_LAST_CMD_PITCH] = th
+        fst[F_LAST_CMD_TORQUE] = tq
+        ist[I_LAST_CMD_NS] = t_ns
+        now = _clock_ns()
+        j = ist[I_N_COMMAND]
+        r_cmd_i[j, 0] = cseq
+        r_cmd_i[j, 1] = k
+        r_cmd_i[j, 2] = t_ns
+        r_cmd_i[j, 3] = now
+        r_cmd_i[j, 4] = 0  # MODE_NORMAL
+        r_cmd[j, 5] = th
+        r_cmd[j, 6] = tq
+        ist[I_N_COMMAND] = j + 1
+        order[no] = MID_COMMAND
+        no += 1
+        j = js
+        r_sta_i[j, 0] = cseq
+        r_sta_i[j, 1] = k
+        r_sta_i[j, 2] = t_ns
+        r_sta_i[j, 3] = now
+        r_sta_i[j, 4] = now - t0_ctrl
+        r_sta_i[j, 6] = ist[I_REJECTED_TOTAL]
+        ist[I_N_STATUS] = j + 1
+        order[no] = MID_STATUS
+        no += 1
+        ist[I_COMMAND_SEQ] = cseq + 1
+        latency = _clock_ns() - t0_run
+        lats[ist[I_N_LAT]] = latency
+        ist[I_N_LAT] += 1
+        # ---- 4. the plant's period (finish_cycle: on time, switch 0, not in safe state)
+        t0p = _clock_ns()
+        ist[I_P_ON_TIME_RUN] += 1
+        advance_floating(
+            xa, s, wc, pc, po, n_steps, 0, wind_table, t_ns * 1e-9, h,
+            fst[F_APPLIED_PITCH], fst[F_APPLIED_TORQUE], th, tq,
+        )  # fmt: skip
+        fst[F_APPLIED_PITCH] = th
+        fst[F_APPLIED_TORQUE] = tq
+        now = _clock_ns()
+        pending[0] = k
+        pending[1] = t_ns
+        pending[2] = now
+        pending[3] = latency
+        pending[4] = 0
+        pending[5] = 0
+        pending[6] = 0
+        pending[7] = now - t0p
+        pending[8] = 0
+        ist[I_PENDING] = 1
+        k += 1
+        done += 1
+        reason = 0
+        if k % ist[I_SUMMARY_EVERY] == 0:
+            reason |= STOP_SUMMARY
+        if refill:
+            reason |= STOP_REFILL
+        if reason:
+            break
+    ist[I_K] = k
+    ist[I_N_ORDER] = no
+    # the core's state back in the caller's arrays
+    if swaps % 2 == 1:
+        if advanced:
+            for q in range(cv.size):
+                cv[q] = v[q]
+            for q in range(cf.size):
+                cf[q] = f[q]
+        else:
+            for q in range(bst.size):
+                bst[q] = b[q]
+    return reason

@@ -1,0 +1,317 @@
+"""The compiled in-process loop (hil._fast_loop, hil._loop_kernels) against the Python loop.
+
+Both loops run the same seeded scenario; every message must be equal field by field, bit
+for bit, except the wall-clock stamps (publish times, the controller's compute time, the
+cycle's latency and plant compute time, and the summaries' latency percentiles and speed),
+which are real clock readings in both. The counters of the plant loop and of the controller
+runtime and the final state of plant, sensor suite and controller core must be equal too.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, MessageType
+from hil import _loop_kernels as lk
+from hil._fast_loop import CompiledLoop, compiled_unsupported
+from hil.controller_node import ControllerRuntime
+from hil.launch import RunRequest, launch
+from hil.plant_node import PlantLoop, run_inprocess
+from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
+
+#: Fields that hold wall-clock readings (equal in kind, not in value).
+WALL = frozenset(
+    {
+        "publish_time_ns",
+        "compute_time_ns",
+        "latency_ns",
+        "plant_compute_ns",
+        "latency_p50_us",
+        "latency_p99_us",
+        "latency_p999_us",
+        "latency_max_us",
+        "sim_seconds_per_wall_second",
+    }
+)
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return bool(a == b)
+
+
+class _Run:
+    """One run's messages (type id -> Structs), plant loop and runtime, by either loop."""
+
+    def __init__(self, scenario: Scenario, loop: str) -> None:
+        self.msgs: dict[int, list[Any]] = {}
+        rt = ControllerRuntime(scenario)
+
+        def publish(mt: MessageType, msg: Any) -> None:
+            self.msgs.setdefault(mt.message_id, []).append(msg)
+
+        def step(frame: Any) -> Any:
+            r = rt.handle_frame(frame)
+            if r is None:
+                return None
+            command, status = r
+            publish(COMMAND, command)
+            publish(CONTROLLER_STATUS, status)
+            return command
+
+        plant = PlantLoop(scenario, publish)
+        self.plant, self.rt = plant, rt
+        self.fast: CompiledLoop | None = None
+        if loop == "compiled":
+            assert compiled_unsupported(plant, rt) is None
+            self.fast = CompiledLoop(plant, rt, step)
+            self.fast.run(scenario.cycles)
+        else:
+            clock = time.monotonic_ns
+            for _ in range(scenario.cycles):
+                frame = plant.sample()
+                t0 = clock()
+                command = step(frame)
+                plant.finish_cycle(command, clock() - t0, at_arrival=False)
+        plant.count_faults()
+        plant.publish_summary(final=True)
+
+
+def _compare(a: _Run, b: _Run) -> None:
+    assert a.msgs.keys() == b.msgs.keys()
+    for mid, xs in a.msgs.items():
+        ys = b.msgs[mid]
+        assert len(xs) == len(ys), f"message {mid}: {len(xs)} != {len(ys)}"
+        for i, (x, y) in enumerate(zip(xs, ys, strict=True)):
+            assert type(x) is type(y)
+            for name in x.__struct_fields__:
+                if name in WALL:
+                    continue
+                assert _same(getattr(x, name), getattr(y, name)), (
+                    f"{type(x).__name__} #{i} {name}: {getattr(x, name)!r} != {getattr(y, name)!r}"
+                )
+    pa, pb = a.plant, b.plant
+    assert pa.k == pb.k
+    assert pa.x == pb.x
+    assert pa.applied == pb.applied
+    ra, rb = pa.result, pb.result
+    for name in (
+        "cycles",
+        "deadline_misses",
+        "commands_held",
+        "commands_rejected",
+        "commands_late",
+        "safe_state_entries",
+        "safe_state_cycles",
+        "faults_injected",
+    ):
+        assert getattr(ra, name) == getattr(rb, name), name
+    assert pa.hist.n == pb.hist.n
+    assert (pa.consecutive_misses, pa.on_time_run, pa.safe_state) == (
+        pb.consecutive_misses,
+        pb.on_time_run,
+        pb.safe_state,
+    )
+    assert pa.summary_seq == pb.summary_seq
+    sa, sb = pa.sim, pb.sim
+    assert np.array_equal(sa._s, sb._s, equal_nan=True)
+    assert sa._wave_n == sb._wave_n
+    ca, cb = sa.channels, sb.channels
+    assert ca is not None and cb is not None
+    for name in ("_f", "_i", "_ok", "_hist_t", "_hist_v", "_rn"):
+        assert np.array_equal(getattr(ca, name), getattr(cb, name), equal_nan=True), name
+    rta, rtb = a.rt, b.rt
+    for name in (
+        "last_seq",
+        "last_sample_time_ns",
+        "command_seq",
+        "accepted",
+        "rejected",
+        "consecutive_misses",
+        "healthy_run",
+        "safe_mode",
+        "safe_entries",
+        "frames_missing",
+        "frames_stale",
+        "_last_command",
+        "_silence_counted",
+    ):
+        assert getattr(rta, name) == getattr(rtb, name), name
+    st_a, st_b = rta.state, rtb.state
+    if hasattr(st_a, "values"):
+        assert np.array_equal(st_a.values, st_b.values, equal_nan=True)
+        assert np.array_equal(st_a.flags, st_b.flags)
+        assert st_a.next_forecast_ns == st_b.next_forecast_ns
+        assert _same(st_a.forecast_m, st_b.forecast_m)
+        assert st_a.forecast_time_ns == st_b.forecast_time_ns
+    else:
+        assert st_a == st_b
+
+
+def _scenario(name: str, duration_s: float, extra: str = "", timing: str = "") -> Scenario:
+    text, source = scenario_text(name)
+    if timing:
+        text = text.replace("[timing]\n", f"[timing]\n{timing}\n", 1)
+    return parse_scenario(text + extra, source).with_duration(duration_s)
+
+
+def test_kernel_clock_is_time_monotonic_ns() -> None:
+    """The kernel's CLOCK_MONOTONIC reading lies between two time.monotonic_ns() calls."""
+    for _ in range(100):
+        a = time.monotonic_ns()
+        b = lk.monotonic_ns()
+        c = time.monotonic_ns()
+        assert a <= b <= c
+    assert lk.clock_reads(10) >= c
+
+
+@pytest.mark.parametrize(
+    ("name", "duration_s"),
+    [
+        # 215 s: running summaries, forecaster updates (every 0.2 s), its buffer filled at
+        # 204.6 s (forecast and wave feedforward on from there), the sensor suite's random
+        # blocks (4096 draws) used up and refilled, the LQRI regimes switching
+        ("iea15mw-lc2-lqri-ff", 215.0),
+        ("iea15mw-lc2-lqri", 12.0),
+        ("iea15mw-lc2", 110.0),
+    ],
+)
+def test_compiled_loop_equals_python_loop(name: str, duration_s: float) -> None:
+    scn = _scenario(name, duration_s)
+    py = _Run(scn, "python")
+    fast = _Run(scn, "compiled")
+    _compare(py, fast)
+    assert fast.fast is not None
+    # most cycles ran in the kernel; the forecaster (every 0.2 s), summaries (every 1 s)
+    # and the refill stops happened
+    assert fast.fast.kernel_cycles >= 0.9 * scn.cycles
+    assert fast.fast.stops.get("summary", 0) >= int(duration_s) - 1
+    if duration_s > 103.0:
+        assert fast.fast.stops.get("refill", 0) >= 1
+    if name != "iea15mw-lc2":
+        assert fast.fast.stops.get("forecast", 0) >= 4 * int(duration_s)
+        regimes = {s.regime for s in py.msgs[CONTROLLER_STATUS.message_id]}
+        if name == "iea15mw-lc2-lqri-ff":
+            assert len(regimes) >= 3, f"the run should cross regimes, saw {regimes}"
+            statuses = py.msgs[CONTROLLER_STATUS.message_id]
+            assert sum(s.wave_forecast_time_ns > 0 for s in statuses) > 300
+            assert any(s.feedforward_torque_nm != 0.0 for s in statuses)
+
+
+#: Two channels whose biases make a frame's sum overflow when both are valid (each is
+#: finite): the runtime rejects such a frame as non-finite. Dropout (p = 0.5 each) makes it
+#: one frame in four, so the compiled loop hands those frames back to handle_frame and the
+#: following cycle (a gap: a missed frame) to the Python loop.
+_OVERFLOW = """
+[sensors.channels.electrical_power_measured_w]
+bias = 1.7e308
+range_max = 1.79e308
+dropout_probability = 0.5
+
+[sensors.channels.wind_speed_measured_m_s]
+bias = 1.7e308
+range_max = 1.79e308
+dropout_probability = 0.5
+"""
+
+
+@pytest.mark.parametrize("name", ["iea15mw-lc2", "iea15mw-lc2-lqri-ff"])
+def test_compiled_loop_hands_rejected_frames_back(name: str) -> None:
+    scn = _scenario(name, 6.0, _OVERFLOW, timing="watchdog_misses = 0")
+    py = _Run(scn, "python")
+    fast = _Run(scn, "compiled")
+    _compare(py, fast)
+    assert py.rt.rejected["non_finite"] > 10
+    assert py.rt.frames_missing > 5
+    assert py.plant.result.deadline_misses == py.rt.rejected["non_finite"]
+    assert fast.fast is not None
+    # frames rejected after a kernel cycle were handed back (the others came in the Python
+    # cycle that follows a rejection: its gap is a missed frame)
+    assert fast.fast.stops.get("frame", 0) >= 3
+    assert fast.fast.kernel_cycles > 0.2 * scn.cycles
+
+
+def test_unsupported_scenarios_take_the_python_loop() -> None:
+    for name, why in (("faults-bus", "bus faults"), ("nrel5mw-ramp", "bottom-fixed plant")):
+        scn = load_scenario(name).with_duration(0.5)
+        rt = ControllerRuntime(scn)
+        with pytest.raises(ValueError, match=why):
+            run_inprocess(scn, lambda *_: None, lambda _f: None, runtime=rt, loop="compiled")
+    scn = load_scenario("faults-sensors").with_duration(0.5)
+    rt = ControllerRuntime(scn)
+    assert compiled_unsupported(PlantLoop(scn, lambda *_: None), rt) == "sensor faults"
+
+
+def _json_by_topic(path: Path) -> dict[str, list[bytes]]:
+    """Each topic's message payloads (JSON) in file order, wall-clock fields masked."""
+    wall = re.compile(rb'"(' + "|".join(sorted(WALL)).encode() + rb')":[^,}]*')
+    out: dict[str, list[bytes]] = {}
+    with path.open("rb") as f:
+        for _schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
+            out.setdefault(channel.topic, []).append(wall.sub(rb'"\1":0', message.data))
+    return out
+
+
+@pytest.mark.parametrize("name", ["iea15mw-lc2-lqri-ff", "iea15mw-lc2"])
+def test_mcap_of_compiled_loop_equals_python_loop(name: str, tmp_path: Path) -> None:
+    """Through the launcher (BackgroundRunLog.publish_block): the file's messages per topic,
+    in order, the same JSON text byte for byte but for the wall-clock fields."""
+    runs = {}
+    for loop in ("python", "compiled"):
+        summary = launch(
+            RunRequest(
+                name,
+                mode="inprocess",
+                duration_s=4.0,
+                out_dir=tmp_path / loop,
+                plots=False,
+                inprocess_loop=loop,  # type: ignore[arg-type]
+            )
+        )
+        assert summary["run"]["inprocess_loop"] == loop
+        runs[loop] = _json_by_topic(tmp_path / loop / "run.mcap")
+    a, b = runs["python"], runs["compiled"]
+    assert a.keys() == b.keys()
+    assert len(a["fowt/t1/sensors"]) == 160
+    for topic, xs in a.items():
+        ys = b[topic]
+        assert len(xs) == len(ys), topic
+        for i, (x, y) in enumerate(zip(xs, ys, strict=True)):
+            assert x == y, f"{topic} #{i}:\n{x!r}\n{y!r}"
+
+
+def test_kernel_entry_point_is_dropped_when_an_array_type_changes() -> None:
+    """The loop calls the kernel's compiled entry point (which does not check its arguments)
+    only while the replaceable arrays keep the types it was bound with."""
+    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
+    rt = ControllerRuntime(scn)
+    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), rt, lambda _f: None)
+    assert fast._kernel is not None
+    sim = fast.loop.sim
+    wc = sim._wc
+    fast._check_kernel_types()
+    assert fast._kernel is not None
+    sim._wc = np.asfortranarray(np.vstack([wc, wc]))  # another layout: another type
+    fast._check_kernel_types()
+    assert fast._kernel is None  # the dispatcher types (and checks) every call again
+    sim._wc = wc
+
+
+def test_loop_kernel_cache_is_keyed_by_the_composed_kernels_sources() -> None:
+    """numba keys a cache by the function's own file; the loop kernel's key also holds the
+    plant, sensor and controller kernel files it composes (a change there recompiles it)."""
+    locator = lk.run_cycles._cache._impl._locator
+    assert type(locator).__name__.startswith("LoopKernel")
+    _own, callees = locator.get_source_stamp()
+    assert callees == lk._callees_hash()
+    assert [p.name for p in lk._CALLEE_FILES] == ["_kernels.py"] * 3
+    assert all(p.is_file() for p in lk._CALLEE_FILES)
