@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 import msgspec
+import numba
 import numpy as np
 
 from bus_schemas.registry import MESSAGES, MessageType
@@ -60,8 +61,12 @@ BATCH_MESSAGES = 1024
 PIPE_BYTES = 1 << 20
 
 
-if any(not 0 <= mt.message_id < 256 for mt in MESSAGES):  # a batch's order is one byte each
-    raise ImportError("hil.log_writer: message ids must be 0..255 (one byte in a batch)")
+#: Set in a batch's order byte for a message given as a row (:meth:`publish_block`); the low
+#: seven bits are its message id.
+ROW_FLAG = 0x80
+
+if any(not 0 <= mt.message_id < ROW_FLAG for mt in MESSAGES):  # one byte each, with ROW_FLAG
+    raise ImportError("hil.log_writer: message ids must be 0..127 (one byte in a batch)")
 
 
 def _loose_struct(mt: MessageType) -> type[msgspec.Struct]:
@@ -84,12 +89,142 @@ def _decoders() -> dict[int, Any]:
     }
 
 
-#: A batch on the pipe: the message ids in publish order (one byte each), then per message
-#: id the msgpack array of its messages in publish order.
-_decode_batch = msgspec.msgpack.Decoder(tuple[bytes, dict[int, msgspec.Raw]]).decode
+#: A batch on the pipe: the order (per message one byte: its message id, with
+#: :data:`ROW_FLAG` set for a message given as a row), per message id the msgpack array of
+#: its messages given as Structs, and per message id the bytes of its rows (``row_dtype``),
+#: each in publish order.
+_decode_batch = msgspec.msgpack.Decoder(
+    tuple[bytes, dict[int, msgspec.Raw], dict[int, bytes]]
+).decode
 _encode_batch_payload = msgspec.msgpack.Encoder().encode
 _json_encode = msgspec.json.Encoder().encode
 _CLOSE_BRACE = ord("}")
+
+
+@numba.njit(cache=True)
+def _rows_json_kernel(
+    ftext: np.ndarray,
+    itext: np.ndarray,
+    nrows: int,
+    is_float: np.ndarray,
+    keys: np.ndarray,
+    key_at: np.ndarray,
+    out: np.ndarray,
+    starts: np.ndarray,
+    stops: np.ndarray,
+) -> int:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """Interleave the JSON texts of a type's float and int columns into one object per row.
+
+    ``ftext`` / ``itext`` are msgspec's JSON of the flat lists of the rows' float / int
+    values in row order (``[v,v,...]``: a number, ``null`` for NaN/inf, never a comma or a
+    bracket inside a value). Per row: ``{``, then per field its key (``"name":``, after a
+    comma from the second on) and the value's text taken from the next value of ``ftext``
+    or ``itext``, then ``}``. Writes ``out`` and each row's [start, stop) in it; returns
+    the bytes written.
+    """
+    fpos = 1  # after "["
+    ipos = 1
+    o = 0
+    nfields = is_float.shape[0]
+    for r in range(nrows):
+        starts[r] = o
+        for j in range(nfields):
+            for k in range(key_at[j], key_at[j + 1]):
+                out[o] = keys[k]
+                o += 1
+            if is_float[j]:
+                c = ftext[fpos]
+                while c != 44 and c != 93:  # noqa: PLR1714 - "," "]" (numba: no set)
+                    out[o] = c
+                    o += 1
+                    fpos += 1
+                    c = ftext[fpos]
+                fpos += 1
+            else:
+                c = itext[ipos]
+                while c != 44 and c != 93:  # noqa: PLR1714
+                    out[o] = c
+                    o += 1
+                    ipos += 1
+                    c = itext[ipos]
+                ipos += 1
+        out[o] = 125  # "}"
+        o += 1
+        stops[r] = o
+    return o
+
+
+@numba.njit(cache=True)
+def _layout_kernel(
+    text: np.ndarray, starts: np.ndarray, stops: np.ndarray, gap: int, out: np.ndarray
+) -> None:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """Copy each message's JSON ``text[starts[i]:stops[i]]`` into ``out`` in order, each
+    after ``gap`` bytes (its MCAP record header, filled later)."""
+    o = 0
+    for i in range(starts.shape[0]):
+        o += gap
+        for k in range(starts[i], stops[i]):
+            out[o] = text[k]
+            o += 1
+
+
+class _RowType:
+    """How one message type's rows become its Struct's JSON (:func:`_rows_json_kernel`)."""
+
+    def __init__(self, mt: MessageType) -> None:
+        dtype = mt.row_dtype
+        names = dtype.names or ()
+        self.nfields = len(names)
+        kinds = [dtype[name].kind == "f" for name in names]
+        self.is_float = np.array(kinds, np.uint8)
+        self.float_cols = np.flatnonzero(self.is_float)
+        self.int_cols = np.flatnonzero(self.is_float == 0)
+        prefixes = [
+            ("{" if j == 0 else ",").encode() + _json_encode(name) + b":"
+            for j, name in enumerate(names)
+        ]
+        self.keys = np.frombuffer(b"".join(prefixes), np.uint8)
+        self.key_at = np.zeros(len(prefixes) + 1, np.int64)
+        np.cumsum([len(p) for p in prefixes], out=self.key_at[1:])
+        self.key_bytes = int(self.key_at[-1]) + 1  # the keys and the closing brace of a row
+        self.sample_col = names.index("sample_time_ns")
+        self.publish_col = names.index("publish_time_ns")
+        if kinds[self.sample_col] or kinds[self.publish_col]:
+            raise ImportError(f"hil.log_writer: {mt.name}'s time stamps must be int fields")
+
+    def json(self, raw: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows' JSON (one buffer), each row's [start, stop) in it, and the rows."""
+        a = np.frombuffer(raw, np.float64).reshape(-1, self.nfields)
+        n = len(a)
+        ftext = _json_encode(a[:, self.float_cols].ravel().tolist())
+        itext = _json_encode(a.view(np.int64)[:, self.int_cols].ravel().tolist())
+        out = np.empty(len(ftext) + len(itext) + n * self.key_bytes, np.uint8)
+        starts = np.empty(n, np.int64)
+        stops = np.empty(n, np.int64)
+        used = _rows_json_kernel(
+            np.frombuffer(ftext, np.uint8),
+            np.frombuffer(itext, np.uint8),
+            n,
+            self.is_float,
+            self.keys,
+            self.key_at,
+            out,
+            starts,
+            stops,
+        )
+        return out[:used], starts, stops, a.view(np.int64)
+
+
+_ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
+
+
+def _warm_kernels() -> None:
+    """Compile (first run) or load (from numba's cache) the kernels, before the first batch."""
+    for mid, rt in _ROW_TYPES.items():
+        rt.json(np.zeros((1, rt.nfields)).tobytes())
+        _encode_batch(
+            _encode_batch_payload((bytes([mid | ROW_FLAG]), {}, {mid: bytes(8 * rt.nfields)})), {}
+        )
 
 
 def _encode_batch(
@@ -100,43 +235,67 @@ def _encode_batch(
     ``publish_time_ns`` on the host's monotonic clock, moved to the unix epoch by
     ``unix_minus_monotonic_ns``), record offset.
 
-    Each message type's messages are decoded and JSON-encoded in one msgspec call each
+    Messages given as Structs: each type's are decoded and JSON-encoded in one msgspec call
     (``[{...},{...},...]``: a flat object of numbers per message, so its closing brace is
-    the only ``}`` of a message and marks where it ends); the records are then laid out in
-    publish order. Per message only the copy into the record buffer is Python work.
+    the only ``}`` of a message and marks where it ends). Messages given as rows: each
+    type's float columns and int columns are JSON-encoded as two flat lists in one msgspec
+    call each (the number formatting), and :func:`_rows_json_kernel` interleaves them with
+    the keys. The records are then laid out in publish order by :func:`_layout_kernel`.
+    No Python work per message.
     """
-    ids_bytes, by_id = _decode_batch(blob)
-    ids = np.frombuffer(ids_bytes, np.uint8)
-    n = len(ids)
+    ids_bytes, by_id, by_rows = _decode_batch(blob)
+    flags = np.frombuffer(ids_bytes, np.uint8)
+    n = len(flags)
     meta = np.empty((n, 4), np.int64)
-    meta[:, 0] = ids
-    source = np.empty(n, np.int64)  # which type's JSON holds the message
-    starts = np.empty(n, np.int64)  # where in it the message's JSON starts ...
+    meta[:, 0] = flags & (ROW_FLAG - 1)
+    starts = np.empty(n, np.int64)  # where in the joined texts the message's JSON starts ...
     stops = np.empty(n, np.int64)  # ... and ends
-    texts: list[memoryview] = []
+    texts: list[Any] = []
+    pos = 0
+    seen = 0
     for message_id, raw in by_id.items():
         msgs = decoders[message_id](raw)
         text = _json_encode(msgs)
         ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
-        where = np.flatnonzero(ids == message_id)
+        where = np.flatnonzero(flags == message_id)
         if len(ends) != len(msgs) or len(where) != len(msgs):
             raise ValueError(f"batch: message id {message_id} does not match its messages")
-        starts[where[0]] = 1  # after the list's "["
-        starts[where[1:]] = ends[:-1] + 1  # after "},"
-        stops[where] = ends
-        source[where] = len(texts)
+        starts[where[0]] = pos + 1  # after the list's "["
+        starts[where[1:]] = pos + ends[:-1] + 1  # after "},"
+        stops[where] = pos + ends
         meta[where, 1] = [m.sample_time_ns for m in msgs]
         meta[where, 2] = [m.publish_time_ns for m in msgs]
-        texts.append(memoryview(text))
+        texts.append(text)
+        pos += len(text)
+        seen += len(msgs)
+    for message_id, row_bytes in by_rows.items():
+        rt = _ROW_TYPES.get(message_id)
+        if rt is None or len(row_bytes) % (8 * rt.nfields):
+            raise ValueError(f"batch: rows of message id {message_id} do not fit its type")
+        row_text, row_starts, row_stops, ints = rt.json(row_bytes)
+        where = np.flatnonzero(flags == (message_id | ROW_FLAG))
+        if len(where) != len(ints):
+            raise ValueError(f"batch: message id {message_id} does not match its rows")
+        starts[where] = pos + row_starts
+        stops[where] = pos + row_stops
+        meta[where, 1] = ints[:, rt.sample_col]
+        meta[where, 2] = ints[:, rt.publish_col]
+        texts.append(row_text)
+        pos += len(row_text)
+        seen += len(ints)
+    if seen != n:
+        raise ValueError(f"batch: {n} message ids for {seen} messages")
     meta[:, 2] += unix_minus_monotonic_ns
     lengths = stops - starts
-    meta[0, 3] = 0
-    np.cumsum(lengths[:-1] + MESSAGE_HEADER_BYTES, out=meta[1:, 3])
-    records = bytearray()
-    gap = bytes(MESSAGE_HEADER_BYTES)
-    for s, a, b in zip(source.tolist(), starts.tolist(), stops.tolist(), strict=True):
-        records += gap
-        records += texts[s][a:b]
+    if n:
+        meta[0, 3] = 0
+        np.cumsum(lengths[:-1] + MESSAGE_HEADER_BYTES, out=meta[1:, 3])
+    records = bytearray(int(lengths.sum()) + n * MESSAGE_HEADER_BYTES)
+    if n:
+        joined = np.frombuffer(b"".join(texts), np.uint8)
+        _layout_kernel(
+            joined, starts, stops, MESSAGE_HEADER_BYTES, np.frombuffer(records, np.uint8)
+        )
     return meta, records
 
 
@@ -152,6 +311,7 @@ def _writer_main(
 ) -> None:
     log = BatchRunLog(Path(path), turbine, compression=compression)
     decoders = _decoders()
+    _warm_kernels()
     cpu0 = time.process_time()
     try:
         for name, data in metadata.items():
@@ -258,9 +418,11 @@ class BackgroundRunLog:
 
     def _new_batch(self) -> None:
         # The batch being filled: the message ids in publish order and, per message id,
-        # its messages (the Structs themselves; encoded when the batch is sent).
+        # its messages given to publish (the Structs themselves; encoded when the batch is
+        # sent) and the bytes of its rows given to publish_block.
         self._ids = bytearray()
         self._by_id: dict[int, list[msgspec.Struct]] = {}
+        self._rows: dict[int, bytearray] = {}
 
     def publish(self, mt: MessageType, msg: msgspec.Struct) -> None:
         """Queue one message for the log (the simulation loop's only logging cost)."""
@@ -294,34 +456,50 @@ class BackgroundRunLog:
 
         Notes
         -----
-        Reference version: each row becomes its Struct and goes through :meth:`publish`.
+        The rows' bytes are appended to the batch being filled, per message id, and the ids
+        to its order with :data:`ROW_FLAG` set (no Struct, no Python work per message); the
+        writer turns them into the Struct's JSON (:func:`_encode_batch`). A block that
+        does not fit the batch is split at the batch's end (batches are cut by count).
         """
         ids = np.asarray(order, np.uint8)
+        if ids.ndim != 1:
+            raise ValueError(f"publish_block: order must be 1-D, got shape {ids.shape}")
+        counts = np.bincount(ids, minlength=256)
+        total = 0
         for mid, block in rows.items():
             mt = _BY_ID.get(mid)
             if mt is None:
                 raise ValueError(f"publish_block: unknown message id {mid}")
-            if block.dtype != mt.row_dtype or block.ndim != 1:
+            if not isinstance(block, np.ndarray) or block.dtype != mt.row_dtype or block.ndim != 1:
                 raise ValueError(f"publish_block: {mt.name} rows must be 1-D {mt.row_dtype}")
-            if len(block) != int(np.count_nonzero(ids == mid)):
+            if len(block) != counts[mid]:
                 raise ValueError(f"publish_block: {len(block)} {mt.name} rows for its ids")
-        if int(np.count_nonzero(np.isin(ids, list(rows)))) != len(ids):
+            total += len(block)
+        if total != len(ids):
             raise ValueError("publish_block: an id in order has no rows")
-        msgs = {
-            mid: iter(
-                [
-                    _BY_ID[mid].cls(**dict(zip(r.dtype.names, r.tolist(), strict=True)))
-                    for r in block
-                ]
-            )
-            for mid, block in rows.items()
-        }
-        for mid in ids.tolist():
-            self.publish(_BY_ID[mid], next(msgs[mid]))
+        done = {mid: 0 for mid in rows}
+        while len(ids):
+            room = self._batch_messages - len(self._ids)
+            part = ids if len(ids) <= room else ids[:room]  # a batch is cut by count
+            self._ids += (part | ROW_FLAG).tobytes()
+            whole = part is ids
+            for mid, block in rows.items():
+                a = done[mid]
+                b = len(block) if whole else a + int(np.count_nonzero(part == mid))
+                if b > a:
+                    buf = self._rows.get(mid)
+                    if buf is None:
+                        self._rows[mid] = bytearray(block[a:b].tobytes())
+                    else:
+                        buf += block[a:b].tobytes()
+                    done[mid] = b
+            ids = ids[len(part) :]
+            if len(self._ids) >= self._batch_messages:
+                self._send()
 
     def _payload(self) -> bytes:
         """The batch as it goes to the writer: one msgpack call for all its messages."""
-        return _encode_batch_payload((self._ids, self._by_id))
+        return _encode_batch_payload((self._ids, self._by_id, self._rows))
 
     def _send(self) -> None:
         n = len(self._ids)
