@@ -1,0 +1,306 @@
+"""Benchmark: the in-process log writer's CPU per message, rows in blocks against Structs.
+
+The stream is real: the five per-cycle messages (SensorFrame, PlantState, ActuatorCommand,
+ControllerStatus, CycleTiming) of ``fowt run iea15mw-lc2-lqri-ff --mode inprocess
+--duration 60 --no-plots`` read back from its MCAP in file (= publish) order, 12 000
+messages, handed over ``--passes`` times (seq and time stamps shifted per pass). For each
+path this script runs a real :class:`hil.log_writer.BackgroundRunLog` (writer child on the
+other core, zstd file) and reports:
+
+* ``rows``: the messages as ``row_dtype`` rows in blocks of ``--block-cycles`` cycles through
+  ``publish_block`` (what the compiled loop hands over);
+* ``structs``: the same messages as Structs through ``publish`` (today's loop);
+* ``main_structs`` (with ``--compare-python PY --compare-root DIR``, e.g. main's venv and
+  checkout): the Struct path of DIR's code, in a child process with its own interpreter;
+
+each with the writer child's CPU per message (``writer_cpu_s / writer_messages``, its own
+measurement after start-up), the parent's CPU per message for the hand-over (thread CPU
+time around the publish calls, the batches' encoding and pipe writes included), the file
+size and the messages per writer CPU second. The paths alternate ``--rounds`` times (the
+2-core machine is shared; the load average is saved with every round); the best round of
+each is the figure.
+
+``stages``: the batches of the rows path (captured as sent) written again in this process,
+each stage timed on the process CPU clock over ``--stage-repeats`` passes (best pass):
+decode + rows -> JSON (msgspec on the flat float and int columns, the key kernel), layout
+in publish order (the rest of ``_encode_batch``), the MCAP framing (``write_batch``
+without compression: record headers, CRC-32 of the chunk, message indexes, writes; the
+CRC-32 alone beside it), and the compression (``write_batch`` with it minus without), for
+zstd levels 1 (the default), -1, -3, -5, lz4 and none, each with the file size.
+
+    python bench/log_writer_speed.py [--passes 4] [--rounds 3] \\
+        [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import zlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from _common import save
+
+SCENARIO = "iea15mw-lc2-lqri-ff"
+CYCLE_SUFFIXES = ("sensors", "truth", "command", "controller/status", "timing/cycle")
+
+
+def real_run() -> Path:
+    """The MCAP of a 60 s in-process run of :data:`SCENARIO` (a temporary folder)."""
+    out = Path(tempfile.mkdtemp(prefix="fowt-bench-lw-"))
+    cmd = [sys.executable, "-m", "hil", "run", SCENARIO, "--mode", "inprocess"]
+    cmd += ["--duration", "60", "--no-plots", "--out", str(out)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    return out / "run.mcap"
+
+
+def stream(mcap: Path | None) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    """The per-cycle messages of a real run: ids in publish order and each type's rows."""
+    import orjson
+    from mcap.reader import make_reader
+
+    from bus_schemas.registry import MESSAGES
+
+    if mcap is None:
+        mcap = real_run()
+    types = {mt.key("t1"): mt for mt in MESSAGES if mt.key_suffix in CYCLE_SUFFIXES}
+    order: list[int] = []
+    rows: dict[int, list[tuple[Any, ...]]] = {mt.message_id: [] for mt in types.values()}
+    with open(mcap, "rb") as fh:
+        for _s, ch, m in make_reader(fh).iter_messages(log_time_order=False):
+            mt = types.get(ch.topic)
+            if mt is not None:
+                d = orjson.loads(m.data)
+                order.append(mt.message_id)
+                rows[mt.message_id].append(tuple(d[k] for k in mt.row_dtype.names or ()))
+    by_id = {mt.message_id: mt for mt in types.values()}
+    arrays = {mid: np.array(r, dtype=by_id[mid].row_dtype) for mid, r in rows.items()}
+    return np.array(order, np.uint8), arrays
+
+
+def shifted(arrays: dict[int, np.ndarray], k: int, n_cycles: int) -> dict[int, np.ndarray]:
+    """Pass ``k`` of the stream: seq and time stamps moved on by ``k`` runs."""
+    out = {}
+    for mid, a in arrays.items():
+        b = a.copy()
+        b["seq"] += k * n_cycles
+        b["sample_time_ns"] += k * n_cycles * 25_000_000
+        b["publish_time_ns"] += k * n_cycles * 25_000_000
+        out[mid] = b
+    return out
+
+
+def run_path(
+    kind: str, order: np.ndarray, arrays: dict[int, np.ndarray], passes: int, block_cycles: int
+) -> dict[str, Any]:
+    """One real BackgroundRunLog fed the stream as rows (publish_block) or Structs."""
+    from bus_schemas.registry import MESSAGES
+    from hil.log_writer import BackgroundRunLog
+
+    by_id = {mt.message_id: mt for mt in MESSAGES}
+    n_cycles = len(arrays[int(order[0])])
+    per_block = block_cycles * 5
+    work: list[Any] = []
+    for k in range(passes):
+        a = shifted(arrays, k, n_cycles)
+        if kind == "rows":
+            done = dict.fromkeys(a, 0)
+            for s in range(0, len(order), per_block):
+                ids = order[s : s + per_block]
+                blk = {}
+                for mid in a:
+                    c = int(np.count_nonzero(ids == mid))
+                    blk[mid] = a[mid][done[mid] : done[mid] + c]
+                    done[mid] += c
+                work.append((ids, blk))
+        else:
+            its = {
+                mid: iter(
+                    [by_id[mid].cls(*r) for r in arr.tolist()]  # positional: fields in order
+                )
+                for mid, arr in a.items()
+            }
+            work.extend((by_id[mid], next(its[mid])) for mid in order.tolist())
+    n = len(order) * passes
+    with tempfile.TemporaryDirectory(prefix="fowt-bench-lw-") as tmp:
+        path = Path(tmp) / "run.mcap"
+        log = BackgroundRunLog(path, "t1", {"run": {"mode": "bench"}})
+        log.wait_ready()
+        c0 = time.thread_time_ns()
+        if kind == "rows":
+            publish_block = log.publish_block
+            for ids, blk in work:
+                publish_block(ids, blk)
+        else:
+            publish = log.publish
+            for mt, msg in work:
+                publish(mt, msg)
+        parent_ns = time.thread_time_ns() - c0
+        log.close()
+        size = path.stat().st_size
+    if log.writer_messages != n:
+        raise SystemExit(f"{kind}: the writer wrote {log.writer_messages} of {n} messages")
+    return {
+        "messages": n,
+        "writer_cpu_us_per_msg": log.writer_cpu_s / n * 1e6,
+        "writer_msgs_per_cpu_s": n / log.writer_cpu_s if log.writer_cpu_s else None,
+        "parent_cpu_us_per_msg": parent_ns / n / 1e3,
+        "file_bytes": size,
+        "loadavg": os.getloadavg(),
+    }
+
+
+def stages(
+    order: np.ndarray, arrays: dict[int, np.ndarray], passes: int, repeats: int
+) -> dict[str, Any]:
+    """The rows path's batches written again in this process, stage by stage."""
+    import hil.log_writer as lw
+    import hil.mcap_log as ml
+
+    batches: list[bytes] = []
+    send = lw.BackgroundRunLog._send
+
+    def keep(self: Any) -> None:
+        if self._ids:
+            batches.append(self._payload())
+        send(self)
+
+    lw.BackgroundRunLog._send = keep  # type: ignore[method-assign]
+    try:
+        run_path("rows", order, arrays, passes, 8)
+    finally:
+        lw.BackgroundRunLog._send = send  # type: ignore[method-assign]
+    n = sum(len(lw._decode_batch(b)[0]) for b in batches)
+    decoders = lw._decoders()
+    lw._warm_kernels()
+
+    def best(fn: Any) -> float:
+        times = []
+        for _ in range(repeats):
+            c0 = time.process_time_ns()
+            fn()
+            times.append(time.process_time_ns() - c0)
+        return min(times) / n / 1e3
+
+    def json_only() -> None:
+        for b in batches:
+            _ids, _structs, rows = lw._decode_batch(b)
+            for mid, raw in rows.items():
+                lw._ROW_TYPES[mid].json(raw)
+
+    encoded = [lw._encode_batch(b, decoders) for b in batches]
+    out: dict[str, Any] = {"messages": n, "batches": len(batches)}
+    out["rows_to_json_us"] = best(json_only)
+    out["encode_batch_us"] = best(lambda: [lw._encode_batch(b, decoders) for b in batches])
+    out["layout_us"] = out["encode_batch_us"] - out["rows_to_json_us"]
+    out["crc32_us"] = best(lambda: [zlib.crc32(r) for _m, r in encoded])
+    out["record_bytes_per_msg"] = sum(len(r) for _m, r in encoded) / n
+    comp: dict[str, Any] = {}
+    saved = ml.ZSTD_LEVEL
+    with tempfile.TemporaryDirectory(prefix="fowt-bench-lw-") as tmp:
+        for name, compression, level in (
+            ("none", "", None),
+            ("zstd1", "zstd", 1),
+            ("zstd-1", "zstd", -1),
+            ("zstd-3", "zstd", -3),
+            ("zstd-5", "zstd", -5),
+            ("lz4", "lz4", None),
+        ):
+            ml.ZSTD_LEVEL = level if level is not None else saved
+            try:
+                sizes = []
+
+                def write(compression: str = compression, sizes: list[int] = sizes) -> None:
+                    path = Path(tmp) / "c.mcap"
+                    log = ml.BatchRunLog(path, "t1", compression=compression)
+                    for meta, records in encoded:
+                        log.write_batch(meta, bytearray(records))
+                    log.close()
+                    sizes.append(path.stat().st_size)
+
+                try:
+                    us = best(write)
+                except ValueError as exc:  # lz4 not installed
+                    comp[name] = {"error": str(exc)}
+                    continue
+                comp[name] = {"write_batch_us": us, "file_bytes": sizes[-1]}
+            finally:
+                ml.ZSTD_LEVEL = saved
+    copy_us = best(lambda: [bytearray(r) for _m, r in encoded])  # the copy in write() above
+    for v in comp.values():
+        if "write_batch_us" in v:
+            v["write_batch_us"] -= copy_us
+    out["framing_us"] = comp["none"]["write_batch_us"]
+    for v in comp.values():
+        if "write_batch_us" in v:
+            v["compression_us"] = v["write_batch_us"] - out["framing_us"]
+    out["compression"] = comp
+    out["writer_total_default_us"] = out["encode_batch_us"] + comp["zstd1"]["write_batch_us"]
+    out["loadavg"] = os.getloadavg()
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--mcap", type=Path, default=None, help="a run's MCAP (default: run 60 s)")
+    ap.add_argument("--passes", type=int, default=4)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--block-cycles", type=int, default=8)
+    ap.add_argument("--stage-repeats", type=int, default=3)
+    ap.add_argument("--compare-python", default=None)
+    ap.add_argument("--compare-root", type=Path, default=None)
+    ap.add_argument("--only-structs", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--save-as", default="log_writer_speed")
+    args = ap.parse_args()
+    if args.only_structs:  # the compared code's Struct path (child of the compare run)
+        order, arrays = stream(args.mcap)
+        print(json.dumps(run_path("structs", order, arrays, args.passes, args.block_cycles)))
+        return
+    mcap = args.mcap or real_run()  # the same stream for the compared code
+    order, arrays = stream(mcap)
+    rounds: list[dict[str, Any]] = []
+    for r in range(args.rounds):
+        entry = {
+            "rows": run_path("rows", order, arrays, args.passes, args.block_cycles),
+            "structs": run_path("structs", order, arrays, args.passes, args.block_cycles),
+        }
+        if args.compare_python and args.compare_root:
+            cmd = [args.compare_python, str(Path(__file__).resolve()), "--only-structs"]
+            cmd += ["--mcap", str(mcap), "--passes", str(args.passes)]
+            env = dict(os.environ, PYTHONPATH=str(args.compare_root))
+            proc = subprocess.run(
+                cmd, check=True, capture_output=True, text=True, cwd=args.compare_root, env=env
+            )
+            entry["main_structs"] = json.loads(proc.stdout.strip().splitlines()[-1])
+        cpu = {k: v["writer_cpu_us_per_msg"] for k, v in entry.items()}
+        print(f"round {r}: writer CPU per message [us] {cpu}")
+        rounds.append(entry)
+    best_of = {
+        k: min((e[k] for e in rounds), key=lambda v: v["writer_cpu_us_per_msg"]) for k in rounds[0]
+    }
+    result: dict[str, Any] = {
+        "scenario": SCENARIO,
+        "stream_messages": len(order) * args.passes,
+        "block_cycles": args.block_cycles,
+        "best": best_of,
+        "rounds": rounds,
+        "stages": stages(order, arrays, args.passes, args.stage_repeats),
+        "loadavg": os.getloadavg(),
+    }
+    if "main_structs" in best_of:
+        result["writer_ratio_main_structs_over_rows"] = (
+            best_of["main_structs"]["writer_cpu_us_per_msg"]
+            / best_of["rows"]["writer_cpu_us_per_msg"]
+        )
+    save(args.save_as, result)
+
+
+if __name__ == "__main__":
+    main()
