@@ -40,7 +40,7 @@ import fcntl
 import multiprocessing
 import time
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -101,12 +101,20 @@ _json_encode = msgspec.json.Encoder().encode
 _CLOSE_BRACE = ord("}")
 
 
+_F = typing.TypeVar("_F", bound=Callable[..., Any])
+
+
+def _njit(fn: _F) -> _F:
+    """``numba.njit(cache=True)`` (compiled on first use, cached on disk), typed as ``fn``."""
+    return typing.cast(_F, numba.njit(cache=True)(fn))
+
+
 # The kernels index with unsigned integers: numba then skips the negative-index wrap-around
 # check on every byte (3-4 times faster here).
 _U = numba.uint64
 
 
-@numba.njit(cache=True)
+@_njit
 def _values_kernel(
     text: np.ndarray, start: np.ndarray, length: np.ndarray
 ) -> int:  # pragma: no cover
@@ -124,7 +132,7 @@ def _values_kernel(
     return count
 
 
-@numba.njit(cache=True)
+@_njit
 def _rows_kernel(
     ftext: np.ndarray,
     fstart: np.ndarray,
@@ -174,7 +182,7 @@ def _rows_kernel(
         out[_U(o)] = 125  # "}"
 
 
-@numba.njit(cache=True)
+@_njit
 def _texts_kernel(
     text: np.ndarray, start: np.ndarray, length: np.ndarray, dest: np.ndarray, out: np.ndarray
 ) -> None:  # pragma: no cover - compiled (its results are tested byte for byte)
@@ -240,7 +248,8 @@ class _RowType:
 
     def write(self, texts: tuple[Any, ...], dest: np.ndarray, out: np.ndarray) -> None:
         """Write the rows' JSON at ``dest`` in ``out`` (:func:`_rows_kernel`)."""
-        _rows_kernel(*texts, self.is_float, self.keys, self.key_at, dest, out)
+        ft, fs, fl, it, ist, il = texts
+        _rows_kernel(ft, fs, fl, it, ist, il, self.is_float, self.keys, self.key_at, dest, out)
 
 
 _ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
@@ -322,7 +331,7 @@ def _encode_batch(
     for rt, where, texts in jobs:
         dest = meta[where, 3] + MESSAGE_HEADER_BYTES
         if rt is None:
-            _texts_kernel(*texts, dest, out)
+            _texts_kernel(texts[0], texts[1], texts[2], dest, out)
         else:
             rt.write(texts, dest, out)
     return meta, records
