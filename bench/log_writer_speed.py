@@ -22,11 +22,13 @@ each is the figure.
 
 ``stages``: the batches of the rows path (captured as sent) written again in this process,
 each stage timed on the process CPU clock over ``--stage-repeats`` passes (best pass):
-decode + rows -> JSON (msgspec on the flat float and int columns, the key kernel), layout
-in publish order (the rest of ``_encode_batch``), the MCAP framing (``write_batch``
-without compression: record headers, CRC-32 of the chunk, message indexes, writes; the
-CRC-32 alone beside it), and the compression (``write_batch`` with it minus without), for
-zstd levels 1 (the default), -1, -3, -5, lz4 and none, each with the file size.
+decode + rows -> JSON numbers (msgspec on the flat float and int columns, each value's
+place in them); layout in publish order (the rest of ``_encode_batch``: each message's
+length and record offset, the kernels writing keys and values there); the MCAP framing
+(``write_batch`` without compression: record headers, CRC-32 of the chunk, message
+indexes, writes; the CRC-32 alone beside it); and the compression (``write_batch`` with
+it minus without), for zstd levels 1 (the default), -1, -3, -5, lz4 and none, each with
+the file size.
 
     python bench/log_writer_speed.py [--passes 4] [--rounds 3] \\
         [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
@@ -193,7 +195,7 @@ def stages(
         for b in batches:
             _ids, _structs, rows = lw._decode_batch(b)
             for mid, raw in rows.items():
-                lw._ROW_TYPES[mid].json(raw)
+                lw._ROW_TYPES[mid].texts(raw)
 
     encoded = [lw._encode_batch(b, decoders) for b in batches]
     out: dict[str, Any] = {"messages": n, "batches": len(batches)}
@@ -219,7 +221,9 @@ def stages(
 
                 def write(compression: str = compression, sizes: list[int] = sizes) -> None:
                     path = Path(tmp) / "c.mcap"
-                    log = ml.BatchRunLog(path, "t1", compression=compression)
+                    log = ml.BatchRunLog(
+                        path, "t1", compression=compression, place_headers=lw._place_headers
+                    )
                     for meta, records in encoded:
                         log.write_batch(meta, bytearray(records))
                     log.close()
