@@ -1,34 +1,55 @@
 """A run log written by a child process, for the in-process mode.
 
-The simulation loop's whole logging cost is :meth:`BackgroundRunLog.publish`: the message
-(the Struct itself) goes into its type's list of the batch being filled and its message id
-into the batch's order (two list appends, about 0.15 us). The MCAP ``publish_time`` of a
-message is its own ``publish_time_ns`` (the host's monotonic clock) moved to the unix epoch:
-in process, publishing and logging are the same moment. A full batch is encoded as msgpack
-in one msgspec call (per type an array of its messages; floats are copied as 8 bytes, not
-formatted; about 0.1 to 0.35 us a message) and goes through a pipe to a child process, on
-the other core, that does the expensive part: it decodes each type's array and JSON-encodes
-it in one msgspec call each (the float formatting), lays the messages out in publish order,
-and a :class:`hil.mcap_log.BatchRunLog` writes the batch as one compressed MCAP Chunk with
-its message indexes. The JSON is the one msgspec writes for the Struct itself (every field
-is an int or a float, which msgpack carries exactly; same keys, same order). If the parent
+The simulation loop hands its messages over in one of two ways, freely mixed:
+
+* :meth:`BackgroundRunLog.publish` (one Struct): the message goes into its type's list of
+  the batch being filled and its message id into the batch's order (two list appends,
+  about 0.15 us); the batch's Structs are encoded as msgpack in one msgspec call when it
+  is sent (floats copied as 8 bytes, not formatted; 0.1 to 0.35 us a message);
+* :meth:`BackgroundRunLog.publish_block` (many messages as rows of
+  :attr:`bus_schemas.registry.MessageType.row_dtype`, e.g. several control cycles
+  written by a compiled loop): the rows' bytes are appended to their type's buffer in the
+  batch and the ids to its order with :data:`ROW_FLAG` set; no Struct and no Python work
+  per message (about 0.3-0.4 us a message for blocks of 8 cycles, the checks included).
+
+The MCAP ``publish_time`` of a message is its own ``publish_time_ns`` (the host's
+monotonic clock) moved to the unix epoch: in process, publishing and logging are the same
+moment; ``log_time`` is the run's start plus ``sample_time_ns``. A full batch goes through
+a pipe to a child process, on the other core, that does the expensive part
+(:func:`_encode_batch`): Structs are decoded and JSON-encoded per type in one msgspec call
+each; rows are JSON-encoded per type as two flat lists (the float columns, the int
+columns) in one msgspec call each (the number formatting), a compiled kernel finds each
+value in them, every message's length and so its record's place in publish order follow,
+and compiled kernels write each message there (a row's keys interleaved with its values),
+leaving the 31-byte record header gaps that :class:`hil.mcap_log.BatchRunLog` fills
+before writing the batch as one compressed MCAP Chunk with its message indexes. The JSON
+is byte for byte the one msgspec writes for the Struct with the same values (same keys,
+same order, the same number formatting: msgspec formats a row's floats and ints as it
+does a Struct's fields; NaN and inf are ``null`` both ways). A row holds float64 in a
+float field, so a float field is always written as a float (``0.0``), where a Struct given
+a Python int there would write ``0``: equal values, not always equal text. If the parent
 dies, the child sees the pipe close and finishes the file, so nothing handed over is lost.
 
-Cost (bench/inprocess_speed.py, 600 s LC2, the five messages of a control cycle): the
-parent's publish is a few hundred ns a message (appends, plus the batch's msgpack call);
-the child needs 4.0 to 4.9 us of CPU a message: about 2.2 to 2.7 us for msgspec's decode
-(~0.8), its JSON (~0.9, the float formatting) and the layout in publish order, 1.1 us for
-zstd level 1 and about 0.65 us for the chunk's framing, CRC-32 and message indexes. At five
-messages a cycle that bounds a run at about 1000-1100x real time when the child has a core
-to itself; the loop (40-110 us a cycle) bounds it first. A further step would have to drop
-per-message work the format asks for (the JSON itself, or compression).
+Cost (bench/log_writer_speed.py: a real 60 s LC2 lqri_ff run's five per-cycle messages,
+48 000 messages, on the shared 2-core machine at load 1.2-1.6): the child needs 3.7 us of
+CPU a message for rows in blocks of 8 cycles (4.2 us for the same messages as Structs,
+main's Struct path 4.6 us in the same run). Its stages (the same batches in process):
+rows -> JSON numbers 1.3 us (msgspec's float formatting and the ``tolist`` before it),
+layout 0.7 us, framing 0.6 us (record headers, CRC-32 0.18 us, message indexes, writes),
+zstd level 1 1.6 us. Five messages a cycle: the writer bounds a run at about 1300x real
+time with a core to itself. Compression is the largest stage; zstd -1 / -5 or lz4 would
+save 0.7-0.9 us a message at 1.5-1.9 times the file size, and no compression leaves about
+2.6 us (a 5.7 times larger file), so 2000x (2.5 us a message) is not reached by this
+format on this machine; the default stays zstd level 1.
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
 it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
 parent (the kernel keeps it for the child). A killed run therefore loses at most the batch
 being filled: at most 1023 messages, about 200 control cycles of 5 messages (5 s of
-simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time). The
-batch is cut by count only, so what survives a kill does not depend on the machine's load.
+simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time),
+whether they came one by one or in blocks (a block is split at the batch's end, so every
+batch holds exactly :data:`BATCH_MESSAGES`). The batch is cut by count only, so what
+survives a kill does not depend on the machine's load.
 The lock-step and real-time modes do not use this path: their recorder flushes a chunk
 every 0.25 s of wall time (:class:`hil.mcap_log.RunLog`).
 """
