@@ -183,14 +183,6 @@ def stages(
     decoders = lw._decoders()
     lw._warm_kernels()
 
-    def best(fn: Any) -> float:
-        times = []
-        for _ in range(repeats):
-            c0 = time.process_time_ns()
-            fn()
-            times.append(time.process_time_ns() - c0)
-        return min(times) / n / 1e3
-
     def json_only() -> None:
         for b in batches:
             _ids, _structs, rows = lw._decode_batch(b)
@@ -198,53 +190,75 @@ def stages(
                 lw._ROW_TYPES[mid].texts(raw)
 
     encoded = [lw._encode_batch(b, decoders) for b in batches]
-    out: dict[str, Any] = {"messages": n, "batches": len(batches)}
-    out["rows_to_json_us"] = best(json_only)
-    out["encode_batch_us"] = best(lambda: [lw._encode_batch(b, decoders) for b in batches])
-    out["layout_us"] = out["encode_batch_us"] - out["rows_to_json_us"]
-    out["crc32_us"] = best(lambda: [zlib.crc32(r) for _m, r in encoded])
-    out["record_bytes_per_msg"] = sum(len(r) for _m, r in encoded) / n
-    comp: dict[str, Any] = {}
-    saved = ml.ZSTD_LEVEL
-    with tempfile.TemporaryDirectory(prefix="fowt-bench-lw-") as tmp:
-        for name, compression, level in (
-            ("none", "", None),
-            ("zstd1", "zstd", 1),
-            ("zstd-1", "zstd", -1),
-            ("zstd-3", "zstd", -3),
-            ("zstd-5", "zstd", -5),
-            ("lz4", "lz4", None),
-        ):
-            ml.ZSTD_LEVEL = level if level is not None else saved
+    tmp = tempfile.mkdtemp(prefix="fowt-bench-lw-")
+    sizes: dict[str, int] = {}
+
+    def writer(name: str, compression: str, level: int, window: int, hashes: int) -> Any:
+        def write() -> None:
+            saved = ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG
+            ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG = level, window, hashes
             try:
-                sizes = []
-
-                def write(compression: str = compression, sizes: list[int] = sizes) -> None:
-                    path = Path(tmp) / "c.mcap"
-                    log = ml.BatchRunLog(
-                        path, "t1", compression=compression, place_headers=lw._place_headers
-                    )
-                    for meta, records in encoded:
-                        log.write_batch(meta, bytearray(records))
-                    log.close()
-                    sizes.append(path.stat().st_size)
-
-                try:
-                    us = best(write)
-                except ValueError as exc:  # lz4 not installed
-                    comp[name] = {"error": str(exc)}
-                    continue
-                comp[name] = {"write_batch_us": us, "file_bytes": sizes[-1]}
+                path = Path(tmp) / "c.mcap"
+                log = ml.BatchRunLog(
+                    path, "t1", compression=compression, place_headers=lw._place_headers
+                )
+                for meta, records in encoded:
+                    log.write_batch(meta, bytearray(records))
+                log.close()
+                sizes[name] = path.stat().st_size
             finally:
-                ml.ZSTD_LEVEL = saved
-    copy_us = best(lambda: [bytearray(r) for _m, r in encoded])  # the copy in write() above
-    for v in comp.values():
-        if "write_batch_us" in v:
-            v["write_batch_us"] -= copy_us
-    out["framing_us"] = comp["none"]["write_batch_us"]
-    for v in comp.values():
-        if "write_batch_us" in v:
-            v["compression_us"] = v["write_batch_us"] - out["framing_us"]
+                ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG = saved
+
+        return write
+
+    w, h = ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG  # 0: the level's own (zstd's convention)
+    configs = {
+        "none": ("", 1, w, h),
+        "zstd1": ("zstd", 1, w, h),  # the default
+        "zstd1_level_tables": ("zstd", 1, 0, 0),
+        "zstd-1": ("zstd", -1, w, h),
+        "zstd-3": ("zstd", -3, w, h),
+        "zstd-5": ("zstd", -5, w, h),
+        "lz4": ("lz4", 1, w, h),
+    }
+    fns: dict[str, Any] = {
+        "rows_to_json_us": json_only,
+        "encode_batch_us": lambda: [lw._encode_batch(b, decoders) for b in batches],
+        "crc32_us": lambda: [zlib.crc32(r) for _m, r in encoded],
+        "copy_us": lambda: [bytearray(r) for _m, r in encoded],  # the copy in write()
+    }
+    fns.update({f"write_{k}": writer(k, *v) for k, v in configs.items()})
+    times: dict[str, list[int]] = {k: [] for k in fns}
+    errors: dict[str, str] = {}
+    for _ in range(repeats):  # interleaved: each stage in every pass, the best pass of each
+        for name, fn in fns.items():
+            if name in errors:
+                continue
+            c0 = time.process_time_ns()
+            try:
+                fn()
+            except ValueError as exc:  # lz4 not installed
+                errors[name] = str(exc)
+                continue
+            times[name].append(time.process_time_ns() - c0)
+    us = {k: min(v) / n / 1e3 for k, v in times.items() if v}
+    out: dict[str, Any] = {"messages": n, "batches": len(batches), "repeats": repeats}
+    for k in ("rows_to_json_us", "encode_batch_us", "crc32_us"):
+        out[k] = us[k]
+    out["layout_us"] = us["encode_batch_us"] - us["rows_to_json_us"]
+    out["record_bytes_per_msg"] = sum(len(r) for _m, r in encoded) / n
+    out["framing_us"] = us["write_none"] - us["copy_us"]
+    comp: dict[str, Any] = {}
+    for k in configs:
+        if f"write_{k}" in errors:
+            comp[k] = {"error": errors[f"write_{k}"]}
+            continue
+        wb = us[f"write_{k}"] - us["copy_us"]
+        comp[k] = {
+            "write_batch_us": wb,
+            "compression_us": wb - out["framing_us"],
+            "file_bytes": sizes[k],
+        }
     out["compression"] = comp
     out["writer_total_default_us"] = out["encode_batch_us"] + comp["zstd1"]["write_batch_us"]
     out["loadavg"] = os.getloadavg()

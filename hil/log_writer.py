@@ -136,31 +136,24 @@ _U = numba.uint64
 
 
 @_njit
-def _values_kernel(
-    text: np.ndarray, start: np.ndarray, length: np.ndarray
-) -> int:  # pragma: no cover
-    """Each value's start and length in a flat JSON list of numbers (``[v,v,...]``; a value
-    never holds a comma or a bracket); returns how many were found. Branch-free."""
+def _values_kernel(text: np.ndarray, sep: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Where each value of a flat JSON list of numbers (``[v,v,...]``; a value never holds a
+    comma or a bracket) ends: the index of the comma or ``]`` after it. Returns how many
+    were found. Branch-free: one store a byte."""
     count = 0
-    begin = 1  # after "["
     for i in range(1, text.shape[0]):
         c = text[_U(i)]
-        sep = (c == 44) | (c == 93)  # "," "]"
-        start[_U(count)] = begin
-        length[_U(count)] = i - begin
-        count += sep
-        begin += sep * (i + 1 - begin)
+        sep[_U(count)] = i
+        count += (c == 44) | (c == 93)  # "," "]"
     return count
 
 
 @_njit
 def _rows_kernel(
     ftext: np.ndarray,
-    fstart: np.ndarray,
-    flen: np.ndarray,
+    fsep: np.ndarray,
     itext: np.ndarray,
-    istart: np.ndarray,
-    ilen: np.ndarray,
+    isep: np.ndarray,
     is_float: np.ndarray,
     keys: np.ndarray,
     key_at: np.ndarray,
@@ -170,14 +163,16 @@ def _rows_kernel(
     """Write each row of one type as its Struct's JSON at its place in the record buffer.
 
     ``ftext`` / ``itext`` are msgspec's JSON of the flat lists of the rows' float / int
-    values in row order; ``fstart``/``flen`` and ``istart``/``ilen`` each value's place in
-    them (:func:`_values_kernel`). Row ``r`` goes to ``out[dest[r]:]``: ``{``, then per
-    field its key (``"name":``, after a comma from the second on: ``keys`` from
-    ``key_at[j]`` to ``key_at[j + 1]``) and the text of the next float or int value, then
-    ``}``.
+    values in row order; ``fsep`` / ``isep`` where each value in them ends
+    (:func:`_values_kernel`; a value starts after the previous one's separator). Row ``r``
+    goes to ``out[dest[r]:]``: ``{``, then per field its key (``"name":``, after a comma
+    from the second on: ``keys`` from ``key_at[j]`` to ``key_at[j + 1]``) and the text of
+    the next float or int value, then ``}``.
     """
     fi = 0
     ii = 0
+    fnext = 1  # where the next float value starts (after "[") ...
+    inext = 1  # ... and the next int value
     nfields = is_float.shape[0]
     for r in range(dest.shape[0]):
         o = dest[r]
@@ -188,18 +183,20 @@ def _rows_kernel(
                 out[_U(o + k)] = keys[_U(ks + k)]
             o += kl
             if is_float[j]:
-                n = flen[fi]
-                s = fstart[fi]
-                for k in range(n):
+                s = fnext
+                e = fsep[fi]
+                for k in range(e - s):
                     out[_U(o + k)] = ftext[_U(s + k)]
+                fnext = e + 1
                 fi += 1
             else:
-                n = ilen[ii]
-                s = istart[ii]
-                for k in range(n):
+                s = inext
+                e = isep[ii]
+                for k in range(e - s):
                     out[_U(o + k)] = itext[_U(s + k)]
+                inext = e + 1
                 ii += 1
-            o += n
+            o += e - s
         out[_U(o)] = 125  # "}"
 
 
@@ -227,15 +224,22 @@ def _place_headers(
             buf[_U(o + k)] = headers[i, k]
 
 
-def _values(text: bytes, expected: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A flat JSON list's bytes and each value's start and length in it."""
+def _values(text: bytes, expected: int, per_row: int) -> tuple[np.ndarray, np.ndarray, Any]:
+    """A flat JSON list's bytes, where each value ends, and the value bytes of each row
+    (``per_row`` values a row, ``expected`` in all)."""
     t = np.frombuffer(text, np.uint8)
-    start = np.empty(expected + 1, np.int64)
-    length = np.empty(expected + 1, np.int64)
-    found = _values_kernel(t, start, length) if expected else 0
+    sep = np.empty(expected + 1, np.int64)
+    found = _values_kernel(t, sep) if expected else 0
     if found != expected:
         raise ValueError(f"batch: {found} values in the rows' JSON, expected {expected}")
-    return t, start, length
+    if not expected:
+        return t, sep, 0
+    # A row's values run from after the separator before its first to its last separator,
+    # less the commas between them.
+    before = np.empty(expected // per_row, np.int64)
+    before[0] = 0  # "["
+    before[1:] = sep[per_row - 1 : expected - 1 : per_row]
+    return t, sep, sep[per_row - 1 : expected : per_row] - before - per_row
 
 
 class _RowType:
@@ -269,20 +273,20 @@ class _RowType:
         a = np.frombuffer(raw, np.float64).reshape(-1, self.nfields)
         n = len(a)
         nf, ni = n * len(self.float_cols), n * len(self.int_cols)
-        ftext, fstart, flen = _values(_json_encode(a[:, self.float_cols].ravel().tolist()), nf)
+        ftext, fsep, flen = _values(
+            _json_encode(a[:, self.float_cols].ravel().tolist()), nf, len(self.float_cols)
+        )
         ints = a.view(np.int64)
-        itext, istart, ilen = _values(_json_encode(ints[:, self.int_cols].ravel().tolist()), ni)
-        lengths = np.full(n, self.key_bytes, np.int64)
-        if nf:
-            lengths += flen[:nf].reshape(n, -1).sum(axis=1)
-        if ni:
-            lengths += ilen[:ni].reshape(n, -1).sum(axis=1)
-        return (ftext, fstart, flen, itext, istart, ilen), lengths, ints
+        itext, isep, ilen = _values(
+            _json_encode(ints[:, self.int_cols].ravel().tolist()), ni, len(self.int_cols)
+        )
+        lengths = self.key_bytes + flen + ilen + np.zeros(n, np.int64)
+        return (ftext, fsep, itext, isep), lengths, ints
 
     def write(self, texts: tuple[Any, ...], dest: np.ndarray, out: np.ndarray) -> None:
         """Write the rows' JSON at ``dest`` in ``out`` (:func:`_rows_kernel`)."""
-        ft, fs, fl, it, ist, il = texts
-        _rows_kernel(ft, fs, fl, it, ist, il, self.is_float, self.keys, self.key_at, dest, out)
+        ft, fs, it, ist = texts
+        _rows_kernel(ft, fs, it, ist, self.is_float, self.keys, self.key_at, dest, out)
 
 
 _ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
