@@ -27,8 +27,9 @@ place in them); layout in publish order (the rest of ``_encode_batch``: each mes
 length and record offset, the kernels writing keys and values there); the MCAP framing
 (``write_batch`` without compression: record headers, CRC-32 of the chunk, message
 indexes, writes; the CRC-32 alone beside it); and the compression (``write_batch`` with
-it minus without), for zstd levels 1 (the default), -1, -3, -5, lz4 and none, each with
-the file size.
+it minus without), for zstd level 1 (the default: BatchRunLog's window and hash table),
+level 1 with its own tables (``zstd1_level_tables``, main's compressor), levels -1, -3, -5,
+lz4 and none, each with the file size.
 
     python bench/log_writer_speed.py [--passes 4] [--rounds 3] \\
         [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
@@ -211,7 +212,7 @@ def stages(
 
         return write
 
-    w, h = ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG  # 0: the level's own (zstd's convention)
+    w, h = ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG  # 0, 0: the level's own (main's compressor)
     configs = {
         "none": ("", 1, w, h),
         "zstd1": ("zstd", 1, w, h),  # the default

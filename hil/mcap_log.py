@@ -87,11 +87,12 @@ RAW_SCHEMA_NAME = "fowt.RawPayload"
 #: a 600 s LC2 run's chunks (1024 messages, ~370 kB of JSON each): level 1 is both faster
 #: (~540 against ~320 MB/s) and smaller (ratio 7.4 against 6.5) on these small chunks.
 ZSTD_LEVEL = 1
-#: zstd window and hash table of :class:`BatchRunLog` [log2 bytes / entries]: level 1 takes
-#: 19 and 13 for a chunk of this size; 18 and 12 (a 256 kB window, a 16 kB table that stays
-#: in the L1/L2 cache) compressed the chunks of a real LC2 run 14 % faster at the same ratio
-#: (7.17; 0.97 against 1.13 us a message, bench/log_writer_speed.py's batches, session 3 of
-#: issue 15). Any zstd decoder reads it (a smaller window than level 1's own).
+#: zstd window and hash table of :class:`BatchRunLog` [log2 bytes / entries; 0 and 0: the
+#: level's own, chosen by zstd for the chunk's size]. 18 and 12 (a 256 kB window, a 16 kB
+#: hash table that stays in the core's caches) compress a real LC2 run's chunks faster than
+#: level 1's own at the same ratio (bench/log_writer_speed.py, ``stages.compression``:
+#: ``zstd1`` against ``zstd1_level_tables``). Any zstd decoder reads it (a smaller window
+#: than level 1's own 512 kB).
 ZSTD_WINDOW_LOG = 18
 ZSTD_HASH_LOG = 12
 
@@ -305,10 +306,13 @@ class BatchRunLog:
         if compression == "zstd":
             import zstandard  # noqa: PLC0415
 
-            params = zstandard.ZstdCompressionParameters.from_level(
-                ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, hash_log=ZSTD_HASH_LOG
-            )
-            self._compress = zstandard.ZstdCompressor(compression_params=params).compress
+            if ZSTD_WINDOW_LOG or ZSTD_HASH_LOG:
+                params = zstandard.ZstdCompressionParameters.from_level(
+                    ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, hash_log=ZSTD_HASH_LOG
+                )
+                self._compress = zstandard.ZstdCompressor(compression_params=params).compress
+            else:
+                self._compress = zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress
         elif compression == "lz4":
             try:
                 import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415
