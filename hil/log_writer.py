@@ -31,16 +31,21 @@ a Python int there would write ``0``: equal values, not always equal text. If th
 dies, the child sees the pipe close and finishes the file, so nothing handed over is lost.
 
 Cost (bench/log_writer_speed.py: a real 60 s LC2 lqri_ff run's five per-cycle messages,
-48 000 messages, on the shared 2-core machine at load 1.2-1.6): the child needs 3.7 us of
-CPU a message for rows in blocks of 8 cycles (4.2 us for the same messages as Structs,
-main's Struct path 4.6 us in the same run). Its stages (the same batches in process):
-rows -> JSON numbers 1.3 us (msgspec's float formatting and the ``tolist`` before it),
-layout 0.7 us, framing 0.6 us (record headers, CRC-32 0.18 us, message indexes, writes),
-zstd level 1 1.6 us. Five messages a cycle: the writer bounds a run at about 1300x real
-time with a core to itself. Compression is the largest stage; zstd -1 / -5 or lz4 would
-save 0.7-0.9 us a message at 1.5-1.9 times the file size, and no compression leaves about
-2.6 us (a 5.7 times larger file), so 2000x (2.5 us a message) is not reached by this
-format on this machine; the default stays zstd level 1.
+48 000 messages a round, 4 rounds alternating with main's code, shared 2-core machine at
+load 0.6-0.9): the child needs 3.6 us of CPU a message (best round; median 3.8) for rows in
+blocks of 8 cycles, 4.0 (median 5.6) for the same messages as Structs, main's Struct path
+5.0 (median 5.2); the parent 0.76 us a message for the blocks (the batch's pipe write
+included) against 1.3-1.5 for Structs. The child's stages (the same batches in process,
+best of 5 interleaved passes): rows -> JSON numbers 1.13 us (``tolist`` and msgspec's
+number formatting, the value scan), layout 0.65 (lengths, offsets, the kernels writing
+keys and values), framing 0.68 (record headers, CRC-32 0.18, message indexes, writes),
+zstd level 1 0.81 (:data:`hil.mcap_log.ZSTD_WINDOW_LOG`; 0.90 with level 1's own tables):
+3.3 us, i.e. about 1500x real time for five messages a cycle with a core to itself, so
+1000x (5 us a message) holds and 2000x (2.5 us) does not. What bounds it: msgspec's
+number formatting and the Python floats it needs (the format's JSON text), then
+compression; zstd -5 or lz4 would save 0.05-0.26 us at 1.7-1.9 times the file, no
+compression 0.81 us at 5.7 times (2.45 us, at 2000x's limit with nothing to spare), so
+the default stays zstd level 1.
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
 it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
