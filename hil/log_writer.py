@@ -1,34 +1,60 @@
 """A run log written by a child process, for the in-process mode.
 
-The simulation loop's whole logging cost is :meth:`BackgroundRunLog.publish`: the message
-(the Struct itself) goes into its type's list of the batch being filled and its message id
-into the batch's order (two list appends, about 0.15 us). The MCAP ``publish_time`` of a
-message is its own ``publish_time_ns`` (the host's monotonic clock) moved to the unix epoch:
-in process, publishing and logging are the same moment. A full batch is encoded as msgpack
-in one msgspec call (per type an array of its messages; floats are copied as 8 bytes, not
-formatted; about 0.1 to 0.35 us a message) and goes through a pipe to a child process, on
-the other core, that does the expensive part: it decodes each type's array and JSON-encodes
-it in one msgspec call each (the float formatting), lays the messages out in publish order,
-and a :class:`hil.mcap_log.BatchRunLog` writes the batch as one compressed MCAP Chunk with
-its message indexes. The JSON is the one msgspec writes for the Struct itself (every field
-is an int or a float, which msgpack carries exactly; same keys, same order). If the parent
+The simulation loop hands its messages over in one of two ways, freely mixed:
+
+* :meth:`BackgroundRunLog.publish` (one Struct): the message goes into its type's list of
+  the batch being filled and its message id into the batch's order (two list appends,
+  about 0.15 us); the batch's Structs are encoded as msgpack in one msgspec call when it
+  is sent (floats copied as 8 bytes, not formatted; 0.1 to 0.35 us a message);
+* :meth:`BackgroundRunLog.publish_block` (many messages as rows of
+  :attr:`bus_schemas.registry.MessageType.row_dtype`, e.g. several control cycles
+  written by a compiled loop): the rows' bytes are appended to their type's buffer in the
+  batch and the ids to its order with :data:`ROW_FLAG` set; no Struct and no Python work
+  per message (about 0.3-0.4 us a message for blocks of 8 cycles, the checks included).
+
+The MCAP ``publish_time`` of a message is its own ``publish_time_ns`` (the host's
+monotonic clock) moved to the unix epoch: in process, publishing and logging are the same
+moment; ``log_time`` is the run's start plus ``sample_time_ns``. A full batch goes through
+a pipe to a child process, on the other core, that does the expensive part
+(:func:`_encode_batch`): Structs are decoded and JSON-encoded per type in one msgspec call
+each; rows are JSON-encoded per type as two flat lists (the float columns, the int
+columns) in one msgspec call each (the number formatting), a compiled kernel finds each
+value in them, every message's length and so its record's place in publish order follow,
+and compiled kernels write each message there (a row's keys interleaved with its values),
+leaving the 31-byte record header gaps that :class:`hil.mcap_log.BatchRunLog` fills
+before writing the batch as one compressed MCAP Chunk with its message indexes. The JSON
+is byte for byte the one msgspec writes for the Struct with the same values (same keys,
+same order, the same number formatting: msgspec formats a row's floats and ints as it
+does a Struct's fields; NaN and inf are ``null`` both ways). A row holds float64 in a
+float field, so a float field is always written as a float (``0.0``), where a Struct given
+a Python int there would write ``0``: equal values, not always equal text. If the parent
 dies, the child sees the pipe close and finishes the file, so nothing handed over is lost.
 
-Cost (bench/inprocess_speed.py, 600 s LC2, the five messages of a control cycle): the
-parent's publish is a few hundred ns a message (appends, plus the batch's msgpack call);
-the child needs 4.0 to 4.9 us of CPU a message: about 2.2 to 2.7 us for msgspec's decode
-(~0.8), its JSON (~0.9, the float formatting) and the layout in publish order, 1.1 us for
-zstd level 1 and about 0.65 us for the chunk's framing, CRC-32 and message indexes. At five
-messages a cycle that bounds a run at about 1000-1100x real time when the child has a core
-to itself; the loop (40-110 us a cycle) bounds it first. A further step would have to drop
-per-message work the format asks for (the JSON itself, or compression).
+Cost (bench/log_writer_speed.py: a real 60 s LC2 lqri_ff run's five per-cycle messages,
+48 000 messages a round, 4 rounds alternating with main's code, shared 2-core machine at
+load 0.6-0.9): the child needs 3.6 us of CPU a message (best round; median 3.8) for rows in
+blocks of 8 cycles, 4.0 (median 5.6) for the same messages as Structs, main's Struct path
+5.0 (median 5.2); the parent 0.76 us a message for the blocks (the batch's pipe write
+included) against 1.3-1.5 for Structs. The child's stages (the same batches in process,
+best of 5 interleaved passes): rows -> JSON numbers 1.13 us (``tolist`` and msgspec's
+number formatting, the value scan), layout 0.65 (lengths, offsets, the kernels writing
+keys and values), framing 0.68 (record headers, CRC-32 0.18, message indexes, writes),
+zstd level 1 0.81 (:data:`hil.mcap_log.ZSTD_WINDOW_LOG`; 0.90 with level 1's own tables):
+3.3 us, i.e. about 1500x real time for five messages a cycle with a core to itself, so
+1000x (5 us a message) holds and 2000x (2.5 us) does not. What bounds it: msgspec's
+number formatting and the Python floats it needs (the format's JSON text), then
+compression; zstd -5 or lz4 would save 0.05-0.26 us at 1.7-1.9 times the file, no
+compression 0.81 us at 5.7 times (2.45 us, at 2000x's limit with nothing to spare), so
+the default stays zstd level 1.
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
 it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
 parent (the kernel keeps it for the child). A killed run therefore loses at most the batch
 being filled: at most 1023 messages, about 200 control cycles of 5 messages (5 s of
-simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time). The
-batch is cut by count only, so what survives a kill does not depend on the machine's load.
+simulated time at 40 Hz, 2 s at 100 Hz; at 1000x real time about 5 ms of wall time),
+whether they came one by one or in blocks (a block is split at the batch's end, so every
+batch holds exactly :data:`BATCH_MESSAGES`). The batch is cut by count only, so what
+survives a kill does not depend on the machine's load.
 The lock-step and real-time modes do not use this path: their recorder flushes a chunk
 every 0.25 s of wall time (:class:`hil.mcap_log.RunLog`).
 """
@@ -40,12 +66,13 @@ import fcntl
 import multiprocessing
 import time
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
 import msgspec
+import numba
 import numpy as np
 
 from bus_schemas.registry import MESSAGES, MessageType
@@ -60,8 +87,12 @@ BATCH_MESSAGES = 1024
 PIPE_BYTES = 1 << 20
 
 
-if any(not 0 <= mt.message_id < 256 for mt in MESSAGES):  # a batch's order is one byte each
-    raise ImportError("hil.log_writer: message ids must be 0..255 (one byte in a batch)")
+#: Set in a batch's order byte for a message given as a row (:meth:`publish_block`); the low
+#: seven bits are its message id.
+ROW_FLAG = 0x80
+
+if any(not 0 <= mt.message_id < ROW_FLAG for mt in MESSAGES):  # one byte each, with ROW_FLAG
+    raise ImportError("hil.log_writer: message ids must be 0..127 (one byte in a batch)")
 
 
 def _loose_struct(mt: MessageType) -> type[msgspec.Struct]:
@@ -84,12 +115,202 @@ def _decoders() -> dict[int, Any]:
     }
 
 
-#: A batch on the pipe: the message ids in publish order (one byte each), then per message
-#: id the msgpack array of its messages in publish order.
-_decode_batch = msgspec.msgpack.Decoder(tuple[bytes, dict[int, msgspec.Raw]]).decode
+#: A batch on the pipe: the order (per message one byte: its message id, with
+#: :data:`ROW_FLAG` set for a message given as a row), per message id the msgpack array of
+#: its messages given as Structs, and per message id the bytes of its rows (``row_dtype``),
+#: each in publish order.
+_decode_batch = msgspec.msgpack.Decoder(
+    tuple[bytes, dict[int, msgspec.Raw], dict[int, bytes]]
+).decode
 _encode_batch_payload = msgspec.msgpack.Encoder().encode
 _json_encode = msgspec.json.Encoder().encode
 _CLOSE_BRACE = ord("}")
+
+
+_F = typing.TypeVar("_F", bound=Callable[..., Any])
+
+
+def _njit(fn: _F) -> _F:
+    """``numba.njit(cache=True)`` (compiled on first use, cached on disk), typed as ``fn``."""
+    return typing.cast(_F, numba.njit(cache=True)(fn))
+
+
+# The kernels index with unsigned integers: numba then skips the negative-index wrap-around
+# check on every byte (3-4 times faster here).
+_U = numba.uint64
+
+
+@_njit
+def _values_kernel(text: np.ndarray, sep: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Where each value of a flat JSON list of numbers (``[v,v,...]``; a value never holds a
+    comma or a bracket) ends: the index of the comma or ``]`` after it. Returns how many
+    were found. Branch-free: one store a byte."""
+    count = 0
+    for i in range(1, text.shape[0]):
+        c = text[_U(i)]
+        sep[_U(count)] = i
+        count += (c == 44) | (c == 93)  # "," "]"
+    return count
+
+
+@_njit
+def _rows_kernel(
+    ftext: np.ndarray,
+    fsep: np.ndarray,
+    itext: np.ndarray,
+    isep: np.ndarray,
+    is_float: np.ndarray,
+    keys: np.ndarray,
+    key_at: np.ndarray,
+    dest: np.ndarray,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """Write each row of one type as its Struct's JSON at its place in the record buffer.
+
+    ``ftext`` / ``itext`` are msgspec's JSON of the flat lists of the rows' float / int
+    values in row order; ``fsep`` / ``isep`` where each value in them ends
+    (:func:`_values_kernel`; a value starts after the previous one's separator). Row ``r``
+    goes to ``out[dest[r]:]``: ``{``, then per field its key (``"name":``, after a comma
+    from the second on: ``keys`` from ``key_at[j]`` to ``key_at[j + 1]``) and the text of
+    the next float or int value, then ``}``.
+    """
+    fi = 0
+    ii = 0
+    fnext = 1  # where the next float value starts (after "[") ...
+    inext = 1  # ... and the next int value
+    nfields = is_float.shape[0]
+    for r in range(dest.shape[0]):
+        o = dest[r]
+        for j in range(nfields):
+            ks = key_at[j]
+            kl = key_at[j + 1] - ks
+            for k in range(kl):
+                out[_U(o + k)] = keys[_U(ks + k)]
+            o += kl
+            if is_float[j]:
+                s = fnext
+                e = fsep[fi]
+                for k in range(e - s):
+                    out[_U(o + k)] = ftext[_U(s + k)]
+                fnext = e + 1
+                fi += 1
+            else:
+                s = inext
+                e = isep[ii]
+                for k in range(e - s):
+                    out[_U(o + k)] = itext[_U(s + k)]
+                inext = e + 1
+                ii += 1
+            o += e - s
+        out[_U(o)] = 125  # "}"
+
+
+@_njit
+def _texts_kernel(
+    text: np.ndarray, start: np.ndarray, length: np.ndarray, dest: np.ndarray, out: np.ndarray
+) -> None:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """Copy ``text[start[i]:start[i] + length[i]]`` to ``out[dest[i]:]``."""
+    for i in range(dest.shape[0]):
+        s = start[i]
+        o = dest[i]
+        for k in range(length[i]):
+            out[_U(o + k)] = text[_U(s + k)]
+
+
+@_njit
+def _place_headers(
+    buf: np.ndarray, offsets: np.ndarray, headers: np.ndarray
+) -> None:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """``buf[offsets[i]:offsets[i] + 31] = headers[i]`` (:class:`BatchRunLog`'s record
+    headers; a compiled loop instead of one numpy assignment through an index array)."""
+    for i in range(offsets.shape[0]):
+        o = offsets[i]
+        for k in range(headers.shape[1]):
+            buf[_U(o + k)] = headers[i, k]
+
+
+def _values(text: bytes, expected: int, per_row: int) -> tuple[np.ndarray, np.ndarray, Any]:
+    """A flat JSON list's bytes, where each value ends, and the value bytes of each row
+    (``per_row`` values a row, ``expected`` in all)."""
+    t = np.frombuffer(text, np.uint8)
+    sep = np.empty(expected + 1, np.int64)
+    found = _values_kernel(t, sep) if expected else 0
+    if found != expected:
+        raise ValueError(f"batch: {found} values in the rows' JSON, expected {expected}")
+    if not expected:
+        return t, sep, 0
+    # A row's values run from after the separator before its first to its last separator,
+    # less the commas between them.
+    before = np.empty(expected // per_row, np.int64)
+    before[0] = 0  # "["
+    before[1:] = sep[per_row - 1 : expected - 1 : per_row]
+    return t, sep, sep[per_row - 1 : expected : per_row] - before - per_row
+
+
+class _RowType:
+    """How one message type's rows become its Struct's JSON (:func:`_rows_kernel`)."""
+
+    def __init__(self, mt: MessageType) -> None:
+        dtype = mt.row_dtype
+        self.dtype = dtype
+        names = dtype.names or ()
+        self.nfields = len(names)
+        kinds = [dtype[name].kind == "f" for name in names]
+        self.is_float = np.array(kinds, np.uint8)
+        self.float_cols = np.flatnonzero(self.is_float)
+        self.int_cols = np.flatnonzero(self.is_float == 0)
+        prefixes = [
+            ("{" if j == 0 else ",").encode() + _json_encode(name) + b":"
+            for j, name in enumerate(names)
+        ]
+        self.keys = np.frombuffer(b"".join(prefixes), np.uint8)
+        self.key_at = np.zeros(len(prefixes) + 1, np.int64)
+        np.cumsum([len(p) for p in prefixes], out=self.key_at[1:])
+        self.key_bytes = int(self.key_at[-1]) + 1  # the keys and the closing brace of a row
+        self.sample_col = names.index("sample_time_ns")
+        self.publish_col = names.index("publish_time_ns")
+        if kinds[self.sample_col] or kinds[self.publish_col]:
+            raise ImportError(f"hil.log_writer: {mt.name}'s time stamps must be int fields")
+
+    def texts(self, raw: bytes) -> tuple[Any, ...]:
+        """The rows' float and int values as JSON (one msgspec call each), where each value
+        is in them, each row's JSON length, and the rows as int64."""
+        a = np.frombuffer(raw, np.float64).reshape(-1, self.nfields)
+        n = len(a)
+        nf, ni = n * len(self.float_cols), n * len(self.int_cols)
+        ftext, fsep, flen = _values(
+            _json_encode(a[:, self.float_cols].ravel().tolist()), nf, len(self.float_cols)
+        )
+        ints = a.view(np.int64)
+        itext, isep, ilen = _values(
+            _json_encode(ints[:, self.int_cols].ravel().tolist()), ni, len(self.int_cols)
+        )
+        lengths = self.key_bytes + flen + ilen + np.zeros(n, np.int64)
+        return (ftext, fsep, itext, isep), lengths, ints
+
+    def write(self, texts: tuple[Any, ...], dest: np.ndarray, out: np.ndarray) -> None:
+        """Write the rows' JSON at ``dest`` in ``out`` (:func:`_rows_kernel`)."""
+        ft, fs, it, ist = texts
+        _rows_kernel(ft, fs, it, ist, self.is_float, self.keys, self.key_at, dest, out)
+
+
+_ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
+
+
+def _warm_kernels() -> None:
+    """Compile (first run) or load (from numba's cache) the kernels, before the first batch."""
+    for mid, rt in _ROW_TYPES.items():
+        blob = _encode_batch_payload((bytes([mid | ROW_FLAG]), {}, {mid: bytes(8 * rt.nfields)}))
+        _encode_batch(blob, {})
+    mt = MESSAGES[0]
+    blob = _encode_batch_payload(
+        (bytes([mt.message_id]), {mt.message_id: [mt.cls(*[0] * _ROW_TYPES[1].nfields)]}, {})
+    )
+    _encode_batch(blob, _decoders())
+    meta = np.zeros((1, 4), np.int64)  # as BatchRunLog.write_batch calls it
+    _place_headers(
+        np.zeros(MESSAGE_HEADER_BYTES, np.uint8), meta[:, 3], np.zeros((1, 31), np.uint8)
+    )
 
 
 def _encode_batch(
@@ -100,43 +321,65 @@ def _encode_batch(
     ``publish_time_ns`` on the host's monotonic clock, moved to the unix epoch by
     ``unix_minus_monotonic_ns``), record offset.
 
-    Each message type's messages are decoded and JSON-encoded in one msgspec call each
+    Messages given as Structs: each type's are decoded and JSON-encoded in one msgspec call
     (``[{...},{...},...]``: a flat object of numbers per message, so its closing brace is
-    the only ``}`` of a message and marks where it ends); the records are then laid out in
-    publish order. Per message only the copy into the record buffer is Python work.
+    the only ``}`` of a message and marks where it ends). Messages given as rows: each
+    type's float columns and int columns are JSON-encoded as two flat lists in one msgspec
+    call each (the number formatting). Each message's length is then known, so its record's
+    place; :func:`_texts_kernel` and :func:`_rows_kernel` write the JSON there (the rows'
+    with their keys), one call per type. No Python work per message.
     """
-    ids_bytes, by_id = _decode_batch(blob)
-    ids = np.frombuffer(ids_bytes, np.uint8)
-    n = len(ids)
+    ids_bytes, by_id, by_rows = _decode_batch(blob)
+    flags = np.frombuffer(ids_bytes, np.uint8)
+    n = len(flags)
     meta = np.empty((n, 4), np.int64)
-    meta[:, 0] = ids
-    source = np.empty(n, np.int64)  # which type's JSON holds the message
-    starts = np.empty(n, np.int64)  # where in it the message's JSON starts ...
-    stops = np.empty(n, np.int64)  # ... and ends
-    texts: list[memoryview] = []
+    meta[:, 0] = flags & (ROW_FLAG - 1)
+    lengths = np.empty(n, np.int64)
+    jobs: list[tuple[Any, ...]] = []
+    seen = 0
     for message_id, raw in by_id.items():
         msgs = decoders[message_id](raw)
         text = _json_encode(msgs)
         ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
-        where = np.flatnonzero(ids == message_id)
+        where = np.flatnonzero(flags == message_id)
         if len(ends) != len(msgs) or len(where) != len(msgs):
             raise ValueError(f"batch: message id {message_id} does not match its messages")
-        starts[where[0]] = 1  # after the list's "["
-        starts[where[1:]] = ends[:-1] + 1  # after "},"
-        stops[where] = ends
-        source[where] = len(texts)
+        begins = np.empty(len(ends), np.int64)
+        begins[0] = 1  # after the list's "["
+        begins[1:] = ends[:-1] + 1  # after "},"
+        lengths[where] = ends - begins
         meta[where, 1] = [m.sample_time_ns for m in msgs]
         meta[where, 2] = [m.publish_time_ns for m in msgs]
-        texts.append(memoryview(text))
+        jobs.append((None, where, (np.frombuffer(text, np.uint8), begins, ends - begins)))
+        seen += len(msgs)
+    for message_id, row_bytes in by_rows.items():
+        rt = _ROW_TYPES.get(message_id)
+        if rt is None or len(row_bytes) % (8 * rt.nfields):
+            raise ValueError(f"batch: rows of message id {message_id} do not fit its type")
+        texts, row_lengths, ints = rt.texts(row_bytes)
+        where = np.flatnonzero(flags == (message_id | ROW_FLAG))
+        if len(where) != len(ints):
+            raise ValueError(f"batch: message id {message_id} does not match its rows")
+        lengths[where] = row_lengths
+        meta[where, 1] = ints[:, rt.sample_col]
+        meta[where, 2] = ints[:, rt.publish_col]
+        jobs.append((rt, where, texts))
+        seen += len(ints)
+    if seen != n:
+        raise ValueError(f"batch: {n} message ids for {seen} messages")
     meta[:, 2] += unix_minus_monotonic_ns
-    lengths = stops - starts
-    meta[0, 3] = 0
-    np.cumsum(lengths[:-1] + MESSAGE_HEADER_BYTES, out=meta[1:, 3])
-    records = bytearray()
-    gap = bytes(MESSAGE_HEADER_BYTES)
-    for s, a, b in zip(source.tolist(), starts.tolist(), stops.tolist(), strict=True):
-        records += gap
-        records += texts[s][a:b]
+    if n:
+        meta[0, 3] = 0
+        np.cumsum(lengths[:-1] + MESSAGE_HEADER_BYTES, out=meta[1:, 3])
+    total = int(lengths.sum()) + n * MESSAGE_HEADER_BYTES
+    records = bytearray(total)
+    out = np.frombuffer(records, np.uint8)
+    for rt, where, texts in jobs:
+        dest = meta[where, 3] + MESSAGE_HEADER_BYTES
+        if rt is None:
+            _texts_kernel(texts[0], texts[1], texts[2], dest, out)
+        else:
+            rt.write(texts, dest, out)
     return meta, records
 
 
@@ -150,8 +393,9 @@ def _writer_main(
     unix_minus_monotonic_ns: int,
     stats: Any,
 ) -> None:
-    log = BatchRunLog(Path(path), turbine, compression=compression)
+    log = BatchRunLog(Path(path), turbine, compression=compression, place_headers=_place_headers)
     decoders = _decoders()
+    _warm_kernels()
     cpu0 = time.process_time()
     try:
         for name, data in metadata.items():
@@ -170,6 +414,26 @@ def _writer_main(
         log.close()
         stats[0] = time.process_time() - cpu0
         stats[1] = log.count
+
+
+#: bytes.translate table setting :data:`ROW_FLAG` (the ids are < ROW_FLAG once checked).
+_FLAG_ROWS = bytes((b | ROW_FLAG) & 0xFF for b in range(256))
+#: dtype objects already found equal to a type's row dtype, by id() (a structured dtype's
+#: ``==`` takes ~3 us; a caller reuses the same few dtype objects). Bounded.
+_DTYPES_SEEN: dict[int, tuple[int, np.dtype[Any]]] = {}
+
+
+def _row_dtype_ok(mt: MessageType, block: np.ndarray) -> bool:
+    """Whether ``block``'s dtype is ``mt``'s row dtype (cached by dtype object)."""
+    dtype = block.dtype
+    seen = _DTYPES_SEEN.get(id(dtype))
+    if seen is not None and seen[1] is dtype and seen[0] == mt.message_id:
+        return True
+    if dtype != _ROW_TYPES[mt.message_id].dtype:
+        return False
+    if len(_DTYPES_SEEN) < 256:
+        _DTYPES_SEEN[id(dtype)] = (mt.message_id, dtype)  # holds it: its id stays its own
+    return True
 
 
 class BackgroundRunLog:
@@ -258,9 +522,11 @@ class BackgroundRunLog:
 
     def _new_batch(self) -> None:
         # The batch being filled: the message ids in publish order and, per message id,
-        # its messages (the Structs themselves; encoded when the batch is sent).
+        # its messages given to publish (the Structs themselves; encoded when the batch is
+        # sent) and the bytes of its rows given to publish_block.
         self._ids = bytearray()
         self._by_id: dict[int, list[msgspec.Struct]] = {}
+        self._rows: dict[int, bytearray] = {}
 
     def publish(self, mt: MessageType, msg: msgspec.Struct) -> None:
         """Queue one message for the log (the simulation loop's only logging cost)."""
@@ -294,34 +560,61 @@ class BackgroundRunLog:
 
         Notes
         -----
-        Reference version: each row becomes its Struct and goes through :meth:`publish`.
+        The rows' bytes are appended to the batch being filled, per message id, and the ids
+        to its order with :data:`ROW_FLAG` set (no Struct, no Python work per message); the
+        writer turns them into the Struct's JSON (:func:`_encode_batch`). A block that
+        does not fit the batch is split at the batch's end (batches are cut by count).
         """
         ids = np.asarray(order, np.uint8)
+        if ids.ndim != 1:
+            raise ValueError(f"publish_block: order must be 1-D, got shape {ids.shape}")
+        counts = np.bincount(ids, minlength=256)
+        total = 0
         for mid, block in rows.items():
             mt = _BY_ID.get(mid)
             if mt is None:
                 raise ValueError(f"publish_block: unknown message id {mid}")
-            if block.dtype != mt.row_dtype or block.ndim != 1:
+            if not isinstance(block, np.ndarray) or block.ndim != 1 or not _row_dtype_ok(mt, block):
                 raise ValueError(f"publish_block: {mt.name} rows must be 1-D {mt.row_dtype}")
-            if len(block) != int(np.count_nonzero(ids == mid)):
+            if len(block) != counts[mid]:
                 raise ValueError(f"publish_block: {len(block)} {mt.name} rows for its ids")
-        if int(np.count_nonzero(np.isin(ids, list(rows)))) != len(ids):
+            total += len(block)
+        if total != len(ids):
             raise ValueError("publish_block: an id in order has no rows")
-        msgs = {
-            mid: iter(
-                [
-                    _BY_ID[mid].cls(**dict(zip(r.dtype.names, r.tolist(), strict=True)))
-                    for r in block
-                ]
-            )
-            for mid, block in rows.items()
-        }
-        for mid in ids.tolist():
-            self.publish(_BY_ID[mid], next(msgs[mid]))
+        if len(ids) <= self._batch_messages - len(self._ids):  # the block fits the batch
+            self._ids += ids.tobytes().translate(_FLAG_ROWS)
+            for mid, block in rows.items():
+                buf = self._rows.get(mid)
+                if buf is None:
+                    self._rows[mid] = bytearray(block.tobytes())
+                else:
+                    buf += block.tobytes()
+            if len(self._ids) >= self._batch_messages:
+                self._send()
+            return
+        done = {mid: 0 for mid in rows}
+        while len(ids):
+            room = self._batch_messages - len(self._ids)
+            part = ids if len(ids) <= room else ids[:room]  # a batch is cut by count
+            self._ids += part.tobytes().translate(_FLAG_ROWS)
+            whole = part is ids
+            for mid, block in rows.items():
+                a = done[mid]
+                b = len(block) if whole else a + int(np.count_nonzero(part == mid))
+                if b > a:
+                    buf = self._rows.get(mid)
+                    if buf is None:
+                        self._rows[mid] = bytearray(block[a:b].tobytes())
+                    else:
+                        buf += block[a:b].tobytes()
+                    done[mid] = b
+            ids = ids[len(part) :]
+            if len(self._ids) >= self._batch_messages:
+                self._send()
 
     def _payload(self) -> bytes:
         """The batch as it goes to the writer: one msgpack call for all its messages."""
-        return _encode_batch_payload((self._ids, self._by_id))
+        return _encode_batch_payload((self._ids, self._by_id, self._rows))
 
     def _send(self) -> None:
         n = len(self._ids)

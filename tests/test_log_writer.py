@@ -11,11 +11,13 @@ log time = run start + sample time, publish time as given, and a complete, confo
 from __future__ import annotations
 
 import random
+import time
 import typing
 from pathlib import Path
 
 import msgspec
 import numpy as np
+import orjson
 import pytest
 from _mcap_conformance import check_complete_mcap
 from mcap.reader import make_reader
@@ -222,3 +224,120 @@ def test_publish_block_rows_are_written_as_their_structs(tmp_path: Path) -> None
     for topic, _seq, _lt, _pt, data in _read_all(path):
         got.setdefault(topic, []).append(data)
     assert got == sent
+
+
+ROW_FLOATS = (
+    *FLOATS,
+    -5e-324,
+    -1.7976931348623157e308,
+    2.2250738585072014e-308,
+    0.1,
+    1 / 3,
+    -123.0,
+    1e16,
+    1e-7,
+    float("nan"),
+    float("inf"),
+    float("-inf"),
+)
+ROW_INTS = (*INTS, -(2**63), -(2**63) + 1, 2**53 + 1, -40_000_000_000)
+
+
+def test_publish_block_extremes_all_cycle_types_times_and_order(tmp_path: Path) -> None:
+    """All five per-cycle types as rows, with extreme floats (subnormals, the largest
+    double, -0.0, NaN and inf, which msgspec writes as ``null``) and int64 extremes in the
+    int fields, in blocks that straddle batches (split by count), mixed with Structs of
+    the same types: the file holds exactly the Structs' JSON in publish order (the whole
+    file's message sequence, not only per topic), sequence numbers 0, 1, ... per channel,
+    log time = run start + sample time and publish time = publish_time_ns + one constant
+    (the monotonic clock moved to the unix epoch) for every message."""
+    rng = random.Random(1515)
+    path = tmp_path / "rows.mcap"
+    log = BackgroundRunLog(path, "t1", {"run": {"mode": "inprocess"}}, batch_messages=64)
+    log.wait_ready()
+    cycle_types = [
+        mt
+        for mt in MESSAGES
+        if mt.key_suffix in ("sensors", "truth", "command", "controller/status", "timing/cycle")
+    ]
+    assert len(cycle_types) == 5
+    sent: list[tuple[str, bytes, int, int]] = []
+    seq = 0
+
+    def value(kind: str) -> typing.Any:
+        if kind == "i":
+            return rng.choice(ROW_INTS) if rng.random() < 0.7 else rng.randrange(-(2**63), 2**63)
+        return rng.choice(ROW_FLOATS) if rng.random() < 0.7 else rng.uniform(-1e300, 1e300)
+
+    for block in range(30):
+        cycles = 1 + (block * 5) % 13  # 1 .. 13 cycles: blocks cross the 64-message batches
+        order: list[int] = []
+        rows: dict[int, list[tuple[typing.Any, ...]]] = {mt.message_id: [] for mt in cycle_types}
+        for _c in range(cycles):
+            for mt in rng.sample(cycle_types, len(cycle_types)):  # any order within a cycle
+                dtype = mt.row_dtype
+                vals = {name: value(dtype[name].kind) for name in dtype.names or ()}
+                vals.update(seq=seq, sample_time_ns=seq * 25_000_000, publish_time_ns=5 * seq)
+                seq += 1
+                values = tuple(vals[name] for name in dtype.names or ())
+                rows[mt.message_id].append(values)
+                order.append(mt.message_id)
+                msg = mt.cls(**vals)
+                sent.append(
+                    (mt.key("t1"), msgspec.json.encode(msg), vals["sample_time_ns"], 5 * (seq - 1))
+                )
+        arrays = {
+            mid: np.array(r, dtype=next(m for m in MESSAGES if m.message_id == mid).row_dtype)
+            for mid, r in rows.items()
+        }
+        log.publish_block(np.array(order, np.uint8), arrays)
+        for buf in arrays.values():  # the caller may reuse its buffers at once
+            buf.view(np.uint8)[:] = 0xFF
+        if block % 3 == 0:
+            mt = cycle_types[block % 5]
+            single = _random_message(mt, rng, seq)
+            sent.append((mt.key("t1"), msgspec.json.encode(single), seq * 25_000_000, 10**9 + seq))
+            seq += 1
+            log.publish(mt, single)
+    log.close()
+    assert log.writer_messages == len(sent)
+    check_complete_mcap(path, validate=False)
+    got = _read_all(path)
+    assert [(t, d) for t, _s, _lt, _pt, d in got] == [(t, d) for t, d, _st, _pt in sent]
+    per_topic: dict[str, int] = {}
+    log_offsets, publish_offsets = set(), set()
+    for (topic, sequence, log_time, publish_time, _d), (_t, _data, sample, publish) in zip(
+        got, sent, strict=True
+    ):
+        assert sequence == per_topic.get(topic, 0)
+        per_topic[topic] = sequence + 1
+        log_offsets.add(log_time - sample)
+        publish_offsets.add(publish_time - publish)
+    assert len(log_offsets) == 1 and len(publish_offsets) == 1
+    assert abs(publish_offsets.pop() - (time.time_ns() - time.monotonic_ns())) < 10**9
+    assert abs(log_offsets.pop() - time.time_ns()) < 600 * 10**9
+
+
+def test_publish_block_refuses_bad_blocks_and_keeps_the_batch(tmp_path: Path) -> None:
+    """Refused blocks (wrong shape, a list instead of an array, a wrong dtype, an id 0x80
+    and above) raise before anything is queued: the file holds only the good messages."""
+    path = tmp_path / "bad.mcap"
+    log = BackgroundRunLog(path, "t1", {}, batch_messages=8)
+    mt = MESSAGES[0]
+    good = np.zeros(3, mt.row_dtype)
+    good["seq"] = [0, 1, 2]
+    ids = np.full(3, mt.message_id, np.uint8)
+    with pytest.raises(ValueError, match="order must be 1-D"):
+        log.publish_block(ids.reshape(3, 1), {mt.message_id: good})
+    with pytest.raises(ValueError, match="must be 1-D"):
+        log.publish_block(ids, {mt.message_id: good.tolist()})  # type: ignore[dict-item]
+    with pytest.raises(ValueError, match="must be 1-D"):
+        log.publish_block(ids, {mt.message_id: np.zeros(3, MESSAGES[1].row_dtype)})
+    with pytest.raises(ValueError, match="unknown message id"):
+        log.publish_block(ids | 0x80, {mt.message_id | 0x80: good})
+    with pytest.raises(ValueError, match="has no rows"):
+        log.publish_block(ids | 0x80, {mt.message_id: good[:0]})
+    log.publish_block(ids, {mt.message_id: good})
+    log.close()
+    assert log.writer_messages == 3
+    assert [orjson.loads(d)["seq"] for *_x, d in _read_all(path)] == [0, 1, 2]
