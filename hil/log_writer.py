@@ -64,6 +64,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import multiprocessing
+import multiprocessing.util
 import time
 import typing
 from collections.abc import Callable, Mapping
@@ -489,6 +490,11 @@ class BackgroundRunLog:
         )
         self._proc.start()
         recv_end.close()
+        # A log never closed (an exception before close(), a failing test) would keep the
+        # interpreter from exiting: multiprocessing joins its non-daemon children at exit,
+        # and the child waits on the pipe. Closing our end first (multiprocessing runs its
+        # finalizers before that join) lets the child see EOF and finish the file.
+        multiprocessing.util.Finalize(self, send_end.close, exitpriority=10)
         self._batch_messages = batch_messages
         self._new_batch()
         #: Messages and batches handed to the writer so far, and the time spent sending [ns].

@@ -11,6 +11,8 @@ log time = run start + sample time, publish time as given, and a complete, confo
 from __future__ import annotations
 
 import random
+import subprocess
+import sys
 import time
 import typing
 from pathlib import Path
@@ -341,3 +343,36 @@ def test_publish_block_refuses_bad_blocks_and_keeps_the_batch(tmp_path: Path) ->
     log.close()
     assert log.writer_messages == 3
     assert [orjson.loads(d)["seq"] for *_x, d in _read_all(path)] == [0, 1, 2]
+
+
+_NO_CLOSE = """
+import sys
+from pathlib import Path
+from bus_schemas.registry import TIMING_SUMMARY
+from hil.log_writer import BackgroundRunLog
+if __name__ == "__main__":
+    log = BackgroundRunLog(Path(sys.argv[1]), "t1", {"run": {"mode": "inprocess"}})
+    log.wait_ready()
+    raise SystemExit("the run failed before close()")
+"""
+
+
+def test_a_log_never_closed_does_not_keep_the_interpreter_alive(tmp_path: Path) -> None:
+    """An exception before close(): the process exits (the writer child sees the pipe close,
+    finishes the file) instead of waiting forever in multiprocessing's join at exit."""
+    script = tmp_path / "no_close.py"
+    script.write_text(_NO_CLOSE)
+    path = tmp_path / "run.mcap"
+    done = subprocess.run(
+        [sys.executable, str(script), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+        cwd=Path(__file__).resolve().parent.parent,
+    )
+    assert done.returncode == 1, done.stderr
+    assert "the run failed before close()" in done.stderr
+    with open(path, "rb") as fh:  # a finished file: summary and footer written
+        assert make_reader(fh).get_summary() is not None
+    assert read_run(path).metadata["run"] == {"mode": "inprocess"}
