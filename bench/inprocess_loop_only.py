@@ -28,8 +28,7 @@ SCENARIOS = {"lc2-lqri-ff": "iea15mw-lc2-lqri-ff", "lc2-baseline": "iea15mw-lc2"
 def _child(scenario: str, loop: str, duration_s: float) -> None:
     import time
 
-    from bus_schemas.registry import COMMAND, CONTROLLER_STATUS
-    from hil.controller_node import ControllerRuntime
+    from hil.controller_node import ControllerRuntime, publishing_step
     from hil.plant_node import run_inprocess
     from hil.scenario import load_scenario
 
@@ -42,14 +41,7 @@ def _child(scenario: str, loop: str, duration_s: float) -> None:
     def block(_order: Any, _rows: Any) -> None:
         return None
 
-    def step(frame: Any) -> Any:
-        r = rt.handle_frame(frame)
-        if r is None:
-            return None
-        command, status = r
-        publish(COMMAND, command)
-        publish(CONTROLLER_STATUS, status)
-        return command
+    step = publishing_step(rt, publish)
 
     marks: dict[str, int] = {}
 

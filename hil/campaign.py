@@ -561,8 +561,8 @@ def _inprocess(
     """Run in process; the messages kept in memory (and written to ``mcap_path``)."""
     import orjson  # noqa: PLC0415
 
-    from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, MessageType  # noqa: PLC0415
-    from hil.controller_node import ControllerRuntime  # noqa: PLC0415
+    from bus_schemas.registry import MessageType  # noqa: PLC0415
+    from hil.controller_node import ControllerRuntime, publishing_step  # noqa: PLC0415
     from hil.mcap_log import BatchRunLog, RunData  # noqa: PLC0415
     from hil.plant_node import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
@@ -595,14 +595,7 @@ def _inprocess(
 
     runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
 
-    def step(frame: Any) -> Any:
-        result = runtime.handle_frame(frame)
-        if result is None:
-            return None
-        command, status = result
-        publish(COMMAND, command)
-        publish(CONTROLLER_STATUS, status)
-        return command
+    step = publishing_step(runtime, publish)
 
     try:
         run_inprocess(scenario, publish, step, runtime=runtime)

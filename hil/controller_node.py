@@ -85,6 +85,7 @@ from bus_schemas.registry import (
     SENSORS,
     TIMING_SUMMARY,
     WAVE_PREVIEW_PERFECT,
+    MessageType,
 )
 from controller.discon import DisconError
 from controller.interface import REGIME_SAFE, ControlOutput
@@ -487,6 +488,25 @@ class ControllerRuntime:
         p = min(max(pitch, p0 - dp), p0 + dp)
         q = min(max(torque, q0 - dq), q0 + dq)
         return p, q, (p != pitch or q != torque)
+
+
+def publishing_step(
+    runtime: ControllerRuntime, publish: Callable[[MessageType, msgspec.Struct], None]
+) -> Callable[[SensorFrame], ActuatorCommand | None]:
+    """The in-process controller cycle: ``runtime.handle_frame``, then its command and
+    status to ``publish``; the command, or None for a rejected frame (nothing published)."""
+    handle_frame = runtime.handle_frame
+
+    def step(frame: SensorFrame) -> ActuatorCommand | None:
+        result = handle_frame(frame)
+        if result is None:
+            return None
+        command, status = result
+        publish(COMMAND, command)
+        publish(CONTROLLER_STATUS, status)
+        return command
+
+    return step
 
 
 def _no_log(_msg: str) -> None:

@@ -81,10 +81,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.registry import (
-    COMMAND,
-    CONTROLLER_STATUS,
     CYCLE_TIMING,
     TIMING_SUMMARY,
     WAVE_PREVIEW_PERFECT,
@@ -106,7 +103,7 @@ from hil.can_bus import (
     netns_command,
     transport_unavailable_reason,
 )
-from hil.controller_node import ControllerRuntime, feedforward_notice
+from hil.controller_node import ControllerRuntime, feedforward_notice, publishing_step
 from hil.log_writer import BackgroundRunLog
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
@@ -503,16 +500,7 @@ def _run_inprocess(
 
     # Without the perfect preview every message goes straight to the log (one call less).
     publish = publish_with_preview if scenario.controller.preview == "perfect" else log.publish
-    handle_frame = runtime.handle_frame
-
-    def step(frame: SensorFrame) -> ActuatorCommand | None:
-        result = handle_frame(frame)
-        if result is None:
-            return None
-        command, status = result
-        publish(COMMAND, command)
-        publish(CONTROLLER_STATUS, status)
-        return command
+    step = publishing_step(runtime, publish)
 
     try:
         result = run_inprocess(

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, MessageType
+from bus_schemas.registry import CONTROLLER_STATUS, MessageType
 from hil import _loop_kernels as lk
 from hil._fast_loop import CompiledLoop, compiled_unsupported
-from hil.controller_node import ControllerRuntime
+from hil.controller_node import ControllerRuntime, publishing_step
 from hil.launch import RunRequest, launch
 from hil.plant_node import PlantLoop, run_inprocess
 from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
@@ -59,14 +59,7 @@ class _Run:
         def publish(mt: MessageType, msg: Any) -> None:
             self.msgs.setdefault(mt.message_id, []).append(msg)
 
-        def step(frame: Any) -> Any:
-            r = rt.handle_frame(frame)
-            if r is None:
-                return None
-            command, status = r
-            publish(COMMAND, command)
-            publish(CONTROLLER_STATUS, status)
-            return command
+        step = publishing_step(rt, publish)
 
         plant = PlantLoop(scenario, publish)
         self.plant, self.rt = plant, rt
