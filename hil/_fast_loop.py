@@ -32,6 +32,7 @@ from bus_schemas.registry import (
     MessageType,
 )
 from controller.baseline import BaselineController, BaselineState
+from controller.forecast import DispersionPredictor
 from controller.runtime import AdvancedController
 from hil import _loop_kernels as lk
 
@@ -42,8 +43,8 @@ if TYPE_CHECKING:
 #: ``publish_block(order, rows)`` of :class:`hil.log_writer.BackgroundRunLog`.
 PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
 #: Positions in the kernel's arguments (CompiledLoop._args) of arrays a run may replace:
-#: the plant state, wave table, ring buffers, the core's state copies.
-_REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27)
+#: the plant state, wave table, ring buffers, the core's state copies, the forecaster's buffers.
+_REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27, 45, 46)
 #: Cycles per kernel call at most (a running summary stops it every simulated second anyway).
 BATCH = 64
 _TYPES: tuple[MessageType, ...] = (SENSORS, COMMAND, TRUTH, CONTROLLER_STATUS, CYCLE_TIMING)
@@ -160,6 +161,17 @@ class CompiledLoop:
             self.cc, self.lay = ctrl._c, ctrl._lay
             ist[lk.I_STEPS] = ctrl._steps_at_dt
             self.bl, self.gs, self.n_gs = empty, empty, 0
+            # the dispersion forecaster runs in the kernel; AR and ESPRIT stop it (Python)
+            fc = ctrl.forecaster
+            self.fc_kernel = type(fc) is DispersionPredictor
+            if isinstance(fc, DispersionPredictor):  # its taps oldest first, as step dots them
+                self.fir = np.ascontiguousarray(fc.fir[::-1])
+            ist[lk.I_FC_KIND] = 1 if self.fc_kernel else 0
+            ist[lk.I_FC_PERIOD_NS] = ctrl._forecast_period_ns
+            ist[lk.I_FC_HORIZON_NS] = ctrl._horizon_ns
+            ist[lk.I_MASK_FC] = ctrl._mask_forecast
+            ist[lk.I_MASK_NO_FC] = ctrl._mask_no_forecast
+            ist[lk.I_GAUGE_BIT] = VALID_WAVE_GAUGE
         else:
             assert isinstance(ctrl, BaselineController)
             bk = ctrl._k
@@ -171,6 +183,11 @@ class CompiledLoop:
             )
             self.n_gs = len(p.pitch_gs_angles_rad)
             self.cc, self.lay = empty, np.zeros(0, dtype=np.int64)
+            self.fc_kernel = False
+        if not self.fc_kernel:
+            self.fir = np.zeros(0)
+        self.fc_buf = np.zeros(0)
+        self.fc_drop = np.zeros(0, dtype=np.bool_)
         self.bst = np.zeros(7)
         self.bst2 = np.zeros(7)
         self.lats = np.zeros(BATCH + 1, dtype=np.int64)
@@ -285,6 +302,17 @@ class CompiledLoop:
             ist[lk.I_FC_NS] = 0
         ist[lk.I_UNSTABLE] = fstate.unstable_fits
         ist[lk.I_GUARDED] = fstate.guarded
+        if self.fc_kernel:  # the kernel's forecaster works on this state (arrays in place)
+            self.fc_buf = fstate.buffer
+            self.fc_drop = fstate.drop_flags
+            ist[lk.I_FC_HEAD] = fstate.head
+            ist[lk.I_FC_COUNT] = fstate.count
+            ist[lk.I_FC_CALLS] = fstate.calls
+            ist[lk.I_FC_DROPPED] = fstate.dropped
+            ist[lk.I_FC_DROPPED_WIN] = fstate.dropped_in_window
+            ist[lk.I_FC_TIME_NS] = st.forecast_time_ns
+            fst[lk.F_FC_HELD] = fstate.held_m
+            fst[lk.F_FC_RAW] = st.forecast_m
 
     def _push(self, k0: int) -> None:
         loop, rt, sim = self.loop, self.runtime, self.loop.sim
@@ -322,7 +350,25 @@ class CompiledLoop:
             int(ist[lk.I_LAST_CMD_NS]),
         )
         if self.advanced:
-            rt.state = rt.state._replace(values=self.cv, flags=self.cf)
+            st = rt.state
+            fstate = st.forecaster
+            if self.fc_kernel and int(ist[lk.I_FC_CALLS]) != fstate.calls:
+                # the kernel's forecaster calls (buffer and drop flags changed in place)
+                fstate.head = int(ist[lk.I_FC_HEAD])
+                fstate.count = int(ist[lk.I_FC_COUNT])
+                fstate.calls = int(ist[lk.I_FC_CALLS])
+                fstate.held_m = float(fst[lk.F_FC_HELD])
+                fstate.dropped = int(ist[lk.I_FC_DROPPED])
+                fstate.dropped_in_window = int(ist[lk.I_FC_DROPPED_WIN])
+                rt.state = st._replace(
+                    values=self.cv,
+                    flags=self.cf,
+                    next_forecast_ns=int(ist[lk.I_NEXT_FC_NS]),
+                    forecast_m=float(fst[lk.F_FC_RAW]),
+                    forecast_time_ns=int(ist[lk.I_FC_TIME_NS]),
+                )
+            else:
+                rt.state = st._replace(values=self.cv, flags=self.cf)
         else:
             b = self.bst.tolist()
             rt.state = BaselineState(False, *b)
@@ -368,12 +414,13 @@ class CompiledLoop:
             self.order,
             self.buf[1], self.ibuf[1], self.buf[2], self.ibuf[2], self.buf[3], self.ibuf[3],
             self.buf[4], self.ibuf[4], self.buf[5], self.ibuf[5],
+            self.fc_buf, self.fc_drop, self.fir,
         )  # fmt: skip
 
     def _bind_kernel(self) -> None:
         """Call the kernel's compiled entry point for this run's argument types directly.
 
-        numba's dispatcher types every argument on every call (about 9 us for these 45;
+        numba's dispatcher types every argument on every call (about 9 us for these 48;
         the entry point of the matching compiled signature about 5 us). The types are those
         of the limit-0 call just made through the dispatcher, and stay so for the run (the
         arrays are the run's own, and the per-batch copies keep dtype and layout).

@@ -20,9 +20,11 @@ row_dtype`) for :meth:`hil.log_writer.BackgroundRunLog.publish_block`:
 4. the plant's watchdog bookkeeping and period (:func:`plant._kernels.advance_floating`),
    the cycle's timing record.
 
-It returns before anything that needs Python (:data:`STOP_REASONS`): the wave
-forecaster's update (after the runtime's checks, so the caller runs the forecaster and
-resumes the same cycle with ``resume`` = 1), a non-finite frame, a sensor suite that needs
+The wave forecaster's update (every ``sample_period_s``, after the runtime's checks) runs
+here for the dispersion forecaster (:func:`_dispersion_forecast`, ``ist[I_FC_KIND]`` = 1).
+It returns before anything that needs Python (:data:`STOP_REASONS`): the update of another
+forecaster (AR, ESPRIT: the caller runs it and resumes the same cycle with ``resume`` = 1),
+a non-finite frame, a sensor suite that needs
 Python, the running timing summary, a random block to refill, the caller's limit. Wall
 clock stamps are real: :func:`monotonic_ns` reads ``CLOCK_MONOTONIC`` through
 ``clock_gettime``, the clock of ``time.monotonic_ns``.
@@ -197,8 +199,20 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING = 1, 2, 3, 4, 5
     I_GEN_MASK_ROTOR,  # VALID_GENERATOR_SPEED
     I_ROTOR_BIT,  # VALID_ROTOR_SPEED
     I_N_LAT,  # latencies written to lats
+    I_FC_KIND,  # 1: the dispersion forecaster runs here; 0: the caller runs it (STOP_FORECAST)
+    I_FC_HEAD,  # its ForecasterState: head, count, calls, dropped, dropped_in_window
+    I_FC_COUNT,
+    I_FC_CALLS,
+    I_FC_DROPPED,
+    I_FC_DROPPED_WIN,
+    I_FC_PERIOD_NS,  # AdvancedController._forecast_period_ns
+    I_FC_HORIZON_NS,  # AdvancedController._horizon_ns
+    I_FC_TIME_NS,  # the core state's forecast_time_ns
+    I_MASK_FC,  # AdvancedController._mask_forecast
+    I_MASK_NO_FC,  # AdvancedController._mask_no_forecast
+    I_GAUGE_BIT,  # VALID_WAVE_GAUGE
     I_SIZE,
-) = range(39)
+) = range(51)
 _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
 
 (
@@ -212,8 +226,10 @@ _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 
     F_FC_M,  # status wave_elevation_forecast_m
     F_LAST_CMD_PITCH,
     F_LAST_CMD_TORQUE,
+    F_FC_HELD,  # the forecaster's held_m
+    F_FC_RAW,  # the core state's forecast_m (the FIR's output, valid or not)
     F_SIZE,
-) = range(11)
+) = range(13)
 
 #: Reasons :func:`run_cycles` returns (bits may combine for END_OF_CYCLE ones).
 STOP_LIMIT = 1  # the caller's limit of cycles (or I_K_END) reached: before cycle k
@@ -233,6 +249,61 @@ STOP_REASONS = {
 PACED_FRAMES = 8  # hil.controller_node.PACED_FRAMES (checked there at import)
 PACED_TOLERANCE = 0.1
 _N_TRUTH = len(TRUTH_FIELDS)
+
+
+@njit
+def _dispersion_forecast(
+    ist: np.ndarray,
+    fst: np.ndarray,
+    fc_buf: np.ndarray,
+    fc_drop: np.ndarray,
+    fir: np.ndarray,
+    t_ns: int,
+    sample_m: float,
+    valid: bool,
+) -> None:
+    r"""The wave forecast of AdvancedController.step with a DispersionPredictor, in place.
+
+    :meth:`controller.forecast.DispersionPredictor.step` (the hold rule
+    ``ForecasterState._take``, the ring buffer ``ForecasterState._push``, then
+    :math:`\hat\eta_B = \sum_j h_j\,w_j` as ``np.dot(fir, window)``, which numba also
+    computes with BLAS ``ddot`` on the contiguous window), the core state's next call time
+    :math:`(\lfloor t/T_f \rfloor + 1)\,T_f` and forecast time :math:`t + t_d` (ns), then
+    what ``hil._fast_loop.CompiledLoop._set_forecast`` sets for the core: the forecast
+    (m) handed to it (NaN until the window has filled or when not finite), the status'
+    forecast fields and the estimator mask.
+    """
+    ist[I_FC_CALLS] += 1
+    ok = valid and math.isfinite(sample_m)
+    if ok:
+        fst[F_FC_HELD] = sample_m
+    else:
+        ist[I_FC_DROPPED] += 1
+    n = fc_drop.size
+    i = ist[I_FC_HEAD]
+    held = fst[F_FC_HELD]
+    fc_buf[i] = held
+    fc_buf[i + n] = held
+    ist[I_FC_DROPPED_WIN] += (0 if ok else 1) - (1 if fc_drop[i] else 0)
+    fc_drop[i] = not ok
+    head = i + 1 if i + 1 < n else 0
+    ist[I_FC_HEAD] = head
+    ist[I_FC_COUNT] += 1
+    forecast_m = np.dot(fir, fc_buf[head : head + n])
+    fst[F_FC_RAW] = forecast_m
+    ist[I_FC_TIME_NS] = t_ns + ist[I_FC_HORIZON_NS]
+    period = ist[I_FC_PERIOD_NS]
+    ist[I_NEXT_FC_NS] = (t_ns // period + 1) * period
+    if ist[I_FC_COUNT] >= n and math.isfinite(forecast_m):
+        fst[F_ETA] = forecast_m
+        ist[I_EST_MASK] = ist[I_MASK_FC]
+        fst[F_FC_M] = forecast_m
+        ist[I_FC_NS] = ist[I_FC_TIME_NS]
+    else:
+        fst[F_ETA] = math.nan
+        ist[I_EST_MASK] = ist[I_MASK_NO_FC]
+        fst[F_FC_M] = 0.0
+        ist[I_FC_NS] = 0
 
 
 @njit
@@ -285,6 +356,10 @@ def run_cycles(
     r_sta_i: np.ndarray,
     r_tim: np.ndarray,
     r_tim_i: np.ndarray,
+    # the dispersion forecaster (I_FC_KIND = 1; else empty)
+    fc_buf: np.ndarray,
+    fc_drop: np.ndarray,
+    fir: np.ndarray,
 ) -> int:
     """Run cycles from ``ist[I_K]`` until a stop (module docstring); return its bits.
 
@@ -424,7 +499,12 @@ def run_cycles(
             ist[I_LAST_PUBLISH_NS] = publish_ns
             ist[I_LAST_RECEIVE_NS] = t0_ctrl
             ist[I_HEALTHY_RUN] += 1
-            if advanced and t_ns >= ist[I_NEXT_FC_NS]:
+            if advanced and t_ns >= ist[I_NEXT_FC_NS] and ist[I_FC_KIND] == 1:
+                _dispersion_forecast(
+                    ist, fst, fc_buf, fc_drop, fir, t_ns,
+                    r_sen[ist[I_N_SENSORS] - 1, 14], (mask & ist[I_GAUGE_BIT]) != 0,
+                )  # fmt: skip
+            elif advanced and t_ns >= ist[I_NEXT_FC_NS]:
                 ist[I_T0_RUN] = t0_run
                 ist[I_T0_CTRL] = t0_ctrl
                 reason = STOP_FORECAST | (STOP_REFILL if refill else 0)
