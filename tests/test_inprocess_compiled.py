@@ -210,6 +210,25 @@ def test_compiled_loop_equals_python_loop(name: str, duration_s: float) -> None:
             assert any(s.feedforward_torque_nm != 0.0 for s in statuses)
 
 
+def test_kernel_forecaster_holds_dropped_gauge_samples() -> None:
+    """Gauge dropouts (p = 0.3): the kernel's dispersion forecaster holds the last valid
+    sample and counts the drops (in the run and in its window) as ForecasterState does."""
+    extra = """
+[sensors.channels.wave_elevation_gauge_measured_m]
+dropout_probability = 0.3
+"""
+    scn = _scenario("iea15mw-lc2-lqri-ff", 8.0, extra)
+    py = _Run(scn, "python")
+    fast = _Run(scn, "compiled")
+    _compare(py, fast)  # the forecaster's state too: buffer, drop flags, counters, held_m
+    assert fast.fast is not None
+    assert fast.fast.stops.get("forecast", 0) == 0
+    fs = py.rt.state.forecaster
+    assert fs.calls == 40
+    assert 4 <= fs.dropped <= 24  # binomial(40, 0.3): mean 12
+    assert fs.dropped_in_window == fs.dropped == int(fs.drop_flags.sum())
+
+
 @pytest.mark.parametrize(("forecaster", "duration_s"), [("ar", 28.0), ("esprit", 34.0)])
 def test_compiled_loop_runs_other_forecasters_in_python(forecaster: str, duration_s: float) -> None:
     """AR and ESPRIT (fitted in Python) stop the kernel at every forecaster call (0.2 s) and
