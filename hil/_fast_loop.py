@@ -164,8 +164,10 @@ class CompiledLoop:
             # the dispersion forecaster runs in the kernel; AR and ESPRIT stop it (Python)
             fc = ctrl.forecaster
             self.fc_kernel = type(fc) is DispersionPredictor
-            if isinstance(fc, DispersionPredictor):  # its taps oldest first, as step dots them
-                self.fir = np.ascontiguousarray(fc.fir[::-1])
+            if isinstance(fc, DispersionPredictor):
+                # its taps oldest first, as step dots them; a writeable copy (the same
+                # kernel signature as the empty array of the other kinds)
+                self.fir = np.array(fc.fir[::-1], dtype=np.float64, order="C")
             ist[lk.I_FC_KIND] = 1 if self.fc_kernel else 0
             ist[lk.I_FC_PERIOD_NS] = ctrl._forecast_period_ns
             ist[lk.I_FC_HORIZON_NS] = ctrl._horizon_ns
