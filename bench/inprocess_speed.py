@@ -160,7 +160,8 @@ def split_run(
     compiled loop takes no such argument and runs its only loop). In the compiled loop the
     kernel's calls are timed as ``kernel`` (plant, sensors, controller core and the
     runtime's checks of every cycle it runs); ``plant`` and ``controller`` are then the
-    cycles handed back to Python (and the forecaster's updates, in ``controller``).
+    cycles handed back to Python (and the AR / ESPRIT forecasters' updates, in
+    ``controller``; the dispersion forecaster runs in the kernel).
     """
     from rich.console import Console
 
