@@ -125,7 +125,13 @@ from controller.estimators import (
     cp_table_from_rosco_text,
     encoder_rotor_speed_std,
 )
-from controller.forecast import ArConfig, DispersionConfig, EspritConfig, make_forecaster
+from controller.forecast import (
+    ArConfig,
+    DispersionConfig,
+    EspritConfig,
+    ForecasterState,
+    make_forecaster,
+)
 from controller.interface import ActuatorLimits, ControlOutput
 from controller.lqri import (
     DesignNotFoundError,
@@ -893,6 +899,32 @@ class AdvancedController:
         f[ii["started"]] = 1
         return v, f
 
+    def forecast_update(
+        self, state: AdvancedState, t_ns: int, gauge_m: float, gauge_valid: bool
+    ) -> tuple[ForecasterState, int, float, int]:
+        """The wave forecaster's part of a cycle: its step when the sample time is due.
+
+        Every ``sample_period_s``: once ``t_ns`` reaches ``state.next_forecast_ns``, the
+        forecaster takes the gauge sample (held if not ``gauge_valid``), the forecast
+        η̂(t + horizon) [m] is for ``t_ns + horizon`` [ns], and the next call is the next
+        multiple of the period. Otherwise the state's values, unchanged.
+
+        Returns
+        -------
+        tuple
+            (forecaster state, next call time [ns], forecast [m], forecast time [ns]).
+        """
+        if t_ns < state.next_forecast_ns:
+            return (
+                state.forecaster,
+                state.next_forecast_ns,
+                state.forecast_m,
+                state.forecast_time_ns,
+            )
+        fstate, forecast_m = self.forecaster.step(state.forecaster, gauge_m, gauge_valid)
+        period = self._forecast_period_ns
+        return fstate, (t_ns // period + 1) * period, forecast_m, t_ns + self._horizon_ns
+
     def step(
         self, state: AdvancedState, frame: SensorFrame, dt_s: float
     ) -> tuple[AdvancedState, ControlOutput]:
@@ -936,19 +968,12 @@ class AdvancedController:
             values, flags = self._start(values, flags, frame)
         mask = frame.valid_mask
         # 4. wave forecast on the gauge channel, every sample_period_s
-        fstate = state.forecaster
-        forecast_m, forecast_ns = state.forecast_m, state.forecast_time_ns
-        next_ns = state.next_forecast_ns
-        t_ns = frame.sample_time_ns
-        if t_ns >= next_ns:
-            fstate, forecast_m = self.forecaster.step(
-                fstate,
-                frame.wave_elevation_gauge_measured_m,
-                bool(mask & VALID_WAVE_GAUGE),
-            )
-            forecast_ns = t_ns + self._horizon_ns
-            period = self._forecast_period_ns
-            next_ns = (t_ns // period + 1) * period
+        fstate, next_ns, forecast_m, forecast_ns = self.forecast_update(
+            state,
+            frame.sample_time_ns,
+            frame.wave_elevation_gauge_measured_m,
+            bool(mask & VALID_WAVE_GAUGE),
+        )
         forecast_ok = fstate.filled and math.isfinite(forecast_m)
         # 1-3, 5, 6 in one compiled call (float() and int(): a frame built in Python may hold
         # an int where a float belongs, and numba would compile another signature for it)

@@ -481,15 +481,14 @@ class CompiledLoop:
         mask = int(self.ibuf[lk.MID_SENSORS][j, 3])
         t_ns = int(self.ibuf[lk.MID_SENSORS][j, 1])
         st = rt.state
-        fstate, forecast_m = ctrl.forecaster.step(
-            st.forecaster, float(row[14]), bool(mask & VALID_WAVE_GAUGE)
+        fstate, next_ns, forecast_m, forecast_ns = ctrl.forecast_update(
+            st, t_ns, float(row[14]), bool(mask & VALID_WAVE_GAUGE)
         )
-        period = ctrl._forecast_period_ns
         rt.state = st._replace(
             forecaster=fstate,
-            next_forecast_ns=(t_ns // period + 1) * period,
+            next_forecast_ns=next_ns,
             forecast_m=forecast_m,
-            forecast_time_ns=t_ns + ctrl._horizon_ns,
+            forecast_time_ns=forecast_ns,
         )
         self._set_forecast(rt.state)
 

@@ -33,6 +33,7 @@ import msgspec
 import numpy as np
 import pytest
 from _advanced_reference import ComposedAdvanced, ComposedState
+from _helpers import sensor_frame
 
 from bus_schemas import SensorFrame
 from bus_schemas.messages import (
@@ -332,7 +333,7 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
     for k in range(n):
         dt = 0.01 if k % 97 else 0.02
         frame_pitch, frame_torque = 0.05 * rng.random(), params.rated_torque_nm * rng.random()
-        frame = _baseline_frame(float(speed[k]), frame_pitch, frame_torque)
+        frame = sensor_frame(float(speed[k]), frame_pitch, frame_torque)
         state, want = ctrl.step(state, frame, dt)
         st_out = np.empty(7)
         got = _kernels.baseline_step(
@@ -369,26 +370,6 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
             assert all(_close(a, b) for a, b in zip(g, ctrl.pitch_gains(theta), strict=True))
         regimes.add(want.regime)
     assert {0, 2, 3, 4} <= regimes, f"{preset}: regions covered {sorted(regimes)}"
-
-
-def _baseline_frame(speed: float, pitch: float, torque: float) -> SensorFrame:
-    return SensorFrame(
-        seq=0,
-        sample_time_ns=0,
-        publish_time_ns=0,
-        valid_mask=0,
-        generator_speed_measured_rad_s=speed,
-        rotor_speed_measured_rad_s=0.0,
-        blade_pitch_measured_rad=pitch,
-        generator_torque_measured_nm=torque,
-        electrical_power_measured_w=0.0,
-        wind_speed_measured_m_s=0.0,
-        nacelle_acc_fore_aft_measured_m_s2=0.0,
-        platform_pitch_measured_rad=0.0,
-        platform_pitch_rate_measured_rad_s=0.0,
-        platform_surge_measured_m=0.0,
-        wave_elevation_gauge_measured_m=0.0,
-    )
 
 
 def test_int_fields_reuse_the_compiled_cycle(recorded: dict[str, list[SensorFrame]]) -> None:
