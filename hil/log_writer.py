@@ -439,22 +439,15 @@ def _writer_main(
 
 #: bytes.translate table setting :data:`ROW_FLAG` (the ids are < ROW_FLAG once checked).
 _FLAG_ROWS = bytes((b | ROW_FLAG) & 0xFF for b in range(256))
-#: dtype objects already found equal to a type's row dtype, by id() (a structured dtype's
-#: ``==`` takes ~3 us; a caller reuses the same few dtype objects). Bounded.
-_DTYPES_SEEN: dict[int, tuple[int, np.dtype[Any]]] = {}
 
 
 def _row_dtype_ok(mt: MessageType, block: np.ndarray) -> bool:
-    """Whether ``block``'s dtype is ``mt``'s row dtype (cached by dtype object)."""
+    """Whether ``block``'s dtype is ``mt``'s row dtype: the same object (``row_dtype`` is
+    built once; views and arrays made with it keep it), else compared (a structured
+    dtype's ``==`` takes ~3 us)."""
     dtype = block.dtype
-    seen = _DTYPES_SEEN.get(id(dtype))
-    if seen is not None and seen[1] is dtype and seen[0] == mt.message_id:
-        return True
-    if dtype != _ROW_TYPES[mt.message_id].dtype:
-        return False
-    if len(_DTYPES_SEEN) < 256:
-        _DTYPES_SEEN[id(dtype)] = (mt.message_id, dtype)  # holds it: its id stays its own
-    return True
+    expected = mt.row_dtype
+    return dtype is expected or bool(dtype == expected)
 
 
 class BackgroundRunLog:
