@@ -28,6 +28,7 @@ from bus_schemas.registry import (
     CONTROLLER_STATUS,
     CYCLE_TIMING,
     SENSORS,
+    TIMING_SUMMARY,
     TRUTH,
     MessageType,
 )
@@ -35,6 +36,7 @@ from controller.baseline import BaselineController, BaselineState
 from controller.forecast import DispersionPredictor
 from controller.runtime import AdvancedController
 from hil import _loop_kernels as lk
+from hil import timing as _timing
 
 if TYPE_CHECKING:
     from hil.controller_node import ControllerRuntime
@@ -45,9 +47,16 @@ PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
 #: Positions in the kernel's arguments (CompiledLoop._args) of arrays a run may replace:
 #: the plant state, wave table, ring buffers, the core's state copies, the forecaster's buffers.
 _REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27, 45, 46)
-#: Cycles per kernel call at most (a running summary stops it every simulated second anyway).
-BATCH = 64
-_TYPES: tuple[MessageType, ...] = (SENSORS, COMMAND, TRUTH, CONTROLLER_STATUS, CYCLE_TIMING)
+#: Cycles per kernel call at most (the running summaries are written inside a batch).
+BATCH = 256
+_TYPES: tuple[MessageType, ...] = (
+    SENSORS,
+    COMMAND,
+    TRUTH,
+    CONTROLLER_STATUS,
+    CYCLE_TIMING,
+    TIMING_SUMMARY,
+)
 _BY_ID = {mt.message_id: mt for mt in _TYPES}
 if [mt.message_id for mt in _TYPES] != [
     lk.MID_SENSORS,
@@ -55,8 +64,21 @@ if [mt.message_id for mt in _TYPES] != [
     lk.MID_TRUTH,
     lk.MID_STATUS,
     lk.MID_TIMING,
+    lk.MID_SUMMARY,
 ]:
     raise ImportError("hil._loop_kernels.MID_* must be the registry's message ids")
+if (lk.H_BINS_PER_DECADE, lk.H_MIN_NS, lk.H_N_BINS) != (
+    _timing._BINS_PER_DECADE,
+    _timing._MIN_NS,
+    _timing._N_BINS,
+):
+    raise ImportError("hil._loop_kernels.H_* must be hil.timing's histogram constants")
+#: (message id, its row count in ist) of the kernel's rows.
+_ROW_COUNTS = (*zip(
+    (lk.MID_SENSORS, lk.MID_COMMAND, lk.MID_TRUTH, lk.MID_STATUS, lk.MID_TIMING),
+    lk._I_COUNT,
+    strict=True,
+), (lk.MID_SUMMARY, lk.I_N_SUMMARY))  # fmt: skip
 
 
 def compiled_unsupported(loop: PlantLoop, runtime: ControllerRuntime | None) -> str | None:
@@ -101,8 +123,20 @@ def rows_to_structs(
         i = seen[mid]
         seen[mid] = i + 1
         mt = _BY_ID[mid]
-        out.append((mt, mt.cls(*lists[mid][i])))
+        if mid == lk.MID_SUMMARY:  # (keyword-only fields)
+            names = mt.cls.__struct_fields__
+            out.append((mt, mt.cls(**dict(zip(names, lists[mid][i], strict=True)))))
+        else:
+            out.append((mt, mt.cls(*lists[mid][i])))
     return out
+
+
+def _array_key(a: Any) -> tuple[Any, ...] | None:
+    """What numba's type of ``a`` depends on, if ``a`` is a plain ndarray (else None)."""
+    if type(a) is not np.ndarray:
+        return None
+    flags = a.flags
+    return (a.dtype, a.ndim, flags.c_contiguous, flags.f_contiguous, flags.writeable)
 
 
 class CompiledLoop:
@@ -135,9 +169,11 @@ class CompiledLoop:
         self.batches = 0
         self.kernel_cycles = 0
         self.python_cycles = 0
+        self.summaries = 0  # running summaries the kernel wrote
         self._stops: dict[int, int] = {}
         self._kernel: Any = None
         self._sig: tuple[Any, ...] = ()
+        self._keys: dict[int, tuple[Any, ...] | None] = {}
         sim = loop.sim
         self.ist = np.zeros(lk.I_SIZE, dtype=np.int64)
         self.fst = np.zeros(lk.F_SIZE)
@@ -192,8 +228,11 @@ class CompiledLoop:
         self.fc_drop = np.zeros(0, dtype=np.bool_)
         self.bst = np.zeros(7)
         self.bst2 = np.zeros(7)
-        self.lats = np.zeros(BATCH + 1, dtype=np.int64)
-        cap = 5 * BATCH + 1
+        # The latency histogram's counts while the kernel records into them (hist_in_kernel;
+        # PlantLoop.hist gets them back before Python needs it: _hist_to_python).
+        self.hist = np.zeros(lk.H_N_BINS, dtype=np.int64)
+        self.hist_in_kernel = False
+        cap = 6 * BATCH + 1
         self.order = np.zeros(cap, dtype=np.uint8)
         self.buf = {
             mt.message_id: np.zeros((BATCH + 1, len(mt.row_dtype.names or ()))) for mt in _TYPES
@@ -257,6 +296,21 @@ class CompiledLoop:
             self.pending[:] = msgspec.structs.astuple(pt)
             ist[lk.I_PENDING] = 1
         fst[lk.F_APPLIED_PITCH], fst[lk.F_APPLIED_TORQUE] = loop.applied
+        if not self.hist_in_kernel:
+            self._hist_to_kernel()
+        # what a running summary reads besides the histogram (PlantLoop.publish_summary)
+        r = loop.result
+        ist[lk.I_SUMMARY_SEQ] = loop.summary_seq
+        ist[lk.I_START_WALL_NS] = loop.start_wall_ns
+        ist[lk.I_R_MISSES] = r.deadline_misses
+        ist[lk.I_R_HELD] = r.commands_held
+        inbox = loop._inbox
+        ist[lk.I_R_REJECTED] = (
+            sum(inbox.rejected.values()) if inbox is not None else r.commands_rejected
+        )
+        ist[lk.I_R_LATE] = r.commands_late
+        ist[lk.I_R_SAFE_CYCLES] = r.safe_state_cycles
+        ist[lk.I_R_FAULTS] = sum(loop.count_faults(inbox).values())
         self.xa = sim._state_array(loop.x)
         if self.advanced:
             st = rt.state
@@ -280,10 +334,33 @@ class CompiledLoop:
             self.cv, self.cv2 = np.zeros(0), np.zeros(0)
             self.cf, self.cf2 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         ist[lk.I_N_ORDER] = 0
-        ist[lk.I_N_LAT] = 0
         for i in lk._I_COUNT:
             ist[i] = 0
+        ist[lk.I_N_SUMMARY] = 0
         self._check_kernel_types()
+
+    def _hist_to_kernel(self) -> None:
+        """The plant loop's latency histogram into the kernel's copy (Python recorded last)."""
+        h, ist = self.loop.hist, self.ist
+        self.hist[:] = h.counts
+        ist[lk.I_H_N] = h.n
+        ist[lk.I_H_MAX] = h.max_ns
+        ist[lk.I_H_LO] = h._lo
+        ist[lk.I_H_HI] = h._hi
+        self.hist_in_kernel = True
+
+    def _hist_to_python(self) -> None:
+        """The kernel's latency histogram back into the plant loop's (before Python records
+        or reads it: a cycle Python runs, the run's end)."""
+        if not self.hist_in_kernel:
+            return
+        h, ist = self.loop.hist, self.ist
+        h.counts = self.hist.tolist()
+        h.n = int(ist[lk.I_H_N])
+        h.max_ns = int(ist[lk.I_H_MAX])
+        h._lo = int(ist[lk.I_H_LO])
+        h._hi = int(ist[lk.I_H_HI])
+        self.hist_in_kernel = False
 
     def _set_forecast(self, st: Any) -> None:
         """The forecast part of the advanced core's state as AdvancedController.step reads it."""
@@ -374,9 +451,13 @@ class CompiledLoop:
         else:
             b = self.bst.tolist()
             rt.state = BaselineState(False, *b)
-        rec = loop.hist.record
-        for lat in self.lats[: int(ist[lk.I_N_LAT])].tolist():
-            rec(lat)
+        n_summary = int(ist[lk.I_N_SUMMARY])
+        if n_summary:  # what publish_summary leaves besides the message
+            self.summaries += n_summary
+            loop.summary_seq = int(ist[lk.I_SUMMARY_SEQ])
+            r = loop.result
+            r.wall_s, r.sim_s = float(fst[lk.F_WALL_S]), float(fst[lk.F_SIM_S])
+            loop.count_faults(loop._inbox)
 
     # ------------------------------------------------------------------ rows out
     def _publish_rows(self) -> None:
@@ -386,11 +467,7 @@ class CompiledLoop:
             return
         order = self.order[:n]
         rows = {}
-        for mid, idx in zip(
-            (lk.MID_SENSORS, lk.MID_COMMAND, lk.MID_TRUTH, lk.MID_STATUS, lk.MID_TIMING),
-            lk._I_COUNT,
-            strict=True,
-        ):
+        for mid, idx in _ROW_COUNTS:
             c = int(ist[idx])
             if c:
                 rows[mid] = self.buf[mid][:c].view(self.dtypes[mid]).ravel()
@@ -407,7 +484,7 @@ class CompiledLoop:
         ch = sim.channels
         assert ch is not None
         return (
-            limit, resume, self.ist, self.fst, self.pending, self.lats,
+            limit, resume, self.ist, self.fst, self.pending, self.hist,
             self.xa, sim._s, sim._wc, sim._c, sim._o, sim._wind_table, sim._truth_rec,
             sim._channel_fields,
             ch._f, ch._i, ch._ok, ch._hist_t, ch._hist_v, ch._rn, sim._slots, sim._record,
@@ -416,7 +493,7 @@ class CompiledLoop:
             self.order,
             self.buf[1], self.ibuf[1], self.buf[2], self.ibuf[2], self.buf[3], self.ibuf[3],
             self.buf[4], self.ibuf[4], self.buf[5], self.ibuf[5],
-            self.fc_buf, self.fc_drop, self.fir,
+            self.fc_buf, self.fc_drop, self.fir, self.buf[6], self.ibuf[6],
         )  # fmt: skip
 
     def _bind_kernel(self) -> None:
@@ -431,32 +508,48 @@ class CompiledLoop:
         overloads = getattr(kernel, "overloads", None)  # (a wrapped kernel: benchmarks)
         if overloads is None:
             return
-        sig = tuple(numba.typeof(a) for a in self._args(0, 0))
+        args = self._args(0, 0)
+        sig = tuple(numba.typeof(a) for a in args)
         cres = overloads.get(sig)
         if cres is not None:
             self._kernel = cres.entry_point
             self._sig = sig
+            self._keys = {i: _array_key(args[i]) for i in _REPLACEABLE}
 
     def _check_kernel_types(self) -> None:
         """Before a batch: the arrays that may be replaced during a run (the state, the
         core's copies, the wave table, the ring buffers) still have the bound types, else
-        the dispatcher takes over (an entry point does not check its arguments' types)."""
+        the dispatcher takes over (an entry point does not check its arguments' types).
+
+        An array's numba type is a function of what :func:`_array_key` reads (numba's
+        ``typeof`` of an ndarray: dtype, dimensions, layout, writeable); where that differs
+        from the bound one's, or for anything but a plain ndarray, ``numba.typeof``
+        decides (about 10 us an array, against 0.3 us for the key).
+        """
         if self._kernel is None:
             return
         args = self._args(0, 0)
+        keys = self._keys
         for i in _REPLACEABLE:
-            if numba.typeof(args[i]) != self._sig[i]:
+            a = args[i]
+            key = _array_key(a)
+            if key is not None and key == keys[i]:
+                continue
+            if numba.typeof(a) != self._sig[i]:
                 self._kernel = None
                 return
 
     @property
     def stops(self) -> dict[str, int]:
-        """How often the kernel stopped for each reason (STOP_REASONS)."""
+        """How often the kernel stopped for each reason (STOP_REASONS), and under
+        ``summary`` how many running summaries it wrote (in its batches: no stop)."""
         out: dict[str, int] = {}
         for bits, n in self._stops.items():
             for bit, name in lk.STOP_REASONS.items():
                 if bits & bit:
                     out[name] = out.get(name, 0) + n
+        if self.summaries:
+            out["summary"] = self.summaries
         return out
 
     def _call(self, resume: int, limit: int = BATCH) -> int:
@@ -493,6 +586,7 @@ class CompiledLoop:
         self._set_forecast(rt.state)
 
     def _python_cycle(self) -> None:
+        self._hist_to_python()
         loop = self.loop
         clock = time.monotonic_ns
         frame = loop.sample()
@@ -519,18 +613,19 @@ class CompiledLoop:
                 if reason & lk.STOP_REFILL:
                     ch._refill()
                 self._forecast()
-                reason = self._call(1)
+                # the same batch's rows go on: at most BATCH cycles in all, cycle k included
+                reason = self._call(1, BATCH - (int(self.ist[lk.I_K]) - k0))
             self._push(k0)
             self._publish_rows()
             if reason & lk.STOP_REFILL:
                 ch._refill()
             if reason & lk.STOP_FRAME:  # Python's handle_frame decides on this frame
+                self._hist_to_python()
                 frame = self._last_frame()
                 t0 = clock()
                 command = self.step_controller(frame)
                 loop.finish_cycle(command, clock() - t0, at_arrival=False)
                 self.python_cycles += 1
-            if reason & lk.STOP_SUMMARY:
-                loop.publish_summary(final=False)
             if reason & lk.STOP_BEFORE:
                 self._python_cycle()
+        self._hist_to_python()

@@ -18,14 +18,16 @@ row_dtype`) for :meth:`hil.log_writer.BackgroundRunLog.publish_block`:
 3. the core: :func:`controller._kernels.advanced_cycle` (``lqri``, ``lqri_ff``) or
    :func:`controller._kernels.baseline_step` (``baseline``);
 4. the plant's watchdog bookkeeping and period (:func:`plant._kernels.advance_floating`),
-   the cycle's timing record.
+   the cycle's timing record, its latency in the histogram (:func:`hist_record`) and,
+   every simulated second, the running timing summary as a row at its place in the
+   publish order (:func:`_summary_row`, ``PlantLoop.publish_summary``).
 
 The wave forecaster's update (every ``sample_period_s``, after the runtime's checks) runs
 here for the dispersion forecaster (:func:`_dispersion_forecast`, ``ist[I_FC_KIND]`` = 1).
 It returns before anything that needs Python (:data:`STOP_REASONS`): the update of another
 forecaster (AR, ESPRIT: the caller runs it and resumes the same cycle with ``resume`` = 1),
 a non-finite frame, a sensor suite that needs
-Python, the running timing summary, a random block to refill, the caller's limit. Wall
+Python, a random block to refill, the caller's limit. Wall
 clock stamps are real: :func:`monotonic_ns` reads ``CLOCK_MONOTONIC`` through
 ``clock_gettime``, the clock of ``time.monotonic_ns``.
 
@@ -158,7 +160,7 @@ def clock_reads(n: int) -> int:
 
 
 # ---- message ids (bus_schemas.registry) and the int state ist -----------------------------
-MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING = 1, 2, 3, 4, 5
+MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2, 3, 4, 5, 6
 
 (
     I_K,  # plant cycle k (the next one to run)
@@ -211,8 +213,21 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING = 1, 2, 3, 4, 5
     I_MASK_FC,  # AdvancedController._mask_forecast
     I_MASK_NO_FC,  # AdvancedController._mask_no_forecast
     I_GAUGE_BIT,  # VALID_WAVE_GAUGE
+    I_H_N,  # the latency histogram (LatencyHistogram): samples, max_ns, lowest, highest bin
+    I_H_MAX,
+    I_H_LO,
+    I_H_HI,
+    I_SUMMARY_SEQ,  # PlantLoop.summary_seq (the next running summary's seq)
+    I_START_WALL_NS,  # PlantLoop.start_wall_ns
+    I_R_MISSES,  # the summary's counters, constant during a batch (PlantRunResult)
+    I_R_HELD,
+    I_R_REJECTED,
+    I_R_LATE,
+    I_R_SAFE_CYCLES,
+    I_R_FAULTS,
+    I_N_SUMMARY,  # summary rows written
     I_SIZE,
-) = range(51)
+) = range(64)
 _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
 
 (
@@ -228,27 +243,135 @@ _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 
     F_LAST_CMD_TORQUE,
     F_FC_HELD,  # the forecaster's held_m
     F_FC_RAW,  # the core state's forecast_m (the FIR's output, valid or not)
+    F_WALL_S,  # the last running summary's PlantRunResult.wall_s and sim_s
+    F_SIM_S,
     F_SIZE,
-) = range(13)
+) = range(15)
 
 #: Reasons :func:`run_cycles` returns (bits may combine for END_OF_CYCLE ones).
 STOP_LIMIT = 1  # the caller's limit of cycles (or I_K_END) reached: before cycle k
 STOP_BEFORE = 2  # cycle k needs Python from its start (suite, pacing): nothing of it done
 STOP_FRAME = 4  # cycle k's frame (rows written) goes to Python's handle_frame
 STOP_FORECAST = 8  # cycle k stopped before the core: run the forecaster, resume
-STOP_SUMMARY = 16  # cycle k-1 done; k % summary_every == 0: publish the summary
 STOP_REFILL = 32  # cycle k-1 done; a random block of the sensor suite is used up
 STOP_REASONS = {
     STOP_LIMIT: "limit",
     STOP_BEFORE: "before",
     STOP_FRAME: "frame",
     STOP_FORECAST: "forecast",
-    STOP_SUMMARY: "summary",
     STOP_REFILL: "refill",
 }
 PACED_FRAMES = 8  # hil.controller_node.PACED_FRAMES (checked there at import)
 PACED_TOLERANCE = 0.1
 _N_TRUTH = len(TRUTH_FIELDS)
+
+
+# ---- the latency histogram (hil.timing.LatencyHistogram) -----------------------------------
+H_BINS_PER_DECADE = 120  # hil.timing._BINS_PER_DECADE (checked by hil._fast_loop)
+H_MIN_NS = 1_000  # hil.timing._MIN_NS
+H_N_BINS = H_BINS_PER_DECADE * 8 + 2  # hil.timing._N_BINS
+#: Percentiles of the running summary (PlantLoop.publish_summary).
+SUMMARY_PERCENTILES = (50.0, 99.0, 99.9)
+
+
+@njit
+def hist_record(hist: np.ndarray, ist: np.ndarray, latency_ns: int) -> None:
+    r"""``LatencyHistogram.record`` on ``hist`` (its counts) and ``ist[I_H_*]``.
+
+    Bin :math:`i = 1 + \lfloor 120 \log_{10}(L / 1000\,\mathrm{ns}) \rfloor` (0 below
+    1 us, capped at the top bin), with the same float operations as the Python method
+    (the true quotient, ``log10``, truncation), so the counts are the same.
+    """
+    if latency_ns < H_MIN_NS:
+        idx = 0
+    else:
+        idx = 1 + int(H_BINS_PER_DECADE * math.log10(latency_ns / H_MIN_NS))
+        if idx >= H_N_BINS:
+            idx = H_N_BINS - 1
+    hist[idx] += 1
+    ist[I_H_N] += 1
+    ist[I_H_HI] = max(ist[I_H_HI], idx)
+    ist[I_H_LO] = min(ist[I_H_LO], idx)
+    ist[I_H_MAX] = max(ist[I_H_MAX], latency_ns)
+
+
+@njit
+def hist_percentile_us(hist: np.ndarray, ist: np.ndarray, q: float) -> float:
+    """``LatencyHistogram.percentiles_us`` for one ``q`` (0 < q <= 100), in us.
+
+    The first bin between the lowest and highest occupied ones whose running count reaches
+    q/100 * n (``bisect_left`` over the running sums), its upper edge
+    :math:`10^{3 + i/120}` ns capped at the maximum; the same float operations as the
+    Python method.
+    """
+    n = ist[I_H_N]
+    if n == 0:
+        return 0.0
+    lo = ist[I_H_LO]
+    hi = ist[I_H_HI]
+    max_ns = ist[I_H_MAX]
+    target = q / 100.0 * n
+    running = 0
+    found = hi - lo + 1
+    for i in range(lo, hi + 1):
+        running += hist[i]
+        if running >= target:
+            found = i - lo
+            break
+    idx = 0 if target <= 0 else lo + found
+    if found >= hi - lo + 1:
+        return max_ns / 1e3
+    if idx == 0:
+        return H_MIN_NS / 1e3
+    edge = H_MIN_NS * 10.0 ** (idx / H_BINS_PER_DECADE)
+    if max_ns < edge:
+        return max_ns / 1e3
+    return edge / 1e3
+
+
+@njit
+def _summary_row(
+    hist: np.ndarray,
+    ist: np.ndarray,
+    fst: np.ndarray,
+    r_sum: np.ndarray,
+    r_sum_i: np.ndarray,
+    k: int,
+    t_ns: int,
+) -> None:
+    """The running summary after cycle k - 1 (``PlantLoop.publish_summary(final=False)``
+    on the usual path: not in the safe state; the counters are the caller's, constant
+    while the kernel runs), as a ``TimingSummary`` row; ``fst[F_WALL_S]``, ``[F_SIM_S]``
+    get the run result's wall and simulated seconds."""
+    wall_s = (_clock_ns() - ist[I_START_WALL_NS]) * 1e-9
+    sim_s = t_ns * 1e-9
+    fst[F_WALL_S] = wall_s
+    fst[F_SIM_S] = sim_s
+    j = ist[I_N_SUMMARY]
+    r_sum[j, 12] = hist_percentile_us(hist, ist, SUMMARY_PERCENTILES[0])
+    r_sum[j, 13] = hist_percentile_us(hist, ist, SUMMARY_PERCENTILES[1])
+    r_sum[j, 14] = hist_percentile_us(hist, ist, SUMMARY_PERCENTILES[2])
+    r_sum_i[j, 0] = ist[I_SUMMARY_SEQ]
+    r_sum_i[j, 1] = t_ns
+    r_sum_i[j, 2] = _clock_ns()
+    r_sum_i[j, 3] = k
+    r_sum_i[j, 4] = ist[I_R_MISSES]
+    r_sum_i[j, 5] = ist[I_R_HELD]
+    r_sum_i[j, 6] = ist[I_R_REJECTED]
+    r_sum_i[j, 7] = ist[I_R_LATE]
+    r_sum_i[j, 8] = 0  # safe_state
+    r_sum_i[j, 9] = ist[I_R_SAFE_CYCLES]
+    r_sum_i[j, 10] = ist[I_R_FAULTS]
+    r_sum_i[j, 11] = 0  # final
+    r_sum[j, 15] = ist[I_H_MAX] / 1e3
+    speed = 0.0
+    if wall_s > 0:
+        speed = sim_s / wall_s
+        if not speed < 1e9:  # min(1e9, speed)
+            speed = 1e9
+    r_sum[j, 16] = speed
+    ist[I_N_SUMMARY] = j + 1
+    ist[I_SUMMARY_SEQ] += 1
 
 
 @njit
@@ -313,7 +436,7 @@ def run_cycles(
     ist: np.ndarray,
     fst: np.ndarray,
     pending: np.ndarray,
-    lats: np.ndarray,
+    hist: np.ndarray,
     # plant
     xa: np.ndarray,
     s: np.ndarray,
@@ -360,6 +483,9 @@ def run_cycles(
     fc_buf: np.ndarray,
     fc_drop: np.ndarray,
     fir: np.ndarray,
+    # the running summaries (TimingSummary rows)
+    r_sum: np.ndarray,
+    r_sum_i: np.ndarray,
 ) -> int:
     """Run cycles from ``ist[I_K]`` until a stop (module docstring); return its bits.
 
@@ -367,7 +493,9 @@ def run_cycles(
     forecast in ``fst``/``ist``). ``cv``/``cf`` (advanced) and ``bst`` (baseline) hold the
     core's state on return (the kernel swaps with ``cv2``/``cf2``/``bst2`` and copies back).
     ``pending`` (9 int64) is the timing row of the previous cycle while ``ist[I_PENDING]``;
-    ``lats`` gets each finished cycle's latency (from ``ist[I_N_LAT]`` on).
+    ``hist`` (the latency histogram's counts, with ``ist[I_H_*]``) gets each finished
+    cycle's latency, and after a cycle k - 1 with k % ``ist[I_SUMMARY_EVERY]`` == 0 the
+    running summary is written as a row (:func:`_summary_row`) without stopping.
     Rows are appended from ``ist[I_N_*]`` on; ``order`` gets their message ids.
     """
     period = ist[I_PERIOD_NS]
@@ -595,8 +723,7 @@ def run_cycles(
         no += 1
         ist[I_COMMAND_SEQ] = cseq + 1
         latency = _clock_ns() - t0_run
-        lats[ist[I_N_LAT]] = latency
-        ist[I_N_LAT] += 1
+        hist_record(hist, ist, latency)
         # ---- 4. the plant's period (finish_cycle: on time, switch 0, not in safe state)
         t0p = _clock_ns()
         ist[I_P_ON_TIME_RUN] += 1
@@ -619,12 +746,12 @@ def run_cycles(
         ist[I_PENDING] = 1
         k += 1
         done += 1
-        reason = 0
         if k % ist[I_SUMMARY_EVERY] == 0:
-            reason |= STOP_SUMMARY
+            _summary_row(hist, ist, fst, r_sum, r_sum_i, k, k * period)
+            order[no] = MID_SUMMARY
+            no += 1
         if refill:
-            reason |= STOP_REFILL
-        if reason:
+            reason = STOP_REFILL
             break
     ist[I_K] = k
     ist[I_N_ORDER] = no

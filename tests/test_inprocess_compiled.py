@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from bus_schemas.registry import CONTROLLER_STATUS, MessageType
+from bus_schemas.registry import CONTROLLER_STATUS, TIMING_SUMMARY, MessageType
 from controller.forecast import ForecasterState
 from hil import _loop_kernels as lk
 from hil._fast_loop import CompiledLoop, compiled_unsupported
@@ -28,6 +28,7 @@ from hil.envelope import controller_variant
 from hil.launch import RunRequest, launch
 from hil.plant_node import PlantLoop, run_inprocess
 from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
+from hil.timing import LatencyHistogram
 
 #: Fields that hold wall-clock readings (equal in kind, not in value).
 WALL = frozenset(
@@ -56,10 +57,12 @@ class _Run:
 
     def __init__(self, scenario: Scenario, loop: str) -> None:
         self.msgs: dict[int, list[Any]] = {}
+        self.sequence: list[Any] = []  # every message in publish order
         rt = ControllerRuntime(scenario)
 
         def publish(mt: MessageType, msg: Any) -> None:
             self.msgs.setdefault(mt.message_id, []).append(msg)
+            self.sequence.append(msg)
 
         step = publishing_step(rt, publish)
 
@@ -355,3 +358,92 @@ def test_loop_kernel_cache_is_keyed_by_the_composed_kernels_sources() -> None:
     assert callees == lk._callees_hash()
     assert [p.name for p in lk._CALLEE_FILES] == ["_kernels.py"] * 3
     assert all(p.is_file() for p in lk._CALLEE_FILES)
+
+
+@pytest.mark.parametrize(("name", "duration_s"), [("iea15mw-lc2", 30.0), ("iea15mw-lc2-lqri", 9.0)])
+def test_summaries_inside_a_batch_at_their_place(name: str, duration_s: float) -> None:
+    """The kernel writes the running summary (every simulated second) as a row inside its
+    batch: the messages of both loops in one publish order, type for type and field for
+    field (wall-clock fields aside), with fewer kernel calls than summaries."""
+    scn = _scenario(name, duration_s)
+    py = _Run(scn, "python")
+    fast = _Run(scn, "compiled")
+    _compare(py, fast)
+    assert len(py.sequence) == len(fast.sequence)
+    for i, (x, y) in enumerate(zip(py.sequence, fast.sequence, strict=True)):
+        assert type(x) is type(y), f"#{i}: {type(x).__name__} != {type(y).__name__}"
+        for f in x.__struct_fields__:
+            if f not in WALL:
+                assert _same(getattr(x, f), getattr(y, f)), f"#{i} {type(x).__name__}.{f}"
+    summaries = fast.msgs[TIMING_SUMMARY.message_id]
+    assert [s.seq for s in summaries] == list(range(int(duration_s) + 1))
+    assert summaries[-1].final == 1 and not any(s.final for s in summaries[:-1])
+    assert fast.fast is not None
+    assert fast.fast.stops["summary"] == int(duration_s)  # all written by the kernel
+    assert fast.fast.batches < int(duration_s) / 4  # a batch holds several of them
+    # the kernel's histogram is the plant loop's again at the end (its latencies are wall
+    # clock readings: counted, each in one bin, the lowest and highest occupied bins kept)
+    h = fast.plant.hist
+    assert h.n == py.plant.hist.n == scn.cycles == sum(h.counts)
+    occupied = np.flatnonzero(h.counts)
+    assert (h._lo, h._hi) == (occupied[0], occupied[-1])
+    assert h.max_ns > 0 and h.percentiles_us(100)[0] == h.max_ns / 1e3
+    t_end_s = scn.cycles * fast.plant.period_ns * 1e-9
+    assert fast.plant.result.sim_s == py.plant.result.sim_s == t_end_s
+
+
+def test_kernel_histogram_is_latency_histogram() -> None:
+    """hist_record and hist_percentile_us give LatencyHistogram's bins, counts, maximum
+    and percentiles exactly (seeded latencies from 0.1 us to beyond the top bin)."""
+    rng = np.random.default_rng(7)
+    lats = np.concatenate(
+        [
+            (10 ** rng.uniform(2, 11.5, 5000)).astype(np.int64),
+            [0, 1, 999, 1000, 1001, 10**11, 10**12, 2**62],
+        ]
+    )
+    py = LatencyHistogram()
+    counts = np.zeros(lk.H_N_BINS, np.int64)
+    ist = np.zeros(lk.I_SIZE, np.int64)
+    ist[lk.I_H_LO], ist[lk.I_H_HI] = py._lo, py._hi
+    assert lk.hist_percentile_us(counts, ist, 50.0) == py.percentiles_us(50)[0] == 0.0
+    for i, lat in enumerate(lats.tolist()):
+        py.record(lat)
+        lk.hist_record(counts, ist, lat)
+        if i % 97 == 0 or i >= len(lats) - 8:
+            assert counts.tolist() == py.counts
+            assert ist[lk.I_H_N] == py.n and ist[lk.I_H_MAX] == py.max_ns
+            assert (ist[lk.I_H_LO], ist[lk.I_H_HI]) == (py._lo, py._hi)
+            qs = (*lk.SUMMARY_PERCENTILES, 0.01, 100.0)
+            got = [lk.hist_percentile_us(counts, ist, q) for q in qs]
+            assert got == py.percentiles_us(*qs)
+    # every bin's upper edge, capped or not by the maximum
+    for idx in range(1, lk.H_N_BINS - 1):
+        one = LatencyHistogram()
+        one.counts[idx], one.n, one._lo, one._hi = 1, 1, idx, idx
+        c = np.zeros(lk.H_N_BINS, np.int64)
+        c[idx] = 1
+        for max_ns in (10**13, int(1000 * 10 ** (idx / 120)) - 1):
+            one.max_ns = max_ns
+            ist[lk.I_H_N], ist[lk.I_H_LO], ist[lk.I_H_HI], ist[lk.I_H_MAX] = 1, idx, idx, max_ns
+            assert lk.hist_percentile_us(c, ist, 50.0) == one.percentiles_us(50)[0], idx
+
+
+def test_kernel_entry_point_kept_while_the_types_hold() -> None:
+    """A replaced array of the same numba type keeps the bound entry point; a read-only
+    one (another type, the same dtype, shape and layout) drops it."""
+    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
+    rt = ControllerRuntime(scn)
+    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), rt, lambda _f: None)
+    assert fast._kernel is not None
+    sim = fast.loop.sim
+    wc = sim._wc
+    sim._wc = wc.copy()
+    fast._check_kernel_types()
+    assert fast._kernel is not None
+    ro = wc.copy()
+    ro.flags.writeable = False
+    sim._wc = ro
+    fast._check_kernel_types()
+    assert fast._kernel is None
+    sim._wc = wc
