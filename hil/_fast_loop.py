@@ -48,7 +48,7 @@ PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
 #: the plant state, wave table, ring buffers, the core's state copies, the forecaster's buffers.
 _REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27, 45, 46)
 #: Cycles per kernel call at most (the running summaries are written inside a batch).
-BATCH = 256
+BATCH = 1024
 _TYPES: tuple[MessageType, ...] = (
     SENSORS,
     COMMAND,

@@ -615,8 +615,10 @@ def run_cycles(
             if not math.isfinite(total):
                 reason = STOP_FRAME | (STOP_REFILL if refill else 0)
                 break
+            # the runner's clock before the controller and the runtime's at its checks:
+            # one reading (the Python path reads twice, back to back)
             t0_run = _clock_ns()
-            t0_ctrl = _clock_ns()
+            t0_ctrl = t0_run
             # _watchdog, usual path: gap 0, not stale (wall checks off), healthy
             if ist[I_LAST_PUBLISH_NS] >= 0:
                 interval = publish_ns - ist[I_LAST_PUBLISH_NS]
@@ -722,10 +724,10 @@ def run_cycles(
         order[no] = MID_STATUS
         no += 1
         ist[I_COMMAND_SEQ] = cseq + 1
-        latency = _clock_ns() - t0_run
+        t0p = _clock_ns()  # the latency's end and the plant period's start (one reading)
+        latency = t0p - t0_run
         hist_record(hist, ist, latency)
         # ---- 4. the plant's period (finish_cycle: on time, switch 0, not in safe state)
-        t0p = _clock_ns()
         ist[I_P_ON_TIME_RUN] += 1
         advance_floating(
             xa, s, wc, pc, po, n_steps, 0, wind_table, t_ns * 1e-9, h,
