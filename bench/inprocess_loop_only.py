@@ -7,8 +7,12 @@ interpreter, kernels loaded before the loop starts) with a ``publish`` and a
 ``publish_block`` that drop everything, alternating the two loops ``--rounds`` times in one
 run; the loop's CPU time (this thread's clock from the first cycle to the final summary)
 and wall time per cycle, the least-CPU round of each, every round's figure and the load.
+With ``--compare-python PY --compare-root DIR`` (e.g. main's venv and checkout) DIR's
+compiled loop runs in the same alternation (this script, DIR's code), as ``compare``.
 
-    python bench/inprocess_loop_only.py [--rounds 3] [--duration 600]
+    python bench/inprocess_loop_only.py [--rounds 3] [--duration 600] [--save-as NAME]
+    python bench/inprocess_loop_only.py --compare-python /work/main/.venv/bin/python \
+        --compare-root /work/main --rounds 3 --save-as inprocess_loop_only_glue4
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 
 from _common import save
@@ -67,21 +72,40 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--child", nargs=2, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
+    ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
+    ap.add_argument("--save-as", default="inprocess_loop_only", help="name of the JSON")
     args = ap.parse_args()
     if args.child:
         _child(args.child[0], args.child[1], args.duration)
         return
+    if (args.compare_python is None) != (args.compare_root is None):
+        raise SystemExit("--compare-python and --compare-root go together")
+    here = Path(__file__).resolve()
+    # (interpreter, code root, loop) of each configuration, run in this order every round
+    codes = {
+        "compiled": (sys.executable, here.parent.parent, "compiled"),
+        "python": (sys.executable, here.parent.parent, "python"),
+    }
+    if args.compare_python is not None:
+        codes["compare"] = (str(args.compare_python), args.compare_root.resolve(), "compiled")
     result: dict[str, Any] = {"load_average_start": os.getloadavg(), "rounds": args.rounds}
+    if args.compare_root is not None:
+        result["compare_root"] = str(args.compare_root)
     for name, scenario in SCENARIOS.items():
-        per: dict[str, list[dict[str, Any]]] = {"compiled": [], "python": []}
+        per: dict[str, list[dict[str, Any]]] = {code: [] for code in codes}
         for _ in range(args.rounds):
-            for loop, runs in per.items():
-                cmd = [sys.executable, __file__, "--child", scenario, loop]
+            for code, runs in per.items():
+                python, root, loop = codes[code]
+                cmd = [python, str(here), "--child", scenario, loop]
                 cmd += ["--duration", str(args.duration)]
-                proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+                env = {**os.environ, "PYTHONPATH": str(root)}
+                proc = subprocess.run(
+                    cmd, cwd=root, env=env, capture_output=True, text=True, check=False
+                )
                 line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
                 if proc.returncode != 0 or not line:
-                    raise SystemExit(f"{name} {loop} failed:\n{proc.stdout}\n{proc.stderr}")
+                    raise SystemExit(f"{name} {code} failed:\n{proc.stdout}\n{proc.stderr}")
                 runs.append(json.loads(line[-1][7:]))
         entry: dict[str, Any] = {"scenario": scenario, "duration_s": args.duration}
         for loop, runs in per.items():
@@ -95,10 +119,14 @@ def main() -> None:
         entry["python_over_compiled_cpu"] = round(
             entry["python"]["cpu_us_per_cycle"] / entry["compiled"]["cpu_us_per_cycle"], 2
         )
+        if "compare" in entry:
+            entry["compare_over_compiled_cpu"] = round(
+                entry["compare"]["cpu_us_per_cycle"] / entry["compiled"]["cpu_us_per_cycle"], 2
+            )
         result[name] = entry
         print(name, entry, flush=True)
     result["load_average_end"] = os.getloadavg()
-    save("inprocess_loop_only", result)
+    save(args.save_as, result)
 
 
 if __name__ == "__main__":
