@@ -27,7 +27,9 @@ configuration this script measures:
   checkout): split runs of this code and of DIR's code, each in a child process with its
   own interpreter, alternated ``--rounds`` times in one run (the machine's load changes
   from minute to minute): per configuration the least-CPU round of each, every round's
-  loop CPU per cycle and load average, and the ratio of the two loops' CPU per cycle.
+  loop CPU per cycle and load average, and the ratio of the two loops' CPU per cycle;
+  with ``--compare-user-runs`` each round also runs the user's command with each code
+  (``user_run`` above, the summary's speed), alternating as the splits do.
 
 The machine is shared (2 cores, other jobs): the load average is saved with the figures.
 
@@ -451,7 +453,15 @@ def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]
                 line = [ln for ln in proc.stdout.splitlines() if ln.startswith("SPLIT ")]
                 if proc.returncode != 0 or not line:
                     raise SystemExit(f"{code} split run failed:\n{proc.stdout}\n{proc.stderr}")
-                per[code].append(json.loads(line[-1][6:]))
+                split = json.loads(line[-1][6:])
+                if args.compare_user_runs and code != "this_python_loop":
+                    # the command as a user runs it, with this code's or the other's
+                    # interpreter and checkout, right after its split run
+                    u = run_fowt(CONFIGS[name]["scenario"], "inprocess", args.duration,
+                                 python=python, cwd=root)  # fmt: skip
+                    split["user_run_sim_s_per_wall_s"] = u["timing"]["sim_seconds_per_wall_second"]
+                    split["user_run_load_average"] = os.getloadavg()[0]
+                per[code].append(split)
         entry: dict[str, Any] = {}
         for code, runs in per.items():
             best = min(runs, key=lambda r: r["per_cycle_cpu_us_total"])
@@ -468,6 +478,13 @@ def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]
                 "rounds_per_cycle_cpu_us_total": [r["per_cycle_cpu_us_total"] for r in runs],
                 "rounds_load_average": [r["load_average"][0] for r in runs],
             }
+            if args.compare_user_runs and code != "this_python_loop":
+                entry[code]["rounds_user_run_sim_s_per_wall_s"] = [
+                    round(r["user_run_sim_s_per_wall_s"], 1) for r in runs
+                ]
+                entry[code]["rounds_user_run_load_average"] = [
+                    r["user_run_load_average"] for r in runs
+                ]
         entry["loop_cpu_ratio_this_python_loop_over_this"] = round(
             entry["this_python_loop"]["per_cycle_cpu_us_total"]
             / entry["this"]["per_cycle_cpu_us_total"],
@@ -496,6 +513,11 @@ def main() -> None:
     ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
     ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
+    ap.add_argument(
+        "--compare-user-runs",
+        action="store_true",
+        help="with --compare-*: also a fowt run of each code after its split, every round",
+    )
     ap.add_argument(
         "--loops",
         default="compiled,python",
