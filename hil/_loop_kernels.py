@@ -200,7 +200,6 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_T0_CTRL,  # runtime's clock at its checks (idem)
     I_GEN_MASK_ROTOR,  # VALID_GENERATOR_SPEED
     I_ROTOR_BIT,  # VALID_ROTOR_SPEED
-    I_N_LAT,  # latencies written to lats
     I_FC_KIND,  # 1: the dispersion forecaster runs here; 0: the caller runs it (STOP_FORECAST)
     I_FC_HEAD,  # its ForecasterState: head, count, calls, dropped, dropped_in_window
     I_FC_COUNT,
@@ -227,7 +226,7 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_R_FAULTS,
     I_N_SUMMARY,  # summary rows written
     I_SIZE,
-) = range(64)
+) = range(63)
 _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
 
 (
