@@ -318,16 +318,25 @@ class _RowType:
 _ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
 
 
-def _warm_kernels() -> None:
-    """Compile (first run) or load (from numba's cache) the kernels, before the first batch."""
+def _warm_kernels(framer: _BatchFramer | None = None) -> None:
+    """Compile (first run) or load (from numba's cache) the kernels, before the first batch:
+    the reference path's, and the fused path's through ``framer`` (encoded, not written)."""
+    blobs = []
     for mid, rt in _ROW_TYPES.items():
-        blob = _encode_batch_payload((bytes([mid | ROW_FLAG]), {}, {mid: bytes(8 * rt.nfields)}))
-        _encode_batch(blob, {})
+        blobs.append(
+            _encode_batch_payload((bytes([mid | ROW_FLAG]), {}, {mid: bytes(8 * rt.nfields)}))
+        )
     mt = MESSAGES[0]
-    blob = _encode_batch_payload(
-        (bytes([mt.message_id]), {mt.message_id: [mt.cls(*[0] * _ROW_TYPES[1].nfields)]}, {})
+    blobs.append(
+        _encode_batch_payload(
+            (bytes([mt.message_id]), {mt.message_id: [mt.cls(*[0] * _ROW_TYPES[1].nfields)]}, {})
+        )
     )
-    _encode_batch(blob, _decoders())
+    decoders = _decoders()
+    for blob in blobs:
+        _encode_batch(blob, decoders)
+        if framer is not None:
+            framer.encode(blob)
     meta = np.zeros((1, 4), np.int64)  # as BatchRunLog.write_batch calls it
     _place_headers(
         np.zeros(MESSAGE_HEADER_BYTES, np.uint8), meta[:, 3], np.zeros((1, 31), np.uint8)
@@ -404,6 +413,373 @@ def _encode_batch(
     return meta, records
 
 
+# The fused path (what the writer child runs): per batch, one kernel gathers the rows'
+# float and int values in publish order, orjson formats each list in one call, and one
+# kernel writes every message's whole MCAP Message record (header and JSON) into the chunk
+# buffer in publish order, with the MessageIndex entries grouped by channel.
+# :func:`_encode_batch` and :meth:`hil.mcap_log.BatchRunLog.write_batch` above stay as the
+# reference (tests/test_log_writer.py holds the two byte for byte against each other).
+
+
+@_njit
+def _gather_kernel(
+    flags: np.ndarray,
+    rows_f: np.ndarray,
+    rows_i: np.ndarray,
+    row_base: np.ndarray,
+    nfields: np.ndarray,
+    field_base: np.ndarray,
+    is_float: np.ndarray,
+    fout: np.ndarray,
+    iout: np.ndarray,
+) -> tuple[int, int]:  # pragma: no cover - compiled (its results are tested byte for byte)
+    """The rows' float values (``fout``) and int values (``iout``) in publish order, each
+    row's in field order. ``rows_f`` / ``rows_i`` are the batch's row bytes (all types, one
+    after the other) as float64 / int64; for an order byte ``f`` with :data:`ROW_FLAG`, its
+    rows start at ``row_base[f]`` (in 8-byte words), have ``nfields[f]`` fields and the
+    kinds ``is_float[field_base[f]:]``. Returns the floats and ints written."""
+    cursor = np.zeros(256, np.int64)
+    nf = 0
+    ni = 0
+    for i in range(flags.shape[0]):
+        f = flags[_U(i)]
+        if f < ROW_FLAG:
+            continue
+        nfld = nfields[f]
+        base = row_base[f] + cursor[f] * nfld
+        cursor[f] += 1
+        fb = field_base[f]
+        for j in range(nfld):
+            if is_float[_U(fb + j)]:
+                fout[_U(nf)] = rows_f[_U(base + j)]
+                nf += 1
+            else:
+                iout[_U(ni)] = rows_i[_U(base + j)]
+                ni += 1
+    return nf, ni
+
+
+@_njit
+def _put_le(out: np.ndarray, o: int, value: int, nbytes: int) -> None:  # pragma: no cover
+    """``value``'s ``nbytes`` low bytes at ``out[o:]``, little-endian (two's complement)."""
+    for k in range(nbytes):
+        out[_U(o + k)] = (value >> (8 * k)) & 0xFF
+
+
+@_njit
+def _records_kernel(
+    flags: np.ndarray,
+    chan_of_flag: np.ndarray,
+    rows_i: np.ndarray,
+    row_base: np.ndarray,
+    nfields: np.ndarray,
+    field_base: np.ndarray,
+    is_float: np.ndarray,
+    time_cols: np.ndarray,
+    keys: np.ndarray,
+    key_at: np.ndarray,
+    ftext: np.ndarray,
+    itext: np.ndarray,
+    stext: np.ndarray,
+    smeta: np.ndarray,
+    seq_base: np.ndarray,
+    start_unix_ns: int,
+    unix_minus_monotonic_ns: int,
+    out: np.ndarray,
+    entries: np.ndarray,
+    counts: np.ndarray,
+) -> tuple[int, int, int, int]:  # pragma: no cover - compiled (tested byte for byte)
+    """Write a batch's MCAP Message records, in publish order, into ``out``.
+
+    Per message ``i`` (order byte ``f = flags[i]``, channel ``c = chan_of_flag[f]``): the
+    31-byte header (opcode 0x05, record length 22 + len(JSON), channel id, sequence
+    ``seq_base[c]`` + the channel's messages before it in the batch, log time
+    ``start_unix_ns`` + sample time, publish time = ``publish_time_ns`` +
+    ``unix_minus_monotonic_ns``; little-endian), then the JSON:
+
+    * a row (``f`` with :data:`ROW_FLAG`; its int fields in ``rows_i`` as in
+      :func:`_gather_kernel`; sample and publish time in fields ``time_cols[f, 0 / 1]``):
+      per field its key (``keys[key_at[field_base[f] + j]:key_at[... + j + 1]]``,
+      ``{"name":`` or ``,"name":``) and the next value of ``ftext`` or ``itext`` (orjson's
+      ``[v,v,...]`` of the gathered values: the bytes up to the next ``,`` or ``]``, the
+      ``+`` of a positive exponent left out, msgspec's text), then ``}``;
+    * a Struct: ``stext[smeta[i, 0]:smeta[i, 0] + smeta[i, 1]]``, sample and publish time
+      ``smeta[i, 2 / 3]``.
+
+    ``entries`` gets each message's (log time, record offset), grouped by channel in
+    ascending channel id, publish order within one (the MessageIndex records);
+    ``counts[c]`` the channel's messages. Returns (bytes written, first and last log
+    time, status): status 0, or 1 for an unregistered message id, 2 for a value list
+    that ends early, 3 for values left over.
+    """
+    n = flags.shape[0]
+    counts[:] = 0
+    for i in range(n):
+        c = chan_of_flag[flags[_U(i)]]
+        if c == 0:
+            return 0, 0, 0, 1
+        counts[c] += 1
+    ebase = np.empty(counts.shape[0], np.int64)
+    acc = 0
+    for c in range(counts.shape[0]):
+        ebase[c] = acc
+        acc += counts[c]
+    seen = np.zeros(counts.shape[0], np.int64)
+    cursor = np.zeros(256, np.int64)
+    flen = ftext.shape[0]
+    ilen = itext.shape[0]
+    fp = 1  # after "["
+    ip = 1
+    o = 0
+    lo = 0
+    hi = 0
+    for i in range(n):
+        f = flags[_U(i)]
+        c = chan_of_flag[f]
+        start = o
+        d = o + 31
+        if f >= ROW_FLAG:
+            nfld = nfields[f]
+            base = row_base[f] + cursor[f] * nfld
+            cursor[f] += 1
+            sample = rows_i[_U(base + time_cols[f, 0])]
+            publish = rows_i[_U(base + time_cols[f, 1])]
+            fb = field_base[f]
+            for j in range(nfld):
+                ks = key_at[_U(fb + j)]
+                kl = key_at[_U(fb + j + 1)] - ks
+                for k in range(kl):
+                    out[_U(d + k)] = keys[_U(ks + k)]
+                d += kl
+                if is_float[_U(fb + j)]:
+                    while True:
+                        if fp >= flen:
+                            return 0, 0, 0, 2
+                        b = ftext[_U(fp)]
+                        fp += 1
+                        if (b == 44) | (b == 93):  # "," "]"
+                            break
+                        out[_U(d)] = b
+                        d += b != 43  # "+": written over by the next byte
+                else:
+                    while True:
+                        if ip >= ilen:
+                            return 0, 0, 0, 2
+                        b = itext[_U(ip)]
+                        ip += 1
+                        if (b == 44) | (b == 93):
+                            break
+                        out[_U(d)] = b
+                        d += 1
+            out[_U(d)] = 125  # "}"
+            d += 1
+        else:
+            s = smeta[i, 0]
+            ln = smeta[i, 1]
+            for k in range(ln):
+                out[_U(d + k)] = stext[_U(s + k)]
+            d += ln
+            sample = smeta[i, 2]
+            publish = smeta[i, 3]
+        log_time = start_unix_ns + sample
+        out[_U(start)] = 0x05
+        _put_le(out, start + 1, d - start - 9, 8)
+        _put_le(out, start + 9, c, 2)
+        _put_le(out, start + 11, seq_base[c] + seen[c], 4)
+        _put_le(out, start + 15, log_time, 8)
+        _put_le(out, start + 23, publish + unix_minus_monotonic_ns, 8)
+        e = ebase[c] + seen[c]
+        seen[c] += 1
+        entries[e, 0] = log_time
+        entries[e, 1] = start
+        if i == 0:
+            lo = log_time
+            hi = log_time
+        else:
+            lo = min(lo, log_time)
+            hi = max(hi, log_time)
+        o = d
+    if not (fp == flen or (fp == 1 and flen <= 2)) or not (ip == ilen or (ip == 1 and ilen <= 2)):
+        return 0, 0, 0, 3
+    return o, lo, hi, 0
+
+
+class _BatchFramer:
+    """Writes batches from the pipe to a :class:`BatchRunLog`, the fused way.
+
+    Per batch: the msgpack decoded (:data:`_decode_batch`), the Structs JSON-encoded per
+    type (one msgspec call each, as in :func:`_encode_batch`), the rows' values gathered
+    in publish order (:func:`_gather_kernel`) and formatted by orjson (one call for the
+    floats, one for the ints, :func:`_json_numbers`' reasoning), then every record written
+    by :func:`_records_kernel` into a buffer kept from batch to batch, which
+    :meth:`BatchRunLog.write_chunk` compresses and writes with its MessageIndexes. The
+    bytes are those of :func:`_encode_batch` + :meth:`BatchRunLog.write_batch`.
+    """
+
+    def __init__(
+        self, log: BatchRunLog, decoders: dict[int, Any], unix_minus_monotonic_ns: int = 0
+    ) -> None:
+        self.log = log
+        self.decoders = decoders
+        self.unix_minus_monotonic_ns = unix_minus_monotonic_ns
+        # Per order byte (a message id, with ROW_FLAG for rows): its channel (0: none), and
+        # for a row type its field count, where its fields' kinds and keys start in the
+        # tables, its time stamps' columns.
+        self.chan_of_flag = np.zeros(256, np.int64)
+        self.nfields = np.zeros(256, np.int64)
+        self.field_base = np.zeros(256, np.int64)
+        self.time_cols = np.zeros((256, 2), np.int64)
+        self.nfloat = np.zeros(256, np.int64)
+        self.key_bytes = np.zeros(256, np.int64)  # a row's JSON less its values
+        kinds: list[np.ndarray] = []
+        keys: list[bytes] = []
+        key_at: list[int] = []
+        at = 0
+        nfld = 0
+        for mid, rt in _ROW_TYPES.items():
+            f = mid | ROW_FLAG
+            self.nfields[f] = rt.nfields
+            self.field_base[f] = nfld
+            self.time_cols[f] = rt.sample_col, rt.publish_col
+            self.nfloat[f] = len(rt.float_cols)
+            self.key_bytes[f] = rt.key_bytes
+            kinds.append(rt.is_float)
+            raw = rt.keys.tobytes()
+            keys.append(raw)
+            key_at.extend((at + rt.key_at[:-1]).tolist())
+            nfld += rt.nfields
+            at += len(raw)
+        key_at.append(at)
+        self.is_float = np.concatenate(kinds)
+        self.keys = np.frombuffer(b"".join(keys), np.uint8)
+        self.key_at = np.array(key_at, np.int64)
+        self.max_key_bytes = int(self.key_bytes.max())
+        for mid in range(ROW_FLAG):
+            if mid < len(log.channel_of_message_id):
+                self.chan_of_flag[mid] = log.channel_of_message_id[mid]
+                self.chan_of_flag[mid | ROW_FLAG] = log.channel_of_message_id[mid]
+        self.counts = np.zeros(len(log.channel_seq), np.int64)
+        self.out = np.empty(1 << 20, np.uint8)
+        self.entries = np.empty((BATCH_MESSAGES, 2), np.int64)
+        self._no_structs = np.empty((0, 4), np.int64)
+        self._no_text = np.empty(0, np.uint8)
+
+    def encode(self, blob: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """A batch's chunk records, messages per channel, MessageIndex entries and log time
+        range (:meth:`BatchRunLog.write_chunk`'s arguments; the buffers are reused by the
+        next call). Sequence numbers continue from the log's (``channel_seq``)."""
+        ids_bytes, by_id, by_rows = _decode_batch(blob)
+        flags = np.frombuffer(ids_bytes, np.uint8)
+        n = len(flags)
+        per_flag = np.bincount(flags, minlength=256)
+        seen = 0
+        bound = 0  # bytes of the records but the values' text
+        row_base = np.zeros(256, np.int64)
+        nf_total = ni_total = 0
+        words = 0
+        for mid, row_bytes in by_rows.items():
+            f = mid | ROW_FLAG
+            nfld = int(self.nfields[f]) if 0 <= mid < ROW_FLAG else 0
+            k = len(row_bytes) // (8 * nfld) if nfld else -1
+            if not nfld or len(row_bytes) % (8 * nfld):
+                raise ValueError(f"batch: rows of message id {mid} do not fit its type")
+            if k != per_flag[f]:
+                raise ValueError(f"batch: message id {mid} does not match its rows")
+            row_base[f] = words
+            words += k * nfld
+            nf = k * int(self.nfloat[f])
+            nf_total += nf
+            ni_total += k * nfld - nf
+            bound += k * int(self.key_bytes[f])
+            seen += k
+        rows_raw = b"".join(by_rows.values()) if len(by_rows) != 1 else next(iter(by_rows.values()))
+        rows_f = np.frombuffer(rows_raw, np.float64)
+        rows_i = rows_f.view(np.int64)
+        smeta = self._no_structs
+        stext = self._no_text
+        if by_id:
+            smeta = np.zeros((n, 4), np.int64)
+            texts = []
+            at = 0
+            for mid, raw in by_id.items():
+                decode = self.decoders.get(mid)
+                if decode is None:
+                    raise ValueError(f"batch: unknown message id {mid}")
+                msgs = decode(raw)
+                text = _json_encode(msgs)
+                ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
+                where = np.flatnonzero(flags == mid)
+                if len(ends) != len(msgs) or len(where) != len(msgs):
+                    raise ValueError(f"batch: message id {mid} does not match its messages")
+                begins = np.empty(len(ends), np.int64)
+                begins[0] = 1  # after the list's "["
+                begins[1:] = ends[:-1] + 1  # after "},"
+                smeta[where, 0] = begins + at
+                smeta[where, 1] = ends - begins
+                smeta[where, 2] = [m.sample_time_ns for m in msgs]
+                smeta[where, 3] = [m.publish_time_ns for m in msgs]
+                texts.append(text)
+                at += len(text)
+                bound += len(text)
+                seen += len(msgs)
+            stext = np.frombuffer(b"".join(texts), np.uint8)
+        if seen != n:
+            raise ValueError(f"batch: {n} message ids for {seen} messages")
+        fvals = np.empty(nf_total, np.float64)
+        ivals = np.empty(ni_total, np.int64)
+        if by_rows:
+            _gather_kernel(
+                flags,
+                rows_f,
+                rows_i,
+                row_base,
+                self.nfields,
+                self.field_base,
+                self.is_float,
+                fvals,
+                ivals,
+            )
+        ftext = _orjson_dumps(fvals, option=_ORJSON_NUMPY)
+        itext = _orjson_dumps(ivals, option=_ORJSON_NUMPY)
+        bound += len(ftext) + len(itext) + n * MESSAGE_HEADER_BYTES
+        if bound > len(self.out):
+            self.out = np.empty(bound, np.uint8)
+        if n > len(self.entries):
+            self.entries = np.empty((n, 2), np.int64)
+        total, lo, hi, status = _records_kernel(
+            flags,
+            self.chan_of_flag,
+            rows_i,
+            row_base,
+            self.nfields,
+            self.field_base,
+            self.is_float,
+            self.time_cols,
+            self.keys,
+            self.key_at,
+            np.frombuffer(ftext, np.uint8),
+            np.frombuffer(itext, np.uint8),
+            stext,
+            smeta,
+            self.log.channel_seq,
+            self.log.start_unix_ns,
+            self.unix_minus_monotonic_ns,
+            self.out,
+            self.entries,
+            self.counts,
+        )
+        if status:
+            what = ("", "an unregistered message id", "too few values", "values left over")
+            raise ValueError(f"batch: {what[status]} in the batch")
+        return self.out[:total], self.counts, self.entries[:n], lo, hi
+
+    def frame(self, blob: bytes) -> None:
+        """Write one batch from the pipe as a Chunk with its MessageIndexes."""
+        records, counts, entries, lo, hi = self.encode(blob)
+        if len(entries):
+            self.log.write_chunk(records, counts, entries, lo, hi)
+
+
 def _writer_main(
     conn: Connection,
     path: str,
@@ -415,8 +791,8 @@ def _writer_main(
     stats: Any,
 ) -> None:
     log = BatchRunLog(Path(path), turbine, compression=compression, place_headers=_place_headers)
-    decoders = _decoders()
-    _warm_kernels()
+    framer = _BatchFramer(log, _decoders(), unix_minus_monotonic_ns)
+    _warm_kernels(framer)
     cpu0 = time.process_time()
     try:
         for name, data in metadata.items():
@@ -429,8 +805,7 @@ def _writer_main(
                 break
             if not blob:
                 break
-            meta, records = _encode_batch(blob, decoders, unix_minus_monotonic_ns)
-            log.write_batch(meta, records)
+            framer.frame(blob)
     finally:
         log.close()
         stats[0] = time.process_time() - cpu0
