@@ -668,6 +668,11 @@ class _BatchFramer:
         """A batch's chunk records, messages per channel, MessageIndex entries and log time
         range (:meth:`BatchRunLog.write_chunk`'s arguments; the buffers are reused by the
         next call). Sequence numbers continue from the log's (``channel_seq``)."""
+        return self.records(self.values(blob))
+
+    def values(self, blob: bytes) -> tuple[Any, ...]:
+        """Decode a batch, check its parts match, JSON-encode its Structs and its rows'
+        numbers (the inputs of :meth:`records`)."""
         ids_bytes, by_id, by_rows = _decode_batch(blob)
         flags = np.frombuffer(ids_bytes, np.uint8)
         n = len(flags)
@@ -742,6 +747,14 @@ class _BatchFramer:
         ftext = _orjson_dumps(fvals, option=_ORJSON_NUMPY)
         itext = _orjson_dumps(ivals, option=_ORJSON_NUMPY)
         bound += len(ftext) + len(itext) + n * MESSAGE_HEADER_BYTES
+        return flags, rows_i, row_base, ftext, itext, stext, smeta, bound
+
+    def records(
+        self, values: tuple[Any, ...]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """Write the records of a batch given by :meth:`values` (:func:`_records_kernel`)."""
+        flags, rows_i, row_base, ftext, itext, stext, smeta, bound = values
+        n = len(flags)
         if bound > len(self.out):
             self.out = np.empty(bound, np.uint8)
         if n > len(self.entries):
