@@ -320,7 +320,8 @@ _ROW_TYPES = {mt.message_id: _RowType(mt) for mt in MESSAGES}
 
 def _warm_kernels(framer: _BatchFramer | None = None) -> None:
     """Compile (first run) or load (from numba's cache) the kernels, before the first batch:
-    the reference path's, and the fused path's through ``framer`` (encoded, not written)."""
+    the fused path's through ``framer`` (batches encoded, not written), else the reference
+    path's (:func:`_encode_batch`, :func:`_place_headers`)."""
     blobs = []
     for mid, rt in _ROW_TYPES.items():
         blobs.append(
@@ -332,11 +333,13 @@ def _warm_kernels(framer: _BatchFramer | None = None) -> None:
             (bytes([mt.message_id]), {mt.message_id: [mt.cls(*[0] * _ROW_TYPES[1].nfields)]}, {})
         )
     )
+    if framer is not None:
+        for blob in blobs:
+            framer.encode(blob)
+        return
     decoders = _decoders()
     for blob in blobs:
         _encode_batch(blob, decoders)
-        if framer is not None:
-            framer.encode(blob)
     meta = np.zeros((1, 4), np.int64)  # as BatchRunLog.write_batch calls it
     _place_headers(
         np.zeros(MESSAGE_HEADER_BYTES, np.uint8), meta[:, 3], np.zeros((1, 31), np.uint8)
@@ -803,7 +806,7 @@ def _writer_main(
     unix_minus_monotonic_ns: int,
     stats: Any,
 ) -> None:
-    log = BatchRunLog(Path(path), turbine, compression=compression, place_headers=_place_headers)
+    log = BatchRunLog(Path(path), turbine, compression=compression)
     framer = _BatchFramer(log, _decoders(), unix_minus_monotonic_ns)
     _warm_kernels(framer)
     cpu0 = time.process_time()
