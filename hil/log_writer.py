@@ -554,10 +554,12 @@ def _records_kernel(
                 for k in range(kl):
                     out[_U(d + k)] = keys[_U(ks + k)]
                 d += kl
+                # A value ends at the next "," or "]"; the text ends with "]", so only
+                # the value's start needs a bounds check.
                 if is_float[_U(fb + j)]:
+                    if fp >= flen:
+                        return 0, 0, 0, 2
                     while True:
-                        if fp >= flen:
-                            return 0, 0, 0, 2
                         b = ftext[_U(fp)]
                         fp += 1
                         if (b == 44) | (b == 93):  # "," "]"
@@ -565,9 +567,9 @@ def _records_kernel(
                         out[_U(d)] = b
                         d += b != 43  # "+": written over by the next byte
                 else:
+                    if ip >= ilen:
+                        return 0, 0, 0, 2
                     while True:
-                        if ip >= ilen:
-                            return 0, 0, 0, 2
                         b = itext[_U(ip)]
                         ip += 1
                         if (b == 44) | (b == 93):
