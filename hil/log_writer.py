@@ -16,39 +16,42 @@ The MCAP ``publish_time`` of a message is its own ``publish_time_ns`` (the host'
 monotonic clock) moved to the unix epoch: in process, publishing and logging are the same
 moment; ``log_time`` is the run's start plus ``sample_time_ns``. A full batch goes through
 a pipe to a child process, on the other core, that does the expensive part
-(:func:`_encode_batch`): Structs are decoded and JSON-encoded per type in one msgspec call
-each; rows are JSON-encoded per type as two flat lists (the float columns, the int
-columns) in one msgspec call each (the number formatting), a compiled kernel finds each
-value in them, every message's length and so its record's place in publish order follow,
-and compiled kernels write each message there (a row's keys interleaved with its values),
-leaving the 31-byte record header gaps that :class:`hil.mcap_log.BatchRunLog` fills
-before writing the batch as one compressed MCAP Chunk with its message indexes. The JSON
-is byte for byte the one msgspec writes for the Struct with the same values (same keys,
-same order, the same number formatting: msgspec formats a row's floats and ints as it
-does a Struct's fields; NaN and inf are ``null`` both ways). A row holds float64 in a
-float field, so a float field is always written as a float (``0.0``), where a Struct given
-a Python int there would write ``0``: equal values, not always equal text. If the parent
-dies, the child sees the pipe close and finishes the file, so nothing handed over is lost.
+(:class:`_BatchFramer`): the batch's msgpack is decoded; Structs are JSON-encoded per type
+in one msgspec call each; the rows' values are gathered in publish order by a compiled
+kernel (:func:`_gather_kernel`: the floats into one list, the ints into another) and
+formatted by orjson, one call each (:func:`_json_numbers` says why that is msgspec's text
+but for a positive exponent's ``+``); one compiled kernel (:func:`_records_kernel`) then
+writes every message's whole MCAP Message record, in publish order, into a buffer kept
+from batch to batch: the 31-byte header (opcode, length, channel, per-channel sequence, log
+and publish time) and the JSON (a row's keys interleaved with its values, each copied from
+orjson's text up to its separator, the ``+`` left out), and the MessageIndex entries in the
+same pass; :meth:`hil.mcap_log.BatchRunLog.write_chunk` compresses the buffer and writes it
+as one MCAP Chunk with its message indexes. The path before it (:func:`_encode_batch`:
+msgspec's lists, a value scan, kernels leaving 31-byte gaps that
+:meth:`~hil.mcap_log.BatchRunLog.write_batch` fills with numpy-built headers) is kept as
+the reference: tests/test_log_writer.py holds the two to the same file, byte for byte. The
+JSON is byte for byte the one msgspec writes for the Struct with the same values (same
+keys, same order, the same number formatting; NaN and inf are ``null`` both ways). A row
+holds float64 in a float field, so a float field is always written as a float (``0.0``),
+where a Struct given a Python int there would write ``0``: equal values, not always equal
+text. If the parent dies, the child sees the pipe close and finishes the file, so nothing
+handed over is lost.
 
-Cost (bench/log_writer_speed.py: a real 60 s LC2 lqri_ff run's five per-cycle messages,
-48 000 messages a round, 4 rounds alternating with main's code, shared 2-core machine at
-load 0.6-0.9): the child needs 3.6 us of CPU a message (best round; median 3.8) for rows in
-blocks of 8 cycles, 4.0 (median 5.6) for the same messages as Structs, main's Struct path
-5.0 (median 5.2); the parent 0.76 us a message for the blocks (the batch's pipe write
-included) against 1.3-1.5 for Structs. The child's stages (the same batches in process,
-best of 5 interleaved passes): rows -> JSON numbers 1.13 us (``tolist`` and msgspec's
-number formatting, the value scan), layout 0.65 (lengths, offsets, the kernels writing
-keys and values), framing 0.68 (record headers, CRC-32 0.18, message indexes, writes),
-zstd level 1 0.81 (:data:`hil.mcap_log.ZSTD_WINDOW_LOG`; 0.90 with level 1's own tables):
-3.3 us, i.e. about 1500x real time for five messages a cycle with a core to itself, so
-1000x (5 us a message) holds and 2000x (2.5 us) does not. What bounds it: msgspec's
-number formatting and the Python floats it needs (the format's JSON text), then
-compression; zstd -5 or lz4 would save 0.05-0.26 us at 1.7-1.9 times the file, no
-compression 0.81 us at 5.7 times (2.45 us, at 2000x's limit with nothing to spare), so
-the default stays zstd level 1. Since then the numbers are formatted by orjson straight
-from the arrays (:func:`_json_numbers`): 1.43 against 1.82 us for a PlantState row's 29
-floats; the whole child 3.43 against 3.83 us a message (best of 2 rounds each, back to back,
-load ~2; ``--save-as log_writer_speed_orjson`` / ``log_writer_speed_pre_orjson``).
+Cost (bench/log_writer_speed.py, ``--passes 4 --rounds 3 --compare-python
+/work/main/.venv/bin/python --compare-root /work/main``: the five per-cycle messages of a
+real 60 s LC2 run, 48 000 messages a round, rows in blocks of 8 cycles, alternating with
+main's code (a704bdc, the path before); bench/results/log_writer_speed_s13.json): the child
+needs CPU_LQRI us a message for the lqri_ff stream (main CPU_LQRI_MAIN) and CPU_BASE us for
+the baseline's (main CPU_BASE_MAIN), i.e. 2000x real time (2.5 us a message at five messages a
+25 ms cycle) with room to spare on a core of its own. Its stages (the same batches in
+process, best of 5 interleaved passes, lqri_ff): STAGES. What bounds it: zstd level 1 about
+half, then orjson's float formatting and the chunk's CRC-32 (zlib, ~3.7 GB/s). The zstd
+parameters measured beside it (hash table 2^11 / 2^13, window 2^17, min match 5 / 6,
+level 1's own tables) are no faster at the same size; acceleration 2, levels -1 to -5 and
+lz4 save 0.05-0.25 us at 1.6-2.1 times the file, no compression ~0.9 us at 6.6 times: the
+default stays zstd level 1 (:data:`hil.mcap_log.ZSTD_WINDOW_LOG`). Batches of 512 to 4096
+messages cost within 0.2 us of 1024's (the chunks' share of the file shrinks 1.5 % from
+1024 to 4096), so :data:`BATCH_MESSAGES` stays.
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
 it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the
@@ -79,6 +82,10 @@ import msgspec
 import numba
 import numpy as np
 import orjson
+from llvmlite import ir  # type: ignore[import-untyped]
+from numba.core import types as nbtypes
+from numba.cpython.unsafe.numbers import trailing_zeros as _trailing_zeros_intrinsic
+from numba.extending import intrinsic
 
 from bus_schemas.registry import MESSAGES, MessageType
 from hil.mcap_log import MESSAGE_HEADER_BYTES, BatchRunLog
@@ -462,6 +469,91 @@ def _gather_kernel(
     return nf, ni
 
 
+def _word_pointer(context: Any, builder: Any, aryty: Any, ary: Any, idx: Any, idxty: Any) -> Any:
+    """LLVM pointer to the 8 bytes at ``ary[idx:]`` of a uint8 array (any alignment)."""
+    array = context.make_array(aryty)(context, builder, ary)
+    at = context.cast(builder, idx, idxty, nbtypes.intp)
+    return builder.bitcast(builder.gep(array.data, [at]), ir.IntType(64).as_pointer())
+
+
+@intrinsic
+def _load8_intrinsic(typingctx: Any, arr: Any, idx: Any) -> Any:  # pragma: no cover - compiled
+    """The 8 bytes at ``arr[idx:]`` (uint8 array) as a little-endian uint64, unaligned."""
+
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        ptr = _word_pointer(context, builder, sig.args[0], args[0], args[1], sig.args[1])
+        return builder.load(ptr, align=1)
+
+    return nbtypes.uint64(arr, idx), codegen
+
+
+@intrinsic
+def _store8_intrinsic(typingctx: Any, arr: Any, idx: Any, value: Any) -> Any:  # pragma: no cover
+    """``arr[idx:idx + 8]`` = ``value`` (uint64, little-endian), unaligned."""
+
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        ptr = _word_pointer(context, builder, sig.args[0], args[0], args[1], sig.args[1])
+        builder.store(args[2], ptr, align=1)
+        return context.get_dummy_value()
+
+    return nbtypes.void(arr, idx, nbtypes.uint64), codegen
+
+
+# As the kernels call them (an intrinsic's own signature starts with numba's typing context).
+_load8 = typing.cast(Callable[[np.ndarray, int], np.uint64], _load8_intrinsic)
+_store8 = typing.cast(Callable[[np.ndarray, int, np.uint64], None], _store8_intrinsic)
+#: Count of trailing zero bits (numba's intrinsic).
+_trailing_zeros = typing.cast(Callable[[np.uint64], int], _trailing_zeros_intrinsic)
+
+_ONES = np.uint64(0x0101010101010101)
+_HIGHS = np.uint64(0x8080808080808080)
+_COMMAS = np.uint64(0x2C2C2C2C2C2C2C2C)  # ","
+_BRACKETS = np.uint64(0x5D5D5D5D5D5D5D5D)  # "]"
+_PLUSES = np.uint64(0x2B2B2B2B2B2B2B2B)  # "+"
+
+
+@_njit
+def _bytes_equal(word: np.uint64, pattern: np.uint64) -> np.uint64:  # pragma: no cover
+    """The high bit of each byte of ``word`` equal to ``pattern``'s, exact up to the first
+    such byte (above it a byte may be flagged wrongly: only the lowest flag is read)."""
+    y = word ^ pattern
+    return (y - _ONES) & ~y & _HIGHS
+
+
+@_njit
+def _copy_value(
+    text: np.ndarray, p: int, out: np.ndarray, d: int, plus: bool
+) -> tuple[int, int]:  # pragma: no cover - compiled (tested byte for byte)
+    """Copy the value at ``text[p:]`` (up to its ``,`` or ``]``; a ``+`` left out if
+    ``plus``) to ``out[d:]``, 8 bytes at a time while 8 are left in ``text``. Returns the
+    positions after the separator and after the copy. Up to 7 bytes after the copy in
+    ``out`` are overwritten with what follows the value in ``text`` (the caller writes
+    what belongs there afterwards, and keeps 8 bytes to spare at the end of ``out``)."""
+    n = text.shape[0]
+    while p + 8 <= n:
+        w = _load8(text, p)
+        m = _bytes_equal(w, _COMMAS) | _bytes_equal(w, _BRACKETS)
+        if plus:
+            m |= _bytes_equal(w, _PLUSES)
+        _store8(out, d, w)
+        if m == 0:
+            p += 8
+            d += 8
+            continue
+        t = _trailing_zeros(m) >> 3
+        d += t
+        p += t + 1
+        if text[_U(p - 1)] != 43:  # "," or "]": the value's end; "+": left out, go on
+            return p, d
+    while True:  # the text's last bytes
+        b = text[_U(p)]
+        p += 1
+        if (b == 44) | (b == 93):
+            return p, d
+        out[_U(d)] = b
+        d += (b != 43) | (not plus)
+
+
 @_njit
 def _put_le(out: np.ndarray, o: int, value: int, nbytes: int) -> None:  # pragma: no cover
     """``value``'s ``nbytes`` low bytes at ``out[o:]``, little-endian (two's complement)."""
@@ -551,31 +643,19 @@ def _records_kernel(
             for j in range(nfld):
                 ks = key_at[_U(fb + j)]
                 kl = key_at[_U(fb + j + 1)] - ks
-                for k in range(kl):
-                    out[_U(d + k)] = keys[_U(ks + k)]
+                for k in range(0, kl, 8):  # keys has 8 bytes to spare at its end
+                    _store8(out, d + k, _load8(keys, ks + k))
                 d += kl
                 # A value ends at the next "," or "]"; the text ends with "]", so only
                 # the value's start needs a bounds check.
                 if is_float[_U(fb + j)]:
                     if fp >= flen:
                         return 0, 0, 0, 2
-                    while True:
-                        b = ftext[_U(fp)]
-                        fp += 1
-                        if (b == 44) | (b == 93):  # "," "]"
-                            break
-                        out[_U(d)] = b
-                        d += b != 43  # "+": written over by the next byte
+                    fp, d = _copy_value(ftext, fp, out, d, True)
                 else:
                     if ip >= ilen:
                         return 0, 0, 0, 2
-                    while True:
-                        b = itext[_U(ip)]
-                        ip += 1
-                        if (b == 44) | (b == 93):
-                            break
-                        out[_U(d)] = b
-                        d += 1
+                    ip, d = _copy_value(itext, ip, out, d, False)
             out[_U(d)] = 125  # "}"
             d += 1
         else:
@@ -656,7 +736,7 @@ class _BatchFramer:
             at += len(raw)
         key_at.append(at)
         self.is_float = np.concatenate(kinds)
-        self.keys = np.frombuffer(b"".join(keys), np.uint8)
+        self.keys = np.frombuffer(b"".join(keys) + bytes(8), np.uint8)  # 8 to spare
         self.key_at = np.array(key_at, np.int64)
         self.max_key_bytes = int(self.key_bytes.max())
         for mid in range(ROW_FLAG):
@@ -760,8 +840,8 @@ class _BatchFramer:
         """Write the records of a batch given by :meth:`values` (:func:`_records_kernel`)."""
         flags, rows_i, row_base, ftext, itext, stext, smeta, bound = values
         n = len(flags)
-        if bound > len(self.out):
-            self.out = np.empty(bound, np.uint8)
+        if bound + 8 > len(self.out):  # 8 bytes to spare (_copy_value)
+            self.out = np.empty(bound + 8, np.uint8)
         if n > len(self.entries):
             self.entries = np.empty((n, 2), np.int64)
         total, lo, hi, status = _records_kernel(

@@ -259,7 +259,10 @@ class BatchRunLog:
     ``sample_time_ns``, publish time) are filled into the gaps with one numpy assignment,
     and the buffer is then exactly the records of one Chunk. Each batch is written as one
     Chunk (compressed), followed by one MessageIndex record per channel in it (log time,
-    offset of the record in the chunk), and handed to the OS at once.
+    offset of the record in the chunk), and handed to the OS at once
+    (:meth:`write_chunk`). :mod:`hil.log_writer`'s child builds the whole records itself
+    (headers included, sequence numbers from :attr:`channel_seq`) and calls
+    :meth:`write_chunk` directly; :meth:`write_batch` is the reference it is tested against.
 
     The file is laid out as :class:`RunLog`'s (same channels, schemas, ids and sequence
     numbering): magic, Header, Schemas and Channels (here in the data section, outside

@@ -493,3 +493,29 @@ def test_fused_framer_refuses_bad_batches(tmp_path: Path) -> None:
     log.close()
     assert log.count == 1
     assert [orjson.loads(d)["seq"] for *_x, d in _read_all(tmp_path / "bad.mcap")] == [0]
+
+
+def test_copy_value_finds_each_separator_at_every_byte_position() -> None:
+    """The record kernel's value copy (8 bytes at a time, the text's last bytes one by
+    one): every value of a list ``[v,v,...]`` comes out whole, its ``+`` left out for
+    floats (kept for ints, where it cannot occur), at every length from 1 to 26 bytes and
+    every position of its separator within an 8-byte word, the last value included."""
+    from hil.log_writer import _copy_value
+
+    rng = random.Random(99)
+    alphabet = b"0123456789.e-+"
+    for plus in (True, False):
+        for trial in range(40):
+            values = [
+                bytes(rng.choice(alphabet) for _ in range(rng.randrange(1, 27)))
+                for _ in range(1 + trial % 13)
+            ]
+            text = np.frombuffer(b"[" + b",".join(values) + b"]", np.uint8)
+            out = np.full(len(text) + 8, 0xAA, np.uint8)
+            p, d = 1, 0
+            for v in values:
+                p, d_end = _copy_value(text, p, out, d, plus)
+                want = v.replace(b"+", b"") if plus else v
+                assert out[d:d_end].tobytes() == want
+                d = d_end
+            assert p == len(text)  # after the closing "]"
