@@ -71,6 +71,7 @@ import contextlib
 import fcntl
 import multiprocessing
 import multiprocessing.util
+import os
 import time
 import typing
 from collections.abc import Callable, Mapping
@@ -749,13 +750,15 @@ class _BatchFramer:
         self._no_structs = np.empty((0, 4), np.int64)
         self._no_text = np.empty(0, np.uint8)
 
-    def encode(self, blob: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    def encode(
+        self, blob: bytes | memoryview
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
         """A batch's chunk records, messages per channel, MessageIndex entries and log time
         range (:meth:`BatchRunLog.write_chunk`'s arguments; the buffers are reused by the
         next call). Sequence numbers continue from the log's (``channel_seq``)."""
         return self.records(self.values(blob))
 
-    def values(self, blob: bytes) -> tuple[Any, ...]:
+    def values(self, blob: bytes | memoryview) -> tuple[Any, ...]:
         """Decode a batch, check its parts match, JSON-encode its Structs and its rows'
         numbers (the inputs of :meth:`records`)."""
         ids_bytes, by_id, by_rows = _decode_batch(blob)
@@ -871,11 +874,61 @@ class _BatchFramer:
             raise ValueError(f"batch: {what[status]} in the batch")
         return self.out[:total], self.counts, self.entries[:n], lo, hi
 
-    def frame(self, blob: bytes) -> None:
+    def frame(self, blob: bytes | memoryview) -> None:
         """Write one batch from the pipe as a Chunk with its MessageIndexes."""
         records, counts, entries, lo, hi = self.encode(blob)
         if len(entries):
             self.log.write_chunk(records, counts, entries, lo, hi)
+
+
+#: A batch's length before its bytes on the pipe (0: the end).
+_LENGTH_BYTES = 8
+
+
+def _write_message(fd: int, payload: bytes) -> None:
+    """Put one batch on the pipe: its length (8 bytes, little-endian), then its bytes, in
+    one ``writev`` (the rest again after a partial write); read by :class:`_PipeReader`.
+    The pipe's own framing instead of ``Connection.send_bytes``, whose reader copies each
+    batch twice more (about 0.08 us of the writer's CPU a message)."""
+    parts = [memoryview(len(payload).to_bytes(_LENGTH_BYTES, "little")), memoryview(payload)]
+    while parts:
+        n = os.writev(fd, parts)
+        while parts and n >= len(parts[0]):
+            n -= len(parts[0])
+            parts.pop(0)
+        if parts and n:
+            parts[0] = parts[0][n:]
+
+
+class _PipeReader:
+    """Reads the batches :func:`_write_message` puts on a pipe into one reused buffer."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.head = bytearray(_LENGTH_BYTES)
+        self.buf = bytearray(1 << 20)
+
+    def _fill(self, view: memoryview) -> bool:
+        got = 0
+        while got < len(view):
+            n = os.readv(self.fd, [view[got:]])
+            if n == 0:
+                return False
+            got += n
+        return True
+
+    def read(self) -> memoryview | None:
+        """The next batch (valid until the next call), or None at the end marker or when
+        the pipe closes (the parent gone; a batch cut by it is dropped)."""
+        if not self._fill(memoryview(self.head)):
+            return None
+        size = int.from_bytes(self.head, "little")
+        if size == 0:
+            return None
+        if size > len(self.buf):
+            self.buf = bytearray(size)  # a new one: views of the old may still be alive
+        view = memoryview(self.buf)[:size]
+        return view if self._fill(view) else None
 
 
 def _writer_main(
@@ -892,16 +945,14 @@ def _writer_main(
     framer = _BatchFramer(log, _decoders(), unix_minus_monotonic_ns)
     _warm_kernels(framer)
     cpu0 = time.process_time()
+    pipe = _PipeReader(conn.fileno())
     try:
         for name, data in metadata.items():
             log.add_metadata(name, data)
         ready.set()
         while True:
-            try:
-                blob = conn.recv_bytes()
-            except EOFError:  # the parent is gone
-                break
-            if not blob:
+            blob = pipe.read()
+            if blob is None:  # the end, or the parent is gone
                 break
             framer.frame(blob)
     finally:
@@ -957,6 +1008,7 @@ class BackgroundRunLog:
             with contextlib.suppress(OSError):  # a smaller pipe only costs waiting
                 fcntl.fcntl(send_end.fileno(), setpipe, PIPE_BYTES)
         self._conn = send_end
+        self._fd = send_end.fileno()
         self._ready = ctx.Event()
         self._stats = ctx.Array("d", 2)  # the writer's CPU seconds after start-up, messages
         self._proc = ctx.Process(
@@ -1113,7 +1165,7 @@ class BackgroundRunLog:
         if n:
             payload = self._payload()
             t0 = time.perf_counter_ns()
-            self._conn.send_bytes(payload)  # blocks while the pipe is full (the writer behind)
+            _write_message(self._fd, payload)  # blocks while the pipe is full (writer behind)
             self.send_ns += time.perf_counter_ns() - t0
             self.messages += n
             self.batches += 1
@@ -1123,7 +1175,7 @@ class BackgroundRunLog:
         """Send what is left, wait for the child to finish the file."""
         t0 = time.perf_counter_ns()
         self._send()
-        self._conn.send_bytes(b"")
+        _write_message(self._fd, b"")
         self._conn.close()
         self._proc.join(timeout_s)
         self.close_wait_ns = time.perf_counter_ns() - t0
