@@ -519,3 +519,34 @@ def test_copy_value_finds_each_separator_at_every_byte_position() -> None:
                 assert out[d:d_end].tobytes() == want
                 d = d_end
             assert p == len(text)  # after the closing "]"
+
+
+def test_pipe_framing_whole_batches_end_marker_and_cut_batches() -> None:
+    """The batches' own framing on the pipe: a batch larger than the pipe's buffer (written
+    from a thread while the reader reads, so the writes are partial) and a small one come
+    out whole and in order, each in the reader's reused buffer; an empty batch is the end
+    marker; a batch cut by the writer's death (its end of the pipe closed mid-batch) reads
+    as the end, not as a short batch."""
+    import os
+    import threading
+
+    from hil.log_writer import _PipeReader, _write_message
+
+    rng = random.Random(5)
+    big = rng.randbytes(3 << 20)  # 3 MiB: larger than the pipe and the reader's buffer
+    small = b"batch"
+    r, w = os.pipe()
+    writer = threading.Thread(target=lambda: [_write_message(w, p) for p in (big, small, b"")])
+    writer.start()
+    reader = _PipeReader(r)
+    got = reader.read()
+    assert got is not None and bytes(got) == big
+    got = reader.read()
+    assert got is not None and bytes(got) == small
+    assert reader.read() is None  # the end marker
+    writer.join()
+    os.write(w, (100).to_bytes(8, "little") + b"0123456789")  # a batch cut after 10 bytes
+    os.close(w)
+    assert reader.read() is None
+    assert reader.read() is None  # and the pipe stays at its end
+    os.close(r)
