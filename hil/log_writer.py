@@ -40,19 +40,19 @@ handed over is lost.
 Cost (bench/log_writer_speed.py ``--passes 4 --rounds 3 --compare-python
 /work/main/.venv/bin/python --compare-root /work/main``: the five per-cycle messages of a
 real 60 s LC2 run, 48 000 messages a round, rows in blocks of 8 cycles, alternating with
-main's code (a704bdc, the path before); load 1.9-2.2; bench/results/log_writer_speed_s13.json):
-the child needs 1.88 us of CPU a message for the lqri_ff stream (median 1.94; main 3.22,
-median 3.29) and 1.77 for the baseline's (median 1.79; main 2.87, median 3.21), within the
+main's code (a704bdc, the path before); load 0.7-1.1; bench/results/log_writer_speed_s13.json):
+the child needs 1.84 us of CPU a message for the lqri_ff stream (median 1.88; main 2.85,
+median 3.11) and 1.70 for the baseline's (median 1.77; main 2.64, median 3.67), within the
 2.5 us a message that 2000x real time leaves at five messages a 25 ms cycle. Its stages
 (the same batches in this process, best of 5 interleaved passes, lqri_ff / baseline):
-decode 0.02 / 0.01 us, numbers (gather and orjson) 0.38 / 0.30 (orjson alone 0.31 / 0.26),
-records 0.19 / 0.14, zstd level 1 0.93 / 0.77, framing 0.32-0.52 / 0.32 (CRC-32 0.19 /
-0.17, MessageIndexes, writes): 2.02 / 1.54 us against 3.12 / 2.44 for the reference path
+decode 0.01 / 0.02 us, numbers (gather and orjson) 0.33 / 0.30 (orjson alone 0.29 /
+0.26), records 0.15 / 0.14, zstd level 1 0.92 / 0.78, framing 0.38 / 0.31 (CRC-32 0.18 /
+0.17, MessageIndexes, writes): 1.80 / 1.54 us against 2.73 / 2.57 for the reference path
 on the same batches. What bounds it: zstd level 1, about half, then orjson's float
 formatting and the chunk's CRC-32 (zlib, ~3.7 GB/s; a table CRC in numba ran at 2.2 GB/s).
 The zstd parameters measured beside it (hash table 2^11 / 2^13, window 2^17, min match 5 /
 6, level 1's own tables) are no faster at the same size; acceleration 2, levels -1 to -5
-and lz4 save 0.06-0.24 us at 1.6-2.1 times the file, no compression 0.93 us at 6.6 times:
+and lz4 save 0.05-0.25 us at 1.6-2.1 times the file, no compression 0.92 us at 6.6 times:
 the default stays zstd level 1 (:data:`hil.mcap_log.ZSTD_WINDOW_LOG`). Batches of 512,
 2048 and 4096 messages (one run each) cost no less than 1024's, and 4096 makes the file
 only 0.9 % smaller, so :data:`BATCH_MESSAGES` stays.
