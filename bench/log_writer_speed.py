@@ -1,38 +1,48 @@
-"""Benchmark: the in-process log writer's CPU per message, rows in blocks against Structs.
+"""Benchmark: the in-process log writer child's CPU per message, and per stage.
 
-The stream is real: the five per-cycle messages (SensorFrame, PlantState, ActuatorCommand,
-ControllerStatus, CycleTiming) of ``fowt run iea15mw-lc2-lqri-ff --mode inprocess
---duration 60 --no-plots`` read back from its MCAP in file (= publish) order, 12 000
-messages, handed over ``--passes`` times (seq and time stamps shifted per pass). For each
-path this script runs a real :class:`hil.log_writer.BackgroundRunLog` (writer child on the
-other core, zstd file) and reports:
+The streams are real: the five per-cycle messages (SensorFrame, PlantState, ActuatorCommand,
+ControllerStatus, CycleTiming) of ``fowt run SCENARIO --mode inprocess --duration 60
+--no-plots`` read back from its MCAP in file (= publish) order, 12 000 messages, handed over
+``--passes`` times (seq and time stamps shifted per pass), for each of ``--streams``:
+``lqri_ff`` (``iea15mw-lc2-lqri-ff``, all observers, forecaster, wave FF and LQRI) and
+``baseline`` (``iea15mw-lc2``). For each path this script runs a real
+:class:`hil.log_writer.BackgroundRunLog` (writer child on the other core, zstd file) and
+reports:
 
 * ``rows``: the messages as ``row_dtype`` rows in blocks of ``--block-cycles`` cycles through
   ``publish_block`` (what the compiled loop hands over);
-* ``structs``: the same messages as Structs through ``publish`` (today's loop);
-* ``main_structs`` (with ``--compare-python PY --compare-root DIR``, e.g. main's venv and
-  checkout): the Struct path of DIR's code, in a child process with its own interpreter;
+* ``structs``: the same messages as Structs through ``publish``;
+* ``main_rows`` and ``main_structs`` (with ``--compare-python PY --compare-root DIR``, e.g.
+  main's venv and checkout): the same two paths with DIR's code, each in a child process
+  with its own interpreter;
 
 each with the writer child's CPU per message (``writer_cpu_s / writer_messages``, its own
 measurement after start-up), the parent's CPU per message for the hand-over (thread CPU
 time around the publish calls, the batches' encoding and pipe writes included), the file
 size and the messages per writer CPU second. The paths alternate ``--rounds`` times (the
-2-core machine is shared; the load average is saved with every round); the best round of
-each is the figure.
+2-core machine is shared; the load average is saved with every path of every round); the
+best round of each is the figure, the median beside it.
 
-``stages``: the batches of the rows path (captured as sent) written again in this process,
-each stage timed on the process CPU clock over ``--stage-repeats`` passes (best pass):
-decode + rows -> JSON numbers (msgspec on the flat float and int columns, each value's
-place in them); layout in publish order (the rest of ``_encode_batch``: each message's
-length and record offset, the kernels writing keys and values there); the MCAP framing
-(``write_batch`` without compression: record headers, CRC-32 of the chunk, message
-indexes, writes; the CRC-32 alone beside it); and the compression (``write_batch`` with
-it minus without), for zstd level 1 (the default: BatchRunLog's window and hash table),
-level 1 with its own tables (``zstd1_level_tables``, main's compressor), levels -1, -3, -5,
-lz4 and none, each with the file size.
+``stages`` (per stream): the batches of the rows path (captured as sent) written again in
+this process by the child's code (:class:`hil.log_writer._BatchFramer`), each stage timed
+on the process CPU clock over ``--stage-repeats`` interleaved passes (best pass):
+``decode`` (the batch's msgpack), ``numbers`` (the rows' values gathered in publish order
+and formatted by orjson; ``orjson`` alone beside it), ``records`` (the kernel writing every
+record's header and JSON and the MessageIndex entries), ``framing`` (``write_chunk`` less the
+compressor: CRC-32 of the chunk (``crc32`` beside it), MessageIndex records, writes) and the
+compressor on the chunk's records for each of ``compression``: zstd level 1 (the default:
+:class:`hil.mcap_log.BatchRunLog`'s window and hash table), variants of its parameters,
+level 1's own tables, levels -1, -3, -5, lz4 and none, each with the compressed bytes of
+the stream; ``total_us`` is the whole writer per message (decode to file) with the default,
+``reference_total_us`` the same batches through the reference path (``_encode_batch`` and
+``BatchRunLog.write_batch``, main's stages) in the same passes.
 
-    python bench/log_writer_speed.py [--passes 4] [--rounds 3] \\
-        [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
+``batch_sizes``: the rows path again (one run each) with other ``--batch-sizes`` (messages
+per batch, i.e. per chunk): the child's CPU per message and the file size.
+
+    python bench/log_writer_speed.py [--streams lqri_ff,baseline] [--passes 4] [--rounds 3] \\
+        [--compare-python /work/main/.venv/bin/python --compare-root /work/main] \\
+        [--save-as log_writer_speed_s13]
 """
 
 from __future__ import annotations
@@ -51,28 +61,27 @@ from typing import Any
 import numpy as np
 from _common import save
 
-SCENARIO = "iea15mw-lc2-lqri-ff"
+#: The streams (``--streams``): the scenario whose 60 s in-process run is replayed.
+STREAMS = {"lqri_ff": "iea15mw-lc2-lqri-ff", "baseline": "iea15mw-lc2"}
 CYCLE_SUFFIXES = ("sensors", "truth", "command", "controller/status", "timing/cycle")
 
 
-def real_run() -> Path:
-    """The MCAP of a 60 s in-process run of :data:`SCENARIO` (a temporary folder)."""
+def real_run(scenario: str) -> Path:
+    """The MCAP of a 60 s in-process run of ``scenario`` (a temporary folder)."""
     out = Path(tempfile.mkdtemp(prefix="fowt-bench-lw-"))
-    cmd = [sys.executable, "-m", "hil", "run", SCENARIO, "--mode", "inprocess"]
+    cmd = [sys.executable, "-m", "hil", "run", scenario, "--mode", "inprocess"]
     cmd += ["--duration", "60", "--no-plots", "--out", str(out)]
     subprocess.run(cmd, check=True, capture_output=True)
     return out / "run.mcap"
 
 
-def stream(mcap: Path | None) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+def stream(mcap: Path) -> tuple[np.ndarray, dict[int, np.ndarray]]:
     """The per-cycle messages of a real run: ids in publish order and each type's rows."""
     import orjson
     from mcap.reader import make_reader
 
     from bus_schemas.registry import MESSAGES
 
-    if mcap is None:
-        mcap = real_run()
     types = {mt.key("t1"): mt for mt in MESSAGES if mt.key_suffix in CYCLE_SUFFIXES}
     order: list[int] = []
     rows: dict[int, list[tuple[Any, ...]]] = {mt.message_id: [] for mt in types.values()}
@@ -101,7 +110,12 @@ def shifted(arrays: dict[int, np.ndarray], k: int, n_cycles: int) -> dict[int, n
 
 
 def run_path(
-    kind: str, order: np.ndarray, arrays: dict[int, np.ndarray], passes: int, block_cycles: int
+    kind: str,
+    order: np.ndarray,
+    arrays: dict[int, np.ndarray],
+    passes: int,
+    block_cycles: int,
+    batch_messages: int | None = None,
 ) -> dict[str, Any]:
     """One real BackgroundRunLog fed the stream as rows (publish_block) or Structs."""
     from bus_schemas.registry import MESSAGES
@@ -132,9 +146,10 @@ def run_path(
             }
             work.extend((by_id[mid], next(its[mid])) for mid in order.tolist())
     n = len(order) * passes
+    extra = {} if batch_messages is None else {"batch_messages": batch_messages}
     with tempfile.TemporaryDirectory(prefix="fowt-bench-lw-") as tmp:
         path = Path(tmp) / "run.mcap"
-        log = BackgroundRunLog(path, "t1", {"run": {"mode": "bench"}})
+        log = BackgroundRunLog(path, "t1", {"run": {"mode": "bench"}}, **extra)
         log.wait_ready()
         c0 = time.thread_time_ns()
         if kind == "rows":
@@ -160,12 +175,9 @@ def run_path(
     }
 
 
-def stages(
-    order: np.ndarray, arrays: dict[int, np.ndarray], passes: int, repeats: int
-) -> dict[str, Any]:
-    """The rows path's batches written again in this process, stage by stage."""
+def captured_batches(order: np.ndarray, arrays: dict[int, np.ndarray], passes: int) -> list[bytes]:
+    """The rows path's batches as they go through the pipe (a real run, its sends kept)."""
     import hil.log_writer as lw
-    import hil.mcap_log as ml
 
     batches: list[bytes] = []
     send = lw.BackgroundRunLog._send
@@ -180,144 +192,238 @@ def stages(
         run_path("rows", order, arrays, passes, 8)
     finally:
         lw.BackgroundRunLog._send = send  # type: ignore[method-assign]
-    n = sum(len(lw._decode_batch(b)[0]) for b in batches)
+    return batches
+
+
+def _compressors() -> dict[str, Any]:
+    """The compressions measured on the chunks: name -> compress(records) (None: absent)."""
+    import zstandard
+
+    import hil.mcap_log as ml
+
+    def zstd(level: int, **kw: int) -> Any:
+        params = zstandard.ZstdCompressionParameters.from_level(level, **kw)
+        return zstandard.ZstdCompressor(compression_params=params).compress
+
+    w, h = ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG
+    out: dict[str, Any] = {
+        "zstd1": zstd(1, window_log=w, hash_log=h),  # the default (BatchRunLog's)
+        "zstd1_level_tables": zstandard.ZstdCompressor(level=1).compress,
+        "zstd1_hash13": zstd(1, window_log=w, hash_log=13),
+        "zstd1_hash11": zstd(1, window_log=w, hash_log=11),
+        "zstd1_window17": zstd(1, window_log=17, hash_log=h),
+        "zstd1_min_match6": zstd(1, window_log=w, hash_log=h, min_match=6),
+        "zstd1_min_match5": zstd(1, window_log=w, hash_log=h, min_match=5),
+        "zstd1_accel2": zstd(1, window_log=w, hash_log=h, target_length=2),
+        "zstd-1": zstd(-1, window_log=w, hash_log=h),
+        "zstd-3": zstd(-3, window_log=w, hash_log=h),
+        "zstd-5": zstd(-5, window_log=w, hash_log=h),
+        "none": bytes,
+    }
+    try:
+        import lz4.frame  # type: ignore[import-untyped]
+
+        out["lz4"] = lz4.frame.compress
+    except ImportError:
+        out["lz4"] = None
+    return out
+
+
+def each(fn: Any, items: list[Any]) -> Any:
+    """A stage: ``fn`` on every item, its results dropped at once (kept, they would cost
+    the next allocations page faults that the writer does not pay)."""
+
+    def run() -> None:
+        for item in items:
+            fn(item)
+
+    return run
+
+
+def stages(batches: list[bytes], repeats: int) -> dict[str, Any]:
+    """The child's code on the captured batches, in this process, stage by stage."""
+    import hil.log_writer as lw
+    import hil.mcap_log as ml
+
     decoders = lw._decoders()
-    lw._warm_kernels()
+    n = sum(len(lw._decode_batch(b)[0]) for b in batches)
+    tmp = Path(tempfile.mkdtemp(prefix="fowt-bench-lw-"))
+    log = ml.BatchRunLog(tmp / "s.mcap", "t1")
+    framer = lw._BatchFramer(log, decoders)
+    lw._warm_kernels(framer)
+    # orjson's inputs (the gathered values), captured from one pass of the real code.
+    numbers: list[np.ndarray] = []
+    dumps = lw._orjson_dumps
 
-    def json_only() -> None:
+    def keep(values: np.ndarray, option: int) -> bytes:
+        numbers.append(values.copy())
+        return dumps(values, option=option)
+
+    lw._orjson_dumps = keep
+    try:
         for b in batches:
-            _ids, _structs, rows = lw._decode_batch(b)
-            for mid, raw in rows.items():
-                lw._ROW_TYPES[mid].texts(raw)
+            framer.values(b)
+    finally:
+        lw._orjson_dumps = dumps
+    records = [bytes(framer.encode(b)[0]) for b in batches]
+    compressors = _compressors()
+    sizes = {k: sum(len(c(r)) for r in records) for k, c in compressors.items() if c is not None}
 
-    encoded = [lw._encode_batch(b, decoders) for b in batches]
-    tmp = tempfile.mkdtemp(prefix="fowt-bench-lw-")
-    sizes: dict[str, int] = {}
+    def frame_all(compression: str) -> Any:
+        def run() -> None:
+            out = ml.BatchRunLog(tmp / "f.mcap", "t1", compression=compression)
+            fr = lw._BatchFramer(out, decoders)
+            c0 = time.process_time_ns()
+            for b in batches:
+                fr.frame(b)
+            frame_ns.append(time.process_time_ns() - c0)  # the file's set-up and end left out
+            out.close()
 
-    def writer(name: str, compression: str, level: int, window: int, hashes: int) -> Any:
-        def write() -> None:
-            saved = ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG
-            ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG = level, window, hashes
-            try:
-                path = Path(tmp) / "c.mcap"
-                log = ml.BatchRunLog(
-                    path, "t1", compression=compression, place_headers=lw._place_headers
-                )
-                for meta, records in encoded:
-                    log.write_batch(meta, bytearray(records))
-                log.close()
-                sizes[name] = path.stat().st_size
-            finally:
-                ml.ZSTD_LEVEL, ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG = saved
+        return run
 
-        return write
+    def reference() -> None:
+        out = ml.BatchRunLog(tmp / "r.mcap", "t1", place_headers=lw._place_headers)
+        c0 = time.process_time_ns()
+        for b in batches:
+            meta, recs = lw._encode_batch(b, decoders)
+            out.write_batch(meta, recs)
+        frame_ns.append(time.process_time_ns() - c0)
+        out.close()
 
-    w, h = ml.ZSTD_WINDOW_LOG, ml.ZSTD_HASH_LOG  # 0, 0: the level's own (main's compressor)
-    configs = {
-        "none": ("", 1, w, h),
-        "zstd1": ("zstd", 1, w, h),  # the default
-        "zstd1_level_tables": ("zstd", 1, 0, 0),
-        "zstd-1": ("zstd", -1, w, h),
-        "zstd-3": ("zstd", -3, w, h),
-        "zstd-5": ("zstd", -5, w, h),
-        "lz4": ("lz4", 1, w, h),
-    }
+    frame_ns: list[int] = []
     fns: dict[str, Any] = {
-        "rows_to_json_us": json_only,
-        "encode_batch_us": lambda: [lw._encode_batch(b, decoders) for b in batches],
-        "crc32_us": lambda: [zlib.crc32(r) for _m, r in encoded],
-        "copy_us": lambda: [bytearray(r) for _m, r in encoded],  # the copy in write()
+        "decode": each(lw._decode_batch, batches),
+        "values": each(framer.values, batches),
+        "orjson": each(lambda v: dumps(v, option=lw._ORJSON_NUMPY), numbers),
+        "encode": each(framer.encode, batches),
+        "crc32": each(zlib.crc32, records),
+        "total": frame_all("zstd"),
+        "reference_total": reference,
     }
-    fns.update({f"write_{k}": writer(k, *v) for k, v in configs.items()})
+    fns.update({f"compress_{k}": each(c, records) for k, c in compressors.items() if c})
     times: dict[str, list[int]] = {k: [] for k in fns}
-    errors: dict[str, str] = {}
     for _ in range(repeats):  # interleaved: each stage in every pass, the best pass of each
         for name, fn in fns.items():
-            if name in errors:
-                continue
+            frame_ns.clear()
             c0 = time.process_time_ns()
-            try:
-                fn()
-            except ValueError as exc:  # lz4 not installed
-                errors[name] = str(exc)
-                continue
-            times[name].append(time.process_time_ns() - c0)
-    us = {k: min(v) / n / 1e3 for k, v in times.items() if v}
-    out: dict[str, Any] = {"messages": n, "batches": len(batches), "repeats": repeats}
-    for k in ("rows_to_json_us", "encode_batch_us", "crc32_us"):
-        out[k] = us[k]
-    out["layout_us"] = us["encode_batch_us"] - us["rows_to_json_us"]
-    out["record_bytes_per_msg"] = sum(len(r) for _m, r in encoded) / n
-    out["framing_us"] = us["write_none"] - us["copy_us"]
-    comp: dict[str, Any] = {}
-    for k in configs:
-        if f"write_{k}" in errors:
-            comp[k] = {"error": errors[f"write_{k}"]}
-            continue
-        wb = us[f"write_{k}"] - us["copy_us"]
-        comp[k] = {
-            "write_batch_us": wb,
-            "compression_us": wb - out["framing_us"],
-            "file_bytes": sizes[k],
+            fn()
+            times[name].append(frame_ns[0] if frame_ns else time.process_time_ns() - c0)
+    log.close()
+    us = {k: min(v) / n / 1e3 for k, v in times.items()}
+    raw = sum(len(r) for r in records)
+    out: dict[str, Any] = {
+        "messages": n,
+        "batches": len(batches),
+        "repeats": repeats,
+        "record_bytes_per_msg": raw / n,
+        "decode_us": us["decode"],
+        "numbers_us": us["values"] - us["decode"],
+        "orjson_us": us["orjson"],
+        "records_us": us["encode"] - us["values"],
+        "compress_us": us["compress_zstd1"],
+        "framing_us": us["total"] - us["encode"] - us["compress_zstd1"],
+        "crc32_us": us["crc32"],
+        "total_us": us["total"],
+        "reference_total_us": us["reference_total"],
+    }
+    out["compression"] = {
+        k: {
+            "compress_us": us.get(f"compress_{k}"),
+            "compressed_bytes": sizes.get(k),
+            "ratio": raw / sizes[k] if k in sizes else None,
+            "writer_total_us": us["total"] - us["compress_zstd1"] + us[f"compress_{k}"]
+            if f"compress_{k}" in us
+            else None,
         }
-    out["compression"] = comp
-    out["writer_total_default_us"] = out["encode_batch_us"] + comp["zstd1"]["write_batch_us"]
+        for k in compressors
+    }
     out["loadavg"] = os.getloadavg()
     return out
 
 
+def compare_path(args: argparse.Namespace, kind: str, mcap: Path) -> dict[str, Any]:
+    """``kind`` (rows or structs) with ``--compare-root``'s code in its own interpreter."""
+    cmd = [args.compare_python, str(Path(__file__).resolve()), "--only-path", kind]
+    cmd += ["--mcap", str(mcap), "--passes", str(args.passes)]
+    cmd += ["--block-cycles", str(args.block_cycles)]
+    env = dict(os.environ, PYTHONPATH=str(args.compare_root))
+    proc = subprocess.run(
+        cmd, check=True, capture_output=True, text=True, cwd=args.compare_root, env=env
+    )
+    result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return result
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--mcap", type=Path, default=None, help="a run's MCAP (default: run 60 s)")
+    ap.add_argument("--streams", default="lqri_ff,baseline", help="of " + ",".join(STREAMS))
+    ap.add_argument("--mcap", type=Path, default=None, help="a run's MCAP (one stream only)")
     ap.add_argument("--passes", type=int, default=4)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--block-cycles", type=int, default=8)
-    ap.add_argument("--stage-repeats", type=int, default=3)
+    ap.add_argument("--stage-repeats", type=int, default=5)
+    ap.add_argument("--batch-sizes", default="512,2048,4096", help="'' for none")
     ap.add_argument("--compare-python", default=None)
     ap.add_argument("--compare-root", type=Path, default=None)
-    ap.add_argument("--only-structs", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--only-path", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--save-as", default="log_writer_speed")
     args = ap.parse_args()
-    if args.only_structs:  # the compared code's Struct path (child of the compare run)
+    if args.only_path:  # one path with the compared code (child of the compare run)
         order, arrays = stream(args.mcap)
-        print(json.dumps(run_path("structs", order, arrays, args.passes, args.block_cycles)))
+        r = run_path(args.only_path, order, arrays, args.passes, args.block_cycles)
+        print(json.dumps(r))
         return
-    mcap = args.mcap or real_run()  # the same stream for the compared code
-    order, arrays = stream(mcap)
-    rounds: list[dict[str, Any]] = []
-    for r in range(args.rounds):
-        entry = {
-            "rows": run_path("rows", order, arrays, args.passes, args.block_cycles),
-            "structs": run_path("structs", order, arrays, args.passes, args.block_cycles),
+    names = [s for s in args.streams.split(",") if s]
+    if any(s not in STREAMS for s in names) or (args.mcap and len(names) != 1):
+        raise SystemExit(f"--streams: of {list(STREAMS)}; --mcap with one stream only")
+    compare = bool(args.compare_python and args.compare_root)
+    result: dict[str, Any] = {"streams": {}, "block_cycles": args.block_cycles}
+    for name in names:
+        mcap = args.mcap or real_run(STREAMS[name])  # the same stream for the compared code
+        order, arrays = stream(mcap)
+        rounds: list[dict[str, Any]] = []
+        for r in range(args.rounds):
+            entry: dict[str, Any] = {}
+            for kind in ("rows", "structs"):
+                entry[kind] = run_path(kind, order, arrays, args.passes, args.block_cycles)
+                if compare:
+                    entry[f"main_{kind}"] = compare_path(args, kind, mcap)
+            cpu = {k: round(v["writer_cpu_us_per_msg"], 3) for k, v in entry.items()}
+            print(f"{name} round {r}: writer CPU per message [us] {cpu}", flush=True)
+            rounds.append(entry)
+        best = {
+            k: min((e[k] for e in rounds), key=lambda v: v["writer_cpu_us_per_msg"])
+            for k in rounds[0]
         }
-        if args.compare_python and args.compare_root:
-            cmd = [args.compare_python, str(Path(__file__).resolve()), "--only-structs"]
-            cmd += ["--mcap", str(mcap), "--passes", str(args.passes)]
-            env = dict(os.environ, PYTHONPATH=str(args.compare_root))
-            proc = subprocess.run(
-                cmd, check=True, capture_output=True, text=True, cwd=args.compare_root, env=env
-            )
-            entry["main_structs"] = json.loads(proc.stdout.strip().splitlines()[-1])
-        cpu = {k: v["writer_cpu_us_per_msg"] for k, v in entry.items()}
-        print(f"round {r}: writer CPU per message [us] {cpu}")
-        rounds.append(entry)
-    best_of = {
-        k: min((e[k] for e in rounds), key=lambda v: v["writer_cpu_us_per_msg"]) for k in rounds[0]
-    }
-    result: dict[str, Any] = {
-        "scenario": SCENARIO,
-        "stream_messages": len(order) * args.passes,
-        "block_cycles": args.block_cycles,
-        "best": best_of,
-        "rounds": rounds,
-        "stages": stages(order, arrays, args.passes, args.stage_repeats),
-        "loadavg": os.getloadavg(),
-    }
-    if "main_structs" in best_of:
-        result["writer_ratio_main_structs_over_rows"] = (
-            best_of["main_structs"]["writer_cpu_us_per_msg"]
-            / best_of["rows"]["writer_cpu_us_per_msg"]
+        median = {
+            k: float(np.median([e[k]["writer_cpu_us_per_msg"] for e in rounds])) for k in rounds[0]
+        }
+        batches = captured_batches(order, arrays, args.passes)
+        st = stages(batches, args.stage_repeats)
+        print(
+            f"{name} stages [us/msg]: "
+            + ", ".join(f"{k} {v:.3f}" for k, v in st.items() if k.endswith("_us")),
+            flush=True,
         )
+        sizes = {}
+        for size in [int(x) for x in args.batch_sizes.split(",") if x]:
+            r = run_path("rows", order, arrays, args.passes, args.block_cycles, size)
+            sizes[str(size)] = r
+        entry_out: dict[str, Any] = {
+            "scenario": STREAMS[name],
+            "stream_messages": len(order) * args.passes,
+            "best": best,
+            "median_writer_cpu_us_per_msg": median,
+            "rounds": rounds,
+            "stages": st,
+            "batch_sizes": sizes,
+        }
+        if compare:
+            entry_out["writer_ratio_main_rows_over_rows"] = (
+                best["main_rows"]["writer_cpu_us_per_msg"] / best["rows"]["writer_cpu_us_per_msg"]
+            )
+        result["streams"][name] = entry_out
+    result["loadavg"] = os.getloadavg()
     save(args.save_as, result)
 
 

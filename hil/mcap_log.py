@@ -259,7 +259,10 @@ class BatchRunLog:
     ``sample_time_ns``, publish time) are filled into the gaps with one numpy assignment,
     and the buffer is then exactly the records of one Chunk. Each batch is written as one
     Chunk (compressed), followed by one MessageIndex record per channel in it (log time,
-    offset of the record in the chunk), and handed to the OS at once.
+    offset of the record in the chunk), and handed to the OS at once
+    (:meth:`write_chunk`). :mod:`hil.log_writer`'s child builds the whole records itself
+    (headers included, sequence numbers from :attr:`channel_seq`) and calls
+    :meth:`write_chunk` directly; :meth:`write_batch` is the reference it is tested against.
 
     The file is laid out as :class:`RunLog`'s (same channels, schemas, ids and sequence
     numbering): magic, Header, Schemas and Channels (here in the data section, outside
@@ -431,15 +434,17 @@ class BatchRunLog:
             raise ValueError("batch holds an unregistered message id")
         log_time = self.start_unix_ns + meta[:, 1]
         sequence = np.empty(n, np.int64)
-        present = np.unique(channel)
-        masks = []
-        for cid in present.tolist():
+        counts = np.zeros(len(self._seq), np.int64)
+        entries = np.empty((n, 2), np.int64)
+        k0 = 0
+        for cid in np.unique(channel).tolist():
             mask = channel == cid
             k = int(np.count_nonzero(mask))
             sequence[mask] = self._seq[cid] + np.arange(k)
-            self._seq[cid] += k
-            self._counts[cid] += k
-            masks.append((cid, mask, k))
+            counts[cid] = k
+            entries[k0 : k0 + k, 0] = log_time[mask]
+            entries[k0 : k0 + k, 1] = offsets[mask]
+            k0 += k
         header = np.empty(n, _MESSAGE_HEADER)
         header["opcode"] = _OP_MESSAGE
         header["length"] = data_len + (MESSAGE_HEADER_BYTES - 9)
@@ -453,7 +458,33 @@ class BatchRunLog:
             self._place_headers(buf, offsets, headers)
         else:
             buf[offsets[:, None] + np.arange(MESSAGE_HEADER_BYTES)] = headers
-        start, end = int(log_time.min()), int(log_time.max())
+        self.write_chunk(records, counts, entries, int(log_time.min()), int(log_time.max()))
+
+    @property
+    def channel_seq(self) -> np.ndarray:
+        """Per channel id, the sequence number of its next message (read only; advanced by
+        :meth:`write_chunk`)."""
+        return self._seq
+
+    def write_chunk(
+        self, records: Any, counts: np.ndarray, entries: np.ndarray, start: int, end: int
+    ) -> None:
+        """Write finished Message records as one Chunk with its MessageIndexes, flush it.
+
+        Parameters
+        ----------
+        records : bytes-like
+            The chunk's records (each Message record's header filled, sequence numbers
+            continuing from :attr:`channel_seq`).
+        counts : ndarray of int64, shape (channels + 1,)
+            The chunk's messages per channel id.
+        entries : ndarray of int64, shape (n, 2)
+            Per message its log time [ns] and record offset in ``records``, grouped by
+            channel in ascending channel id (publish order within one).
+        start, end : int
+            The first and last log time [ns].
+        """
+        n = len(entries)
         compressed = self._compress(records)
         stream = self._stream
         chunk_start = stream.tell()
@@ -470,18 +501,23 @@ class BatchRunLog:
         index_offsets: dict[int, int] = {}
         parts = []
         pos = index_start
-        for cid, mask, k in masks:
-            entries = np.empty((k, 2), "<u8")
-            entries[:, 0] = log_time[mask]
-            entries[:, 1] = offsets[mask]
+        k0 = 0
+        for cid in np.flatnonzero(counts).tolist():
+            k = int(counts[cid])
             part = (
-                struct.pack("<BQHI", _OP_MESSAGE_INDEX, 6 + 16 * k, cid, 16 * k) + entries.tobytes()
+                struct.pack("<BQHI", _OP_MESSAGE_INDEX, 6 + 16 * k, cid, 16 * k)
+                + entries[k0 : k0 + k].tobytes()
             )
+            k0 += k
             index_offsets[cid] = pos
             pos += len(part)
             parts.append(part)
+        if k0 != n:
+            raise ValueError(f"write_chunk: {n} index entries for {k0} messages")
         stream.write(b"".join(parts))
         stream.flush()
+        self._seq += counts
+        self._counts += counts
         self._chunk_indexes.append(
             ChunkIndex(
                 message_start_time=start,

@@ -376,3 +376,177 @@ def test_a_log_never_closed_does_not_keep_the_interpreter_alive(tmp_path: Path) 
     with open(path, "rb") as fh:  # a finished file: summary and footer written
         assert make_reader(fh).get_summary() is not None
     assert read_run(path).metadata["run"] == {"mode": "inprocess"}
+
+
+def _batch_blob(
+    rng: random.Random, n: int, row_share: float, seq0: int
+) -> tuple[bytes, list[bytes]]:
+    """A batch as the pipe carries it: ``n`` messages of every registered type in random
+    order, each a row (extreme values; probability ``row_share``) or a Struct; and the
+    Struct JSON of each message in order."""
+    from hil.log_writer import ROW_FLAG, _encode_batch_payload
+
+    ids = bytearray()
+    structs: dict[int, list[msgspec.Struct]] = {}
+    rows: dict[int, list[tuple[typing.Any, ...]]] = {}
+    want: list[bytes] = []
+    for i in range(n):
+        mt = rng.choice(MESSAGES)
+        seq = seq0 + i
+        if rng.random() < row_share:
+            dtype = mt.row_dtype
+            vals = {
+                name: (
+                    rng.choice(ROW_INTS)
+                    if dtype[name].kind == "i" and rng.random() < 0.7
+                    else rng.randrange(-(2**63), 2**63)
+                    if dtype[name].kind == "i"
+                    else rng.choice(ROW_FLOATS)
+                    if rng.random() < 0.7
+                    else rng.uniform(-1e300, 1e300)
+                )
+                for name in dtype.names or ()
+            }
+            vals.update(seq=seq, sample_time_ns=seq * 25_000_000, publish_time_ns=7 * seq)
+            rows.setdefault(mt.message_id, []).append(tuple(vals[k] for k in dtype.names or ()))
+            ids.append(mt.message_id | ROW_FLAG)
+            want.append(msgspec.json.encode(mt.cls(**vals)))
+        else:
+            msg = _random_message(mt, rng, seq)
+            structs.setdefault(mt.message_id, []).append(msg)
+            ids.append(mt.message_id)
+            want.append(msgspec.json.encode(msg))
+    by_id = {mt.message_id: mt for mt in MESSAGES}
+    raw = {mid: np.array(r, dtype=by_id[mid].row_dtype).tobytes() for mid, r in rows.items()}
+    return _encode_batch_payload((bytes(ids), structs, raw)), want
+
+
+@pytest.mark.parametrize("compression", ["zstd", ""])
+def test_fused_records_equal_the_reference_framing_byte_for_byte(
+    tmp_path: Path, compression: str
+) -> None:
+    """The writer child's fused path (:class:`hil.log_writer._BatchFramer`: the record
+    kernel writing each message's header and JSON, the MessageIndex entries from the same
+    pass, :meth:`BatchRunLog.write_chunk`) writes the same file, byte for byte, as the
+    reference (:func:`hil.log_writer._encode_batch` and :meth:`BatchRunLog.write_batch`,
+    record headers and indexes built with numpy): batches of every registered type, rows
+    with extreme values and Structs mixed, only rows, only Structs, one message, a batch
+    larger than BATCH_MESSAGES and one larger than the framer's first buffer (1 MiB)."""
+    from hil.log_writer import _BatchFramer, _decoders, _encode_batch, _warm_kernels
+
+    rng = random.Random(1313)
+    plan = [(BATCH_MESSAGES, 0.9), (BATCH_MESSAGES, 1.0), (300, 0.0), (1, 1.0), (1, 0.0)]
+    plan += [(3 * BATCH_MESSAGES, 0.8), (7, 0.5)]
+    blobs: list[bytes] = []
+    wanted: list[bytes] = []
+    seq = 0
+    for n, share in plan:
+        blob, want = _batch_blob(rng, n, share, seq)
+        blobs.append(blob)
+        wanted += want
+        seq += n
+    blobs.append(_batch_blob(rng, 0, 1.0, seq)[0])  # an empty batch writes nothing
+    decoders = _decoders()
+    start, shift = 1_700_000_000_000_000_000, 12_345
+    ref = BatchRunLog(tmp_path / "ref.mcap", "t1", compression=compression, start_unix_ns=start)
+    fused = BatchRunLog(tmp_path / "fused.mcap", "t1", compression=compression, start_unix_ns=start)
+    framer = _BatchFramer(fused, decoders, shift)
+    _warm_kernels(framer)
+    grew = False
+    for blob in blobs:
+        meta, records = _encode_batch(blob, decoders, shift)
+        ref.write_batch(meta, records)
+        size = len(framer.out)
+        framer.frame(blob)
+        grew |= len(framer.out) > size
+    ref.close()
+    fused.close()
+    assert grew  # the 3 * BATCH_MESSAGES batch outgrew the first buffer
+    assert (tmp_path / "fused.mcap").read_bytes() == (tmp_path / "ref.mcap").read_bytes()
+    check_complete_mcap(tmp_path / "fused.mcap", validate=False)
+    assert [d for *_x, d in _read_all(tmp_path / "fused.mcap")] == wanted
+
+
+def test_fused_framer_refuses_bad_batches(tmp_path: Path) -> None:
+    """A batch whose parts do not match (rows that do not fit their type, more or fewer
+    ids than messages, an unknown message id) raises a ValueError saying so and writes
+    nothing; the next good batch is written as usual."""
+    from hil.log_writer import ROW_FLAG, _BatchFramer, _decoders, _encode_batch_payload
+
+    log = BatchRunLog(tmp_path / "bad.mcap", "t1")
+    framer = _BatchFramer(log, _decoders())
+    mt = MESSAGES[0]
+    mid = mt.message_id
+    row = np.zeros(1, mt.row_dtype).tobytes()
+    flag = bytes([mid | ROW_FLAG])
+    bad = {
+        "do not fit its type": (flag, {}, {mid: row[:-8]}),
+        "does not match its rows": (flag * 2, {}, {mid: row}),
+        "message ids for": (flag + bytes([mid]), {}, {mid: row}),
+        "unknown message id": (bytes([99]), {99: [mt.cls(*[0] * len(mt.row_dtype))]}, {}),
+        "rows of message id 99": (bytes([99 | ROW_FLAG]), {}, {99: row}),
+    }
+    for match, parts in bad.items():
+        with pytest.raises(ValueError, match=match):
+            framer.frame(_encode_batch_payload(parts))
+    framer.frame(_encode_batch_payload((flag, {}, {mid: row})))
+    log.close()
+    assert log.count == 1
+    assert [orjson.loads(d)["seq"] for *_x, d in _read_all(tmp_path / "bad.mcap")] == [0]
+
+
+def test_copy_value_finds_each_separator_at_every_byte_position() -> None:
+    """The record kernel's value copy (8 bytes at a time, the text's last bytes one by
+    one): every value of a list ``[v,v,...]`` comes out whole, its ``+`` left out for
+    floats (kept for ints, where it cannot occur), at every length from 1 to 26 bytes and
+    every position of its separator within an 8-byte word, the last value included."""
+    from hil.log_writer import _copy_value
+
+    rng = random.Random(99)
+    alphabet = b"0123456789.e-+"
+    for plus in (True, False):
+        for trial in range(40):
+            values = [
+                bytes(rng.choice(alphabet) for _ in range(rng.randrange(1, 27)))
+                for _ in range(1 + trial % 13)
+            ]
+            text = np.frombuffer(b"[" + b",".join(values) + b"]", np.uint8)
+            out = np.full(len(text) + 8, 0xAA, np.uint8)
+            p, d = 1, 0
+            for v in values:
+                p, d_end = _copy_value(text, p, out, d, plus)
+                want = v.replace(b"+", b"") if plus else v
+                assert out[d:d_end].tobytes() == want
+                d = d_end
+            assert p == len(text)  # after the closing "]"
+
+
+def test_pipe_framing_whole_batches_end_marker_and_cut_batches() -> None:
+    """The batches' own framing on the pipe: a batch larger than the pipe's buffer (written
+    from a thread while the reader reads, so the writes are partial) and a small one come
+    out whole and in order, each in the reader's reused buffer; an empty batch is the end
+    marker; a batch cut by the writer's death (its end of the pipe closed mid-batch) reads
+    as the end, not as a short batch."""
+    import os
+    import threading
+
+    from hil.log_writer import _PipeReader, _write_message
+
+    rng = random.Random(5)
+    big = rng.randbytes(3 << 20)  # 3 MiB: larger than the pipe and the reader's buffer
+    small = b"batch"
+    r, w = os.pipe()
+    writer = threading.Thread(target=lambda: [_write_message(w, p) for p in (big, small, b"")])
+    writer.start()
+    reader = _PipeReader(r)
+    got = reader.read()
+    assert got is not None and bytes(got) == big
+    got = reader.read()
+    assert got is not None and bytes(got) == small
+    assert reader.read() is None  # the end marker
+    writer.join()
+    os.write(w, (100).to_bytes(8, "little") + b"0123456789")  # a batch cut after 10 bytes
+    os.close(w)
+    assert reader.read() is None
+    assert reader.read() is None  # and the pipe stays at its end
+    os.close(r)
