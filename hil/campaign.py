@@ -528,8 +528,10 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         Ω_min [rad/s] of Ω_opt; None: :data:`hil.campaign_kpi.MIN_ROTOR_SPEED_RAD_S` of the
         turbine (0 if unknown).
     """
+    from hil.review import _col  # noqa: PLC0415
+
     truth = run_data.topic("truth")
-    t = np.array([m.get("sample_time_ns", math.nan) for m in truth], dtype=np.float64) / 1e9
+    t = _col(truth, "sample_time_ns") / 1e9
     names = (
         "electrical_power_w",
         "rotor_speed_rad_s",
@@ -540,7 +542,7 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         "platform_pitch_rad",
         "platform_surge_m",
     )
-    cols = {n: np.array([m.get(n, math.nan) for m in truth], dtype=np.float64) for n in names}
+    cols = {n: _col(truth, n) for n in names}
     summaries = [s for s in run_data.topic("timing/summary") if int(s.get("final", 0)) == 1]
     misses = int(summaries[-1]["deadline_misses"]) if summaries else None
     tsr, radius, rated = _turbine_figures(scenario.turbine)
@@ -656,18 +658,22 @@ class _RunSink:
         """The run's :class:`hil.mcap_log.RunData` (class docstring)."""
         import orjson  # noqa: PLC0415
 
-        from hil.mcap_log import RunData  # noqa: PLC0415
+        from hil.mcap_log import MessageList, RunData  # noqa: PLC0415
 
         encode = msgspec.json.encode
         run = RunData(metadata=metadata)
         for key, parts in self.parts.items():
             out: list[dict[str, Any]] = []
+            spans: list[tuple[int, int, np.ndarray | None]] = []
             for part in parts:
+                start = len(out)
                 if isinstance(part, list):
                     out.extend(orjson.loads(encode(part)))
+                    spans.append((start, len(out), None))
                 else:
                     out.extend(_row_dicts(part))
-            run.messages[key] = out
+                    spans.append((start, len(out), part))
+            run.messages[key] = MessageList(out, spans)
         return run
 
 
