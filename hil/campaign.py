@@ -18,6 +18,14 @@ processes over Zenoh). A task never raises: a failing run comes back with its er
 recorded (``status = "failed"``) and the campaign goes on. The KPIs of a run depend only on
 its scenario (seeded, simulated time), never on the worker or the order.
 
+In process, the compiled loop hands its messages over as numpy rows (``publish_block``):
+:class:`_RunSink` keeps them and builds the run's :class:`hil.mcap_log.RunData` from them
+(each message's dict as ``orjson.loads`` of its Struct's JSON would give it; each topic a
+:class:`hil.mcap_log.MessageList`, whose columns the review and the KPIs read), and
+:class:`_FramedLog` writes ``run.mcap`` from them in this process with the log writer's
+framer. 600 s of LC2 take about half the wall time they took as Structs JSON-encoded one by
+one (bench/campaign_run_speed.py; README's benchmark table).
+
 Cluster: by default a :class:`distributed.LocalCluster` of processes, one per core (one
 thread each), bound to 127.0.0.1, no dashboard, started and stopped by the command;
 ``--scheduler tcp://HOST:PORT`` submits to an existing cluster instead (the workers then need
