@@ -693,7 +693,8 @@ def _row_dicts(block: np.ndarray) -> list[dict[str, Any]]:
     """
     dtype = block.dtype
     names = dtype.names or ()
-    out = [dict(zip(names, r, strict=True)) for r in block.tolist()]
+    # each row's tuple has the dtype's fields: no strict check per row (~0.3 us each)
+    out = [dict(zip(names, r)) for r in block.tolist()]  # noqa: B905
     floats = [n for n in names if dtype[n].kind == "f"]
     if floats:
         values = block.view(np.float64).reshape(len(block), len(names))
