@@ -18,6 +18,14 @@ processes over Zenoh). A task never raises: a failing run comes back with its er
 recorded (``status = "failed"``) and the campaign goes on. The KPIs of a run depend only on
 its scenario (seeded, simulated time), never on the worker or the order.
 
+In process, the compiled loop hands its messages over as numpy rows (``publish_block``):
+:class:`_RunSink` keeps them and builds the run's :class:`hil.mcap_log.RunData` from them
+(each message's dict as ``orjson.loads`` of its Struct's JSON would give it; each topic a
+:class:`hil.mcap_log.MessageList`, whose columns the review and the KPIs read), and
+:class:`_FramedLog` writes ``run.mcap`` from them in this process with the log writer's
+framer. 600 s of LC2 take about half the wall time they took as Structs JSON-encoded one by
+one (bench/campaign_run_speed.py; README's benchmark table).
+
 Cluster: by default a :class:`distributed.LocalCluster` of processes, one per core (one
 thread each), bound to 127.0.0.1, no dashboard, started and stopped by the command;
 ``--scheduler tcp://HOST:PORT`` submits to an existing cluster instead (the workers then need
@@ -528,8 +536,10 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         Ω_min [rad/s] of Ω_opt; None: :data:`hil.campaign_kpi.MIN_ROTOR_SPEED_RAD_S` of the
         turbine (0 if unknown).
     """
+    from hil.review import _col  # noqa: PLC0415
+
     truth = run_data.topic("truth")
-    t = np.array([m.get("sample_time_ns", math.nan) for m in truth], dtype=np.float64) / 1e9
+    t = _col(truth, "sample_time_ns") / 1e9
     names = (
         "electrical_power_w",
         "rotor_speed_rad_s",
@@ -540,7 +550,7 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         "platform_pitch_rad",
         "platform_surge_m",
     )
-    cols = {n: np.array([m.get(n, math.nan) for m in truth], dtype=np.float64) for n in names}
+    cols = {n: _col(truth, n) for n in names}
     summaries = [s for s in run_data.topic("timing/summary") if int(s.get("final", 0)) == 1]
     misses = int(summaries[-1]["deadline_misses"]) if summaries else None
     tsr, radius, rated = _turbine_figures(scenario.turbine)
@@ -555,15 +565,157 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
     return {"kpi": kpis, "psd": psd}
 
 
+class _FramedLog:
+    """A campaign run's MCAP file written in this process from Structs and rows.
+
+    :class:`hil.log_writer.BackgroundRunLog`'s batching (its :meth:`publish` and
+    :meth:`publish_block`, batches of :data:`hil.log_writer.BATCH_MESSAGES` messages cut by
+    count) with each full batch framed here by its writer child's :class:`hil.log_writer.
+    _BatchFramer` (one Chunk a batch) instead of going through a pipe to a child: a Dask
+    worker is a daemon process, which may not start one. The records are those the child
+    writes: each message's JSON is msgspec's of its Struct, byte for byte the JSON
+    :meth:`hil.mcap_log.BatchRunLog.add_json` was given before (tests/test_campaign_rows.py);
+    the record's ``publish_time`` is the message's own ``publish_time_ns`` moved to the unix
+    epoch (it was the wall clock when the message was published: the same moment in process).
+    """
+
+    def __init__(self, path: Path, turbine: str, metadata: dict[str, dict[str, str]]) -> None:
+        from hil.log_writer import (  # noqa: PLC0415
+            BATCH_MESSAGES,
+            BackgroundRunLog,
+            _BatchFramer,
+            _decoders,
+            _warm_kernels,
+        )
+        from hil.mcap_log import BatchRunLog  # noqa: PLC0415
+
+        self.log = BatchRunLog(path, turbine)
+        for name, data in metadata.items():
+            self.log.add_metadata(name, data)
+        self._framer = _BatchFramer(self.log, _decoders(), time.time_ns() - time.monotonic_ns())
+        _warm_kernels(self._framer)  # numba's on-disk cache (compiled on a first run)
+        self._batch_messages = BATCH_MESSAGES
+        # BackgroundRunLog's batch: its ids, Structs and row bytes (its _new_batch)
+        self._ids = bytearray()
+        self._by_id: dict[int, list[msgspec.Struct]] = {}
+        self._rows: dict[int, bytearray] = {}
+        self._payload = BackgroundRunLog._payload.__get__(self)
+        self.publish = BackgroundRunLog.publish.__get__(self)
+        self.publish_block = BackgroundRunLog.publish_block.__get__(self)
+
+    def _new_batch(self) -> None:
+        self._ids = bytearray()
+        self._by_id = {}
+        self._rows = {}
+
+    def _send(self) -> None:
+        if self._ids:
+            self._framer.frame(self._payload())
+            self._new_batch()
+
+    def close(self) -> None:
+        """Frame what is left, write the summary section and the footer."""
+        try:
+            self._send()
+        finally:
+            self.log.close()
+
+
+class _RunSink:
+    """A campaign run's messages as the in-process loop hands them over, kept for its
+    :class:`hil.mcap_log.RunData` (and its MCAP file, when ``log`` is given).
+
+    The compiled loop's rows (:meth:`publish_block`) are kept as numpy blocks; the Python
+    path's Structs (:meth:`publish`) as they come; each topic's parts in publish order.
+    :meth:`run_data` then builds each message's dict as ``orjson.loads`` of msgspec's JSON
+    of its Struct gives it (the path before: every message JSON-encoded when published and
+    decoded at the end): a row's float fields as floats, a non-finite one as None (JSON's
+    ``null``), its int fields as ints; Structs through that very round trip, one list per
+    part. No Struct per row and no JSON for them.
+    """
+
+    def __init__(self, turbine: str, log: _FramedLog | None = None) -> None:
+        from bus_schemas.registry import MESSAGES  # noqa: PLC0415
+
+        self.log = log
+        self._key = {mt.message_id: mt.key(turbine) for mt in MESSAGES}
+        self._by_id = {mt.message_id: mt for mt in MESSAGES}
+        # per topic: its parts in publish order, each a list of Structs or an array of rows
+        self.parts: dict[str, list[list[msgspec.Struct] | np.ndarray]] = {}
+
+    def publish(self, mt: Any, msg: msgspec.Struct) -> None:
+        """Keep one message given as a Struct (the Python path's)."""
+        parts = self.parts.setdefault(self._key[mt.message_id], [])
+        if parts and isinstance(parts[-1], list):
+            parts[-1].append(msg)
+        else:
+            parts.append([msg])
+        if self.log is not None:
+            self.log.publish(mt, msg)
+
+    def publish_block(self, order: np.ndarray, rows: dict[int, np.ndarray]) -> None:
+        """Keep a block of rows (:attr:`bus_schemas.registry.MessageType.row_dtype`),
+        copied: the caller reuses its buffers."""
+        if self.log is not None:
+            self.log.publish_block(order, rows)  # checks order against the rows
+        for mid, block in rows.items():
+            if len(block):
+                self.parts.setdefault(self._key[mid], []).append(block.copy())
+
+    def run_data(self, metadata: dict[str, dict[str, str]]) -> Any:
+        """The run's :class:`hil.mcap_log.RunData` (class docstring)."""
+        import orjson  # noqa: PLC0415
+
+        from hil.mcap_log import MessageList, RunData  # noqa: PLC0415
+
+        encode = msgspec.json.encode
+        run = RunData(metadata=metadata)
+        for key, parts in self.parts.items():
+            out: list[dict[str, Any]] = []
+            spans: list[tuple[int, int, np.ndarray | None]] = []
+            for part in parts:
+                start = len(out)
+                if isinstance(part, list):
+                    out.extend(orjson.loads(encode(part)))
+                    spans.append((start, len(out), None))
+                else:
+                    out.extend(_row_dicts(part))
+                    spans.append((start, len(out), part))
+            run.messages[key] = MessageList(out, spans)
+        return run
+
+
+def _row_dicts(block: np.ndarray) -> list[dict[str, Any]]:
+    """Rows of a ``row_dtype`` as the dicts ``orjson.loads`` makes of their Structs' JSON.
+
+    A float field is a float (a row holds float64; the Struct built from it writes ``0.0``),
+    NaN and infinities None (msgspec writes ``null``), an int field an int.
+    """
+    dtype = block.dtype
+    names = dtype.names or ()
+    # each row's tuple has the dtype's fields: no strict check per row (~0.3 us each)
+    out = [dict(zip(names, r)) for r in block.tolist()]  # noqa: B905
+    floats = [n for n in names if dtype[n].kind == "f"]
+    if floats:
+        values = block.view(np.float64).reshape(len(block), len(names))
+        cols = [names.index(n) for n in floats]
+        bad = ~np.isfinite(values[:, cols])
+        if bad.any():
+            for i, j in zip(*np.nonzero(bad), strict=True):
+                out[int(i)][floats[int(j)]] = None
+    return out
+
+
 def _inprocess(
     scenario: Scenario, mcap_path: Path | None, toml_text: str, design_dir: str | None
 ) -> Any:
-    """Run in process; the messages kept in memory (and written to ``mcap_path``)."""
-    import orjson  # noqa: PLC0415
+    """Run in process; the messages kept in memory (and written to ``mcap_path``).
 
-    from bus_schemas.registry import MessageType  # noqa: PLC0415
+    The compiled loop hands its messages over as rows (:class:`_RunSink`), the Python
+    path's (a scenario the compiled loop does not run, or its cycles that need Python) come
+    as Structs.
+    """
     from hil.controller_node import ControllerRuntime, publishing_step  # noqa: PLC0415
-    from hil.mcap_log import BatchRunLog, RunData  # noqa: PLC0415
     from hil.plant_node import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
 
@@ -579,33 +731,18 @@ def _inprocess(
             "command": "fowt campaign",
         },
     }
-    log = BatchRunLog(mcap_path, turbine) if mcap_path is not None else None
-    if log is not None:
-        for name, data in metadata.items():
-            log.add_metadata(name, data)
-    store: dict[str, list[bytes]] = {}
-    encode = msgspec.json.encode
-
-    def publish(mt: MessageType, msg: msgspec.Struct) -> None:
-        key = mt.key(turbine)
-        data = encode(msg)
-        store.setdefault(key, []).append(data)
-        if log is not None:  # batched: one chunk per 1024 messages or 0.25 s
-            log.add_json(mt.message_id, data, msg.sample_time_ns, time.time_ns())  # type: ignore[attr-defined]
-
-    runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
-
-    step = publishing_step(runtime, publish)
-
+    log = _FramedLog(mcap_path, turbine, metadata) if mcap_path is not None else None
+    sink = _RunSink(turbine, log)
     try:
-        run_inprocess(scenario, publish, step, runtime=runtime)
+        runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
+        step = publishing_step(runtime, sink.publish)
+        run_inprocess(
+            scenario, sink.publish, step, runtime=runtime, publish_block=sink.publish_block
+        )
     finally:
         if log is not None:
             log.close()
-    run = RunData(metadata=metadata)
-    for key, blobs in store.items():
-        run.messages[key] = [orjson.loads(b) for b in blobs]
-    return run
+    return sink.run_data(metadata)
 
 
 def execute_run(payload: dict[str, Any]) -> dict[str, Any]:

@@ -48,6 +48,7 @@ whose recorder was killed still reviews up to its last flushed chunk) and says s
 from __future__ import annotations
 
 import json
+import math
 import struct
 import time
 import zlib
@@ -600,6 +601,62 @@ class BatchRunLog:
             stream.flush()
         finally:
             self._stream.close()
+
+
+class MessageList(list[dict[str, Any]]):
+    """A topic's messages (dicts, a plain list's contents) that also know their fields as
+    columns, for messages that came as rows (a campaign's in-process run).
+
+    ``parts`` are ``(start, stop, rows)``: messages ``start:stop`` of the list are the
+    dicts of ``rows`` (a ``row_dtype`` array), or ``rows`` is None for dicts from anywhere
+    else. :meth:`column` is ``np.array([m.get(name, nan) for m in self], float64)``
+    (:func:`hil.review._col`'s value: a missing field, None, NaN or an infinity gives nan)
+    taken from the rows' arrays where there are rows; computed once per field.
+    """
+
+    def __init__(
+        self, messages: list[dict[str, Any]], parts: list[tuple[int, int, np.ndarray | None]]
+    ) -> None:
+        super().__init__(messages)
+        self.parts = parts
+        self._columns: dict[str, np.ndarray] = {}
+
+    def column(self, name: str) -> np.ndarray:
+        """Field ``name`` of every message as float64 (class docstring); a copy."""
+        col = self._columns.get(name)
+        if col is None:
+            col = np.empty(len(self), np.float64)
+            for start, stop, rows in self.parts:
+                if rows is None:
+                    col[start:stop] = [m.get(name, math.nan) for m in self[start:stop]]
+                elif name in (rows.dtype.names or ()):
+                    col[start:stop] = rows[name]
+                else:
+                    col[start:stop] = math.nan
+            col[~np.isfinite(col)] = math.nan
+            self._columns[name] = col
+        return col.copy()
+
+    def since(self, name: str, t0: float, default: float = -1.0) -> MessageList:
+        """``[m for m in self if m.get(name, default) >= t0]`` with the rows' parts kept
+        (a row's field compared as stored, int or float, as its dict's value would be)."""
+        keep = np.zeros(len(self), np.bool_)
+        parts: list[tuple[int, int, np.ndarray | None]] = []
+        at = 0
+        for start, stop, rows in self.parts:
+            if rows is None or name not in (rows.dtype.names or ()):
+                sel = np.array(
+                    [m.get(name, default) >= t0 for m in self[start:stop]], np.bool_
+                ).reshape(-1)
+            else:
+                sel = rows[name] >= t0
+            keep[start:stop] = sel
+            k = int(np.count_nonzero(sel))
+            if k:
+                parts.append((at, at + k, None if rows is None else rows[sel]))
+                at += k
+        messages = [self[i] for i in np.flatnonzero(keep).tolist()]
+        return MessageList(messages, parts)
 
 
 @dataclass

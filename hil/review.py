@@ -79,7 +79,7 @@ from bus_schemas.messages import (
     VALID_BITS,
 )
 from hil import kpi
-from hil.mcap_log import RunData, read_run
+from hil.mcap_log import MessageList, RunData, read_run
 from hil.scenario import ReviewSection
 
 if TYPE_CHECKING:
@@ -103,7 +103,10 @@ DEFAULT_SETTLE_S = ReviewSection().settle_s
 
 
 def _col(msgs: Sequence[dict[str, Any]], name: str) -> FloatArray:
-    """One field of a message list as a float array (missing values as nan)."""
+    """One field of a message list as a float array (missing values as nan; a
+    :class:`hil.mcap_log.MessageList` gives it from its rows)."""
+    if isinstance(msgs, MessageList):
+        return msgs.column(name)
     return np.array([m.get(name, math.nan) for m in msgs], dtype=np.float64)
 
 
@@ -254,6 +257,8 @@ def _timing(run: RunData) -> dict[str, Any]:
 def _since(msgs: list[dict[str, Any]], t0_s: float) -> list[dict[str, Any]]:
     """The messages whose sample time is at or after ``t0_s`` [s]."""
     t0_ns = t0_s * 1e9
+    if isinstance(msgs, MessageList):
+        return msgs.since("sample_time_ns", t0_ns)
     return [m for m in msgs if m.get("sample_time_ns", -1) >= t0_ns]
 
 
