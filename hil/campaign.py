@@ -22,9 +22,9 @@ In process, the compiled loop hands its messages over as numpy rows (``publish_b
 :class:`_RunSink` keeps them and builds the run's :class:`hil.mcap_log.RunData` from them
 (each message's dict as ``orjson.loads`` of its Struct's JSON would give it; each topic a
 :class:`hil.mcap_log.MessageList`, whose columns the review and the KPIs read), and
-:class:`_FramedLog` writes ``run.mcap`` from them in this process with the log writer's
-framer. 600 s of LC2 take about half the wall time they took as Structs JSON-encoded one by
-one (bench/campaign_run_speed.py; README's benchmark table).
+:class:`hil.log_writer.InProcessRunLog` writes ``run.mcap`` from them in this process with
+the log writer's framer. 600 s of LC2 take about half the wall time they took as Structs
+JSON-encoded one by one (bench/campaign_run_speed.py; README's benchmark table).
 
 Cluster: by default a :class:`distributed.LocalCluster` of processes, one per core (one
 thread each), bound to 127.0.0.1, no dashboard, started and stopped by the command;
@@ -565,62 +565,6 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
     return {"kpi": kpis, "psd": psd}
 
 
-class _FramedLog:
-    """A campaign run's MCAP file written in this process from Structs and rows.
-
-    :class:`hil.log_writer.BackgroundRunLog`'s batching (its :meth:`publish` and
-    :meth:`publish_block`, batches of :data:`hil.log_writer.BATCH_MESSAGES` messages cut by
-    count) with each full batch framed here by its writer child's :class:`hil.log_writer.
-    _BatchFramer` (one Chunk a batch) instead of going through a pipe to a child: a Dask
-    worker is a daemon process, which may not start one. The records are those the child
-    writes: each message's JSON is msgspec's of its Struct, byte for byte the JSON
-    :meth:`hil.mcap_log.BatchRunLog.add_json` was given before (tests/test_campaign_rows.py);
-    the record's ``publish_time`` is the message's own ``publish_time_ns`` moved to the unix
-    epoch (it was the wall clock when the message was published: the same moment in process).
-    """
-
-    def __init__(self, path: Path, turbine: str, metadata: dict[str, dict[str, str]]) -> None:
-        from hil.log_writer import (  # noqa: PLC0415
-            BATCH_MESSAGES,
-            BackgroundRunLog,
-            _BatchFramer,
-            _decoders,
-            _warm_kernels,
-        )
-        from hil.mcap_log import BatchRunLog  # noqa: PLC0415
-
-        self.log = BatchRunLog(path, turbine)
-        for name, data in metadata.items():
-            self.log.add_metadata(name, data)
-        self._framer = _BatchFramer(self.log, _decoders(), time.time_ns() - time.monotonic_ns())
-        _warm_kernels(self._framer)  # numba's on-disk cache (compiled on a first run)
-        self._batch_messages = BATCH_MESSAGES
-        # BackgroundRunLog's batch: its ids, Structs and row bytes (its _new_batch)
-        self._ids = bytearray()
-        self._by_id: dict[int, list[msgspec.Struct]] = {}
-        self._rows: dict[int, bytearray] = {}
-        self._payload = BackgroundRunLog._payload.__get__(self)
-        self.publish = BackgroundRunLog.publish.__get__(self)
-        self.publish_block = BackgroundRunLog.publish_block.__get__(self)
-
-    def _new_batch(self) -> None:
-        self._ids = bytearray()
-        self._by_id = {}
-        self._rows = {}
-
-    def _send(self) -> None:
-        if self._ids:
-            self._framer.frame(self._payload())
-            self._new_batch()
-
-    def close(self) -> None:
-        """Frame what is left, write the summary section and the footer."""
-        try:
-            self._send()
-        finally:
-            self.log.close()
-
-
 class _RunSink:
     """A campaign run's messages as the in-process loop hands them over, kept for its
     :class:`hil.mcap_log.RunData` (and its MCAP file, when ``log`` is given).
@@ -634,7 +578,7 @@ class _RunSink:
     part. No Struct per row and no JSON for them.
     """
 
-    def __init__(self, turbine: str, log: _FramedLog | None = None) -> None:
+    def __init__(self, turbine: str, log: Any = None) -> None:
         from bus_schemas.registry import MESSAGES  # noqa: PLC0415
 
         self.log = log
@@ -731,7 +675,9 @@ def _inprocess(
             "command": "fowt campaign",
         },
     }
-    log = _FramedLog(mcap_path, turbine, metadata) if mcap_path is not None else None
+    from hil.log_writer import InProcessRunLog  # noqa: PLC0415
+
+    log = InProcessRunLog(mcap_path, turbine, metadata) if mcap_path is not None else None
     sink = _RunSink(turbine, log)
     try:
         runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)

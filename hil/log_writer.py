@@ -995,95 +995,29 @@ def _row_dtype_ok(mt: MessageType, block: np.ndarray) -> bool:
     return dtype is expected or bool(dtype == expected)
 
 
-class BackgroundRunLog:
-    """Publish sink whose MCAP writing happens in a child process.
+class MessageBatcher:
+    """The batch being filled: messages given one by one (:meth:`publish`) or as rows
+    (:meth:`publish_block`), cut by count into batches of ``batch_messages``, each handed
+    to :meth:`_send` as it fills (:meth:`_payload`: the batch's bytes, as the writer reads
+    them). :class:`BackgroundRunLog` sends a batch through a pipe to its writer child; a
+    campaign worker (a daemon process, which may not start children) frames it in its own
+    process (:class:`hil.campaign`'s run log).
 
     Parameters
     ----------
-    path : Path
-        MCAP file to write.
-    turbine : str
-        Turbine id of the keys.
-    metadata : dict
-        Metadata records (name -> string map) written first.
-    compression : str
-        Chunk compression of the file (:data:`hil.mcap_log.COMPRESSIONS`).
     batch_messages : int
         Messages per batch (module docstring).
     """
 
-    def __init__(
-        self,
-        path: Path,
-        turbine: str,
-        metadata: dict[str, dict[str, str]],
-        compression: str = "zstd",
-        batch_messages: int = BATCH_MESSAGES,
-    ) -> None:
+    def __init__(self, batch_messages: int = BATCH_MESSAGES) -> None:
         if batch_messages < 1:
             raise ValueError(f"batch_messages: expected an integer >= 1, got {batch_messages}")
-        ctx = multiprocessing.get_context("spawn")
-        recv_end, send_end = ctx.Pipe(duplex=False)
-        setpipe = getattr(fcntl, "F_SETPIPE_SZ", None)
-        if setpipe is not None:
-            with contextlib.suppress(OSError):  # a smaller pipe only costs waiting
-                fcntl.fcntl(send_end.fileno(), setpipe, PIPE_BYTES)
-        self._conn = send_end
-        self._fd = send_end.fileno()
-        self._ready = ctx.Event()
-        self._stats = ctx.Array("d", 2)  # the writer's CPU seconds after start-up, messages
-        self._proc = ctx.Process(
-            target=_writer_process,
-            args=(
-                recv_end,
-                str(path),
-                turbine,
-                metadata,
-                compression,
-                self._ready,
-                time.time_ns() - time.monotonic_ns(),
-                self._stats,
-            ),
-            name="fowt-log-writer",
-            daemon=False,
-        )
-        self._proc.start()
-        recv_end.close()
-        # A log never closed (an exception before close(), a failing test) would keep the
-        # interpreter from exiting: multiprocessing joins its non-daemon children at exit,
-        # and the child waits on the pipe. Closing our end first (multiprocessing runs its
-        # finalizers before that join) lets the child see EOF and finish the file.
-        multiprocessing.util.Finalize(self, send_end.close, exitpriority=10)
         self._batch_messages = batch_messages
         self._new_batch()
-        #: Messages and batches handed to the writer so far, and the time spent sending [ns].
-        self.messages = 0
-        self.batches = 0
-        self.send_ns = 0
-        #: Wall time :meth:`close` waited for the writer to finish the file [ns].
-        self.close_wait_ns = 0
-        #: After :meth:`close`: the writer's CPU time from its start-up's end to the file's
-        #: end [s] and the messages it wrote (its throughput, bench/inprocess_speed.py).
-        self.writer_cpu_s = 0.0
-        self.writer_messages = 0
 
-    def wait_ready(self, timeout_s: float = 120.0) -> None:
-        """Wait until the writer has started (its imports take ~0.5 s) and opened the file.
-
-        Called before the loop's first cycle, so the loop never waits on a writer that is
-        still starting; the messages published meanwhile wait in the pipe and the batch.
-
-        Raises
-        ------
-        RuntimeError
-            If the writer exited or did not start within ``timeout_s``.
-        """
-        deadline = time.monotonic() + timeout_s
-        while not self._ready.wait(0.05):
-            if not self._proc.is_alive():
-                raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"log writer did not start within {timeout_s:g} s")
+    def _send(self) -> None:
+        """Hand the full (or, at the end, last) batch on and start a new one."""
+        raise NotImplementedError
 
     def _new_batch(self) -> None:
         # The batch being filled: the message ids in publish order and, per message id,
@@ -1181,6 +1115,94 @@ class BackgroundRunLog:
         """The batch as it goes to the writer: one msgpack call for all its messages."""
         return _encode_batch_payload((self._ids, self._by_id, self._rows))
 
+
+class BackgroundRunLog(MessageBatcher):
+    """Publish sink whose MCAP writing happens in a child process.
+
+    Parameters
+    ----------
+    path : Path
+        MCAP file to write.
+    turbine : str
+        Turbine id of the keys.
+    metadata : dict
+        Metadata records (name -> string map) written first.
+    compression : str
+        Chunk compression of the file (:data:`hil.mcap_log.COMPRESSIONS`).
+    batch_messages : int
+        Messages per batch (module docstring).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        turbine: str,
+        metadata: dict[str, dict[str, str]],
+        compression: str = "zstd",
+        batch_messages: int = BATCH_MESSAGES,
+    ) -> None:
+        super().__init__(batch_messages)
+        ctx = multiprocessing.get_context("spawn")
+        recv_end, send_end = ctx.Pipe(duplex=False)
+        setpipe = getattr(fcntl, "F_SETPIPE_SZ", None)
+        if setpipe is not None:
+            with contextlib.suppress(OSError):  # a smaller pipe only costs waiting
+                fcntl.fcntl(send_end.fileno(), setpipe, PIPE_BYTES)
+        self._conn = send_end
+        self._fd = send_end.fileno()
+        self._ready = ctx.Event()
+        self._stats = ctx.Array("d", 2)  # the writer's CPU seconds after start-up, messages
+        self._proc = ctx.Process(
+            target=_writer_process,
+            args=(
+                recv_end,
+                str(path),
+                turbine,
+                metadata,
+                compression,
+                self._ready,
+                time.time_ns() - time.monotonic_ns(),
+                self._stats,
+            ),
+            name="fowt-log-writer",
+            daemon=False,
+        )
+        self._proc.start()
+        recv_end.close()
+        # A log never closed (an exception before close(), a failing test) would keep the
+        # interpreter from exiting: multiprocessing joins its non-daemon children at exit,
+        # and the child waits on the pipe. Closing our end first (multiprocessing runs its
+        # finalizers before that join) lets the child see EOF and finish the file.
+        multiprocessing.util.Finalize(self, send_end.close, exitpriority=10)
+        #: Messages and batches handed to the writer so far, and the time spent sending [ns].
+        self.messages = 0
+        self.batches = 0
+        self.send_ns = 0
+        #: Wall time :meth:`close` waited for the writer to finish the file [ns].
+        self.close_wait_ns = 0
+        #: After :meth:`close`: the writer's CPU time from its start-up's end to the file's
+        #: end [s] and the messages it wrote (its throughput, bench/inprocess_speed.py).
+        self.writer_cpu_s = 0.0
+        self.writer_messages = 0
+
+    def wait_ready(self, timeout_s: float = 120.0) -> None:
+        """Wait until the writer has started (its imports take ~0.5 s) and opened the file.
+
+        Called before the loop's first cycle, so the loop never waits on a writer that is
+        still starting; the messages published meanwhile wait in the pipe and the batch.
+
+        Raises
+        ------
+        RuntimeError
+            If the writer exited or did not start within ``timeout_s``.
+        """
+        deadline = time.monotonic() + timeout_s
+        while not self._ready.wait(0.05):
+            if not self._proc.is_alive():
+                raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"log writer did not start within {timeout_s:g} s")
+
     def _send(self) -> None:
         n = len(self._ids)
         if n:
@@ -1203,3 +1225,54 @@ class BackgroundRunLog:
         if self._proc.exitcode != 0:
             raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
         self.writer_cpu_s, self.writer_messages = self._stats[0], int(self._stats[1])
+
+
+class InProcessRunLog(MessageBatcher):
+    """Publish sink writing its MCAP file in the caller's process, batch by batch.
+
+    :class:`BackgroundRunLog`'s batching, each full batch framed here by the writer child's
+    :class:`_BatchFramer` (one Chunk a batch) instead of going through a pipe to a child:
+    for a process that may not start children (a Dask worker is a daemon process: a
+    campaign's runs). The file is what :class:`BackgroundRunLog` writes for the same
+    messages. A killed process loses the batch being filled, as there.
+
+    Parameters
+    ----------
+    path : Path
+        MCAP file to write.
+    turbine : str
+        Turbine id of the keys.
+    metadata : dict
+        Metadata records (name -> string map) written first.
+    compression : str
+        Chunk compression of the file (:data:`hil.mcap_log.COMPRESSIONS`).
+    batch_messages : int
+        Messages per batch (module docstring).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        turbine: str,
+        metadata: dict[str, dict[str, str]],
+        compression: str = "zstd",
+        batch_messages: int = BATCH_MESSAGES,
+    ) -> None:
+        super().__init__(batch_messages)
+        self.log = BatchRunLog(path, turbine, compression=compression)
+        for name, data in metadata.items():
+            self.log.add_metadata(name, data)
+        self._framer = _BatchFramer(self.log, _decoders(), time.time_ns() - time.monotonic_ns())
+        _warm_kernels(self._framer)  # numba's on-disk cache (compiled on a first run)
+
+    def _send(self) -> None:
+        if self._ids:
+            self._framer.frame(self._payload())
+            self._new_batch()
+
+    def close(self) -> None:
+        """Frame what is left, write the summary section and the footer."""
+        try:
+            self._send()
+        finally:
+            self.log.close()

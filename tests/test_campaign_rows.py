@@ -1,6 +1,7 @@
 """A campaign run's in-process path taking the compiled loop's rows (hil.campaign._RunSink,
-_FramedLog) against the path before it (every message a Struct, JSON-encoded by msgspec when
-published, ``BatchRunLog.add_json`` when recording, ``orjson.loads`` at the end).
+hil.log_writer.InProcessRunLog) against the path before it (every message a Struct,
+JSON-encoded by msgspec when published, ``BatchRunLog.add_json`` when recording,
+``orjson.loads`` at the end).
 
 One run feeds both: its Python-path Structs go to both sinks, its compiled blocks of rows to
 the new sink as rows and to the old one as the Structs ``CompiledLoop`` makes of them without
@@ -27,8 +28,9 @@ from mcap.reader import make_reader
 
 from bus_schemas.registry import MessageType
 from hil._fast_loop import rows_to_structs
-from hil.campaign import _FramedLog, _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
+from hil.campaign import _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
 from hil.controller_node import ControllerRuntime, publishing_step
+from hil.log_writer import InProcessRunLog
 from hil.mcap_log import BatchRunLog, MessageList, RunData, read_run
 from hil.plant_node import run_inprocess
 from hil.review import _col, summarize
@@ -63,7 +65,7 @@ def _both(scenario: Scenario, tmp: Path | None) -> tuple[RunData, RunData, str]:
     old_log = BatchRunLog(tmp / "old.mcap", turbine) if tmp is not None else None
     if old_log is not None:
         old_log.add_metadata("run", meta["run"])
-    new_log = _FramedLog(tmp / "new.mcap", turbine, meta) if tmp is not None else None
+    new_log = InProcessRunLog(tmp / "new.mcap", turbine, meta) if tmp is not None else None
     if old_log is not None and new_log is not None:  # the same t = 0 (log time = it + t)
         new_log.log.start_unix_ns = old_log.start_unix_ns
     old, new = _OldSink(turbine, old_log), _RunSink(turbine, new_log)
