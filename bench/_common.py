@@ -109,3 +109,25 @@ def scenario_variant(
     with open(fd, "w") as fh:
         fh.write(text)
     return Path(name)
+
+
+class Patches:
+    """Attributes replaced on classes or objects (e.g. timing wrappers), put back by
+    :meth:`restore` in reverse order (an attribute the owner did not hold itself, e.g. a
+    class attribute seen through an instance, is deleted again)."""
+
+    def __init__(self) -> None:
+        self.undo: list[tuple[Any, str, Any]] = []
+
+    def patch(self, owner: Any, name: str, value: Any) -> None:
+        """Set ``owner.name = value``, remembering what :meth:`restore` puts back."""
+        self.undo.append((owner, name, owner.__dict__.get(name)))
+        setattr(owner, name, value)
+
+    def restore(self) -> None:
+        for owner, name, old in reversed(self.undo):
+            if old is None:
+                delattr(owner, name)
+            else:
+                setattr(owner, name, old)
+        self.undo.clear()

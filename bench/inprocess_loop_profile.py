@@ -33,19 +33,19 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from _common import save
+from _common import Patches, save
 
 CONFIGS = {"lc2-lqri-ff": "iea15mw-lc2-lqri-ff", "lc2-baseline": "iea15mw-lc2"}
 
 
-class _Stack:
+class _Stack(Patches):
     """Exclusive-time timers: a wrapped call's time less that of the wrapped calls in it."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.ns: dict[str, int] = defaultdict(int)
         self.calls: dict[str, int] = defaultdict(int)
         self.inner: list[int] = [0]
-        self.undo: list[tuple[Any, str, Any]] = []
 
     def timed(self, inner: Any, part: str) -> Any:
         clock = time.perf_counter_ns
@@ -68,17 +68,8 @@ class _Stack:
     def wrap(self, owner: Any, name: str, part: str) -> bool:
         if not hasattr(owner, name):
             return False
-        self.undo.append((owner, name, owner.__dict__.get(name)))
-        setattr(owner, name, self.timed(getattr(owner, name), part))
+        self.patch(owner, name, self.timed(getattr(owner, name), part))
         return True
-
-    def restore(self) -> None:
-        for owner, name, old in reversed(self.undo):
-            if old is None:
-                delattr(owner, name)
-            else:
-                setattr(owner, name, old)
-        self.undo.clear()
 
     @staticmethod
     def overhead_ns() -> float:

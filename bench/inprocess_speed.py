@@ -58,7 +58,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from _common import run_fowt, save, scenario_variant
+from _common import Patches, run_fowt, save, scenario_variant
 
 CONFIGS: dict[str, dict[str, Any]] = {
     "lc2-lqri-ff": {"scenario": "iea15mw-lc2-lqri-ff", "target": 1000},
@@ -89,13 +89,13 @@ def _writer_overhead_cpu_s() -> float:
         return _children_cpu_s() - c0
 
 
-class _Timers:
+class _Timers(Patches):
     """CPU-time accumulators wrapped around the parts of the loop."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.ns: dict[str, int] = defaultdict(int)
         self.calls: dict[str, int] = defaultdict(int)
-        self.undo: list[tuple[Any, str, Any]] = []
 
     def wrap(self, owner: Any, name: str, part: str) -> None:
         inner = getattr(owner, name)
@@ -109,16 +109,7 @@ class _Timers:
             calls[part] += 1
             return out
 
-        self.undo.append((owner, name, owner.__dict__.get(name)))
-        setattr(owner, name, timed)
-
-    def restore(self) -> None:
-        for owner, name, old in reversed(self.undo):
-            if old is None:
-                delattr(owner, name)
-            else:
-                setattr(owner, name, old)
-        self.undo.clear()
+        self.patch(owner, name, timed)
 
     @staticmethod
     def clock_ns() -> float:
@@ -226,8 +217,7 @@ def split_run(
                     self._kernel = entry
 
             owner = kernel_mod.CompiledLoop
-            timers.undo.append((owner, "_bind_kernel", owner.__dict__.get("_bind_kernel")))
-            owner._bind_kernel = timed_bind
+            timers.patch(owner, "_bind_kernel", timed_bind)
     logs: list[Any] = []
     wrapped: set[type] = set()
     batches: list[bytes] = []

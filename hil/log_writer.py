@@ -1234,20 +1234,8 @@ class InProcessRunLog(MessageBatcher):
     :class:`_BatchFramer` (one Chunk a batch) instead of going through a pipe to a child:
     for a process that may not start children (a Dask worker is a daemon process: a
     campaign's runs). The file is what :class:`BackgroundRunLog` writes for the same
-    messages. A killed process loses the batch being filled, as there.
-
-    Parameters
-    ----------
-    path : Path
-        MCAP file to write.
-    turbine : str
-        Turbine id of the keys.
-    metadata : dict
-        Metadata records (name -> string map) written first.
-    compression : str
-        Chunk compression of the file (:data:`hil.mcap_log.COMPRESSIONS`).
-    batch_messages : int
-        Messages per batch (module docstring).
+    messages. A killed process loses the batch being filled, as there. Parameters: those
+    of :class:`BackgroundRunLog`.
     """
 
     def __init__(
