@@ -71,6 +71,7 @@ every 0.25 s of wall time (:class:`hil.mcap_log.RunLog`).
 
 from __future__ import annotations
 
+import abc
 import contextlib
 import fcntl
 import multiprocessing
@@ -359,6 +360,31 @@ def _warm_kernels(framer: _BatchFramer | None = None) -> None:
     )
 
 
+def _struct_texts(
+    decode: Any, raw: bytes, flags: np.ndarray, message_id: int
+) -> tuple[Any, bytes, np.ndarray, np.ndarray, np.ndarray]:
+    """One type's Structs of a batch JSON-encoded in one msgspec call (``[{...},{...}]``: a
+    flat object of numbers per message, so its closing brace is the only ``}`` of a message
+    and marks where it ends). Returns the messages, the text, their places in the batch's
+    order and where each message's JSON begins and ends in the text.
+
+    Raises
+    ------
+    ValueError
+        If the messages do not match the order's count of ``message_id``.
+    """
+    msgs = decode(raw)
+    text = _json_encode(msgs)
+    ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
+    where = np.flatnonzero(flags == message_id)
+    if len(ends) != len(msgs) or len(where) != len(msgs):
+        raise ValueError(f"batch: message id {message_id} does not match its messages")
+    begins = np.empty(len(ends), np.int64)
+    begins[0] = 1  # after the list's "["
+    begins[1:] = ends[:-1] + 1  # after "},"
+    return msgs, text, where, begins, ends
+
+
 def _encode_batch(
     blob: bytes, decoders: dict[int, Any], unix_minus_monotonic_ns: int = 0
 ) -> tuple[np.ndarray, bytearray]:
@@ -383,16 +409,8 @@ def _encode_batch(
     lengths = np.empty(n, np.int64)
     jobs: list[tuple[Any, ...]] = []
     seen = 0
-    for message_id, raw in by_id.items():
-        msgs = decoders[message_id](raw)
-        text = _json_encode(msgs)
-        ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
-        where = np.flatnonzero(flags == message_id)
-        if len(ends) != len(msgs) or len(where) != len(msgs):
-            raise ValueError(f"batch: message id {message_id} does not match its messages")
-        begins = np.empty(len(ends), np.int64)
-        begins[0] = 1  # after the list's "["
-        begins[1:] = ends[:-1] + 1  # after "},"
+    for mid, raw in by_id.items():
+        msgs, text, where, begins, ends = _struct_texts(decoders[mid], raw, flags, mid)
         lengths[where] = ends - begins
         meta[where, 1] = [m.sample_time_ns for m in msgs]
         meta[where, 2] = [m.publish_time_ns for m in msgs]
@@ -803,15 +821,7 @@ class _BatchFramer:
                 decode = self.decoders.get(mid)
                 if decode is None:
                     raise ValueError(f"batch: unknown message id {mid}")
-                msgs = decode(raw)
-                text = _json_encode(msgs)
-                ends = np.flatnonzero(np.frombuffer(text, np.uint8) == _CLOSE_BRACE) + 1
-                where = np.flatnonzero(flags == mid)
-                if len(ends) != len(msgs) or len(where) != len(msgs):
-                    raise ValueError(f"batch: message id {mid} does not match its messages")
-                begins = np.empty(len(ends), np.int64)
-                begins[0] = 1  # after the list's "["
-                begins[1:] = ends[:-1] + 1  # after "},"
+                msgs, text, where, begins, ends = _struct_texts(decode, raw, flags, mid)
                 smeta[where, 0] = begins + at
                 smeta[where, 1] = ends - begins
                 smeta[where, 2] = [m.sample_time_ns for m in msgs]
@@ -995,7 +1005,7 @@ def _row_dtype_ok(mt: MessageType, block: np.ndarray) -> bool:
     return dtype is expected or bool(dtype == expected)
 
 
-class MessageBatcher:
+class MessageBatcher(abc.ABC):
     """The batch being filled: messages given one by one (:meth:`publish`) or as rows
     (:meth:`publish_block`), cut by count into batches of ``batch_messages``, each handed
     to :meth:`_send` as it fills (:meth:`_payload`: the batch's bytes, as the writer reads
@@ -1015,9 +1025,9 @@ class MessageBatcher:
         self._batch_messages = batch_messages
         self._new_batch()
 
+    @abc.abstractmethod
     def _send(self) -> None:
         """Hand the full (or, at the end, last) batch on and start a new one."""
-        raise NotImplementedError
 
     def _new_batch(self) -> None:
         # The batch being filled: the message ids in publish order and, per message id,
