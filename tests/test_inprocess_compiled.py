@@ -332,13 +332,18 @@ def test_mcap_of_compiled_loop_equals_python_loop(name: str, tmp_path: Path) -> 
             assert x == y, f"{topic} #{i}:\n{x!r}\n{y!r}"
 
 
+def _bound_loop() -> CompiledLoop:
+    """A compiled loop of a 1 s baseline run, its kernel's entry point bound."""
+    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
+    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), ControllerRuntime(scn), lambda _f: None)
+    assert fast._kernel is not None
+    return fast
+
+
 def test_kernel_entry_point_is_dropped_when_an_array_type_changes() -> None:
     """The loop calls the kernel's compiled entry point (which does not check its arguments)
     only while the replaceable arrays keep the types it was bound with."""
-    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
-    rt = ControllerRuntime(scn)
-    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), rt, lambda _f: None)
-    assert fast._kernel is not None
+    fast = _bound_loop()
     sim = fast.loop.sim
     wc = sim._wc
     fast._check_kernel_types()
@@ -432,10 +437,7 @@ def test_kernel_histogram_is_latency_histogram() -> None:
 def test_kernel_entry_point_kept_while_the_types_hold() -> None:
     """A replaced array of the same numba type keeps the bound entry point; a read-only
     one (another type, the same dtype, shape and layout) drops it."""
-    scn = load_scenario("iea15mw-lc2").with_duration(1.0)
-    rt = ControllerRuntime(scn)
-    fast = CompiledLoop(PlantLoop(scn, lambda *_: None), rt, lambda _f: None)
-    assert fast._kernel is not None
+    fast = _bound_loop()
     sim = fast.loop.sim
     wc = sim._wc
     sim._wc = wc.copy()
