@@ -335,6 +335,115 @@ class TimingSummary(msgspec.Struct, frozen=True, kw_only=True):
     sim_seconds_per_wall_second: Annotated[float, M("1", 0.0, 1e9, "achieved speed over real time")]
 
 
+#: Why the plant refused a command payload: the codec's reasons (:mod:`bus_schemas.codec`),
+#: then the plant's own checks. Each is a ``commands_rejected_<reason>`` field of
+#: :class:`PlantReport`; a reason not listed is counted under ``other``.
+PLANT_REJECT_REASONS: tuple[str, ...] = (
+    "length",
+    "header",
+    "version",
+    "non_finite",
+    "range",
+    "auth",
+    "duplicate_or_reordered",
+    "unpublished_seq",
+    "other",
+)
+
+#: Why the controller refused a sensor frame (each a ``frames_rejected_<reason>`` field of
+#: :class:`ControllerReport`; a reason not listed is counted under ``other``).
+CONTROLLER_REJECT_REASONS: tuple[str, ...] = (
+    "length",
+    "header",
+    "version",
+    "non_finite",
+    "range",
+    "auth",
+    "duplicate_or_reordered",
+    "implausible_seq",
+    "stale",
+    "other",
+)
+
+
+def _counts(prefix: str, reasons: tuple[str, ...]) -> list[tuple[str, object]]:
+    return [(f"{prefix}_{r}", Count) for r in reasons]
+
+
+#: The plant's account of a run, published once when the run ends (``final`` = 1), after the
+#: final :class:`TimingSummary`: how many messages of each per-cycle channel it published
+#: (what a complete recording must hold), how many commands it applied, and every rejected
+#: command payload by reason. ``aborted`` = 1 when a signal stopped the run early.
+PlantReport: type[msgspec.Struct] = msgspec.defstruct(
+    "PlantReport",
+    [
+        ("seq", Seq),
+        ("sample_time_ns", TimeNs),
+        ("publish_time_ns", TimeNs),
+        ("final", Flag),
+        ("aborted", Flag),
+        ("cycles", Count),
+        ("sensor_frames_published", Count),
+        ("truth_published", Count),
+        ("cycle_records_published", Count),
+        ("summaries_published", Count),
+        ("previews_published", Count),
+        ("commands_applied", Count),
+        *_counts("commands_rejected", PLANT_REJECT_REASONS),
+    ],
+    frozen=True,
+    kw_only=True,
+    module=__name__,
+)
+PlantReport.__doc__ = "The plant's end-of-run account: messages published, commands rejected."
+
+#: The controller's account of a run, published once when it stops (``final`` = 1): frames
+#: it stepped on, commands and status messages it published, its safe mode (entries, the
+#: commands it sent in it, the sample time of its first entry: 0 when ``safe_mode_entries``
+#: is 0), the frames its watchdog found missing or stale, and every rejected sensor-frame
+#: payload by reason. ``aborted`` = 1 when a signal stopped it before the plant's end.
+ControllerReport: type[msgspec.Struct] = msgspec.defstruct(
+    "ControllerReport",
+    [
+        ("seq", Seq),
+        ("sample_time_ns", TimeNs),
+        ("publish_time_ns", TimeNs),
+        ("final", Flag),
+        ("aborted", Flag),
+        ("frames_accepted", Count),
+        ("commands_published", Count),
+        ("statuses_published", Count),
+        ("safe_mode", Flag),
+        ("safe_mode_entries", Count),
+        ("safe_mode_commands", Count),
+        ("safe_mode_first_entry_ns", TimeNs),
+        ("frames_missing", Count),
+        ("frames_stale", Count),
+        *_counts("frames_rejected", CONTROLLER_REJECT_REASONS),
+    ],
+    frozen=True,
+    kw_only=True,
+    module=__name__,
+)
+ControllerReport.__doc__ = (
+    "The controller's end-of-run account: frames stepped on, safe mode, frames rejected."
+)
+
+
+def rejection_fields(
+    counts: dict[str, int], prefix: str, reasons: tuple[str, ...]
+) -> dict[str, int]:
+    """Keyword arguments ``{prefix}_{reason}: count`` of a report from a reason counter.
+
+    A reason not in ``reasons`` is added to ``{prefix}_other`` (``reasons`` ends with it).
+    """
+    out = {f"{prefix}_{r}": 0 for r in reasons}
+    for reason, n in counts.items():
+        key = f"{prefix}_{reason}" if reason in reasons else f"{prefix}_other"
+        out[key] += int(n)
+    return out
+
+
 #: Number of samples and their spacing [s] in :data:`WavePreviewPerfect` (horizon 20 s).
 WAVE_PREVIEW_SAMPLES = 81
 WAVE_PREVIEW_STEP_S = 0.25

@@ -18,8 +18,10 @@ import numpy as np
 from bus_schemas.codec import Codec, DecodeError, HeaderError
 from bus_schemas.messages import (
     ActuatorCommand,
+    ControllerReport,
     ControllerStatus,
     CycleTiming,
+    PlantReport,
     PlantState,
     PlatformControllerStatus,
     PlatformFrame,
@@ -101,6 +103,8 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(CycleTiming, 5, 1, "timing/cycle"),
     _mt(TimingSummary, 6, 2, "timing/summary"),
     _mt(WavePreviewPerfect, 7, 1, "preview/wave_perfect"),
+    _mt(PlantReport, 12, 1, "timing/report"),
+    _mt(ControllerReport, 13, 1, "controller/report"),
 )
 
 #: Messages of multi-turbine platforms (the Hexicon H3 family): per-turbine ones are keyed
@@ -126,6 +130,8 @@ CONTROLLER_STATUS = BY_CLASS[ControllerStatus]
 CYCLE_TIMING = BY_CLASS[CycleTiming]
 TIMING_SUMMARY = BY_CLASS[TimingSummary]
 WAVE_PREVIEW_PERFECT = BY_CLASS[WavePreviewPerfect]
+PLANT_REPORT = BY_CLASS[PlantReport]
+CONTROLLER_REPORT = BY_CLASS[ControllerReport]
 TURBINE_FRAME = BY_CLASS[TurbineFrame]
 TURBINE_COMMAND = BY_CLASS[TurbineCommand]
 PLATFORM_FRAME = BY_CLASS[PlatformFrame]
@@ -154,10 +160,12 @@ __all__ = [
     "BY_ID",
     "BY_SUFFIX",
     "COMMAND",
+    "CONTROLLER_REPORT",
     "CONTROLLER_STATUS",
     "CYCLE_TIMING",
     "KEY_PREFIX",
     "MESSAGES",
+    "PLANT_REPORT",
     "PLATFORM_FRAME",
     "PLATFORM_MESSAGES",
     "PLATFORM_STATUS",

@@ -23,6 +23,7 @@ from bus_schemas import (
     VersionError,
 )
 from bus_schemas.codec import FieldSpec
+from bus_schemas.messages import CONTROLLER_REJECT_REASONS, PLANT_REJECT_REASONS
 from bus_schemas.registry import MESSAGES, SENSORS, MessageType, decode_any
 
 _INT_MAX = {"u64": 2**64 - 1, "i64": 2**63 - 1, "u32": 2**32 - 1, "u8": 255}
@@ -160,6 +161,24 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "estimator_degraded",
         "forecast_unstable_fits",
         "forecast_guarded",
+        # the end-of-run reports (PlantReport, ControllerReport): flags and counts
+        "aborted",
+        "sensor_frames_published",
+        "truth_published",
+        "cycle_records_published",
+        "summaries_published",
+        "previews_published",
+        "commands_applied",
+        "frames_accepted",
+        "commands_published",
+        "statuses_published",
+        "safe_mode",
+        "safe_mode_entries",
+        "safe_mode_commands",
+        "frames_missing",
+        "frames_stale",
+        *(f"commands_rejected_{r}" for r in PLANT_REJECT_REASONS),
+        *(f"frames_rejected_{r}" for r in CONTROLLER_REJECT_REASONS),
     }
     for mt in MESSAGES:
         for f in mt.codec.fields:
