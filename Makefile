@@ -1,14 +1,14 @@
 # Two commands do everything on a fresh machine with Python >= 3.11 and make:
 #   make run    set up, then run the default scenario (plant, controller and recorder as
 #               separate processes over Zenoh, in real time) and review it
-#   make test   set up, then lint, type-check and pass the tests
+#   make test   set up, then lint, type-check, build the docs and pass the tests
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= runs/default
 
-.PHONY: setup run test lint typecheck pytest bench clean
+.PHONY: setup run test lint typecheck docs pytest bench clean
 
 setup: $(STAMP)
 
@@ -34,10 +34,14 @@ lint: setup
 typecheck: setup
 	$(BIN)/mypy
 
+# The documentation site; --strict turns every broken link or missing page into an error.
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
+
 pytest: setup
 	$(BIN)/python -m pytest
 
-test: lint typecheck pytest
+test: lint typecheck docs pytest
 
 RTPRIO ?= 20
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import re
 import subprocess
@@ -15,15 +16,38 @@ from typing import Any
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
-def machine() -> dict[str, Any]:
-    """Where the figures were measured."""
+def commit() -> str:
+    """The checkout's commit (``<hash>`` or ``<hash>+dirty``), or "unknown" outside git."""
+    root = Path(__file__).resolve().parent.parent
     try:
-        import os
+        head = subprocess.run(
+            ["git", "rev-parse", "--short=10", "HEAD"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")  # fmt: skip
 
-        cores = os.cpu_count()
-    except Exception:
-        cores = None
-    return {"python": sys.version.split()[0], "platform": platform.platform(), "cpus": cores}
+
+def machine() -> dict[str, Any]:
+    """Where and under what load the figures were measured (1/5/15-min load averages)."""
+    cores = os.cpu_count()
+    return {
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "cpus": cores,
+        "load_average": [round(x, 2) for x in os.getloadavg()],
+    }
 
 
 def run_fowt(
@@ -70,17 +94,31 @@ def run_fowt(
         return summary
 
 
+#: Absolute paths of a particular machine (checkouts, interpreters, temporary folders).
+_LOCAL_PATH = re.compile(r'(?<=")/(?:work|root|home|tmp|private|Users)/[^"]*(?=")')
+
+
+def scrub_paths(text: str) -> str:
+    """``text`` with every absolute local path in a JSON string replaced by ``<local path>``.
+
+    Results are committed; which folder a checkout or interpreter sat in on the machine that
+    measured them says nothing about the figures (the commit does, :func:`commit`).
+    """
+    return _LOCAL_PATH.sub("<local path>", text)
+
+
 def save(name: str, result: dict[str, Any]) -> Path:
     """Print and save one benchmark's JSON."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     result = {
         "benchmark": name,
         "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "commit": commit(),
         "machine": machine(),
         **result,
     }
     path = RESULTS / f"{name}.json"
-    path.write_text(json.dumps(result, indent=2))
+    path.write_text(scrub_paths(json.dumps(result, indent=2)))
     print(json.dumps(result, indent=2))
     print(f"saved {path}")
     return path

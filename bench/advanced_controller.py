@@ -1,6 +1,6 @@
 """Advanced controller (observers + wave forecast + LQRI [+ wave FF]): cost and benefit.
 
-Issue 4's benchmark, three parts (each prints its figures; all saved together to
+The advanced controller's benchmark, three parts (each prints its figures; all saved together to
 ``bench/results/advanced_controller.json``):
 
 a. **Cycle compute, one process** (``replay``): the ``lqri_ff`` scenario
@@ -17,14 +17,14 @@ b. **Two-process real-time runs** (``realtime``): ``fowt run`` of the same scena
    p50/p99/p99.9/max and the controller's compute p50/p99/max from the run summary (the
    MCAP). Targets: 0 deadline misses and p99 compute <= 1 ms. In a 60 s run the forecast is
    not yet valid, so the FF filter bank holds (part a gives the all-parts-on cost).
-c. **Benefit, in process, 600 s, same seeds** (``comparison``): issue 4 above rated,
+c. **Benefit, in process, 600 s, same seeds** (``comparison``): above rated,
    ``iea15mw-lqri-15`` vs ``iea15mw-baseline-15`` (15 m/s IEC B, Hs 3 m, Tp 9.5 s):
    rotor-speed, power and platform-pitch standard deviations; wave FF below rated,
    ``iea15mw-lc1/2-lqri-ff`` vs ``iea15mw-lc1/2-lqri``: rotor-speed variance reduction next
    to al-2019's 41 % (LC1) and 22 % (LC2); per scenario the cycle compute time, the
    wind-estimate error and the forecast VAF against the truth.
 
-Reference: ROSCO's compiled controller takes about 19 us per call (issue 4). The machine's
+Reference: ROSCO's compiled controller takes about 19 us per call (``bench/rosco.py``). The machine's
 load average (1, 5, 15 min) is saved before and after: the figures are only as quiet as the
 machine was.
 

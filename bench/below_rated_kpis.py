@@ -1,4 +1,4 @@
-"""Below rated: baseline vs lqri vs lqri_ff on al-2019's KPIs (issue 9, item 5).
+"""Below rated: baseline vs lqri vs lqri_ff on al-2019's KPIs.
 
 Runs the shipped load cases 1 and 2 (5.0 and 7.1 m/s turbulent IEC B, their JONSWAP seas,
 same seeds) for ``--duration`` (600 s) in process, written to MCAP as ``fowt run --mode

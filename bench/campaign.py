@@ -6,7 +6,7 @@ the baseline and the balanced wave feedforward, the baseline's still-water twins
 
 * throughput = Σ simulated seconds / wall seconds from the first submission to the last
   result (the cluster's start-up excluded; it is printed apart), for each worker count, and
-  the ratio 2 workers / 1 worker (issue 11's target: >= 1.8 on this 2-core machine);
+  the ratio 2 workers / 1 worker (the target: >= 1.8 on a 2-core machine);
 * the CPU share of the runs (Σ CPU time of the worker processes / Σ run wall time): below 1
   when other load on the machine takes the cores, which caps the speed-up;
 * Dask's overhead per task: (a) the round trip of a no-op task on the 2-worker cluster

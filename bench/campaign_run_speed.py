@@ -18,8 +18,8 @@ as ``first_wall_s``; then ``--repeat`` runs per record mode, alternating none / 
 load average (1 min) is saved with every round. Figures: per code, configuration and record
 mode the median and best wall and CPU over all rounds, and the ratio of the medians.
 
-    python bench/campaign_run_speed.py --compare-python /work/main/.venv/bin/python \\
-        --compare-root /work/main [--rounds 3] [--repeat 2] [--duration 600]
+    python bench/campaign_run_speed.py --compare-python REF/.venv/bin/python \\
+        --compare-root REF [--rounds 3] [--repeat 2] [--duration 600]
 """
 
 from __future__ import annotations
@@ -129,8 +129,8 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--repeat", type=int, default=2, help="runs per record mode per child")
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--compare-python", default=None, help="e.g. /work/main/.venv/bin/python")
-    ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
+    ap.add_argument("--compare-python", default=None, help="that checkout's Python interpreter")
+    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
     ap.add_argument("--save-as", default="campaign_run_speed")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--controller", default=CONTROLLERS[0], help=argparse.SUPPRESS)

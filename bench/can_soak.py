@@ -22,7 +22,7 @@
 2. Soak: ``fowt run`` of the default floating scenario (IEA 15 MW on VolturnUS-S, load case
    2) at 40 Hz (control period 0.025 s, plant step 0.0125 s), ``--transport can
    --can-interface udp_multicast``, real time at speed 1, ``--realtime-priority`` for plant
-   and controller, for ``--duration`` seconds (600: the issue's 10 minutes). Deadline
+   and controller, for ``--duration`` seconds (600: 10 minutes). Deadline
    misses (target 0), late and held commands, sensor-to-command latency p50/p99/p99.9/max and
    the controller's compute time, with the load average before and after.
 

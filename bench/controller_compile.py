@@ -9,8 +9,8 @@ Each process times the import of the controller stack, the construction of the
 measured from outside. ``--repeats`` pairs are run (the machine is shared: the load average
 is saved beside the figures).
 
-With ``--compare-python`` and ``--compare-root`` (e.g. ``/work/main/.venv/bin/python`` and
-``/work/main``) each repeat runs that checkout's cold/warm pair first (its interpreter, its
+With ``--compare-python`` and ``--compare-root`` (e.g. ``REF/.venv/bin/python`` and
+``REF``, another checkout) each repeat runs that checkout's cold/warm pair first (its interpreter, its
 working directory, its own private cache), so both sides are measured in one run under the
 same load.
 

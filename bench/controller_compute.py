@@ -1,6 +1,6 @@
 """Controller compute per cycle: the advanced core, the baseline core and ROSCO's DISCON.
 
-Issue 15's controller target (p50 <= 50 us, p99 <= 150 us per call of the ``lqri_ff``
+The controller's compute target (p50 <= 50 us, p99 <= 150 us per call of the ``lqri_ff``
 core), measured beside ROSCO's compiled controller in the same process and run:
 
 1. **Frames.** ``iea15mw-lc2-lqri-ff`` (IEA 15 MW VolturnUS-S, load case 2, 40 Hz, dispersion
@@ -21,8 +21,8 @@ core), measured beside ROSCO's compiled controller in the same process and run:
    cycles with every part on (forecast valid and wave FF stepping), with the ratio to
    ROSCO's per-call p50/p99. The machine's load average is saved before and after.
 
-4. **Before/after in one run** (``--compare-python /work/main/.venv/bin/python
-   --compare-root /work/main``): the same frames (pickled) are replayed into the ``lqri_ff``
+4. **Before/after in one run** (``--compare-python REF/.venv/bin/python
+   --compare-root REF``): the same frames (pickled) are replayed into the ``lqri_ff``
    and ``baseline`` cores of that checkout by a child process with that interpreter,
    alternating with this checkout's replays and ROSCO's for ``--rounds`` rounds; each
    side's least disturbed round (lowest CPU p50) is reported with every round's p50, so
@@ -31,7 +31,7 @@ core), measured beside ROSCO's compiled controller in the same process and run:
 Usage::
 
     python bench/controller_compute.py [--duration 300] [--repeats 3] [--rounds 1]
-        [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
+        [--compare-python REF/.venv/bin/python --compare-root REF]
 
 Saves ``bench/results/controller_compute.json``.
 """

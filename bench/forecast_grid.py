@@ -1,8 +1,8 @@
-"""Forecaster VAF over a grid of sea states (issue 9, item 4): dispersion, AR, ESPRIT.
+"""Forecaster VAF over a grid of sea states: dispersion, AR, ESPRIT.
 
 JONSWAP (gamma 3.3, deep water, the same seed) at H_s 1, 2, 4, 6, 8 m and T_p 6, 8, 10, 12,
 14 s, white sensor noise of 0.02 m (the gauge channel of the shipped scenarios) on what each
-forecaster measures, gauge 300 m up-wave, horizon 8 s for all three (issue 9's command), 300 s
+forecaster measures, gauge 300 m up-wave, horizon 8 s for all three, 300 s
 evaluated after the dispersion filter has filled. Each forecaster runs through its runtime
 ``step`` (``hil.analyze_forecast.forecast_grid``; ``fowt analyze forecast --grid`` prints the
 same table). Prints the table and saves ``bench/results/forecast_grid.json``.

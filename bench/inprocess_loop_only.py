@@ -11,8 +11,8 @@ With ``--compare-python PY --compare-root DIR`` (e.g. main's venv and checkout) 
 compiled loop runs in the same alternation (this script, DIR's code), as ``compare``.
 
     python bench/inprocess_loop_only.py [--rounds 3] [--duration 600] [--save-as NAME]
-    python bench/inprocess_loop_only.py --compare-python /work/main/.venv/bin/python \
-        --compare-root /work/main --rounds 3 --save-as inprocess_loop_only_glue4
+    python bench/inprocess_loop_only.py --compare-python REF/.venv/bin/python \
+        --compare-root REF --rounds 3 --save-as inprocess_loop_only_glue4
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--child", nargs=2, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
-    ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
+    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
     ap.add_argument("--save-as", default="inprocess_loop_only", help="name of the JSON")
     args = ap.parse_args()
     if args.child:

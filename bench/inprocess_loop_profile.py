@@ -18,7 +18,7 @@ is shared), the time blocked in the pipe taken out. Parts a code version lacks a
 (``--root`` another checkout, e.g. main, run with its own venv)::
 
     python bench/inprocess_loop_profile.py [--duration 600] [--repeat 2] [--save-as NAME]
-    PYTHONPATH=/work/main /work/main/.venv/bin/python bench/inprocess_loop_profile.py \
+    PYTHONPATH=REF REF/.venv/bin/python bench/inprocess_loop_profile.py \
         --save-as inprocess_loop_profile_main
 """
 

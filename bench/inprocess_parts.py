@@ -13,8 +13,8 @@ on the wall clock), so these are lower bounds of the same parts inside the run
 the same script runs alternately with DIR's code (``--rounds``), and the least-CPU round of
 each part is kept.
 
-    python bench/inprocess_parts.py --compare-python /work/main/.venv/bin/python \\
-        --compare-root /work/main --rounds 3
+    python bench/inprocess_parts.py --compare-python REF/.venv/bin/python \\
+        --compare-root REF --rounds 3
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Benchmark 3: in-process runs (no bus), 600 s of load case 2, MCAP written.
 
-Issue 15's targets: ``fowt run iea15mw-lc2-lqri-ff --mode inprocess --duration 600`` at
+The targets: ``fowt run iea15mw-lc2-lqri-ff --mode inprocess --duration 600`` at
 >= 1000x real time and ``iea15mw-lc2`` (the baseline controller) at >= 2000x. For each
 configuration this script measures:
 
@@ -34,15 +34,15 @@ configuration this script measures:
 The machine is shared (2 cores, other jobs): the load average is saved with the figures.
 
     python bench/inprocess_speed.py [--duration 600] [--only NAME] [--repeat 2] [--legacy]
-    python bench/inprocess_speed.py --compare-python /work/main/.venv/bin/python \
-        --compare-root /work/main --compare-only --rounds 3 --save-as inprocess_speed_compare
+    python bench/inprocess_speed.py --compare-python REF/.venv/bin/python \
+        --compare-root REF --compare-only --rounds 3 --save-as inprocess_speed_compare
 
-The figures before issue 15's logging work came from this script run on an export of the
+Earlier figures came from this script run on an export of the
 older commit with this venv (the script copes with the older log writer)::
 
     git archive 47d7306 | tar -x -C /tmp/before && cp bench/inprocess_speed.py /tmp/before/bench/
     cd /tmp/before && PYTHONPATH=/tmp/before python bench/inprocess_speed.py \
-        --label "main 47d7306" --save-as inprocess_speed_before_issue15
+        --label "main 47d7306" --save-as inprocess_speed_reference
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ CONFIGS: dict[str, dict[str, Any]] = {
     "lc2-lqri-ff": {"scenario": "iea15mw-lc2-lqri-ff", "target": 1000},
     "lc2-baseline": {"scenario": "iea15mw-lc2", "target": 2000},
 }
-#: Issue 2's configurations (target 500x), with ``--legacy``.
+#: The first in-process configurations (target 500x), with ``--legacy``.
 LEGACY: dict[str, tuple[str, float, float]] = {
     "foundation-100hz": ("nrel5mw-ramp", 0.01, 0.01),
     "floating-40hz": ("default", 0.025, 0.0125),
@@ -224,7 +224,7 @@ def split_run(
     marks: dict[str, int] = {}
     init_log = lw.BackgroundRunLog.__init__
     init_runtime = launch_mod.ControllerRuntime.__init__
-    send = getattr(lw.BackgroundRunLog, "_send", None)  # (absent before issue 15)
+    send = getattr(lw.BackgroundRunLog, "_send", None)  # (absent in older checkouts)
     keep_batches = keep_batches and send is not None
     run_loop = pn.run_inprocess
 
@@ -320,7 +320,7 @@ def split_run(
     # ratio (preemption taken as spread evenly over the loop).
     # The time blocked in the pipe (waiting for the writer) is not CPU time: it is taken
     # out of the logging part and of the loop's wall time before scaling.
-    send_ns = getattr(log, "send_ns", 0)  # (main before issue 15 did not count it)
+    send_ns = getattr(log, "send_ns", 0)  # (older checkouts do not count it)
     cpu_per_wall = loop_cpu / max(1, loop_wall - send_ns)
     timers.ns["logging"] -= send_ns
     parts = {
@@ -493,14 +493,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--only", choices=sorted(CONFIGS), default=None)
-    ap.add_argument("--legacy", action="store_true", help="also issue 2's two configurations")
+    ap.add_argument("--legacy", action="store_true", help="also the first two configurations")
     ap.add_argument("--no-user-run", action="store_true", help="skip the fowt run subprocess")
     ap.add_argument("--repeat", type=int, default=2, help="split runs per configuration")
     ap.add_argument("--label", default="", help="what code was measured (saved)")
     ap.add_argument("--save-as", default="inprocess_speed", help="name of the JSON")
     ap.add_argument("--split-child", choices=sorted(CONFIGS), default=None, help=argparse.SUPPRESS)
     ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
-    ap.add_argument("--compare-root", type=Path, default=None, help="e.g. /work/main")
+    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
     ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
     ap.add_argument(

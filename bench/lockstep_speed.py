@@ -9,7 +9,7 @@ during the run shows as their spread). Prints and saves:
 
 * ``sim_seconds_per_wall_second`` (target >= 50 at 40 Hz) and the cycle's wall time;
 * ``cycle_over_raw_rtt``: the lock-step cycle's mean wall time / the raw round trip's mean
-  (the issue's target <= 1.25);
+  (the target <= 1.25);
 * the plant's own profile of its cycles (its log line ``plant lock-step cycle profile``):
   ``sample`` (truth and sensor frame, their encoding, the frame's put), ``wait`` (until the
   command is in the plant's hands: round trip plus the controller's turn), ``finish``
@@ -21,7 +21,7 @@ during the run shows as their spread). Prints and saves:
 Beside the plain ping-pong, a raw ping-pong with a passive third peer subscribed to both
 keys (as the recorder is; ``_zenoh_pingpong.measure(observer=True)``) is measured before
 and after too, and the cycle and exchange are also given over it (``..._with_observer``):
-an additional reference, not the issue's.
+an additional reference, not the target's.
 
 ``--rounds N`` runs each configuration N times (figures: means over the rounds, each
 round under ``runs``); ``--compare-python PY --compare-root DIR`` runs another checkout

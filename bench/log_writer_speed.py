@@ -41,8 +41,8 @@ the stream; ``total_us`` is the whole writer per message (decode to file) with t
 per batch, i.e. per chunk): the child's CPU per message and the file size.
 
     python bench/log_writer_speed.py [--streams lqri_ff,baseline] [--passes 4] [--rounds 3] \\
-        [--compare-python /work/main/.venv/bin/python --compare-root /work/main] \\
-        [--save-as log_writer_speed_s13]
+        [--compare-python REF/.venv/bin/python --compare-root REF] \\
+        [--save-as log_writer_speed_compare]
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ rotor speed locked, which removes the rotor-speed loop. Needs ``../shared`` (ref
 prints a message and exits 2 without it.
 
 Second table, the rotor's aerodynamic derivatives at each operating point (the frozen-wake
-question of issue 9): ∂T/∂Ω, ∂T/∂U, ∂Q/∂Ω, ∂Q/∂U of
+question): ∂T/∂Ω, ∂T/∂U, ∂Q/∂Ω, ∂Q/∂U of
 
 * ``table``: the bench's Cp/Ct/Cq table at the bench's trim (what :func:`plant.modes.linearize`
   differentiates; equilibrium wake);

@@ -13,7 +13,7 @@ calls them, with the command held at the initial actuator positions. Two configu
 Usage::
 
     .venv/bin/python bench/plant_cycle_speed.py [--cycles 4000] [--reps 7] [--rounds 3]
-        [--compare-python /work/main/.venv/bin/python --compare-root /work/main]
+        [--compare-python REF/.venv/bin/python --compare-root REF]
 
 Per configuration: ``reps`` repetitions of ``cycles`` consecutive cycles (after 200 warm-up
 cycles), each cycle timed (wall clock): its percentiles (p50 is the figure least disturbed by

@@ -5,10 +5,10 @@ deadline misses and the controller's compute time per cycle, and beside it a raw
 ping-pong between two processes (``bench/_zenoh_pingpong.py``: same Zenoh config, the encoded
 SensorFrame's size one way and the ActuatorCommand's back, paced at the configuration's
 control rate, under the same ``--realtime-priority``, measured right before and right after
-the run; the reference is the mean of the two) and the ratio bench p99 / raw p99 (issue 15's
+the run; the reference is the mean of the two) and the ratio bench p99 / raw p99 (the
 target: <= 1.5), with the load average. Configurations:
 
-* ``foundation-100hz``: the foundation's bottom-fixed NREL 5 MW ramp at 100 Hz (issue 2's
+* ``foundation-100hz``: the foundation's bottom-fixed NREL 5 MW ramp at 100 Hz (the
   target: 0 misses, p99 <= 2 ms);
 * ``floating-40hz`` and ``floating-100hz``: the default floating scenario (IEA 15 MW on
   VolturnUS-S, load case 2) at the deck's 40 Hz and at 100 Hz.

@@ -1,8 +1,8 @@
-"""Soak benchmark (issue 5): a long real-time run at 100 Hz with a CPU hog on the other core.
+"""Soak benchmark: a long real-time run at 100 Hz with a CPU hog on the other core.
 
 The default floating scenario (IEA 15 MW on VolturnUS-S, load case 2) at 100 Hz (control
 period and plant step 0.01 s) runs in real time (speed 1) for ``--duration`` seconds (600 s:
-the issue's 10 minutes) as ``fowt run`` runs it: plant, controller and recorder as separate
+10 minutes) as ``fowt run`` runs it: plant, controller and recorder as separate
 processes over Zenoh. Meanwhile a CPU-bound process (a pure-Python busy loop) runs on the
 other core: with ``--pin`` (default) the bench's processes are pinned to core 0 and the hog
 to core 1, so the bench has exactly one core; ``--no-pin`` lets the scheduler place them.

@@ -94,7 +94,7 @@ consecutive skipped/rejected count exceeds ``max_consecutive_misses`` makes the 
 ``degraded``; one
 accepted update of that channel resets its count.
 
-What is hand-written here and why: filterpy (the issue's suggestion) offers the same
+What is hand-written here and why: filterpy (the library of the field) offers the same
 predict/update equations as pure functions (``filterpy.kalman.predict/update``, Joseph form
 included) and the tests use it as the reference, but it has no innovation gating, no
 per-channel validity, reshapes its arguments on every call and ships no type information; the

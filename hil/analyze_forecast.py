@@ -220,7 +220,7 @@ def forecast_report(
     return out
 
 
-#: Sea states of :func:`forecast_grid` (issue 9: H_s 1-8 m, T_p 6-14 s).
+#: Sea states of :func:`forecast_grid` (H_s 1-8 m, T_p 6-14 s).
 GRID_HS_M = (1.0, 2.0, 4.0, 6.0, 8.0)
 GRID_TP_S = (6.0, 8.0, 10.0, 12.0, 14.0)
 

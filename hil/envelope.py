@@ -1,4 +1,4 @@
-"""Operating envelope of a run, checked from its MCAP log alone (issue 9, item 5).
+"""Operating envelope of a run, checked from its MCAP log alone.
 
 The limits are the turbine's as its baseline controller preset states them (IEA 15 MW: the
 DISCON.IN of the OpenFAST deck, ``controller/presets/iea15mw_baseline.toml``):
@@ -22,7 +22,7 @@ not an operating point; al-2019 also discards it) unless stated:
 * pitch integrator (``controller/status`` ``pitch_integrator_rad``) not wound up below rated:
   on the cycles with the regime below region 3 and the pitch command at θ_min, the integral
   term stays within ``integrator_tolerance_rad`` of θ_min (a PI whose integrator is clamped or
-  at rest there; the issue measured -0.74 to -0.17 rad before the fix).
+  at rest there; -0.74 to -0.17 rad were measured before the fix).
 """
 
 from __future__ import annotations

@@ -38,7 +38,7 @@ text. If the parent dies, the child sees the pipe close and finishes the file, s
 handed over is lost.
 
 Cost (bench/log_writer_speed.py ``--passes 4 --rounds 3 --compare-python
-/work/main/.venv/bin/python --compare-root /work/main``: the five per-cycle messages of a
+REF/.venv/bin/python --compare-root REF``: the five per-cycle messages of a
 real 60 s LC2 run, 48 000 messages a round, rows in blocks of 8 cycles, alternating with
 main's code (a704bdc, the path before); load 0.7-1.1; bench/results/log_writer_speed_s13.json):
 the child needs 1.84 us of CPU a message for the lqri_ff stream (median 1.88; main 2.85,

@@ -26,7 +26,7 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``shaft_torque_nm`` (truth), ``tower_base_del_nm`` [N m] the same for the tower-base
     fore-aft bending moment ``tower_base_moment_nm``, both by rainflow counting with Wöhler
     exponent m = ``shaft_del_wohler_m`` = 4 at f_eq = ``del_n_eq_hz`` = 1 Hz over the record:
-    DEL = (Σ n_i S_i^m / (f_eq T))^(1/m), T the record length (the issue's "1 Hz equivalent,
+    DEL = (Σ n_i S_i^m / (f_eq T))^(1/m), T the record length ("1 Hz equivalent,
     600 s" is this with T = 600 s for a 600 s load case; shorter records give the same
     damage rate, so DELs of runs of different lengths compare),
     ``thrust_del_n`` [N] the same for rotor thrust (m = 4),

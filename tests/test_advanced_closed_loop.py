@@ -1,6 +1,6 @@
 """The advanced controller (observers + wave forecast + LQRI) in closed loop, in process.
 
-Issue 4's comparison above rated: IEA 15 MW on VolturnUS-S, 15 m/s turbulent wind (IEC class
+The comparison above rated: IEA 15 MW on VolturnUS-S, 15 m/s turbulent wind (IEC class
 B), JONSWAP Hs 3 m, Tp 9.5 s, the same seeds for both controllers (the shipped scenarios
 ``iea15mw-lqri-15`` and ``iea15mw-baseline-15``), run in process for ``DURATION_S`` (200 s
 here to keep the suite fast; ``bench/advanced_controller.py`` runs the full 600 s and saves

@@ -1,4 +1,4 @@
-"""The advanced controller stays in the IEA 15 MW's envelope at every LC1-LC7 wind (issue 9).
+"""The advanced controller stays in the IEA 15 MW's envelope at every LC1-LC7 wind.
 
 Each load case of al-2019 table 2-2 (shipped ``iea15mw-lc1`` ... ``iea15mw-lc7``: 5.0, 7.1,
 10.3, 13.9, 17.9, 22.1, 25.0 m/s turbulent, IEC B, with their JONSWAP seas) runs in process
@@ -11,7 +11,7 @@ limits and rate limits, and no pitch-integrator wind-up at fine pitch below rate
 The wave feedforward needs a valid forecast: the dispersion forecast of the shipped scenarios
 fills after 205 s, so here the AR forecaster (gauge at the platform, own past) drives it; it
 is valid after about 26 s, so the FF torque (below 17 m/s) or pitch (above) acts for the last
-~34 s of every run, and the LQRI acts in LC3-LC7. Before issue 9's fix, LC2 spent 80.6 % of
+~34 s of every run, and the LQRI acts in LC3-LC7. Before the below-rated laws were used, LC2 spent 80.6 % of
 the time below 5 rpm (lowest 3.93 rpm) with the integrator at -0.74 to -0.17 rad.
 """
 

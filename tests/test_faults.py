@@ -1,4 +1,4 @@
-"""Scenario-driven fault injection (issue 5): sensor faults, bus faults, watchdog, observers.
+"""Scenario-driven fault injection: sensor faults, bus faults, watchdog, observers.
 
 Sensor faults are checked open loop: the controller never answers (``watchdog_misses`` = 0,
 so the plant holds its initial actuators), which makes the plant's truth the same with and

@@ -139,16 +139,16 @@ def test_esprit_sanity() -> None:
     assert s["max_abs_forecast_m"] <= 1.5 * s["max_abs_truth_m"]
 
 
-#: Sea states of issue 9 item 4 (H_s 1-8 m, T_p 6-14 s): the corners and the issue's own.
+#: Sea states H_s 1-8 m, T_p 6-14 s: the corners and one inside.
 _SEAS = [(1.0, 6.0), (8.0, 14.0), (4.3, 10.0)]
 
 
 @pytest.mark.parametrize("kind", ["ar", "esprit"])
 def test_ar_esprit_bounded_on_noisy_seas(kind: str) -> None:
-    """Issue 9: AR and ESPRIT never return unbounded forecasts (gauge at the platform, own
+    """AR and ESPRIT never return unbounded forecasts (gauge at the platform, own
     past, horizon 8 s, 0.02 m seeded sensor noise, 120 s evaluated).
 
-    Before the stability check the issue measured VAF -59 226 % (AR) and -414 % (ESPRIT) at
+    Before the stability check the measured VAF was -59 226 % (AR) and -414 % (ESPRIT) at
     H_s 4.3 m, T_p 10 s. Now: every forecast within 1.5x the largest true elevation (the
     guard's hard limit is 3x the window's), VAF above -60 % (an 8 s own-past forecast has
     little skill at T_p 6 s; measured on the full grid, ``bench/forecast_grid.py``: see the
@@ -173,7 +173,7 @@ def test_ar_esprit_bounded_on_noisy_seas(kind: str) -> None:
 
 
 def test_raw_ar_diverges_where_the_stabilised_one_does_not() -> None:
-    """The seed's raw least-squares AR on the issue's sea (H_s 4.3 m, T_p 10 s, 8 s ahead)
+    """The seed's raw least-squares AR on a heavy sea (H_s 4.3 m, T_p 10 s, 8 s ahead)
     is unbounded (VAF far below -100 %); the same fits stabilised are not."""
     kw = {"hs_m": 4.3, "tp_s": 10.0, "distance_m": 300.0, "horizon_s": 8.0}
     raw = forecast_report(duration_s=120.0, kinds=("ar",), stabilise=False, **kw)  # type: ignore[arg-type]

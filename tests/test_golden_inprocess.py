@@ -1,10 +1,10 @@
 """Golden runs: 600 s of load case 2 in process, KPIs equal to the recorded ones.
 
-Issue 15 makes the in-process loop faster (compiled plant, sensors and controller cores,
+The in-process loop is fast (compiled plant, sensors and controller cores,
 batched logging); none of it may change what a run computes. The reference KPIs in
 ``tests/data/golden_inprocess_lc2.json`` were recorded on main before that work (the file
 says which commit); every KPI, estimator and forecast figure of the review must agree to
-1e-6 relative (absolute 1e-9 for figures that are zero), as the issue asks.
+1e-6 relative (absolute 1e-9 for figures that are zero).
 """
 
 from __future__ import annotations

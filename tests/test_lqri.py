@@ -125,7 +125,7 @@ def test_wave_feedforward_enters_torque_below_and_pitch_above() -> None:
 def test_below_rated_laws_are_passed_through_and_the_integrator_rests(
     ctrl: LqriController,
 ) -> None:
-    """Issue 9: below rated the torque and pitch of the below-rated laws (the baseline's, given
+    """Below rated the torque and pitch of the below-rated laws (the baseline's, given
     by the runtime) are applied, rate limited; the LQRI integrator stays at 0 (no wind-up while
     the pitch sits at fine pitch) and the regime is the law's (here region 1.5)."""
     d = ctrl.design
@@ -149,7 +149,7 @@ def test_below_rated_laws_are_passed_through_and_the_integrator_rests(
 
 
 def test_lqri_integrator_back_calculated_at_fine_pitch(ctrl: LqriController) -> None:
-    """Issue 9: in the pitch regime with the rotor below rated (a lull) the pitch saturates at
+    """In the pitch regime with the rotor below rated (a lull) the pitch saturates at
     fine pitch for 30 s; the integrator is back-calculated, so the pitch leaves fine pitch on
     the first cycles of overspeed (a wound-up integrator would hold it there for seconds)."""
     d = ctrl.design

@@ -1,4 +1,4 @@
-"""Process faults (issue 5): ``controller_kill`` and ``plant_kill`` from a scenario.
+"""Process faults: ``controller_kill`` and ``plant_kill`` from a scenario.
 
 Validation: the two kinds take no ``channel`` (nor any other channel-fault key), only
 ``controller_kill`` takes ``restart_after_s`` (> 0 wall-clock seconds), and every error

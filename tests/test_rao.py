@@ -1,4 +1,4 @@
-"""Linear response: surge and pitch RAO from simulation vs the frequency-domain RAO (issue 3).
+"""Linear response: surge and pitch RAO from simulation vs the frequency-domain RAO.
 
 The time-domain model (``step_floating``: A_∞, the fitted radiation state space, hydrostatics,
 gravity, the mooring table, the tower mode) driven by regular-wave excitation

@@ -20,7 +20,7 @@ base-torque steady state and the design point coincide). C_p and C_T come from a
 least-squares quadratic surface fitted to the rotor table the plant uses (points within
 ±1.5 in λ and ±4° in θ), which also gives the second derivatives of the cost.
 
-Choices where the seed's printed equations slip (stated, as the issue asks)
+Choices where the seed's printed equations slip (stated)
 ---------------------------------------------------------------------------
 1. *Row 3 of A_s and B_s*: every entry of the surge-acceleration row is divided by M + A_∞
    (the seed divides only the memory term and puts M + A_∞ into B_s row 4); this is the
