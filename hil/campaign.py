@@ -24,7 +24,7 @@ In process, the compiled loop hands its messages over as numpy rows (``publish_b
 :class:`hil.mcap_log.MessageList`, whose columns the review and the KPIs read), and
 :class:`hil.log_writer.InProcessRunLog` writes ``run.mcap`` from them in this process with
 the log writer's framer. 600 s of LC2 take about half the wall time they took as Structs
-JSON-encoded one by one (bench/campaign_run_speed.py; README's benchmark table).
+JSON-encoded one by one (bench/campaign_run_speed.py; docs/benchmarks.md).
 
 Cluster: by default a :class:`distributed.LocalCluster` of processes, one per core (one
 thread each), bound to 127.0.0.1, no dashboard, started and stopped by the command;

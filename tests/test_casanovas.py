@@ -164,7 +164,7 @@ def test_table31_upper_bound_against_the_seed(hs: float, wind: float) -> None:
 
     The bound uses B_T = dF_T/dV at the optimal tip-speed ratio (linear in V); the seed's
     kW grow faster with wind (its thrust-curve slope), so 6 m/s comes out 11-14 % above
-    and 10 m/s 18-19 % below it (README of the bench results).
+    and 10 m/s 18-19 % below it (docs/studies/casanovas-2014.md).
     """
     r = upper_bound("nrel5mw_tlp", wind, hs, SEA_STATES[hs])
     seed = SEED_T31_KW[(hs, wind)]

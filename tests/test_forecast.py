@@ -151,8 +151,8 @@ def test_ar_esprit_bounded_on_noisy_seas(kind: str) -> None:
     Before the stability check the measured VAF was -59 226 % (AR) and -414 % (ESPRIT) at
     H_s 4.3 m, T_p 10 s. Now: every forecast within 1.5x the largest true elevation (the
     guard's hard limit is 3x the window's), VAF above -60 % (an 8 s own-past forecast has
-    little skill at T_p 6 s; measured on the full grid, ``bench/forecast_grid.py``: see the
-    README), and the stabilised fits are counted.
+    little skill at T_p 6 s; measured on the full grid, ``bench/forecast_grid.py``: see
+    docs/guide/controllers.md), and the stabilised fits are counted.
     """
     for hs, tp in _SEAS:
         r = forecast_report(

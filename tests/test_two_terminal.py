@@ -1,7 +1,7 @@
-"""Two-terminal runs (README, "One side alone"): plant, controller and recorder started by hand.
+"""Two-terminal runs (docs/guide/getting-started.md, "One side alone"): plant, controller and recorder started by hand.
 
 Real OS processes over real Zenoh on loopback ports picked free. The plant waits for the
-controller and the recorder by default, so a run started in the README's order is recorded
+controller and the recorder by default, so a run started in the guide's order is recorded
 from cycle 0; a plant told to wait only for the controller starts without the recorder, and
 the recorder's metadata then says which cycle it recorded first. SIGINT and SIGTERM end a
 waiting plant at once (exit 128 + signal, nothing ran); the wait gives up after
