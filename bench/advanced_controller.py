@@ -24,9 +24,9 @@ c. **Benefit, in process, 600 s, same seeds** (``comparison``): above rated,
    to al-2019's 41 % (LC1) and 22 % (LC2); per scenario the cycle compute time, the
    wind-estimate error and the forecast VAF against the truth.
 
-Reference: ROSCO's compiled controller takes about 19 us per call (``bench/rosco.py``). The machine's
-load average (1, 5, 15 min) is saved before and after: the figures are only as quiet as the
-machine was.
+Reference: ROSCO's compiled controller takes about 19 us per call (``bench/rosco.py``).
+The machine's load average (1, 5, 15 min) is saved before and after: the figures are only
+as quiet as the machine was.
 
 Usage: ``python bench/advanced_controller.py [--only replay|realtime|comparison]
 [--duration S] [--replay-duration S] [--realtime-duration S]``.

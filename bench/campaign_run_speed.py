@@ -130,7 +130,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2, help="runs per record mode per child")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--compare-python", default=None, help="that checkout's Python interpreter")
-    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
+    ap.add_argument(
+        "--compare-root", type=Path, default=None, help="another checkout's root folder"
+    )
     ap.add_argument("--save-as", default="campaign_run_speed")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--controller", default=CONTROLLERS[0], help=argparse.SUPPRESS)

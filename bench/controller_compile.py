@@ -10,9 +10,9 @@ measured from outside. ``--repeats`` pairs are run (the machine is shared: the l
 is saved beside the figures).
 
 With ``--compare-python`` and ``--compare-root`` (e.g. ``REF/.venv/bin/python`` and
-``REF``, another checkout) each repeat runs that checkout's cold/warm pair first (its interpreter, its
-working directory, its own private cache), so both sides are measured in one run under the
-same load.
+``REF``, another checkout) each repeat runs that checkout's cold/warm pair first (its
+interpreter, its working directory, its own private cache), so both sides are measured in
+one run under the same load.
 
 Usage: ``python bench/controller_compile.py [--repeats 2] [--compare-python PY
 --compare-root DIR]``; saves ``bench/results/controller_compile.json``.

@@ -73,7 +73,9 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--child", nargs=2, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
-    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
+    ap.add_argument(
+        "--compare-root", type=Path, default=None, help="another checkout's root folder"
+    )
     ap.add_argument("--save-as", default="inprocess_loop_only", help="name of the JSON")
     args = ap.parse_args()
     if args.child:

@@ -500,7 +500,9 @@ def main() -> None:
     ap.add_argument("--save-as", default="inprocess_speed", help="name of the JSON")
     ap.add_argument("--split-child", choices=sorted(CONFIGS), default=None, help=argparse.SUPPRESS)
     ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
-    ap.add_argument("--compare-root", type=Path, default=None, help="another checkout of the project (its root folder)")
+    ap.add_argument(
+        "--compare-root", type=Path, default=None, help="another checkout's root folder"
+    )
     ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
     ap.add_argument(

@@ -11,8 +11,9 @@ limits and rate limits, and no pitch-integrator wind-up at fine pitch below rate
 The wave feedforward needs a valid forecast: the dispersion forecast of the shipped scenarios
 fills after 205 s, so here the AR forecaster (gauge at the platform, own past) drives it; it
 is valid after about 26 s, so the FF torque (below 17 m/s) or pitch (above) acts for the last
-~34 s of every run, and the LQRI acts in LC3-LC7. Before the below-rated laws were used, LC2 spent 80.6 % of
-the time below 5 rpm (lowest 3.93 rpm) with the integrator at -0.74 to -0.17 rad.
+~34 s of every run, and the LQRI acts in LC3-LC7. Before the below-rated laws were used,
+LC2 spent 80.6 % of the time below 5 rpm (lowest 3.93 rpm) with the integrator at -0.74
+to -0.17 rad.
 """
 
 from __future__ import annotations

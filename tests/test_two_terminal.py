@@ -1,4 +1,6 @@
-"""Two-terminal runs (docs/guide/getting-started.md, "One side alone"): plant, controller and recorder started by hand.
+"""Two-terminal runs: plant, controller and recorder started by hand.
+
+As docs/guide/getting-started.md ("One side alone") shows them.
 
 Real OS processes over real Zenoh on loopback ports picked free. The plant waits for the
 controller and the recorder by default, so a run started in the guide's order is recorded
