@@ -5,6 +5,19 @@ unix socket), multicast scouting off, and the low-latency unicast transport (wit
 as it requires) which measured the lowest round trip here. A process only listens on the
 endpoints it is given; with none it listens nowhere. Multi-host use goes through a Zenoh
 JSON5 config file (router, TLS, access control), never through defaults that open the host.
+
+No loss by design
+-----------------
+Every publisher :meth:`Bus.publisher` declares uses congestion control ``BLOCK``: a put
+waits for room towards a slow subscriber (a recorder whose channel is full holds Zenoh's
+receive back) instead of dropping the sample, so a slow or niced recorder paces a run
+rather than losing its messages (docs/recording.md). Measured with two processes, one
+publisher putting 20 000 samples of 300 bytes into a subscriber that took nothing for
+25 s (a FIFO channel of 16): over the low-latency transport every sample arrived with
+``DROP`` and with ``BLOCK`` (the put waited up to 22.8 s); over the default transport
+``DROP`` lost 36 % at once and ``BLOCK`` lost 37 % after waiting 5 s, Zenoh's
+``transport/link/tx/queue/congestion_control/block/wait_before_close``. A Zenoh config
+file that turns the low-latency transport off should raise that wait.
 """
 
 from __future__ import annotations
@@ -142,10 +155,16 @@ class Bus:
         self._subscribers: list[Any] = []
 
     def publisher(self, key: str) -> Any:
-        """Declare (once) an express publisher on ``key`` (no batching: lowest latency)."""
+        """Declare (once) an express publisher on ``key`` (no batching: lowest latency).
+
+        Congestion control ``BLOCK``: a put towards a subscriber that cannot take more
+        waits rather than drops (module docstring, "No loss by design").
+        """
         pub = self._publishers.get(key)
         if pub is None:
-            pub = self.session.declare_publisher(key, express=True)
+            pub = self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            )
             self._publishers[key] = pub
         return pub
 
