@@ -20,9 +20,10 @@ PlantReport`, the controller's :class:`~bus_schemas.messages.ControllerReport` (
 controller is gone: its liveliness token ``fowt/<turbine>/alive/controller`` deleted) and,
 per topic, as many messages as the reports count (:mod:`hil.recording`). Only when no
 sample has come for :data:`END_IDLE_S` does it stop short, and it logs the shortfall. A
-plant that went away without its final summary (killed) ends the recording once the
-controller's report is in (or the controller is gone) and :data:`GONE_IDLE_S` passed
-without a sample. SIGINT/SIGTERM stop it at once; it always finishes the file.
+plant whose liveliness token went (it exited, or was killed) while its final summary is not
+in yet is taken as killed only after :data:`KILLED_IDLE_S` without a sample (a recorder
+behind the run is still taking what the plant sent before it exited); the recording then
+ends once the controller's report is in or the controller is gone. SIGINT/SIGTERM stop it at once; it always finishes the file.
 
 What a SIGKILL of the recorder loses: the messages it took but had not flushed (a chunk is
 flushed every 0.25 s of wall time, :class:`hil.mcap_log.RunLog`) and the samples waiting in
@@ -66,6 +67,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import queue
 import signal
 import threading
@@ -104,9 +106,13 @@ _TAKE_MAX = 4096
 #: After the plant's final summary: wall seconds without a new sample after which the
 #: recorder stops short of what the reports count (and logs the shortfall) [s].
 END_IDLE_S = 10.0
-#: After the plant went away without its final summary, or the controller without its
-#: report: wall seconds without a new sample before the recorder stops [s].
+#: After the controller went away without its report (or a recorder that joined late has
+#: the reports): wall seconds without a new sample before the recorder stops [s].
 GONE_IDLE_S = 0.5
+#: After the plant went away without its final summary: wall seconds without a new sample
+#: before the recorder takes it as killed (a recorder behind the run may still be taking
+#: what the plant sent before it exited) [s].
+KILLED_IDLE_S = 2.0
 
 #: Key suffix of the raw CAN frame channel.
 CAN_RAW_SUFFIX = "can/raw"
@@ -488,7 +494,7 @@ def run_recorder_node(
         token.undeclare()
     finally:
         with contextlib.suppress(Exception):  # a session failing at its start: nothing to take
-            take()
+            take(math.inf)
             sub.undeclare()
         bus.close()
         meta = {
@@ -534,18 +540,16 @@ def _record_to_the_end(
 ) -> list[str]:
     """Take and write samples after the plant's end until the recording is complete.
 
-    Complete (module docstring, "No silent loss"): after the final summary, the reports and
-    the counts they give are all in; after a plant that went away without one (killed),
-    the controller's report is in or the controller is gone. Stops early on ``stop`` (a
-    signal), or once no sample came for ``end_idle_s``, or :data:`GONE_IDLE_S` where
-    nothing more is awaited from a node that is gone. Returns what was still missing
+    Complete (module docstring, "No silent loss"): the final summary, the reports and the
+    counts they give are all in. The plant's liveliness token may go before the recorder
+    (behind, niced) has taken its last samples: a plant gone counts as killed only while
+    no final summary has come after :data:`KILLED_IDLE_S` without a sample, and then once
+    the controller's report is in or the controller is gone too. Stops early on ``stop``
+    (a signal), or once no sample came for ``end_idle_s``. Returns what was still missing
     (empty when complete) and logs it.
     """
-    final = recorder.final_seen.is_set()
-    if not final and not plant_gone.is_set():
+    if not recorder.final_seen.is_set() and not plant_gone.is_set():
         return ["stopped by a signal before the run's end"]
-    if not final:
-        log("recorder: the plant went away without its final summary (killed?)")
     last_sample = time.monotonic()
     missing: list[str] = []
     while True:
@@ -558,22 +562,29 @@ def _record_to_the_end(
             last_sample = now
         idle = now - last_sample
         gone = not controller_alive.is_set()
-        if final:
+        if recorder.final_seen.is_set():
             missing = recorder.missing(controller_gone=gone)
             # A controller gone without a report: its report may still be on its way.
             settled = recorder.controller_reports or not gone or idle >= GONE_IDLE_S
             if not missing and settled:
                 return []
-        else:  # a killed plant sends nothing more: the controller's end is awaited
+        elif idle >= KILLED_IDLE_S:  # the plant was killed: nothing more comes from it
             missing = ["the plant's final summary and report (the plant went away)"]
-            if recorder.controller_reports or (gone and idle >= GONE_IDLE_S):
+            if recorder.controller_reports or gone:
+                log("recorder: the plant went away without its final summary (killed?)")
                 return missing
-        if idle >= end_idle_s:
+        # A recorder that joined the run late (its first cycle > 0) cannot catch up on what
+        # went before: it stops once nothing more comes, without the long wait.
+        late = recorder.first_cycle is not None and recorder.first_cycle > 0
+        reports_in = recorder.plant_report is not None and (recorder.controller_reports or gone)
+        limit = GONE_IDLE_S if late and reports_in else end_idle_s
+        if idle >= limit:
             log(
-                f"recorder: INCOMPLETE, no sample for {end_idle_s:g} s and still missing: "
-                + "; ".join(missing)
+                f"recorder: INCOMPLETE, no sample for {limit:g} s and still missing: "
+                + "; ".join(missing or ["the plant's final summary"])
+                + (f" (it joined the run at cycle {recorder.first_cycle})" if late else "")
             )
-            return missing
+            return missing or ["the plant's final summary"]
         if took < _TAKE_MAX:
             time.sleep(_DRAIN_PERIOD_S)
 
