@@ -3,17 +3,18 @@
 The samples wait in the Zenoh subscriber's FIFO channel; every 20 ms the main thread takes
 them, :meth:`Recorder.on_sample` decodes each (so a bad payload is counted, never logged as
 data) and queues it, and the queue is written to :class:`hil.mcap_log.RunLog` (the CAN
-tap, when there is one, queues from its own thread), flushing a chunk at least every
-0.25 s, so the file stays readable up to its last flush if any process, this one
-included, is killed. A message's MCAP publish time is when the main thread took it (at
-most about 20 ms after it arrived).
+tap, when there is one, queues from its own thread), flushing a chunk every
+:data:`FLUSH_INTERVAL_S` (0.15 s), so the file stays readable up to its last flush if any
+process, this one included, is killed. A message's MCAP publish time is when the main
+thread took it (at most about 20 ms after it arrived).
 
 No silent loss
 --------------
 The recording path is not lossy by design (docs/recording.md): the nodes publish with
 congestion control ``BLOCK`` (:mod:`hil.bus`), and a full subscriber channel holds Zenoh's
 receive back rather than dropping, so a recorder that falls behind (it runs niced, under
-load) makes the publishers wait: it paces a lock-step run instead of losing its messages.
+load) makes the publishers wait once its channel (:data:`_CHANNEL_CAPACITY` samples) and
+the sockets' buffers are full: it paces a lock-step run instead of losing its messages.
 The recorder does not stop on a fixed drain either: after the plant's final timing summary
 it keeps taking samples until it holds the plant's :class:`~bus_schemas.messages.
 PlantReport`, the controller's :class:`~bus_schemas.messages.ControllerReport` (unless the
@@ -23,12 +24,17 @@ sample has come for :data:`END_IDLE_S` does it stop short, and it logs the short
 plant whose liveliness token went (it exited, or was killed) while its final summary is not
 in yet is taken as killed only after :data:`KILLED_IDLE_S` without a sample (a recorder
 behind the run is still taking what the plant sent before it exited); the recording then
-ends once the controller's report is in or the controller is gone. SIGINT/SIGTERM stop it at once; it always finishes the file.
+ends once the controller's report is in or the controller is gone. SIGINT/SIGTERM stop it
+at once; it always finishes the file.
 
-What a SIGKILL of the recorder loses: the messages it took but had not flushed (a chunk is
-flushed every 0.25 s of wall time, :class:`hil.mcap_log.RunLog`) and the samples waiting in
-its subscriber channel (taken every 20 ms while it keeps up); measured in real time under
-two CPU hogs in docs/recording.md.
+What a SIGKILL of the recorder loses: the messages it took but had not flushed (it flushes
+a chunk every :data:`FLUSH_INTERVAL_S` = 0.15 s of wall time, :class:`hil.mcap_log.RunLog`)
+and the samples waiting in its subscriber channel (taken every 20 ms while it keeps up):
+0.17 s of wall time plus how far it is behind the run, i.e. at most 0.25 s simulated in
+real time (speed 1) while it keeps up. Measured beside two CPU hogs, recorder niced: at
+most 0.27 s with the 0.25 s flush before, within the bound with 0.15 s
+(bench/recorder_kill_loss.py; docs/recording.md). A lock-step run goes faster than real
+time, so the same wall time is more simulated time there.
 
 Log batches: the plant puts its truth and cycle timing, the controller its status, a few
 per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
@@ -114,6 +120,11 @@ GONE_IDLE_S = 0.5
 #: what the plant sent before it exited) [s].
 KILLED_IDLE_S = 2.0
 
+#: Wall seconds between two chunk flushes of the recorder's file (what a SIGKILL of the
+#: recorder loses, module docstring): 0.15 + 0.02 (the take period) + the nodes' log batch
+#: age and scheduling stay within 0.25 s.
+FLUSH_INTERVAL_S = 0.15
+
 #: Key suffix of the raw CAN frame channel.
 CAN_RAW_SUFFIX = "can/raw"
 
@@ -172,10 +183,19 @@ class RecorderLog(RunLog):
         Turbine id of the keys.
     can_raw : bool
         Register the ``fowt/<turbine>/can/raw`` channel (a CAN run).
+    flush_interval_s : float
+        Wall seconds between chunk flushes (:data:`FLUSH_INTERVAL_S`).
     """
 
-    def __init__(self, path: Path, turbine: str, *, can_raw: bool = False) -> None:
-        super().__init__(path, turbine)
+    def __init__(
+        self,
+        path: Path,
+        turbine: str,
+        *,
+        can_raw: bool = False,
+        flush_interval_s: float = FLUSH_INTERVAL_S,
+    ) -> None:
+        super().__init__(path, turbine, flush_interval_s=flush_interval_s)
         self.can_raw_key = f"{KEY_PREFIX}/{turbine}/{CAN_RAW_SUFFIX}"
         self._can_raw_channel: int | None = None
         self._can_raw_seq = 0
