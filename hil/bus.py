@@ -11,11 +11,11 @@ No loss by design
 Every publisher :meth:`Bus.publisher` declares uses congestion control ``BLOCK``: a put
 waits for room towards a slow subscriber (a recorder whose channel is full holds Zenoh's
 receive back) instead of dropping the sample, so a slow or niced recorder paces a run
-rather than losing its messages (docs/recording.md). Measured with two processes, one
-publisher putting 20 000 samples of 300 bytes into a subscriber that took nothing for
-25 s (a FIFO channel of 16): over the low-latency transport every sample arrived with
-``DROP`` and with ``BLOCK`` (the put waited up to 22.8 s); over the default transport
-``DROP`` lost 36 % at once and ``BLOCK`` lost 37 % after waiting 5 s, Zenoh's
+rather than losing its messages (docs/recording.md). Measured (bench/bus_congestion.py:
+two processes, 20 000 puts of 300 bytes into a subscriber that reads nothing for 7 or 24 s
+through a FIFO channel of 16): over the low-latency transport every sample arrived with
+``DROP`` and with ``BLOCK`` (the put waited up to 24.1 s); over the default transport
+``DROP`` lost 37 % at once and ``BLOCK`` 75 % after waiting 5 s, Zenoh's
 ``transport/link/tx/queue/congestion_control/block/wait_before_close``. A Zenoh config
 file that turns the low-latency transport off should raise that wait.
 """
