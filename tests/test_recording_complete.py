@@ -340,3 +340,31 @@ def test_recorder_waits_for_the_controller_after_the_plant_final_summary(
         assert len(run.topic(topic)) == cycles, topic
     assert run.metadata["recorder"]["shortfall"] == "[]"
     assert review(mcap, plots=False)["recording"]["complete"] is True
+
+
+@pytest.mark.parametrize(
+    ("scenario", "loop"), [("nrel5mw-ramp", "python"), ("iea15mw-lc2", "compiled")]
+)
+def test_inprocess_run_writes_both_reports(tmp_path: Path, scenario: str, loop: Any) -> None:
+    summary = launch(
+        RunRequest(
+            scenario,
+            mode="inprocess",
+            duration_s=3.0,
+            out_dir=tmp_path / "run",
+            plots=False,
+            inprocess_loop=loop,
+        )
+    )
+    assert summary["run"]["inprocess_loop"] == loop
+    cycles = summary["timing"]["cycles"]
+    rec = summary["recording"]
+    assert rec["complete"] is True, rec["problems"]
+    for topic in PER_CYCLE:
+        assert rec["topics"][topic] == {"recorded": cycles, "expected": cycles}, topic
+    run = read_run(tmp_path / "run" / "run.mcap")
+    (plant,) = run.topic("timing/report")
+    (ctrl,) = run.topic("controller/report")
+    assert plant["cycles"] == cycles and plant["summaries_published"] == 4  # 3 + the final
+    assert ctrl["frames_accepted"] == ctrl["statuses_published"] == cycles
+    assert run.topic("timing/summary")[-1]["final"] == 1
