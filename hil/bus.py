@@ -26,6 +26,7 @@ import contextlib
 import ipaddress
 import json
 import socket
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -340,3 +341,72 @@ class LogBatcher:
             return
         self.puts += 1
         self.messages += len(parts)
+
+
+#: Wall seconds a plant or controller waits, after its report, for the recorder to say it
+#: holds everything the node published (:func:`wait_for_recorder`) [s].
+RECORDER_ACK_TIMEOUT_S = 120.0
+
+
+def recorder_ack_key(turbine: str, node: str) -> str:
+    """The liveliness token ``fowt/<turbine>/alive/recorder/has/<node>``.
+
+    The recorder declares it once it holds everything ``node`` (``plant``,
+    ``controller``) reported publishing (:mod:`hil.recorder`).
+    """
+    return f"{KEY_PREFIX}/{turbine}/alive/recorder/has/{node}"
+
+
+def wait_for_recorder(
+    session: zenoh.Session,
+    turbine: str,
+    node: str,
+    timeout_s: float = RECORDER_ACK_TIMEOUT_S,
+) -> str:
+    """Block until the recorder holds what ``node`` published, before its session closes.
+
+    A session closed while its samples are still on their way to a subscriber that is
+    behind (a niced recorder under load) loses them: measured, the last 1 to 4 s of a
+    lock-step run's log batches. So a node keeps its session open, after its report, until
+    the recorder's token :func:`recorder_ack_key` appears, or no recorder is there (its
+    token ``fowt/<turbine>/alive/recorder`` absent or gone), or ``timeout_s`` [s] passed.
+
+    Returns
+    -------
+    str
+        ``"acknowledged"``, ``"no recorder"`` or ``"timeout"``.
+    """
+    ack = recorder_ack_key(turbine, node)
+    alive = f"{KEY_PREFIX}/{turbine}/alive/recorder"
+    present: set[str] = set()
+    changed = threading.Event()
+    lock = threading.Lock()
+
+    def on_token(sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        with lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                present.discard(key)
+            else:
+                present.add(key)
+        changed.set()
+
+    sub = session.liveliness().declare_subscriber(f"{alive}/**", on_token, history=True)
+    try:
+        deadline = time.monotonic() + timeout_s
+        first = True
+        while True:
+            with lock:
+                if ack in present:
+                    return "acknowledged"
+                # The history arrives with the declaration; a first look waits a moment.
+                if alive not in present and not first:
+                    return "no recorder"
+            if time.monotonic() > deadline:
+                return "timeout"
+            changed.wait(0.1)
+            changed.clear()
+            first = False
+    finally:
+        with contextlib.suppress(Exception):
+            sub.undeclare()

@@ -101,7 +101,14 @@ from controller.discon import DisconError
 from controller.interface import REGIME_SAFE, ControlOutput
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
-from hil.bus import CONTROLLER_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
+from hil.bus import (
+    CONTROLLER_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    LogBatcher,
+    batch_key,
+    wait_for_recorder,
+)
 from hil.rt import freeze_heap
 from hil.scenario import Scenario
 
@@ -788,6 +795,9 @@ def run_controller_node(
                 log(f"controller: its report did not go out ({exc})")
         if statuses.failed:
             log(f"controller: {statuses.failed} status batches failed to go out")
+        # Open until the recorder holds what it published (hil.bus.wait_for_recorder).
+        if wait_for_recorder(bus.session, tid, "controller") == "timeout":
+            log("controller: the recorder did not confirm it holds its messages; closing anyway")
         plant_watch.undeclare()
         token.undeclare()
         bus.close()

@@ -98,7 +98,14 @@ from bus_schemas.registry import (
     WAVE_PREVIEW_PERFECT,
     MessageType,
 )
-from hil.bus import PLANT_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
+from hil.bus import (
+    PLANT_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    LogBatcher,
+    batch_key,
+    wait_for_recorder,
+)
 from hil.rt import freeze_heap
 from hil.scenario import (
     JonswapWavesSpec,
@@ -1099,9 +1106,19 @@ def run_plant_node(
                 aborted=bool(loop.result.aborted),
             )
             publishers[PLANT_REPORT.key_suffix].put(PLANT_REPORT.codec.encode(report))
-            if batcher.failed:  # a put that raised: say so (the report counts them as sent)
-                log(f"plant: {batcher.failed} log batches failed to go out")
-            time.sleep(0.2)  # let the final summary reach the recorder before the link goes
+            # What went out in log batches; a put that raised is said (the report counts
+            # its messages as published, so the review finds them missing).
+            log(
+                f"plant log batches: {batcher.puts} put ({batcher.messages} messages), "
+                f"{batcher.failed} failed"
+            )
+            time.sleep(0.2)  # let the final summary reach the others before the link goes
+            # A session closed while its samples are on their way to a recorder behind the
+            # run loses them (hil.bus.wait_for_recorder): it stays open until the recorder
+            # holds them all.
+            ack = wait_for_recorder(bus.session, tid, "plant")
+            if ack == "timeout":
+                log("plant: the recorder did not confirm it holds the run; closing anyway")
         token.undeclare()
         if channel is not None:
             channel.close()

@@ -22,9 +22,10 @@ controller is gone: its liveliness token ``fowt/<turbine>/alive/controller`` del
 per topic, as many messages as the reports count (:mod:`hil.recording`). Only when no
 sample has come for :data:`END_IDLE_S` does it stop short, and it logs the shortfall. A
 plant whose liveliness token went (it exited, or was killed) while its final summary is not
-in yet is taken as killed only after :data:`KILLED_IDLE_S` without a sample (a recorder
-behind the run is still taking what the plant sent before it exited); the recording then
-ends once the controller's report is in or the controller is gone. SIGINT/SIGTERM stop it
+in yet is taken as killed only once the recorder has taken everything waiting in its
+channel and :data:`KILLED_IDLE_S` passed without a sample (a recorder behind the run is
+still taking what the plant sent before it exited); the recording then ends once the
+controller's report is in or the controller is gone. SIGINT/SIGTERM stop it
 at once; it always finishes the file.
 
 What a SIGKILL of the recorder loses: the messages it took but had not flushed (it flushes
@@ -89,9 +90,9 @@ import zenoh
 from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
 from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
-from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, split_batch
+from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, recorder_ack_key, split_batch
 from hil.mcap_log import RunLog
-from hil.recording import expected_counts, shortfall
+from hil.recording import CONTROLLER_TOPICS, PLANT_TOPICS, expected_counts, shortfall
 from hil.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -116,9 +117,10 @@ END_IDLE_S = 10.0
 #: the reports): wall seconds without a new sample before the recorder stops [s].
 GONE_IDLE_S = 0.5
 #: After the plant went away without its final summary: wall seconds without a new sample
-#: before the recorder takes it as killed (a recorder behind the run may still be taking
-#: what the plant sent before it exited) [s].
-KILLED_IDLE_S = 2.0
+#: before the recorder takes it as killed [s]. Its liveliness token goes over the same
+#: link, after everything it sent, so what it sent is in the channel by then; a recorder
+#: behind the run takes it all first (taking is not idle).
+KILLED_IDLE_S = 0.5
 
 #: Wall seconds between two chunk flushes of the recorder's file (what a SIGKILL of the
 #: recorder loses, module docstring): 0.15 + 0.02 (the take period) + the nodes' log batch
@@ -244,6 +246,8 @@ class Recorder:
         self.prefix = f"{KEY_PREFIX}/{log.turbine}/"
         #: Messages written per key suffix.
         self.counts: Counter[str] = Counter()
+        #: Samples taken from the bus per key suffix (a log batch is one sample).
+        self.samples: Counter[str] = Counter()
         #: The plant's report (its fields) once written, and every controller report.
         self.plant_report: dict[str, Any] | None = None
         self.controller_reports: list[dict[str, Any]] = []
@@ -261,6 +265,7 @@ class Recorder:
         (``<batch suffix>:<reason>``), a message in it that does not decode alone.
         """
         suffix = key.removeprefix(self.prefix)
+        self.samples[suffix] += 1
         if suffix in BATCH_SUFFIXES:
             self._on_batch(suffix, payload)
             return
@@ -324,6 +329,20 @@ class Recorder:
     def expected(self) -> dict[str, int]:
         """Messages per key suffix the reports written so far count (:mod:`hil.recording`)."""
         return expected_counts(self.plant_report, self.controller_reports)
+
+    def holds(self, node: str) -> bool:
+        """True once the report of ``node`` (``plant``, ``controller``) is in and, per topic
+        it counts, as many messages as it says."""
+        if node == "plant":
+            if self.plant_report is None:
+                return False
+            topics = PLANT_TOPICS
+        else:
+            if not self.controller_reports:
+                return False
+            topics = CONTROLLER_TOPICS
+        expected = self.expected()
+        return all(self.counts[t] >= expected.get(t, 0) for t in topics)
 
     def missing(self, controller_gone: bool) -> list[str]:
         """What the recording still lacks after the plant's final summary (empty: done).
@@ -505,9 +524,21 @@ def run_recorder_node(
             written += recorder.drain(0.0)
             if took < _TAKE_MAX:
                 time.sleep(_DRAIN_PERIOD_S)
+        acks: dict[str, Any] = {}  # kept referenced: a dropped token is undeclared
+
+        def acknowledge() -> None:
+            # The plant and the controller keep their sessions open until the recorder says
+            # it holds what they published (hil.bus.wait_for_recorder).
+            for node in ("plant", "controller"):
+                if node not in acks and recorder.holds(node):
+                    key = recorder_ack_key(scenario.turbine_id, node)
+                    acks[node] = bus.session.liveliness().declare_token(key)
+
         missing = _record_to_the_end(
-            recorder, take, stop, controller_alive, plant_gone, end_idle_s, log
+            recorder, take, stop, controller_alive, plant_gone, end_idle_s, log, acknowledge
         )
+        for ack in acks.values():
+            ack.undeclare()
         written += recorder.drain(0.0)
         controller_watch.undeclare()
         plant_watch.undeclare()
@@ -537,6 +568,7 @@ def run_recorder_node(
         written += recorder.drain(0.0)
         meta["messages"] = str(run_log.count)
         meta["topics"] = json.dumps(dict(sorted(recorder.counts.items())))
+        meta["samples"] = json.dumps(dict(sorted(recorder.samples.items())))
         meta["expected"] = json.dumps(recorder.expected())
         meta["first_cycle_recorded"] = (
             "none" if recorder.first_cycle is None else str(recorder.first_cycle)
@@ -557,8 +589,11 @@ def _record_to_the_end(
     plant_gone: threading.Event,
     end_idle_s: float,
     log: Callable[[str], None],
+    acknowledge: Callable[[], None] = lambda: None,
 ) -> list[str]:
     """Take and write samples after the plant's end until the recording is complete.
+
+    ``acknowledge`` is called after each take (it tells the nodes what the recorder holds).
 
     Complete (module docstring, "No silent loss"): the final summary, the reports and the
     counts they give are all in. The plant's liveliness token may go before the recorder
@@ -577,6 +612,7 @@ def _record_to_the_end(
             return ["stopped by a signal before the recording was complete", *missing]
         took = take()
         recorder.drain(0.0)
+        acknowledge()
         now = time.monotonic()
         if took:
             last_sample = now
