@@ -17,7 +17,9 @@ through a FIFO channel of 16): over the low-latency transport every sample arriv
 ``DROP`` and with ``BLOCK`` (the put waited up to 24.1 s); over the default transport
 ``DROP`` lost 37 % at once and ``BLOCK`` 75 % after waiting 5 s, Zenoh's
 ``transport/link/tx/queue/congestion_control/block/wait_before_close``. A Zenoh config
-file that turns the low-latency transport off should raise that wait.
+file that turns the low-latency transport off should raise that wait. Closing a session
+while its samples are still on their way to a subscriber that is behind loses them; the
+nodes wait for the recorder first (:func:`wait_for_recorder`).
 """
 
 from __future__ import annotations

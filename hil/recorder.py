@@ -26,7 +26,11 @@ in yet is taken as killed only once the recorder has taken everything waiting in
 channel and :data:`KILLED_IDLE_S` passed without a sample (a recorder behind the run is
 still taking what the plant sent before it exited); the recording then ends once the
 controller's report is in or the controller is gone. SIGINT/SIGTERM stop it
-at once; it always finishes the file.
+at once; it always finishes the file. A Zenoh session closed while its samples are still
+on their way to a recorder that is behind loses them, so plant and controller keep theirs
+open until the recorder declares the liveliness token ``fowt/<turbine>/alive/recorder/
+has/<node>`` (:func:`hil.bus.wait_for_recorder`): it does once it holds that node's report
+and every message the report counts (:meth:`Recorder.holds`).
 
 What a SIGKILL of the recorder loses: the messages it took but had not flushed (it flushes
 a chunk every :data:`FLUSH_INTERVAL_S` = 0.15 s of wall time, :class:`hil.mcap_log.RunLog`)
