@@ -49,7 +49,8 @@ publish time is the batch's receive time). A batch that does not split is counte
 ``rejected`` as ``<batch suffix>:<reason>``.
 
 Its ``recorder`` metadata record holds ``messages`` (written), ``topics`` (JSON: messages
-written per key suffix), ``expected`` (JSON: per key suffix, what the reports count),
+written per key suffix), ``samples`` (JSON: samples taken from the bus per key suffix, a
+log batch counting once), ``expected`` (JSON: per key suffix, what the reports count),
 ``shortfall`` (JSON list: the topics short of it when the recorder stopped, and why),
 ``rejected`` and ``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest
 cycle number
