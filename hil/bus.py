@@ -5,6 +5,21 @@ unix socket), multicast scouting off, and the low-latency unicast transport (wit
 as it requires) which measured the lowest round trip here. A process only listens on the
 endpoints it is given; with none it listens nowhere. Multi-host use goes through a Zenoh
 JSON5 config file (router, TLS, access control), never through defaults that open the host.
+
+No loss by design
+-----------------
+Every publisher :meth:`Bus.publisher` declares uses congestion control ``BLOCK``: a put
+waits for room towards a slow subscriber (a recorder whose channel is full holds Zenoh's
+receive back) instead of dropping the sample, so a slow or niced recorder paces a run
+rather than losing its messages (docs/recording.md). Measured (bench/bus_congestion.py:
+two processes, 20 000 puts of 300 bytes into a subscriber that reads nothing for 7 or 24 s
+through a FIFO channel of 16): over the low-latency transport every sample arrived with
+``DROP`` and with ``BLOCK`` (the put waited up to 24.1 s); over the default transport
+``DROP`` lost 37 % at once and ``BLOCK`` 75 % after waiting 5 s, Zenoh's
+``transport/link/tx/queue/congestion_control/block/wait_before_close``. A Zenoh config
+file that turns the low-latency transport off should raise that wait. Closing a session
+while its samples are still on their way to a subscriber that is behind loses them; the
+nodes wait for the recorder first (:func:`wait_for_recorder`).
 """
 
 from __future__ import annotations
@@ -13,6 +28,7 @@ import contextlib
 import ipaddress
 import json
 import socket
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -142,10 +158,16 @@ class Bus:
         self._subscribers: list[Any] = []
 
     def publisher(self, key: str) -> Any:
-        """Declare (once) an express publisher on ``key`` (no batching: lowest latency)."""
+        """Declare (once) an express publisher on ``key`` (no batching: lowest latency).
+
+        Congestion control ``BLOCK``: a put towards a subscriber that cannot take more
+        waits rather than drops (module docstring, "No loss by design").
+        """
         pub = self._publishers.get(key)
         if pub is None:
-            pub = self.session.declare_publisher(key, express=True)
+            pub = self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            )
             self._publishers[key] = pub
         return pub
 
@@ -321,3 +343,72 @@ class LogBatcher:
             return
         self.puts += 1
         self.messages += len(parts)
+
+
+#: Wall seconds a plant or controller waits, after its report, for the recorder to say it
+#: holds everything the node published (:func:`wait_for_recorder`) [s].
+RECORDER_ACK_TIMEOUT_S = 120.0
+
+
+def recorder_ack_key(turbine: str, node: str) -> str:
+    """The liveliness token ``fowt/<turbine>/alive/recorder/has/<node>``.
+
+    The recorder declares it once it holds everything ``node`` (``plant``,
+    ``controller``) reported publishing (:mod:`hil.recorder`).
+    """
+    return f"{KEY_PREFIX}/{turbine}/alive/recorder/has/{node}"
+
+
+def wait_for_recorder(
+    session: zenoh.Session,
+    turbine: str,
+    node: str,
+    timeout_s: float = RECORDER_ACK_TIMEOUT_S,
+) -> str:
+    """Block until the recorder holds what ``node`` published, before its session closes.
+
+    A session closed while its samples are still on their way to a subscriber that is
+    behind (a niced recorder under load) loses them: measured, the last 1 to 4 s of a
+    lock-step run's log batches. So a node keeps its session open, after its report, until
+    the recorder's token :func:`recorder_ack_key` appears, or no recorder is there (its
+    token ``fowt/<turbine>/alive/recorder`` absent or gone), or ``timeout_s`` [s] passed.
+
+    Returns
+    -------
+    str
+        ``"acknowledged"``, ``"no recorder"`` or ``"timeout"``.
+    """
+    ack = recorder_ack_key(turbine, node)
+    alive = f"{KEY_PREFIX}/{turbine}/alive/recorder"
+    present: set[str] = set()
+    changed = threading.Event()
+    lock = threading.Lock()
+
+    def on_token(sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        with lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                present.discard(key)
+            else:
+                present.add(key)
+        changed.set()
+
+    sub = session.liveliness().declare_subscriber(f"{alive}/**", on_token, history=True)
+    try:
+        deadline = time.monotonic() + timeout_s
+        first = True
+        while True:
+            with lock:
+                if ack in present:
+                    return "acknowledged"
+                # The history arrives with the declaration; a first look waits a moment.
+                if alive not in present and not first:
+                    return "no recorder"
+            if time.monotonic() > deadline:
+                return "timeout"
+            changed.wait(0.1)
+            changed.clear()
+            first = False
+    finally:
+        with contextlib.suppress(Exception):
+            sub.undeclare()

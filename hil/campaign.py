@@ -584,6 +584,7 @@ class _RunSink:
         self.log = log
         self._key = {mt.message_id: mt.key(turbine) for mt in MESSAGES}
         self._by_id = {mt.message_id: mt for mt in MESSAGES}
+        self._suffix = {mt.key(turbine): mt.key_suffix for mt in MESSAGES}
         # per topic: its parts in publish order, each a list of Structs or an array of rows
         self.parts: dict[str, list[list[msgspec.Struct] | np.ndarray]] = {}
 
@@ -605,6 +606,10 @@ class _RunSink:
         for mid, block in rows.items():
             if len(block):
                 self.parts.setdefault(self._key[mid], []).append(block.copy())
+
+    def published(self) -> dict[str, int]:
+        """Messages kept so far per key suffix (what the end-of-run reports count)."""
+        return {self._suffix[k]: sum(len(p) for p in parts) for k, parts in self.parts.items()}
 
     def run_data(self, metadata: dict[str, dict[str, str]]) -> Any:
         """The run's :class:`hil.mcap_log.RunData` (class docstring)."""
@@ -659,7 +664,12 @@ def _inprocess(
     path's (a scenario the compiled loop does not run, or its cycles that need Python) come
     as Structs.
     """
-    from hil.controller_node import ControllerRuntime, publishing_step  # noqa: PLC0415
+    from bus_schemas.registry import CONTROLLER_REPORT  # noqa: PLC0415
+    from hil.controller_node import (  # noqa: PLC0415
+        ControllerRuntime,
+        controller_report,
+        publishing_step,
+    )
     from hil.plant_node import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
 
@@ -683,8 +693,18 @@ def _inprocess(
         runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
         step = publishing_step(runtime, sink.publish)
         run_inprocess(
-            scenario, sink.publish, step, runtime=runtime, publish_block=sink.publish_block
+            scenario,
+            sink.publish,
+            step,
+            runtime=runtime,
+            publish_block=sink.publish_block,
+            published=sink.published,  # the plant's report follows its final summary
         )
+        counts = sink.published()  # the controller's report goes last, as in fowt run
+        report = controller_report(
+            runtime, counts.get("command", 0), counts.get("controller/status", 0), aborted=False
+        )
+        sink.publish(CONTROLLER_REPORT, report)
     finally:
         if log is not None:
             log.close()

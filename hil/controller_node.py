@@ -55,7 +55,11 @@ limit of it (bumpless transfer), then ``mode`` = :data:`MODE_NORMAL` (0).
 ``fowt/<turbine>/sensors`` whose callback runs the cycle and publishes at once (lowest
 latency: no hand-off to another thread), the silence check in the main thread, a liveliness
 token announcing readiness, and an exit when the plant publishes its final timing summary or
-on SIGINT/SIGTERM.
+on SIGINT/SIGTERM. Before it leaves the bus it puts its last status batch and then its
+:class:`bus_schemas.messages.ControllerReport` (:func:`controller_report`): the frames it
+stepped on, the commands and statuses it published, its safe mode and watchdog counts and
+every rejected frame by reason, so the recorder knows how many of its messages to wait for
+(docs/recording.md).
 
 This module never imports ``plant``: the controller speaks only ``bus_schemas``.
 """
@@ -78,9 +82,15 @@ import numpy as np
 import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
-from bus_schemas.messages import WAVE_PREVIEW_FIELDS
+from bus_schemas.messages import (
+    CONTROLLER_REJECT_REASONS,
+    WAVE_PREVIEW_FIELDS,
+    ControllerReport,
+    rejection_fields,
+)
 from bus_schemas.registry import (
     COMMAND,
+    CONTROLLER_REPORT,
     CONTROLLER_STATUS,
     SENSORS,
     TIMING_SUMMARY,
@@ -91,7 +101,14 @@ from controller.discon import DisconError
 from controller.interface import REGIME_SAFE, ControlOutput
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
-from hil.bus import CONTROLLER_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
+from hil.bus import (
+    CONTROLLER_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    LogBatcher,
+    batch_key,
+    wait_for_recorder,
+)
 from hil.rt import freeze_heap
 from hil.scenario import Scenario
 
@@ -221,6 +238,8 @@ class ControllerRuntime:
         self.resuming = False
         self.safe_entries = 0
         self.safe_commands = 0
+        #: Sample time at which the safe mode was first entered [ns] (-1: never).
+        self.safe_first_entry_ns = -1
         self.frames_missing = 0
         self.frames_stale = 0
         self.silent_periods = 0
@@ -384,7 +403,12 @@ class ControllerRuntime:
             return False
         self._silence_counted = silent
         self.silent_periods += new
-        return self._miss(new, f"no sensor frame for {silent} control period(s)", self.last_seq)
+        return self._miss(
+            new,
+            f"no sensor frame for {silent} control period(s)",
+            self.last_seq,
+            self.last_sample_time_ns + silent * self.period_ns,
+        )
 
     def _watchdog(self, frame: SensorFrame, now_ns: int) -> None:
         """Classify an accepted frame (gap, stale, healthy) and apply the rule."""
@@ -408,10 +432,13 @@ class ControllerRuntime:
         if gap > 0:
             self.frames_missing += gap
         if unseen > 0:
-            tripped = self._miss(unseen, f"{gap} sensor frame(s) missing", frame.seq)
+            tripped = self._miss(
+                unseen, f"{gap} sensor frame(s) missing", frame.seq, frame.sample_time_ns
+            )
         if delay > self.period_ns and self.wall_checks:  # (the cheap test first)
             self.frames_stale += 1
-            tripped |= self._miss(1, f"stale sensor frame ({delay * 1e-6:.1f} ms old)", frame.seq)
+            why = f"stale sensor frame ({delay * 1e-6:.1f} ms old)"
+            tripped |= self._miss(1, why, frame.seq, frame.sample_time_ns)
             return
         self.consecutive_misses = 0
         if tripped or not self.safe_mode:
@@ -428,8 +455,11 @@ class ControllerRuntime:
                 "measurement, rate-limited transfer"
             )
 
-    def _miss(self, n: int, why: str, seq: int) -> bool:
-        """Count ``n`` missed frames; enter the safe mode at the limit (True if it did)."""
+    def _miss(self, n: int, why: str, seq: int, sample_ns: int) -> bool:
+        """Count ``n`` missed frames; enter the safe mode at the limit (True if it did).
+
+        ``sample_ns``: the simulated time of the miss [ns] (the safe mode's first entry).
+        """
         self.consecutive_misses += n
         self.healthy_run = 0
         if (
@@ -441,6 +471,8 @@ class ControllerRuntime:
         self.safe_mode = True
         self.resuming = False
         self.safe_entries += 1
+        if self.safe_first_entry_ns < 0:
+            self.safe_first_entry_ns = max(0, sample_ns)
         self.log(
             f"controller SAFE MODE after {self.consecutive_misses} consecutive missing or stale "
             f"sensor frames ({why}; last seq {seq}): pitch to feather at "
@@ -507,6 +539,47 @@ def publishing_step(
         return command
 
     return step
+
+
+def controller_report(
+    runtime: ControllerRuntime,
+    commands_published: int,
+    statuses_published: int,
+    *,
+    aborted: bool,
+    seq: int = 0,
+) -> msgspec.Struct:
+    """The controller's end-of-run :class:`bus_schemas.messages.ControllerReport`.
+
+    Parameters
+    ----------
+    runtime : ControllerRuntime
+        Its counters: frames accepted, safe mode, watchdog, rejections by reason.
+    commands_published, statuses_published : int
+        Commands and status messages handed to the bus (or the in-process log).
+    aborted : bool
+        True when a signal stopped the controller before the plant's end.
+    seq : int
+        The report's sequence number (one report per controller process: 0).
+    """
+    rt = runtime
+    return ControllerReport(
+        seq=seq,
+        sample_time_ns=max(0, rt.last_sample_time_ns),
+        publish_time_ns=time.monotonic_ns(),
+        final=1,
+        aborted=int(aborted),
+        frames_accepted=rt.accepted,
+        commands_published=commands_published,
+        statuses_published=statuses_published,
+        safe_mode=int(rt.safe_mode),
+        safe_mode_entries=rt.safe_entries,
+        safe_mode_commands=rt.safe_commands,
+        safe_mode_first_entry_ns=max(0, rt.safe_first_entry_ns),
+        frames_missing=rt.frames_missing,
+        frames_stale=rt.frames_stale,
+        **rejection_fields(rt.rejected, "frames_rejected", CONTROLLER_REJECT_REASONS),
+    )
 
 
 def _no_log(_msg: str) -> None:
@@ -605,6 +678,8 @@ def run_controller_node(
     # cycle's command; the main thread's poll below puts one that frames stopped coming to
     # (twice as old), the last one goes when the node stops.
     statuses = LogBatcher(bus.publisher(batch_key(tid, CONTROLLER_BATCH_SUFFIX)))
+    report_pub = bus.publisher(CONTROLLER_REPORT.key(tid))
+    commands = [0]  # commands put (the report's count)
     done = threading.Event()
     reason = ["timeout"]
     lock = threading.Lock()
@@ -629,6 +704,7 @@ def run_controller_node(
             return
         command, status = result
         cmd_pub.put(COMMAND.codec.encode(command))
+        commands[0] += 1
         statuses.add(CONTROLLER_STATUS.codec.encode(status))
         if statuses.due():
             statuses.flush()
@@ -706,7 +782,22 @@ def run_controller_node(
                     statuses.flush()
     finally:
         with lock:
-            statuses.flush()
+            statuses.flush()  # the statuses first: the report counts them as published
+            report = controller_report(
+                runtime,
+                commands[0],
+                statuses.messages,
+                aborted=reason[0].startswith("signal"),
+            )
+            try:
+                report_pub.put(CONTROLLER_REPORT.codec.encode(report))
+            except Exception as exc:  # the session going away: said, never silent
+                log(f"controller: its report did not go out ({exc})")
+        if statuses.failed:
+            log(f"controller: {statuses.failed} status batches failed to go out")
+        # Open until the recorder holds what it published (hil.bus.wait_for_recorder).
+        if wait_for_recorder(bus.session, tid, "controller") == "timeout":
+            log("controller: the recorder did not confirm it holds its messages; closing anyway")
         plant_watch.undeclare()
         token.undeclare()
         bus.close()

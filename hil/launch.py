@@ -82,6 +82,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bus_schemas.registry import (
+    COMMAND,
+    CONTROLLER_REPORT,
+    CONTROLLER_STATUS,
     CYCLE_TIMING,
     TIMING_SUMMARY,
     WAVE_PREVIEW_PERFECT,
@@ -103,7 +106,12 @@ from hil.can_bus import (
     netns_command,
     transport_unavailable_reason,
 )
-from hil.controller_node import ControllerRuntime, feedforward_notice, publishing_step
+from hil.controller_node import (
+    ControllerRuntime,
+    controller_report,
+    feedforward_notice,
+    publishing_step,
+)
 from hil.log_writer import BackgroundRunLog
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
@@ -511,6 +519,18 @@ def _run_inprocess(
             runtime=runtime,
             loop=loop,
             publish_block=log.publish_block,
+            published=log.published,  # the plant's report follows its final summary
+        )
+        # The controller stops with the plant: its report goes last, as a process's would.
+        counts = log.published()
+        log.publish(
+            CONTROLLER_REPORT,
+            controller_report(
+                runtime,
+                counts[COMMAND.key_suffix],
+                counts[CONTROLLER_STATUS.key_suffix],
+                aborted=False,
+            ),
         )
     except ValueError as exc:
         if str(exc).startswith("loop='compiled'"):  # asked for, not supported: say why
@@ -700,12 +720,8 @@ def _run_processes(
         else:
             if rc != 0:
                 raise RunFailedError(f"plant exited with {rc}; see {logs / 'plant.log'}")
-            for name, timeout in (("recorder", 15.0), ("controller", 5.0)):
-                try:
-                    procs[name].wait(timeout)
-                except subprocess.TimeoutExpired:
-                    procs[name].terminate()
-                    procs[name].wait(5.0)
+            _wait_for_recorder(procs["recorder"], mcap_path, console)
+            _stop(procs["controller"], 5.0)
             if procs["recorder"].returncode != 0:
                 raise RunFailedError(
                     f"recorder exited with {procs['recorder'].returncode}; "
@@ -731,6 +747,82 @@ def _run_processes(
                     p.kill()
         for fh in files:
             fh.close()
+
+
+#: Wall seconds the launcher waits for a recorder that shows no progress (its MCAP file does
+#: not grow and it uses no CPU) after the plant's end before it stops it; more than the
+#: recorder's own END_IDLE_S, after which it stops short by itself and says so.
+RECORDER_STALL_S = 60.0
+
+
+def _cpu_ticks(pid: int) -> int:
+    """User + system CPU clock ticks of process ``pid`` so far (-1 where unknown)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return int(fields[11]) + int(fields[12])
+    except (OSError, IndexError, ValueError):
+        return -1
+
+
+def _file_size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return -1
+
+
+def _stop(proc: subprocess.Popen[bytes], timeout_s: float) -> None:
+    """Wait ``timeout_s`` for ``proc`` to exit, then SIGTERM it, then SIGKILL it."""
+    for action in (None, proc.terminate, proc.kill):
+        if action is not None:
+            action()
+        try:
+            proc.wait(timeout_s)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def _wait_for_recorder(
+    proc: subprocess.Popen[bytes],
+    mcap_path: Path,
+    console: Console,
+    stall_s: float = RECORDER_STALL_S,
+) -> None:
+    """Wait for the recorder to finish the run's file after the plant's end.
+
+    No fixed timeout: a recorder behind the run (niced, under load) writes what it still
+    holds and records until the nodes' reports are in (:mod:`hil.recorder`), which takes as
+    long as it takes. The wait goes on while it makes progress (its MCAP file grows or it
+    uses CPU); only after ``stall_s`` [s] without any is it stopped (SIGTERM: it finishes
+    the file; SIGKILL 30 s later), with a warning; the review then says what is missing.
+    """
+    last = (_file_size(mcap_path), _cpu_ticks(proc.pid))
+    progress_at = time.monotonic()
+    told = False
+    while True:
+        try:
+            proc.wait(1.0)
+            return
+        except subprocess.TimeoutExpired:
+            pass
+        now_state = (_file_size(mcap_path), _cpu_ticks(proc.pid))
+        now = time.monotonic()
+        if now_state != last:
+            last, progress_at = now_state, now
+        elif now - progress_at > stall_s:
+            console.print(
+                f"[red]warning:[/] the recorder made no progress for {stall_s:g} s after the "
+                "plant's end: stopping it (the review says what the file lacks)"
+            )
+            _stop(proc, 30.0)
+            return
+        if not told:
+            console.print(
+                "waiting for the recorder to write the rest of the run "
+                f"({max(0, last[0]) / 1e6:.1f} MB so far) ..."
+            )
+            told = True
 
 
 def _follow(

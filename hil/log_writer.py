@@ -1023,6 +1023,10 @@ class MessageBatcher(abc.ABC):
         if batch_messages < 1:
             raise ValueError(f"batch_messages: expected an integer >= 1, got {batch_messages}")
         self._batch_messages = batch_messages
+        # Messages per message id in the batches sent so far (counted per batch, from its
+        # order, so publishing costs nothing more): published() adds the batch being filled.
+        self._sent_counts = np.zeros(ROW_FLAG, np.int64)
+        self._ids = bytearray()
         self._new_batch()
 
     @abc.abstractmethod
@@ -1032,10 +1036,23 @@ class MessageBatcher(abc.ABC):
     def _new_batch(self) -> None:
         # The batch being filled: the message ids in publish order and, per message id,
         # its messages given to publish (the Structs themselves; encoded when the batch is
-        # sent) and the bytes of its rows given to publish_block.
+        # sent) and the bytes of its rows given to publish_block. The batch before (sent,
+        # or empty at the start) is counted first.
+        if self._ids:
+            self._sent_counts += self._id_counts(self._ids)
         self._ids = bytearray()
         self._by_id: dict[int, list[msgspec.Struct]] = {}
         self._rows: dict[int, bytearray] = {}
+
+    @staticmethod
+    def _id_counts(ids: bytearray) -> np.ndarray:
+        flags = np.frombuffer(bytes(ids), np.uint8) & (ROW_FLAG - 1)
+        return np.bincount(flags, minlength=ROW_FLAG).astype(np.int64)
+
+    def published(self) -> dict[str, int]:
+        """Messages handed to the log so far per key suffix (Structs and rows alike)."""
+        counts = self._sent_counts + self._id_counts(self._ids)
+        return {mt.key_suffix: int(counts[mid]) for mid, mt in _BY_ID.items()}
 
     def publish(self, mt: MessageType, msg: msgspec.Struct) -> None:
         """Queue one message for the log (the simulation loop's only logging cost)."""

@@ -18,6 +18,12 @@ One control cycle k (period T, speed factor s, wall period T/s):
    own clock, so it holds across hosts); a :class:`TimingSummary` every simulated second
    and a final one (``final`` = 1) that tells the other processes the run is over.
 
+Right after the final summary the plant publishes its :class:`PlantReport` (``final`` = 1,
+:func:`plant_report`): the messages it published per channel (what a complete recording
+holds), the commands it applied and every rejected command payload by reason;
+``aborted`` = 1 when a signal or the lock-step timeout ended the run early. The recorder
+keeps recording until it holds that many (:mod:`hil.recorder`, docs/recording.md).
+
 Latency histograms: :class:`hil.timing.LatencyHistogram` (p50/p99/p99.9/max).
 
 Bus faults
@@ -63,7 +69,7 @@ import signal
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -74,21 +80,32 @@ import zenoh
 
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
 from bus_schemas.messages import (
+    PLANT_REJECT_REASONS,
     WAVE_PREVIEW_FIELDS,
     WAVE_PREVIEW_SAMPLES,
     WAVE_PREVIEW_STEP_S,
+    PlantReport,
     WavePreviewPerfect,
+    rejection_fields,
 )
 from bus_schemas.registry import (
     COMMAND,
     CYCLE_TIMING,
+    PLANT_REPORT,
     SENSORS,
     TIMING_SUMMARY,
     TRUTH,
     WAVE_PREVIEW_PERFECT,
     MessageType,
 )
-from hil.bus import PLANT_BATCH_SUFFIX, Bus, BusConfig, LogBatcher, batch_key
+from hil.bus import (
+    PLANT_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    LogBatcher,
+    batch_key,
+    wait_for_recorder,
+)
 from hil.rt import freeze_heap
 from hil.scenario import (
     JonswapWavesSpec,
@@ -330,6 +347,48 @@ class PlantRunResult:
     def speed(self) -> float:
         """Simulated seconds per wall second."""
         return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+def plant_report(
+    result: PlantRunResult,
+    published: Mapping[str, int],
+    *,
+    sample_time_ns: int,
+    aborted: bool,
+    seq: int = 0,
+) -> msgspec.Struct:
+    """The plant's end-of-run :class:`PlantReport` (``final`` = 1).
+
+    Parameters
+    ----------
+    result : PlantRunResult
+        The run's counters (cycles, commands held, rejections by reason in ``rejected``).
+    published : mapping of str to int
+        Messages published per key suffix (``sensors``, ``truth``, ``timing/cycle``,
+        ``timing/summary``, ``preview/wave_perfect``), the final summary included.
+    sample_time_ns : int
+        Simulated time at the end of the run [ns].
+    aborted : bool
+        True when the run ended before its last cycle (a signal, the lock-step timeout).
+    seq : int
+        The report's sequence number (one report per run: 0).
+    """
+    return PlantReport(
+        seq=seq,
+        sample_time_ns=sample_time_ns,
+        publish_time_ns=time.monotonic_ns(),
+        final=1,
+        aborted=int(aborted),
+        cycles=result.cycles,
+        sensor_frames_published=int(published.get(SENSORS.key_suffix, 0)),
+        truth_published=int(published.get(TRUTH.key_suffix, 0)),
+        cycle_records_published=int(published.get(CYCLE_TIMING.key_suffix, 0)),
+        summaries_published=int(published.get(TIMING_SUMMARY.key_suffix, 0)),
+        previews_published=int(published.get(WAVE_PREVIEW_PERFECT.key_suffix, 0)),
+        # A held cycle (deadline missed, late or lost command) applied no command.
+        commands_applied=max(0, result.cycles - result.commands_held),
+        **rejection_fields(result.rejected, "commands_rejected", PLANT_REJECT_REASONS),
+    )
 
 
 class SensorLink:
@@ -955,8 +1014,10 @@ def run_plant_node(
     tid = scenario.turbine_id
     publishers = {
         mt.key_suffix: bus.publisher(mt.key(tid))
-        for mt in (SENSORS, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT)
+        for mt in (SENSORS, TIMING_SUMMARY, WAVE_PREVIEW_PERFECT, PLANT_REPORT)
     }
+    # Messages handed to the bus per key suffix: the PlantReport's counts.
+    published: Counter[str] = Counter()
 
     # Log-only messages (truth and cycle timing: nobody waits for them) go out a few per
     # put on the batch key (hil.bus.LogBatcher): one put and one wake-up of the recorder
@@ -970,6 +1031,7 @@ def run_plant_node(
     profile = CycleProfile()
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        published[mt.key_suffix] += 1
         if can_bus is not None and mt is SENSORS:
             can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
             return
@@ -1035,8 +1097,28 @@ def run_plant_node(
             loop.result.commands_rejected = sum(inbox.rejected.values())
             loop.result.rejected = dict(inbox.rejected)
             loop.count_faults(inbox)
-            loop.publish_summary(final=True)  # after the last log batch
-            time.sleep(0.2)  # let the final summary reach the recorder before the link goes
+            final = loop.publish_summary(final=True)  # after the last log batch
+            # The report goes last: the recorder records until it holds what it counts.
+            report = plant_report(
+                loop.result,
+                published,
+                sample_time_ns=final.sample_time_ns,
+                aborted=bool(loop.result.aborted),
+            )
+            publishers[PLANT_REPORT.key_suffix].put(PLANT_REPORT.codec.encode(report))
+            # What went out in log batches; a put that raised is said (the report counts
+            # its messages as published, so the review finds them missing).
+            log(
+                f"plant log batches: {batcher.puts} put ({batcher.messages} messages), "
+                f"{batcher.failed} failed"
+            )
+            time.sleep(0.2)  # let the final summary reach the others before the link goes
+            # A session closed while its samples are on their way to a recorder behind the
+            # run loses them (hil.bus.wait_for_recorder): it stays open until the recorder
+            # holds them all.
+            ack = wait_for_recorder(bus.session, tid, "plant")
+            if ack == "timeout":
+                log("plant: the recorder did not confirm it holds the run; closing anyway")
         token.undeclare()
         if channel is not None:
             channel.close()
@@ -1272,6 +1354,7 @@ def run_inprocess(
     runtime: Any = None,
     loop: Literal["auto", "compiled", "python"] = "auto",
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
+    published: Callable[[], Mapping[str, int]] | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -1290,6 +1373,11 @@ def run_inprocess(
     it can. The same messages either way (wall-clock stamps aside). ``publish_block``
     (``BackgroundRunLog.publish_block``) takes the compiled loop's messages as rows; without
     it they go to ``publish`` as Structs. ``PlantRunResult.loop`` says which loop ran.
+
+    ``published``: the messages handed to the log so far per key suffix (e.g.
+    ``BackgroundRunLog.published``, which counts the rows of either loop too); when given,
+    the :class:`PlantReport` (:func:`plant_report`) follows the final summary, as a plant
+    process publishes it.
     """
     plant = PlantLoop(scenario, publish)
     if log is not None:
@@ -1325,7 +1413,12 @@ def run_inprocess(
             command = step_controller(frame)
             finish(command, clock() - t0, at_arrival=False)
     plant.count_faults()
-    plant.publish_summary(final=True)
+    final = plant.publish_summary(final=True)
+    if published is not None:
+        report = plant_report(
+            plant.result, published(), sample_time_ns=final.sample_time_ns, aborted=False
+        )
+        publish(PLANT_REPORT, report)
     if plant.result.faults_injected:
         plant.log(f"plant faults injected: {_fault_counts_text(plant.result.faults_injected)}")
     return plant.result

@@ -3,12 +3,43 @@
 The samples wait in the Zenoh subscriber's FIFO channel; every 20 ms the main thread takes
 them, :meth:`Recorder.on_sample` decodes each (so a bad payload is counted, never logged as
 data) and queues it, and the queue is written to :class:`hil.mcap_log.RunLog` (the CAN
-tap, when there is one, queues from its own thread), flushing a chunk at least every
-0.25 s, so the file stays readable up to its last flush if any process, this one
-included, is killed. A message's MCAP publish time is when the main thread took it (at
-most about 20 ms after it arrived). The
-recorder stops after the plant's final timing summary (plus a short drain) or on
-SIGINT/SIGTERM, and always finishes the file.
+tap, when there is one, queues from its own thread), flushing a chunk every
+:data:`FLUSH_INTERVAL_S` (0.15 s), so the file stays readable up to its last flush if any
+process, this one included, is killed. A message's MCAP publish time is when the main
+thread took it (at most about 20 ms after it arrived).
+
+No silent loss
+--------------
+The recording path is not lossy by design (docs/recording.md): the nodes publish with
+congestion control ``BLOCK`` (:mod:`hil.bus`), and a full subscriber channel holds Zenoh's
+receive back rather than dropping, so a recorder that falls behind (it runs niced, under
+load) makes the publishers wait once its channel (:data:`_CHANNEL_CAPACITY` samples) and
+the sockets' buffers are full: it paces a lock-step run instead of losing its messages.
+The recorder does not stop on a fixed drain either: after the plant's final timing summary
+it keeps taking samples until it holds the plant's :class:`~bus_schemas.messages.
+PlantReport`, the controller's :class:`~bus_schemas.messages.ControllerReport` (unless the
+controller is gone: its liveliness token ``fowt/<turbine>/alive/controller`` deleted) and,
+per topic, as many messages as the reports count (:mod:`hil.recording`). Only when no
+sample has come for :data:`END_IDLE_S` does it stop short, and it logs the shortfall. A
+plant whose liveliness token went (it exited, or was killed) while its final summary is not
+in yet is taken as killed only once the recorder has taken everything waiting in its
+channel and :data:`KILLED_IDLE_S` passed without a sample (a recorder behind the run is
+still taking what the plant sent before it exited); the recording then ends once the
+controller's report is in or the controller is gone. SIGINT/SIGTERM stop it
+at once; it always finishes the file. A Zenoh session closed while its samples are still
+on their way to a recorder that is behind loses them, so plant and controller keep theirs
+open until the recorder declares the liveliness token ``fowt/<turbine>/alive/recorder/
+has/<node>`` (:func:`hil.bus.wait_for_recorder`): it does once it holds that node's report
+and every message the report counts (:meth:`Recorder.holds`).
+
+What a SIGKILL of the recorder loses: the messages it took but had not flushed (it flushes
+a chunk every :data:`FLUSH_INTERVAL_S` = 0.15 s of wall time, :class:`hil.mcap_log.RunLog`)
+and the samples waiting in its subscriber channel (taken every 20 ms while it keeps up):
+0.17 s of wall time plus how far it is behind the run, i.e. at most 0.25 s simulated in
+real time (speed 1) while it keeps up. Measured beside two CPU hogs, recorder niced: at
+most 0.27 s with the 0.25 s flush before, within the bound with 0.15 s
+(bench/recorder_kill_loss.py; docs/recording.md). A lock-step run goes faster than real
+time, so the same wall time is more simulated time there.
 
 Log batches: the plant puts its truth and cycle timing, the controller its status, a few
 per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
@@ -17,8 +48,12 @@ channel exactly as if it had been put alone (same channel, schema and JSON; the 
 publish time is the batch's receive time). A batch that does not split is counted under
 ``rejected`` as ``<batch suffix>:<reason>``.
 
-Its ``recorder`` metadata record holds ``messages`` (written), ``rejected`` and
-``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest cycle number
+Its ``recorder`` metadata record holds ``messages`` (written), ``topics`` (JSON: messages
+written per key suffix), ``samples`` (JSON: samples taken from the bus per key suffix, a
+log batch counting once), ``expected`` (JSON: per key suffix, what the reports count),
+``shortfall`` (JSON list: the topics short of it when the recorder stopped, and why),
+``rejected`` and ``unknown_keys`` (JSON counts) and ``first_cycle_recorded``: the lowest
+cycle number
 (``seq``) of the plant's per-cycle messages (sensor frame, truth, cycle timing) in the file,
 ``"0"`` for a run recorded from its start, larger when the recorder joined late (a partial
 run), ``"none"`` when no cycle was recorded.
@@ -44,6 +79,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import queue
 import signal
 import threading
@@ -57,9 +93,11 @@ import msgspec
 import zenoh
 
 from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
+from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
-from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, split_batch
+from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, recorder_ack_key, split_batch
 from hil.mcap_log import RunLog
+from hil.recording import CONTROLLER_TOPICS, PLANT_TOPICS, expected_counts, shortfall
 from hil.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -74,6 +112,25 @@ _DRAIN_PERIOD_S = 0.02
 #: receive back, it never drops: at the fastest lock-step, 2-3 samples per 0.4 ms cycle,
 #: that is several seconds of a stalled main thread).
 _CHANNEL_CAPACITY = 1 << 16
+#: Samples taken from the channel per pass at most (then they are written, so a recorder
+#: catching up keeps flushing and looking at its stop event).
+_TAKE_MAX = 4096
+#: After the plant's final summary: wall seconds without a new sample after which the
+#: recorder stops short of what the reports count (and logs the shortfall) [s].
+END_IDLE_S = 10.0
+#: After the controller went away without its report (or a recorder that joined late has
+#: the reports): wall seconds without a new sample before the recorder stops [s].
+GONE_IDLE_S = 0.5
+#: After the plant went away without its final summary: wall seconds without a new sample
+#: before the recorder takes it as killed [s]. Its liveliness token goes over the same
+#: link, after everything it sent, so what it sent is in the channel by then; a recorder
+#: behind the run takes it all first (taking is not idle).
+KILLED_IDLE_S = 0.5
+
+#: Wall seconds between two chunk flushes of the recorder's file (what a SIGKILL of the
+#: recorder loses, module docstring): 0.15 + 0.02 (the take period) + the nodes' log batch
+#: age and scheduling stay within 0.25 s.
+FLUSH_INTERVAL_S = 0.15
 
 #: Key suffix of the raw CAN frame channel.
 CAN_RAW_SUFFIX = "can/raw"
@@ -133,10 +190,19 @@ class RecorderLog(RunLog):
         Turbine id of the keys.
     can_raw : bool
         Register the ``fowt/<turbine>/can/raw`` channel (a CAN run).
+    flush_interval_s : float
+        Wall seconds between chunk flushes (:data:`FLUSH_INTERVAL_S`).
     """
 
-    def __init__(self, path: Path, turbine: str, *, can_raw: bool = False) -> None:
-        super().__init__(path, turbine)
+    def __init__(
+        self,
+        path: Path,
+        turbine: str,
+        *,
+        can_raw: bool = False,
+        flush_interval_s: float = FLUSH_INTERVAL_S,
+    ) -> None:
+        super().__init__(path, turbine, flush_interval_s=flush_interval_s)
         self.can_raw_key = f"{KEY_PREFIX}/{turbine}/{CAN_RAW_SUFFIX}"
         self._can_raw_channel: int | None = None
         self._can_raw_seq = 0
@@ -183,6 +249,13 @@ class Recorder:
         self.unknown_keys: Counter[str] = Counter()
         self.final_seen = threading.Event()
         self.prefix = f"{KEY_PREFIX}/{log.turbine}/"
+        #: Messages written per key suffix.
+        self.counts: Counter[str] = Counter()
+        #: Samples taken from the bus per key suffix (a log batch is one sample).
+        self.samples: Counter[str] = Counter()
+        #: The plant's report (its fields) once written, and every controller report.
+        self.plant_report: dict[str, Any] | None = None
+        self.controller_reports: list[dict[str, Any]] = []
         #: Lowest cycle (``seq``) of the plant's per-cycle messages written (sensor frame,
         #: truth, cycle timing); None until one is. A recorder that joined late sees a
         #: first cycle > 0: the run is partial (metadata ``first_cycle_recorded``).
@@ -197,6 +270,7 @@ class Recorder:
         (``<batch suffix>:<reason>``), a message in it that does not decode alone.
         """
         suffix = key.removeprefix(self.prefix)
+        self.samples[suffix] += 1
         if suffix in BATCH_SUFFIXES:
             self._on_batch(suffix, payload)
             return
@@ -237,9 +311,16 @@ class Recorder:
         except queue.Empty:
             self.log.maybe_flush()
             return 0
+        counts = self.counts
+        prefix = self.prefix
         while True:
             key, msg, recv = item
             self.log.write(key, msg, recv)
+            counts[key.removeprefix(prefix)] += 1
+            if isinstance(msg, PlantReport):
+                self.plant_report = msgspec.structs.asdict(msg)
+            elif isinstance(msg, ControllerReport):
+                self.controller_reports.append(msgspec.structs.asdict(msg))
             if isinstance(msg, _PER_CYCLE) and (
                 self.first_cycle is None or msg.seq < self.first_cycle
             ):
@@ -249,6 +330,35 @@ class Recorder:
                 item = self.queue.get_nowait()
             except queue.Empty:
                 return n
+
+    def expected(self) -> dict[str, int]:
+        """Messages per key suffix the reports written so far count (:mod:`hil.recording`)."""
+        return expected_counts(self.plant_report, self.controller_reports)
+
+    def holds(self, node: str) -> bool:
+        """True once the report of ``node`` (``plant``, ``controller``) is in and, per topic
+        it counts, as many messages as it says."""
+        if node == "plant":
+            if self.plant_report is None:
+                return False
+            topics = PLANT_TOPICS
+        else:
+            if not self.controller_reports:
+                return False
+            topics = CONTROLLER_TOPICS
+        expected = self.expected()
+        return all(self.counts[t] >= expected.get(t, 0) for t in topics)
+
+    def missing(self, controller_gone: bool) -> list[str]:
+        """What the recording still lacks after the plant's final summary (empty: done).
+
+        The plant's report, the controller's (unless ``controller_gone``: its liveliness
+        token was deleted) and, per topic, the messages the reports count.
+        """
+        out = [] if self.plant_report is not None else ["the plant's report"]
+        if not self.controller_reports and not controller_gone:
+            out.append("the controller's report")
+        return out + shortfall(self.counts, self.expected())
 
 
 class CanTap:
@@ -326,14 +436,18 @@ def run_recorder_node(
     out: Path,
     run_info: dict[str, str] | None = None,
     scenario_toml: str = "",
-    drain_s: float = 0.3,
     log: Callable[[str], None] = print,
     can: CanBusConfig | None = None,
+    end_idle_s: float = END_IDLE_S,
 ) -> int:
-    """Record until the plant's final summary (plus ``drain_s``) or a signal.
+    """Record until the run's messages are all in (module docstring, "No silent loss").
 
-    With ``can`` the recorder also listens on that CAN bus (module docstring, "CAN runs").
-    Returns the number of messages written.
+    After the plant's final summary the recorder takes samples until it holds the plant's
+    and the controller's reports (the latter unless the controller is gone) and what they
+    count, or until ``end_idle_s`` [s] pass without a sample (the shortfall is logged and
+    kept in the ``recorder`` metadata). A signal stops it at once. With ``can`` the
+    recorder also listens on that CAN bus (module docstring, "CAN runs"). Returns the
+    number of messages written.
     """
     # Signals first: a stop that arrives while the log is being opened still ends with a
     # complete (possibly empty) MCAP file instead of the default SIGTERM death.
@@ -363,11 +477,16 @@ def run_recorder_node(
     # per cycle, competing with plant and controller for the two cores).
     sub: Any = None
 
-    def take() -> None:
+    def take(limit: float = _TAKE_MAX) -> int:
+        n = 0
         if sub is None:
-            return
-        while (sample := sub.try_recv()) is not None:
+            return n
+        while n < limit and (sample := sub.try_recv()) is not None:
             recorder.on_sample(str(sample.key_expr), sample.payload.to_bytes())
+            n += 1
+        return n
+
+    missing: list[str] = []
 
     try:
         sub = bus.session.declare_subscriber(
@@ -387,30 +506,56 @@ def run_recorder_node(
         plant_watch = bus.session.liveliness().declare_subscriber(
             f"fowt/{scenario.turbine_id}/alive/plant", on_plant_liveliness
         )
+        # The controller's token: alive while it is there (a restarted controller declares
+        # it again); once it is deleted no report of it is waited for.
+        controller_alive = threading.Event()
+
+        def on_controller_liveliness(sample: zenoh.Sample) -> None:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                controller_alive.clear()
+            else:
+                controller_alive.set()
+
+        controller_watch = bus.session.liveliness().declare_subscriber(
+            f"fowt/{scenario.turbine_id}/alive/controller", on_controller_liveliness, history=True
+        )
         log(f"recorder writing {out}")
         while not stop.is_set() and not recorder.final_seen.is_set() and not plant_gone.is_set():
             # Drain in batches every 20 ms rather than waking per message: a wake-up per
             # sample costs a thread switch and a GIL hand-over with Zenoh's thread, which
             # took the CPU the plant and controller need (recorder CPU -20 % in lock-step).
-            time.sleep(_DRAIN_PERIOD_S)
-            take()
+            # A full take (catching up) goes on at once.
+            took = take()
             written += recorder.drain(0.0)
-        end = time.monotonic() + drain_s
-        while time.monotonic() < end:
-            take()
-            written += recorder.drain(0.02)
-        take()
-        if plant_gone.is_set() and not recorder.final_seen.is_set():
-            log("recorder: the plant went away without its final summary (killed?)")
+            if took < _TAKE_MAX:
+                time.sleep(_DRAIN_PERIOD_S)
+        acks: dict[str, Any] = {}  # kept referenced: a dropped token is undeclared
+
+        def acknowledge() -> None:
+            # The plant and the controller keep their sessions open until the recorder says
+            # it holds what they published (hil.bus.wait_for_recorder).
+            for node in ("plant", "controller"):
+                if node not in acks and recorder.holds(node):
+                    key = recorder_ack_key(scenario.turbine_id, node)
+                    acks[node] = bus.session.liveliness().declare_token(key)
+
+        missing = _record_to_the_end(
+            recorder, take, stop, controller_alive, plant_gone, end_idle_s, log, acknowledge
+        )
+        for ack in acks.values():
+            ack.undeclare()
+        written += recorder.drain(0.0)
+        controller_watch.undeclare()
         plant_watch.undeclare()
         token.undeclare()
     finally:
         with contextlib.suppress(Exception):  # a session failing at its start: nothing to take
-            take()
+            take(math.inf)
             sub.undeclare()
         bus.close()
         meta = {
             "messages": str(run_log.count),
+            "shortfall": json.dumps(missing),
             "rejected": json.dumps(dict(recorder.rejected)),
             "unknown_keys": json.dumps(dict(recorder.unknown_keys)),
         }
@@ -427,6 +572,9 @@ def run_recorder_node(
             )
         written += recorder.drain(0.0)
         meta["messages"] = str(run_log.count)
+        meta["topics"] = json.dumps(dict(sorted(recorder.counts.items())))
+        meta["samples"] = json.dumps(dict(sorted(recorder.samples.items())))
+        meta["expected"] = json.dumps(recorder.expected())
         meta["first_cycle_recorded"] = (
             "none" if recorder.first_cycle is None else str(recorder.first_cycle)
         )
@@ -436,6 +584,70 @@ def run_recorder_node(
     if can_bus is not None and tap is not None:
         log(f"recorder CAN: {tap.frames} frames, rejected {dict(can_bus.rejected)}")
     return written
+
+
+def _record_to_the_end(
+    recorder: Recorder,
+    take: Callable[[], int],
+    stop: threading.Event,
+    controller_alive: threading.Event,
+    plant_gone: threading.Event,
+    end_idle_s: float,
+    log: Callable[[str], None],
+    acknowledge: Callable[[], None] = lambda: None,
+) -> list[str]:
+    """Take and write samples after the plant's end until the recording is complete.
+
+    ``acknowledge`` is called after each take (it tells the nodes what the recorder holds).
+
+    Complete (module docstring, "No silent loss"): the final summary, the reports and the
+    counts they give are all in. The plant's liveliness token may go before the recorder
+    (behind, niced) has taken its last samples: a plant gone counts as killed only while
+    no final summary has come after :data:`KILLED_IDLE_S` without a sample, and then once
+    the controller's report is in or the controller is gone too. Stops early on ``stop``
+    (a signal), or once no sample came for ``end_idle_s``. Returns what was still missing
+    (empty when complete) and logs it.
+    """
+    if not recorder.final_seen.is_set() and not plant_gone.is_set():
+        return ["stopped by a signal before the run's end"]
+    last_sample = time.monotonic()
+    missing: list[str] = []
+    while True:
+        if stop.is_set():
+            return ["stopped by a signal before the recording was complete", *missing]
+        took = take()
+        recorder.drain(0.0)
+        acknowledge()
+        now = time.monotonic()
+        if took:
+            last_sample = now
+        idle = now - last_sample
+        gone = not controller_alive.is_set()
+        if recorder.final_seen.is_set():
+            missing = recorder.missing(controller_gone=gone)
+            # A controller gone without a report: its report may still be on its way.
+            settled = recorder.controller_reports or not gone or idle >= GONE_IDLE_S
+            if not missing and settled:
+                return []
+        elif idle >= KILLED_IDLE_S:  # the plant was killed: nothing more comes from it
+            missing = ["the plant's final summary and report (the plant went away)"]
+            if recorder.controller_reports or gone:
+                log("recorder: the plant went away without its final summary (killed?)")
+                return missing
+        # A recorder that joined the run late (its first cycle > 0) cannot catch up on what
+        # went before: it stops once nothing more comes, without the long wait.
+        late = recorder.first_cycle is not None and recorder.first_cycle > 0
+        reports_in = recorder.plant_report is not None and (recorder.controller_reports or gone)
+        limit = GONE_IDLE_S if late and reports_in else end_idle_s
+        if idle >= limit:
+            log(
+                f"recorder: INCOMPLETE, no sample for {limit:g} s and still missing: "
+                + "; ".join(missing or ["the plant's final summary"])
+                + (f" (it joined the run at cycle {recorder.first_cycle})" if late else "")
+            )
+            return missing or ["the plant's final summary"]
+        if took < _TAKE_MAX:
+            time.sleep(_DRAIN_PERIOD_S)
 
 
 def scenario_metadata(scenario: Scenario, toml_text: str) -> dict[str, str]:

@@ -56,6 +56,13 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     time each forecast is for, 100 (1 − var(η − η̂)/var(η)); ``samples`` [1] distinct forecasts.
 ``controller``
     ``compute_us.{p50,p99,max}`` [us] of the status ``compute_time_ns`` (as in ``timing``).
+``recording``
+    Whether the file holds every message the nodes published (:func:`hil.recording.
+    completeness`): ``complete`` (bool), ``topics`` (per topic suffix ``recorded`` and
+    ``expected`` [1], the latter from the plant's ``timing/report`` and the controller's
+    ``controller/report``, ``null`` where no report covers the topic), ``problems`` (one
+    sentence per gap; a missing final summary or report is one), ``plant_report`` and
+    ``controller_report`` (bool: present).
 """
 
 from __future__ import annotations
@@ -68,6 +75,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
+from rich.markup import escape
 from rich.table import Table
 from scipy.signal import welch
 
@@ -80,6 +88,7 @@ from bus_schemas.messages import (
 )
 from hil import kpi
 from hil.mcap_log import MessageList, RunData, read_run
+from hil.recording import completeness, describe
 from hil.scenario import ReviewSection
 
 if TYPE_CHECKING:
@@ -455,6 +464,16 @@ def _run_info(run: RunData) -> dict[str, Any]:
     return info
 
 
+def _recording(run: RunData) -> dict[str, Any]:
+    """The ``recording`` section: recorded against published, per topic."""
+    recorded = {_suffix(k): len(v) for k, v in run.messages.items()}
+    plant = run.topic("timing/report")
+    summaries = run.topic("timing/summary")
+    final = any(int(s.get("final", 0)) == 1 for s in summaries)
+    controllers = run.topic("controller/report")
+    return completeness(recorded, plant[-1] if plant else None, controllers, final)
+
+
 def summarize(run: RunData) -> dict[str, Any]:
     """Summary of one run from the MCAP contents alone (JSON-ready, nan as None).
 
@@ -476,6 +495,7 @@ def summarize(run: RunData) -> dict[str, Any]:
         "run": _run_info(run),
         "scenario": _scenario(run),
         **_estimates(run, window["from_s"]),
+        "recording": _recording(run),
     }
     cleaned: dict[str, Any] = _clean(summary)
     return cleaned
@@ -900,6 +920,10 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     msgs = run.get("messages", {})
     head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
     console.print(head)
+    rec = summary.get("recording")
+    if isinstance(rec, dict):
+        line = escape(f"recording: {describe(rec)}")
+        console.print(line if rec.get("complete") else f"[bold red]{line}[/bold red]")
 
     k = summary.get("kpi", {})
     win = summary.get("kpi_window") or {}
