@@ -136,15 +136,13 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.campaign import CampaignError, load_campaign, run_campaign, select
 
         if record not in ("mcap", "none"):
-            console.print(f"[red]error:[/] --record {record!r}: expected mcap or none")
-            raise typer.Exit(2)
+            _cli._fail(f"--record {record!r}: expected mcap or none")
         try:
             c = load_campaign(campaign)
             if cases or controllers or seeds is not None or duration is not None or baseline:
                 c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
         except CampaignError as exc:
-            console.print(f"[red]error:[/] {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(str(exc))
         out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
         try:
             result = run_campaign(
@@ -158,8 +156,7 @@ def register(app: typer.Typer, console: Console) -> None:
             )
         except (OSError, TimeoutError) as exc:
             where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
-            console.print(f"[red]error:[/] cannot use {where}: {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(f"cannot use {where}: {exc}")
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
@@ -186,17 +183,14 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import compare_runs, fmt
 
         if len(runs) < 2:
-            console.print("[red]error:[/] give at least two MCAP files")
-            raise typer.Exit(2)
+            _cli._fail("give at least two MCAP files")
         for p in runs:
             if not p.is_file():
-                console.print(f"[red]error:[/] {p} is not a file")
-                raise typer.Exit(2)
+                _cli._fail(f"{p} is not a file")
         try:
             res = compare_runs(runs, out)
         except ValueError as exc:
-            console.print(f"[red]error:[/] {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(str(exc))
         labels = [r["label"] for r in res["runs"]]
         t = Table(title="KPIs (Δ % vs run 0)")
         t.add_column("KPI")
@@ -227,12 +221,19 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import run_html
 
         if not mcap.is_file():
-            console.print(f"[red]error:[/] {mcap} is not a file")
-            raise typer.Exit(2)
-        text, _summary = run_html(mcap)
+            _cli._fail(f"{mcap} is not a file")
+        from hil.mcap_log import NotMcapError
+
+        try:
+            text, _summary = run_html(mcap)
+        except NotMcapError as exc:
+            _cli._fail(str(exc))
         path = out or mcap.parent / "report.html"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        except OSError as exc:
+            _cli._fail(_cli._os_error_text(exc, path), code=1)
         console.print(f"report: {path}")
 
 

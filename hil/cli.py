@@ -10,6 +10,7 @@ check), and a usage error of the parser is turned into the same one line by :fun
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -28,6 +29,7 @@ from rich.text import Text
 
 from hil.bus import BusOpenError
 from hil.hexicon_cli import app as hexicon_app
+from hil.outcome import ExitCode
 from hil.scenario import (
     MAX_DURATION_S,
     Scenario,
@@ -52,9 +54,20 @@ _stderr = Console(stderr=True, soft_wrap=True)
 
 
 def _fail(message: str, code: int = 2) -> NoReturn:
-    """Print ``error: message`` as one line on stderr and exit with ``code``."""
+    """Print ``error: message`` as one line on stderr and exit with ``code``.
+
+    The message is plain text (a Text, never parsed as markup): brackets in it, e.g. a
+    path or a TOML section, are printed as they are.
+    """
     _stderr.print(Text.assemble(("error: ", "bold red"), message.replace("\n", " ")))
-    raise typer.Exit(code)
+    raise typer.Exit(int(code))
+
+
+def _os_error_text(exc: OSError, path: object = None) -> str:
+    """``<file>: <reason>`` of an OSError (``No space left on device``), no errno digits."""
+    where = exc.filename if exc.filename is not None else path
+    reason = exc.strerror or str(exc)
+    return f"{where}: {reason}" if where is not None else reason
 
 
 # ----------------------------------------------------------------- option checks
@@ -450,7 +463,7 @@ def run(
         _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
     if loop != "auto" and mode != "inprocess":
         _fail(f"--loop {loop}: only with --mode inprocess")
-    from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
+    from hil.launch import RunAbortedError, RunFailedError, RunRequest, default_out_dir, launch
 
     if out is None:
         try:
@@ -470,10 +483,14 @@ def run(
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
     )
     try:
-        launch(req, console)
+        summary = launch(req, console)
+    except RunAbortedError as exc:  # stopped before anything was recorded
+        _fail(str(exc), code=ExitCode.ABORTED)
     except RunFailedError as exc:
-        console.print(f"[red]run failed:[/] {escape(str(exc))}")
-        raise typer.Exit(1) from exc
+        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
+    except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written
+        _fail(_os_error_text(exc), code=ExitCode.FAILED)
+    raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
 
 
 @app.command(short_help="Run the plant process alone.")
@@ -623,14 +640,17 @@ def record(
     )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
-    run_recorder_node(
-        sc,
-        bus,  # type: ignore[arg-type]
-        out,
-        run_info=info,
-        scenario_toml=text,
-        can=can,
-    )
+    try:
+        run_recorder_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            out,
+            run_info=info,
+            scenario_toml=text,
+            can=can,
+        )
+    except OSError as exc:  # disk full, file too large: the file is readable up to it
+        _fail(f"recorder: writing failed: {_os_error_text(exc, out)}", code=ExitCode.FAILED)
 
 
 @app.command(short_help="Run the Zenoh router of a two-host bench.")
@@ -652,11 +672,9 @@ def router(
     try:
         run_router(zenoh_config, echo=console.print)
     except RouterConfigError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except Exception as exc:  # zenoh.ZError: certificate file, port in use
-        console.print(f"[red]error:[/] router session did not open: {zenoh_error_text(exc)}")
-        raise typer.Exit(1) from exc
+        _fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
 
 
 @app.command("review", short_help="Review a recorded run: KPIs, timing and plots.")
@@ -671,7 +689,13 @@ def review_cmd(
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
     strict: Annotated[
-        bool, typer.Option("--strict", help="Exit 1 when the file is truncated or inconsistent.")
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit non-zero unless the run is complete and healthy: 1 when the file is "
+            "truncated or inconsistent, else the code 'fowt run' gives the run (3 aborted, 4 "
+            "recording incomplete, 5 safe state, 6 deadline misses; docs/exit-codes.md).",
+        ),
     ] = False,
 ) -> None:
     """Review a recorded run: KPIs, timing and plots.
@@ -679,31 +703,41 @@ def review_cmd(
     Everything comes from the MCAP file alone.
     """
     from hil.mcap_log import NotMcapError
+    from hil.outcome import outcome_line, run_outcome
     from hil.review import render_summary, review, truncation_note
 
     if not mcap.is_file():
-        console.print(f"[red]error:[/] {mcap} is not a file")
-        raise typer.Exit(2)
+        _fail(f"{mcap} is not a file")
     try:
         summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
     except NotMcapError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except OSError as exc:
-        console.print(f"[red]error:[/] {exc.filename or mcap}: {exc.strerror or exc}")
-        raise typer.Exit(2) from exc
+        _fail(_os_error_text(exc, mcap))
     note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
         if note:
-            Console(stderr=True).print(f"[yellow]warning:[/] {mcap}: {note}")
+            _stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
     else:
         render_summary(summary, console)
+    if not strict:
+        return
     bad = note is not None or summary["run"].get("statistics_ok") is False
-    if strict and bad:
+    if bad:
         reason = note or str(summary["run"].get("error"))
-        Console(stderr=True).print(f"[red]error:[/] --strict: {mcap}: {reason}")
-        raise typer.Exit(1)
+        _fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
+    # A run's own verdict, as 'fowt run' gave it (hil.outcome): the launcher's marks
+    # (aborted, failed) are in the summary.json beside the file, not in the file itself.
+    beside = mcap.parent / "summary.json"
+    with contextlib.suppress(OSError, ValueError):
+        launched = json.loads(beside.read_text()).get("run", {}) if beside.is_file() else {}
+        for key in ("aborted", "abort_signal", "aborted_at_s", "failed", "process_fault_problems"):
+            if key in launched and key not in summary["run"]:
+                summary["run"][key] = launched[key]
+    code, reasons = run_outcome(summary)
+    if code != ExitCode.OK:
+        _fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
 
 
 @app.command("recover", short_help="Make a truncated MCAP file complete.")
@@ -720,20 +754,16 @@ def recover_cmd(
     from hil.mcap_log import NotMcapError, recover
 
     if not mcap.is_file():
-        console.print(f"[red]error:[/] {mcap} is not a file")
-        raise typer.Exit(2)
+        _fail(f"{mcap} is not a file")
     target = out if out is not None else mcap.with_suffix(".recovered.mcap")
     if target.resolve() == mcap.resolve():
-        console.print("[red]error:[/] --out must differ from the input file")
-        raise typer.Exit(2)
+        _fail("--out must differ from the input file")
     try:
         n = recover(mcap, target)
     except NotMcapError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except OSError as exc:
-        console.print(f"[red]error:[/] {target}: {exc.strerror or exc}")
-        raise typer.Exit(2) from exc
+        _fail(_os_error_text(exc, target))
     console.print(f"recovered {n} messages into {target}")
 
 
@@ -1191,4 +1221,10 @@ def main(argv: list[str] | None = None) -> None:
     except BusOpenError as exc:  # a node whose session was refused: one line, not a traceback
         _stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
         sys.exit(1)
+    except OSError as exc:  # disk full, a folder gone read-only: the system's reason, one line
+        _stderr.print(Text.assemble(("error: ", "bold red"), _os_error_text(exc)))
+        sys.exit(1)
+    except KeyboardInterrupt:  # Ctrl-C in a command that does not handle it itself
+        _stderr.print(Text.assemble(("error: ", "bold red"), "interrupted (SIGINT)"))
+        sys.exit(130)
     sys.exit(rv if isinstance(rv, int) else 0)

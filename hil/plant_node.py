@@ -1272,6 +1272,7 @@ def run_inprocess(
     runtime: Any = None,
     loop: Literal["auto", "compiled", "python"] = "auto",
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
+    stop: threading.Event | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -1290,6 +1291,10 @@ def run_inprocess(
     it can. The same messages either way (wall-clock stamps aside). ``publish_block``
     (``BackgroundRunLog.publish_block``) takes the compiled loop's messages as rows; without
     it they go to ``publish`` as Structs. ``PlantRunResult.loop`` says which loop ran.
+
+    ``stop`` (set by a signal handler) ends the run early, before the next cycle (the
+    compiled loop: before its next batch); the final summary is still published and
+    ``PlantRunResult.aborted`` says "stopped by signal".
     """
     plant = PlantLoop(scenario, publish)
     if log is not None:
@@ -1311,12 +1316,15 @@ def run_inprocess(
         command = step_controller(frame)
         return command, time.monotonic_ns() - t0
 
+    stopped = stop.is_set if stop is not None else None
     if fast is not None:
-        fast.run(scenario.cycles)
+        fast.run(scenario.cycles, stopped)
     else:
         faulted = plant.bus_faults
         sample, finish, clock = plant.sample, plant.finish_cycle, time.monotonic_ns
         for _ in range(scenario.cycles):
+            if stopped is not None and stopped():
+                break
             frame = sample()
             if faulted:
                 _faulted_sim_cycle(plant, frame, exchange)
@@ -1324,6 +1332,8 @@ def run_inprocess(
             t0 = clock()
             command = step_controller(frame)
             finish(command, clock() - t0, at_arrival=False)
+    if stopped is not None and stopped() and plant.k < scenario.cycles:
+        plant.result.aborted = "stopped by signal"
     plant.count_faults()
     plant.publish_summary(final=True)
     if plant.result.faults_injected:
