@@ -456,6 +456,21 @@ def run(
     plant and controller processes (the recorder listens too and logs the raw frames); with
     udp_multicast the launcher runs the whole bench in a fresh network namespace (unshare -n,
     root) unless it already is in a private one.
+
+    Ctrl-C, SIGTERM or SIGHUP stops the run: the children are stopped in order (SIGTERM;
+    SIGKILL only after a long grace, said when done), the recording is finished and
+    reviewed, and summary.json says the run was aborted.
+
+    \b
+    Exit codes (the first that applies; docs/exit-codes.md; summary.json run.outcome):
+      0  complete and healthy
+      1  the run failed (a process died, a write failed: disk full)
+      2  bad input, refused before anything started
+      3  aborted by a signal (SIGINT, SIGTERM, SIGHUP)
+      4  recording incomplete (messages lost, file truncated)
+      5  safe state: the plant's safe state or the controller's safe mode, at any time
+      6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
+         real time, 0 in lock-step and in process)
     """
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)

@@ -558,7 +558,9 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     console.print(f"summary: {out / 'summary.json'}")
     for png in sorted(out.glob("*.png")):
         console.print(f"plot:    {png}")
-    console.print(outcome_line(code, summary["run"]["outcome_reasons"]), markup=False)
+    console.print(
+        outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
+    )
     if driver is not None and driver.problems:
         raise RunFailedError("; ".join(driver.problems))
     return summary

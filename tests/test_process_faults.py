@@ -14,7 +14,8 @@ End to end (real time, real processes over Zenoh):
 * ``fowt run faults-processes --duration 20``: the controller is killed at 10 s and
   restarted 2 s later; the plant enters its safe state at most ``watchdog_misses`` cycles
   after the last command of the killed controller, leaves it on the K-th consecutive
-  on-time command of the new one, and the run completes (exit status 0);
+  on-time command of the new one, and the run completes (exit status 5, the safe-state code
+  of :mod:`hil.outcome`);
 * a plant killed at 5 s: the controller and the recorder exit by themselves within a few
   seconds, the MCAP file reviews, the summary says the plant was killed (exit status 0).
 """
@@ -38,6 +39,7 @@ from bus_schemas.registry import CYCLE_TIMING
 from hil import launch
 from hil.launch import ProcessFaultDriver, ProcessFaultError, check_process_faults
 from hil.mcap_log import read_run
+from hil.outcome import ExitCode
 from hil.scenario import (
     ProcessFault,
     Scenario,
@@ -305,9 +307,12 @@ def test_controller_killed_and_restarted(tmp_path: Path) -> None:
     out = tmp_path / "run"
     proc = _fowt("run", "faults-processes", "--duration", "20", "--out", str(out), "--no-plots")
     logs = {p.name: p.read_text() for p in (out / "logs").glob("*.log")}
-    assert proc.returncode == 0, proc.stdout + proc.stderr + json.dumps(logs)
+    # The plant did enter its safe state: a run that did is not a healthy one (hil.outcome).
+    assert proc.returncode == ExitCode.SAFE_STATE, proc.stdout + proc.stderr + json.dumps(logs)
     assert "process fault" in proc.stdout and "restarted" in proc.stdout
     summary = json.loads((out / "summary.json").read_text())
+    assert summary["run"]["outcome"] == "safe_state"
+    assert summary["run"]["exit_code"] == ExitCode.SAFE_STATE
     (rec,) = summary["run"]["process_faults"]
     assert summary["run"]["plant_killed"] is False
     assert rec["kind"] == "controller_kill" and rec["outcome"] == "controller killed and restarted"
