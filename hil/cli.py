@@ -692,6 +692,21 @@ def router(
         _fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
 
 
+#: ``summary["run"]`` keys only the launcher writes (:func:`hil.launch.launch`): a review of
+#: the run's file keeps them in the summary.json it writes over the launcher's.
+_LAUNCHER_RUN_KEYS = (
+    "aborted",
+    "abort_signal",
+    "aborted_at_s",
+    "failed",
+    "launcher_wall_s",
+    "inprocess_loop",
+    "process_faults",
+    "plant_killed",
+    "process_fault_problems",
+)
+
+
 @app.command("review", short_help="Review a recorded run: KPIs, timing and plots.")
 def review_cmd(
     mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
@@ -718,17 +733,38 @@ def review_cmd(
     Everything comes from the MCAP file alone.
     """
     from hil.mcap_log import NotMcapError
-    from hil.outcome import outcome_line, run_outcome
+    from hil.outcome import outcome_line, record_outcome, run_outcome
     from hil.review import render_summary, review, truncation_note
 
     if not mcap.is_file():
         _fail(f"{mcap} is not a file")
+    # What only the launcher knew (aborted, failed, process faults, its verdict) is in the
+    # run's summary.json beside the file: read it before the review writes its own there,
+    # and keep it in that one.
+    beside = mcap.parent / "summary.json"
+    launched: dict[str, Any] = {}
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        if beside.is_file():
+            launched = {
+                k: v
+                for k, v in json.loads(beside.read_text()).get("run", {}).items()
+                if k in _LAUNCHER_RUN_KEYS
+            }
     try:
         summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
     except NotMcapError as exc:
         _fail(str(exc))
     except OSError as exc:
         _fail(_os_error_text(exc, mcap))
+    for key, value in launched.items():
+        summary["run"].setdefault(key, value)
+    if launched:
+        record_outcome(summary)
+        written = (out if out is not None else mcap.parent) / "summary.json"
+        try:
+            written.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        except (OSError, ValueError) as exc:
+            _fail(f"{written}: {exc}", code=ExitCode.FAILED)
     note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
@@ -742,15 +778,7 @@ def review_cmd(
     if bad:
         reason = note or str(summary["run"].get("error"))
         _fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
-    # A run's own verdict, as 'fowt run' gave it (hil.outcome): the launcher's marks
-    # (aborted, failed) are in the summary.json beside the file, not in the file itself.
-    beside = mcap.parent / "summary.json"
-    with contextlib.suppress(OSError, ValueError):
-        launched = json.loads(beside.read_text()).get("run", {}) if beside.is_file() else {}
-        for key in ("aborted", "abort_signal", "aborted_at_s", "failed", "process_fault_problems"):
-            if key in launched and key not in summary["run"]:
-                summary["run"][key] = launched[key]
-    code, reasons = run_outcome(summary)
+    code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.outcome)
     if code != ExitCode.OK:
         _fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
 

@@ -535,6 +535,9 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
             + (f" at {exc.sim_s:.2f} s simulated" if exc.sim_s is not None else "")
             + "; reviewing what was recorded"
         )
+    except RunFailedError as exc:
+        _failed_summary(mcap_path, out, exc)
+        raise
     wall = time.monotonic() - t0
     summary = review(mcap_path, out, plots=req.plots)
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
@@ -564,6 +567,24 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if driver is not None and driver.problems:
         raise RunFailedError("; ".join(driver.problems))
     return summary
+
+
+def _failed_summary(mcap_path: Path, out: Path, exc: RunFailedError) -> None:
+    """Best effort: a failed run's ``summary.json`` from what was recorded, outcome
+    ``failed`` and why. Nothing when there is no file or it cannot be read or written
+    (the disk that filled up): the run's error is what is reported, not this."""
+    if not mcap_path.is_file():
+        return
+    with contextlib.suppress(Exception):  # any failure here would only hide the run's own
+        summary = review(mcap_path, out, plots=False, write_summary=False)
+        summary.setdefault("run", {})["failed"] = str(exc)
+        record_outcome(summary)
+        path = out / "summary.json"
+        try:
+            path.write_text(json.dumps(summary, indent=2))
+        except OSError:
+            path.unlink(missing_ok=True)  # no half-written summary left behind
+            raise
 
 
 def _run_inprocess(

@@ -120,6 +120,20 @@ def _check_aborted(
     )
     assert review.returncode == 0, review.stderr
     assert json.loads(review.stdout)["timing"]["cycles"] > 0
+    # The review wrote its summary over the launcher's and kept what only the launcher
+    # knew; with --strict it exits with the run's code.
+    again = json.loads((out / "summary.json").read_text())["run"]
+    assert again["aborted"] is True and again["outcome"] == "aborted"
+    strict = subprocess.run(
+        [sys.executable, "-m", "hil", "review", str(out / "run.mcap"), "--strict", "--no-plots"],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+        env=_env(),
+    )
+    assert strict.returncode == ExitCode.ABORTED, strict.stdout[-2000:] + strict.stderr
+    assert strict.stderr.startswith("error: --strict: ") and "aborted by" in strict.stderr
     return summary
 
 
