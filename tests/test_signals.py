@@ -12,6 +12,8 @@ gets the signal. Then:
   and ``fowt review`` reads it.
 
 In process: SIGINT stops the loop, the file is closed complete and the summary says aborted.
+A launcher killed with SIGKILL (no handler runs) still leaves no child: they get SIGTERM as
+their parent dies, end their loop as on any stop and leave a complete file.
 """
 
 from __future__ import annotations
@@ -203,3 +205,32 @@ def test_sigint_stops_an_inprocess_run_with_a_complete_file(tmp_path: Path) -> N
     check_complete_mcap(mcap, validate=False)
     gone = {pid: cmd for pid, cmd in children.items() if _alive(pid)}
     assert not gone, f"the log writer outlived the run: {gone}"
+
+
+@pytest.mark.e2e
+def test_a_killed_launcher_leaves_no_child_and_a_complete_file(tmp_path: Path) -> None:
+    """SIGKILL, which no handler sees: the children's parent-death signal stops them."""
+    out = tmp_path / "run"
+    proc = _start(["default", "--duration", "60", "--out", str(out), "--no-plots"])
+    plant_log = out / "logs" / "plant.log"
+
+    def running() -> bool:
+        with contextlib.suppress(OSError):
+            return "plant running" in plant_log.read_text()
+        return False
+
+    _wait_for("the plant running", running, proc, 180)
+    children = _children(proc.pid)
+    assert len(children) == 3, children
+    proc.kill()
+    proc.communicate(timeout=60)
+
+    def all_gone() -> bool:
+        return not any(_alive(pid) for pid in children)
+
+    until = time.monotonic() + 120  # a bound on the set-up, not a timing assertion
+    while not all_gone() and time.monotonic() < until:
+        time.sleep(0.1)
+    assert all_gone(), {pid: cmd for pid, cmd in children.items() if _alive(pid)}
+    assert "aborted: stopped by signal" in plant_log.read_text()
+    check_complete_mcap(out / "run.mcap", validate=False)
