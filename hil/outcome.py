@@ -14,7 +14,7 @@ give the same verdict. The codes (docs/exit-codes.md):
 * 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_miss_fraction``
   of the cycles.
 
-When several apply, the lowest non-zero code wins (the order of the table): a failure or an
+When several apply, the lowest non-zero code wins (the order of the list): a failure or an
 abort makes the rest of the verdict moot; a recording that is not whole cannot vouch for
 the figures the last two are judged on; and missed deadlines are how a safe state is
 usually reached, so the safe state is the more telling of the two. Every condition that
