@@ -79,6 +79,7 @@ from typing import IO, Any, Literal
 
 import msgspec
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -511,7 +512,10 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     design_dir = ensure_designs(scenario, console)
     abort.check(started=False)  # a signal during the design: nothing ran, nothing to review
     for level, line in feedforward_notice(scenario):
-        console.print(f"[yellow]warning:[/] {line}" if level == "warning" else line)
+        console.print(
+            f"[yellow]warning:[/] {escape(line)}" if level == "warning" else line,
+            markup=level == "warning",
+        )
     t0 = time.monotonic()
     driver: ProcessFaultDriver | None = None
     loop_ran = ""
@@ -557,10 +561,11 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     render_summary(summary, console)
     if driver is not None:
         driver.render(console)
-    console.print(f"run log: [bold]{mcap_path}[/]")
-    console.print(f"summary: {out / 'summary.json'}")
+    # Paths and messages are the user's text: escaped, so brackets in them are printed.
+    console.print(f"run log: [bold]{escape(str(mcap_path))}[/]")
+    console.print(f"summary: {escape(str(out / 'summary.json'))}")
     for png in sorted(out.glob("*.png")):
-        console.print(f"plot:    {png}")
+        console.print(f"plot:    {escape(str(png))}")
     console.print(
         outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
     )
@@ -1236,7 +1241,9 @@ class ProcessFaultDriver:
                 f"not injected: no {name} process was running at {sim_ns / 1e9:.3f} s "
                 f"simulated (the last one exited with {proc.returncode})"
             )
-            console.print(f"[yellow]process fault[/] {fault.label} {fault.kind}: {rec['outcome']}")
+            console.print(
+                f"[yellow]process fault[/] {fault.label} {fault.kind}: {escape(rec['outcome'])}"
+            )
             return
         proc.send_signal(signal.SIGKILL)
         killed_at = time.monotonic()
@@ -1410,4 +1417,4 @@ class ProcessFaultDriver:
             )
         console.print(table)
         for problem in self.problems:
-            console.print(f"[red]process fault problem:[/] {problem}")
+            console.print(f"[red]process fault problem:[/] {escape(problem)}")

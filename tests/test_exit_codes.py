@@ -370,3 +370,24 @@ def test_errors_of_other_commands_are_one_stderr_line_with_brackets(
     assert proc.returncode == ExitCode.USAGE, proc.stdout + proc.stderr
     assert said in _one_error_line(proc)  # rich markup would have eaten the brackets
     assert proc.stdout.strip() == ""
+
+
+def test_a_healthy_run_exits_0_and_prints_paths_with_brackets(tmp_path: Path) -> None:
+    out = tmp_path / "run [b] x"
+    proc = _fowt(
+        "run",
+        "nrel5mw-ramp",
+        "--mode",
+        "inprocess",
+        "--duration",
+        "1",
+        "--out",
+        str(out),
+        "--no-plots",
+    )
+    assert proc.returncode == ExitCode.OK, proc.stdout + proc.stderr
+    assert f"summary: {out / 'summary.json'}" in proc.stdout  # rich markup kept "[b]"
+    assert proc.stdout.strip().splitlines()[-1] == "outcome: ok (exit 0)"
+    run = json.loads((out / "summary.json").read_text())["run"]
+    assert (run["outcome"], run["exit_code"], run["outcome_reasons"]) == ("ok", 0, [])
+    assert run["aborted"] is False
