@@ -505,6 +505,8 @@ def run(
         _fail(f"run failed: {exc}", code=ExitCode.FAILED)
     except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written
         _fail(_os_error_text(exc), code=ExitCode.FAILED)
+    except ValueError as exc:  # a model refusing the scenario as built (e.g. its length)
+        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
     raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
 
 
