@@ -478,7 +478,14 @@ def run(
         _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
     if loop != "auto" and mode != "inprocess":
         _fail(f"--loop {loop}: only with --mode inprocess")
-    from hil.launch import RunAbortedError, RunFailedError, RunRequest, default_out_dir, launch
+    from hil.launch import (
+        ProcessFaultError,
+        RunAbortedError,
+        RunFailedError,
+        RunRequest,
+        default_out_dir,
+        launch,
+    )
 
     if out is None:
         try:
@@ -501,6 +508,8 @@ def run(
         summary = launch(req, console)
     except RunAbortedError as exc:  # stopped before anything was recorded
         _fail(str(exc), code=ExitCode.ABORTED)
+    except ProcessFaultError as exc:  # the scenario's process faults and the mode disagree
+        _fail(str(exc), code=ExitCode.USAGE)
     except RunFailedError as exc:
         _fail(f"run failed: {exc}", code=ExitCode.FAILED)
     except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written

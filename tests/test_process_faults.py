@@ -181,8 +181,10 @@ def test_modes_that_cannot_act_are_refused_before_anything_starts(tmp_path: Path
     assert len(check_process_faults(kill_plant, "lockstep")) == 1
     out = tmp_path / "run"
     proc = _fowt("run", "faults-processes", "--mode", "lockstep", "--out", str(out))
-    assert proc.returncode != 0
-    assert "controller_kill" in proc.stdout and "lock-step" in proc.stdout, proc.stdout
+    assert proc.returncode == 2, proc.stdout + proc.stderr  # bad input: refused before it starts
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert "controller_kill" in lines[0] and "lock-step" in lines[0], proc.stderr
     assert not out.exists()
 
 
