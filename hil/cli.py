@@ -773,9 +773,9 @@ def review_cmd(
         record_outcome(summary)
         written = (out if out is not None else mcap.parent) / "summary.json"
         try:
-            written.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
-        except (OSError, ValueError) as exc:
-            _fail(f"{written}: {exc}", code=ExitCode.FAILED)
+            written.write_text(json.dumps(summary, indent=2) + "\n")
+        except OSError as exc:
+            _fail(_os_error_text(exc, written), code=ExitCode.FAILED)
     note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
