@@ -10,6 +10,7 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -49,9 +50,9 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
         t.add_row(*row)
     console.print(t)
     for reason in agg.get("not_available", {}).values():
-        console.print(f"[yellow]not computed:[/] {reason}")
+        console.print(f"[yellow]not computed:[/] {escape(str(reason))}")
     for reason in agg.get("notes", {}).values():
-        console.print(f"[yellow]note:[/] {reason}")
+        console.print(f"[yellow]note:[/] {escape(str(reason))}")
     runs = agg["runs"]
     console.print(f"runs: {runs['total']} ({runs['ok']} ok, {runs['failed']} failed)")
 
@@ -160,9 +161,11 @@ def register(app: typer.Typer, console: Console) -> None:
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
-            console.print(f"report:  {path}")
-        console.print(f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}")
-        console.print(f"aggregates: {out_dir / 'aggregates.json'}")
+            console.print(f"report:  {path}", markup=False)
+        console.print(
+            f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}", markup=False
+        )
+        console.print(f"aggregates: {out_dir / 'aggregates.json'}", markup=False)
         line = f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall"
         if result.tasks_wall_s > 0:
             speed = result.simulated_s / result.tasks_wall_s
@@ -203,7 +206,7 @@ def register(app: typer.Typer, console: Console) -> None:
             t.add_row(k, *cells)
         console.print(t)
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
-            console.print(f"wrote {out / name}")
+            console.print(f"wrote {out / name}", markup=False)
 
     @app.command("report", short_help="Write a self-contained HTML report of a run.")
     def report_cmd(
@@ -234,7 +237,7 @@ def register(app: typer.Typer, console: Console) -> None:
             path.write_text(text)
         except OSError as exc:
             _cli._fail(_cli._os_error_text(exc, path), code=1)
-        console.print(f"report: {path}")
+        console.print(f"report: {path}", markup=False)
 
 
 def write_campaign_report(result: Any, campaign: Any) -> Path:

@@ -818,7 +818,7 @@ def recover_cmd(
         _fail(str(exc))
     except OSError as exc:
         _fail(_os_error_text(exc, target))
-    console.print(f"recovered {n} messages into {target}")
+    console.print(f"recovered {n} messages into {target}", markup=False)
 
 
 def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
@@ -1024,7 +1024,7 @@ def design_cmd(
             npz = design_lqr_wave(preset, control_period, LqrWaveSettings(variant=lqr_wave), out)
         except (ValueError, OSError) as exc:
             _fail(str(exc))
-        console.print(f"lqr_wave: {npz}")
+        console.print(f"lqr_wave: {npz}", markup=False)
         console.print(f"designed in {time.perf_counter() - t0:.1f} s")
         return
     try:
@@ -1032,7 +1032,7 @@ def design_cmd(
     except (ValueError, OSError) as exc:
         _fail(str(exc))
     for key, path in paths.items():
-        console.print(f"{key}: {path}")
+        console.print(f"{key}: {path}", markup=False)
     console.print(f"designed in {time.perf_counter() - t0:.1f} s")
 
 
