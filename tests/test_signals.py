@@ -1,4 +1,4 @@
-"""SIGINT and SIGTERM to a real ``fowt run`` (docs/exit-codes.md, "Signals").
+"""SIGINT, SIGTERM and SIGHUP to a real ``fowt run`` (docs/exit-codes.md, "Signals").
 
 The launcher is started as a subprocess on a 60 s scenario (real time, and lock-step over
 Zenoh), a few simulated seconds in (the plant's log says it runs and its MCAP file grows)
@@ -146,7 +146,9 @@ def _check_aborted(
         ("realtime", signal.SIGTERM),
         ("realtime", signal.SIGINT),
         ("lockstep", signal.SIGTERM),
+        ("lockstep", signal.SIGHUP),  # the terminal went away
     ],
+    ids=lambda v: v.name if isinstance(v, signal.Signals) else str(v),
 )
 def test_signal_stops_every_child_and_the_run_is_reviewed_as_aborted(
     tmp_path: Path, mode: str, sig: signal.Signals
