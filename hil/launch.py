@@ -534,6 +534,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         if not mcap_path.is_file():  # stopped before the recorder opened its file
             raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
         aborted = exc
+        if driver is not None:  # close the fault records as at a run's end
+            driver.finish(console)
         console.print(
             f"[yellow]{exc.signal_name}:[/] run stopped"
             + (f" at {exc.sim_s:.2f} s simulated" if exc.sim_s is not None else "")
