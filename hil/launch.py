@@ -535,7 +535,7 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
             raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
         aborted = exc
         if driver is not None:  # close the fault records as at a run's end
-            driver.finish(console)
+            driver.finish(console, how=str(exc))
         console.print(
             f"[yellow]{exc.signal_name}:[/] run stopped"
             + (f" at {exc.sim_s:.2f} s simulated" if exc.sim_s is not None else "")
@@ -1353,13 +1353,14 @@ class ProcessFaultDriver:
             if rec["kind"] == "plant_kill" and rec["killed"] is not None:
                 rec["others"] = exits
 
-    def finish(self, console: Console) -> None:
+    def finish(self, console: Console, how: str | None = None) -> None:
         """Close the records at the end of the run (faults and restarts never reached, the
-        plant's safe state around each controller kill)."""
+        plant's safe state around each controller kill); ``how`` the run ended, if not by
+        itself (e.g. ``aborted by SIGTERM``)."""
         with self._lock:
             sim_ns = self._sim_ns
             changes = list(self._safe_changes)
-        ended = "plant killed" if self.plant_killed else "run complete"
+        ended = how or ("plant killed" if self.plant_killed else "run complete")
         for f in self._pending:
             self._by_index[f.index]["outcome"] = (
                 f"not injected: the run ended ({ended}) at {sim_ns / 1e9:.3f} s simulated, "
