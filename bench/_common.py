@@ -171,21 +171,6 @@ class Patches:
         self.undo.clear()
 
 
-def commit() -> str:
-    """The checkout's commit (``git describe --always --dirty``; "unknown" outside git)."""
-    try:
-        out = subprocess.run(
-            ["git", "describe", "--always", "--dirty"],
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).resolve().parent,
-        )
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return out.stdout.strip()
-
-
 def load() -> list[float]:
     """The machine's 1, 5 and 15 minute load averages (the bench machine is shared)."""
     import os

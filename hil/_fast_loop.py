@@ -595,14 +595,17 @@ class CompiledLoop:
         loop.finish_cycle(command, clock() - t0, at_arrival=False)
         self.python_cycles += 1
 
-    def run(self, cycles: int) -> None:
-        """Run the plant loop's cycles up to ``cycles`` (the run's end)."""
+    def run(self, cycles: int, stopped: Callable[[], bool] | None = None) -> None:
+        """Run the plant loop's cycles up to ``cycles`` (the run's end), or until
+        ``stopped()`` is true when a batch is to start (a signal asked the run to end)."""
         loop = self.loop
         sim = loop.sim
         ch = sim.channels
         assert ch is not None
         clock = time.monotonic_ns
         while loop.k < cycles:
+            if stopped is not None and stopped():
+                break
             if not self._ready():
                 self._python_cycle()
                 continue

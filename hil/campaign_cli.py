@@ -10,6 +10,7 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -49,9 +50,9 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
         t.add_row(*row)
     console.print(t)
     for reason in agg.get("not_available", {}).values():
-        console.print(f"[yellow]not computed:[/] {reason}")
+        console.print(f"[yellow]not computed:[/] {escape(str(reason))}")
     for reason in agg.get("notes", {}).values():
-        console.print(f"[yellow]note:[/] {reason}")
+        console.print(f"[yellow]note:[/] {escape(str(reason))}")
     runs = agg["runs"]
     console.print(f"runs: {runs['total']} ({runs['ok']} ok, {runs['failed']} failed)")
 
@@ -136,15 +137,13 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.campaign import CampaignError, load_campaign, run_campaign, select
 
         if record not in ("mcap", "none"):
-            console.print(f"[red]error:[/] --record {record!r}: expected mcap or none")
-            raise typer.Exit(2)
+            _cli._fail(f"--record {record!r}: expected mcap or none")
         try:
             c = load_campaign(campaign)
             if cases or controllers or seeds is not None or duration is not None or baseline:
                 c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
         except CampaignError as exc:
-            console.print(f"[red]error:[/] {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(str(exc))
         out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
         try:
             result = run_campaign(
@@ -158,14 +157,15 @@ def register(app: typer.Typer, console: Console) -> None:
             )
         except (OSError, TimeoutError) as exc:
             where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
-            console.print(f"[red]error:[/] cannot use {where}: {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(f"cannot use {where}: {exc}")
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
-            console.print(f"report:  {path}")
-        console.print(f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}")
-        console.print(f"aggregates: {out_dir / 'aggregates.json'}")
+            console.print(f"report:  {path}", markup=False)
+        console.print(
+            f"table:   {out_dir / 'results.parquet'} , {out_dir / 'results.csv'}", markup=False
+        )
+        console.print(f"aggregates: {out_dir / 'aggregates.json'}", markup=False)
         line = f"{len(c.runs)} runs ({result.skipped} resumed) in {result.wall_s:.1f} s wall"
         if result.tasks_wall_s > 0:
             speed = result.simulated_s / result.tasks_wall_s
@@ -186,17 +186,14 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import compare_runs, fmt
 
         if len(runs) < 2:
-            console.print("[red]error:[/] give at least two MCAP files")
-            raise typer.Exit(2)
+            _cli._fail("give at least two MCAP files")
         for p in runs:
             if not p.is_file():
-                console.print(f"[red]error:[/] {p} is not a file")
-                raise typer.Exit(2)
+                _cli._fail(f"{p} is not a file")
         try:
             res = compare_runs(runs, out)
         except ValueError as exc:
-            console.print(f"[red]error:[/] {exc}")
-            raise typer.Exit(2) from exc
+            _cli._fail(str(exc))
         labels = [r["label"] for r in res["runs"]]
         t = Table(title="KPIs (Δ % vs run 0)")
         t.add_column("KPI")
@@ -209,7 +206,7 @@ def register(app: typer.Typer, console: Console) -> None:
             t.add_row(k, *cells)
         console.print(t)
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
-            console.print(f"wrote {out / name}")
+            console.print(f"wrote {out / name}", markup=False)
 
     @app.command("report", short_help="Write a self-contained HTML report of a run.")
     def report_cmd(
@@ -227,13 +224,20 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import run_html
 
         if not mcap.is_file():
-            console.print(f"[red]error:[/] {mcap} is not a file")
-            raise typer.Exit(2)
-        text, _summary = run_html(mcap)
+            _cli._fail(f"{mcap} is not a file")
+        from hil.mcap_log import NotMcapError
+
+        try:
+            text, _summary = run_html(mcap)
+        except NotMcapError as exc:
+            _cli._fail(str(exc))
         path = out or mcap.parent / "report.html"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-        console.print(f"report: {path}")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        except OSError as exc:
+            _cli._fail(_cli._os_error_text(exc, path), code=1)
+        console.print(f"report: {path}", markup=False)
 
 
 def write_campaign_report(result: Any, campaign: Any) -> Path:

@@ -10,6 +10,7 @@ check), and a usage error of the parser is turned into the same one line by :fun
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -28,6 +29,7 @@ from rich.text import Text
 
 from hil.bus import BusOpenError
 from hil.hexicon_cli import app as hexicon_app
+from hil.outcome import ExitCode
 from hil.scenario import (
     MAX_DURATION_S,
     Scenario,
@@ -52,9 +54,20 @@ _stderr = Console(stderr=True, soft_wrap=True)
 
 
 def _fail(message: str, code: int = 2) -> NoReturn:
-    """Print ``error: message`` as one line on stderr and exit with ``code``."""
+    """Print ``error: message`` as one line on stderr and exit with ``code``.
+
+    The message is plain text (a Text, never parsed as markup): brackets in it, e.g. a
+    path or a TOML section, are printed as they are.
+    """
     _stderr.print(Text.assemble(("error: ", "bold red"), message.replace("\n", " ")))
-    raise typer.Exit(code)
+    raise typer.Exit(int(code))
+
+
+def _os_error_text(exc: OSError, path: object = None) -> str:
+    """``<file>: <reason>`` of an OSError (``No space left on device``), no errno digits."""
+    where = exc.filename if exc.filename is not None else path
+    reason = exc.strerror or str(exc)
+    return f"{where}: {reason}" if where is not None else reason
 
 
 # ----------------------------------------------------------------- option checks
@@ -443,6 +456,21 @@ def run(
     plant and controller processes (the recorder listens too and logs the raw frames); with
     udp_multicast the launcher runs the whole bench in a fresh network namespace (unshare -n,
     root) unless it already is in a private one.
+
+    Ctrl-C, SIGTERM or SIGHUP stops the run: the children are stopped in order (SIGTERM;
+    SIGKILL only after a long grace, said when done), the recording is finished and
+    reviewed, and summary.json says the run was aborted.
+
+    \b
+    Exit codes (the first that applies; docs/exit-codes.md; summary.json run.outcome):
+      0  complete and healthy
+      1  the run failed (a process died, a write failed: disk full)
+      2  bad input, refused before anything started
+      3  aborted by a signal (SIGINT, SIGTERM, SIGHUP)
+      4  recording incomplete (messages lost, file truncated)
+      5  safe state: the plant's safe state or the controller's safe mode, at any time
+      6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
+         real time, 0 in lock-step and in process)
     """
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
@@ -450,7 +478,14 @@ def run(
         _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
     if loop != "auto" and mode != "inprocess":
         _fail(f"--loop {loop}: only with --mode inprocess")
-    from hil.launch import RunFailedError, RunRequest, default_out_dir, launch
+    from hil.launch import (
+        ProcessFaultError,
+        RunAbortedError,
+        RunFailedError,
+        RunRequest,
+        default_out_dir,
+        launch,
+    )
 
     if out is None:
         try:
@@ -470,10 +505,18 @@ def run(
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
     )
     try:
-        launch(req, console)
+        summary = launch(req, console)
+    except RunAbortedError as exc:  # stopped before anything was recorded
+        _fail(str(exc), code=ExitCode.ABORTED)
+    except ProcessFaultError as exc:  # the scenario's process faults and the mode disagree
+        _fail(str(exc), code=ExitCode.USAGE)
     except RunFailedError as exc:
-        console.print(f"[red]run failed:[/] {escape(str(exc))}")
-        raise typer.Exit(1) from exc
+        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
+    except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written
+        _fail(_os_error_text(exc), code=ExitCode.FAILED)
+    except ValueError as exc:  # a model refusing the scenario as built (e.g. its length)
+        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
+    raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
 
 
 @app.command(short_help="Run the plant process alone.")
@@ -623,14 +666,17 @@ def record(
     )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}
-    run_recorder_node(
-        sc,
-        bus,  # type: ignore[arg-type]
-        out,
-        run_info=info,
-        scenario_toml=text,
-        can=can,
-    )
+    try:
+        run_recorder_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            out,
+            run_info=info,
+            scenario_toml=text,
+            can=can,
+        )
+    except OSError as exc:  # disk full, file too large: the file is readable up to it
+        _fail(f"recorder: writing failed: {_os_error_text(exc, out)}", code=ExitCode.FAILED)
 
 
 @app.command(short_help="Run the Zenoh router of a two-host bench.")
@@ -652,11 +698,24 @@ def router(
     try:
         run_router(zenoh_config, echo=console.print)
     except RouterConfigError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except Exception as exc:  # zenoh.ZError: certificate file, port in use
-        console.print(f"[red]error:[/] router session did not open: {zenoh_error_text(exc)}")
-        raise typer.Exit(1) from exc
+        _fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
+
+
+#: ``summary["run"]`` keys only the launcher writes (:func:`hil.launch.launch`): a review of
+#: the run's file keeps them in the summary.json it writes over the launcher's.
+_LAUNCHER_RUN_KEYS = (
+    "aborted",
+    "abort_signal",
+    "aborted_at_s",
+    "failed",
+    "launcher_wall_s",
+    "inprocess_loop",
+    "process_faults",
+    "plant_killed",
+    "process_fault_problems",
+)
 
 
 @app.command("review", short_help="Review a recorded run: KPIs, timing and plots.")
@@ -671,7 +730,13 @@ def review_cmd(
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
     strict: Annotated[
-        bool, typer.Option("--strict", help="Exit 1 when the file is truncated or inconsistent.")
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit non-zero unless the run is complete and healthy: 1 when the file is "
+            "truncated or inconsistent, else the code 'fowt run' gives the run (3 aborted, 4 "
+            "recording incomplete, 5 safe state, 6 deadline misses; docs/exit-codes.md).",
+        ),
     ] = False,
 ) -> None:
     """Review a recorded run: KPIs, timing and plots.
@@ -679,31 +744,54 @@ def review_cmd(
     Everything comes from the MCAP file alone.
     """
     from hil.mcap_log import NotMcapError
+    from hil.outcome import outcome_line, record_outcome, run_outcome
     from hil.review import render_summary, review, truncation_note
 
     if not mcap.is_file():
-        console.print(f"[red]error:[/] {mcap} is not a file")
-        raise typer.Exit(2)
+        _fail(f"{mcap} is not a file")
+    # What only the launcher knew (aborted, failed, process faults, its verdict) is in the
+    # run's summary.json beside the file: read it before the review writes its own there,
+    # and keep it in that one.
+    beside = mcap.parent / "summary.json"
+    launched: dict[str, Any] = {}
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        if beside.is_file():
+            launched = {
+                k: v
+                for k, v in json.loads(beside.read_text()).get("run", {}).items()
+                if k in _LAUNCHER_RUN_KEYS
+            }
     try:
         summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
     except NotMcapError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except OSError as exc:
-        console.print(f"[red]error:[/] {exc.filename or mcap}: {exc.strerror or exc}")
-        raise typer.Exit(2) from exc
+        _fail(_os_error_text(exc, mcap))
+    for key, value in launched.items():
+        summary["run"].setdefault(key, value)
+    if launched:
+        record_outcome(summary)
+        written = (out if out is not None else mcap.parent) / "summary.json"
+        try:
+            written.write_text(json.dumps(summary, indent=2) + "\n")
+        except OSError as exc:
+            _fail(_os_error_text(exc, written), code=ExitCode.FAILED)
     note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
         if note:
-            Console(stderr=True).print(f"[yellow]warning:[/] {mcap}: {note}")
+            _stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
     else:
         render_summary(summary, console)
+    if not strict:
+        return
     bad = note is not None or summary["run"].get("statistics_ok") is False
-    if strict and bad:
+    if bad:
         reason = note or str(summary["run"].get("error"))
-        Console(stderr=True).print(f"[red]error:[/] --strict: {mcap}: {reason}")
-        raise typer.Exit(1)
+        _fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
+    code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.outcome)
+    if code != ExitCode.OK:
+        _fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
 
 
 @app.command("recover", short_help="Make a truncated MCAP file complete.")
@@ -720,21 +808,17 @@ def recover_cmd(
     from hil.mcap_log import NotMcapError, recover
 
     if not mcap.is_file():
-        console.print(f"[red]error:[/] {mcap} is not a file")
-        raise typer.Exit(2)
+        _fail(f"{mcap} is not a file")
     target = out if out is not None else mcap.with_suffix(".recovered.mcap")
     if target.resolve() == mcap.resolve():
-        console.print("[red]error:[/] --out must differ from the input file")
-        raise typer.Exit(2)
+        _fail("--out must differ from the input file")
     try:
         n = recover(mcap, target)
     except NotMcapError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from exc
+        _fail(str(exc))
     except OSError as exc:
-        console.print(f"[red]error:[/] {target}: {exc.strerror or exc}")
-        raise typer.Exit(2) from exc
-    console.print(f"recovered {n} messages into {target}")
+        _fail(_os_error_text(exc, target))
+    console.print(f"recovered {n} messages into {target}", markup=False)
 
 
 def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
@@ -940,7 +1024,7 @@ def design_cmd(
             npz = design_lqr_wave(preset, control_period, LqrWaveSettings(variant=lqr_wave), out)
         except (ValueError, OSError) as exc:
             _fail(str(exc))
-        console.print(f"lqr_wave: {npz}")
+        console.print(f"lqr_wave: {npz}", markup=False)
         console.print(f"designed in {time.perf_counter() - t0:.1f} s")
         return
     try:
@@ -948,7 +1032,7 @@ def design_cmd(
     except (ValueError, OSError) as exc:
         _fail(str(exc))
     for key, path in paths.items():
-        console.print(f"{key}: {path}")
+        console.print(f"{key}: {path}", markup=False)
     console.print(f"designed in {time.perf_counter() - t0:.1f} s")
 
 
@@ -1191,4 +1275,10 @@ def main(argv: list[str] | None = None) -> None:
     except BusOpenError as exc:  # a node whose session was refused: one line, not a traceback
         _stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
         sys.exit(1)
+    except OSError as exc:  # disk full, a folder gone read-only: the system's reason, one line
+        _stderr.print(Text.assemble(("error: ", "bold red"), _os_error_text(exc)))
+        sys.exit(1)
+    except KeyboardInterrupt:  # Ctrl-C in a command that does not handle it itself
+        _stderr.print(Text.assemble(("error: ", "bold red"), "interrupted (SIGINT)"))
+        sys.exit(130)
     sys.exit(rv if isinstance(rv, int) else 0)

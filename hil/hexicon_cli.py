@@ -85,10 +85,17 @@ def run(
             identified=str(identified) if identified else None,
         )
     except (RuntimeError, ValueError) as exc:
-        typer.echo(f"error: {exc}", err=True)
+        typer.echo(f"error: {' '.join(str(exc).split())}", err=True)
         raise typer.Exit(2) from exc
     if s.get("plant_rc") != 0 or s.get("controller_rc") != 0:
-        typer.echo(json.dumps(s, indent=1), err=True)
+        # One line on stderr; the nodes' own output goes to the summary file for the details.
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(json.dumps(s, indent=1) + "\n", encoding="utf-8")
+        typer.echo(
+            f"error: run failed: plant exited with {s.get('plant_rc')}, controller with "
+            f"{s.get('controller_rc')}; their output: {out / 'summary.json'}",
+            err=True,
+        )
         raise typer.Exit(1)
     kpis = kpis_of_mcap(Path(s["mcap"]), scenario)
     s["kpis"] = kpis

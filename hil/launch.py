@@ -62,6 +62,7 @@ itself after a ``plant_kill``, fails it (a summary is still written in the latte
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import json
 import math
 import os
@@ -78,6 +79,7 @@ from typing import IO, Any, Literal
 
 import msgspec
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -112,7 +114,8 @@ from hil.controller_node import (
     feedforward_notice,
     publishing_step,
 )
-from hil.log_writer import BackgroundRunLog
+from hil.log_writer import BackgroundRunLog, LogWriteError
+from hil.outcome import outcome_line, record_outcome
 from hil.plant_node import Mode, run_inprocess
 from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
@@ -146,6 +149,75 @@ class RunFailedError(RuntimeError):
 
 class ProcessFaultError(RunFailedError):
     """A scenario's process fault cannot act in this run's mode; said before anything starts."""
+
+
+class RunAbortedError(Exception):
+    """The run was stopped by a signal (SIGINT, SIGTERM, SIGHUP) to the launcher.
+
+    Parameters
+    ----------
+    signum : int
+        The signal.
+    sim_s : float or None
+        Simulated seconds reached when the run was stopped (None: not known).
+    started : bool
+        Whether the run had started (False: stopped before anything was written).
+    """
+
+    def __init__(self, signum: int, sim_s: float | None = None, started: bool = True) -> None:
+        self.signum = signum
+        self.sim_s = sim_s
+        self.started = started
+        self.signal_name = signal.Signals(signum).name
+        when = "before the run started" if not started else "during the run"
+        super().__init__(f"aborted by {self.signal_name} {when}")
+
+
+#: Signals that stop a run: the launcher stops its children, finishes the file and reviews.
+ABORT_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class AbortSignals:
+    """Context manager catching :data:`ABORT_SIGNALS` while a run goes on.
+
+    The handler only records the signal and sets :attr:`event`; the launcher's loops look
+    at it and stop the run in order (children first, then the file, then the review). The
+    handlers are installed in the main thread only (Python's rule): elsewhere, e.g. a
+    campaign's worker thread, this does nothing. The previous handlers come back on exit.
+
+    Attributes
+    ----------
+    event : threading.Event
+        Set by the first signal.
+    signum : int or None
+        The first signal received.
+    """
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+        self.signum: int | None = None
+        self._previous: dict[int, Any] = {}
+
+    def _on_signal(self, signum: int, _frame: Any) -> None:
+        if self.signum is None:
+            self.signum = signum
+        self.event.set()
+
+    def __enter__(self) -> AbortSignals:
+        if threading.current_thread() is threading.main_thread():
+            for sig in ABORT_SIGNALS:
+                self._previous[sig] = signal.signal(sig, self._on_signal)
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous.clear()
+
+    def check(self, sim_s: float | None = None, started: bool = True) -> None:
+        """Raise :class:`RunAbortedError` if a signal came."""
+        if self.signum is not None:
+            raise RunAbortedError(self.signum, sim_s, started)
 
 
 #: Wall seconds the controller and the recorder get to exit by themselves after a plant_kill.
@@ -415,6 +487,12 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     console = console or Console()
     if req.transport not in ("zenoh", "can"):
         raise ValueError(f"transport {req.transport!r}: expected zenoh or can")
+    with AbortSignals() as abort:
+        return _launch(req, console, abort)
+
+
+def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str, Any]:
+    """:func:`launch` with the run's signal handlers in place."""
     scenario = load_scenario(req.scenario).with_duration(req.duration_s)
     process_faults = check_process_faults(scenario, req.mode)
     toml_text, _source = scenario_text(req.scenario)
@@ -435,28 +513,52 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
                 raise RunFailedError(
                     "re-executed under unshare --net, yet not in a private network namespace"
                 )
-            return _launch_in_netns(req, can, out)
+            return _launch_in_netns(req, can, out, abort)
     out.mkdir(parents=True, exist_ok=True)
     mcap_path = out / "run.mcap"
     info = run_info(req, scenario)
     design_dir = ensure_designs(scenario, console)
+    abort.check(started=False)  # a signal during the design: nothing ran, nothing to review
     for level, line in feedforward_notice(scenario):
-        console.print(f"[yellow]warning:[/] {line}" if level == "warning" else line)
+        console.print(
+            f"[yellow]warning:[/] {escape(line)}" if level == "warning" else line,
+            markup=level == "warning",
+        )
     t0 = time.monotonic()
     driver: ProcessFaultDriver | None = None
     loop_ran = ""
-    if req.mode == "inprocess":
-        loop_ran = _run_inprocess(
-            scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop
+    aborted: RunAbortedError | None = None
+    try:
+        if req.mode == "inprocess":
+            loop_ran = _run_inprocess(
+                scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop, abort
+            )
+            console.print(f"in-process loop: {loop_ran}")
+        else:
+            if process_faults:
+                driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
+            _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver, abort)
+    except RunAbortedError as exc:
+        if not mcap_path.is_file():  # stopped before the recorder opened its file
+            raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
+        aborted = exc
+        if driver is not None:  # close the fault records as at a run's end
+            driver.finish(console, how=str(exc))
+        console.print(
+            f"[yellow]{exc.signal_name}:[/] run stopped"
+            + (f" at {exc.sim_s:.2f} s simulated" if exc.sim_s is not None else "")
+            + "; reviewing what was recorded"
         )
-        console.print(f"in-process loop: {loop_ran}")
-    else:
-        if process_faults:
-            driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
-        _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver)
+    except RunFailedError as exc:
+        _failed_summary(mcap_path, out, exc)
+        raise
     wall = time.monotonic() - t0
     summary = review(mcap_path, out, plots=req.plots)
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
+    summary["run"]["aborted"] = aborted is not None
+    if aborted is not None:
+        summary["run"]["abort_signal"] = aborted.signal_name
+        summary["run"]["aborted_at_s"] = aborted.sim_s
     if loop_ran:
         summary["run"]["inprocess_loop"] = loop_ran
     if driver is not None:
@@ -464,17 +566,40 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
         summary["run"]["plant_killed"] = driver.plant_killed
         if driver.problems:
             summary["run"]["process_fault_problems"] = list(driver.problems)
+    code = record_outcome(summary)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     render_summary(summary, console)
     if driver is not None:
         driver.render(console)
-    console.print(f"run log: [bold]{mcap_path}[/]")
-    console.print(f"summary: {out / 'summary.json'}")
+    # Paths and messages are the user's text: escaped, so brackets in them are printed.
+    console.print(f"run log: [bold]{escape(str(mcap_path))}[/]")
+    console.print(f"summary: {escape(str(out / 'summary.json'))}")
     for png in sorted(out.glob("*.png")):
-        console.print(f"plot:    {png}")
+        console.print(f"plot:    {escape(str(png))}")
+    console.print(
+        outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
+    )
     if driver is not None and driver.problems:
         raise RunFailedError("; ".join(driver.problems))
     return summary
+
+
+def _failed_summary(mcap_path: Path, out: Path, exc: RunFailedError) -> None:
+    """Best effort: a failed run's ``summary.json`` from what was recorded, outcome
+    ``failed`` and why. Nothing when there is no file or it cannot be read or written
+    (the disk that filled up): the run's error is what is reported, not this."""
+    if not mcap_path.is_file():
+        return
+    with contextlib.suppress(Exception):  # any failure here would only hide the run's own
+        summary = review(mcap_path, out, plots=False, write_summary=False)
+        summary.setdefault("run", {})["failed"] = str(exc)
+        record_outcome(summary)
+        path = out / "summary.json"
+        try:
+            path.write_text(json.dumps(summary, indent=2))
+        except OSError:
+            path.unlink(missing_ok=True)  # no half-written summary left behind
+            raise
 
 
 def _run_inprocess(
@@ -484,8 +609,15 @@ def _run_inprocess(
     toml_text: str,
     design_dir: Path | None = None,
     loop: Literal["auto", "compiled", "python"] = "auto",
+    abort: AbortSignals | None = None,
 ) -> str:
-    """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``)."""
+    """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``).
+
+    A signal (``abort``) stops the loop at the next cycle (compiled: at the next batch's
+    start); the plant's final summary is written and the file closed, then
+    :class:`RunAbortedError` is raised. A write that fails (disk full) ends the run with
+    :class:`RunFailedError` saying so; the file stays readable up to the failure.
+    """
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
@@ -511,35 +643,50 @@ def _run_inprocess(
     step = publishing_step(runtime, publish)
 
     try:
-        result = run_inprocess(
-            scenario,
-            publish,
-            step,
-            before_loop=log.wait_ready,
-            runtime=runtime,
-            loop=loop,
-            publish_block=log.publish_block,
-            published=log.published,  # the plant's report follows its final summary
-        )
-        # The controller stops with the plant: its report goes last, as a process's would.
-        counts = log.published()
-        log.publish(
-            CONTROLLER_REPORT,
-            controller_report(
-                runtime,
-                counts[COMMAND.key_suffix],
-                counts[CONTROLLER_STATUS.key_suffix],
-                aborted=False,
-            ),
-        )
-    except ValueError as exc:
-        if str(exc).startswith("loop='compiled'"):  # asked for, not supported: say why
-            raise RunFailedError(f"--loop compiled: {exc}") from exc
-        raise
-    except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
-        raise RunFailedError(f"controller failed: {exc}; the run up to it: {mcap_path}") from exc
-    finally:
-        log.close()
+        try:
+            result = run_inprocess(
+                scenario,
+                publish,
+                step,
+                before_loop=log.wait_ready,
+                runtime=runtime,
+                loop=loop,
+                publish_block=log.publish_block,
+                published=log.published,  # the plant's report follows its final summary
+                stop=abort.event if abort is not None else None,
+            )
+            # The controller stops with the plant: its report goes last, as a process's would.
+            counts = log.published()
+            log.publish(
+                CONTROLLER_REPORT,
+                controller_report(
+                    runtime,
+                    counts[COMMAND.key_suffix],
+                    counts[CONTROLLER_STATUS.key_suffix],
+                    aborted=bool(result.aborted),
+                ),
+            )
+        except ValueError as exc:
+            if str(exc).startswith("loop='compiled'"):  # asked for, not supported: say why
+                raise RunFailedError(f"--loop compiled: {exc}") from exc
+            raise
+        except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
+            raise RunFailedError(
+                f"controller failed: {exc}; the run up to it: {mcap_path}"
+            ) from exc
+        finally:
+            # The writer that failed has said why (LogWriteError); a second account of the
+            # same failure from close() would only hide the first.
+            failing = sys.exc_info()[1]
+            try:
+                log.close()
+            except LogWriteError:
+                if failing is None:
+                    raise
+    except LogWriteError as exc:
+        raise RunFailedError(f"{exc} (the file is readable up to the failure)") from None
+    if result.aborted and abort is not None and abort.signum is not None:
+        raise RunAbortedError(abort.signum, result.sim_s)
     return result.loop
 
 
@@ -548,17 +695,23 @@ def _scenario_ref(ref: str) -> str:
     return str(Path(ref).resolve()) if Path(ref).suffix == ".toml" else ref
 
 
-def _launch_in_netns(req: RunRequest, can: CanBusConfig, out: Path) -> dict[str, Any]:
+def _launch_in_netns(
+    req: RunRequest, can: CanBusConfig, out: Path, abort: AbortSignals | None = None
+) -> dict[str, Any]:
     """Re-run this ``fowt run`` in a fresh network namespace; return its summary.
 
     The child launcher (same Python, same options, ``--out`` resolved) runs plant,
     controller and recorder inside the namespace (:func:`hil.can_bus.netns_command`) and
     prints its own progress and summary to this process's terminal.
 
+    A signal to this launcher is passed on to the child launcher (SIGTERM), which stops its
+    run as its own; the child's summary says so, and its outcome is this run's.
+
     Raises
     ------
     RunFailedError
-        If the namespaced run fails (its exit status), or wrote no summary.
+        If the namespaced run fails (its exit status, no outcome in its summary), or wrote
+        no summary.
     """
     out = out.resolve()
     cmd = [
@@ -582,16 +735,31 @@ def _launch_in_netns(req: RunRequest, can: CanBusConfig, out: Path) -> dict[str,
     if req.realtime_priority:  # the child's plant and controller need it as much
         cmd += ["--realtime-priority", str(req.realtime_priority)]
     env = {**os.environ, _NETNS_ENV: "1"}
-    rc = subprocess.run(netns_command(cmd), check=False, env=env).returncode
-    if rc != 0:
+    child = subprocess.Popen(netns_command(cmd), env=env)
+    try:
+        passed_on = False
+        while child.poll() is None:
+            if abort is not None and abort.event.wait(0.2) and not passed_on:
+                child.send_signal(signal.SIGTERM)  # `exec` made the launcher unshare's pid
+                passed_on = True
+            elif abort is None:
+                time.sleep(0.2)
+    finally:
+        if child.poll() is None:
+            _stop_child("launcher", child, Console(stderr=True))
+    rc = child.returncode
+    summary_path = out / "summary.json"
+    summary: dict[str, Any] = {}
+    if summary_path.is_file():
+        summary = json.loads(summary_path.read_text())
+    judged = summary.get("run", {}).get("exit_code")
+    if rc not in (0, judged):  # not an outcome the child judged: its run failed
         raise RunFailedError(
             f"the run in a private network namespace (unshare --net) exited with {rc}; "
             f"see its output above and {out / 'logs'}"
         )
-    summary_path = out / "summary.json"
-    if not summary_path.is_file():
+    if not summary:
         raise RunFailedError(f"the namespaced run wrote no {summary_path}")
-    summary: dict[str, Any] = json.loads(summary_path.read_text())
     return summary
 
 
@@ -621,7 +789,22 @@ def _run_processes(
     console: Console,
     design_dir: Path | None = None,
     driver: ProcessFaultDriver | None = None,
+    abort: AbortSignals | None = None,
 ) -> None:
+    """Start recorder, controller and plant, follow the run, and always stop them.
+
+    Each child runs in a session of its own (a terminal's Ctrl-C reaches the launcher
+    only, which decides how the run ends) and gets SIGTERM if the launcher dies
+    (``PR_SET_PDEATHSIG``). Whatever ends the run (its end, a signal, a failure, an
+    exception here), no child outlives this function (:func:`_stop_children`).
+
+    Raises
+    ------
+    RunAbortedError
+        A signal stopped the run (``abort``); the children were stopped in order first.
+    RunFailedError
+        A process failed.
+    """
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
         ctrl_ep = free_tcp_endpoint()
@@ -703,7 +886,8 @@ def _run_processes(
             stdout=fh,
             stderr=subprocess.STDOUT,
             env=env,
-            preexec_fn=(lambda: os.nice(nice)) if nice else None,  # noqa: PLW1509
+            start_new_session=True,
+            preexec_fn=_child_setup(nice),  # noqa: PLW1509
         )
         procs[name] = proc
         return proc
@@ -713,7 +897,7 @@ def _run_processes(
             start(name)
         if driver is not None:
             driver.start_clock()
-        _follow(procs, scenario, plant_ep, console, driver, start, logs)
+        _follow(procs, scenario, plant_ep, console, driver, start, logs, abort)
         rc = procs["plant"].wait()
         if driver is not None and driver.expected(procs["plant"]):
             driver.wait_for_others(procs, console)
@@ -738,13 +922,7 @@ def _run_processes(
             opened_by = time.monotonic() + _RECORDER_OPEN_S
             while not mcap_path.exists() and rec.poll() is None and time.monotonic() < opened_by:
                 time.sleep(0.05)
-        for p in procs.values():
-            if p.poll() is None:
-                p.terminate()
-                try:
-                    p.wait(5.0)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        _stop_children(procs, console)
         for fh in files:
             fh.close()
 
@@ -825,6 +1003,70 @@ def _wait_for_recorder(
             told = True
 
 
+#: Wall seconds a child gets to exit after SIGTERM before the launcher sends SIGKILL (the
+#: recorder finishes its file then: its last chunk, the summary section and the footer).
+STOP_GRACE_S: dict[str, float] = {"plant": 20.0, "controller": 20.0, "recorder": 60.0}
+#: Wall seconds the controller and the recorder get to end by themselves once the plant has
+#: stopped (its final summary ends their runs) before they are sent SIGTERM.
+STOP_BY_ITSELF_S = 10.0
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _child_setup(nice: int) -> Callable[[], None]:
+    """The ``preexec_fn`` of a node process: SIGTERM when the launcher dies, niceness.
+
+    The parent-death signal makes the launcher's own death (even SIGKILL, which no handler
+    sees) stop its children: they close their files as on any SIGTERM.
+    """
+    libc = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
+
+    def setup() -> None:
+        if libc is not None:
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+        if nice:
+            os.nice(nice)
+
+    return setup
+
+
+def _stop_child(name: str, proc: subprocess.Popen[bytes], console: Console) -> None:
+    """SIGTERM ``proc`` and wait :data:`STOP_GRACE_S`; SIGKILL it (and say so) after that."""
+    if proc.poll() is not None:
+        return
+    proc.terminate()
+    grace = STOP_GRACE_S.get(name, 20.0)
+    try:
+        proc.wait(grace)
+    except subprocess.TimeoutExpired:
+        console.print(
+            f"[yellow]warning:[/] {name} (pid {proc.pid}) did not exit within {grace:g} s of "
+            "SIGTERM: sent SIGKILL"
+            + (" (its file may be truncated)" if name == "recorder" else ""),
+        )
+        proc.kill()
+        proc.wait()
+
+
+def _stop_children(procs: dict[str, subprocess.Popen[bytes]], console: Console) -> None:
+    """Stop every child still running, in the order that keeps the recording whole.
+
+    The plant first (SIGTERM: it ends its loop and publishes its final summary), then the
+    controller and the recorder are given :data:`STOP_BY_ITSELF_S` to end on that summary
+    as at a run's normal end (the recorder drains and finishes its file), then SIGTERM,
+    and SIGKILL only after :data:`STOP_GRACE_S`.
+    """
+    order: list[str] = [n for n in ("plant", "controller", "recorder") if n in procs]
+    order += [n for n in procs if n not in order]
+    if "plant" in procs:
+        _stop_child("plant", procs["plant"], console)
+    until = time.monotonic() + STOP_BY_ITSELF_S
+    while time.monotonic() < until and any(procs[n].poll() is None for n in order):
+        time.sleep(0.05)
+    for name in order:
+        _stop_child(name, procs[name], console)
+
+
 def _follow(
     procs: dict[str, subprocess.Popen[bytes]],
     scenario: Scenario,
@@ -833,6 +1075,7 @@ def _follow(
     driver: ProcessFaultDriver | None = None,
     start: Callable[[str], subprocess.Popen[bytes]] | None = None,
     logs: Path | None = None,
+    abort: AbortSignals | None = None,
 ) -> None:
     """Show progress (simulated time from the plant's timing summaries) until the plant exits.
 
@@ -841,11 +1084,16 @@ def _follow(
     plant then waits for), and the scenario's process faults are injected as their time
     comes (``start`` restarts a process); a process the driver killed is not a failure.
 
+    A signal (``abort``) stops the children in order (:func:`_stop_children`); the
+    progress bar then shows the simulated time reached, not the run's length.
+
     Raises
     ------
     RunFailedError
         When the controller or the recorder exits with a nonzero status it was not killed
         with by a process fault.
+    RunAbortedError
+        When a signal stopped the run.
     """
     latest: dict[str, float] = {"sim_s": 0.0, "misses": 0.0}
 
@@ -881,6 +1129,21 @@ def _follow(
         ) as progress:
             task = progress.add_task(scenario.name, total=scenario.duration_s, misses=0)
             while procs["plant"].poll() is None:
+                if abort is not None and abort.signum is not None:
+                    name = signal.Signals(abort.signum).name
+                    progress.update(
+                        task,
+                        completed=latest["sim_s"],
+                        misses=latest["misses"],
+                        description=f"{scenario.name} ({name}: stopping)",
+                    )
+                    _stop_children(procs, console)
+                    progress.update(
+                        task,
+                        completed=latest["sim_s"],
+                        description=f"{scenario.name} (aborted by {name})",
+                    )
+                    abort.check(latest["sim_s"])
                 for name in ("controller", "recorder"):
                     proc = procs[name]
                     rc = proc.poll()
@@ -893,10 +1156,14 @@ def _follow(
                 progress.update(task, completed=latest["sim_s"], misses=latest["misses"])
                 if driver is not None:
                     driver.due.wait(driver.wait_s(0.1))
+                elif abort is not None:
+                    abort.event.wait(0.1)
                 else:
                     time.sleep(0.1)
-            killed = driver is not None and driver.plant_killed
-            done = latest["sim_s"] if killed else max(latest["sim_s"], scenario.duration_s)
+            # The plant's last running summary may precede its end by up to a second: a
+            # plant that ended well ran the whole duration; any other end shows how far it got.
+            whole = procs["plant"].returncode == 0 and not (driver and driver.plant_killed)
+            done = max(latest["sim_s"], scenario.duration_s) if whole else latest["sim_s"]
             progress.update(task, completed=done)
     finally:
         if token is not None:
@@ -913,7 +1180,8 @@ def _last_error(logs: Path | None, name: str) -> str:
         text = (logs / f"{name}.log").read_text(errors="replace")
         lines = [ln.strip() for ln in text.splitlines() if ln.startswith("error:")]
         if lines:
-            return f": {lines[-1]} (log: {logs / f'{name}.log'})"
+            return f": {lines[-1].removeprefix('error:').strip()} (log: {logs / f'{name}.log'})"
+        return f" (log: {logs / f'{name}.log'})"
     return ""
 
 
@@ -1067,7 +1335,9 @@ class ProcessFaultDriver:
                 f"not injected: no {name} process was running at {sim_ns / 1e9:.3f} s "
                 f"simulated (the last one exited with {proc.returncode})"
             )
-            console.print(f"[yellow]process fault[/] {fault.label} {fault.kind}: {rec['outcome']}")
+            console.print(
+                f"[yellow]process fault[/] {fault.label} {fault.kind}: {escape(rec['outcome'])}"
+            )
             return
         proc.send_signal(signal.SIGKILL)
         killed_at = time.monotonic()
@@ -1175,13 +1445,14 @@ class ProcessFaultDriver:
             if rec["kind"] == "plant_kill" and rec["killed"] is not None:
                 rec["others"] = exits
 
-    def finish(self, console: Console) -> None:
+    def finish(self, console: Console, how: str | None = None) -> None:
         """Close the records at the end of the run (faults and restarts never reached, the
-        plant's safe state around each controller kill)."""
+        plant's safe state around each controller kill); ``how`` the run ended, if not by
+        itself (e.g. ``aborted by SIGTERM``)."""
         with self._lock:
             sim_ns = self._sim_ns
             changes = list(self._safe_changes)
-        ended = "plant killed" if self.plant_killed else "run complete"
+        ended = how or ("plant killed" if self.plant_killed else "run complete")
         for f in self._pending:
             self._by_index[f.index]["outcome"] = (
                 f"not injected: the run ended ({ended}) at {sim_ns / 1e9:.3f} s simulated, "
@@ -1241,4 +1512,4 @@ class ProcessFaultDriver:
             )
         console.print(table)
         for problem in self.problems:
-            console.print(f"[red]process fault problem:[/] {problem}")
+            console.print(f"[red]process fault problem:[/] {escape(problem)}")

@@ -77,6 +77,7 @@ import fcntl
 import multiprocessing
 import multiprocessing.util
 import os
+import signal
 import sys
 import time
 import typing
@@ -104,6 +105,18 @@ BATCH_MESSAGES = 1024
 #: Pipe buffer asked for (Linux F_SETPIPE_SZ; capped by /proc/sys/fs/pipe-max-size) [bytes]:
 #: a few batches fit, so the loop does not wait whenever the writer is briefly descheduled.
 PIPE_BYTES = 1 << 20
+
+
+#: Bytes of the writer's last error text shared with the parent (:class:`LogWriteError`).
+_ERROR_BYTES = 1024
+
+
+class LogWriteError(RuntimeError):
+    """The log writer could not write the file (disk full, file too large, I/O error).
+
+    The message names the file and the system's reason; what the writer had written before
+    stays in the file (it is readable up to the failure, as a truncated file).
+    """
 
 
 #: Set in a batch's order byte for a message given as a row (:meth:`publish_block`); the low
@@ -955,12 +968,25 @@ def _writer_main(
     ready: Any,
     unix_minus_monotonic_ns: int,
     stats: Any,
-) -> None:
-    log = BatchRunLog(Path(path), turbine, compression=compression)
+    error: Any = None,
+) -> bool:
+    """Write the file from the pipe's batches; False (the reason in ``error``) when a write
+    failed: the writer then stops reading, so the parent's next batch finds the pipe closed."""
+
+    def failed(exc: OSError) -> bool:
+        if error is not None and not error.value:
+            error.value = f"writing {path}: {exc.strerror or exc}".encode()[: _ERROR_BYTES - 1]
+        return False
+
+    try:
+        log = BatchRunLog(Path(path), turbine, compression=compression)
+    except OSError as exc:
+        return failed(exc)
     framer = _BatchFramer(log, _decoders(), unix_minus_monotonic_ns)
     _warm_kernels(framer)
     cpu0 = time.process_time()
     pipe = _PipeReader(conn.fileno())
+    ok = True
     try:
         for name, data in metadata.items():
             log.add_metadata(name, data)
@@ -970,10 +996,16 @@ def _writer_main(
             if blob is None:  # the end, or the parent is gone
                 break
             framer.frame(blob)
+    except OSError as exc:
+        ok = failed(exc)
     finally:
-        log.close()
+        try:
+            log.close()
+        except OSError as exc:  # the summary section and footer did not fit either
+            ok = failed(exc)
         stats[0] = time.process_time() - cpu0
         stats[1] = log.count
+    return ok
 
 
 def _writer_process(*args: Any) -> None:
@@ -984,12 +1016,17 @@ def _writer_process(*args: Any) -> None:
     takes about 0.3 s, which :meth:`BackgroundRunLog.close` would wait for (measured: the
     file done 0.3 ms after the end marker, the child gone 0.25-0.33 s later). ``os._exit``
     skips it. An exception in :func:`_writer_main` still ends the child the usual way (its
-    traceback printed, exit code 1).
+    traceback printed, exit code 1). A write that failed (:class:`LogWriteError`) is said
+    by the parent, from the text left in the shared error buffer: exit code 1, no traceback.
+
+    SIGINT is ignored: a terminal's Ctrl-C reaches the whole process group, and the parent
+    decides how the run ends (it closes the pipe, and the file is finished).
     """
-    _writer_main(*args)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    ok = _writer_main(*args)
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(0)
+    os._exit(0 if ok else 1)
 
 
 #: bytes.translate table setting :data:`ROW_FLAG` (the ids are < ROW_FLAG once checked).
@@ -1179,6 +1216,8 @@ class BackgroundRunLog(MessageBatcher):
         self._fd = send_end.fileno()
         self._ready = ctx.Event()
         self._stats = ctx.Array("d", 2)  # the writer's CPU seconds after start-up, messages
+        self._error = ctx.Array("c", _ERROR_BYTES)  # why a write failed (LogWriteError)
+        self._path = path
         self._proc = ctx.Process(
             target=_writer_process,
             args=(
@@ -1190,6 +1229,7 @@ class BackgroundRunLog(MessageBatcher):
                 self._ready,
                 time.time_ns() - time.monotonic_ns(),
                 self._stats,
+                self._error,
             ),
             name="fowt-log-writer",
             daemon=False,
@@ -1226,16 +1266,27 @@ class BackgroundRunLog(MessageBatcher):
         deadline = time.monotonic() + timeout_s
         while not self._ready.wait(0.05):
             if not self._proc.is_alive():
-                raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
+                raise self._failure()
             if time.monotonic() > deadline:
                 raise RuntimeError(f"log writer did not start within {timeout_s:g} s")
+
+    def _failure(self) -> LogWriteError | RuntimeError:
+        """Why the writer stopped: its write error, else its exit status."""
+        self._proc.join(5.0)
+        why = bytes(self._error.value).decode(errors="replace")  # type: ignore[attr-defined]
+        if why:
+            return LogWriteError(why)
+        return RuntimeError(f"log writer exited with {self._proc.exitcode}")
 
     def _send(self) -> None:
         n = len(self._ids)
         if n:
             payload = self._payload()
             t0 = time.perf_counter_ns()
-            _write_message(self._fd, payload)  # blocks while the pipe is full (writer behind)
+            try:  # blocks while the pipe is full (writer behind)
+                _write_message(self._fd, payload)
+            except BrokenPipeError:  # the writer has stopped: say why, not "broken pipe"
+                raise self._failure() from None
             self.send_ns += time.perf_counter_ns() - t0
             self.messages += n
             self.batches += 1
@@ -1244,13 +1295,18 @@ class BackgroundRunLog(MessageBatcher):
     def close(self, timeout_s: float = 120.0) -> None:
         """Send what is left, wait for the child to finish the file."""
         t0 = time.perf_counter_ns()
-        self._send()
-        _write_message(self._fd, b"")
-        self._conn.close()
+        if self._conn.closed:  # closed before, after a failure that was raised then
+            return
+        try:
+            self._send()
+            with contextlib.suppress(BrokenPipeError):  # a writer that stopped says why below
+                _write_message(self._fd, b"")
+        finally:
+            self._conn.close()
         self._proc.join(timeout_s)
         self.close_wait_ns = time.perf_counter_ns() - t0
         if self._proc.exitcode != 0:
-            raise RuntimeError(f"log writer exited with {self._proc.exitcode}")
+            raise self._failure()
         self.writer_cpu_s, self.writer_messages = self._stats[0], int(self._stats[1])
 
 

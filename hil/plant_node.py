@@ -1355,6 +1355,7 @@ def run_inprocess(
     loop: Literal["auto", "compiled", "python"] = "auto",
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
     published: Callable[[], Mapping[str, int]] | None = None,
+    stop: threading.Event | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -1378,6 +1379,10 @@ def run_inprocess(
     ``BackgroundRunLog.published``, which counts the rows of either loop too); when given,
     the :class:`PlantReport` (:func:`plant_report`) follows the final summary, as a plant
     process publishes it.
+
+    ``stop`` (set by a signal handler) ends the run early, before the next cycle (the
+    compiled loop: before its next batch); the final summary is still published and
+    ``PlantRunResult.aborted`` says "stopped by signal".
     """
     plant = PlantLoop(scenario, publish)
     if log is not None:
@@ -1399,12 +1404,15 @@ def run_inprocess(
         command = step_controller(frame)
         return command, time.monotonic_ns() - t0
 
+    stopped = stop.is_set if stop is not None else None
     if fast is not None:
-        fast.run(scenario.cycles)
+        fast.run(scenario.cycles, stopped)
     else:
         faulted = plant.bus_faults
         sample, finish, clock = plant.sample, plant.finish_cycle, time.monotonic_ns
         for _ in range(scenario.cycles):
+            if stopped is not None and stopped():
+                break
             frame = sample()
             if faulted:
                 _faulted_sim_cycle(plant, frame, exchange)
@@ -1412,11 +1420,16 @@ def run_inprocess(
             t0 = clock()
             command = step_controller(frame)
             finish(command, clock() - t0, at_arrival=False)
+    if stopped is not None and stopped() and plant.k < scenario.cycles:
+        plant.result.aborted = "stopped by signal"
     plant.count_faults()
     final = plant.publish_summary(final=True)
     if published is not None:
         report = plant_report(
-            plant.result, published(), sample_time_ns=final.sample_time_ns, aborted=False
+            plant.result,
+            published(),
+            sample_time_ns=final.sample_time_ns,
+            aborted=bool(plant.result.aborted),
         )
         publish(PLANT_REPORT, report)
     if plant.result.faults_injected:

@@ -197,12 +197,18 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     and ``timing/summary``). Recovery rule: with ``watchdog_recover_cycles`` = 0 (the
     default) the safe state is latched for the rest of the run; with K > 0 control is handed
     back after K consecutive commands that each met their deadline.
+
+    ``max_deadline_miss_fraction`` (0 to 1): missed deadlines tolerated, as a fraction of
+    the run's cycles, before ``fowt run`` exits with its deadline-misses code
+    (:mod:`hil.outcome`); unset: 0.01 in real time, 0 in lock-step and in process (there
+    the plant waits for every command, so any miss is a fault).
     """
 
     control_period_s: Annotated[float, msgspec.Meta(ge=0.001, le=1.0)] = 0.01
     plant_step_s: Annotated[float, msgspec.Meta(ge=0.0001, le=1.0)] = 0.01
     watchdog_misses: Cycles = 3
     watchdog_recover_cycles: Cycles = 0
+    max_deadline_miss_fraction: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] | None = None
 
 
 class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -560,6 +566,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
             raise ValueError(
                 f"timing.control_period_s = {self.timing.control_period_s} s: expected <= 1 s"
             )
+        _check_cycles(self.duration_s, self.timing.control_period_s, "duration_s")
         if isinstance(self.wind, RampWindSpec) and self.wind.end_s < self.wind.start_s:
             raise ValueError("wind.end_s must be >= wind.start_s")
         _check_preset("turbine", self.turbine, shipped_turbines(), "a turbine preset")
@@ -680,6 +687,10 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
         if duration_s is None:
             return self
         check_duration(duration_s, "--duration")
+        try:
+            _check_cycles(float(duration_s), self.timing.control_period_s, "--duration")
+        except ValueError as exc:
+            raise ScenarioError(str(exc)) from exc
         return msgspec.structs.replace(self, duration_s=float(duration_s))
 
     def to_toml_dict(self) -> dict[str, object]:
@@ -749,6 +760,15 @@ def _known_fields(path: str) -> list[str]:
             return sorted({f for c in classes for f in c.__struct_fields__} | {"kind"})
         cls = sections.get(parts[0], Scenario)
     return list(cls.__struct_fields__)
+
+
+def _check_cycles(duration_s: float, control_period_s: float, name: str) -> None:
+    """ValueError unless ``duration_s`` holds at least one control period (one cycle)."""
+    if duration_s < control_period_s * (1.0 - 1e-9):  # the tolerance: a float's last bits
+        raise ValueError(
+            f"{name} = {duration_s:g} s is shorter than one control period "
+            f"(timing.control_period_s = {control_period_s:g} s): the run would have no cycle"
+        )
 
 
 def check_duration(duration_s: object, name: str = "duration_s") -> float:

@@ -434,7 +434,9 @@ def test_campaign_cli_refuses_a_bad_file(tmp_path: Path) -> None:
     bad.write_text('name = "x"\nseeds_n = 2\n')
     proc = _fowt("campaign", str(bad))
     assert proc.returncode == 2
-    assert "unknown key 'seeds_n'" in proc.stdout
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert "unknown key 'seeds_n'" in lines[0]
 
 
 _CHECK_JS = """

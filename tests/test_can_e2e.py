@@ -165,7 +165,9 @@ def test_virtual_interface_is_refused_for_processes(tmp_path: Path) -> None:
     cmd += ["--can-interface", "virtual"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, check=False)
     assert proc.returncode == 1
-    assert "only connects buses inside one process" in " ".join(proc.stdout.split())
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: run failed: "), proc.stderr
+    assert "only connects buses inside one process" in lines[0]
     assert not (tmp_path / "v" / "run.mcap").exists()
 
 

@@ -26,6 +26,7 @@ from bus_schemas.registry import SENSORS, MessageType
 from controller.interface import REGIME_SAFE
 from hil.controller_node import MODE_NORMAL, MODE_RESUMING, MODE_SAFE, ControllerRuntime
 from hil.mcap_log import read_run
+from hil.outcome import ExitCode
 from hil.plant_node import run_inprocess
 from hil.scenario import Scenario, load_scenario, scenario_text
 
@@ -293,7 +294,10 @@ def test_lockstep_sensor_loss_puts_the_controller_in_safe_mode(tmp_path: Path) -
          "--duration", "2.5", "--out", str(out), "--no-plots"],
         capture_output=True, text=True, timeout=180, check=False,
     )  # fmt: skip
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    # Frames lost for 0.5 s: the plant misses those deadlines and enters its safe state, so
+    # the run is judged unhealthy (hil.outcome), with the safe-state code.
+    assert proc.returncode == ExitCode.SAFE_STATE, proc.stdout + proc.stderr
+    assert json.loads((out / "summary.json").read_text())["run"]["outcome"] == "safe_state"
     run = read_run(out / "run.mcap")
     status = run.topic("controller/status")
     commands = run.topic("command")

@@ -26,6 +26,7 @@ from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming, PlantSta
 from bus_schemas.messages import VALID_BITS
 from bus_schemas.registry import CYCLE_TIMING, SENSORS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
+from hil.outcome import ExitCode
 from hil.plant_node import PlantRunResult, run_inprocess
 from hil.scenario import Scenario, ScenarioError, parse_scenario, scenario_text
 from sensors import ChannelSpec, default_floating_suite
@@ -385,8 +386,11 @@ def test_lockstep_over_zenoh_with_sensor_delay_equals_inprocess(tmp_path: Path) 
              "--duration", "4", "--out", str(out), "--no-plots"],
             capture_output=True, text=True, timeout=180, check=False,
         )  # fmt: skip
-        assert proc.returncode == 0, proc.stdout + proc.stderr
+        # Commands lost with the watchdog off: missed deadlines, none tolerated in these
+        # modes, so both runs exit with the deadline-misses code (hil.outcome).
+        assert proc.returncode == ExitCode.DEADLINE_MISSES, proc.stdout + proc.stderr
         summaries.append(json.loads((out / "summary.json").read_text()))
+    assert summaries[0]["run"]["outcome"] == summaries[1]["run"]["outcome"] == "deadline_misses"
     assert summaries[0]["kpi"] == summaries[1]["kpi"]
     assert summaries[0]["timing"]["deadline_misses"] == summaries[1]["timing"]["deadline_misses"]
     assert summaries[0]["timing"]["deadline_misses"] > 0

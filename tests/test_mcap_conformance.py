@@ -34,6 +34,7 @@ from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader
 
 from hil.mcap_log import read_run, recover
+from hil.outcome import ExitCode
 
 pytestmark = pytest.mark.e2e
 
@@ -83,7 +84,14 @@ def run_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, 
             continue
         folder = base / name
         proc = _fowt("run", *args, "--duration", "3", "--out", str(folder), "--no-plots")
-        assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+        # A real-time run on a loaded host may miss deadlines (and trip the plant's
+        # watchdog): judged unhealthy (hil.outcome), yet its file is what is checked here.
+        judged_on_load = (
+            {ExitCode.SAFE_STATE, ExitCode.DEADLINE_MISSES} if "realtime" in args else set()
+        )
+        assert proc.returncode in {ExitCode.OK} | judged_on_load, (
+            proc.stdout[-3000:] + proc.stderr[-3000:]
+        )
         out[name] = (folder / "run.mcap", cycles)
     return out
 

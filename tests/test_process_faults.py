@@ -14,9 +14,12 @@ End to end (real time, real processes over Zenoh):
 * ``fowt run faults-processes --duration 20``: the controller is killed at 10 s and
   restarted 2 s later; the plant enters its safe state at most ``watchdog_misses`` cycles
   after the last command of the killed controller, leaves it on the K-th consecutive
-  on-time command of the new one, and the run completes (exit status 0);
+  on-time command of the new one, and the run completes (exit status 5, the safe-state code
+  of :mod:`hil.outcome`);
 * a plant killed at 5 s: the controller and the recorder exit by themselves within a few
-  seconds, the MCAP file reviews, the summary says the plant was killed (exit status 0).
+  seconds, the MCAP file reviews, the summary says the plant was killed (exit status 0, or
+  in real time on a loaded host the safe-state or deadline-misses code of :mod:`hil.outcome`
+  when the plant's watchdog tripped before the kill).
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from bus_schemas.registry import CYCLE_TIMING
 from hil import launch
 from hil.launch import ProcessFaultDriver, ProcessFaultError, check_process_faults
 from hil.mcap_log import read_run
+from hil.outcome import ExitCode
 from hil.scenario import (
     ProcessFault,
     Scenario,
@@ -177,8 +181,10 @@ def test_modes_that_cannot_act_are_refused_before_anything_starts(tmp_path: Path
     assert len(check_process_faults(kill_plant, "lockstep")) == 1
     out = tmp_path / "run"
     proc = _fowt("run", "faults-processes", "--mode", "lockstep", "--out", str(out))
-    assert proc.returncode != 0
-    assert "controller_kill" in proc.stdout and "lock-step" in proc.stdout, proc.stdout
+    assert proc.returncode == 2, proc.stdout + proc.stderr  # bad input: refused before it starts
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert "controller_kill" in lines[0] and "lock-step" in lines[0], proc.stderr
     assert not out.exists()
 
 
@@ -305,9 +311,12 @@ def test_controller_killed_and_restarted(tmp_path: Path) -> None:
     out = tmp_path / "run"
     proc = _fowt("run", "faults-processes", "--duration", "20", "--out", str(out), "--no-plots")
     logs = {p.name: p.read_text() for p in (out / "logs").glob("*.log")}
-    assert proc.returncode == 0, proc.stdout + proc.stderr + json.dumps(logs)
+    # The plant did enter its safe state: a run that did is not a healthy one (hil.outcome).
+    assert proc.returncode == ExitCode.SAFE_STATE, proc.stdout + proc.stderr + json.dumps(logs)
     assert "process fault" in proc.stdout and "restarted" in proc.stdout
     summary = json.loads((out / "summary.json").read_text())
+    assert summary["run"]["outcome"] == "safe_state"
+    assert summary["run"]["exit_code"] == ExitCode.SAFE_STATE
     (rec,) = summary["run"]["process_faults"]
     assert summary["run"]["plant_killed"] is False
     assert rec["kind"] == "controller_kill" and rec["outcome"] == "controller killed and restarted"
@@ -361,9 +370,17 @@ def test_plant_killed(mode: str, tmp_path: Path) -> None:
     t0 = time.monotonic()
     proc = _fowt("run", str(scenario), "--mode", mode, "--out", str(out), "--no-plots")
     logs = {p.name: p.read_text() for p in (out / "logs").glob("*.log")}
-    assert proc.returncode == 0, proc.stdout + proc.stderr + json.dumps(logs)
-    assert time.monotonic() - t0 < 90
     summary = json.loads((out / "summary.json").read_text())
+    # The kill is no failure (the others ended by themselves): the run is judged on its
+    # health alone, which in real time on a loaded host may include the plant's watchdog
+    # tripping before the kill (missed deadlines, then the safe state), never more.
+    judged = summary["run"]["exit_code"]
+    assert proc.returncode == judged, proc.stdout + proc.stderr + json.dumps(logs)
+    allowed = {ExitCode.OK} | (
+        {ExitCode.SAFE_STATE, ExitCode.DEADLINE_MISSES} if mode == "realtime" else set()
+    )
+    assert judged in allowed, proc.stdout + proc.stderr + json.dumps(logs)
+    assert time.monotonic() - t0 < 90
     assert summary["run"]["plant_killed"] is True
     (rec,) = summary["run"]["process_faults"]
     assert rec["kind"] == "plant_kill" and rec["outcome"] == "plant killed"

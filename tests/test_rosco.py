@@ -8,6 +8,7 @@ each of which must end the run with a clear error and leave a reviewable MCAP fi
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import textwrap
@@ -205,6 +206,10 @@ def test_missing_library_and_malformed_parameter_file(
     text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n' + lines.format(bad=bad) + "\n")
     with pytest.raises(RunFailedError, match=expected):
         launch(_run_request(tmp_path, text, mode))  # type: ignore[arg-type]
+    # The launcher's summary of the failed run says so (hil.outcome: failed, exit code 1).
+    launched = json.loads((tmp_path / "run" / "summary.json").read_text())["run"]
+    assert launched["outcome"] == "failed" and launched["exit_code"] == 1
+    assert expected in launched["failed"]
     summary = review(tmp_path / "run" / "run.mcap", plots=False)
     assert summary["timing"]["cycles"] == 0
 

@@ -376,7 +376,9 @@ def test_router_cli_refuses_a_client_config_in_one_line() -> None:
     )
     assert r.returncode == 2
     assert "Traceback" not in r.stdout + r.stderr
-    assert "mode is 'client'; expected \"router\"" in r.stdout
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
+    assert "mode is 'client'; expected \"router\"" in lines[0]
 
 
 def test_bus_config_describes_the_endpoints_a_config_file_gives() -> None:
