@@ -546,6 +546,11 @@ class PlantLoop:
                 switch = min(sim.n, round(effect_at_ns * 1e-9 / sim.h))
             self.hist.record(latency_ns)
         else:
+            if latency_ns > 0:
+                # A late command (real time): it came after the deadline but before the next
+                # tick. The cycle is a miss, and its latency is a sample like any other, so
+                # the histogram's maximum is the true one, not the deadline.
+                self.hist.record(latency_ns)
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
@@ -612,6 +617,10 @@ class PlantLoop:
         r = self.result
         wall_s = (time.monotonic_ns() - self.start_wall_ns) * 1e-9
         r.wall_s, r.sim_s = wall_s, self.t_ns * 1e-9
+        if self._inbox is not None:
+            # Commands that came after the tick that ended their cycle: no cycle's latency,
+            # but the largest latency the plant saw.
+            self.hist.observe_max(self._inbox.late_max_ns)
         p50, p99, p999 = self.hist.percentiles_us(50, 99, 99.9)
         summary = TimingSummary(
             seq=self.summary_seq,
@@ -667,14 +676,33 @@ class CommandInbox:
         self.fault_counts: Counter[str] = Counter()
         self.pending: deque[tuple[int, ActuatorCommand]] = deque()  # (visible at ns, command)
         self._last_visible_ns = -1
+        # When each recent frame went out (seq, monotonic ns), by seq modulo the ring's
+        # length: the latency of a command that comes after its cycle ended is measured
+        # from it (late_max_ns), so the summary's maximum is the true one.
+        self._sent: list[tuple[int, int]] = [(-1, 0)] * self.SENT_RING
+        self.late_max_ns = 0
+
+    #: Frames whose send time is kept for :attr:`late_max_ns` (10 s at 100 Hz).
+    SENT_RING = 1024
+
+    def note_sent(self, seq: int, sent_ns: int) -> None:
+        """Remember when frame ``seq`` went out (the plant loop's thread)."""
+        self._sent[seq % self.SENT_RING] = (seq, sent_ns)
+
+    def _note_late(self, command: ActuatorCommand, visible_ns: int) -> None:
+        """Count a command that came after its cycle; keep its latency's maximum (lock held)."""
+        self.late += 1
+        seq, sent = self._sent[command.answered_seq % self.SENT_RING]
+        if seq == command.answered_seq and visible_ns - sent > self.late_max_ns:
+            self.late_max_ns = visible_ns - sent
 
     def _promote(self, now_ns: int) -> None:
         """Make the delayed commands whose time has come visible (lock held)."""
         pending = self.pending
         while pending and pending[0][0] <= now_ns:
             visible, command = pending.popleft()
-            if self.latest is not None:
-                self.late += 1  # superseded before anyone took it
+            if self.latest is not None:  # superseded before anyone took it
+                self._note_late(*self.latest)
             self.latest = (command, visible)
 
     def _next_visible_ns(self) -> int | None:
@@ -682,7 +710,7 @@ class CommandInbox:
 
     def _drop_older(self, seq: int) -> None:
         if self.latest is not None and self.latest[0].answered_seq < seq:
-            self.late += 1
+            self._note_late(*self.latest)
             self.latest = None
 
     def on_payload(self, _key: str, payload: bytes) -> None:
@@ -1208,6 +1236,7 @@ def _run_realtime(
             return
         frame = loop.sample()
         sent = loop.frame_sent_ns
+        inbox.note_sent(frame.seq, sent)
         tick = pacer.deadline_ns(pacer.k + 1)
         if loop.sensor_link is not None:
             got = _wait_delivering(loop, loop.sensor_link, inbox, frame.seq, tick)
