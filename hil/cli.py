@@ -713,11 +713,12 @@ def recover_cmd(
         Path | None, typer.Option("--out", help="Output file (default: <name>.recovered.mcap).")
     ] = None,
 ) -> None:
-    """Make a truncated MCAP file complete.
+    """Make a truncated or damaged MCAP file complete.
 
-    The new file holds every message before the cut, with summary and footer.
+    The new file holds every message that can be read, with summary and footer: a damaged
+    chunk is skipped (one line each: its bytes and log times) and the chunks after it kept.
     """
-    from hil.mcap_log import NotMcapError, recover
+    from hil.mcap_log import NotMcapError, SkippedRange, recover
 
     if not mcap.is_file():
         console.print(f"[red]error:[/] {mcap} is not a file")
@@ -726,14 +727,17 @@ def recover_cmd(
     if target.resolve() == mcap.resolve():
         console.print("[red]error:[/] --out must differ from the input file")
         raise typer.Exit(2)
+    skipped: list[SkippedRange] = []
     try:
-        n = recover(mcap, target)
+        n = recover(mcap, target, skipped)
     except NotMcapError as exc:
         console.print(f"[red]error:[/] {exc}")
         raise typer.Exit(2) from exc
     except OSError as exc:
         console.print(f"[red]error:[/] {target}: {exc.strerror or exc}")
         raise typer.Exit(2) from exc
+    for r in skipped:  # plain lines: never wrapped, one per range
+        sys.stdout.write(f"skipped {r.describe()}\n")
     console.print(f"recovered {n} messages into {target}")
 
 

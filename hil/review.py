@@ -68,6 +68,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
+from rich.markup import escape
 from rich.table import Table
 from scipy.signal import welch
 
@@ -451,6 +452,7 @@ def _run_info(run: RunData) -> dict[str, Any]:
         truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if run.truncated else None,
         statistics_ok=run.statistics_ok,
         error=run.error,
+        skipped_ranges=[r.as_dict() for r in run.skipped],
     )
     return info
 
@@ -858,10 +860,27 @@ def truncation_note(summary: dict[str, Any]) -> str | None:
     run = summary.get("run", {})
     if not run.get("truncated"):
         return None
+    damaged = [r for r in run.get("skipped_ranges") or [] if not r.get("to_end")]
+    if damaged:
+        return _damage_note(damaged, run)
     at = run.get("truncated_at_s")
     where = f"t = {at:.2f} s" if isinstance(at, int | float) else "t = - (no message)"
     why = f" ({run['error']})" if run.get("error") else ""
     return f"truncated at {where}{why}"
+
+
+def _damage_note(skipped: list[dict[str, Any]], run: dict[str, Any]) -> str:
+    """``"damaged: 1 range skipped (bytes 1200-5400, t = 3.10-4.20 s: ...)"``."""
+    parts = []
+    for r in skipped:
+        text = f"bytes {r.get('start')}-{r.get('end')}"
+        a, b = r.get("log_start_s"), r.get("log_end_s")
+        if isinstance(a, int | float) and isinstance(b, int | float):
+            text += f", t = {a:.2f}-{b:.2f} s"
+        parts.append(f"{text}: {r.get('reason')}")
+    at = run.get("truncated_at_s")
+    last = f"; last message at t = {at:.2f} s" if isinstance(at, int | float) else ""
+    return f"damaged: {len(skipped)} range(s) skipped ({'; '.join(parts)}){last}"
 
 
 def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
@@ -894,7 +913,7 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
             head.add_row(k, str(run[k]))
     head.add_row("duration", f"{_fmt(run.get('duration_s'), digits=2)} s")
     note = truncation_note(summary)
-    head.add_row("truncated", f"[red]yes: {note}[/red]" if note else "no")
+    head.add_row("truncated", f"[red]yes: {escape(note)}[/red]" if note else "no")
     if run.get("error") and not note:
         head.add_row("reader", f"[yellow]{run['error']}[/yellow]")
     msgs = run.get("messages", {})
