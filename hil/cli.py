@@ -671,7 +671,12 @@ def review_cmd(
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
     strict: Annotated[
-        bool, typer.Option("--strict", help="Exit 1 when the file is truncated or inconsistent.")
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit 1 when the file is truncated, damaged or inconsistent, or the plant's "
+            "final timing summary is missing.",
+        ),
     ] = False,
 ) -> None:
     """Review a recorded run: KPIs, timing and plots.
@@ -679,7 +684,7 @@ def review_cmd(
     Everything comes from the MCAP file alone.
     """
     from hil.mcap_log import NotMcapError
-    from hil.review import render_summary, review, truncation_note
+    from hil.review import NotRunLogError, render_summary, review, review_problems, truncation_note
 
     if not mcap.is_file():
         console.print(f"[red]error:[/] {mcap} is not a file")
@@ -689,6 +694,8 @@ def review_cmd(
     except NotMcapError as exc:
         console.print(f"[red]error:[/] {exc}")
         raise typer.Exit(2) from exc
+    except NotRunLogError as exc:
+        _fail(str(exc))
     except OSError as exc:
         console.print(f"[red]error:[/] {exc.filename or mcap}: {exc.strerror or exc}")
         raise typer.Exit(2) from exc
@@ -699,10 +706,10 @@ def review_cmd(
             Console(stderr=True).print(f"[yellow]warning:[/] {mcap}: {note}")
     else:
         render_summary(summary, console)
-    bad = note is not None or summary["run"].get("statistics_ok") is False
-    if strict and bad:
-        reason = note or str(summary["run"].get("error"))
-        Console(stderr=True).print(f"[red]error:[/] --strict: {mcap}: {reason}")
+    problems = review_problems(summary)
+    if strict and problems:
+        reason = "; ".join(problems)
+        _stderr.print(f"[red]error:[/] --strict: {escape(str(mcap))}: {escape(reason)}")
         raise typer.Exit(1)
 
 

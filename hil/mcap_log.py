@@ -687,6 +687,8 @@ class RunData:
     #: its first message [ns] that their log times are given against.
     skipped: list[SkippedRange] = field(default_factory=list)
     first_log_ns: int | None = None
+    #: The Header's profile (``"fowt-hil"`` for this bench's run logs; None: no Header read).
+    profile: str | None = None
 
     def topic(self, suffix: str) -> list[dict[str, Any]]:
         """Messages of the first topic ending in ``/<suffix>`` (any turbine)."""
@@ -940,7 +942,9 @@ def read_run(path: Path) -> RunData:
     summary: Any = None
     try:
         for rec in scan.records():
-            if isinstance(rec, Schema):
+            if isinstance(rec, Header):
+                run.profile = rec.profile
+            elif isinstance(rec, Schema):
                 schema_names[rec.id] = rec.name
             elif isinstance(rec, Channel):
                 if not in_summary:

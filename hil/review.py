@@ -80,7 +80,7 @@ from bus_schemas.messages import (
     VALID_BITS,
 )
 from hil import kpi
-from hil.mcap_log import MessageList, RunData, read_run
+from hil.mcap_log import PROFILE, MessageList, RunData, read_run
 from hil.scenario import ReviewSection
 
 if TYPE_CHECKING:
@@ -138,9 +138,60 @@ def _suffix(topic: str) -> str:
 def _turbine(run: RunData) -> str | None:
     for topic in run.messages:
         parts = topic.split("/", 2)
-        if len(parts) == 3:
+        if len(parts) == 3 and parts[0] == "fowt":
             return parts[1]
     return None
+
+
+class NotRunLogError(ValueError):
+    """The file is an MCAP file, but not a run log of this bench (nothing to review)."""
+
+
+def check_run_log(run: RunData, source: Path | str = "") -> None:
+    """Raise :class:`NotRunLogError` unless ``run`` is a run log of this bench.
+
+    A run log of this bench has the ``fowt-hil`` profile in its MCAP Header
+    (:data:`hil.mcap_log.PROFILE`; every node and campaign log) or at least one channel
+    under ``fowt/`` (a multi-turbine platform's log has an empty profile). Anything else (a
+    robot's ``/robot/pose``, an empty MCAP file) has none of the channels the review reads:
+    its summary would be all ``null`` and its plots empty, so it is refused before anything
+    is written.
+
+    Parameters
+    ----------
+    run : RunData
+        What :func:`hil.mcap_log.read_run` read.
+    source : Path or str
+        The file, for the message.
+    """
+    if run.profile == PROFILE or any(t.startswith("fowt/") for t in run.messages):
+        return
+    topics = sorted(run.messages)
+    shown = ", ".join(topics[:5]) + (f" and {len(topics) - 5} more" if len(topics) > 5 else "")
+    where = f"{source}: " if str(source) else ""
+    raise NotRunLogError(
+        f"not a fowt-hil run log: {where}profile {run.profile or ''!r}, no fowt/ channel "
+        f"(channels: {shown or 'none'})"
+    )
+
+
+def review_problems(summary: dict[str, Any]) -> list[str]:
+    """What keeps a reviewed run log from being a complete record (``--strict`` fails on any).
+
+    A truncated or damaged file (:func:`truncation_note`), summary statistics that differ
+    from the messages read, and a bench run without the plant's final timing summary (the
+    plant did not finish: its counts come from the logged cycles). Empty when complete.
+    """
+    out: list[str] = []
+    run = summary.get("run", {})
+    note = truncation_note(summary)
+    if note:
+        out.append(note)
+    elif run.get("statistics_ok") is False:
+        out.append(str(run.get("error")))
+    if summary.get("kind") != "hexicon" and summary.get("timing", {}).get("complete") is False:
+        out.append("no final timing summary: the plant did not finish the run")
+    return out
 
 
 def _int_or_none(v: Any) -> int | None:
@@ -823,7 +874,8 @@ def review(
     """Read a run log, write ``summary.json`` (and plots) and return the summary.
 
     The file is read first: a file that is not an MCAP file raises
-    :class:`hil.mcap_log.NotMcapError` before anything is written.
+    :class:`hil.mcap_log.NotMcapError`, and an MCAP file that is not a run log of this bench
+    :class:`NotRunLogError` (:func:`check_run_log`), before anything is written.
 
     Parameters
     ----------
@@ -839,6 +891,7 @@ def review(
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
     run = read_run(mcap_path)
+    check_run_log(run, mcap_path)
     from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
 
     platform = hexicon_review.is_platform_run(run)
@@ -1050,4 +1103,13 @@ def _render_estimates(summary: dict[str, Any], console: Console) -> None:
     console.print(t)
 
 
-__all__ = ["PLOT_FILES", "render_summary", "review", "summarize", "write_plots"]
+__all__ = [
+    "PLOT_FILES",
+    "NotRunLogError",
+    "check_run_log",
+    "render_summary",
+    "review",
+    "review_problems",
+    "summarize",
+    "write_plots",
+]
