@@ -391,6 +391,12 @@ class SensorLink:
         return self.held[0][1] if self.held else None
 
 
+#: Real time: the first simulated seconds of a run [s] whose missed deadlines count as
+#: start-up. A safe state they trip is handed back after as many on-time commands as there
+#: are start-up cycles, even where the scenario latches it (``PlantLoop._recover_after``).
+STARTUP_S = 1.0
+
+
 class PlantLoop:
     """Cycle bookkeeping shared by every mode: sampling, applying commands, timing."""
 
@@ -418,6 +424,12 @@ class PlantLoop:
         self.consecutive_misses = 0
         self.on_time_run = 0
         self.safe_state = False
+        # Start-up (real time only, :data:`STARTUP_S`): a safe state that the first
+        # ``startup_cycles`` tripped is handed back after ``startup_recover_cycles`` on-time
+        # commands even where the scenario latches it (0: no start-up rule, the default).
+        self.startup_cycles = 0
+        self.startup_recover_cycles = 0
+        self._startup_safe_state = False
         turbine = self.sim.config.turbine
         self.safe_demand = (turbine.pitch_max_rad, 0.0)
         self.log: Callable[[str], None] = lambda _msg: None
@@ -594,13 +606,21 @@ class PlantLoop:
             self.safe_state = True
             self.result.safe_state_entries += 1
             self.on_time_run = 0
+            self._startup_safe_state = self.k < self.startup_cycles
             self.log(
                 f"plant SAFE STATE at t = {self.t_ns * 1e-9:.3f} s after "
                 f"{self.consecutive_misses} consecutive missed deadlines: pitch to feather, "
                 "torque ramp-down"
+                + (
+                    f" (during start-up: handed back after {self._recover_after()} on-time "
+                    "commands)"
+                    if self._startup_safe_state
+                    else ""
+                )
             )
-        elif self.safe_state and 0 < self.watchdog_recover <= self.on_time_run:
+        elif self.safe_state and 0 < self._recover_after() <= self.on_time_run:
             self.safe_state = False
+            self._startup_safe_state = False
             self.log(
                 f"plant leaves the safe state at t = {self.t_ns * 1e-9:.3f} s after "
                 f"{self.on_time_run} on-time commands"
@@ -609,6 +629,19 @@ class PlantLoop:
             self.result.safe_state_cycles += 1
             return self.safe_demand
         return demand
+
+    def _recover_after(self) -> int:
+        """On-time commands that hand control back from the safe state (0: latched).
+
+        The scenario's ``watchdog_recover_cycles``; for a safe state tripped in the first
+        ``startup_cycles`` (the start-up's misses: a process still loading, a first
+        connection) at least ``startup_recover_cycles``, even where the scenario latches it,
+        so that a slow start does not make the whole run a safe-state run. A controller that
+        never answers in time still keeps the plant in its safe state.
+        """
+        if self._startup_safe_state:
+            return max(self.watchdog_recover, self.startup_recover_cycles)
+        return self.watchdog_recover
 
     def publish_summary(self, final: bool) -> TimingSummary:
         """Publish the running (or final) timing summary."""
@@ -1030,6 +1063,14 @@ def run_plant_node(
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+    # The plant is built, and its kernels loaded (warm_up: their first call must not fall
+    # into a paced cycle), before the liveliness token says it is ready; it becomes the run's
+    # loop once the peers are there (a run that never starts publishes no summary).
+    prepared = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+    if mode == "realtime":
+        prepared.sim.warm_up(prepared.x, prepared.applied)
+        prepared.startup_cycles = max(1, round(STARTUP_S * 1e9 / prepared.period_ns))
+        prepared.startup_recover_cycles = prepared.startup_cycles
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/plant")
     loop: PlantLoop | None = None
     try:
@@ -1038,9 +1079,8 @@ def run_plant_node(
         if stop.is_set():
             signum = received[0] if received else signal.SIGTERM
             raise PeerWaitInterruptedError(signum, list(require))
-        loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
-        if mode == "realtime":  # the kernels' first call must not fall into a paced cycle
-            loop.sim.warm_up(loop.x, loop.applied)
+        loop = prepared
+        loop.start_wall_ns = time.monotonic_ns()  # the run's wall time starts now
         loop.log = log
         loop._inbox = inbox
         freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
