@@ -124,11 +124,14 @@ def clean_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def _damage(src: Path, dst: Path, how: str) -> tuple[int, int, Counter[str]]:
-    """Copy ``src`` to ``dst`` with one middle chunk damaged; return the messages expected."""
+def _damage(
+    src: Path, dst: Path, how: str, victim: int | None = None
+) -> tuple[int, int, Counter[str]]:
+    """Copy ``src`` to ``dst`` with one chunk damaged (default: the middle one); return its
+    byte range and the messages of the other chunks."""
     chunks = _chunks(src)
     assert len(chunks) >= 20
-    victim = len(chunks) // 2
+    victim = len(chunks) // 2 if victim is None else victim
     start, length, _lost = chunks[victim]
     data = bytearray(src.read_bytes())
     if how == "zstd":  # the compressed data's first bytes (the zstd frame magic)
@@ -210,3 +213,20 @@ def test_a_clean_log_reads_complete(clean_log: Path) -> None:
     run = read_run(clean_log)
     assert run.complete and not run.skipped and run.statistics_ok
     assert sum(len(m) for m in run.messages.values()) == 2 * CYCLES + 1
+
+
+def test_channels_lost_with_the_first_chunk_come_from_the_summary(
+    clean_log: Path, tmp_path: Path
+) -> None:
+    """mcap's writer puts the Schema and Channel records in the first chunk: with it lost,
+    the summary section's copies name the channels of the messages after it."""
+    bad = tmp_path / "run.mcap"
+    start, _end, kept = _damage(clean_log, bad, "zstd", victim=0)
+    out = tmp_path / "fixed.mcap"
+    skipped: list[SkippedRange] = []
+    assert recover(bad, out, skipped) == sum(kept.values())
+    assert _counts(out) == kept
+    assert [r.start for r in skipped] == [start]
+    run = read_run(bad)
+    assert {t: len(m) for t, m in run.messages.items() if m} == dict(kept)
+    assert run.metadata["run"]["mode"] == "realtime"
