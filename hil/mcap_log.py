@@ -1045,8 +1045,9 @@ def recover(path: Path, out: Path, skipped: list[SkippedRange] | None = None) ->
                 metadata=dict(rec.metadata),
             )
 
+        records = scan.records()
         try:
-            for rec in scan.records():
+            for rec in records:
                 if isinstance(rec, Header):
                     writer.start(profile=rec.profile, library=rec.library or "fowt-hil")
                     started = True
@@ -1083,6 +1084,8 @@ def recover(path: Path, out: Path, skipped: list[SkippedRange] | None = None) ->
                     metadata_names.add(rec.name)
         except Exception:  # a record the scan let through but that does
             pass  # not rewrite: everything before it is kept, and the file is still closed
+        finally:
+            records.close()  # the scan's skipped ranges are final once it is closed
         if not started:
             writer.start(profile=PROFILE, library="fowt-hil")
         if scan.skipped:
