@@ -39,10 +39,12 @@ complete file (``fowt recover``; with mcap's Go CLI: ``mcap recover``).
 Reading
 -------
 :func:`read_run` reads a file front to back with mcap's stream reader through its summary,
-Footer and closing magic. It stops cleanly at the first truncated or corrupt record (a run
-whose recorder was killed still reviews up to its last flushed chunk) and says so
-(``truncated``, ``error``); a file that does not start with the MCAP magic raises
-:class:`NotMcapError`.
+Footer and closing magic (:class:`RecordScan`). It stops cleanly at a cut (a run whose
+recorder was killed still reviews up to its last flushed chunk), skips a damaged chunk in the
+middle (bad zstd data, a CRC that does not match, an unreadable record) and reads the chunks
+after it, and says so (``truncated``, ``error``, ``skipped``); a file that does not start
+with the MCAP magic raises :class:`NotMcapError`. :func:`recover` writes what it reads into
+a complete file.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ import struct
 import time
 import zlib
 from array import array
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -802,7 +804,7 @@ class RecordScan:
         if self.first_log_ns is None or start_ns < self.first_log_ns:
             self.first_log_ns = start_ns
 
-    def records(self) -> Iterator[Any]:
+    def records(self) -> Generator[Any, None, None]:
         """Yield the records (those inside chunks unpacked) in file order."""
         size = self.path.stat().st_size
         try:
@@ -824,10 +826,14 @@ class RecordScan:
                     for rec in reader.records:
                         end = fh.tell()
                         if isinstance(rec, Chunk):
-                            self._note_times(rec.message_start_time)
                             try:
                                 inner = breakup_chunk(rec, validate_crc=True)
+                                if any(isinstance(r, Message) for r in inner):
+                                    # (a chunk of schemas and channels only has times 0)
+                                    self._note_times(rec.message_start_time)
                             except Exception as exc:  # zstd raises its own
+                                if 0 < rec.message_end_time >= rec.message_start_time:
+                                    self._note_times(rec.message_start_time)
                                 why = _why(exc)
                                 if end >= size:
                                     why = f"chunk cut by the end of the file ({why})"

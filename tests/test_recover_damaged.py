@@ -189,7 +189,10 @@ def test_recover_cli_prints_the_skipped_range(clean_log: Path, tmp_path: Path) -
     lines = [line for line in res.output.splitlines() if line.startswith("skipped")]
     assert len(lines) == 1, res.output
     assert f"bytes {start}-" in lines[0]
-    assert "log time" in lines[0]
+    # The lost chunk's log times, in seconds since the file's first message (= t here).
+    times = lines[0].split("log time ")[1].removesuffix(" s").split("-")
+    a, b = float(times[0]), float(times[1])
+    assert 0.0 < a <= b < CYCLES * PERIOD_NS / 1e9
     assert _counts(tmp_path / "run.recovered.mcap") == kept
 
 
