@@ -53,6 +53,7 @@ import dataclasses
 import json
 import math
 import mmap
+import os
 import struct
 import time
 import zlib
@@ -822,37 +823,21 @@ class RecordScan:
                 fh.seek(pos)
                 reader = StreamReader(fh, skip_magic=skip_magic, emit_chunks=True)
                 start = pos if skip_magic else pos + len(MCAP_MAGIC)
+                resume: int | None = None  # where to read on after a damaged chunk
                 try:
                     for rec in reader.records:
                         end = fh.tell()
                         if isinstance(rec, Chunk):
-                            try:
-                                inner = breakup_chunk(rec, validate_crc=True)
-                                if any(isinstance(r, Message) for r in inner):
-                                    # (a chunk of schemas and channels only has times 0)
-                                    self._note_times(rec.message_start_time)
-                            except Exception as exc:  # zstd raises its own
-                                if 0 < rec.message_end_time >= rec.message_start_time:
-                                    self._note_times(rec.message_start_time)
-                                why = _why(exc)
-                                if end >= size:
-                                    why = f"chunk cut by the end of the file ({why})"
-                                self.skipped.append(
-                                    SkippedRange(
-                                        start,
-                                        end,
-                                        why,
-                                        rec.message_start_time,
-                                        rec.message_end_time,
-                                    )
-                                )
-                                inner = []
+                            inner, resume = self._open_chunk(fh, rec, start, end, size)
+                            if resume is not None:
+                                break
                             yield from inner
                         elif rec is not None:
                             yield rec
                         start = end
-                    self.footer = True
-                    return
+                    else:
+                        self.footer = True
+                        return
                 except _RECORD_ERRORS as exc:
                     self.error = _why(exc)
                     nxt = _next_chunk(fh, start + 1, size) if start < size else None
@@ -863,11 +848,62 @@ class RecordScan:
                         return
                     why = f"unreadable record ({self.error})"
                     self.skipped.append(SkippedRange(start, nxt, why))
-                    pos, skip_magic = nxt, True
+                    resume = nxt
+                pos, skip_magic = resume, True
+
+    def _open_chunk(
+        self, fh: IO[bytes], rec: Chunk, start: int, end: int, size: int
+    ) -> tuple[list[Any], int | None]:
+        """The records of a Chunk read at ``start``-``end``, or none for a damaged one.
+
+        Returns the records and None, or for a damaged chunk (listed in :attr:`skipped`) no
+        records and, where the reader took more bytes for it than its record length says (a
+        damaged compressed size swallows the records after it), the offset to read on from:
+        the end of its record, or an intact chunk that starts inside the bytes taken.
+        """
+        # The record length (read by hand: mcap's Chunk record does not keep it) must agree
+        # with the sizes inside the chunk; the reader trusts the latter, so a damaged
+        # compressed size takes the records after the chunk with it.
+        (length,) = struct.unpack("<Q", os.pread(fh.fileno(), 8, start + 1))
+        if start + 9 + length < end:
+            self.skipped.append(
+                SkippedRange(
+                    start,
+                    start + 9 + length,
+                    "chunk whose sizes disagree with its record length",
+                    rec.message_start_time,
+                    rec.message_end_time,
+                )
+            )
+            return [], start + 9 + length
+        try:
+            inner = breakup_chunk(rec, validate_crc=True)
+        except Exception as exc:  # zstd raises its own
+            if 0 < rec.message_end_time >= rec.message_start_time:
+                self._note_times(rec.message_start_time)
+            why = _why(exc)
+            nxt = _next_chunk(fh, start + 1, size, before=end)
+            if nxt is None and end >= size:
+                why = f"chunk cut by the end of the file ({why})"
+            self.skipped.append(
+                SkippedRange(
+                    start,
+                    end if nxt is None else nxt,
+                    why,
+                    rec.message_start_time,
+                    rec.message_end_time,
+                )
+            )
+            return [], nxt
+        if any(isinstance(r, Message) for r in inner):
+            # (a chunk of schemas and channels only has times 0)
+            self._note_times(rec.message_start_time)
+        return inner, None
 
 
-def _next_chunk(fh: IO[bytes], begin: int, size: int) -> int | None:
-    """Offset of the next intact Chunk record at or after ``begin`` (None: there is none).
+def _next_chunk(fh: IO[bytes], begin: int, size: int, before: int | None = None) -> int | None:
+    """Offset of the next intact Chunk record at or after ``begin`` and before ``before``
+    (default: anywhere in the ``size`` bytes of the file); None: there is none.
 
     mcap's readers follow the record lengths, so after a damaged length they have no
     position to go on from; nor does its API search for a record. This looks for a Chunk
@@ -878,7 +914,8 @@ def _next_chunk(fh: IO[bytes], begin: int, size: int) -> int | None:
     """
     head = struct.Struct("<BQQQQII")  # opcode, length, start, end, size, crc, len(comp)
     with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        at = mm.find(bytes([_OP_CHUNK]), begin)
+        stop = size if before is None else before
+        at = mm.find(bytes([_OP_CHUNK]), begin, stop)
         while at >= 0:
             if at + head.size <= size:
                 _op, length, t0, t1, _usize, _crc, n_comp = head.unpack_from(mm, at)
@@ -894,7 +931,7 @@ def _next_chunk(fh: IO[bytes], begin: int, size: int) -> int | None:
                         mm[at : at + 9 + length]
                     ):
                         return at
-            at = mm.find(bytes([_OP_CHUNK]), at + 1)
+            at = mm.find(bytes([_OP_CHUNK]), at + 1, stop)
     return None
 
 

@@ -141,6 +141,11 @@ def _damage(
     elif how == "crc":  # the uncompressed CRC: the data decompresses but does not match
         at = start + 9 + 24
         data[at : at + 4] = bytes(b ^ 0xFF for b in data[at : at + 4])
+    elif how == "size":  # the compressed size: the reader takes the next records with it
+        (n_comp,) = struct.unpack_from("<I", data, start + 9 + 28)
+        at = start + 9 + 32 + n_comp
+        (n_data,) = struct.unpack_from("<Q", data, at)
+        data[at : at + 8] = struct.pack("<Q", n_data + 5000)
     elif how == "framing":  # the compression name's length: the reader loses its place
         data[start + 9 + 28 : start + 9 + 32] = struct.pack("<I", 0xFFFF_FFF0)
     else:
@@ -158,7 +163,7 @@ def _counts(path: Path) -> Counter[str]:
         return Counter(ch.topic for _s, ch, _m in make_reader(fh).iter_messages())
 
 
-@pytest.mark.parametrize("how", ["zstd", "crc", "framing"])
+@pytest.mark.parametrize("how", ["zstd", "crc", "size", "framing"])
 def test_recover_skips_the_damaged_chunk_and_keeps_the_others(
     clean_log: Path, tmp_path: Path, how: str
 ) -> None:
