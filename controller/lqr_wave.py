@@ -332,6 +332,25 @@ class LqrWaveController:
         self.psi_max = 2.0 * float(m["settings"]["rotor_angle_max_rad"])
         #: hub velocity = J_h · q̇ (surge, heave, pitch, tower), J_h of the design's plant
         self.hub_lever = tuple(float(v) for v in m["hub_lever"])
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Call the compiled estimator kernels once on throw-away states (results discarded).
+
+        The wind-speed EKF's and the platform KF's kernels (:mod:`controller._kernels`) are
+        loaded from numba's on-disk cache on their first call in a process (about 70 ms on
+        the 2-core machine), compiled on a machine's first run: without this the real-time
+        controller paid it in its first cycle. The arguments have the types of
+        :meth:`step`'s calls (floats, and bools for the validity flags), so the signatures
+        loaded here are the ones the cycles use. Nothing is kept: the estimators are pure.
+        """
+        omega, pitch, torque = self.omega_rated, self.pitch_min, self.torque_nm
+        ekf0 = self.ekf.initial_state(omega, pitch, torque)
+        self.ekf.step(ekf0, WindEKFMeasurement(omega, pitch, torque, True), self.dt_s)
+        st = self.initial_state()
+        kf = self.kfs[st.kf_index]
+        kf_state = kf.predict(st.kf, (0.0, 0.0), self.dt_s)
+        kf.update(kf_state, (0.0, 0.0, 0.0, 0.0), (True, True, True, True), (0.0, 0.0))
 
     def actuator_limits(self) -> ActuatorLimits:
         """The design's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""

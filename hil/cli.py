@@ -734,8 +734,9 @@ def review_cmd(
         typer.Option(
             "--strict",
             help="Exit non-zero unless the run is complete and healthy: 1 when the file is "
-            "truncated or inconsistent, else the code 'fowt run' gives the run (3 aborted, 4 "
-            "recording incomplete, 5 safe state, 6 deadline misses; docs/exit-codes.md).",
+            "truncated, damaged or inconsistent or lacks the plant's final timing summary, "
+            "else the code 'fowt run' gives the run (3 aborted, 4 recording incomplete, 5 "
+            "safe state, 6 deadline misses; docs/exit-codes.md).",
         ),
     ] = False,
 ) -> None:
@@ -745,7 +746,13 @@ def review_cmd(
     """
     from hil.mcap_log import NotMcapError
     from hil.outcome import outcome_line, record_outcome, run_outcome
-    from hil.review import render_summary, review, truncation_note
+    from hil.review import (
+        NotRunLogError,
+        render_summary,
+        review,
+        review_problems,
+        truncation_note,
+    )
 
     if not mcap.is_file():
         _fail(f"{mcap} is not a file")
@@ -763,7 +770,7 @@ def review_cmd(
             }
     try:
         summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
-    except NotMcapError as exc:
+    except (NotMcapError, NotRunLogError) as exc:
         _fail(str(exc))
     except OSError as exc:
         _fail(_os_error_text(exc, mcap))
@@ -785,9 +792,9 @@ def review_cmd(
         render_summary(summary, console)
     if not strict:
         return
-    bad = note is not None or summary["run"].get("statistics_ok") is False
-    if bad:
-        reason = note or str(summary["run"].get("error"))
+    problems = review_problems(summary)
+    if note is not None or problems or summary["run"].get("statistics_ok") is False:
+        reason = "; ".join(([note] if note else []) + problems) or str(summary["run"].get("error"))
         _fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
     code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.outcome)
     if code != ExitCode.OK:
@@ -801,23 +808,27 @@ def recover_cmd(
         Path | None, typer.Option("--out", help="Output file (default: <name>.recovered.mcap).")
     ] = None,
 ) -> None:
-    """Make a truncated MCAP file complete.
+    """Make a truncated or damaged MCAP file complete.
 
-    The new file holds every message before the cut, with summary and footer.
+    The new file holds every message that can be read, with summary and footer: a damaged
+    chunk is skipped (one line each: its bytes and log times) and the chunks after it kept.
     """
-    from hil.mcap_log import NotMcapError, recover
+    from hil.mcap_log import NotMcapError, SkippedRange, recover
 
     if not mcap.is_file():
         _fail(f"{mcap} is not a file")
     target = out if out is not None else mcap.with_suffix(".recovered.mcap")
     if target.resolve() == mcap.resolve():
         _fail("--out must differ from the input file")
+    skipped: list[SkippedRange] = []
     try:
-        n = recover(mcap, target)
+        n = recover(mcap, target, skipped)
     except NotMcapError as exc:
         _fail(str(exc))
     except OSError as exc:
         _fail(_os_error_text(exc, target))
+    for r in skipped:  # plain lines: never wrapped, one per range
+        sys.stdout.write(f"skipped {r.describe()}\n")
     console.print(f"recovered {n} messages into {target}", markup=False)
 
 

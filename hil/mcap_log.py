@@ -39,22 +39,28 @@ complete file (``fowt recover``; with mcap's Go CLI: ``mcap recover``).
 Reading
 -------
 :func:`read_run` reads a file front to back with mcap's stream reader through its summary,
-Footer and closing magic. It stops cleanly at the first truncated or corrupt record (a run
-whose recorder was killed still reviews up to its last flushed chunk) and says so
-(``truncated``, ``error``); a file that does not start with the MCAP magic raises
-:class:`NotMcapError`.
+Footer and closing magic (:class:`RecordScan`). It stops cleanly at a cut (a run whose
+recorder was killed still reviews up to its last flushed chunk), skips a damaged chunk in the
+middle (bad zstd data, a CRC that does not match, an unreadable record) and reads the chunks
+after it, and says so (``truncated``, ``error``, ``skipped``); a file that does not start
+with the MCAP magic raises :class:`NotMcapError`. :func:`recover` writes what it reads into
+a complete file.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import mmap
+import os
 import struct
 import time
 import zlib
 from array import array
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field
+from io import BytesIO
 from pathlib import Path
 from typing import IO, Any
 
@@ -64,8 +70,10 @@ import orjson
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
+from mcap.reader import SeekingReader
 from mcap.records import (
     Channel,
+    Chunk,
     ChunkIndex,
     DataEnd,
     Footer,
@@ -77,7 +85,7 @@ from mcap.records import (
     Statistics,
     SummaryOffset,
 )
-from mcap.stream_reader import StreamReader
+from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 
 from bus_schemas.registry import MESSAGES, MessageType
@@ -678,6 +686,12 @@ class RunData:
     complete: bool = False
     statistics: dict[str, int] | None = None
     statistics_ok: bool | None = None
+    #: Damaged parts of the file that were skipped (:class:`RecordScan`), and the log time of
+    #: its first message [ns] that their log times are given against.
+    skipped: list[SkippedRange] = field(default_factory=list)
+    first_log_ns: int | None = None
+    #: The Header's profile (``"fowt-hil"`` for this bench's run logs; None: no Header read).
+    profile: str | None = None
 
     def topic(self, suffix: str) -> list[dict[str, Any]]:
         """Messages of the first topic ending in ``/<suffix>`` (any turbine)."""
@@ -703,8 +717,251 @@ def iter_records(path: Path) -> Iterator[Any]:
         yield from reader.records
 
 
+@dataclass(frozen=True)
+class SkippedRange:
+    """Bytes of a run log that could not be read and were skipped.
+
+    ``start``/``end`` are byte offsets (end exclusive), ``reason`` what was wrong (a chunk's
+    zstd data or CRC, a record cut by the end of the file, an unreadable record), and
+    ``log_start_ns``/``log_end_ns`` the log times of the messages lost (a chunk's own
+    header says them; None when not known).
+    """
+
+    start: int
+    end: int
+    reason: str
+    log_start_ns: int | None = None
+    log_end_ns: int | None = None
+    first_log_ns: int | None = None
+    #: The range runs to the end of the file (a cut file), rather than damage in its middle.
+    to_end: bool = False
+
+    def describe(self) -> str:
+        """``bytes 1234-5678 (4444 B): reason; log time 1.250-2.500 s``, one line.
+
+        The log times are given in seconds since ``first_log_ns`` (the earliest message
+        start time of the file's chunks: about the simulated time for a bench run log) when
+        it is known, else in ns.
+        """
+        first_log_ns = self.first_log_ns
+        text = f"bytes {self.start}-{self.end} ({self.end - self.start} B): {self.reason}"
+        if self.log_start_ns is not None and self.log_end_ns is not None:
+            if first_log_ns is not None:
+                a = (self.log_start_ns - first_log_ns) / 1e9
+                b = (self.log_end_ns - first_log_ns) / 1e9
+                text += f"; log time {a:.3f}-{b:.3f} s"
+            else:
+                text += f"; log time {self.log_start_ns}-{self.log_end_ns} ns"
+        return text
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the byte range, reason and log times [s since ``first_log_ns``]."""
+        out: dict[str, Any] = {
+            "start": self.start,
+            "end": self.end,
+            "to_end": self.to_end,
+            "reason": self.reason,
+        }
+        base = self.first_log_ns
+        for key, ns in (("log_start_s", self.log_start_ns), ("log_end_s", self.log_end_ns)):
+            out[key] = None if ns is None or base is None else (ns - base) / 1e9
+        return out
+
+
+#: What mcap's stream reader raises on a damaged record: its own errors (a cut: EndOfFile),
+#: struct.error inside fixed-size fields, UnicodeDecodeError (a ValueError) in strings.
+_RECORD_ERRORS = (McapError, EOFError, ValueError, struct.error, OSError, MemoryError)
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+class RecordScan:
+    """Every readable record of an MCAP file, the damaged parts skipped and listed.
+
+    mcap's :class:`~mcap.stream_reader.StreamReader` reads the file front to back with its
+    Chunks emitted whole; each Chunk is then opened with mcap's
+    :func:`~mcap.stream_reader.breakup_chunk` with its CRC checked. A chunk that does not
+    open (bad zstd data, a CRC that does not match, cut by the end of the file) is skipped
+    and listed in :attr:`skipped` with its byte range and its messages' log times, and the
+    records after it are read as usual. A record that the stream reader cannot frame (a
+    damaged opcode or length) is skipped by looking for the next intact Chunk
+    (:func:`_next_chunk`); without one the rest of the file is listed as skipped.
+
+    After the iteration, :attr:`footer` is True when the Footer and closing magic were
+    read and :attr:`error` says what the reader stopped on (empty when it did not).
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.skipped: list[SkippedRange] = []
+        self.error = ""
+        self.footer = False
+        self.first_log_ns: int | None = None
+
+    def _note_times(self, start_ns: int) -> None:
+        if self.first_log_ns is None or start_ns < self.first_log_ns:
+            self.first_log_ns = start_ns
+
+    def records(self) -> Generator[Any, None, None]:
+        """Yield the records (those inside chunks unpacked) in file order."""
+        size = self.path.stat().st_size
+        try:
+            yield from self._records(size)
+        finally:  # the log times of the skipped ranges against the file's first message
+            self.skipped = [
+                dataclasses.replace(r, first_log_ns=self.first_log_ns, to_end=r.end >= size)
+                for r in self.skipped
+            ]
+
+    def _records(self, size: int) -> Iterator[Any]:
+        with open(self.path, "rb") as fh:
+            pos, skip_magic = 0, False
+            while True:
+                fh.seek(pos)
+                reader = StreamReader(fh, skip_magic=skip_magic, emit_chunks=True)
+                start = pos if skip_magic else pos + len(MCAP_MAGIC)
+                resume: int | None = None  # where to read on after a damaged chunk
+                try:
+                    for rec in reader.records:
+                        end = fh.tell()
+                        if isinstance(rec, Chunk):
+                            inner, resume = self._open_chunk(fh, rec, start, end, size)
+                            if resume is not None:
+                                break
+                            yield from inner
+                        elif rec is not None:
+                            yield rec
+                        start = end
+                    else:
+                        self.footer = True
+                        return
+                except _RECORD_ERRORS as exc:
+                    self.error = _why(exc)
+                    nxt = _next_chunk(fh, start + 1, size) if start < size else None
+                    if nxt is None:
+                        if start < size:
+                            why = f"no readable record from here to the end ({self.error})"
+                            self.skipped.append(SkippedRange(start, size, why))
+                        return
+                    why = f"unreadable record ({self.error})"
+                    self.skipped.append(SkippedRange(start, nxt, why))
+                    resume = nxt
+                pos, skip_magic = resume, True
+
+    def _open_chunk(
+        self, fh: IO[bytes], rec: Chunk, start: int, end: int, size: int
+    ) -> tuple[list[Any], int | None]:
+        """The records of a Chunk read at ``start``-``end``, or none for a damaged one.
+
+        Returns the records and None, or for a damaged chunk (listed in :attr:`skipped`) no
+        records and, where the reader took more bytes for it than its record length says (a
+        damaged compressed size swallows the records after it), the offset to read on from:
+        the end of its record, or an intact chunk that starts inside the bytes taken.
+        """
+        # The record length (read by hand: mcap's Chunk record does not keep it) must agree
+        # with the sizes inside the chunk; the reader trusts the latter, so a damaged
+        # compressed size takes the records after the chunk with it.
+        (length,) = struct.unpack("<Q", os.pread(fh.fileno(), 8, start + 1))
+        if start + 9 + length < end:
+            self.skipped.append(
+                SkippedRange(
+                    start,
+                    start + 9 + length,
+                    "chunk whose sizes disagree with its record length",
+                    rec.message_start_time,
+                    rec.message_end_time,
+                )
+            )
+            return [], start + 9 + length
+        try:
+            inner = breakup_chunk(rec, validate_crc=True)
+        except Exception as exc:  # zstd raises its own
+            if 0 < rec.message_end_time >= rec.message_start_time:
+                self._note_times(rec.message_start_time)
+            why = _why(exc)
+            nxt = _next_chunk(fh, start + 1, size, before=end)
+            if nxt is None and end >= size:
+                why = f"chunk cut by the end of the file ({why})"
+            self.skipped.append(
+                SkippedRange(
+                    start,
+                    end if nxt is None else nxt,
+                    why,
+                    rec.message_start_time,
+                    rec.message_end_time,
+                )
+            )
+            return [], nxt
+        if any(isinstance(r, Message) for r in inner):
+            # (a chunk of schemas and channels only has times 0)
+            self._note_times(rec.message_start_time)
+        return inner, None
+
+
+def _next_chunk(fh: IO[bytes], begin: int, size: int, before: int | None = None) -> int | None:
+    """Offset of the next intact Chunk record at or after ``begin`` and before ``before``
+    (default: anywhere in the ``size`` bytes of the file); None: there is none.
+
+    mcap's readers follow the record lengths, so after a damaged length they have no
+    position to go on from; nor does its API search for a record. This looks for a Chunk
+    record by hand: an opcode 0x06 byte whose record length agrees with its own header
+    (start and end time, uncompressed size and CRC, a compression of ``zstd``, ``lz4`` or
+    none, the compressed size), that fits in the file, and that mcap's reader then reads and
+    :func:`~mcap.stream_reader.breakup_chunk` opens with a matching CRC.
+    """
+    head = struct.Struct("<BQQQQII")  # opcode, length, start, end, size, crc, len(comp)
+    with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        stop = size if before is None else before
+        at = mm.find(bytes([_OP_CHUNK]), begin, stop)
+        while at >= 0:
+            if at + head.size <= size:
+                _op, length, t0, t1, _usize, _crc, n_comp = head.unpack_from(mm, at)
+                comp = mm[at + head.size : at + head.size + n_comp] if n_comp <= 4 else b"?"
+                if (
+                    comp in (b"zstd", b"lz4", b"")
+                    and t0 <= t1
+                    and at + 9 + length <= size
+                    and at + head.size + n_comp + 8 <= size
+                ):
+                    (n_data,) = struct.unpack_from("<Q", mm, at + head.size + n_comp)
+                    if length == 8 + 8 + 8 + 4 + 4 + n_comp + 8 + n_data and _chunk_opens(
+                        mm[at : at + 9 + length]
+                    ):
+                        return at
+            at = mm.find(bytes([_OP_CHUNK]), at + 1, stop)
+    return None
+
+
+def _chunk_opens(record: bytes) -> bool:
+    """Whether ``record`` (one Chunk record) reads and opens with a matching CRC."""
+    try:
+        rec = next(iter(StreamReader(BytesIO(record), skip_magic=True, emit_chunks=True).records))
+        if not isinstance(rec, Chunk):
+            return False
+        breakup_chunk(rec, validate_crc=True)
+        return True
+    except Exception:  # any failure: not an intact chunk
+        return False
+
+
+def _summary_of(path: Path) -> Any:
+    """The file's summary section by mcap's seeking reader (None: no summary, or damaged)."""
+    try:
+        with open(path, "rb") as fh:
+            return SeekingReader(fh).get_summary()
+    except Exception:  # a cut or damaged tail: no summary to fall back on
+        return None
+
+
 def read_run(path: Path) -> RunData:
-    """Read every message of a run log, tolerating a truncated file.
+    """Read every message of a run log, tolerating a truncated or damaged file.
+
+    The records come from :class:`RecordScan`: a damaged chunk in the middle is skipped and
+    the chunks after it are read. Channels and schemas that were in a lost chunk are taken
+    from the summary section when the file still has one (mcap's seeking reader).
 
     Raises
     ------
@@ -715,7 +972,8 @@ def read_run(path: Path) -> RunData:
     -------
     RunData
         ``truncated`` is True when the file ended before its Footer and closing magic (a
-        killed process); ``error`` then says what the reader stopped on.
+        killed process) or a part of it was skipped (``skipped``); ``error`` then says what
+        the reader stopped on or what it skipped.
     """
     check_magic(path)
     run = RunData()
@@ -723,9 +981,13 @@ def read_run(path: Path) -> RunData:
     schema_names: dict[int, str] = {}
     in_summary = False
     stats: Statistics | None = None
+    scan = RecordScan(path)
+    summary: Any = None
     try:
-        for rec in iter_records(path):
-            if isinstance(rec, Schema):
+        for rec in scan.records():
+            if isinstance(rec, Header):
+                run.profile = rec.profile
+            elif isinstance(rec, Schema):
                 schema_names[rec.id] = rec.name
             elif isinstance(rec, Channel):
                 if not in_summary:
@@ -734,6 +996,15 @@ def read_run(path: Path) -> RunData:
                     run.messages.setdefault(rec.topic, [])
             elif isinstance(rec, Message):
                 topic = channels.get(rec.channel_id)
+                if topic is None and scan.skipped:  # its Channel record was in a lost chunk
+                    if summary is None:
+                        summary = _summary_of(path) or False
+                    ch = summary.channels.get(rec.channel_id) if summary else None
+                    if ch is not None:
+                        topic = channels[rec.channel_id] = ch.topic
+                        schema = summary.schemas.get(ch.schema_id)
+                        run.schemas[topic] = schema.name if schema is not None else ""
+                        run.messages.setdefault(topic, [])
                 if topic is not None:
                     run.messages[topic].append(orjson.loads(rec.data))
             elif isinstance(rec, Metadata):
@@ -745,11 +1016,18 @@ def read_run(path: Path) -> RunData:
             elif isinstance(rec, Footer):
                 # The stream reader checks the closing magic right after this record.
                 in_summary = True
-        run.complete = in_summary
-    except (McapError, EOFError, ValueError, OSError) as exc:
-        run.error = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    except Exception as exc:
-        run.error = f"{type(exc).__name__}: {exc}"
+        run.complete = in_summary and scan.footer
+    except Exception as exc:  # e.g. a message that is not JSON
+        run.error = _why(exc)
+    run.skipped = list(scan.skipped)
+    run.first_log_ns = scan.first_log_ns
+    if scan.error and not run.error:
+        run.error = scan.error
+    if run.skipped:
+        lost = "; ".join(r.describe() for r in run.skipped)
+        run.error = f"skipped {len(run.skipped)} damaged range(s): {lost}" + (
+            f" (reader: {run.error})" if run.error else ""
+        )
     run.complete = run.complete and not run.error
     run.truncated = not run.complete
     if stats is not None:
@@ -763,15 +1041,24 @@ def read_run(path: Path) -> RunData:
     return run
 
 
-def recover(path: Path, out: Path) -> int:
-    """Rewrite a truncated run log as a complete MCAP file; return the messages kept.
+def recover(path: Path, out: Path, skipped: list[SkippedRange] | None = None) -> int:
+    """Rewrite a truncated or damaged run log as a complete MCAP file; return the messages kept.
 
-    Every complete record before the cut (read with mcap's sequential
-    :class:`~mcap.stream_reader.StreamReader`, the same records its ``NonSeekingReader``
-    yields) is written again with mcap's :class:`~mcap.writer.Writer`: the Header's
-    profile, schemas, channels (topic, encodings, metadata), messages (log and publish
-    time, sequence, data) and metadata, then a fresh summary, Footer and closing magic.
-    This is what ``mcap recover`` of mcap's Go CLI does for a file cut inside its data.
+    Every record that :class:`RecordScan` reads (mcap's stream reader; a damaged chunk in the
+    middle skipped, the chunks after it kept) is written again with mcap's
+    :class:`~mcap.writer.Writer`: the Header's profile, schemas, channels (topic, encodings,
+    metadata), messages (log and publish time, sequence, data) and metadata, then a fresh
+    summary, Footer and closing magic. A channel or schema whose record was in a lost chunk
+    is taken from the file's summary section when it has one, and so is metadata that is
+    only listed there. This is what ``mcap recover`` of mcap's Go CLI does for a file cut
+    inside its data, with damaged chunks skipped instead of ending the recovery.
+
+    Parameters
+    ----------
+    path, out : Path
+        The damaged file and the file to write.
+    skipped : list of SkippedRange, optional
+        Gets the byte ranges that were skipped (give a list to learn them).
 
     Raises
     ------
@@ -781,13 +1068,29 @@ def recover(path: Path, out: Path) -> int:
     check_magic(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     n = 0
+    scan = RecordScan(path)
+    summary: Any = None
     with open(out, "wb") as stream:
         writer = Writer(stream, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         schema_ids: dict[int, int] = {}
         channel_ids: dict[int, int] = {}
+        metadata_names: set[str] = set()
         started = False
+
+        def add_schema(rec: Schema) -> None:
+            schema_ids[rec.id] = writer.register_schema(rec.name, rec.encoding, rec.data)
+
+        def add_channel(rec: Channel) -> None:
+            channel_ids[rec.id] = writer.register_channel(
+                topic=rec.topic,
+                message_encoding=rec.message_encoding,
+                schema_id=schema_ids.get(rec.schema_id, 0),
+                metadata=dict(rec.metadata),
+            )
+
+        records = scan.records()
         try:
-            for rec in iter_records(path):
+            for rec in records:
                 if isinstance(rec, Header):
                     writer.start(profile=rec.profile, library=rec.library or "fowt-hil")
                     started = True
@@ -796,30 +1099,56 @@ def recover(path: Path, out: Path) -> int:
                 elif not started:
                     continue
                 elif isinstance(rec, Schema) and rec.id not in schema_ids:
-                    schema_ids[rec.id] = writer.register_schema(rec.name, rec.encoding, rec.data)
+                    add_schema(rec)
                 elif isinstance(rec, Channel) and rec.id not in channel_ids:
-                    channel_ids[rec.id] = writer.register_channel(
-                        topic=rec.topic,
-                        message_encoding=rec.message_encoding,
-                        schema_id=schema_ids.get(rec.schema_id, 0),
-                        metadata=dict(rec.metadata),
-                    )
-                elif isinstance(rec, Message) and rec.channel_id in channel_ids:
-                    writer.add_message(
-                        channel_id=channel_ids[rec.channel_id],
-                        log_time=rec.log_time,
-                        data=rec.data,
-                        publish_time=rec.publish_time,
-                        sequence=rec.sequence,
-                    )
-                    n += 1
+                    add_channel(rec)
+                elif isinstance(rec, Message):
+                    if rec.channel_id not in channel_ids and scan.skipped:
+                        # Its Channel record was in a lost chunk: the summary's, if any.
+                        if summary is None:
+                            summary = _summary_of(path) or False
+                        ch = summary.channels.get(rec.channel_id) if summary else None
+                        if ch is not None:
+                            sch = summary.schemas.get(ch.schema_id)
+                            if sch is not None and sch.id not in schema_ids:
+                                add_schema(sch)
+                            add_channel(ch)
+                    if rec.channel_id in channel_ids:
+                        writer.add_message(
+                            channel_id=channel_ids[rec.channel_id],
+                            log_time=rec.log_time,
+                            data=rec.data,
+                            publish_time=rec.publish_time,
+                            sequence=rec.sequence,
+                        )
+                        n += 1
                 elif isinstance(rec, Metadata):
                     writer.add_metadata(rec.name, dict(rec.metadata))
-        except (McapError, EOFError, ValueError, OSError, struct.error):
-            # The cut: everything before it is kept. mcap's reader raises struct.error when
-            # the cut falls inside a record's fixed-size fields (e.g. a MessageIndex entry).
-            pass
+                    metadata_names.add(rec.name)
+        except Exception:  # a record the scan let through but that does
+            pass  # not rewrite: everything before it is kept, and the file is still closed
+        finally:
+            records.close()  # the scan's skipped ranges are final once it is closed
         if not started:
             writer.start(profile=PROFILE, library="fowt-hil")
+        if scan.skipped:
+            _add_indexed_metadata(path, writer, metadata_names)
         writer.finish()
+    if skipped is not None:
+        skipped.extend(scan.skipped)
     return n
+
+
+def _add_indexed_metadata(path: Path, writer: Writer, have: set[str]) -> None:
+    """Metadata records listed in the file's summary but not read (lost with the damage)."""
+    try:
+        with open(path, "rb") as fh:
+            reader = SeekingReader(fh)
+            if reader.get_summary() is None:
+                return
+            for rec in reader.iter_metadata():
+                if rec.name not in have:
+                    writer.add_metadata(rec.name, dict(rec.metadata))
+                    have.add(rec.name)
+    except Exception:  # no readable summary: nothing more to add
+        pass

@@ -450,6 +450,12 @@ class SensorLink:
         return self.held[0][1] if self.held else None
 
 
+#: Real time: the first simulated seconds of a run [s] whose missed deadlines count as
+#: start-up. A safe state they trip is handed back after as many on-time commands as there
+#: are start-up cycles, even where the scenario latches it (``PlantLoop._recover_after``).
+STARTUP_S = 1.0
+
+
 class PlantLoop:
     """Cycle bookkeeping shared by every mode: sampling, applying commands, timing."""
 
@@ -477,6 +483,12 @@ class PlantLoop:
         self.consecutive_misses = 0
         self.on_time_run = 0
         self.safe_state = False
+        # Start-up (real time only, :data:`STARTUP_S`): a safe state that the first
+        # ``startup_cycles`` tripped is handed back after ``startup_recover_cycles`` on-time
+        # commands even where the scenario latches it (0: no start-up rule, the default).
+        self.startup_cycles = 0
+        self.startup_recover_cycles = 0
+        self._startup_safe_state = False
         turbine = self.sim.config.turbine
         self.safe_demand = (turbine.pitch_max_rad, 0.0)
         self.log: Callable[[str], None] = lambda _msg: None
@@ -605,6 +617,11 @@ class PlantLoop:
                 switch = min(sim.n, round(effect_at_ns * 1e-9 / sim.h))
             self.hist.record(latency_ns)
         else:
+            if latency_ns > 0:
+                # A late command (real time): it came after the deadline but before the next
+                # tick. The cycle is a miss, and its latency is a sample like any other, so
+                # the histogram's maximum is the true one, not the deadline.
+                self.hist.record(latency_ns)
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
@@ -648,13 +665,21 @@ class PlantLoop:
             self.safe_state = True
             self.result.safe_state_entries += 1
             self.on_time_run = 0
+            self._startup_safe_state = self.k < self.startup_cycles
             self.log(
                 f"plant SAFE STATE at t = {self.t_ns * 1e-9:.3f} s after "
                 f"{self.consecutive_misses} consecutive missed deadlines: pitch to feather, "
                 "torque ramp-down"
+                + (
+                    f" (during start-up: handed back after {self._recover_after()} on-time "
+                    "commands)"
+                    if self._startup_safe_state
+                    else ""
+                )
             )
-        elif self.safe_state and 0 < self.watchdog_recover <= self.on_time_run:
+        elif self.safe_state and 0 < self._recover_after() <= self.on_time_run:
             self.safe_state = False
+            self._startup_safe_state = False
             self.log(
                 f"plant leaves the safe state at t = {self.t_ns * 1e-9:.3f} s after "
                 f"{self.on_time_run} on-time commands"
@@ -664,6 +689,19 @@ class PlantLoop:
             return self.safe_demand
         return demand
 
+    def _recover_after(self) -> int:
+        """On-time commands that hand control back from the safe state (0: latched).
+
+        The scenario's ``watchdog_recover_cycles``; for a safe state tripped in the first
+        ``startup_cycles`` (the start-up's misses: a process still loading, a first
+        connection) at least ``startup_recover_cycles``, even where the scenario latches it,
+        so that a slow start does not make the whole run a safe-state run. A controller that
+        never answers in time still keeps the plant in its safe state.
+        """
+        if self._startup_safe_state:
+            return max(self.watchdog_recover, self.startup_recover_cycles)
+        return self.watchdog_recover
+
     def publish_summary(self, final: bool) -> TimingSummary:
         """Publish the running (or final) timing summary."""
         if final:
@@ -671,6 +709,10 @@ class PlantLoop:
         r = self.result
         wall_s = (time.monotonic_ns() - self.start_wall_ns) * 1e-9
         r.wall_s, r.sim_s = wall_s, self.t_ns * 1e-9
+        if self._inbox is not None:
+            # Commands that came after the tick that ended their cycle: no cycle's latency,
+            # but the largest latency the plant saw.
+            self.hist.observe_max(self._inbox.late_max_ns)
         p50, p99, p999 = self.hist.percentiles_us(50, 99, 99.9)
         summary = TimingSummary(
             seq=self.summary_seq,
@@ -726,14 +768,33 @@ class CommandInbox:
         self.fault_counts: Counter[str] = Counter()
         self.pending: deque[tuple[int, ActuatorCommand]] = deque()  # (visible at ns, command)
         self._last_visible_ns = -1
+        # When each recent frame went out (seq, monotonic ns), by seq modulo the ring's
+        # length: the latency of a command that comes after its cycle ended is measured
+        # from it (late_max_ns), so the summary's maximum is the true one.
+        self._sent: list[tuple[int, int]] = [(-1, 0)] * self.SENT_RING
+        self.late_max_ns = 0
+
+    #: Frames whose send time is kept for :attr:`late_max_ns` (10 s at 100 Hz).
+    SENT_RING = 1024
+
+    def note_sent(self, seq: int, sent_ns: int) -> None:
+        """Remember when frame ``seq`` went out (the plant loop's thread)."""
+        self._sent[seq % self.SENT_RING] = (seq, sent_ns)
+
+    def _note_late(self, command: ActuatorCommand, visible_ns: int) -> None:
+        """Count a command that came after its cycle; keep its latency's maximum (lock held)."""
+        self.late += 1
+        seq, sent = self._sent[command.answered_seq % self.SENT_RING]
+        if seq == command.answered_seq and visible_ns - sent > self.late_max_ns:
+            self.late_max_ns = visible_ns - sent
 
     def _promote(self, now_ns: int) -> None:
         """Make the delayed commands whose time has come visible (lock held)."""
         pending = self.pending
         while pending and pending[0][0] <= now_ns:
             visible, command = pending.popleft()
-            if self.latest is not None:
-                self.late += 1  # superseded before anyone took it
+            if self.latest is not None:  # superseded before anyone took it
+                self._note_late(*self.latest)
             self.latest = (command, visible)
 
     def _next_visible_ns(self) -> int | None:
@@ -741,7 +802,7 @@ class CommandInbox:
 
     def _drop_older(self, seq: int) -> None:
         if self.latest is not None and self.latest[0].answered_seq < seq:
-            self.late += 1
+            self._note_late(*self.latest)
             self.latest = None
 
     def on_payload(self, _key: str, payload: bytes) -> None:
@@ -1064,6 +1125,14 @@ def run_plant_node(
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+    # The plant is built, and its kernels loaded (warm_up: their first call must not fall
+    # into a paced cycle), before the liveliness token says it is ready; it becomes the run's
+    # loop once the peers are there (a run that never starts publishes no summary).
+    prepared = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+    if mode == "realtime":
+        prepared.sim.warm_up(prepared.x, prepared.applied)
+        prepared.startup_cycles = max(1, round(STARTUP_S * 1e9 / prepared.period_ns))
+        prepared.startup_recover_cycles = prepared.startup_cycles
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/plant")
     loop: PlantLoop | None = None
     try:
@@ -1072,9 +1141,8 @@ def run_plant_node(
         if stop.is_set():
             signum = received[0] if received else signal.SIGTERM
             raise PeerWaitInterruptedError(signum, list(require))
-        loop = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
-        if mode == "realtime":  # the kernels' first call must not fall into a paced cycle
-            loop.sim.warm_up(loop.x, loop.applied)
+        loop = prepared
+        loop.start_wall_ns = time.monotonic_ns()  # the run's wall time starts now
         loop.log = log
         loop._inbox = inbox
         freeze_heap()  # no full garbage collection walking the set-up's objects mid-run
@@ -1290,6 +1358,7 @@ def _run_realtime(
             return
         frame = loop.sample()
         sent = loop.frame_sent_ns
+        inbox.note_sent(frame.seq, sent)
         tick = pacer.deadline_ns(pacer.k + 1)
         if loop.sensor_link is not None:
             got = _wait_delivering(loop, loop.sensor_link, inbox, frame.seq, tick)

@@ -55,7 +55,20 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``vaf_pct`` [%] of the published wave forecast against the true platform elevation at the
     time each forecast is for, 100 (1 − var(η − η̂)/var(η)); ``samples`` [1] distinct forecasts.
 ``controller``
-    ``compute_us.{p50,p99,max}`` [us] of the status ``compute_time_ns`` (as in ``timing``).
+    ``compute_us.{p50,p99,max}`` [us] of the status ``compute_time_ns`` (as in ``timing``);
+    the controller's safe mode and rejected frames: ``source`` (``"controller/report"``, the
+    controller's final :class:`~bus_schemas.messages.ControllerReport`, else ``"commands"``:
+    derived from the ``command`` channel's ``mode`` flags), ``safe_mode_entered``,
+    ``safe_mode_entries`` [1], ``safe_mode_first_entry_s`` [s], ``safe_mode_commands`` [1],
+    ``safe_mode_at_end``, ``safe_mode_s`` [s] (commands sent with ``mode`` = safe times
+    ``control_period_s``), ``commands`` [1] published, ``frames_missing``, ``frames_stale``
+    [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
+    commands) and ``frames_rejected_total`` [1].
+``plant``
+    ``source`` (``"timing/report"``, the plant's final
+    :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
+    ``commands_applied`` [1], ``commands_rejected`` ``{reason: count}`` (``null`` without
+    the report) and ``commands_rejected_total`` [1].
 ``recording``
     Whether the file holds every message the nodes published (:func:`hil.recording.
     completeness`): ``complete`` (bool), ``topics`` (per topic suffix ``recorded`` and
@@ -80,14 +93,17 @@ from rich.table import Table
 from scipy.signal import welch
 
 from bus_schemas.messages import (
+    CONTROLLER_REJECT_REASONS,
+    EST_FEEDFORWARD,
     EST_PLATFORM_PITCH_RATE,
     EST_PLATFORM_SURGE_VELOCITY,
     EST_WAVE_FORECAST,
     EST_WIND_SPEED,
+    PLANT_REJECT_REASONS,
     VALID_BITS,
 )
 from hil import kpi
-from hil.mcap_log import MessageList, RunData, read_run
+from hil.mcap_log import PROFILE, MessageList, RunData, read_run
 from hil.recording import completeness, describe
 from hil.scenario import ReviewSection
 
@@ -146,9 +162,60 @@ def _suffix(topic: str) -> str:
 def _turbine(run: RunData) -> str | None:
     for topic in run.messages:
         parts = topic.split("/", 2)
-        if len(parts) == 3:
+        if len(parts) == 3 and parts[0] == "fowt":
             return parts[1]
     return None
+
+
+class NotRunLogError(ValueError):
+    """The file is an MCAP file, but not a run log of this bench (nothing to review)."""
+
+
+def check_run_log(run: RunData, source: Path | str = "") -> None:
+    """Raise :class:`NotRunLogError` unless ``run`` is a run log of this bench.
+
+    A run log of this bench has the ``fowt-hil`` profile in its MCAP Header
+    (:data:`hil.mcap_log.PROFILE`; every node and campaign log) or at least one channel
+    under ``fowt/`` (a multi-turbine platform's log has an empty profile). Anything else (a
+    robot's ``/robot/pose``, an empty MCAP file) has none of the channels the review reads:
+    its summary would be all ``null`` and its plots empty, so it is refused before anything
+    is written.
+
+    Parameters
+    ----------
+    run : RunData
+        What :func:`hil.mcap_log.read_run` read.
+    source : Path or str
+        The file, for the message.
+    """
+    if run.profile == PROFILE or any(t.startswith("fowt/") for t in run.messages):
+        return
+    topics = sorted(run.messages)
+    shown = ", ".join(topics[:5]) + (f" and {len(topics) - 5} more" if len(topics) > 5 else "")
+    where = f"{source}: " if str(source) else ""
+    raise NotRunLogError(
+        f"not a fowt-hil run log: {where}profile {run.profile or ''!r}, no fowt/ channel "
+        f"(channels: {shown or 'none'})"
+    )
+
+
+def review_problems(summary: dict[str, Any]) -> list[str]:
+    """What keeps a reviewed run log from being a complete record (``--strict`` fails on any).
+
+    A truncated or damaged file (:func:`truncation_note`), summary statistics that differ
+    from the messages read, and a bench run without the plant's final timing summary (the
+    plant did not finish: its counts come from the logged cycles). Empty when complete.
+    """
+    out: list[str] = []
+    run = summary.get("run", {})
+    note = truncation_note(summary)
+    if note:
+        out.append(note)
+    elif run.get("statistics_ok") is False:
+        out.append(str(run.get("error")))
+    if summary.get("kind") != "hexicon" and summary.get("timing", {}).get("complete") is False:
+        out.append("no final timing summary: the plant did not finish the run")
+    return out
 
 
 def _int_or_none(v: Any) -> int | None:
@@ -429,6 +496,127 @@ def _estimates(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
     return out
 
 
+#: ``ActuatorCommand.mode`` of a command sent in the controller's safe mode
+#: (:data:`hil.controller_node.MODE_SAFE`; not imported: that module loads the bus).
+MODE_SAFE_COMMAND = 2
+
+
+def _control_period_s(run: RunData, commands: Sequence[dict[str, Any]]) -> float:
+    """The scenario's control period [s], else the median spacing of the commands' times."""
+    cfg = _scenario(run).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    if isinstance(period, int | float) and period > 0:
+        return float(period)
+    t = _t_s(commands)
+    t = t[np.isfinite(t)]
+    return float(np.median(np.diff(t))) if t.size >= 2 else math.nan
+
+
+def _final_record(msgs: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+    """The last message with ``final`` = 1, else the last one (None: no message)."""
+    final = next((m for m in reversed(msgs) if int(m.get("final", 0)) == 1), None)
+    return final if final is not None else (msgs[-1] if msgs else None)
+
+
+def _reasons(record: dict[str, Any], prefix: str, reasons: tuple[str, ...]) -> dict[str, int]:
+    """``{reason: count}`` of a report's ``<prefix>_<reason>`` fields."""
+    return {r: int(record.get(f"{prefix}_{r}", 0)) for r in reasons}
+
+
+def _controller_account(run: RunData) -> dict[str, Any]:
+    """The controller's safe mode and rejected frames (``summary["controller"]``).
+
+    From the final ``controller/report`` (:class:`bus_schemas.messages.ControllerReport`)
+    when the log has one (``source`` = ``"controller/report"``), else derived from the
+    ``command`` channel's ``mode`` flags (``source`` = ``"commands"``; frames missing and
+    stale are then unknown, and the rejected frames are the last ``controller/status``
+    ``rejected_frames`` total, without reasons). The time in the safe mode always comes from
+    the commands when there are any: the commands sent with ``mode`` = safe times the
+    control period.
+    """
+    commands = run.topic("command")
+    report = _final_record(run.topic("controller/report"))
+    period = _control_period_s(run, commands)
+    t = _t_s(commands)
+    safe = _col(commands, "mode") == MODE_SAFE_COMMAND
+    entries_at = np.flatnonzero(safe & ~np.concatenate(([False], safe[:-1])))
+    out: dict[str, Any] = {
+        "source": "commands",
+        "commands": len(commands),
+        "safe_mode_entries": int(entries_at.size),
+        "safe_mode_first_entry_s": float(t[entries_at[0]]) if entries_at.size else None,
+        "safe_mode_commands": int(safe.sum()),
+        "safe_mode_at_end": bool(safe[-1]) if safe.size else None,
+        "frames_missing": None,
+        "frames_stale": None,
+        "frames_rejected": None,
+        "frames_rejected_total": None,
+    }
+    status = run.topic("controller/status")
+    if status:
+        last = _col(status, "rejected_frames")[-1]
+        out["frames_rejected_total"] = int(last) if math.isfinite(last) else None
+    if report is not None:
+        rejected = _reasons(report, "frames_rejected", CONTROLLER_REJECT_REASONS)
+        first_ns = int(report.get("safe_mode_first_entry_ns", 0))
+        out.update(
+            source="controller/report",
+            report_final=bool(int(report.get("final", 0))),
+            commands=int(report.get("commands_published", len(commands))),
+            safe_mode_entries=int(report.get("safe_mode_entries", 0)),
+            safe_mode_first_entry_s=first_ns / 1e9
+            if int(report.get("safe_mode_entries", 0))
+            else None,
+            safe_mode_commands=int(report.get("safe_mode_commands", 0)),
+            safe_mode_at_end=bool(int(report.get("safe_mode", 0))),
+            frames_missing=int(report.get("frames_missing", 0)),
+            frames_stale=int(report.get("frames_stale", 0)),
+            frames_rejected=rejected,
+            frames_rejected_total=sum(rejected.values()),
+        )
+    n_safe = int(safe.sum()) if commands else int(out["safe_mode_commands"])
+    out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
+    out["safe_mode_entered"] = bool(out["safe_mode_entries"])
+    out["control_period_s"] = period
+    return out
+
+
+def _plant_account(run: RunData) -> dict[str, Any]:
+    """The plant's applied and rejected commands (``summary["plant"]``).
+
+    From the final ``timing/report`` (:class:`bus_schemas.messages.PlantReport`) when the
+    log has one (``source`` = ``"timing/report"``: rejections by reason), else from the last
+    ``timing/summary`` (``source`` = ``"timing/summary"``: the rejected total only, and
+    the commands applied as the cycles that did not hold the last command, an upper bound:
+    a command that came in a safe-state cycle counts though the safe demand replaced it).
+    """
+    report = _final_record(run.topic("timing/report"))
+    if report is not None:
+        rejected = _reasons(report, "commands_rejected", PLANT_REJECT_REASONS)
+        return {
+            "source": "timing/report",
+            "report_final": bool(int(report.get("final", 0))),
+            "commands_applied": int(report.get("commands_applied", 0)),
+            "commands_rejected": rejected,
+            "commands_rejected_total": sum(rejected.values()),
+        }
+    summary = _final_record(run.topic("timing/summary"))
+    if summary is None:
+        return {
+            "source": None,
+            "commands_applied": None,
+            "commands_rejected": None,
+            "commands_rejected_total": None,
+        }
+    return {
+        "source": "timing/summary",
+        "commands_applied": int(summary.get("cycles", 0)) - int(summary.get("commands_held", 0)),
+        "commands_rejected": None,
+        "commands_rejected_total": int(summary.get("commands_rejected", 0)),
+    }
+
+
 def _scenario(run: RunData) -> dict[str, Any]:
     rec = run.metadata.get("scenario", {})
     out: dict[str, Any] = {"name": rec.get("name"), "config": None}
@@ -460,6 +648,7 @@ def _run_info(run: RunData) -> dict[str, Any]:
         truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if run.truncated else None,
         statistics_ok=run.statistics_ok,
         error=run.error,
+        skipped_ranges=[r.as_dict() for r in run.skipped],
     )
     return info
 
@@ -496,7 +685,9 @@ def summarize(run: RunData) -> dict[str, Any]:
         "scenario": _scenario(run),
         **_estimates(run, window["from_s"]),
         "recording": _recording(run),
+        "plant": _plant_account(run),
     }
+    summary["controller"].update(_controller_account(run))
     cleaned: dict[str, Any] = _clean(summary)
     return cleaned
 
@@ -557,7 +748,10 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
     * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
       transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
       valid bit is clear (dropout) is a gap; the platform panels say "bottom-fixed" for a
-      plant without one. The KPI window's start is a dotted line.
+      plant without one. The KPI window's start is a dotted line. The plant's safe-state
+      windows are shaded, the controller's safe-mode windows hatched, and each start of the
+      feedforward is a dash-dotted vertical line (:func:`run_events`), each with one legend
+      entry on the top panel.
     * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
       cycle with missed cycles marked (late command at its latency, or no command at all).
     * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
@@ -683,8 +877,10 @@ def _timeseries_plot(
                 mid = 0.5 * (lo + hi)
                 a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
     start = window.get("from_s")
-    for a in axes:
-        if a.lines:
+    has_data = [bool(a.lines) for a in axes]
+    _mark_run_events(run, [a for a, d in zip(axes, has_data, strict=True) if d])
+    for a, data in zip(axes, has_data, strict=True):
+        if data:
             if isinstance(start, float) and start > 0:
                 a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
             a.legend(loc="upper right", fontsize="small", ncols=3)
@@ -699,6 +895,95 @@ def _timeseries_plot(
     fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def safe_windows(
+    t_s: FloatArray, flags: npt.NDArray[np.bool_], period_s: float = math.nan
+) -> list[tuple[float, float]]:
+    """Time windows [s] of consecutive flagged samples, each to its last sample + a period.
+
+    ``period_s`` is the spacing of the samples (nan: their median spacing), so that one
+    flagged sample is a window of one period.
+    """
+    if not flags.any():
+        return []
+    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = period_s
+    if not math.isfinite(dt):
+        dt = float(np.median(np.diff(t_s))) if t_s.size > 1 else 0.0
+    return [(float(t_s[a]), float(t_s[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+
+
+def run_events(run: RunData) -> dict[str, Any]:
+    """What the time-series plot marks: the plant's safe-state and the controller's
+    safe-mode windows [s] and the times the feedforward started acting [s].
+
+    The plant's windows come from ``timing/cycle`` ``safe_state``, the controller's from the
+    ``command`` channel's ``mode`` (= :data:`MODE_SAFE_COMMAND`). The feedforward acts from
+    the first ``controller/status`` whose ``estimates_valid_mask`` has ``EST_FEEDFORWARD``
+    and ``EST_WAVE_FORECAST``: the advanced controller sets ``EST_FEEDFORWARD`` from its
+    first cycle (its feedforward fields hold a value, 0 until the forecast is valid), so the
+    bit alone would put the start at t = 0. It starts again after each gap (a forecaster
+    restarted after the safe mode): ``feedforward_starts_s`` lists every start,
+    ``feedforward_start_s`` is the first (None: it never acted).
+    """
+    cycles = run.topic("timing/cycle")
+    commands = run.topic("command")
+    status = run.topic("controller/status")
+    period = _control_period_s(run, commands)
+    plant = safe_windows(_t_s(cycles), _col(cycles, "safe_state") > 0, period)
+    ctrl = safe_windows(_t_s(commands), _col(commands, "mode") == MODE_SAFE_COMMAND, period)
+    mask = _col(status, "estimates_valid_mask")
+    ok = np.isfinite(mask)
+    bits = EST_FEEDFORWARD | EST_WAVE_FORECAST
+    acting = np.zeros(mask.size, dtype=bool)
+    acting[ok] = (mask[ok].astype(np.int64) & bits) == bits
+    starts = [a for a, _b in safe_windows(_t_s(status), acting, period)]
+    return {
+        "plant_safe_state": plant,
+        "controller_safe_mode": ctrl,
+        "feedforward_starts_s": starts,
+        "feedforward_start_s": starts[0] if starts else None,
+    }
+
+
+def _mark_run_events(run: RunData, axes: Sequence[Any]) -> None:
+    """Shade the safe-state and safe-mode windows and draw the feedforward's start on
+    ``axes``; the legend entries go on the first (top) panel only."""
+    ev = run_events(run)
+    for i, a in enumerate(axes):
+        first = i == 0
+        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
+            a.axvspan(
+                lo,
+                hi,
+                color="tab:purple",
+                alpha=0.18,
+                lw=0,
+                zorder=0,
+                label="plant safe state" if first and k == 0 else None,
+            )
+        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
+            a.axvspan(
+                lo,
+                hi,
+                facecolor="none",
+                edgecolor="tab:orange",
+                hatch="//",
+                lw=0,
+                zorder=0,
+                label="controller safe mode" if first and k == 0 else None,
+            )
+        for k, ff in enumerate(ev["feedforward_starts_s"]):
+            a.axvline(
+                ff,
+                color="tab:green",
+                ls="-.",
+                lw=1.2,
+                zorder=2,
+                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
+            )
 
 
 def _timing_plot(
@@ -841,7 +1126,8 @@ def review(
     """Read a run log, write ``summary.json`` (and plots) and return the summary.
 
     The file is read first: a file that is not an MCAP file raises
-    :class:`hil.mcap_log.NotMcapError` before anything is written.
+    :class:`hil.mcap_log.NotMcapError`, and an MCAP file that is not a run log of this bench
+    :class:`NotRunLogError` (:func:`check_run_log`), before anything is written.
 
     Parameters
     ----------
@@ -857,6 +1143,7 @@ def review(
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
     run = read_run(mcap_path)
+    check_run_log(run, mcap_path)
     from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
 
     platform = hexicon_review.is_platform_run(run)
@@ -878,10 +1165,27 @@ def truncation_note(summary: dict[str, Any]) -> str | None:
     run = summary.get("run", {})
     if not run.get("truncated"):
         return None
+    damaged = [r for r in run.get("skipped_ranges") or [] if not r.get("to_end")]
+    if damaged:
+        return _damage_note(damaged, run)
     at = run.get("truncated_at_s")
     where = f"t = {at:.2f} s" if isinstance(at, int | float) else "t = - (no message)"
     why = f" ({run['error']})" if run.get("error") else ""
     return f"truncated at {where}{why}"
+
+
+def _damage_note(skipped: list[dict[str, Any]], run: dict[str, Any]) -> str:
+    """``"damaged: 1 range skipped (bytes 1200-5400, t = 3.10-4.20 s: ...)"``."""
+    parts = []
+    for r in skipped:
+        text = f"bytes {r.get('start')}-{r.get('end')}"
+        a, b = r.get("log_start_s"), r.get("log_end_s")
+        if isinstance(a, int | float) and isinstance(b, int | float):
+            text += f", t = {a:.2f}-{b:.2f} s"
+        parts.append(f"{text}: {r.get('reason')}")
+    at = run.get("truncated_at_s")
+    last = f"; last message at t = {at:.2f} s" if isinstance(at, int | float) else ""
+    return f"damaged: {len(skipped)} range(s) skipped ({'; '.join(parts)}){last}"
 
 
 def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
@@ -914,7 +1218,7 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
             head.add_row(k, str(run[k]))
     head.add_row("duration", f"{_fmt(run.get('duration_s'), digits=2)} s")
     note = truncation_note(summary)
-    head.add_row("truncated", f"[red]yes: {note}[/red]" if note else "no")
+    head.add_row("truncated", f"[red]yes: {escape(note)}[/red]" if note else "no")
     if run.get("error") and not note:
         head.add_row("reader", f"[yellow]{run['error']}[/yellow]")
     msgs = run.get("messages", {})
@@ -1020,10 +1324,71 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     ):
         v = tm.get(name)
         ct.add_row(name.replace("_", " "), f"[yellow]{v}[/yellow]" if v else _fmt(v))
-    safe = tm.get("safe_state")
-    ct.add_row("safe state", "[bold red]entered[/bold red]" if safe else "no")
+    safe = safe_state_text(summary)
+    ct.add_row("safe state", f"[bold red]{safe}[/bold red]" if safe != "no" else safe)
     ct.add_row("sim s / wall s", _fmt(tm.get("sim_seconds_per_wall_second"), digits=3))
     console.print(ct)
+    _render_accounts(summary, console)
+
+
+def safe_state_text(summary: dict[str, Any]) -> str:
+    """``"no"``, or ``"yes: ..."`` naming who entered it: the plant's safe state (its
+    watchdog) and/or the controller's safe mode (with its time and first entry)."""
+    tm = summary.get("timing") or {}
+    ctrl = summary.get("controller") or {}
+    parts = []
+    if tm.get("safe_state") or tm.get("safe_state_cycles"):
+        parts.append(f"plant safe state ({_fmt(tm.get('safe_state_cycles'))} cycles)")
+    if ctrl.get("safe_mode_entered"):
+        first = ctrl.get("safe_mode_first_entry_s")
+        text = f"controller safe mode {_fmt(ctrl.get('safe_mode_s'), digits=2)} s"
+        if isinstance(first, int | float):
+            text += f" from t = {first:.2f} s"
+        if ctrl.get("safe_mode_at_end"):
+            text += ", still at the end"
+        parts.append(text)
+    return "yes: " + "; ".join(parts) if parts else "no"
+
+
+def _render_accounts(summary: dict[str, Any], console: Console) -> None:
+    """The controller's safe mode and rejections, and the plant's commands (nonzero reasons)."""
+    ctrl = summary.get("controller") or {}
+    plant = summary.get("plant") or {}
+    if "source" not in ctrl and "source" not in plant:
+        return
+    t = Table(title="Controller and plant accounts")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_column("source")
+    src = str(ctrl.get("source") or "-")
+    rows: list[tuple[str, Any, str]] = [
+        ("controller commands", ctrl.get("commands"), src),
+        ("safe mode entries", ctrl.get("safe_mode_entries"), src),
+        ("safe mode first entry [s]", ctrl.get("safe_mode_first_entry_s"), src),
+        ("safe mode commands", ctrl.get("safe_mode_commands"), src),
+        ("time in safe mode [s]", ctrl.get("safe_mode_s"), "commands"),
+        ("in safe mode at the end", ctrl.get("safe_mode_at_end"), src),
+        ("frames missing", ctrl.get("frames_missing"), src),
+        ("frames stale", ctrl.get("frames_stale"), src),
+        ("frames rejected", ctrl.get("frames_rejected_total"), src),
+    ]
+    for reason, n in (ctrl.get("frames_rejected") or {}).items():
+        if n:
+            rows.append((f"  frames rejected: {reason}", n, src))
+    psrc = str(plant.get("source") or "-")
+    rows += [
+        ("plant commands applied", plant.get("commands_applied"), psrc),
+        ("plant commands rejected", plant.get("commands_rejected_total"), psrc),
+    ]
+    for reason, n in (plant.get("commands_rejected") or {}).items():
+        if n:
+            rows.append((f"  commands rejected: {reason}", n, psrc))
+    for name, v, where in rows:
+        text = _fmt(v, digits=2)
+        if v and ("safe mode" in name or "rejected" in name):
+            text = f"[yellow]{text}[/yellow]"
+        t.add_row(escape(name), text, where)
+    console.print(t)
 
 
 def _render_estimates(summary: dict[str, Any], console: Console) -> None:
@@ -1055,4 +1420,13 @@ def _render_estimates(summary: dict[str, Any], console: Console) -> None:
     console.print(t)
 
 
-__all__ = ["PLOT_FILES", "render_summary", "review", "summarize", "write_plots"]
+__all__ = [
+    "PLOT_FILES",
+    "NotRunLogError",
+    "check_run_log",
+    "render_summary",
+    "review",
+    "review_problems",
+    "summarize",
+    "write_plots",
+]

@@ -196,7 +196,10 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     ignores the controller's commands and says so (``safe_state`` = 1 in ``timing/cycle``
     and ``timing/summary``). Recovery rule: with ``watchdog_recover_cycles`` = 0 (the
     default) the safe state is latched for the rest of the run; with K > 0 control is handed
-    back after K consecutive commands that each met their deadline.
+    back after K consecutive commands that each met their deadline. In real time, a safe
+    state tripped in the run's first second (:data:`hil.plant_node.STARTUP_S`: misses of a
+    slow start) is handed back after a second's worth of on-time commands (or K, if more)
+    even when latched: a slow start does not make the whole run a safe-state run.
 
     ``max_deadline_miss_fraction`` (0 to 1): missed deadlines tolerated, as a fraction of
     the run's cycles, before ``fowt run`` exits with its deadline-misses code

@@ -55,6 +55,16 @@ class LatencyHistogram:
         if latency_ns > self.max_ns:  # noqa: PLR1730 - (max() is a call per cycle)
             self.max_ns = latency_ns
 
+    def observe_max(self, latency_ns: int) -> None:
+        """Raise the exact maximum to ``latency_ns`` without adding a sample to the bins.
+
+        For a latency that belongs to no counted cycle: a command that came after the tick
+        that ended its cycle (that cycle was already counted as unanswered). The bins stay
+        the cycles' latencies; the maximum is the largest latency the plant saw at all.
+        """
+        if latency_ns > self.max_ns:  # noqa: PLR1730
+            self.max_ns = latency_ns
+
     def percentile_us(self, q: float) -> float:
         """Upper edge of the bin holding the ``q``-th percentile (0 < q <= 100), in us."""
         return self.percentiles_us(q)[0]

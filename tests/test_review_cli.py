@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame
-from bus_schemas.registry import SENSORS, TRUTH
+from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame, TimingSummary
+from bus_schemas.registry import SENSORS, TIMING_SUMMARY, TRUTH
 from hil.mcap_log import NotMcapError, RunLog, read_run
 from hil.review import (
     DEFAULT_SETTLE_S,
@@ -113,6 +113,29 @@ def _write(path: Path, *, floating: bool, settle_s: float | None, pitch_zero: bo
                 wave_elevation_gauge_measured_m=0.0 if dropout else 0.5,
             ),
         )
+    # The plant's final timing summary: without it the run is incomplete (--strict fails).
+    log.write(
+        TIMING_SUMMARY.key("t1"),
+        TimingSummary(
+            seq=0,
+            sample_time_ns=N * DT_NS,
+            publish_time_ns=N * DT_NS,
+            cycles=N,
+            deadline_misses=0,
+            commands_held=0,
+            commands_rejected=0,
+            commands_late=0,
+            safe_state=0,
+            safe_state_cycles=0,
+            faults_injected=0,
+            final=1,
+            latency_p50_us=0.0,
+            latency_p99_us=0.0,
+            latency_p999_us=0.0,
+            latency_max_us=0.0,
+            sim_seconds_per_wall_second=1.0,
+        ),
+    )
     log.close()
 
 
