@@ -62,6 +62,7 @@ import msgspec
 
 from bus_schemas.can_codec import Encoder, Reassembler, can_message_type, layouts
 from bus_schemas.can_db import CAN_MESSAGES
+from bus_schemas.codec import DecodeError
 from bus_schemas.registry import BY_SUFFIX, KEY_PREFIX, MessageType
 from hil.bus import Bus, BusConfig
 
@@ -378,8 +379,17 @@ class CanBus:
         can_message_type(cls)
         self._subs.setdefault(cls, []).append(callback)
 
-    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
-        """Call ``callback(key, payload)`` with the bench's binary payload, as on Zenoh."""
+    def subscribe(
+        self,
+        key: str,
+        callback: Callable[[str, bytes], None],
+        on_reject: Callable[[DecodeError], None] | None = None,
+    ) -> None:
+        """Call ``callback(key, payload)`` with the bench's binary payload, as on Zenoh.
+
+        ``on_reject`` is accepted for the Zenoh surface: on CAN the reassembler counts the
+        instances it refuses (authenticator included) in :attr:`rejected`.
+        """
         mt = self.message_type(key)
 
         def deliver(msg: msgspec.Struct) -> None:
@@ -476,12 +486,21 @@ class HybridBus:
         """Publish ``payload`` on ``key``."""
         self.publisher(key).put(payload)
 
-    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
+    def subscribe(
+        self,
+        key: str,
+        callback: Callable[[str, bytes], None],
+        on_reject: Callable[[DecodeError], None] | None = None,
+    ) -> None:
         """Call ``callback(key, payload)`` for each message on ``key`` (CAN or Zenoh)."""
         if self.on_can(key):
-            self.can.subscribe(key, callback)
+            self.can.subscribe(key, callback, on_reject)
         else:
-            self.zenoh.subscribe(key, callback)
+            self.zenoh.subscribe(key, callback, on_reject)
+
+    def open_payload(self, key: str, data: bytes) -> bytes:
+        """The verified codec payload of a Zenoh sample (:meth:`hil.bus.Bus.open_payload`)."""
+        return self.zenoh.open_payload(key, data)
 
     def peer_count(self) -> int:
         """Zenoh peers of this session."""

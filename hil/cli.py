@@ -271,6 +271,22 @@ ZenohConfigOpt = Annotated[
         callback=_text_file,
     ),
 ]
+KeyFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--key-file",
+        help="The run's 32-byte secret (mode 0600; fowt run makes one per run as"
+        " <run folder>/run.key): every bus payload is signed and verified with it.",
+    ),
+]
+InsecureOpt = Annotated[
+    bool,
+    typer.Option(
+        "--insecure",
+        help="Run without --key-file: payloads unsigned and unchecked, so any local process"
+        " can command the turbine. For tools and tests only.",
+    ),
+]
 RealtimePriorityOpt = Annotated[
     int,
     typer.Option(
@@ -374,22 +390,45 @@ def _bus(
     zenoh_config: Path | None,
     default_listen: tuple[str, ...] = (),
     default_connect: tuple[str, ...] = (),
+    key_file: Path | None = None,
+    insecure: bool = False,
 ) -> object:
     """The node's bus: the options, else the node's loopback defaults.
 
     With ``--zenoh-config`` the defaults are not applied: the file's endpoints stay unless
-    ``--listen``/``--connect`` are given explicitly.
+    ``--listen``/``--connect`` are given explicitly. Authentication (docs/security.md): a
+    node needs ``--key-file`` or, to run unauthenticated, an explicit ``--insecure``; it
+    never makes a secret of its own (its peers could not know it).
     """
     import zenoh
 
+    from bus_schemas.auth import KeyFileError, read_key_file
     from hil.bus import BusConfig, BusConfigError
+
+    auth_key: bytes | None = None
+    if key_file is not None and insecure:
+        _fail("--key-file and --insecure exclude each other")
+    if key_file is not None:
+        try:
+            auth_key = read_key_file(key_file)
+        except KeyFileError as exc:
+            _fail(f"--key-file: {exc}")
+    elif not insecure:
+        _fail(
+            "no --key-file: the bus payloads are authenticated with the run's secret "
+            "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
+            "run unauthenticated"
+        )
 
     if zenoh_config is None:
         listen = listen or list(default_listen)
         connect = connect or list(default_connect)
     try:
         config = BusConfig(
-            listen=tuple(listen or ()), connect=tuple(connect or ()), config_file=zenoh_config
+            listen=tuple(listen or ()),
+            connect=tuple(connect or ()),
+            config_file=zenoh_config,
+            auth_key=auth_key,
         )
     except BusConfigError as exc:
         _fail(str(exc))
@@ -510,6 +549,8 @@ def plant(
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
     realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Run the plant process alone (the controller and the recorder run elsewhere).
 
@@ -519,7 +560,14 @@ def plant(
     """
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen, connect, zenoh_config, default_listen=("tcp/127.0.0.1:7447",))
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
+    )
     from hil.plant_node import PeerWaitInterruptedError, run_plant_node
 
     _realtime(realtime_priority, "plant")
@@ -559,6 +607,8 @@ def controller(
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
     realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Run the controller process alone (serves until the plant finishes or Ctrl-C).
 
@@ -573,6 +623,8 @@ def controller(
         zenoh_config,
         default_listen=("tcp/127.0.0.1:7448",),
         default_connect=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
     )
     _realtime(realtime_priority, "controller")
     from hil import controller_node
@@ -605,6 +657,8 @@ def record(
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
 
@@ -620,6 +674,8 @@ def record(
         connect,
         zenoh_config,
         default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+        key_file=key_file,
+        insecure=insecure,
     )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}

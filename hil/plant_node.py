@@ -654,6 +654,13 @@ class CommandInbox:
         delayed one becomes visible (and counts as arrived) D / ``speed`` later, FIFO.
     speed : float
         Real-time speed factor s: a delay of D simulated seconds is D / s wall seconds.
+
+    Attributes
+    ----------
+    published_seq : int or None
+        The newest sensor frame seq the plant has published (:meth:`published`); a command
+        answering a later one cannot be genuine and is refused as ``unpublished_seq``.
+        None: not tracked (unit use without a plant loop).
     """
 
     def __init__(self, faults: BusFaultPlan | None = None, speed: float = 1.0) -> None:
@@ -661,6 +668,7 @@ class CommandInbox:
         self.latest: tuple[ActuatorCommand, int] | None = None
         self.rejected: Counter[str] = Counter()
         self.last_answered = -1
+        self.published_seq: int | None = None
         self.late = 0  # commands that answered an older frame than the one awaited
         self.faults = faults if faults else None
         self.speed = speed
@@ -685,6 +693,16 @@ class CommandInbox:
             self.late += 1
             self.latest = None
 
+    def published(self, seq: int) -> None:
+        """Note that sensor frame ``seq`` is being published (call before the put)."""
+        if self.published_seq is None or seq > self.published_seq:
+            self.published_seq = seq  # one int store: atomic under the GIL
+
+    def reject(self, exc: DecodeError) -> None:
+        """Count a payload refused before decoding (a failed authentication tag)."""
+        with self.cond:
+            self.rejected[exc.reason] += 1
+
     def on_payload(self, _key: str, payload: bytes) -> None:
         arrival = time.monotonic_ns()
         try:
@@ -696,6 +714,12 @@ class CommandInbox:
         with self.cond:
             if command.answered_seq <= self.last_answered:
                 self.rejected["duplicate_or_reordered"] += 1
+                return
+            published = self.published_seq
+            if published is not None and command.answered_seq > published:
+                # An answer to a frame not yet sent: forged, and accepting it would advance
+                # last_answered past the genuine answers (they would all be duplicates).
+                self.rejected["unpublished_seq"] += 1
                 return
             self.last_answered = command.answered_seq
             if self.faults is not None:
@@ -776,6 +800,10 @@ class CommandChannel:
         Set by the signal handlers; a wait ends with None soon after it is set.
     poll_s : float
         How long a wait goes before the waker wakes it to look at the stop event [s].
+    open_payload : callable, optional
+        ``(key, data) -> payload``: the bus's tag check (:meth:`hil.bus.Bus.open_payload`),
+        raising :class:`bus_schemas.auth.AuthError`, counted by the inbox; None: the data
+        is the payload (unauthenticated).
     """
 
     def __init__(
@@ -785,9 +813,11 @@ class CommandChannel:
         inbox: CommandInbox,
         stop: threading.Event,
         poll_s: float = 0.05,
+        open_payload: Callable[[str, bytes], bytes] | None = None,
     ) -> None:
         self.key = key
         self.inbox = inbox
+        self.open_payload = open_payload
         self.stop = stop
         self.poll_ns = round(poll_s * 1e9)
         self._sub = session.declare_subscriber(key, zenoh.handlers.FifoChannel(256))
@@ -829,6 +859,12 @@ class CommandChannel:
                     if marker:
                         if self.stop.is_set() or time.monotonic_ns() >= deadline:
                             return None
+                        continue
+                if self.open_payload is not None:
+                    try:
+                        payload = self.open_payload(self.key, payload)
+                    except DecodeError as exc:
+                        self.inbox.reject(exc)
                         continue
                 self.inbox.on_payload(self.key, payload)
                 got = self.inbox.take(seq)
@@ -970,6 +1006,8 @@ def run_plant_node(
     profile = CycleProfile()
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
+        if mt is SENSORS:  # before the put: its answer may come back before put returns
+            inbox.published(msg.seq)  # type: ignore[attr-defined]
         if can_bus is not None and mt is SENSORS:
             can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
             return
@@ -988,12 +1026,15 @@ def run_plant_node(
     # Real time: command faults act on arrival in the inbox; lock-step: in the loop.
     command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
     inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
+    inbox.published_seq = -1  # nothing published yet: no command can be an answer
     stop = threading.Event()
     channel: CommandChannel | None = None
     if mode == "lockstep" and can_bus is None:
-        channel = CommandChannel(bus.session, COMMAND.key(tid), inbox, stop)
+        channel = CommandChannel(
+            bus.session, COMMAND.key(tid), inbox, stop, open_payload=bus.open_payload
+        )
     else:  # real time waits with a deadline per cycle; CAN delivers from its own thread
-        bus.subscribe(COMMAND.key(tid), inbox.on_payload)
+        bus.subscribe(COMMAND.key(tid), inbox.on_payload, inbox.reject)
     received: list[int] = []
 
     def on_signal(signum: int, _frame: Any) -> None:
