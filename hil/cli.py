@@ -10,6 +10,7 @@ check), and a usage error of the parser is turned into the same one line by :fun
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -405,6 +406,22 @@ def _bus(
     from bus_schemas.auth import KeyFileError, read_key_file
     from hil.bus import BusConfig, BusConfigError
 
+    if zenoh_config is None:
+        listen = listen or list(default_listen)
+        connect = connect or list(default_connect)
+    try:
+        config = BusConfig(
+            listen=tuple(listen or ()),
+            connect=tuple(connect or ()),
+            config_file=zenoh_config,
+        )
+    except BusConfigError as exc:
+        _fail(str(exc))
+    if zenoh_config is not None:
+        try:  # parse it now: a bad file is an input error, not a crash when the node starts
+            config.zenoh_config()
+        except (zenoh.ZError, ValueError, OSError) as exc:
+            _fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
     auth_key: bytes | None = None
     if key_file is not None and insecure:
         _fail("--key-file and --insecure exclude each other")
@@ -419,25 +436,7 @@ def _bus(
             "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
             "run unauthenticated"
         )
-
-    if zenoh_config is None:
-        listen = listen or list(default_listen)
-        connect = connect or list(default_connect)
-    try:
-        config = BusConfig(
-            listen=tuple(listen or ()),
-            connect=tuple(connect or ()),
-            config_file=zenoh_config,
-            auth_key=auth_key,
-        )
-    except BusConfigError as exc:
-        _fail(str(exc))
-    if zenoh_config is not None:
-        try:  # parse it now: a bad file is an input error, not a crash when the node starts
-            config.zenoh_config()
-        except (zenoh.ZError, ValueError, OSError) as exc:
-            _fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
-    return config
+    return dataclasses.replace(config, auth_key=auth_key)
 
 
 # ----------------------------------------------------------------- commands

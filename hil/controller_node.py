@@ -35,9 +35,12 @@ genuine resync after a real outage longer than that shows itself as a *consisten
 sample time later, with no plausible frame in between; the last of the run is accepted (the
 gap it leaves counts as missing frames for the watchdog, as any gap does). A forger's
 future frames interleaved with the genuine stream never form such a run, because every
-accepted genuine frame resets it. In lock-step the plant waits for the answer to each frame,
-so a lock-step run whose sensor link loses more than W frames in a row cannot resync (the
-plant times out); the shipped fault scenarios stay far below that.
+accepted genuine frame resets it. The first frame is measured from seq -1 as well: a run
+starts at 0, so a forged far-future frame that overtakes frame 0 cannot latch a fresh
+controller either; a controller restarted into a running real-time stream takes its first
+frame at the end of such a consistent run. In lock-step the plant waits for the answer to
+each frame, so a lock-step run whose sensor link loses more than W frames in a row cannot
+resync (the plant times out); the shipped fault scenarios stay far below that.
 
 The wall-clock checks (age and silence) apply only while the stream is *paced in real
 time*: the plant's publish times of the last 8 consecutive frames advanced by one control
@@ -324,8 +327,8 @@ class ControllerRuntime:
         if frame.seq <= self.last_seq:
             self.rejected["duplicate_or_reordered"] += 1
             return None
-        jump = frame.seq - self.last_seq
-        if self.last_seq >= 0 and jump > self.seq_window and not self._resync(frame):
+        # Before the first frame last_seq is -1: a run starts at seq 0 (module docstring).
+        if frame.seq - self.last_seq > self.seq_window and not self._resync(frame):
             self.rejected["implausible_seq"] += 1
             return None
         if frame.sample_time_ns <= self.last_sample_time_ns:

@@ -577,7 +577,7 @@ def test_refused_zenoh_session_is_one_line(tmp_path: Path) -> None:
         " exit_on_failure: true }, scouting: { multicast: { enabled: false },"
         " gossip: { enabled: false } } }"
     )
-    proc = _fowt(["controller", "nrel5mw-ramp", "--zenoh-config", str(cfg)], tmp_path)
+    proc = _fowt(["controller", "nrel5mw-ramp", "--zenoh-config", str(cfg), "--insecure"], tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]

@@ -96,8 +96,10 @@ def _start(
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
         ctrl_ep = free_tcp_endpoint()
+    from _helpers import key_file_args
+
     base = [sys.executable, "-m", "hil"]
-    dur = ["--duration", str(DURATION_S)]
+    dur = ["--duration", str(DURATION_S), *key_file_args(tmp_path)]
     cmds = {
         "recorder": [
             *base,
