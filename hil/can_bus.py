@@ -322,15 +322,23 @@ class CanBus:
     bus : can.BusABC or None
         An already open bus to use instead of opening one from ``config`` (closed with this
         object).
+    auth_key : bytes or None
+        The run's secret: instances are sent with, and must arrive with, their
+        authenticator frame (:mod:`bus_schemas.can_codec`); None: unauthenticated.
     """
 
-    def __init__(self, config: CanBusConfig, bus: can.BusABC | None = None) -> None:
+    def __init__(
+        self,
+        config: CanBusConfig,
+        bus: can.BusABC | None = None,
+        auth_key: bytes | None = None,
+    ) -> None:
         self.config = config
         self.bus: can.BusABC = bus if bus is not None else can.Bus(**config.bus_kwargs())
         if bus is None and config.interface == "udp_multicast":
             _raise_udp_rcvbuf(self.bus)
-        self.encoder = Encoder(fd=config.fd)
-        self.reassembler = Reassembler(fd=config.fd)
+        self.encoder = Encoder(fd=config.fd, auth_key=auth_key)
+        self.reassembler = Reassembler(fd=config.fd, auth_key=auth_key)
         self.frames_sent = 0
         self.frames_received = 0
         self.ignored_frames = 0
@@ -458,7 +466,7 @@ class HybridBus:
 
     def __init__(self, zenoh_config: BusConfig, can_config: CanBusConfig) -> None:
         self.config = zenoh_config
-        self.can = CanBus(can_config)
+        self.can = CanBus(can_config, auth_key=zenoh_config.auth_key)
         try:
             self.zenoh = Bus(zenoh_config)
         except BaseException:

@@ -372,7 +372,9 @@ def run_recorder_node(
     if can is not None:  # imported here: a Zenoh-only recorder does not load python-can
         from hil.can_bus import CanBus  # noqa: PLC0415
 
-        can_bus = CanBus(can)  # first: a bus that cannot open leaves no half-written file
+        can_bus = CanBus(
+            can, auth_key=bus_config.auth_key
+        )  # first: a bus that cannot open leaves no half-written file
     run_log = RecorderLog(out, scenario.turbine_id, can_raw=can is not None)
     run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
     if run_info:

@@ -32,6 +32,7 @@ import threading
 import time
 from pathlib import Path
 
+import can
 import msgspec
 import pytest
 import zenoh
@@ -414,3 +415,72 @@ def test_signed_future_seqs_do_not_latch_the_controller_or_reach_the_plant(
     run = read_run(tmp_path / "attacked" / "run.mcap")
     pitch = [m["blade_pitch_rad"] for m in run.topic("truth")]
     assert pitch == [m["blade_pitch_rad"] for m in clean.topic("truth")]
+
+
+# ---------------------------------------------------------------------- CAN (SecOC-like)
+
+
+@pytest.mark.parametrize("fd", [False, True], ids=["classic", "fd"])
+def test_can_instances_carry_an_authenticator_and_forgeries_are_counted(fd: bool) -> None:
+    from bus_schemas.can_codec import Encoder, Reassembler, frame_crc
+
+    key = new_key()
+    frames = Encoder(fd=fd, auth_key=key).encode(_frame(5))
+    assert len(frames) == (2 if fd else 8)  # 1 or 7 data frames + the authenticator
+    auth = frames[-1]
+    assert len(auth.data) == (24 if fd else 8)
+    rx = Reassembler(fd=fd, auth_key=key)
+    got = [m for f in frames if (m := rx.feed(f)) is not None]
+    assert [m.seq for m in got] == [5] and not rx.rejected
+
+    def feed_all(rx: Reassembler, frames: list) -> list:
+        return [m for f in frames if (m := rx.feed(f)) is not None]
+
+    enc = Encoder(fd=fd, auth_key=key)
+    wrong_key = Encoder(fd=fd, auth_key=new_key())
+    unsigned = Encoder(fd=fd)
+    rx = Reassembler(fd=fd, auth_key=key)
+    assert len(feed_all(rx, enc.encode(_frame(1)))) == 1
+    wrong_key._alive = dict(enc._alive)  # same alive counter: only the MAC is wrong
+    assert feed_all(rx, wrong_key.encode(_frame(2))) == []
+    assert rx.rejected == {"auth": 1}
+    enc._alive = dict(wrong_key._alive)
+    # A data byte changed with a recomputed CRC: the CRC passes, the MAC does not.
+    tampered = enc.encode(_frame(3))
+    data = bytearray(tampered[0].data)
+    data[5] ^= 0x40
+    data[0] = frame_crc(tampered[0].arbitration_id, data)
+    tampered[0] = can.Message(
+        arbitration_id=tampered[0].arbitration_id, data=data, is_extended_id=False, is_fd=fd
+    )
+    assert feed_all(rx, tampered) == []
+    assert rx.rejected == {"auth": 2}
+    # Unsigned instances (no authenticator frame): refused when the next one begins.
+    unsigned._alive = dict(enc._alive)
+    assert feed_all(rx, unsigned.encode(_frame(4))) == []
+    enc._alive = dict(unsigned._alive)
+    assert len(feed_all(rx, enc.encode(_frame(5)))) == 1
+    assert rx.rejected == {"auth": 3}
+
+
+def test_can_bus_with_a_key_drops_unsigned_instances() -> None:
+    import uuid
+
+    from hil.can_bus import CanBus, CanBusConfig
+
+    key = new_key()
+    channel = f"test-auth-{uuid.uuid4()}"
+    cfg = CanBusConfig(channel=channel)
+    with CanBus(cfg, auth_key=key) as tx, CanBus(cfg) as forger, CanBus(cfg, auth_key=key) as rx:
+        seqs: list[int] = []
+        rx.subscribe(SENSORS.key("t1"), lambda _k, p: seqs.append(SENSORS.codec.decode(p).seq))
+        tx.publish(SENSORS, _frame(0))
+        forger.encoder._alive = dict(tx.encoder._alive)  # the next alive counter
+        forger.publish(SENSORS, _frame(1))  # well formed, no authenticator
+        tx.encoder._alive = dict(forger.encoder._alive)
+        tx.publish(SENSORS, _frame(2))
+        deadline = time.monotonic() + 2.0
+        while len(seqs) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert seqs == [0, 2]
+        assert rx.rejected == {"auth": 1}
