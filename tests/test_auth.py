@@ -484,3 +484,24 @@ def test_can_bus_with_a_key_drops_unsigned_instances() -> None:
             time.sleep(0.01)
         assert seqs == [0, 2]
         assert rx.rejected == {"auth": 1}
+
+
+def test_a_node_without_key_file_or_insecure_refuses_to_start(tmp_path: Path) -> None:
+    loose = tmp_path / "loose.key"
+    loose.write_bytes(new_key())
+    loose.chmod(0o644)
+    for extra, words in (
+        ([], ["--key-file", "--insecure"]),
+        (["--key-file", str(loose)], ["0644"]),
+        (["--key-file", str(loose), "--insecure"], ["exclude"]),
+    ):
+        proc = subprocess.run(
+            [sys.executable, "-m", "hil", "controller", SCENARIO, *extra],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+        assert proc.returncode == 2, proc.stderr
+        lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+        assert len(lines) == 1 and all(w in lines[0] for w in words), proc.stderr
