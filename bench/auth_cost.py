@@ -9,7 +9,8 @@
    controller and recorder started by hand as separate processes (as ``fowt run`` starts
    them), once with ``--key-file`` and once with ``--insecure``, alternating for
    ``--rounds`` rounds (the machine is shared: the load changes between runs); the plant's
-   own "simulated s per wall s" from its last log line.
+   own "simulated s per wall s" and cycle profile from its log lines (the order of the
+   two alternates between rounds).
 
     python bench/auth_cost.py [--count 20000] [--duration 20] [--rounds 3]
 """
@@ -100,8 +101,9 @@ def per_message(count: int) -> dict[str, Any]:
     return out
 
 
-def _lockstep_speed(duration_s: float, secure: bool) -> float:
-    """Simulated s per wall s of one hand-started lock-step run (the plant's log line)."""
+def _lockstep_speed(duration_s: float, secure: bool) -> dict[str, float]:
+    """Simulated s per wall s of one hand-started lock-step run and the plant's cycle
+    profile (its log lines: mean us per cycle of sample, sensor put, wait, finish)."""
     from hil.bus import free_tcp_endpoint
 
     with tempfile.TemporaryDirectory(prefix="fowt-bench-auth-") as tmp:
@@ -136,9 +138,18 @@ def _lockstep_speed(duration_s: float, secure: bool) -> float:
         ]
         texts = [p.communicate(timeout=600)[0].decode() for p in procs]
         match = re.search(r"plant done: .* \(([0-9.]+)x\)", texts[2])
-        if match is None or any(p.returncode for p in procs):
+        prof = re.search(
+            r"sample ([0-9.]+) \(of which sensor put ([0-9.]+)\), wait ([0-9.]+), "
+            r"finish ([0-9.]+)",
+            texts[2],
+        )
+        if match is None or prof is None or any(p.returncode for p in procs):
             raise SystemExit("lock-step run failed:\n" + "\n".join(texts))
-        return float(match.group(1))
+        names = ("sample_us", "sensor_put_us", "wait_us", "finish_us")
+        return {
+            "speed": float(match.group(1)),
+            **{n: float(v) for n, v in zip(names, prof.groups(), strict=True)},
+        }
 
 
 def main() -> None:
@@ -153,14 +164,19 @@ def main() -> None:
         "per_message": per_message(args.count),
         "load_average_before": os.getloadavg(),
     }
-    speeds: dict[str, list[float]] = {"authenticated": [], "insecure": []}
-    for _ in range(args.rounds):
-        speeds["authenticated"].append(_lockstep_speed(args.duration, True))
-        speeds["insecure"].append(_lockstep_speed(args.duration, False))
+    runs: dict[str, list[dict[str, float]]] = {"authenticated": [], "insecure": []}
+    for r in range(args.rounds):
+        order = (True, False) if r % 2 == 0 else (False, True)  # neither always goes first
+        for secure in order:
+            runs["authenticated" if secure else "insecure"].append(
+                _lockstep_speed(args.duration, secure)
+            )
     result["lockstep_nrel5mw_ramp"] = {
         "duration_s": args.duration,
-        "sim_seconds_per_wall_second": speeds,
-        "median": {k: statistics.median(v) for k, v in speeds.items()},
+        "runs": runs,
+        "median": {
+            k: {f: statistics.median(run[f] for run in v) for f in v[0]} for k, v in runs.items()
+        },
     }
     result["load_average_after"] = os.getloadavg()
     save("auth_cost", result)
