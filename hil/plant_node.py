@@ -860,18 +860,40 @@ class CommandChannel:
                         if self.stop.is_set() or time.monotonic_ns() >= deadline:
                             return None
                         continue
-                if self.open_payload is not None:
-                    try:
-                        payload = self.open_payload(self.key, payload)
-                    except DecodeError as exc:
-                        self.inbox.reject(exc)
-                        continue
-                self.inbox.on_payload(self.key, payload)
+                self._deliver(payload)
                 got = self.inbox.take(seq)
                 if got is not None:
                     return got
         finally:
             self._waiting_since_ns = 0
+
+    def drain(self) -> int:
+        """Hand every sample already received to the inbox without waiting (the end of a
+        run: a payload that came after the last command waited for is counted too).
+
+        Returns the number of samples taken (the waker's empty markers included).
+        """
+        n = 0
+        while (sample := self._sub.try_recv()) is not None:
+            n += 1
+            payload = sample.payload.to_bytes()
+            if not payload:
+                with self._lock:
+                    if self._markers > 0:
+                        self._markers -= 1
+                        continue
+            self._deliver(payload)
+        return n
+
+    def _deliver(self, data: bytes) -> None:
+        """Check the tag (an authenticated run) and hand the payload to the inbox."""
+        if self.open_payload is not None:
+            try:
+                data = self.open_payload(self.key, data)
+            except DecodeError as exc:
+                self.inbox.reject(exc)
+                return
+        self.inbox.on_payload(self.key, data)
 
     def close(self) -> None:
         """Stop the waker and undeclare the subscriber (idempotent)."""
@@ -1073,6 +1095,8 @@ def run_plant_node(
         loop.result.aborted = str(exc)
     finally:
         if loop is not None:
+            if channel is not None:  # lock-step reads its FIFO only while it waits
+                channel.drain()
             loop.result.commands_rejected = sum(inbox.rejected.values())
             loop.result.rejected = dict(inbox.rejected)
             loop.count_faults(inbox)

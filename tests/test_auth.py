@@ -505,3 +505,31 @@ def test_a_node_without_key_file_or_insecure_refuses_to_start(tmp_path: Path) ->
         assert proc.returncode == 2, proc.stderr
         lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
         assert len(lines) == 1 and all(w in lines[0] for w in words), proc.stderr
+
+
+def test_lockstep_command_channel_verifies_and_drains_what_came_after_the_last_wait() -> None:
+    from hil.bus import Bus, BusConfig
+    from hil.plant_node import CommandChannel
+
+    key = new_key()
+    bus = Bus(BusConfig(listen=(free_tcp_endpoint(),), auth_key=key))
+    inbox = CommandInbox()
+    inbox.published_seq = 3
+    channel = CommandChannel(
+        bus.session, "fowt/t1/command", inbox, threading.Event(), open_payload=bus.open_payload
+    )
+    try:
+        bus.publisher("fowt/t1/command").put(_command_payload(0))  # signed by the bus
+        got = channel.wait_for(0, 10.0)
+        assert got is not None and got[0].answered_seq == 0
+        bus.session.put("fowt/t1/command", _command_payload(1))  # unsigned
+        bus.session.put("fowt/t1/command", sign(new_key(), "fowt/t1/command", b"x" * 53))
+        bus.publisher("fowt/t1/command").put(_command_payload(9))  # not published yet
+        deadline = time.monotonic() + 10.0
+        while sum(inbox.rejected.values()) < 3 and time.monotonic() < deadline:
+            channel.drain()
+            time.sleep(0.01)
+        assert inbox.rejected == {"auth": 2, "unpublished_seq": 1}
+    finally:
+        channel.close()
+        bus.close()
