@@ -46,11 +46,12 @@ on that key; the node has then already consumed that sequence number (in lock-st
 plant publishes frame k only after the command answering k - 1, which the controller
 published only after frame k - 1), so each must be counted as ``duplicate_or_reordered``.
 
-What the fuzzer never sends: forged *future* frames (a valid payload with a newer sequence
-number). Without authentication such a frame is indistinguishable from the plant's (or the
-controller's) own next one, and a node that accepted it would be right to do so; keeping
-an impostor off the bus is the job of access control and TLS (``docs/multi-host.md``), not
-of payload validation.
+What the fuzzer never sends: signed *future* frames (a valid payload with a newer sequence
+number, signed with the run's key). A key holder can forge anything; the nodes' sequence
+plausibility checks (``implausible_seq``, ``unpublished_seq``) are tested on their own in
+``tests/test_auth.py``. Keeping an impostor without the key off the bus is the job of the
+payload tags (``forged`` here, ``docs/security.md``) and, across hosts, of access control
+and TLS (``docs/multi-host.md``).
 
 Pacing: the fuzzer sends ``per_cycle`` payloads per control cycle it sees on the sensors
 key (so the load follows the run, whatever the machine's speed), never more than
