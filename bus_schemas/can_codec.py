@@ -171,6 +171,7 @@ class Layout:
     base_id: int
     parts: tuple[DbcMessage, ...]
     signals: tuple[SignalSpec, ...]
+    auth_id: int  # the authenticator frame's id (bus_schemas.can_db.auth_frame_id)
 
     @property
     def ids(self) -> tuple[int, ...]:
@@ -213,7 +214,9 @@ def layouts(fd: bool) -> dict[type[msgspec.Struct], Layout]:
                 for m in db.messages
                 if m.name.startswith(f"{mt.name}_P")
             )
-        out[mt.cls] = Layout(mt, fd, fd_id if fd else classic_id, parts, message_signals(mt))
+        out[mt.cls] = Layout(
+            mt, fd, fd_id if fd else classic_id, parts, message_signals(mt), auth_frame_id(mt, fd)
+        )
     return out
 
 
@@ -231,7 +234,7 @@ def auth_frame(
     data[1] = (alive & 0x0F) | (part << 4)
     data[2 : 2 + fresh_bytes] = freshness.to_bytes(fresh_bytes, "little")
     data[2 + fresh_bytes : 2 + fresh_bytes + len(mac)] = mac
-    fid = auth_frame_id(layout.mt, fd)
+    fid = layout.auth_id
     data[0] = frame_crc(fid, data)
     return can.Message(
         arbitration_id=fid, data=data, is_extended_id=False, is_fd=fd, bitrate_switch=fd
@@ -363,7 +366,7 @@ class Reassembler:
                 for k, part in enumerate(layout.parts):
                     self._by_id[part.frame_id] = (stream, k, part.length)
                 auth_length = AUTH_FD_LENGTH if flag else CLASSIC_LENGTH
-                self._by_id[auth_frame_id(layout.mt, flag)] = (stream, _AUTH, auth_length)
+                self._by_id[layout.auth_id] = (stream, _AUTH, auth_length)
 
     @property
     def rejected_total(self) -> int:
