@@ -26,7 +26,8 @@ def _one(sig: signal.Signals) -> tuple[float, float, int]:
     from hil.bus import free_tcp_endpoint
 
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    cmd = [sys.executable, "-m", "hil", "plant", "nrel5mw-ramp", "--listen", free_tcp_endpoint()]
+    cmd = [sys.executable, "-m", "hil", "plant", "nrel5mw-ramp", "--insecure"]
+    cmd += ["--listen", free_tcp_endpoint()]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
     )

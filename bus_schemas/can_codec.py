@@ -22,10 +22,21 @@ every part of one instance has arrived, else None; it rejects and counts (in
 * ``incomplete``: a new instance began before every part of the previous one arrived;
 * ``inconsistent``: a part whose part index is not its id's, or a part repeated within one
   instance with different data;
+* ``auth`` (with a key): an instance whose authenticator frame is missing (the next
+  instance began first), does not match its alive counter, carries a wrong MAC, or a
+  freshness value other than the low bits of the decoded ``seq``; or an authenticator
+  frame without a complete instance before it;
 * ``out_of_range``: a decoded float outside its declared [ge, le] by more than half a
   quantisation step s (including the reserved all-ones code the encoder sends for
   out-of-range values, which decodes at least s above le); a value within s/2 outside the
   range is the quantisation of an in-range value and is clamped to [ge, le].
+
+Authentication (``auth_key``, the run's secret): the :class:`Encoder` sends the instance's
+authenticator frame (:mod:`bus_schemas.can_db`, "Authenticator") after its data frames;
+the :class:`Reassembler` holds a complete instance until that frame arrives and decodes it
+only if the MAC over the base id, the freshness value and all the instance's data bytes
+verifies (constant-time compare). Without a key the authenticator frames are neither sent
+nor required (received ones are discarded).
 
 Counts are per frame for the frame-level reasons (unknown id, not a data frame, length,
 checksum) and per message instance for the others; further frames of an instance already
@@ -56,6 +67,7 @@ time). ``publish_time_ns`` is not on CAN: it is set to the receiver's clock on c
 
 from __future__ import annotations
 
+import hmac
 import math
 import time
 from collections import Counter
@@ -68,12 +80,18 @@ import can
 import msgspec
 from cantools.database.can import Message as DbcMessage
 
+from bus_schemas.auth import can_mac
 from bus_schemas.can_db import (
+    AUTH_FD_LENGTH,
+    AUTH_FRESHNESS_BITS,
+    AUTH_MAC_BYTES,
     CAN_IDS,
     CAN_MESSAGES,
+    CLASSIC_LENGTH,
     TIME_SCALE_NS,
     WRAP,
     SignalSpec,
+    auth_frame_id,
     load_database,
     message_signals,
 )
@@ -89,10 +107,13 @@ REJECT_REASONS = (
     "alive_skipped",
     "incomplete",
     "inconsistent",
+    "auth",
     "out_of_range",
 )
 
 ALIVE_MODULO = 16
+#: Part index of an authenticator frame in :attr:`Reassembler._by_id`.
+_AUTH = -1
 _CRC8_POLY = 0x1D
 
 
@@ -150,6 +171,7 @@ class Layout:
     base_id: int
     parts: tuple[DbcMessage, ...]
     signals: tuple[SignalSpec, ...]
+    auth_id: int  # the authenticator frame's id (bus_schemas.can_db.auth_frame_id)
 
     @property
     def ids(self) -> tuple[int, ...]:
@@ -192,8 +214,31 @@ def layouts(fd: bool) -> dict[type[msgspec.Struct], Layout]:
                 for m in db.messages
                 if m.name.startswith(f"{mt.name}_P")
             )
-        out[mt.cls] = Layout(mt, fd, fd_id if fd else classic_id, parts, message_signals(mt))
+        out[mt.cls] = Layout(
+            mt, fd, fd_id if fd else classic_id, parts, message_signals(mt), auth_frame_id(mt, fd)
+        )
     return out
+
+
+def auth_frame(
+    layout: Layout, frames: list[can.Message], seq: int, alive: int, secret: bytes
+) -> can.Message:
+    """The authenticator frame of one instance (``frames``: its data frames, in part order)."""
+    fd = layout.fd
+    fresh_bytes = AUTH_FRESHNESS_BITS[fd] // 8
+    freshness = seq % (1 << AUTH_FRESHNESS_BITS[fd])
+    body = b"".join(bytes(f.data) for f in frames)
+    mac = can_mac(secret, layout.base_id, freshness, body, AUTH_MAC_BYTES[fd])
+    part = 1 if fd else len(layout.parts)
+    data = bytearray(AUTH_FD_LENGTH if fd else CLASSIC_LENGTH)
+    data[1] = (alive & 0x0F) | (part << 4)
+    data[2 : 2 + fresh_bytes] = freshness.to_bytes(fresh_bytes, "little")
+    data[2 + fresh_bytes : 2 + fresh_bytes + len(mac)] = mac
+    fid = layout.auth_id
+    data[0] = frame_crc(fid, data)
+    return can.Message(
+        arbitration_id=fid, data=data, is_extended_id=False, is_fd=fd, bitrate_switch=fd
+    )
 
 
 def encode(message: msgspec.Struct, alive: int, *, fd: bool = False) -> list[can.Message]:
@@ -238,10 +283,15 @@ def encode(message: msgspec.Struct, alive: int, *, fd: bool = False) -> list[can
 
 
 class Encoder:
-    """Stateful encoder: one alive counter per message type, +1 mod 16 per instance."""
+    """Stateful encoder: one alive counter per message type, +1 mod 16 per instance.
 
-    def __init__(self, *, fd: bool = False) -> None:
+    With ``auth_key`` (the run's secret) each instance's frames end with its authenticator
+    frame (:func:`auth_frame`).
+    """
+
+    def __init__(self, *, fd: bool = False, auth_key: bytes | None = None) -> None:
         self.fd = fd
+        self.auth_key = auth_key
         self._alive: dict[type[msgspec.Struct], int] = {}
 
     def encode(self, message: msgspec.Struct) -> list[can.Message]:
@@ -249,7 +299,12 @@ class Encoder:
         cls = type(message)
         alive = self._alive.get(cls, -1) + 1
         self._alive[cls] = alive % ALIVE_MODULO
-        return encode(message, alive % ALIVE_MODULO, fd=self.fd)
+        frames = encode(message, alive % ALIVE_MODULO, fd=self.fd)
+        if self.auth_key is not None:
+            layout = layouts(self.fd)[cls]
+            seq = int(getattr(message, "seq", 0))
+            frames.append(auth_frame(layout, frames, seq, alive % ALIVE_MODULO, self.auth_key))
+        return frames
 
 
 @dataclass
@@ -262,6 +317,8 @@ class _Stream:
     discard_alive: int | None = None
     buf: dict[int, bytes] = field(default_factory=dict)
     unwrapped: dict[str, int] = field(default_factory=dict)
+    #: A complete instance waiting for its authenticator frame: (alive, parts).
+    await_auth: tuple[int, dict[int, bytes]] | None = None
 
 
 class Reassembler:
@@ -273,6 +330,9 @@ class Reassembler:
         Monotonic clock in ns for the reconstructed ``publish_time_ns``.
     fd : bool or None
         Accept classic parts only (False), CAN FD frames only (True) or both (None).
+    auth_key : bytes or None
+        The run's secret: every instance must be followed by its valid authenticator frame
+        (module docstring); None: authenticator frames are discarded, none is required.
 
     Attributes
     ----------
@@ -286,9 +346,14 @@ class Reassembler:
     """
 
     def __init__(
-        self, *, clock: Callable[[], int] = time.monotonic_ns, fd: bool | None = None
+        self,
+        *,
+        clock: Callable[[], int] = time.monotonic_ns,
+        fd: bool | None = None,
+        auth_key: bytes | None = None,
     ) -> None:
         self.clock = clock
+        self.auth_key = auth_key
         self.rejected: Counter[str] = Counter()
         self.accepted: Counter[str] = Counter()
         self.discarded_frames = 0
@@ -300,6 +365,8 @@ class Reassembler:
                 stream = _Stream(layout)
                 for k, part in enumerate(layout.parts):
                     self._by_id[part.frame_id] = (stream, k, part.length)
+                auth_length = AUTH_FD_LENGTH if flag else CLASSIC_LENGTH
+                self._by_id[layout.auth_id] = (stream, _AUTH, auth_length)
 
     @property
     def rejected_total(self) -> int:
@@ -336,6 +403,11 @@ class Reassembler:
             self._reject("bad_checksum")
             return None
         alive, part = data[1] & 0x0F, data[1] >> 4
+        if k == _AUTH:
+            return self._authenticate(stream, alive, part, data)
+        if stream.await_auth is not None:  # the next instance began: no authenticator came
+            stream.await_auth = None
+            self._reject("auth")
         if part != k:
             self._reject("inconsistent")
             return None
@@ -376,7 +448,47 @@ class Reassembler:
             return None
         parts, stream.buf = stream.buf, {}
         stream.buf_alive = None
+        if self.auth_key is not None:  # held until its authenticator frame
+            stream.await_auth = (alive, parts)
+            return None
         return self._decode(stream, parts)
+
+    def _authenticate(
+        self, stream: _Stream, alive: int, part: int, data: bytes
+    ) -> msgspec.Struct | None:
+        """Check an authenticator frame against the instance it follows; decode it if good."""
+        secret = self.auth_key
+        if secret is None:  # an unauthenticated receiver ignores authenticators
+            self.discarded_frames += 1
+            return None
+        pending, stream.await_auth = stream.await_auth, None
+        layout = stream.layout
+        if (
+            pending is None
+            or pending[0] != alive
+            or part != (1 if layout.fd else len(layout.parts))
+        ):
+            self._reject("auth")
+            return None
+        parts = pending[1]
+        fd = layout.fd
+        fresh_bytes = AUTH_FRESHNESS_BITS[fd] // 8
+        freshness = int.from_bytes(data[2 : 2 + fresh_bytes], "little")
+        size = AUTH_MAC_BYTES[fd]
+        body = b"".join(parts[i] for i in range(len(layout.parts)))
+        mac = can_mac(secret, layout.base_id, freshness, body, size)
+        if not hmac.compare_digest(mac, data[2 + fresh_bytes : 2 + fresh_bytes + size]):
+            self._reject("auth")
+            return None
+        msg = self._decode(stream, parts)
+        if msg is None:
+            return None
+        seq = getattr(msg, "seq", None)
+        if seq is not None and seq % (1 << AUTH_FRESHNESS_BITS[fd]) != freshness:
+            self.accepted[layout.mt.name] -= 1
+            self._reject("auth")
+            return None
+        return msg
 
     def _decode(self, stream: _Stream, parts: dict[int, bytes]) -> msgspec.Struct | None:
         layout = stream.layout

@@ -31,6 +31,27 @@ Frame layout (every frame, classic or FD), little-endian (Intel) bit numbering::
     bits 12-15  part   index of this part (= CAN id - base id; 0 on CAN FD)
     bytes 2..   the signals of this part, byte aligned
 
+Authenticator (in the spirit of AUTOSAR SecOC): every message instance is followed by one
+companion frame, ``<Name>_Auth`` (classic: the id after the last part) or ``<Name>_FDAuth``
+(CAN FD: the FD id + 1), with the same crc/alive header, ``part`` = the number of data
+parts (1 on CAN FD), a freshness value (the low 16 bits of the message's ``seq`` classic,
+32 bits on CAN FD) and the truncated MAC of :func:`bus_schemas.auth.can_mac` over the base
+id, the freshness value and every data byte of the instance's frames:
+
+============  =====================================  ================================
+format        authenticator frame                    security margin
+============  =====================================  ================================
+classic       8 bytes: header 2, freshness 2, MAC 4  32-bit MAC: 2^-32 per forged try
+CAN FD        24 bytes: header 2, freshness 4,       128-bit MAC: 2^-128 per try
+              MAC 16 (``mac_lo``, ``mac_hi``)
+============  =====================================  ================================
+
+A 32-bit MAC is what SecOC profiles use on classic CAN (24-32 bits): at the 1 kHz of a
+lock-step run's command stream an attacker who tries one forgery per instance succeeds
+once in 2^32 / 1000 s = 50 days on average, and every failure is counted (``auth``). The
+data frames' own 8 bytes stay as they were (no room for a MAC in a full classic frame);
+the companion costs one frame per instance (a sensor frame 7 + 1 frames, a command 4 + 1).
+
 A message larger than one classic frame is split over consecutive CAN ids, one per part
 (``<Name>_P<k>``, 48 payload bits each); its signals are packed first-fit-decreasing by
 width (ties in declaration order) so no signal straddles two frames. With CAN FD configured
@@ -274,6 +295,20 @@ def pack_parts(signals: tuple[SignalSpec, ...]) -> list[list[SignalSpec]]:
     return [sorted(p, key=lambda s: order[s.name]) for p in parts]
 
 
+#: Freshness bits of the authenticator frame (classic, CAN FD).
+AUTH_FRESHNESS_BITS = {False: 16, True: 32}
+#: MAC bytes of the authenticator frame (classic, CAN FD).
+AUTH_MAC_BYTES = {False: 4, True: 16}
+#: CAN FD data length of the authenticator frame [byte] (2 + 4 + 16 = 22, rounded up).
+AUTH_FD_LENGTH = 24
+
+
+def auth_frame_id(mt: MessageType, fd: bool) -> int:
+    """CAN id of the authenticator frame of ``mt`` (classic: after the last part; FD: + 1)."""
+    classic_id, fd_id = CAN_IDS[mt.cls]
+    return fd_id + 1 if fd else classic_id + len(pack_parts(message_signals(mt)))
+
+
 def fd_length(signals: tuple[SignalSpec, ...]) -> int:
     """Smallest CAN FD data length [byte] holding the header and every signal."""
     bits = HEADER_BITS + sum(s.width for s in signals)
@@ -354,6 +389,7 @@ def _messages(mt: MessageType) -> list[Message]:
                 senders=[sender],
             )
         )
+    out.append(_auth_message(mt, False, len(parts), sender, receiver))
     sigs = _header(receiver)
     start = HEADER_BITS
     for s in signals:
@@ -370,7 +406,51 @@ def _messages(mt: MessageType) -> list[Message]:
             is_fd=True,
         )
     )
+    out.append(_auth_message(mt, True, 1, sender, receiver))
     return out
+
+
+def _auth_message(mt: MessageType, fd: bool, parts: int, sender: str, receiver: str) -> Message:
+    """The authenticator frame of ``mt`` (module docstring, "Authenticator")."""
+    fresh = AUTH_FRESHNESS_BITS[fd]
+    sigs = _header(receiver)
+    sigs.append(
+        Signal(
+            "freshness",
+            HEADER_BITS,
+            fresh,
+            minimum=0,
+            maximum=(1 << fresh) - 1,
+            comment=f"freshness value: seq mod 2^{fresh} of the instance it authenticates",
+            receivers=[receiver],
+        )
+    )
+    start = HEADER_BITS + fresh
+    mac_bits = 8 * AUTH_MAC_BYTES[fd]
+    names = ["mac"] if mac_bits <= 64 else ["mac_lo", "mac_hi"]
+    for name in names:
+        width = mac_bits // len(names)
+        sigs.append(
+            Signal(
+                name,
+                start,
+                width,
+                comment="truncated HMAC-SHA256 over the base id, the freshness value and the "
+                "instance's data bytes (bus_schemas.auth.can_mac)",
+                receivers=[receiver],
+            )
+        )
+        start += width
+    kind = "CAN FD" if fd else "classic"
+    return Message(
+        frame_id=auth_frame_id(mt, fd),
+        name=f"{mt.name}_{'FDAuth' if fd else 'Auth'}",
+        length=AUTH_FD_LENGTH if fd else CLASSIC_LENGTH,
+        signals=sigs,
+        comment=f"{mt.name} authenticator ({kind}; part = {parts}), sent after each instance",
+        senders=[sender],
+        is_fd=fd,
+    )
 
 
 def build_database() -> Database:

@@ -37,6 +37,7 @@ from typing import Any
 
 import zenoh
 
+from bus_schemas.auth import sign, verify
 from bus_schemas.codec import DecodeError, TruncatedError
 from bus_schemas.registry import KEY_PREFIX, MessageType, identify
 
@@ -80,6 +81,10 @@ class BusConfig:
     config_file : Path or None
         A Zenoh JSON5 config replacing these defaults (multi-host: router, TLS, ACL).
         Endpoints given here are then added to it and not checked for loopback.
+    auth_key : bytes or None
+        The run's 32-byte secret (:mod:`bus_schemas.auth`): every payload put is signed,
+        every payload received is verified before anyone decodes it. None: unauthenticated
+        (``--insecure``, the in-process tools).
     """
 
     listen: tuple[str, ...] = ()
@@ -87,6 +92,7 @@ class BusConfig:
     lowlatency: bool = True
     config_file: Path | None = None
     extra: tuple[tuple[str, str], ...] = field(default=())
+    auth_key: bytes | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.config_file is None:
@@ -143,8 +149,39 @@ class BusOpenError(RuntimeError):
     """The Zenoh session could not be opened (refused certificate, no peer, port in use)."""
 
 
+class SigningPublisher:
+    """A Zenoh publisher whose ``put`` appends the payload's tag (:func:`bus_schemas.auth.sign`).
+
+    Parameters
+    ----------
+    publisher : zenoh.Publisher
+        The key's publisher.
+    key : str
+        Its key expression (part of what the tag covers).
+    secret : bytes
+        The run's secret.
+    """
+
+    def __init__(self, publisher: Any, key: str, secret: bytes) -> None:
+        self.publisher = publisher
+        self.key = key
+        self._secret = secret
+
+    def put(self, payload: bytes) -> None:
+        """Sign and put ``payload``."""
+        self.publisher.put(sign(self._secret, self.key, payload))
+
+    def undeclare(self) -> None:
+        """Undeclare the underlying publisher."""
+        self.publisher.undeclare()
+
+
 class Bus:
-    """One Zenoh session with typed publish and raw subscribe helpers."""
+    """One Zenoh session with typed publish and raw subscribe helpers.
+
+    With ``config.auth_key`` set, publishers sign and subscriptions verify every payload
+    (:mod:`bus_schemas.auth`); the callbacks see the bare codec payload either way.
+    """
 
     def __init__(self, config: BusConfig) -> None:
         self.config = config
@@ -161,27 +198,65 @@ class Bus:
         """Declare (once) an express publisher on ``key`` (no batching: lowest latency).
 
         Congestion control ``BLOCK``: a put towards a subscriber that cannot take more
-        waits rather than drops (module docstring, "No loss by design").
+        waits rather than drops (module docstring, "No loss by design"). A
+        :class:`SigningPublisher` around it when the bus authenticates.
         """
         pub = self._publishers.get(key)
         if pub is None:
             pub = self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
             )
+            if self.config.auth_key is not None:
+                pub = SigningPublisher(pub, key, self.config.auth_key)
             self._publishers[key] = pub
         return pub
+
+    def open_payload(self, key: str, data: bytes) -> bytes:
+        """The codec payload of a sample received on ``key`` (verified when authenticating).
+
+        Raises
+        ------
+        bus_schemas.auth.AuthError
+            On a missing or wrong tag.
+        """
+        secret = self.config.auth_key
+        return data if secret is None else verify(secret, key, data)
 
     def put(self, key: str, payload: bytes) -> None:
         """Publish ``payload`` on ``key``."""
         self.publisher(key).put(payload)
 
-    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
-        """Call ``callback(key, payload)`` for each sample on ``key`` (in Zenoh's thread)."""
+    def subscribe(
+        self,
+        key: str,
+        callback: Callable[[str, bytes], None],
+        on_reject: Callable[[DecodeError], None] | None = None,
+    ) -> None:
+        """Call ``callback(key, payload)`` for each sample on ``key`` (in Zenoh's thread).
 
-        def on_sample(sample: zenoh.Sample) -> None:
+        When the bus authenticates, a sample whose tag does not verify never reaches
+        ``callback``: it goes to ``on_reject(AuthError)`` (dropped when None).
+        """
+        secret = self.config.auth_key
+        if secret is not None:
+
+            def on_sample(sample: zenoh.Sample) -> None:
+                k = str(sample.key_expr)
+                try:
+                    payload = verify(secret, k, sample.payload.to_bytes())
+                except DecodeError as exc:
+                    if on_reject is not None:
+                        on_reject(exc)
+                    return
+                callback(k, payload)
+
+            self._subscribers.append(self.session.declare_subscriber(key, on_sample))
+            return
+
+        def on_plain(sample: zenoh.Sample) -> None:
             callback(str(sample.key_expr), sample.payload.to_bytes())
 
-        self._subscribers.append(self.session.declare_subscriber(key, on_sample))
+        self._subscribers.append(self.session.declare_subscriber(key, on_plain))
 
     def peer_count(self) -> int:
         """Number of peers this session is connected to."""

@@ -62,6 +62,7 @@ import msgspec
 
 from bus_schemas.can_codec import Encoder, Reassembler, can_message_type, layouts
 from bus_schemas.can_db import CAN_MESSAGES
+from bus_schemas.codec import DecodeError
 from bus_schemas.registry import BY_SUFFIX, KEY_PREFIX, MessageType
 from hil.bus import Bus, BusConfig
 
@@ -321,15 +322,23 @@ class CanBus:
     bus : can.BusABC or None
         An already open bus to use instead of opening one from ``config`` (closed with this
         object).
+    auth_key : bytes or None
+        The run's secret: instances are sent with, and must arrive with, their
+        authenticator frame (:mod:`bus_schemas.can_codec`); None: unauthenticated.
     """
 
-    def __init__(self, config: CanBusConfig, bus: can.BusABC | None = None) -> None:
+    def __init__(
+        self,
+        config: CanBusConfig,
+        bus: can.BusABC | None = None,
+        auth_key: bytes | None = None,
+    ) -> None:
         self.config = config
         self.bus: can.BusABC = bus if bus is not None else can.Bus(**config.bus_kwargs())
         if bus is None and config.interface == "udp_multicast":
             _raise_udp_rcvbuf(self.bus)
-        self.encoder = Encoder(fd=config.fd)
-        self.reassembler = Reassembler(fd=config.fd)
+        self.encoder = Encoder(fd=config.fd, auth_key=auth_key)
+        self.reassembler = Reassembler(fd=config.fd, auth_key=auth_key)
         self.frames_sent = 0
         self.frames_received = 0
         self.ignored_frames = 0
@@ -378,8 +387,17 @@ class CanBus:
         can_message_type(cls)
         self._subs.setdefault(cls, []).append(callback)
 
-    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
-        """Call ``callback(key, payload)`` with the bench's binary payload, as on Zenoh."""
+    def subscribe(
+        self,
+        key: str,
+        callback: Callable[[str, bytes], None],
+        on_reject: Callable[[DecodeError], None] | None = None,
+    ) -> None:
+        """Call ``callback(key, payload)`` with the bench's binary payload, as on Zenoh.
+
+        ``on_reject`` is accepted for the Zenoh surface: on CAN the reassembler counts the
+        instances it refuses (authenticator included) in :attr:`rejected`.
+        """
         mt = self.message_type(key)
 
         def deliver(msg: msgspec.Struct) -> None:
@@ -448,7 +466,7 @@ class HybridBus:
 
     def __init__(self, zenoh_config: BusConfig, can_config: CanBusConfig) -> None:
         self.config = zenoh_config
-        self.can = CanBus(can_config)
+        self.can = CanBus(can_config, auth_key=zenoh_config.auth_key)
         try:
             self.zenoh = Bus(zenoh_config)
         except BaseException:
@@ -476,12 +494,21 @@ class HybridBus:
         """Publish ``payload`` on ``key``."""
         self.publisher(key).put(payload)
 
-    def subscribe(self, key: str, callback: Callable[[str, bytes], None]) -> None:
+    def subscribe(
+        self,
+        key: str,
+        callback: Callable[[str, bytes], None],
+        on_reject: Callable[[DecodeError], None] | None = None,
+    ) -> None:
         """Call ``callback(key, payload)`` for each message on ``key`` (CAN or Zenoh)."""
         if self.on_can(key):
-            self.can.subscribe(key, callback)
+            self.can.subscribe(key, callback, on_reject)
         else:
-            self.zenoh.subscribe(key, callback)
+            self.zenoh.subscribe(key, callback, on_reject)
+
+    def open_payload(self, key: str, data: bytes) -> bytes:
+        """The verified codec payload of a Zenoh sample (:meth:`hil.bus.Bus.open_payload`)."""
+        return self.zenoh.open_payload(key, data)
 
     def peer_count(self) -> int:
         """Zenoh peers of this session."""

@@ -11,6 +11,7 @@ check), and a usage error of the parser is turned into the same one line by :fun
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import math
 import os
@@ -284,6 +285,22 @@ ZenohConfigOpt = Annotated[
         callback=_text_file,
     ),
 ]
+KeyFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--key-file",
+        help="The run's 32-byte secret (mode 0600; fowt run makes one per run as"
+        " <run folder>/run.key): every bus payload is signed and verified with it.",
+    ),
+]
+InsecureOpt = Annotated[
+    bool,
+    typer.Option(
+        "--insecure",
+        help="Run without --key-file: payloads unsigned and unchecked, so any local process"
+        " can command the turbine. For tools and tests only.",
+    ),
+]
 RealtimePriorityOpt = Annotated[
     int,
     typer.Option(
@@ -387,14 +404,19 @@ def _bus(
     zenoh_config: Path | None,
     default_listen: tuple[str, ...] = (),
     default_connect: tuple[str, ...] = (),
+    key_file: Path | None = None,
+    insecure: bool = False,
 ) -> object:
     """The node's bus: the options, else the node's loopback defaults.
 
     With ``--zenoh-config`` the defaults are not applied: the file's endpoints stay unless
-    ``--listen``/``--connect`` are given explicitly.
+    ``--listen``/``--connect`` are given explicitly. Authentication (docs/security.md): a
+    node needs ``--key-file`` or, to run unauthenticated, an explicit ``--insecure``; it
+    never makes a secret of its own (its peers could not know it).
     """
     import zenoh
 
+    from bus_schemas.auth import KeyFileError, read_key_file
     from hil.bus import BusConfig, BusConfigError
 
     if zenoh_config is None:
@@ -402,7 +424,9 @@ def _bus(
         connect = connect or list(default_connect)
     try:
         config = BusConfig(
-            listen=tuple(listen or ()), connect=tuple(connect or ()), config_file=zenoh_config
+            listen=tuple(listen or ()),
+            connect=tuple(connect or ()),
+            config_file=zenoh_config,
         )
     except BusConfigError as exc:
         _fail(str(exc))
@@ -411,7 +435,21 @@ def _bus(
             config.zenoh_config()
         except (zenoh.ZError, ValueError, OSError) as exc:
             _fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
-    return config
+    auth_key: bytes | None = None
+    if key_file is not None and insecure:
+        _fail("--key-file and --insecure exclude each other")
+    if key_file is not None:
+        try:
+            auth_key = read_key_file(key_file)
+        except KeyFileError as exc:
+            _fail(f"--key-file: {exc}")
+    elif not insecure:
+        _fail(
+            "no --key-file: the bus payloads are authenticated with the run's secret "
+            "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
+            "run unauthenticated"
+        )
+    return dataclasses.replace(config, auth_key=auth_key)
 
 
 # ----------------------------------------------------------------- commands
@@ -553,6 +591,8 @@ def plant(
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
     realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Run the plant process alone (the controller and the recorder run elsewhere).
 
@@ -562,7 +602,14 @@ def plant(
     """
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    bus = _bus(listen, connect, zenoh_config, default_listen=("tcp/127.0.0.1:7447",))
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
+    )
     from hil.plant_node import PeerWaitInterruptedError, run_plant_node
 
     _realtime(realtime_priority, "plant")
@@ -602,6 +649,8 @@ def controller(
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
     realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Run the controller process alone (serves until the plant finishes or Ctrl-C).
 
@@ -616,6 +665,8 @@ def controller(
         zenoh_config,
         default_listen=("tcp/127.0.0.1:7448",),
         default_connect=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
     )
     _realtime(realtime_priority, "controller")
     from hil import controller_node
@@ -648,6 +699,8 @@ def record(
     can_interface: CanInterfaceOpt = None,
     can_channel: CanChannelOpt = None,
     can_fd: CanFdOpt = None,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
 ) -> None:
     """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
 
@@ -663,6 +716,8 @@ def record(
         connect,
         zenoh_config,
         default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+        key_file=key_file,
+        insecure=insecure,
     )
     text, _ = scenario_text(scenario)
     info = {str(k): str(v) for k, v in json.loads(run_info).items()}

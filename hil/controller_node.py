@@ -25,6 +25,23 @@ scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycle
   every half period; each period past the expected arrival of the next frame (half a period
   of grace for jitter) counts one miss.
 
+Sequence plausibility: a frame whose ``seq`` is more than W ahead of the last accepted one,
+W = max(ceil(:data:`PLAUSIBLE_GAP_S` / T), 2 N) frames (T the control period, N the watchdog's
+miss limit; 500 frames at 100 Hz), is not a gap the bus could have made in a run: it is
+refused and counted as ``implausible_seq``, and it does not advance the duplicate filter (one
+forged frame with seq + 1000 must not make every genuine frame after it a "duplicate"). A
+genuine resync after a real outage longer than that shows itself as a *consistent run*:
+:data:`RESYNC_FRAMES` such frames in a row, each seq one more than the previous and its
+sample time later, with no plausible frame in between; the last of the run is accepted (the
+gap it leaves counts as missing frames for the watchdog, as any gap does). A forger's
+future frames interleaved with the genuine stream never form such a run, because every
+accepted genuine frame resets it. The first frame is measured from seq -1 as well: a run
+starts at 0, so a forged far-future frame that overtakes frame 0 cannot latch a fresh
+controller either; a controller restarted into a running real-time stream takes its first
+frame at the end of such a consistent run. In lock-step the plant waits for the answer to
+each frame, so a lock-step run whose sensor link loses more than W frames in a row cannot
+resync (the plant times out); the shipped fault scenarios stay far below that.
+
 The wall-clock checks (age and silence) apply only while the stream is *paced in real
 time*: the plant's publish times of the last 8 consecutive frames advanced by one control
 period each, within 10 % (``fowt run --mode realtime --speed 1``). In lock-step and
@@ -148,6 +165,19 @@ MODE_SAFE = 2
 #: :data:`PACED_TOLERANCE`) before the stream counts as paced in real time.
 PACED_FRAMES = 8
 PACED_TOLERANCE = 0.1
+#: Longest stretch of lost frames accepted as a plain gap [s] (module docstring, W).
+PLAUSIBLE_GAP_S = 5.0
+#: Consecutive, consistent implausible frames that make a genuine resync.
+RESYNC_FRAMES = 3
+
+
+def seq_window(control_period_s: float, watchdog_misses: int) -> int:
+    """W: how far [frames] a frame's seq may jump ahead of the last accepted one.
+
+    max(ceil(:data:`PLAUSIBLE_GAP_S` / T), 2 N) for control period T [s] and the watchdog's
+    miss limit N: a gap the watchdog acts on is always plausible.
+    """
+    return max(math.ceil(PLAUSIBLE_GAP_S / control_period_s - 1e-9), 2 * watchdog_misses)
 
 
 class ControllerRuntime:
@@ -222,6 +252,9 @@ class ControllerRuntime:
         self.clock = clock
         self.last_seq = -1
         self.last_sample_time_ns = -1
+        self.seq_window = seq_window(self.dt_s, scenario.timing.watchdog_misses)
+        # A run of implausible frames: (its last seq, its last sample time ns, length).
+        self._jump_run: tuple[int, int, int] | None = None
         self.command_seq = 0
         self.rejected: Counter[str] = Counter()
         self.accepted = 0
@@ -313,6 +346,10 @@ class ControllerRuntime:
         if frame.seq <= self.last_seq:
             self.rejected["duplicate_or_reordered"] += 1
             return None
+        # Before the first frame last_seq is -1: a run starts at seq 0 (module docstring).
+        if frame.seq - self.last_seq > self.seq_window and not self._resync(frame):
+            self.rejected["implausible_seq"] += 1
+            return None
         if frame.sample_time_ns <= self.last_sample_time_ns:
             self.rejected["stale"] += 1
             return None
@@ -328,6 +365,7 @@ class ControllerRuntime:
             self.state = self.controller.initial_state()
         self.state, out = self.controller.step(self.state, frame, self.dt_s)
         self.last_seq = frame.seq
+        self._jump_run = None
         self.last_sample_time_ns = frame.sample_time_ns
         self.accepted += 1
         pitch, torque = out.blade_pitch_commanded_rad, out.generator_torque_commanded_nm
@@ -375,6 +413,24 @@ class ControllerRuntime:
         )
         self.command_seq += 1
         return command, status
+
+    def _resync(self, frame: SensorFrame) -> bool:
+        """Extend the run of implausible frames with ``frame``; True once it is long enough
+        to be a genuine resync (module docstring, sequence plausibility)."""
+        run = self._jump_run
+        if run is not None and frame.seq == run[0] + 1 and frame.sample_time_ns > run[1]:
+            length = run[2] + 1
+        else:
+            length = 1
+        if length >= RESYNC_FRAMES:
+            self._jump_run = None
+            self.log(
+                f"controller resynchronised on seq {frame.seq} ({length} consistent frames "
+                f"{frame.seq - self.last_seq} ahead of the last accepted seq {self.last_seq})"
+            )
+            return True
+        self._jump_run = (frame.seq, frame.sample_time_ns, length)
+        return False
 
     # ------------------------------------------------------------------ watchdog
     def check_silence(self, now_ns: int | None = None) -> bool:
@@ -725,6 +781,10 @@ def run_controller_node(
                 return
             cycle(frame)
 
+    def on_frame_rejected(exc: DecodeError) -> None:  # a failed tag: counted, never decoded
+        with lock:
+            runtime.rejected[exc.reason] += 1
+
     def on_summary(_key: str, payload: bytes) -> None:
         try:
             summary = TIMING_SUMMARY.codec.decode(payload)
@@ -749,7 +809,7 @@ def run_controller_node(
 
     if scenario.controller.preview == "perfect":
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
-    bus.subscribe(SENSORS.key(tid), on_frame)
+    bus.subscribe(SENSORS.key(tid), on_frame, on_frame_rejected)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
 

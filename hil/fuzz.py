@@ -28,7 +28,14 @@ Kinds of payload (:data:`KINDS`), one after the other in a seeded order:
 ``replay``
     a valid payload captured from the run, re-sent with its old sequence number;
 ``reorder``
-    a burst of 2 to 8 old captured payloads in shuffled order.
+    a burst of 2 to 8 old captured payloads in shuffled order;
+``forged``
+    (authenticated runs only) a valid payload captured from the run with a wrong tag (16
+    random bytes where the run's secret would put its MAC): counted as ``auth``.
+
+In an authenticated run (``--key-file``, the run's secret, :mod:`bus_schemas.auth`) the
+fuzzer signs every payload but the ``forged`` ones, so the malformed payloads pass the tag
+check and still exercise the codec's reasons.
 
 Every payload but the replayed ones is decoded by the same codec the nodes use before it
 is sent: a payload the codec would accept is never sent, and the codec's reason
@@ -39,11 +46,12 @@ on that key; the node has then already consumed that sequence number (in lock-st
 plant publishes frame k only after the command answering k - 1, which the controller
 published only after frame k - 1), so each must be counted as ``duplicate_or_reordered``.
 
-What the fuzzer never sends: forged *future* frames (a valid payload with a newer sequence
-number). Without authentication such a frame is indistinguishable from the plant's (or the
-controller's) own next one, and a node that accepted it would be right to do so; keeping
-an impostor off the bus is the job of access control and TLS (``docs/multi-host.md``), not
-of payload validation.
+What the fuzzer never sends: signed *future* frames (a valid payload with a newer sequence
+number, signed with the run's key). A key holder can forge anything; the nodes' sequence
+plausibility checks (``implausible_seq``, ``unpublished_seq``) are tested on their own in
+``tests/test_auth.py``. Keeping an impostor without the key off the bus is the job of the
+payload tags (``forged`` here, ``docs/security.md``) and, across hosts, of access control
+and TLS (``docs/multi-host.md``).
 
 Pacing: the fuzzer sends ``per_cycle`` payloads per control cycle it sees on the sensors
 key (so the load follows the run, whatever the machine's speed), never more than
@@ -77,6 +85,7 @@ from typing import Any
 
 import zenoh
 
+from bus_schemas.auth import TAG_BYTES, KeyFileError, read_key_file, sign
 from bus_schemas.codec import MAGIC, DecodeError
 from bus_schemas.registry import COMMAND, SENSORS, TIMING_SUMMARY, MessageType
 from hil.bus import Bus, BusConfig
@@ -93,6 +102,7 @@ KINDS: tuple[str, ...] = (
     "range",
     "replay",
     "reorder",
+    "forged",
 )
 
 #: Counter key of a replayed or reordered frame, in the plant and in the controller.
@@ -115,6 +125,7 @@ class FuzzPayload:
     kind: str
     payload: bytes
     reason: str
+    signed: bool = True  # False: the payload already ends in its (wrong) tag
 
 
 class PayloadFactory:
@@ -237,6 +248,11 @@ class PayloadFactory:
                 picked = rng.sample(old, min(len(old), rng.randint(2, 8)))
                 rng.shuffle(picked)
             return [FuzzPayload(kind, p, REPLAY_REASON) for p in picked]
+        if kind == "forged":
+            base = self._valid()
+            if base is None:
+                return []
+            return [FuzzPayload(kind, base + rng.randbytes(TAG_BYTES), "auth", signed=False)]
         if kind == "random":
             n = rng.randrange(0, 2 * size + 1)
             raw.append(rng.randbytes(n))
@@ -350,9 +366,17 @@ class FuzzReport:
 class Fuzzer:
     """The sending side: two payload factories, their publishers and the pacing rule."""
 
-    def __init__(self, config: FuzzConfig, put: Callable[[str, bytes], None]) -> None:
+    def __init__(
+        self,
+        config: FuzzConfig,
+        put: Callable[[str, bytes], None],
+        auth_key: bytes | None = None,
+    ) -> None:
         self.config = config
         self.put = put
+        self.auth_key = auth_key
+        # Without the run's secret there is no tag to forge: every payload is unsigned.
+        self.kinds = KINDS if auth_key is not None else tuple(k for k in KINDS if k != "forged")
         tid = config.turbine_id
         self.keys = (SENSORS.key(tid), COMMAND.key(tid))
         self.factories = {
@@ -385,11 +409,11 @@ class Fuzzer:
         queue = self._queue[key]
         attempts = 0
         while not queue and attempts < 4 * len(KINDS):
-            kinds = list(KINDS)
+            kinds = list(self.kinds)
             self._kind_rng.shuffle(kinds)
             for kind in kinds:
                 queue.extend(self.factories[key].make(kind))
-            attempts += len(KINDS)
+            attempts += len(self.kinds)
         return queue.popleft() if queue else None
 
     def send_one(self) -> bool:
@@ -399,7 +423,10 @@ class Fuzzer:
         item = self._next(key)
         if item is None:
             return False
-        self.put(key, item.payload)
+        data = item.payload
+        if item.signed and self.auth_key is not None:
+            data = sign(self.auth_key, key, data)
+        self.put(key, data)
         self.report.sent[key][item.kind] += 1
         self.report.expected[key][item.reason] += 1
         self.report.total += 1
@@ -455,7 +482,7 @@ def run_fuzzer(
     def put(key: str, payload: bytes) -> None:
         pubs[key].put(payload)
 
-    fuzzer = Fuzzer(config, put)
+    fuzzer = Fuzzer(config, put, bus_config.auth_key)
     final = threading.Event()
 
     def on_summary(_key: str, payload: bytes) -> None:
@@ -527,7 +554,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=FuzzConfig.seed)
     ap.add_argument("--timeout", type=float, default=FuzzConfig.timeout_s)
     ap.add_argument("--report", type=Path, default=None, help="also write the JSON report here")
+    ap.add_argument("--key-file", type=Path, default=None, help="the run's secret (run.key)")
+    ap.add_argument("--insecure", action="store_true", help="the run is unauthenticated")
     args = ap.parse_args(argv)
+    if (args.key_file is None) == (not args.insecure):
+        ap.error("give --key-file FILE (the run's secret) or --insecure, not both")
+    try:
+        auth_key = None if args.key_file is None else read_key_file(args.key_file)
+    except KeyFileError as exc:
+        ap.error(str(exc))
     config = FuzzConfig(
         turbine_id=args.turbine,
         total=args.total,
@@ -538,7 +573,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         seed=args.seed,
         timeout_s=args.timeout,
     )
-    report = run_fuzzer(config, BusConfig(connect=tuple(args.connect)))
+    report = run_fuzzer(config, BusConfig(connect=tuple(args.connect), auth_key=auth_key))
     text = json.dumps(report.as_dict(), indent=2)
     if args.report is not None:
         args.report.write_text(text)

@@ -83,6 +83,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import (
     COMMAND,
     CONTROLLER_REPORT,
@@ -817,6 +818,12 @@ def _run_processes(
         env[DESIGN_DIR_ENV] = str(design_dir)
     env[RUN_DIR_ENV] = str(out.resolve())  # a DISCON library's files go to the run's folder
     ref = _scenario_ref(req.scenario)
+    # The run's secret (docs/security.md): fresh for every run, readable by this user only,
+    # handed to each node by path (never on a command line, which other users can read).
+    key_path = out / KEY_FILE_NAME
+    key_path.unlink(missing_ok=True)  # a folder reused from an earlier run: never reuse a key
+    auth_key = create_key_file(key_path)
+    key_args = ["--key-file", str(key_path)]
     # CAN run: the three nodes join the same CAN bus (sensor frame and command on CAN).
     can_args = can_config(req, scenario).cli_args() if req.transport == "can" else []
     # Real-time scheduling for the two processes on the control loop; the recorder stays
@@ -835,6 +842,7 @@ def _run_processes(
             ctrl_ep,
             "--run-info",
             json.dumps(info),
+            *key_args,
             *can_args,
         ),
         "controller": _node_cmd(
@@ -845,6 +853,7 @@ def _run_processes(
             ctrl_ep,
             "--connect",
             plant_ep,
+            *key_args,
             *can_args,
             *rt_args,
         ),
@@ -862,6 +871,7 @@ def _run_processes(
             # With process faults the plant also waits for the launcher's token: the
             # launcher then follows the simulated time from the first cycle on.
             "controller,recorder" + (",launcher" if driver is not None else ""),
+            *key_args,
             *can_args,
             *rt_args,
         ),
@@ -897,7 +907,7 @@ def _run_processes(
             start(name)
         if driver is not None:
             driver.start_clock()
-        _follow(procs, scenario, plant_ep, console, driver, start, logs, abort)
+        _follow(procs, scenario, plant_ep, console, driver, start, logs, abort, auth_key)
         rc = procs["plant"].wait()
         if driver is not None and driver.expected(procs["plant"]):
             driver.wait_for_others(procs, console)
@@ -1076,6 +1086,7 @@ def _follow(
     start: Callable[[str], subprocess.Popen[bytes]] | None = None,
     logs: Path | None = None,
     abort: AbortSignals | None = None,
+    auth_key: bytes | None = None,
 ) -> None:
     """Show progress (simulated time from the plant's timing summaries) until the plant exits.
 
@@ -1105,7 +1116,7 @@ def _follow(
         latest["sim_s"] = s.sample_time_ns / 1e9
         latest["misses"] = float(s.deadline_misses)
 
-    bus = Bus(BusConfig(connect=(plant_ep,)))
+    bus = Bus(BusConfig(connect=(plant_ep,), auth_key=auth_key))
     token: Any = None  # kept referenced: a dropped liveliness token is undeclared
     try:
         bus.subscribe(TIMING_SUMMARY.key(scenario.turbine_id), on_summary)

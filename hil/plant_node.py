@@ -755,6 +755,13 @@ class CommandInbox:
         delayed one becomes visible (and counts as arrived) D / ``speed`` later, FIFO.
     speed : float
         Real-time speed factor s: a delay of D simulated seconds is D / s wall seconds.
+
+    Attributes
+    ----------
+    published_seq : int or None
+        The newest sensor frame seq the plant has published (:meth:`published`); a command
+        answering a later one cannot be genuine and is refused as ``unpublished_seq``.
+        None: not tracked (unit use without a plant loop).
     """
 
     def __init__(self, faults: BusFaultPlan | None = None, speed: float = 1.0) -> None:
@@ -762,6 +769,7 @@ class CommandInbox:
         self.latest: tuple[ActuatorCommand, int] | None = None
         self.rejected: Counter[str] = Counter()
         self.last_answered = -1
+        self.published_seq: int | None = None
         self.late = 0  # commands that answered an older frame than the one awaited
         self.faults = faults if faults else None
         self.speed = speed
@@ -805,6 +813,16 @@ class CommandInbox:
             self._note_late(*self.latest)
             self.latest = None
 
+    def published(self, seq: int) -> None:
+        """Note that sensor frame ``seq`` is being published (call before the put)."""
+        if self.published_seq is None or seq > self.published_seq:
+            self.published_seq = seq  # one int store: atomic under the GIL
+
+    def reject(self, exc: DecodeError) -> None:
+        """Count a payload refused before decoding (a failed authentication tag)."""
+        with self.cond:
+            self.rejected[exc.reason] += 1
+
     def on_payload(self, _key: str, payload: bytes) -> None:
         arrival = time.monotonic_ns()
         try:
@@ -816,6 +834,12 @@ class CommandInbox:
         with self.cond:
             if command.answered_seq <= self.last_answered:
                 self.rejected["duplicate_or_reordered"] += 1
+                return
+            published = self.published_seq
+            if published is not None and command.answered_seq > published:
+                # An answer to a frame not yet sent: forged, and accepting it would advance
+                # last_answered past the genuine answers (they would all be duplicates).
+                self.rejected["unpublished_seq"] += 1
                 return
             self.last_answered = command.answered_seq
             if self.faults is not None:
@@ -896,6 +920,10 @@ class CommandChannel:
         Set by the signal handlers; a wait ends with None soon after it is set.
     poll_s : float
         How long a wait goes before the waker wakes it to look at the stop event [s].
+    open_payload : callable, optional
+        ``(key, data) -> payload``: the bus's tag check (:meth:`hil.bus.Bus.open_payload`),
+        raising :class:`bus_schemas.auth.AuthError`, counted by the inbox; None: the data
+        is the payload (unauthenticated).
     """
 
     def __init__(
@@ -905,9 +933,11 @@ class CommandChannel:
         inbox: CommandInbox,
         stop: threading.Event,
         poll_s: float = 0.05,
+        open_payload: Callable[[str, bytes], bytes] | None = None,
     ) -> None:
         self.key = key
         self.inbox = inbox
+        self.open_payload = open_payload
         self.stop = stop
         self.poll_ns = round(poll_s * 1e9)
         self._sub = session.declare_subscriber(key, zenoh.handlers.FifoChannel(256))
@@ -950,12 +980,40 @@ class CommandChannel:
                         if self.stop.is_set() or time.monotonic_ns() >= deadline:
                             return None
                         continue
-                self.inbox.on_payload(self.key, payload)
+                self._deliver(payload)
                 got = self.inbox.take(seq)
                 if got is not None:
                     return got
         finally:
             self._waiting_since_ns = 0
+
+    def drain(self) -> int:
+        """Hand every sample already received to the inbox without waiting (the end of a
+        run: a payload that came after the last command waited for is counted too).
+
+        Returns the number of samples taken (the waker's empty markers included).
+        """
+        n = 0
+        while (sample := self._sub.try_recv()) is not None:
+            n += 1
+            payload = sample.payload.to_bytes()
+            if not payload:
+                with self._lock:
+                    if self._markers > 0:
+                        self._markers -= 1
+                        continue
+            self._deliver(payload)
+        return n
+
+    def _deliver(self, data: bytes) -> None:
+        """Check the tag (an authenticated run) and hand the payload to the inbox."""
+        if self.open_payload is not None:
+            try:
+                data = self.open_payload(self.key, data)
+            except DecodeError as exc:
+                self.inbox.reject(exc)
+                return
+        self.inbox.on_payload(self.key, data)
 
     def close(self) -> None:
         """Stop the waker and undeclare the subscriber (idempotent)."""
@@ -1093,6 +1151,8 @@ def run_plant_node(
 
     def publish(mt: MessageType, msg: msgspec.Struct) -> None:
         published[mt.key_suffix] += 1
+        if mt is SENSORS:  # before the put: its answer may come back before put returns
+            inbox.published(msg.seq)  # type: ignore[attr-defined]
         if can_bus is not None and mt is SENSORS:
             can_bus.publish(SENSORS, msg)  # straight to CAN frames, no payload round trip
             return
@@ -1111,12 +1171,15 @@ def run_plant_node(
     # Real time: command faults act on arrival in the inbox; lock-step: in the loop.
     command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
     inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
+    inbox.published_seq = -1  # nothing published yet: no command can be an answer
     stop = threading.Event()
     channel: CommandChannel | None = None
     if mode == "lockstep" and can_bus is None:
-        channel = CommandChannel(bus.session, COMMAND.key(tid), inbox, stop)
+        channel = CommandChannel(
+            bus.session, COMMAND.key(tid), inbox, stop, open_payload=bus.open_payload
+        )
     else:  # real time waits with a deadline per cycle; CAN delivers from its own thread
-        bus.subscribe(COMMAND.key(tid), inbox.on_payload)
+        bus.subscribe(COMMAND.key(tid), inbox.on_payload, inbox.reject)
     received: list[int] = []
 
     def on_signal(signum: int, _frame: Any) -> None:
@@ -1162,6 +1225,8 @@ def run_plant_node(
         loop.result.aborted = str(exc)
     finally:
         if loop is not None:
+            if channel is not None:  # lock-step reads its FIFO only while it waits
+                channel.drain()
             loop.result.commands_rejected = sum(inbox.rejected.values())
             loop.result.rejected = dict(inbox.rejected)
             loop.count_faults(inbox)

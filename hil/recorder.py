@@ -48,6 +48,11 @@ channel exactly as if it had been put alone (same channel, schema and JSON; the 
 publish time is the batch's receive time). A batch that does not split is counted under
 ``rejected`` as ``<batch suffix>:<reason>``.
 
+Authentication: in an authenticated run (the run's secret, ``--key-file``) every sample's
+tag is checked before anything else (:mod:`bus_schemas.auth`); a sample that fails is
+counted under ``rejected`` as ``<suffix>:auth`` and not written, so the command channel of
+the file holds only the controller's genuine commands.
+
 Its ``recorder`` metadata record holds ``messages`` (written), ``topics`` (JSON: messages
 written per key suffix), ``samples`` (JSON: samples taken from the bus per key suffix, a
 log batch counting once), ``expected`` (JSON: per key suffix, what the reports count),
@@ -93,6 +98,7 @@ import msgspec
 import zenoh
 
 from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
+from bus_schemas.auth import verify
 from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
 from hil.bus import BATCH_SUFFIXES, Bus, BusConfig, recorder_ack_key, split_batch
@@ -240,10 +246,21 @@ _PER_CYCLE = (SensorFrame, PlantState, CycleTiming)
 
 
 class Recorder:
-    """Decode-and-queue sink for bus samples, drained into a :class:`RunLog`."""
+    """Decode-and-queue sink for bus samples, drained into a :class:`RunLog`.
 
-    def __init__(self, log: RunLog) -> None:
+    Parameters
+    ----------
+    log : RunLog
+        Where the messages go.
+    auth_key : bytes or None
+        The run's secret: every sample's tag is checked before it is decoded
+        (:func:`bus_schemas.auth.verify`), a failure counted as ``<suffix>:auth`` and
+        nothing of it written. None: unauthenticated run.
+    """
+
+    def __init__(self, log: RunLog, auth_key: bytes | None = None) -> None:
         self.log = log
+        self.auth_key = auth_key
         self.queue: queue.SimpleQueue[tuple[str, Any, int]] = queue.SimpleQueue()
         self.rejected: Counter[str] = Counter()
         self.unknown_keys: Counter[str] = Counter()
@@ -271,13 +288,20 @@ class Recorder:
         """
         suffix = key.removeprefix(self.prefix)
         self.samples[suffix] += 1
-        if suffix in BATCH_SUFFIXES:
-            self._on_batch(suffix, payload)
-            return
-        mt = BY_SUFFIX.get(suffix)
-        if mt is None:
+        batch = suffix in BATCH_SUFFIXES
+        mt = None if batch else BY_SUFFIX.get(suffix)
+        if mt is None and not batch:
             if "/alive/" not in key:
                 self.unknown_keys[key] += 1
+            return
+        if self.auth_key is not None:
+            try:
+                payload = verify(self.auth_key, key, payload)
+            except DecodeError as exc:  # forged or unsigned: counted, never written
+                self.rejected[f"{suffix}:{exc.reason}"] += 1
+                return
+        if mt is None:
+            self._on_batch(suffix, payload)
             return
         self._queue(key, suffix, mt, payload, time.time_ns())
 
@@ -462,12 +486,14 @@ def run_recorder_node(
     if can is not None:  # imported here: a Zenoh-only recorder does not load python-can
         from hil.can_bus import CanBus  # noqa: PLC0415
 
-        can_bus = CanBus(can)  # first: a bus that cannot open leaves no half-written file
+        can_bus = CanBus(
+            can, auth_key=bus_config.auth_key
+        )  # first: a bus that cannot open leaves no half-written file
     run_log = RecorderLog(out, scenario.turbine_id, can_raw=can is not None)
     run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
     if run_info:
         run_log.add_metadata("run", run_info)
-    recorder = Recorder(run_log)
+    recorder = Recorder(run_log, bus_config.auth_key)
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
     written = 0

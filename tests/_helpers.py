@@ -7,15 +7,25 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import msgspec
 
 from bus_schemas import ActuatorCommand, PlantState, SensorFrame
+from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
 from hil.plant_node import PlantRunResult, run_inprocess
 from hil.scenario import Scenario
+
+
+def key_file_args(folder: Path) -> list[str]:
+    """``--key-file <folder>/run.key`` for nodes started by hand (the file made once, 0600)."""
+    path = folder / KEY_FILE_NAME
+    if not path.exists():
+        create_key_file(path)
+    return ["--key-file", str(path)]
 
 
 def run_collecting(

@@ -126,7 +126,9 @@ class TwoHosts:
         out.mkdir(parents=True, exist_ok=True)
         mcap = out / "run.mcap"
         fowt = [sys.executable, "-m", "hil"]
-        dur = ["--duration", repr(duration_s)]
+        from _helpers import key_file_args
+
+        dur = ["--duration", repr(duration_s), *key_file_args(out)]
         conf = {k: ["--zenoh-config", str(v)] for k, v in self.configs.items()}
         nodes = {
             "controller": (self.ns_b, ["controller", scenario, *dur, *conf["controller"]]),

@@ -27,6 +27,7 @@ from typing import Any
 import pytest
 
 from bus_schemas.can_codec import layouts
+from bus_schemas.can_db import auth_frame_id
 from bus_schemas.registry import COMMAND, SENSORS
 from hil import can_bus
 from hil.can_bus import frames_per_message
@@ -84,7 +85,8 @@ def _run(scenario: str, out: Path, duration: float, *transport: str) -> dict[str
 
 def _raw_frames_by_message(run: RunData, fd: bool) -> dict[str, int]:
     """Raw CAN frames logged per message type (by CAN id), and of unknown ids."""
-    ids = {mt.name: set(layouts(fd)[mt.cls].ids) for mt in (SENSORS, COMMAND)}
+    # Data frames and the instance's authenticator frame (fowt run authenticates).
+    ids = {mt.name: {*layouts(fd)[mt.cls].ids, auth_frame_id(mt, fd)} for mt in (SENSORS, COMMAND)}
     counts = {name: 0 for name in ids} | {"unknown": 0}
     for frame in run.topic("can/raw"):
         name = next((n for n, s in ids.items() if frame["arbitration_id"] in s), "unknown")
@@ -98,10 +100,11 @@ def _check_can_run(summary: dict[str, Any], out: Path, cycles: int, fd: bool) ->
     run = read_run(out / "run.mcap")
     assert not run.truncated, run.error
     assert run.schemas["fowt/t1/can/raw"] == "fowt.CanRawFrame"
-    # Lock-step: one sensor frame and one command per cycle, each split into its CAN parts.
+    # Lock-step: one sensor frame and one command per cycle, each split into its CAN parts,
+    # each followed by its authenticator frame.
     expected = {
-        SENSORS.name: frames_per_message(SENSORS, fd) * cycles,
-        COMMAND.name: frames_per_message(COMMAND, fd) * cycles,
+        SENSORS.name: (frames_per_message(SENSORS, fd) + 1) * cycles,
+        COMMAND.name: (frames_per_message(COMMAND, fd) + 1) * cycles,
         "unknown": 0,
     }
     assert _raw_frames_by_message(run, fd) == expected

@@ -543,7 +543,9 @@ def test_zenoh_config_endpoints_are_kept_unless_given(
         ' connect: { endpoints: ["tcp/127.0.0.1:17002"] },'
         " scouting: { multicast: { enabled: false } } }"
     )
-    bus = _bus(options.get("listen"), options.get("connect"), path, **command_defaults)
+    bus = _bus(
+        options.get("listen"), options.get("connect"), path, insecure=True, **command_defaults
+    )
     assert isinstance(bus, BusConfig)
     conf = bus.zenoh_config()
     assert json.loads(conf.get_json("listen/endpoints")) == listen
@@ -560,6 +562,7 @@ def test_without_zenoh_config_the_loopback_defaults_apply() -> None:
         None,
         default_listen=("tcp/127.0.0.1:7448",),
         default_connect=("tcp/127.0.0.1:7447",),
+        insecure=True,
     )
     assert isinstance(bus, BusConfig)
     assert bus.listen == ("tcp/127.0.0.1:7448",) and bus.connect == ("tcp/127.0.0.1:7447",)
@@ -577,7 +580,7 @@ def test_refused_zenoh_session_is_one_line(tmp_path: Path) -> None:
         " exit_on_failure: true }, scouting: { multicast: { enabled: false },"
         " gossip: { enabled: false } } }"
     )
-    proc = _fowt(["controller", "nrel5mw-ramp", "--zenoh-config", str(cfg)], tmp_path)
+    proc = _fowt(["controller", "nrel5mw-ramp", "--zenoh-config", str(cfg), "--insecure"], tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]

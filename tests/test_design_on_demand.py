@@ -94,7 +94,7 @@ def test_controller_alone_fails_with_the_design_command(tmp_path: Path) -> None:
     scenario = _variant(tmp_path, 0.02, 0.01)
     env = {**os.environ, DESIGN_DIR_ENV: str(tmp_path / "empty")}
     proc = subprocess.run(
-        [sys.executable, "-m", "hil", "controller", str(scenario), "--duration", "1"],
+        [sys.executable, "-m", "hil", "controller", str(scenario), "--duration", "1", "--insecure"],
         capture_output=True,
         text=True,
         env=env,

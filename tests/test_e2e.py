@@ -86,12 +86,16 @@ def test_recorder_killed_mid_run_leaves_a_readable_file(tmp_path: Path) -> None:
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     mcap = tmp_path / "run.mcap"
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    from _helpers import key_file_args
+
+    key = key_file_args(tmp_path)
     base = [sys.executable, "-m", "hil"]
     rec = subprocess.Popen(
         [
             *base,
             "record",
             "default",
+            *key,
             "--out",
             str(mcap),
             "--connect",
@@ -102,13 +106,15 @@ def test_recorder_killed_mid_run_leaves_a_readable_file(tmp_path: Path) -> None:
         env=env,
     )
     ctl = subprocess.Popen(
-        [*base, "controller", "default", "--listen", ctrl_ep, "--connect", plant_ep], env=env
+        [*base, "controller", "default", *key, "--listen", ctrl_ep, "--connect", plant_ep],
+        env=env,
     )
     plant = subprocess.Popen(
         [
             *base,
             "plant",
             "default",
+            *key,
             "--listen",
             plant_ep,
             "--mode",

@@ -30,6 +30,7 @@ from pathlib import Path
 import pytest
 
 from bus_schemas import ActuatorCommand, DecodeError
+from bus_schemas.auth import TAG_BYTES, AuthError, new_key, verify
 from bus_schemas.registry import COMMAND, SENSORS
 from hil.bus import free_tcp_endpoint
 from hil.controller_node import ControllerRuntime
@@ -69,10 +70,13 @@ def _command_payload(answered: int) -> bytes:
     return COMMAND.codec.encode(cmd)
 
 
+KEY = new_key()
+
+
 def _loaded_fuzzer(newest: int = 50) -> tuple[Fuzzer, list[tuple[str, bytes]]]:
     """A fuzzer that has seen frames and commands 1..newest, recording what it puts."""
     sent: list[tuple[str, bytes]] = []
-    fuzzer = Fuzzer(FuzzConfig(seed=3), lambda key, payload: sent.append((key, payload)))
+    fuzzer = Fuzzer(FuzzConfig(seed=3), lambda key, payload: sent.append((key, payload)), KEY)
     for k in range(1, newest + 1):
         fuzzer.on_sensors("", _sensor_payload(k))
         fuzzer.on_command("", _command_payload(k))
@@ -93,6 +97,12 @@ def test_every_kind_is_built_and_rejected_for_its_reason() -> None:
             assert items, kind
             for item in items:
                 assert item.kind == kind
+                if kind == "forged":  # a valid payload with a wrong tag
+                    target.codec.decode(item.payload[:-TAG_BYTES])
+                    assert item.reason == "auth" and not item.signed
+                    with pytest.raises(AuthError):
+                        verify(KEY, target.key("t1"), item.payload)
+                    continue
                 if kind in ("replay", "reorder"):
                     msg = target.codec.decode(item.payload)  # a valid frame ...
                     assert getattr(msg, seq_field) <= 39  # ... at least one behind the newest
@@ -127,7 +137,15 @@ def test_fuzz_payloads_are_counted_by_the_plant_and_the_controller_in_process() 
     inbox.last_answered = 50  # the plant has consumed the commands the fuzzer saw
     runtime = ControllerRuntime(load_scenario(SCENARIO))
     assert runtime.handle_payload(_sensor_payload(50)) is not None  # and so has the controller
-    for key, payload in sent:
+    for key, data in sent:
+        try:  # the nodes' bus edge: the tag first
+            payload = verify(KEY, key, data)
+        except AuthError as exc:
+            if key.endswith("/sensors"):
+                runtime.rejected[exc.reason] += 1
+            else:
+                inbox.reject(exc)
+            continue
         if key.endswith("/sensors"):
             assert runtime.handle_payload(payload) is None
         else:
@@ -152,17 +170,32 @@ def _node_cmd(sub: str, *args: str) -> list[str]:
     return [sys.executable, "-m", "hil", sub, SCENARIO, "--duration", str(DURATION_S), *args]
 
 
+def test_a_fuzzer_without_the_key_sends_no_forged_kind() -> None:
+    fuzzer = Fuzzer(FuzzConfig(), lambda _k, _p: None)
+    assert "forged" not in fuzzer.kinds and set(fuzzer.kinds) == set(KINDS) - {"forged"}
+
+
 def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
     """The lock-step run with the fuzzer; returns exit codes and the fuzzer's report."""
+    from _helpers import key_file_args
+
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
         ctrl_ep = free_tcp_endpoint()
     out.mkdir(parents=True)
+    key = key_file_args(out)
     cmds = {
         "recorder": _node_cmd(
-            "record", "--out", str(out / "run.mcap"), "--connect", plant_ep, "--connect", ctrl_ep
+            "record",
+            "--out",
+            str(out / "run.mcap"),
+            "--connect",
+            plant_ep,
+            "--connect",
+            ctrl_ep,
+            *key,
         ),
-        "controller": _node_cmd("controller", "--listen", ctrl_ep, "--connect", plant_ep),
+        "controller": _node_cmd("controller", "--listen", ctrl_ep, "--connect", plant_ep, *key),
         "fuzzer": [
             sys.executable,
             "-m",
@@ -183,6 +216,7 @@ def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
             "150",
             "--report",
             str(out / "fuzz.json"),
+            *key,
         ],
         "plant": _node_cmd(
             "plant",
@@ -192,6 +226,7 @@ def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
             "lockstep",
             "--require",
             "controller,recorder,fuzzer",
+            *key,
         ),
     }
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}

@@ -63,10 +63,10 @@ EXIT_TIMEOUT_S = 15.0
 class Monitor:
     """Newest sample time seen on the bus per channel (its own Zenoh session)."""
 
-    def __init__(self, connect: tuple[str, ...]) -> None:
+    def __init__(self, connect: tuple[str, ...], auth_key: bytes | None = None) -> None:
         self.latest: dict[str, int] = {"truth": -1, "controller/status": -1}
         self._lock = threading.Lock()
-        self.bus = Bus(BusConfig(connect=connect))
+        self.bus = Bus(BusConfig(connect=connect, auth_key=auth_key))
         # The nodes put these log-only messages in batches (hil.bus.LogBatcher): what a
         # killed node had not put yet was never on the bus, and the bound covers it.
         for mt, suffix in (
@@ -96,8 +96,10 @@ def _start(
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
         ctrl_ep = free_tcp_endpoint()
+    from _helpers import key_file_args
+
     base = [sys.executable, "-m", "hil"]
-    dur = ["--duration", str(DURATION_S)]
+    dur = ["--duration", str(DURATION_S), *key_file_args(tmp_path)]
     cmds = {
         "recorder": [
             *base,
@@ -162,7 +164,9 @@ def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path
     from hil.mcap_log import read_run, recover
 
     procs, endpoints, files = _start(tmp_path)
-    monitor = Monitor(endpoints)
+    from bus_schemas.auth import KEY_FILE_NAME, read_key_file
+
+    monitor = Monitor(endpoints, read_key_file(tmp_path / KEY_FILE_NAME))
     others = [n for n in procs if n != victim]
     hung: list[str] = []
     try:

@@ -105,6 +105,9 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     while ctrl_ep == plant_ep:
         ctrl_ep = free_tcp_endpoint()
+    from _helpers import key_file_args
+
+    key = key_file_args(tmp_path)
     base = [sys.executable, "-m", "hil"]
     cmds = {
         # The plant waits for a node that never comes here (the launcher's token), so all
@@ -113,6 +116,7 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
             *base,
             "plant",
             "nrel5mw-ramp",
+            *key,
             "--listen",
             plant_ep,
             "--require",
@@ -122,6 +126,7 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
             *base,
             "controller",
             "nrel5mw-ramp",
+            *key,
             "--listen",
             ctrl_ep,
             "--connect",
@@ -131,6 +136,7 @@ def test_nodes_listen_on_loopback_only_and_do_not_scout(tmp_path: Path) -> None:
             *base,
             "record",
             "nrel5mw-ramp",
+            *key,
             "--out",
             str(tmp_path / "run.mcap"),
             "--connect",

@@ -43,8 +43,10 @@ class Node:
         }
         self.log = tmp_path / f"{name}.log"
         self._fh: IO[bytes] = open(self.log, "wb")  # noqa: SIM115 - closed in stop()
+        from _helpers import key_file_args
+
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "hil", *args],
+            [sys.executable, "-m", "hil", *args, *key_file_args(tmp_path)],
             stdout=self._fh,
             stderr=subprocess.STDOUT,
             env=env,
