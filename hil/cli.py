@@ -824,6 +824,16 @@ WindOpt = Annotated[
     ),
 ]
 
+#: ``analyze modes`` also takes 0 m/s: parked in still air, no aerodynamic damping.
+ModesWindOpt = Annotated[
+    float,
+    typer.Option(
+        "--wind",
+        help="Steady hub-height wind of the model, m/s (0: parked, no aerodynamic damping).",
+        callback=_number("m/s", ge=0.0, le=70.0),
+    ),
+]
+
 
 def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
     """Run an analysis of ``preset`` at ``wind`` (m/s); bad input exits 2 with the reason."""
@@ -838,7 +848,7 @@ def analyze_modes(
     preset: Annotated[
         str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
     ],
-    wind: WindOpt = 5.0,
+    wind: ModesWindOpt = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
     torque_slope: Annotated[
         float,
@@ -1137,15 +1147,49 @@ def preset_import_openfast(
     turbine: Annotated[
         str, typer.Option("--turbine", help="Turbine preset the platform carries.")
     ] = "iea15mw",
+    no_mooring: Annotated[
+        bool,
+        typer.Option(
+            "--no-mooring",
+            help="Import without the mooring (no MoorDyn file needed): the preset then has "
+            "zero mooring force and stiffness, so surge has no restoring stiffness.",
+        ),
+    ] = False,
+    radiation_omega_max: Annotated[
+        float,
+        typer.Option(
+            "--radiation-omega-max",
+            help="Upper end of the radiation fit band, rad/s (0: the whole band of the data).",
+            callback=_number("rad/s", ge=0.0, le=100.0),
+        ),
+    ] = 2.0,
 ) -> None:
-    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data)."""
+    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data).
+
+    Prints the mass budget (platform structure, filled-member ballast, tower, rotor-nacelle
+    assembly) and the derived figures; see docs/openfast-import.md.
+    """
     from plant.openfast_import import import_openfast, write_preset
 
     try:
-        deck = import_openfast(fst_file, turbine=turbine, name=name)
+        deck = import_openfast(
+            fst_file,
+            turbine=turbine,
+            name=name,
+            mooring=not no_mooring,
+            radiation_omega_max_rad_s=radiation_omega_max,
+        )
         path = write_preset(deck, out, stem=name)
     except (ValueError, OSError) as exc:
         _fail(str(exc))
+    for item, kg in deck.mass_budget:
+        console.print(f"mass {item}: {kg:.6g} kg", markup=False)
+    if no_mooring:
+        console.print(
+            "imported without mooring: the preset has zero mooring force and stiffness "
+            "(surge has no restoring stiffness; add a mooring before running it)",
+            markup=False,
+        )
     console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
 
 
