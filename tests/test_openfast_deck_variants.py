@@ -252,3 +252,49 @@ def test_cli_imports_without_mooring_and_analyses_parked(tmp_path: Path) -> None
     assert modes["heave"]["damping_ratio"] < 0.01  # no aerodynamic damping when parked
     refused = runner.invoke(app, ["analyze", "modes", str(toml), "--wind", "-1"])
     assert refused.exit_code != 0
+
+
+def test_oc4_ballast_volume_equals_openfasts() -> None:
+    # OpenFAST's HydroDyn summary of the r-test case 5MW_OC4Semi_WSt_WavesWN:
+    # "Ballasted Volume : 9.38912E+03" m³ (upper columns to -6.17 m, base columns to -14.89 m).
+    path = DECKS / "hydrodyn_oc4_columns.dat"
+    values, lines = read_keyed_file(path)
+    ballast = read_fill_groups(path, lines, values, 1025.0)
+    assert ballast is not None
+    assert ballast.volume_m3 == pytest.approx(9389.12, abs=0.01)
+    assert ballast.mass_kg == pytest.approx(9389.12 * 1025.0, rel=2e-6)
+    assert ballast.cm_x_m == pytest.approx(0.0, abs=1e-4)  # three columns at 120 deg (5 digits)
+
+
+def test_elastodyn_value_that_is_not_a_number_names_file_and_line(tmp_path: Path) -> None:
+    from plant.openfast_import import _num
+
+    text = (DECKS / "elastodyn_pre35.dat").read_text().replace("8.2E+06   PtfmMass", "-   PtfmMass")
+    path = tmp_path / "ed.dat"
+    path.write_text(text)
+    values, lines = read_keyed_file(path)
+    line = next(i + 1 for i, t in enumerate(lines) if "PtfmMass" in t)
+    with pytest.raises(
+        ValueError, match=rf"ed\.dat:{line}: key 'PtfmMass' = '-'; expected a number"
+    ):
+        _num(values, "PtfmMass", path)
+
+
+def test_unstable_radiation_fit_names_the_kernels_and_a_remedy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import plant.openfast_import as imp
+
+    deck = imp.import_openfast(_deck(tmp_path), mooring=False)
+
+    def fake_fit(radiation, *, dofs=(0, 2, 4), **kwargs):  # type: ignore[no-untyped-def]
+        if 0 in dofs and 4 in dofs:  # only the surge-pitch coupling fails
+            raise ValueError("RadiationModel.A: expected stable poles (Re < 0 1/s)")
+
+    monkeypatch.setattr(imp, "fit_reduced_radiation", fake_fit)
+    with pytest.raises(ValueError) as err:
+        imp.write_radiation(deck.preset, deck.hydro, tmp_path / "r.npz")
+    text = str(err.value)
+    assert "surge-pitch kernels" in text
+    assert "band 0..2 rad/s" in text
+    assert "--radiation-omega-max" in text
