@@ -14,6 +14,13 @@ Tower: the first fore-aft modal mass and stiffness follow from the ElastoDyn mod
 polynomial and the distributed mass and stiffness (:func:`plant.platform.tower_modal`); the
 deck's adjustment factors (``AdjTwMa``, ``AdjFASt``, ``FAStTunr(1)``) are applied to the tables.
 
+Versions: the environment (``Gravity``, ``WtrDens``, ``WtrDpth``) is read from the ``.fst``
+(OpenFAST ≥ 3.5) or from ElastoDyn/HydroDyn/SeaState (older decks); tables (blade, tower,
+HydroDyn members and fill groups, MoorDyn v1 and v2) are found by their header names, never by
+column position; HydroDyn's filled member groups add their ballast to the platform
+(:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the mass comes
+from. See docs/openfast-import.md.
+
 What is hand-written here and why: OpenFAST input files are "value  Key  - description" lines
 plus tables; no maintained lightweight reader exists outside the heavy ``openfast_toolbox`` /
 ``weis`` stacks, so the few keys needed are read by a small tolerant parser that names the file
