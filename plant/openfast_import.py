@@ -598,11 +598,13 @@ def read_fill_groups(
     _, _, head = _header_table(
         hd_lines, ("FillNumM", "FillMList", "FillFSLoc", "FillDens"), hd_path, "filled members"
     )
-    rows = [
-        (j + 1, lines.split())
-        for j, lines in enumerate(hd_lines[head:], start=head)
-        if lines.split() and _NUMBER.match(lines.split()[0])
-    ][:n_groups]
+    rows: list[tuple[int, list[str]]] = []
+    for j in range(head, len(hd_lines)):
+        tok = hd_lines[j].split()
+        if (tok and tok[0].startswith("--")) or len(rows) == n_groups:
+            break  # the next section: no more fill-group rows
+        if tok and _NUMBER.match(tok[0]):
+            rows.append((j + 1, tok))
     if len(rows) < n_groups:
         raise ValueError(
             f"{hd_path}:{head}: NFillGroups = {n_groups} but {len(rows)} fill-group rows follow"
@@ -696,7 +698,7 @@ def _distributed_table(
     for name, unit in units.items():
         k = cols[name.upper()]
         got = unit_tok[k] if k < len(unit_tok) else ""
-        if got.lower() != unit.lower():
+        if got.lower().strip("()[]") != unit.lower().strip("()[]"):
             raise ValueError(
                 f"{path}:{head + 1}: {what}: column {name} has units {got or 'none'!r}; "
                 f"expected {unit!r}"

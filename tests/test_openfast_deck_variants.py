@@ -298,3 +298,12 @@ def test_unstable_radiation_fit_names_the_kernels_and_a_remedy(
     assert "surge-pitch kernels" in text
     assert "band 0..2 rad/s" in text
     assert "--radiation-omega-max" in text
+
+
+def test_fewer_fill_group_rows_than_nfillgroups_is_refused(tmp_path: Path) -> None:
+    text = (DECKS / "hydrodyn_pre35.dat").read_text()
+    path = tmp_path / "hd.dat"
+    path.write_text(text.replace("             2   NFillGroups", "             3   NFillGroups"))
+    values, lines = read_keyed_file(path)
+    with pytest.raises(ValueError, match=r"hd\.dat:\d+: NFillGroups = 3 but 2 fill-group rows"):
+        read_fill_groups(path, lines, values, 1025.0)
