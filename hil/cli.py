@@ -873,7 +873,10 @@ def analyze_modes(
         lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
     )
     case = (
-        OPEN_LOOP_CASE
+        "parked in still air: rotor at rest, no aerodynamic forces and no aerodynamic "
+        "damping (hydrodynamic, mooring and structural damping only)"
+        if wind == 0.0
+        else OPEN_LOOP_CASE
         if torque_slope == 0.0
         else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
         "blade pitch held, rotor speed free; rotor aerodynamics quasi-steady from the Cp/Ct/Cq "

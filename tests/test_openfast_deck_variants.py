@@ -248,7 +248,9 @@ def test_cli_imports_without_mooring_and_analyses_parked(tmp_path: Path) -> None
     assert "radiation_omega_max_rad_s = 1.8" in toml.read_text()
     parked = runner.invoke(app, ["analyze", "modes", str(toml), "--wind", "0", "--json"])
     assert parked.exit_code == 0, parked.output
-    modes = {m["name"]: m for m in json.loads(parked.output)["modes"]}
+    report = json.loads(parked.output)
+    assert report["case"].startswith("parked in still air")
+    modes = {m["name"]: m for m in report["modes"]}
     assert modes["heave"]["damping_ratio"] < 0.01  # no aerodynamic damping when parked
     refused = runner.invoke(app, ["analyze", "modes", str(toml), "--wind", "-1"])
     assert refused.exit_code != 0
