@@ -169,6 +169,12 @@ def _header_table(
                     continue
                 if not _NUMBER.match(row[0]):
                     break
+                need = max(cols[r.upper()] for r in required) + 1
+                if len(row) < need:
+                    raise ValueError(
+                        f"{source}:{j + 1}: {what}: expected at least {need} columns "
+                        f"({' '.join(lines[i].split()[:need])}), got {len(row)}"
+                    )
                 rows.append((j + 1, row))
             return cols, rows, i + 1
     raise ValueError(f"{source}: {what}: no table header naming {', '.join(required)}")
@@ -258,7 +264,9 @@ def _first_table(
     for required in layouts:
         try:
             return _header_table(lines, required, source, what)
-        except ValueError:
+        except ValueError as exc:
+            if "no table header" not in str(exc):
+                raise  # a malformed row of a table that was found
             continue
     expected = " or ".join("(" + ", ".join(r) + ")" for r in layouts)
     raise ValueError(f"{source}: {what}: no table header naming {expected}")
@@ -586,7 +594,8 @@ def read_fill_groups(
             number,
             "member",
         )
-        if "MSECGEOM" in mc and int(float(tok[mc["MSECGEOM"]])) != 1:
+        geom = tok[mc["MSECGEOM"]] if "MSECGEOM" in mc and len(tok) > mc["MSECGEOM"] else "1"
+        if _NUMBER.match(geom) is None or int(float(geom)) != 1:
             ids.append(-1.0)  # rectangular: refused only if a fill group names it
         members[int(float(tok[mc["MEMBERID"]]))] = (
             int(ids[0]),
@@ -687,7 +696,9 @@ def _distributed_table(
     required = (fraction, *columns)
     try:
         cols, rows, head = _header_table(lines, required, path, what)
-    except ValueError:
+    except ValueError as exc:
+        if "no table header" not in str(exc):
+            raise  # a malformed row of a table that was found
         marker = next((i + 1 for i, ln in enumerate(lines) if "DISTRIBUTED" in ln.upper()), None)
         where = f"{path}:{marker}" if marker else str(path)
         raise ValueError(

@@ -309,3 +309,14 @@ def test_fewer_fill_group_rows_than_nfillgroups_is_refused(tmp_path: Path) -> No
     values, lines = read_keyed_file(path)
     with pytest.raises(ValueError, match=r"hd\.dat:\d+: NFillGroups = 3 but 2 fill-group rows"):
         read_fill_groups(path, lines, values, 1025.0)
+
+
+def test_short_joint_row_names_file_and_line(tmp_path: Path) -> None:
+    text = (DECKS / "hydrodyn_pre35.dat").read_text().splitlines()
+    row = next(i for i, t in enumerate(text) if t.startswith("    3    -25.87500    44.81681"))
+    text[row] = "    3    -25.87500"
+    path = tmp_path / "hd.dat"
+    path.write_text("\n".join(text) + "\n")
+    values, lines = read_keyed_file(path)
+    with pytest.raises(ValueError, match=rf"hd\.dat:{row + 1}: member joints: expected at least 4"):
+        read_fill_groups(path, lines, values, 1025.0)
