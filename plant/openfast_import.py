@@ -42,11 +42,18 @@ from plant.hydro.wamit import HydroData, import_wamit
 from plant.platform import FloatingPreset, MooringFile, RadiationFitOptions, tower_modal
 
 __all__ = [
+    "DEFAULT_RADIATION_OMEGA_MAX_RAD_S",
+    "Ballast",
     "ImportedDeck",
+    "KeyedValues",
     "MooringLine",
+    "blade_properties",
     "compute_mooring",
+    "flooded_member",
     "import_openfast",
+    "read_fill_groups",
     "read_keyed_file",
+    "read_moordyn",
     "write_preset",
     "write_radiation",
 ]
