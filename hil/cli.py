@@ -974,6 +974,16 @@ WindOpt = Annotated[
     ),
 ]
 
+#: ``analyze modes`` also takes 0 m/s: parked in still air, no aerodynamic damping.
+ModesWindOpt = Annotated[
+    float,
+    typer.Option(
+        "--wind",
+        help="Steady hub-height wind of the model, m/s (0: parked, no aerodynamic damping).",
+        callback=_number("m/s", ge=0.0, le=70.0),
+    ),
+]
+
 
 def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
     """Run an analysis of ``preset`` at ``wind`` (m/s); bad input exits 2 with the reason."""
@@ -988,7 +998,7 @@ def analyze_modes(
     preset: Annotated[
         str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
     ],
-    wind: WindOpt = 5.0,
+    wind: ModesWindOpt = 5.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
     torque_slope: Annotated[
         float,
@@ -1013,7 +1023,10 @@ def analyze_modes(
         lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
     )
     case = (
-        OPEN_LOOP_CASE
+        "parked in still air: rotor at rest, no aerodynamic forces and no aerodynamic "
+        "damping (hydrodynamic, mooring and structural damping only)"
+        if wind == 0.0
+        else OPEN_LOOP_CASE
         if torque_slope == 0.0
         else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
         "blade pitch held, rotor speed free; rotor aerodynamics quasi-steady from the Cp/Ct/Cq "
@@ -1287,15 +1300,49 @@ def preset_import_openfast(
     turbine: Annotated[
         str, typer.Option("--turbine", help="Turbine preset the platform carries.")
     ] = "iea15mw",
+    no_mooring: Annotated[
+        bool,
+        typer.Option(
+            "--no-mooring",
+            help="Import without the mooring (no MoorDyn file needed): the preset then has "
+            "zero mooring force and stiffness, so surge has no restoring stiffness.",
+        ),
+    ] = False,
+    radiation_omega_max: Annotated[
+        float,
+        typer.Option(
+            "--radiation-omega-max",
+            help="Upper end of the radiation fit band, rad/s (0: the whole band of the data).",
+            callback=_number("rad/s", ge=0.0, le=100.0),
+        ),
+    ] = 2.0,
 ) -> None:
-    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data)."""
+    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data).
+
+    Prints the mass budget (platform structure, filled-member ballast, tower, rotor-nacelle
+    assembly) and the derived figures; see docs/openfast-import.md.
+    """
     from plant.openfast_import import import_openfast, write_preset
 
     try:
-        deck = import_openfast(fst_file, turbine=turbine, name=name)
+        deck = import_openfast(
+            fst_file,
+            turbine=turbine,
+            name=name,
+            mooring=not no_mooring,
+            radiation_omega_max_rad_s=radiation_omega_max,
+        )
         path = write_preset(deck, out, stem=name)
     except (ValueError, OSError) as exc:
         _fail(str(exc))
+    for item, kg in deck.mass_budget:
+        console.print(f"mass {item}: {kg:.6g} kg", markup=False)
+    if no_mooring:
+        console.print(
+            "imported without mooring: the preset has zero mooring force and stiffness "
+            "(surge has no restoring stiffness; add a mooring before running it)",
+            markup=False,
+        )
     console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
 
 

@@ -207,7 +207,9 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
     ----------
     params : FloatingParams
     wind_m_s : float
-        Hub-height wind speed U (m/s), > 0.
+        Hub-height wind speed U (m/s), >= 0. U = 0: parked in still air (rotor at rest, no
+        thrust and no aerodynamic damping; the platform modes are those of the hydrodynamics,
+        mooring and structure alone).
 
     Returns
     -------
@@ -215,8 +217,8 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
     """
     from scipy.optimize import fsolve  # noqa: PLC0415  offline only
 
-    if not wind_m_s > 0.0:
-        raise ValueError(f"wind_m_s: expected a positive wind speed in m/s, got {wind_m_s}")
+    if not (wind_m_s >= 0.0 and math.isfinite(wind_m_s)):
+        raise ValueError(f"wind_m_s: expected a wind speed >= 0 m/s, got {wind_m_s}")
     nr = params.n_radiation
     # The rotor sees the rotor-normal wind U_n = U cos(τ + φ + κ s)/cos τ of the pitched platform
     # (relative_wind), and the platform's pitch depends on the rotor's thrust: fixed-point
@@ -242,7 +244,7 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
             raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
         x = state(q_eq)
         u_new = relative_wind(x, wind_m_s, params) if params.aero else wind_m_s
-        if abs(u_new - u_n) < 1e-10 * wind_m_s:
+        if abs(u_new - u_n) <= 1e-10 * wind_m_s:
             break
         u_n = u_new
     else:

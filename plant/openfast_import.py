@@ -14,6 +14,13 @@ Tower: the first fore-aft modal mass and stiffness follow from the ElastoDyn mod
 polynomial and the distributed mass and stiffness (:func:`plant.platform.tower_modal`); the
 deck's adjustment factors (``AdjTwMa``, ``AdjFASt``, ``FAStTunr(1)``) are applied to the tables.
 
+Versions: the environment (``Gravity``, ``WtrDens``, ``WtrDpth``) is read from the ``.fst``
+(OpenFAST ≥ 3.5) or from ElastoDyn/HydroDyn/SeaState (older decks); tables (blade, tower,
+HydroDyn members and fill groups, MoorDyn v1 and v2) are found by their header names, never by
+column position; HydroDyn's filled member groups add their ballast to the platform
+(:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the mass comes
+from. See docs/openfast-import.md.
+
 What is hand-written here and why: OpenFAST input files are "value  Key  - description" lines
 plus tables; no maintained lightweight reader exists outside the heavy ``openfast_toolbox`` /
 ``weis`` stacks, so the few keys needed are read by a small tolerant parser that names the file
@@ -32,14 +39,21 @@ import numpy as np
 
 from plant.hydro.radiation import RadiationModel, fit_reduced_radiation
 from plant.hydro.wamit import HydroData, import_wamit
-from plant.platform import FloatingPreset, MooringFile, tower_modal
+from plant.platform import FloatingPreset, MooringFile, RadiationFitOptions, tower_modal
 
 __all__ = [
+    "DEFAULT_RADIATION_OMEGA_MAX_RAD_S",
+    "Ballast",
     "ImportedDeck",
+    "KeyedValues",
     "MooringLine",
+    "blade_properties",
     "compute_mooring",
+    "flooded_member",
     "import_openfast",
+    "read_fill_groups",
     "read_keyed_file",
+    "read_moordyn",
     "write_preset",
     "write_radiation",
 ]
@@ -47,24 +61,45 @@ __all__ = [
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eEdD][-+]?\d+)?$")
 
 
-def read_keyed_file(path: Path) -> tuple[dict[str, str], list[str]]:
+class KeyedValues(dict[str, str]):
+    """Values of an OpenFAST input file by upper-case key, with the 1-based line of each key."""
+
+    line_of: dict[str, int]
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.line_of = {}
+
+
+def read_keyed_file(path: Path) -> tuple[KeyedValues, list[str]]:
     """Values of an OpenFAST input file by key (first token = value, second = key) and its lines.
 
     Keys are case-insensitive (stored upper case); ``Key(1)`` is stored as ``KEY(1)``. Quotes
-    are stripped from values.
+    are stripped from values. ``values.line_of[key]`` is the key's 1-based line number.
     """
     try:
         lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError as exc:
         raise OSError(f"{path}: cannot read ({exc})") from exc
-    values: dict[str, str] = {}
-    for line in lines:
+    values = KeyedValues()
+    for number, line in enumerate(lines, start=1):
         tok = line.split()
         if len(tok) >= 2 and not tok[0].startswith(("--", "!", "#")):
             key = tok[1].upper()
             if key not in values:
                 values[key] = tok[0].strip('"').strip("'")
+                values.line_of[key] = number
     return values, lines
+
+
+def _where(values: dict[str, str], key: str, source: Path) -> str:
+    """``file:line`` of ``key`` (``file`` alone when the key is absent)."""
+    line = getattr(values, "line_of", {}).get(key.upper())
+    return f"{source}:{line}" if line else str(source)
+
+
+def _to_float(raw: str) -> float:
+    return float(raw.replace("d", "e").replace("D", "E"))
 
 
 def _num(values: dict[str, str], key: str, source: Path, default: float | None = None) -> float:
@@ -72,11 +107,17 @@ def _num(values: dict[str, str], key: str, source: Path, default: float | None =
     if raw is None or raw.upper() == "DEFAULT":
         if default is not None:
             return default
-        raise ValueError(f"{source}: key {key!r} not found (or DEFAULT without a fallback)")
+        if raw is None:
+            raise ValueError(f"{source}: key {key!r} not found (expected a number)")
+        raise ValueError(
+            f"{_where(values, key, source)}: key {key!r} is DEFAULT; expected a number"
+        )
     try:
-        return float(raw.replace("d", "e").replace("D", "E"))
+        return _to_float(raw)
     except ValueError:
-        raise ValueError(f"{source}: key {key!r} = {raw!r} is not a number") from None
+        raise ValueError(
+            f"{_where(values, key, source)}: key {key!r} = {raw!r}; expected a number"
+        ) from None
 
 
 def _text(values: dict[str, str], key: str, source: Path) -> str:
@@ -84,6 +125,66 @@ def _text(values: dict[str, str], key: str, source: Path) -> str:
     if raw is None:
         raise ValueError(f"{source}: key {key!r} not found")
     return raw
+
+
+def _first_text(values: dict[str, str], keys: tuple[str, ...], source: Path) -> str:
+    """The value of the first of ``keys`` present (spellings of one key across versions)."""
+    for key in keys:
+        if key.upper() in values:
+            return values[key.upper()]
+    raise ValueError(f"{source}: none of the keys {', '.join(keys)} found")
+
+
+def _row_floats(tokens: list[str], source: Path, line: int, what: str) -> list[float]:
+    try:
+        return [_to_float(t) for t in tokens]
+    except ValueError:
+        raise ValueError(
+            f"{source}:{line}: {what}: expected numbers, got {' '.join(tokens)!r}"
+        ) from None
+
+
+def _header_table(
+    lines: list[str],
+    required: tuple[str, ...],
+    source: Path,
+    what: str,
+    start: int = 0,
+) -> tuple[dict[str, int], list[tuple[int, list[str]]], int]:
+    """A table located by its header row (the first row naming every column in ``required``).
+
+    Returns the column index of every header name (upper case), the data rows as
+    ``(1-based line, tokens)`` (after the units row, up to the first row that does not start
+    with a number) and the header's 1-based line. Columns are found by name, never by
+    position: the layouts of the OpenFAST versions differ in which columns they hold.
+    """
+    want = {r.upper() for r in required}
+    for i in range(start, len(lines)):
+        tok = [t.upper() for t in lines[i].split()]
+        if want <= set(tok):
+            cols: dict[str, int] = {}
+            for k, name in enumerate(tok):
+                cols.setdefault(name, k)
+            rows: list[tuple[int, list[str]]] = []
+            for j in range(i + 1, len(lines)):
+                row = lines[j].split()
+                if not row:
+                    if rows:
+                        break
+                    continue
+                if row[0].startswith("("):  # units row
+                    continue
+                if not _NUMBER.match(row[0]):
+                    break
+                need = max(cols[r.upper()] for r in required) + 1
+                if len(row) < need:
+                    raise ValueError(
+                        f"{source}:{j + 1}: {what}: expected at least {need} columns "
+                        f"({' '.join(lines[i].split()[:need])}), got {len(row)}"
+                    )
+                rows.append((j + 1, row))
+            return cols, rows, i + 1
+    raise ValueError(f"{source}: {what}: no table header naming {', '.join(required)}")
 
 
 def _table_after(lines: list[str], marker: str, ncols: int, source: Path) -> list[list[float]]:
@@ -107,18 +208,33 @@ def _matrix_rows(lines: list[str], key: str, source: Path) -> list[list[float]]:
     for i, line in enumerate(lines):
         tok = line.split()
         if len(tok) > 6 and tok[6].upper() == key.upper():
-            rows = [[float(v) for v in lines[i + r].split()[:6]] for r in range(6)]
+            rows = []
+            for r in range(6):
+                row = lines[i + r].split()[:6] if i + r < len(lines) else []
+                if len(row) < 6:
+                    raise ValueError(f"{source}:{i + r + 1}: {key} row {r + 1}: expected 6 numbers")
+                rows.append(_row_floats(row, source, i + r + 1, f"{key} row {r + 1}"))
             return rows
     raise ValueError(f"{source}: 6x6 matrix {key!r} not found")
 
 
 def _vector6(lines: list[str], key: str, source: Path) -> list[float]:
+    """The 6-vector of ``key`` (``AddF0``): one value per line (the key on the first), or
+    the six values on the key's line (both layouts appear in HydroDyn files)."""
     for i, line in enumerate(lines):
         tok = line.split()
+        if len(tok) >= 7 and tok[6].upper() == key.upper():
+            return _row_floats(tok[:6], source, i + 1, key)
         if len(tok) >= 2 and tok[1].upper() == key.upper():
-            first = [float(tok[0])]
-            rest = [float(lines[i + r].split()[0]) for r in range(1, 6)]
-            return first + rest
+            out = _row_floats(tok[:1], source, i + 1, key)
+            for r in range(1, 6):
+                row = lines[i + r].split()[:1] if i + r < len(lines) else []
+                if not row:
+                    raise ValueError(
+                        f"{source}:{i + r + 1}: {key}: expected value {r + 1} of 6 on this line"
+                    )
+                out += _row_floats(row, source, i + r + 1, f"{key} value {r + 1}")
+            return out
     raise ValueError(f"{source}: vector {key!r} not found")
 
 
@@ -148,50 +264,108 @@ class MooringLine:
     axial_stiffness_n: float
 
 
-def read_moordyn(path: Path) -> list[MooringLine]:
-    """Anchor-to-fairlead lines of a MoorDyn (v1 or v2) input file; free points are rejected."""
-    lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    section = ""
-    types: dict[str, tuple[float, float, float]] = {}
-    points: dict[int, tuple[str, tuple[float, float, float]]] = {}
-    raw_lines: list[tuple[str, int, int, float]] = []
-    for line in lines:
-        up = line.upper()
-        if line.lstrip().startswith("--"):
-            if "LINE TYPES" in up or "LINE DICTIONARY" in up:
-                section = "types"
-            elif "POINTS" in up or "CONNECTION" in up or "NODE PROPERTIES" in up:
-                section = "points"
-            elif "LINES" in up or "LINE PROPERTIES" in up:
-                section = "lines"
-            else:
-                section = ""
+def _first_table(
+    lines: list[str], layouts: tuple[tuple[str, ...], ...], source: Path, what: str
+) -> tuple[dict[str, int], list[tuple[int, list[str]]], int]:
+    """The first table whose header names every column of one of ``layouts``."""
+    for required in layouts:
+        try:
+            return _header_table(lines, required, source, what)
+        except ValueError as exc:
+            if "no table header" not in str(exc):
+                raise  # a malformed row of a table that was found
             continue
-        tok = line.split()
-        if not tok or not _NUMBER.match(tok[-1] if section == "types" else tok[0]):
-            if section == "types" and len(tok) >= 5 and _NUMBER.match(tok[1]):
-                pass
-            else:
-                continue
-        if section == "types" and len(tok) >= 4 and _NUMBER.match(tok[1]):
-            types[tok[0]] = (float(tok[1]), float(tok[2]), float(tok[3]))
-        elif section == "points" and len(tok) >= 5 and _NUMBER.match(tok[0]):
-            points[int(tok[0])] = (tok[1].lower(), (float(tok[2]), float(tok[3]), float(tok[4])))
-        elif section == "lines" and len(tok) >= 5 and _NUMBER.match(tok[0]):
-            raw_lines.append((tok[1], int(tok[2]), int(tok[3]), float(tok[4])))
-    if not raw_lines:
+    expected = " or ".join("(" + ", ".join(r) + ")" for r in layouts)
+    raise ValueError(f"{source}: {what}: no table header naming {expected}")
+
+
+def read_moordyn(path: Path) -> list[MooringLine]:
+    """Anchor-to-fairlead lines of a MoorDyn input file (v1 or v2); free points are rejected.
+
+    Tables are found by their header names, so both layouts read: v1 (``LINE TYPES`` with a
+    ``NTypes`` count line, ``CONNECTION PROPERTIES`` ``Node Type X Y Z``, ``LINE PROPERTIES``
+    ``Line LineType UnstrLen NumSegs NodeAnch NodeFair``) and v2 (``POINTS`` ``ID/Node
+    Attachment/Type X Y Z``, ``LINES`` ``Line LineType AttachA AttachB UnstrLen NumSegs``).
+    Count lines (``3  NTypes``) are not table rows: a row must start with a number (points,
+    lines) or follow the header (types).
+    """
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError as exc:
+        raise OSError(f"{path}: cannot read ({exc})") from exc
+    # Line types: rows start with a name, so they are read up to the next section line.
+    types: dict[str, tuple[float, float, float]] = {}
+    for mass_key in ("MASSDEN", "MASSDENINAIR"):
+        head = next(
+            (
+                i
+                for i, ln in enumerate(lines)
+                if {"DIAM", mass_key, "EA"} <= {t.upper() for t in ln.split()}
+            ),
+            None,
+        )
+        if head is not None:
+            break
+    if head is None:
+        raise ValueError(f"{path}: line types: no table header naming Diam, MassDen, EA")
+    hdr = [t.upper() for t in lines[head].split()]
+    i_d, i_m, i_ea = hdr.index("DIAM"), hdr.index(mass_key), hdr.index("EA")
+    for j in range(head + 1, len(lines)):
+        tok = lines[j].split()
+        if not tok or tok[0].startswith("("):
+            continue
+        if tok[0].startswith("--") or len(tok) <= max(i_d, i_m, i_ea):
+            break
+        d, m, ea = _row_floats([tok[i_d], tok[i_m], tok[i_ea]], path, j + 1, "line type")
+        types[tok[0]] = (d, m, ea)
+    pcols, prow, _ = _first_table(
+        lines, (("X", "Y", "Z", "ATTACHMENT"), ("X", "Y", "Z", "TYPE")), path, "points"
+    )
+    kind = pcols.get("ATTACHMENT", pcols.get("TYPE", 1))
+    points: dict[int, tuple[str, tuple[float, float, float], int]] = {}
+    for number, tok in prow:
+        if len(tok) <= max(pcols["X"], pcols["Y"], pcols["Z"], kind):
+            raise ValueError(f"{path}:{number}: point: expected columns up to Z, got {tok}")
+        xyz = _row_floats([tok[pcols[c]] for c in ("X", "Y", "Z")], path, number, "point X Y Z")
+        points[int(float(tok[0]))] = (tok[kind].lower(), (xyz[0], xyz[1], xyz[2]), number)
+    lcols, lrow, _ = _first_table(
+        lines,
+        (
+            ("LINETYPE", "ATTACHA", "ATTACHB", "UNSTRLEN"),
+            ("LINETYPE", "NODEANCH", "NODEFAIR", "UNSTRLEN"),
+        ),
+        path,
+        "lines",
+    )
+    end_a = lcols.get("ATTACHA", lcols.get("NODEANCH", 0))
+    end_b = lcols.get("ATTACHB", lcols.get("NODEFAIR", 0))
+    if not lrow:
         raise ValueError(f"{path}: no mooring lines found")
     out: list[MooringLine] = []
-    for type_name, a, b, length in raw_lines:
+    for number, tok in lrow:
+        if len(tok) <= max(end_a, end_b, lcols["UNSTRLEN"], lcols["LINETYPE"]):
+            raise ValueError(f"{path}:{number}: line: too few columns ({tok})")
+        type_name = tok[lcols["LINETYPE"]]
         if type_name not in types:
-            raise ValueError(f"{path}: line type {type_name!r} not defined")
-        ends = {points[a][0]: points[a][1], points[b][0]: points[b][1]}
+            raise ValueError(
+                f"{path}:{number}: line type {type_name!r} not defined "
+                f"(defined: {', '.join(types) or 'none'})"
+            )
+        a_id, b_id, length = _row_floats(
+            [tok[end_a], tok[end_b], tok[lcols["UNSTRLEN"]]], path, number, "line"
+        )
+        ends: dict[str, tuple[float, float, float]] = {}
+        for pid in (int(a_id), int(b_id)):
+            if pid not in points:
+                raise ValueError(f"{path}:{number}: line refers to point {pid}, not defined")
+            ends[points[pid][0]] = points[pid][1]
         anchor = ends.get("fixed") or ends.get("fix")
         fair = ends.get("vessel") or ends.get("coupled")
         if anchor is None or fair is None:
             raise ValueError(
-                f"{path}: line between points {a} and {b} is not anchor-to-fairlead "
-                "(free connection points are not supported)"
+                f"{path}:{number}: line between points {int(a_id)} and {int(b_id)} is not "
+                "anchor (Fixed) to fairlead (Vessel/Coupled); free connection points are not "
+                "supported"
             )
         d, m, ea = types[type_name]
         out.append(MooringLine(anchor, fair, length, d, m, ea))
@@ -291,6 +465,209 @@ def compute_mooring(
 
 
 @dataclass(frozen=True)
+class Ballast:
+    """Mass properties of the water ballast of HydroDyn's filled member groups.
+
+    Attributes
+    ----------
+    mass_kg : float
+        m_b = Σ ρ_f V_f over the filled members (kg).
+    volume_m3 : float
+        Flooded volume V_f (m³).
+    cm_x_m, cm_z_m : float
+        Centre of mass in the platform frame (downwind, up from the still-water line) (m).
+    pitch_inertia_origin_kg_m2 : float
+        I_yy about the platform reference point (0, 0, 0) (kg m²).
+    """
+
+    mass_kg: float
+    volume_m3: float
+    cm_x_m: float
+    cm_z_m: float
+    pitch_inertia_origin_kg_m2: float
+
+    @property
+    def pitch_inertia_cm_kg_m2(self) -> float:
+        """I_yy about the ballast's own centre of mass: I_O − m (x_c² + z_c²) (kg m²)."""
+        return self.pitch_inertia_origin_kg_m2 - self.mass_kg * (self.cm_x_m**2 + self.cm_z_m**2)
+
+
+_GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(16)
+
+
+def flooded_member(
+    end1_m: tuple[float, float, float],
+    end2_m: tuple[float, float, float],
+    inner_radius1_m: float,
+    inner_radius2_m: float,
+    fill_level_m: float,
+    density_kg_m3: float,
+) -> tuple[float, float, float, float, float]:
+    """Mass, volume, first moments and pitch inertia of a member flooded up to a level.
+
+    The member is a (possibly tapered) circular tube between ``end1_m`` and ``end2_m`` with
+    inner radius r(s) varying linearly along the axis; it holds fluid of density ρ_f wherever
+    its axis is below the fill free surface z_f (``fill_level_m``, HydroDyn ``FillFSLoc``).
+    For a member that is not horizontal the flooded length is cut exactly at z(s) = z_f; a
+    horizontal member is flooded wholly when its axis is below z_f (and not otherwise).
+    Each slice ds is a disc of mass dm = ρ_f π r(s)² ds with axis ê; its inertia about its
+    centre is dm r²/4 (I + ê êᵀ), so about the y axis through the origin
+
+        I_yy = ∫ (x² + z²) dm + ∫ r²/4 (1 + ê_y²) dm.
+
+    The integrals are 16-point Gauss-Legendre over the flooded length (exact for the
+    polynomial integrands of a tapered member). For a vertical cylinder of inner radius r
+    flooded over a height h: m = ρ_f π r² h and I_yy about its centre = m (r²/4 + h²/12).
+
+    Returns
+    -------
+    tuple of float
+        (mass kg, volume m³, ∫ x dm kg m, ∫ z dm kg m, I_yy about the origin kg m²).
+    """
+    p1 = np.asarray(end1_m, dtype=float)
+    p2 = np.asarray(end2_m, dtype=float)
+    length = float(np.linalg.norm(p2 - p1))
+    if length == 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    e = (p2 - p1) / length
+    z1, z2 = p1[2], p2[2]
+    if z1 == z2:
+        lo, hi = (0.0, length) if z1 <= fill_level_m else (0.0, 0.0)
+    else:
+        cut = min(max((fill_level_m - z1) / (z2 - z1) * length, 0.0), length)
+        lo, hi = (0.0, cut) if z1 < z2 else (cut, length)
+    if hi <= lo:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    s = 0.5 * (hi - lo) * _GAUSS_S + 0.5 * (hi + lo)
+    w = 0.5 * (hi - lo) * _GAUSS_W
+    r = inner_radius1_m + (inner_radius2_m - inner_radius1_m) * s / length
+    area = math.pi * r**2
+    pos = p1[None, :] + s[:, None] * e[None, :]
+    x, z = pos[:, 0], pos[:, 2]
+    vol = float(np.sum(w * area))
+    dm = density_kg_m3 * w * area
+    inertia = float(np.sum(dm * (x**2 + z**2)) + np.sum(dm * r**2 / 4.0) * (1.0 + e[1] ** 2))
+    return float(np.sum(dm)), vol, float(np.sum(dm * x)), float(np.sum(dm * z)), inertia
+
+
+def read_fill_groups(
+    hd_path: Path, hd_lines: list[str], hd: dict[str, str], water_density_kg_m3: float
+) -> Ballast | None:
+    """The ballast of HydroDyn's filled member groups (``NFillGroups``), None if there is none.
+
+    Reads the joints (``JointID Jointxi Jointyi Jointzi``), the cylindrical property sets
+    (``PropSetID PropD PropThck``; inner radius D/2 − t), the members (``MemberID MJointID1
+    MJointID2 MPropSetID1 MPropSetID2`` [``MSecGeom``]) and the fill groups (``FillNumM
+    FillMList FillFSLoc FillDens``; ``FillDens = DEFAULT`` is the water density), each table
+    by its header names. Every member of a group is flooded up to ``FillFSLoc``
+    (:func:`flooded_member`).
+
+    Raises
+    ------
+    ValueError
+        A fill group naming an unknown member, a rectangular member or malformed rows
+        (message with file and line).
+    """
+    n_groups = int(_num(hd, "NFillGroups", hd_path, 0.0))
+    if n_groups <= 0:
+        return None
+    jc, jrows, _ = _header_table(
+        hd_lines, ("JointID", "Jointxi", "Jointyi", "Jointzi"), hd_path, "member joints"
+    )
+    joints: dict[int, tuple[float, float, float]] = {}
+    for number, tok in jrows:
+        xyz = _row_floats(
+            [tok[jc["JOINTXI"]], tok[jc["JOINTYI"]], tok[jc["JOINTZI"]]], hd_path, number, "joint"
+        )
+        joints[int(float(tok[jc["JOINTID"]]))] = (xyz[0], xyz[1], xyz[2])
+    pc, prows, _ = _header_table(
+        hd_lines, ("PropSetID", "PropD", "PropThck"), hd_path, "member properties"
+    )
+    props: dict[int, float] = {}
+    for number, tok in prows:
+        d, t = _row_floats([tok[pc["PROPD"]], tok[pc["PROPTHCK"]]], hd_path, number, "property")
+        props[int(float(tok[pc["PROPSETID"]]))] = 0.5 * d - t
+    mc, mrows, _ = _header_table(
+        hd_lines,
+        ("MemberID", "MJointID1", "MJointID2", "MPropSetID1", "MPropSetID2"),
+        hd_path,
+        "members",
+    )
+    members: dict[int, tuple[int, int, int, int, int]] = {}
+    for number, tok in mrows:
+        ids = _row_floats(
+            [tok[mc[k]] for k in ("MJOINTID1", "MJOINTID2", "MPROPSETID1", "MPROPSETID2")],
+            hd_path,
+            number,
+            "member",
+        )
+        geom = tok[mc["MSECGEOM"]] if "MSECGEOM" in mc and len(tok) > mc["MSECGEOM"] else "1"
+        if _NUMBER.match(geom) is None or int(float(geom)) != 1:
+            ids.append(-1.0)  # rectangular: refused only if a fill group names it
+        members[int(float(tok[mc["MEMBERID"]]))] = (
+            int(ids[0]),
+            int(ids[1]),
+            int(ids[2]),
+            int(ids[3]),
+            number if len(ids) == 4 else -number,
+        )
+    _, _, head = _header_table(
+        hd_lines, ("FillNumM", "FillMList", "FillFSLoc", "FillDens"), hd_path, "filled members"
+    )
+    rows: list[tuple[int, list[str]]] = []
+    for j in range(head, len(hd_lines)):
+        tok = hd_lines[j].split()
+        if (tok and tok[0].startswith("--")) or len(rows) == n_groups:
+            break  # the next section: no more fill-group rows
+        if tok and _NUMBER.match(tok[0]):
+            rows.append((j + 1, tok))
+    if len(rows) < n_groups:
+        raise ValueError(
+            f"{hd_path}:{head}: NFillGroups = {n_groups} but {len(rows)} fill-group rows follow"
+        )
+    mass = vol = mx = mz = inertia = 0.0
+    for number, tok in rows:
+        count = int(_row_floats(tok[:1], hd_path, number, "FillNumM")[0])
+        if len(tok) < count + 3:
+            raise ValueError(
+                f"{hd_path}:{number}: fill group: expected FillNumM = {count} member IDs, "
+                "FillFSLoc and FillDens"
+            )
+        member_ids = [int(v) for v in _row_floats(tok[1 : 1 + count], hd_path, number, "FillMList")]
+        level = _row_floats([tok[1 + count]], hd_path, number, "FillFSLoc")[0]
+        raw = tok[2 + count].strip('"')
+        dens = (
+            water_density_kg_m3
+            if raw.upper() == "DEFAULT"
+            else _row_floats([raw], hd_path, number, "FillDens")[0]
+        )
+        for mid in member_ids:
+            if mid not in members:
+                raise ValueError(f"{hd_path}:{number}: fill group names member {mid}, not defined")
+            j1, j2, p1, p2, mline = members[mid]
+            if mline < 0:
+                raise ValueError(
+                    f"{hd_path}:{-mline}: member {mid} is filled but rectangular; only "
+                    "cylindrical filled members are supported"
+                )
+            for jid in (j1, j2):
+                if jid not in joints:
+                    raise ValueError(f"{hd_path}:{mline}: member {mid}: joint {jid} not defined")
+            for pid in (p1, p2):
+                if pid not in props:
+                    raise ValueError(
+                        f"{hd_path}:{mline}: member {mid}: property set {pid} not defined"
+                    )
+            m, v, fx, fz, iy = flooded_member(
+                joints[j1], joints[j2], props[p1], props[p2], level, dens
+            )
+            mass, vol, mx, mz, inertia = mass + m, vol + v, mx + fx, mz + fz, inertia + iy
+    if mass <= 0.0:
+        return Ballast(0.0, 0.0, 0.0, 0.0, 0.0)
+    return Ballast(mass, vol, mx / mass, mz / mass, inertia)
+
+
+@dataclass(frozen=True)
 class ImportedDeck:
     """What :func:`import_openfast` read: the preset figures, WAMIT data and mooring tables.
 
@@ -301,24 +678,111 @@ class ImportedDeck:
     hydro: HydroData
     mooring: MooringFile
     notes: tuple[str, ...]
+    #: Where the mass comes from: (item, kg) rows, platform structure (ElastoDyn
+    #: ``PtfmMass``), ballast (HydroDyn fill groups), tower, rotor-nacelle assembly, total.
+    mass_budget: tuple[tuple[str, float], ...] = ()
+    #: The filled-member ballast added to the platform (None: the deck has none).
+    ballast: Ballast | None = None
 
 
-def _blade_properties(
+def _distributed_table(
+    path: Path,
+    lines: list[str],
+    fraction: str,
+    columns: tuple[str, ...],
+    units: dict[str, str],
+    what: str,
+) -> np.ndarray:
+    """Columns ``(fraction, *columns)`` of an ElastoDyn distributed-properties table, by name.
+
+    The layout differs across versions (FAST v8 blade files: ``BlFract PitchAxis StrcTwst
+    BMassDen FlpStff EdgStff``; OpenFAST: ``BlFract StrcTwst BMassDen FlpStff EdgStff``), so
+    columns are found by their header names and their units row is checked (e.g. ``(kg/m)``
+    under ``BMassDen``); a table without such a header is refused, never read by position.
+    """
+    required = (fraction, *columns)
+    try:
+        cols, rows, head = _header_table(lines, required, path, what)
+    except ValueError as exc:
+        if "no table header" not in str(exc):
+            raise  # a malformed row of a table that was found
+        marker = next((i + 1 for i, ln in enumerate(lines) if "DISTRIBUTED" in ln.upper()), None)
+        where = f"{path}:{marker}" if marker else str(path)
+        raise ValueError(
+            f"{where}: {what}: unknown table layout; expected a header row naming "
+            f"{', '.join(required)} (any order, other columns allowed) and a units row"
+        ) from None
+    unit_tok = lines[head].split() if head < len(lines) else []
+    for name, unit in units.items():
+        k = cols[name.upper()]
+        got = unit_tok[k] if k < len(unit_tok) else ""
+        if got.lower().strip("()[]") != unit.lower().strip("()[]"):
+            raise ValueError(
+                f"{path}:{head + 1}: {what}: column {name} has units {got or 'none'!r}; "
+                f"expected {unit!r}"
+            )
+    if not rows:
+        raise ValueError(f"{path}:{head}: {what}: no numeric rows after the header")
+    out = []
+    for number, tok in rows:
+        if len(tok) < len(cols):
+            raise ValueError(
+                f"{path}:{number}: {what}: expected {len(cols)} columns, got {len(tok)}"
+            )
+        out.append(_row_floats([tok[cols[c.upper()]] for c in required], path, number, what))
+    return np.array(out)
+
+
+def blade_properties(
     path: Path, tip_radius_m: float, hub_radius_m: float
 ) -> tuple[float, float, float]:
-    """(mass kg, CM radius from the apex m, ∫ r² dm about the apex kg m²) of one blade."""
+    """(mass kg, CM radius from the apex m, ∫ r² dm about the apex kg m²) of one blade.
+
+    With the ElastoDyn blade table (``BlFract``, ``BMassDen`` found by name,
+    :func:`_distributed_table`) and ``AdjBlMs``: r = R_hub + BlFract (R_tip − R_hub),
+    μ(r) = AdjBlMs · BMassDen, m = ∫ μ dr (trapezoidal over the stations, as the table is
+    piecewise linear), r_cm = ∫ μ r dr / m, J = ∫ μ r² dr.
+    """
     values, lines = read_keyed_file(path)
-    rows = np.array(_table_after(lines, "(kg/m)", 3, path))
+    rows = _distributed_table(
+        path, lines, "BlFract", ("BMassDen",), {"BMassDen": "(kg/m)"}, "blade properties"
+    )
     adj = _num(values, "AdjBlMs", path, 1.0)
     length = tip_radius_m - hub_radius_m
     r = hub_radius_m + rows[:, 0] * length
-    mu = rows[:, 2] * adj
+    mu = rows[:, 1] * adj
     mass = float(np.trapezoid(mu, r))
     return mass, float(np.trapezoid(mu * r, r)) / mass, float(np.trapezoid(mu * r * r, r))
 
 
+def _environment(
+    key: str, fst: KeyedValues, fst_path: Path, others: list[tuple[KeyedValues, Path]]
+) -> float:
+    """``Gravity``, ``WtrDens`` or ``WtrDpth`` from wherever the deck's version keeps it.
+
+    OpenFAST ≥ 3.5 keeps them in the ``.fst`` (SeaState's may say ``default``); older decks
+    keep ``Gravity`` in ElastoDyn and ``WtrDens``/``WtrDpth`` in HydroDyn. The first numeric
+    value in the ``.fst``, then in ``others`` (in order), is used.
+    """
+    for values, path in [(fst, fst_path), *others]:
+        raw = values.get(key.upper())
+        if raw is not None and raw.upper() != "DEFAULT":
+            return _num(values, key, path)
+    places = ", ".join(str(p) for _, p in [(fst, fst_path), *others])
+    raise ValueError(f"{key}: expected a number in one of {places}; found none")
+
+
+#: Default upper end of the radiation fit band (rad/s): below the high-frequency ripple of
+#: semi-submersible WAMIT data that no low order follows, above the wave band of interest.
+DEFAULT_RADIATION_OMEGA_MAX_RAD_S = 2.0
+
+
 def import_openfast(
-    fst_path: Path, turbine: str = "iea15mw", name: str | None = None, mooring: bool = True
+    fst_path: Path,
+    turbine: str = "iea15mw",
+    name: str | None = None,
+    mooring: bool = True,
+    radiation_omega_max_rad_s: float = DEFAULT_RADIATION_OMEGA_MAX_RAD_S,
 ) -> ImportedDeck:
     """Read a floating OpenFAST deck into preset figures (see the module docstring).
 
@@ -332,7 +796,12 @@ def import_openfast(
     name : str, optional
         Preset name; default: the second line (title) of the ``.fst``.
     mooring : bool, optional
-        Solve the mooring tables with MoorPy (default True; False leaves them empty).
+        Solve the mooring tables with MoorPy (default True). False leaves them empty (zero
+        mooring force and stiffness): surge and sway then have no restoring stiffness, and
+        a note says so; the deck need not have a MoorDyn file (``CompMooring`` any value).
+    radiation_omega_max_rad_s : float, optional
+        Upper end of the radiation fit band ω_max (rad/s), default
+        :data:`DEFAULT_RADIATION_OMEGA_MAX_RAD_S`; 0: the whole band of the WAMIT data.
 
     Returns
     -------
@@ -344,27 +813,48 @@ def import_openfast(
         On a missing key or an unsupported deck (message names the file and key).
     """
     fst_path = Path(fst_path)
+    if not (radiation_omega_max_rad_s >= 0.0 and math.isfinite(radiation_omega_max_rad_s)):
+        raise ValueError(
+            f"radiation_omega_max_rad_s: expected >= 0 rad/s, got {radiation_omega_max_rad_s}"
+        )
     fst, fst_lines = read_keyed_file(fst_path)
     root = fst_path.parent
-    g = _num(fst, "Gravity", fst_path)
-    rho = _num(fst, "WtrDens", fst_path)
-    depth = _num(fst, "WtrDpth", fst_path)
     ed_path = root / _text(fst, "EDFile", fst_path)
     hd_path = root / _text(fst, "HydroFile", fst_path)
     md_path = root / _text(fst, "MooringFile", fst_path)
-    if int(_num(fst, "CompMooring", fst_path)) != 3:
-        raise ValueError(f"{fst_path}: CompMooring must be 3 (MoorDyn) for the mooring import")
+    if mooring and int(_num(fst, "CompMooring", fst_path)) != 3:
+        raise ValueError(
+            f"{_where(fst, 'CompMooring', fst_path)}: CompMooring = "
+            f"{fst.get('COMPMOORING')}; expected 3 (MoorDyn) for the mooring import "
+            "(or import without mooring: --no-mooring)"
+        )
 
     ed, _ = read_keyed_file(ed_path)
+    hd, hd_lines = read_keyed_file(hd_path)
+    others: list[tuple[KeyedValues, Path]] = [(ed, ed_path), (hd, hd_path)]
+    sea_name = fst.get("SEASTFILE", "").strip()
+    if sea_name and int(_num(fst, "CompSeaSt", fst_path, 0.0)) == 1:
+        sea_path = root / sea_name
+        others.append((read_keyed_file(sea_path)[0], sea_path))
+    g = _environment("Gravity", fst, fst_path, others)
+    rho = _environment("WtrDens", fst, fst_path, others)
+    depth = _environment("WtrDpth", fst, fst_path, others)
     twr_path = ed_path.parent / _text(ed, "TwrFile", ed_path)
-    bld_path = ed_path.parent / _text(ed, "BldFile1", ed_path)
+    bld_path = ed_path.parent / _first_text(ed, ("BldFile1", "BldFile(1)"), ed_path)
     for key in ("PtfmRefxt", "PtfmRefzt"):
         if abs(_num(ed, key, ed_path, 0.0)) > 0.0:
             raise ValueError(
                 f"{ed_path}: {key} must be 0 (reference point at the still-water line)"
             )
     tw, tw_lines = read_keyed_file(twr_path)
-    rows = np.array(_table_after(tw_lines, "(kg/m)", 3, twr_path))
+    rows = _distributed_table(
+        twr_path,
+        tw_lines,
+        "HtFract",
+        ("TMassDen", "TwFAStif"),
+        {"TMassDen": "(kg/m)"},
+        "tower properties",
+    )
     adj_mass = _num(tw, "AdjTwMa", twr_path, 1.0)
     adj_stiff = _num(tw, "AdjFASt", twr_path, 1.0) * _num(tw, "FAStTunr(1)", twr_path, 1.0)
     shape = [_num(tw, f"TwFAM1Sh({k})", twr_path) for k in range(2, 7)]
@@ -373,7 +863,7 @@ def import_openfast(
 
     tip = _num(ed, "TipRad", ed_path)
     hub_r = _num(ed, "HubRad", ed_path)
-    blade_mass, blade_r_cm, blade_i = _blade_properties(bld_path, tip, hub_r)
+    blade_mass, blade_r_cm, blade_i = blade_properties(bld_path, tip, hub_r)
     precone = math.radians(_num(ed, "PreCone(1)", ed_path))
     tilt = math.radians(_num(ed, "ShftTilt", ed_path))
     overhang = _num(ed, "OverHang", ed_path)
@@ -400,7 +890,6 @@ def import_openfast(
             ifw, _ = read_keyed_file(ifw_path)
             shear = _num(ifw, "PLexp", ifw_path, 0.0)
 
-    hd, hd_lines = read_keyed_file(hd_path)
     pot_root = hd_path.parent / _text(hd, "PotFile", hd_path)
     ulen = _num(hd, "WAMITULEN", hd_path, 1.0)
     hydro = import_wamit(pot_root, rho, g, ulen)
@@ -411,6 +900,27 @@ def import_openfast(
     add_bq = _matrix_rows(hd_lines, "AddBQuad", hd_path)
     n_members = int(_num(hd, "NMembers", hd_path, 0.0))
 
+    # Platform = ElastoDyn structure + HydroDyn filled-member ballast (OpenFAST adds the
+    # ballast's weight and inertia in HydroDyn; ElastoDyn's PtfmMass does not hold it).
+    m_s = _num(ed, "PtfmMass", ed_path)
+    x_s = _num(ed, "PtfmCMxt", ed_path, 0.0)
+    z_s = _num(ed, "PtfmCMzt", ed_path)
+    i_s = _num(ed, "PtfmPIner", ed_path)
+    ballast = read_fill_groups(hd_path, hd_lines, hd, rho)
+    m_p, x_p, z_p, i_p = m_s, x_s, z_s, i_s
+    if ballast is not None and ballast.mass_kg > 0.0:
+        m_b = ballast.mass_kg
+        m_p = m_s + m_b
+        x_p = (m_s * x_s + m_b * ballast.cm_x_m) / m_p
+        z_p = (m_s * z_s + m_b * ballast.cm_z_m) / m_p
+        # Parallel-axis theorem about the combined centre of mass (x_p, z_p).
+        i_p = (
+            i_s
+            + m_s * ((x_s - x_p) ** 2 + (z_s - z_p) ** 2)
+            + ballast.pitch_inertia_cm_kg_m2
+            + m_b * ((ballast.cm_x_m - x_p) ** 2 + (ballast.cm_z_m - z_p) ** 2)
+        )
+
     preset = FloatingPreset(
         name=name or (fst_lines[1].strip() if len(fst_lines) > 1 else fst_path.stem),
         turbine=turbine,
@@ -420,10 +930,10 @@ def import_openfast(
         water_density_kg_m3=rho,
         water_depth_m=depth,
         displaced_volume_m3=volume,
-        platform_mass_kg=_num(ed, "PtfmMass", ed_path),
-        platform_pitch_inertia_kg_m2=_num(ed, "PtfmPIner", ed_path),
-        platform_cm_x_m=_num(ed, "PtfmCMxt", ed_path, 0.0),
-        platform_cm_z_m=_num(ed, "PtfmCMzt", ed_path),
+        platform_mass_kg=m_p,
+        platform_pitch_inertia_kg_m2=i_p,
+        platform_cm_x_m=x_p,
+        platform_cm_z_m=z_p,
         tower_base_height_m=_num(ed, "TowerBsHt", ed_path),
         tower_top_height_m=_num(ed, "TowerHt", ed_path),
         tower_height_fraction=[float(v) for v in rows[:, 0]],
@@ -451,10 +961,9 @@ def import_openfast(
         additional_linear_stiffness=add_c,
         additional_linear_damping=add_b,
         additional_quadratic_damping=add_bq,
-        # Radiation fit (write_radiation): orders up to 12 over 0..2 rad/s, below the
-        # high-frequency ripple of semi-submersible data that no low order follows.
+        # Radiation fit (write_radiation): orders up to 12 over 0..ω_max.
         radiation_max_order=12,
-        radiation_omega_max_rad_s=2.0,
+        radiation_omega_max_rad_s=radiation_omega_max_rad_s,
     )
     tm = tower_modal(preset)
     notes = [
@@ -465,6 +974,24 @@ def import_openfast(
         f"hub height {preset.tower_top_height_m + preset.rotor_apex_z_m:.4f} m above SWL",
         f"blade mass {blade_mass:.6g} kg, CM {blade_r_cm:.4g} m from the apex",
     ]
+    budget: list[tuple[str, float]] = [("platform structure (ElastoDyn PtfmMass)", m_s)]
+    if ballast is not None:
+        budget.append(("ballast (HydroDyn filled members)", ballast.mass_kg))
+        notes.append(
+            f"ballast {ballast.mass_kg:.6g} kg ({ballast.volume_m3:.6g} m^3 flooded) at "
+            f"x {ballast.cm_x_m:.4g} m, z {ballast.cm_z_m:.4g} m; platform with ballast "
+            f"{m_p:.6g} kg, CM z {z_p:.4g} m, pitch inertia {i_p:.6g} kg m^2 about its CM"
+        )
+    budget += [("tower", tm.tower_mass_kg), ("rotor-nacelle assembly", tm.rna_mass_kg)]
+    total = sum(v for _, v in budget)
+    budget.append(("total", total))
+    buoyancy = rho * volume
+    notes.append(
+        "mass budget: "
+        + ", ".join(f"{k} {v:.6g} kg" for k, v in budget)
+        + f"; displaced water rho V0 = {buoyancy:.6g} kg, so the mooring and AddF0 must pull "
+        f"down {(buoyancy - total) * g:.6g} N at rest"
+    )
     if n_members:
         notes.append(f"{hd_path}: {n_members} Morison members ignored (only AddBQuad drag used)")
     if mooring:
@@ -475,6 +1002,10 @@ def import_openfast(
         k11 = -(moor.force_surge_n[i0 + 1] - moor.force_surge_n[i0 - 1]) / 2.0
         notes.append(f"mooring surge stiffness at zero offset {k11:.4g} N/m")
     else:
+        notes.append(
+            "imported without mooring: zero mooring force and stiffness (surge has no "
+            "restoring stiffness, heave and pitch only the hydrostatic and AddCLin ones)"
+        )
         moor = MooringFile(
             source="none",
             surge_m=[-1.0, 1.0],
@@ -484,7 +1015,14 @@ def import_openfast(
             stiffness_heave_pitch=[[0.0, 0.0], [0.0, 0.0]],
             stiffness_6x6_at_zero=[[0.0] * 6 for _ in range(6)],
         )
-    return ImportedDeck(preset=preset, hydro=hydro, mooring=moor, notes=tuple(notes))
+    return ImportedDeck(
+        preset=preset,
+        hydro=hydro,
+        mooring=moor,
+        notes=tuple(notes),
+        mass_budget=tuple(budget),
+        ballast=ballast,
+    )
 
 
 def _toml_value(value: object) -> str:
@@ -524,16 +1062,61 @@ def write_radiation(preset: FloatingPreset, hydro: HydroData, path: Path) -> Rad
     -------
     RadiationModel
     """
-    model = fit_reduced_radiation(
-        hydro.radiation,
-        **preset.radiation_fit_options(),
-        checked_dofs=(2, 4),
-        source=f"Perez-Fossen fits of the WAMIT data of {preset.name!r}, stacked, "
-        "reduced by balanced truncation, diagonal kernels made passive with Re K >= 0.5 B at "
-        "the data (plant.openfast_import.write_radiation)",
-    )
+    options = preset.radiation_fit_options()
+    try:
+        model = fit_reduced_radiation(
+            hydro.radiation,
+            **options,
+            checked_dofs=(2, 4),
+            source=f"Perez-Fossen fits of the WAMIT data of {preset.name!r}, stacked, "
+            "reduced by balanced truncation, diagonal kernels made passive with Re K >= 0.5 B "
+            "at the data (plant.openfast_import.write_radiation)",
+        )
+    except ValueError as exc:
+        if "stable" not in str(exc):
+            raise
+        raise ValueError(_radiation_failure(hydro, options, preset)) from exc
     model.save_npz(path)
     return model
+
+
+_DOF_NAME = {0: "surge", 2: "heave", 4: "pitch"}
+
+
+def _radiation_failure(
+    hydro: HydroData, options: RadiationFitOptions, preset: FloatingPreset
+) -> str:
+    """Which kernels' fit has unstable poles (each DOF, then each pair), and the remedy."""
+    band = options["omega_range_rad_s"]
+    band_text = f"0..{band[1]:g} rad/s" if band else "the whole band of the data"
+    culprit = "the stacked surge-heave-pitch model"
+    candidates: list[tuple[int, ...]] = [(d,) for d in options["dofs"]]
+    candidates += [(a, b) for i, a in enumerate(options["dofs"]) for b in options["dofs"][i + 1 :]]
+    for dofs in candidates:
+        try:
+            fit_reduced_radiation(
+                hydro.radiation,
+                dofs=dofs,
+                max_order=options["max_order"],
+                tol=options["tol"],
+                omega_range_rad_s=options["omega_range_rad_s"],
+                checked_dofs=dofs,
+            )
+        except ValueError:
+            culprit = (
+                "the "
+                + "-".join(_DOF_NAME.get(d, str(d)) for d in dofs)
+                + " kernel"
+                + ("s" if len(dofs) > 1 else "")
+            )
+            break
+    return (
+        f"radiation fit of {preset.name!r} ({culprit}, band {band_text}, orders up to "
+        f"{options['max_order']}): the fitted state space has unstable poles; expected stable "
+        "poles (Re < 0 1/s). Remedy: narrow the fit band (import with a lower "
+        "--radiation-omega-max, e.g. 1.5 rad/s, below the data's high-frequency ripple or "
+        "irregular frequencies) or lower radiation_max_order in the preset"
+    )
 
 
 def write_preset(deck: ImportedDeck, out_dir: Path, stem: str | None = None) -> Path:

@@ -289,8 +289,13 @@ CASES: list[tuple[str, list[str], list[str]]] = [
         ["'--wind'", "finite"],
     ),
     (
-        "modes-wind-zero",
-        ["analyze", "modes", "iea15mw_volturnus", "--wind", "0"],
+        "modes-wind-negative",
+        ["analyze", "modes", "iea15mw_volturnus", "--wind", "-1"],
+        ["'--wind'", ">= 0"],
+    ),
+    (
+        "linear-wind-zero",
+        ["analyze", "linear", "iea15mw_volturnus", "--wind", "0"],
         ["'--wind'", "> 0"],
     ),
     ("modes-binary-preset", ["analyze", "modes", "binary.toml"], ["binary.toml"]),
