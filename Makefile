@@ -57,6 +57,12 @@ bench: setup
 	$(BIN)/python bench/controller_compute.py
 	$(BIN)/python bench/plant_cycle_speed.py
 	$(BIN)/python bench/can_soak.py --duration 600 --realtime-priority $(RTPRIO)
+	$(BIN)/python bench/recording_completeness.py --hogs 2
+	$(BIN)/python bench/recorder_kill_loss.py --hogs 2
+	$(BIN)/python bench/auth_cost.py
+	$(BIN)/python bench/below_rated_kpis.py
+	$(BIN)/python bench/disannio_lqri.py
+	$(BIN)/python bench/report.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -37,7 +37,8 @@ def _tracked_text_files() -> list[Path]:
 #: Text that belongs to the history (git), not to the product: an issue or session number,
 #: or an absolute path of a particular machine.
 _PATTERN = re.compile(
-    r"(?i)\bissues? ?#?\d+\b|\bsessions? ?\d+\b|(?<![\w.])/(?:work|root|home)/[\w.-]+"
+    r"(?i)\bissues? ?#?\d+(?![.\d])|\bsessions? ?\d+(?![.\d])"  # not "session 0.2 s later"
+    r"|(?<![\w.])/(?:work|root|home)/[\w.-]+"
 )
 #: A citation of another project's tracker ("owner/repo issue #261") is a reference, not ours.
 _CITATION = re.compile(r"[\w.-]+/[\w.-]+ $")
@@ -75,6 +76,7 @@ def test_the_pattern_catches_what_it_must() -> None:
         assert _forbidden(bad), bad
     assert not _forbidden("(IEAWindSystems/IEA-15-240-RWT issue #261)")
     assert not _forbidden("a Zenoh session with peers")
+    assert not _forbidden("closing its session 0.2 s after its last put")
 
 
 def test_readme_is_short() -> None:
