@@ -131,9 +131,10 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
 
     recording = _dict(summary.get("recording"))
     if recording.get("complete", True) is False:
-        problems = recording.get("problems") or []
-        detail = f": {'; '.join(str(p) for p in problems)}" if problems else ""
-        found.append((ExitCode.RECORDING_INCOMPLETE, f"the recording is incomplete{detail}"))
+        problems = _recording_problems(recording, _killed_by_faults(run))
+        if problems is None or problems:
+            detail = f": {'; '.join(str(p) for p in problems)}" if problems else ""
+            found.append((ExitCode.RECORDING_INCOMPLETE, f"the recording is incomplete{detail}"))
     if run.get("truncated"):
         error = f" ({run['error']})" if run.get("error") else ""
         found.append((ExitCode.RECORDING_INCOMPLETE, f"the MCAP file is truncated{error}"))
@@ -189,3 +190,35 @@ def outcome_line(code: ExitCode, reasons: list[str]) -> str:
     """One line for the end of a run: ``outcome: safe_state (exit 5): <reasons>``."""
     text = f"outcome: {code.word} (exit {int(code)})"
     return f"{text}: {'; '.join(reasons)}" if reasons else text
+
+
+#: Recording problems that a process killed on purpose (a scenario's process fault) causes by
+#: itself: a SIGKILLed node publishes no end-of-run report, a killed plant no final summary.
+_EXCUSED_BY_KILL: dict[str, tuple[str, ...]] = {
+    "controller": ("no controller report",),
+    "plant": ("no final timing summary", "no plant report"),
+}
+
+
+def _killed_by_faults(run: dict[str, Any]) -> set[str]:
+    """The processes a scenario's process faults killed (``run.process_faults``)."""
+    killed: set[str] = set()
+    for rec in run.get("process_faults") or ():
+        if isinstance(rec, dict) and rec.get("killed"):
+            kind = str(rec.get("kind", ""))
+            killed.add("plant" if kind == "plant_kill" else "controller")
+    return killed
+
+
+def _recording_problems(recording: dict[str, Any], killed: set[str]) -> list[str] | None:
+    """The recording's problems less those a deliberate kill explains (None: none listed).
+
+    A missing report of a process the scenario killed says nothing about the recorder: the
+    process never published one. Every other problem (a gap in a topic, a missing report of
+    a process that was not killed) still makes the recording incomplete.
+    """
+    problems = recording.get("problems")
+    if not problems:
+        return None
+    excused = tuple(p for name in killed for p in _EXCUSED_BY_KILL.get(name, ()))
+    return [str(p) for p in problems if not str(p).startswith(excused)]

@@ -159,6 +159,30 @@ def test_precedence_first_code_and_every_reason_in_order() -> None:
     assert run_outcome(summary)[0] == ExitCode.FAILED  # over everything
 
 
+def test_a_report_missing_because_a_fault_killed_its_node_is_not_a_recording_gap() -> None:
+    """A SIGKILLed controller publishes no report: that alone does not make the recording
+    incomplete; a gap in a topic, or the report of a node nobody killed, still does."""
+    missing = "no controller report (controller/report): what the controller published is unknown"
+    summary = _healthy()
+    summary["recording"] = {"complete": False, "problems": [missing]}
+    assert run_outcome(summary)[0] == ExitCode.RECORDING_INCOMPLETE  # nobody killed it
+    summary["run"]["process_faults"] = [{"kind": "controller_kill", "killed": {"pid": 1}}]
+    assert run_outcome(summary) == (ExitCode.OK, [])
+    summary["recording"]["problems"] = [missing, "truth: 990 of 1000 recorded"]
+    code, reasons = run_outcome(summary)
+    assert code == ExitCode.RECORDING_INCOMPLETE and "truth: 990" in reasons[0]
+    assert missing not in reasons[0]
+    # A plant kill excuses the plant's final summary and report, not the controller's.
+    summary["run"]["process_faults"] = [{"kind": "plant_kill", "killed": {"pid": 2}}]
+    summary["recording"]["problems"] = [
+        "no final timing summary: the plant did not finish the run (killed?)",
+        "no plant report (timing/report): what the plant published is unknown",
+    ]
+    assert run_outcome(summary) == (ExitCode.OK, [])
+    summary["recording"]["problems"].append(missing)
+    assert run_outcome(summary)[0] == ExitCode.RECORDING_INCOMPLETE
+
+
 def test_deadline_miss_tolerance_from_scenario_else_mode() -> None:
     summary = _healthy("realtime")
     summary["timing"]["deadline_misses"] = 10  # exactly 1 %: tolerated in real time

@@ -112,8 +112,9 @@ def test_run_log_is_a_complete_conformant_mcap(
     assert {"scenario", "run"} <= set(found.metadata)
     for suffix in ("sensors", "command", "truth", "controller/status", "timing/cycle"):
         assert found.per_topic[f"fowt/t1/{suffix}"] == cycles, suffix
-    if name.endswith("can"):  # 7 classic frames per sensor frame, 4 per command
-        assert found.per_topic["fowt/t1/can/raw"] == 11 * cycles
+    if name.endswith("can"):  # 7 classic frames per sensor frame, 4 per command, each
+        # instance followed by its authenticator frame (an authenticated run)
+        assert found.per_topic["fowt/t1/can/raw"] == (7 + 1 + 4 + 1) * cycles
     # The bench's own reader agrees and sees the file as complete.
     run = read_run(path)
     assert run.complete and not run.truncated and run.statistics_ok, run.error

@@ -300,7 +300,7 @@ def test_recorder_waits_for_the_controller_after_the_plant_final_summary(
     ctrl = Bus(BusConfig(listen=(ctrl_ep,)))
     rec = subprocess.Popen(
         [sys.executable, "-m", "hil", "record", "nrel5mw-ramp", "--out", str(mcap),
-         "--connect", plant_ep, "--connect", ctrl_ep],
+         "--connect", plant_ep, "--connect", ctrl_ep, "--insecure"],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     try:

@@ -20,8 +20,16 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame, TimingSummary
-from bus_schemas.registry import SENSORS, TIMING_SUMMARY, TRUTH
+from bus_schemas.messages import (
+    CONTROLLER_REJECT_REASONS,
+    PLANT_REJECT_REASONS,
+    VALID_WAVE_GAUGE,
+    PlantState,
+    SensorFrame,
+    TimingSummary,
+    rejection_fields,
+)
+from bus_schemas.registry import CONTROLLER_REPORT, PLANT_REPORT, SENSORS, TIMING_SUMMARY, TRUTH
 from hil.mcap_log import NotMcapError, RunLog, read_run
 from hil.review import (
     DEFAULT_SETTLE_S,
@@ -134,6 +142,45 @@ def _write(path: Path, *, floating: bool, settle_s: float | None, pitch_zero: bo
             latency_p999_us=0.0,
             latency_max_us=0.0,
             sim_seconds_per_wall_second=1.0,
+        ),
+    )
+    # The nodes' end-of-run accounts: what the file must hold (sensors and truth only here).
+    log.write(
+        PLANT_REPORT.key("t1"),
+        PLANT_REPORT.cls(
+            seq=0,
+            sample_time_ns=N * DT_NS,
+            publish_time_ns=N * DT_NS,
+            final=1,
+            aborted=0,
+            cycles=N,
+            sensor_frames_published=N,
+            truth_published=N,
+            cycle_records_published=0,
+            summaries_published=1,
+            previews_published=0,
+            commands_applied=N,
+            **rejection_fields({}, "commands_rejected", PLANT_REJECT_REASONS),
+        ),
+    )
+    log.write(
+        CONTROLLER_REPORT.key("t1"),
+        CONTROLLER_REPORT.cls(
+            seq=0,
+            sample_time_ns=N * DT_NS,
+            publish_time_ns=N * DT_NS,
+            final=1,
+            aborted=0,
+            frames_accepted=N,
+            commands_published=0,
+            statuses_published=0,
+            safe_mode=0,
+            safe_mode_entries=0,
+            safe_mode_commands=0,
+            safe_mode_first_entry_ns=0,
+            frames_missing=0,
+            frames_stale=0,
+            **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
         ),
     )
     log.close()
