@@ -96,3 +96,56 @@ def sensor_frame(
         platform_surge_measured_m=0.0,
         wave_elevation_gauge_measured_m=0.0,
     )
+
+
+def plant_report(cycles: int, sample_time_ns: int, **published: int) -> Any:
+    """A plant's final :class:`~bus_schemas.messages.PlantReport` of a clean run of ``cycles``.
+
+    Every per-cycle channel counts ``cycles``, one final summary, no rejection; ``published``
+    overrides a count (e.g. ``cycle_records_published=0`` for a log without cycle records).
+    """
+    from bus_schemas.messages import PLANT_REJECT_REASONS, PlantReport, rejection_fields
+
+    counts = {
+        "sensor_frames_published": cycles,
+        "truth_published": cycles,
+        "cycle_records_published": cycles,
+        "summaries_published": 1,
+        "previews_published": 0,
+        "commands_applied": cycles,
+        **published,
+    }
+    return PlantReport(
+        seq=0,
+        sample_time_ns=sample_time_ns,
+        publish_time_ns=0,
+        final=1,
+        aborted=0,
+        cycles=cycles,
+        **counts,
+        **rejection_fields({}, "commands_rejected", PLANT_REJECT_REASONS),
+    )
+
+
+def controller_report(cycles: int, sample_time_ns: int, **published: int) -> Any:
+    """A controller's final :class:`~bus_schemas.messages.ControllerReport` of a clean run:
+    ``cycles`` frames stepped on, as many commands and statuses (``published`` overrides)."""
+    from bus_schemas.messages import CONTROLLER_REJECT_REASONS, ControllerReport, rejection_fields
+
+    counts = {"commands_published": cycles, "statuses_published": cycles, **published}
+    return ControllerReport(
+        seq=0,
+        sample_time_ns=sample_time_ns,
+        publish_time_ns=0,
+        final=1,
+        aborted=0,
+        frames_accepted=cycles,
+        safe_mode=0,
+        safe_mode_entries=0,
+        safe_mode_commands=0,
+        safe_mode_first_entry_ns=0,
+        frames_missing=0,
+        frames_stale=0,
+        **counts,
+        **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
+    )

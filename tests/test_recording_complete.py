@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import controller_report, plant_report
 
 from bus_schemas import (
     ActuatorCommand,
@@ -28,11 +29,7 @@ from bus_schemas import (
     TimingSummary,
 )
 from bus_schemas.messages import (
-    CONTROLLER_REJECT_REASONS,
-    PLANT_REJECT_REASONS,
-    ControllerReport,
     PlantReport,
-    rejection_fields,
 )
 from bus_schemas.registry import (
     COMMAND,
@@ -174,41 +171,11 @@ def _summary(cycles: int, final: bool) -> Any:
 
 
 def _plant_report(cycles: int) -> Any:
-    return PlantReport(
-        seq=0,
-        sample_time_ns=cycles * PERIOD_NS,
-        publish_time_ns=0,
-        final=1,
-        aborted=0,
-        cycles=cycles,
-        sensor_frames_published=cycles,
-        truth_published=cycles,
-        cycle_records_published=cycles,
-        summaries_published=1,
-        previews_published=0,
-        commands_applied=cycles,
-        **rejection_fields({}, "commands_rejected", PLANT_REJECT_REASONS),
-    )
+    return plant_report(cycles, cycles * PERIOD_NS)
 
 
 def _controller_report(cycles: int) -> Any:
-    return ControllerReport(
-        seq=0,
-        sample_time_ns=(cycles - 1) * PERIOD_NS,
-        publish_time_ns=0,
-        final=1,
-        aborted=0,
-        frames_accepted=cycles,
-        commands_published=cycles,
-        statuses_published=cycles,
-        safe_mode=0,
-        safe_mode_entries=0,
-        safe_mode_commands=0,
-        safe_mode_first_entry_ns=0,
-        frames_missing=0,
-        frames_stale=0,
-        **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
-    )
+    return controller_report(cycles, (cycles - 1) * PERIOD_NS)
 
 
 def _write_run(

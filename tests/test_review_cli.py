@@ -18,17 +18,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _helpers import controller_report, plant_report
 from rich.console import Console
 
-from bus_schemas.messages import (
-    CONTROLLER_REJECT_REASONS,
-    PLANT_REJECT_REASONS,
-    VALID_WAVE_GAUGE,
-    PlantState,
-    SensorFrame,
-    TimingSummary,
-    rejection_fields,
-)
+from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame, TimingSummary
 from bus_schemas.registry import CONTROLLER_REPORT, PLANT_REPORT, SENSORS, TIMING_SUMMARY, TRUTH
 from hil.mcap_log import NotMcapError, RunLog, read_run
 from hil.review import (
@@ -145,43 +138,14 @@ def _write(path: Path, *, floating: bool, settle_s: float | None, pitch_zero: bo
         ),
     )
     # The nodes' end-of-run accounts: what the file must hold (sensors and truth only here).
+    # The nodes' end-of-run accounts: what the file must hold (sensors and truth only here).
     log.write(
         PLANT_REPORT.key("t1"),
-        PLANT_REPORT.cls(
-            seq=0,
-            sample_time_ns=N * DT_NS,
-            publish_time_ns=N * DT_NS,
-            final=1,
-            aborted=0,
-            cycles=N,
-            sensor_frames_published=N,
-            truth_published=N,
-            cycle_records_published=0,
-            summaries_published=1,
-            previews_published=0,
-            commands_applied=N,
-            **rejection_fields({}, "commands_rejected", PLANT_REJECT_REASONS),
-        ),
+        plant_report(N, N * DT_NS, cycle_records_published=0),
     )
     log.write(
         CONTROLLER_REPORT.key("t1"),
-        CONTROLLER_REPORT.cls(
-            seq=0,
-            sample_time_ns=N * DT_NS,
-            publish_time_ns=N * DT_NS,
-            final=1,
-            aborted=0,
-            frames_accepted=N,
-            commands_published=0,
-            statuses_published=0,
-            safe_mode=0,
-            safe_mode_entries=0,
-            safe_mode_commands=0,
-            safe_mode_first_entry_ns=0,
-            frames_missing=0,
-            frames_stale=0,
-            **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
-        ),
+        controller_report(N, N * DT_NS, commands_published=0, statuses_published=0),
     )
     log.close()
 
