@@ -226,7 +226,7 @@ def split_run(
     init_runtime = launch_mod.ControllerRuntime.__init__
     send = getattr(lw.BackgroundRunLog, "_send", None)  # (absent in older checkouts)
     keep_batches = keep_batches and send is not None
-    run_loop = pn.run_inprocess
+    run_loop = launch_mod.run_inprocess
 
     def log_init(self: Any, *a: Any, **k: Any) -> None:
         init_log(self, *a, **k)

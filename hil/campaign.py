@@ -12,7 +12,7 @@ Every (case, waves/still, controller, seed) is one run. Seed index i (0 ... seed
 ``i * seed_stride`` to the scenario's wind, wave and sensor seeds, so seed 0 is the scenario
 as shipped and two campaigns with the same file run the same realisations. Each run is a
 Dask task (:func:`execute_run`) running the in-process runner of ``fowt run --mode
-inprocess`` (plant and controller in one process, :func:`hil.plant_node.run_inprocess`) or,
+inprocess`` (plant and controller in one process, :func:`hil.inprocess_run.run_inprocess`) or,
 with ``mode = "lockstep"``, :func:`hil.launch.launch` (plant, controller and recorder as OS
 processes over Zenoh). A task never raises: a failing run comes back with its error, is
 recorded (``status = "failed"``) and the campaign goes on. The KPIs of a run depend only on
@@ -670,7 +670,7 @@ def _inprocess(
         controller_report,
         publishing_step,
     )
-    from hil.plant_node import run_inprocess  # noqa: PLC0415
+    from hil.inprocess_run import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
 
     turbine = scenario.turbine_id

@@ -13,6 +13,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from hil import cli_common
+
 
 def _names(text: str | None) -> list[str] | None:
     return [n.strip() for n in text.split(",") if n.strip()] if text else None
@@ -60,10 +62,9 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
 def register(app: typer.Typer, console: Console) -> None:
     """Add ``campaign``, ``compare`` and ``report`` to the ``fowt`` app.
 
-    Called at the end of :mod:`hil.cli`, so its option checks (finite numbers, writable
-    paths, choices) are used here too: bad input is one line and exit code 2.
+    Called at the end of :mod:`hil.cli`; the option checks (finite numbers, writable paths,
+    choices) are :mod:`hil.cli_common`'s, so bad input is one line and exit code 2 here too.
     """
-    from hil import cli as _cli
     from hil.scenario import MAX_DURATION_S
 
     @app.command("campaign", short_help="Run a campaign of cases x seeds x controllers on Dask.")
@@ -76,7 +77,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--out",
                 help="Output folder (runs/campaign-<name>).",
-                callback=_cli._writable("folder"),
+                callback=cli_common.writable("folder"),
             ),
         ] = None,
         scheduler: Annotated[
@@ -96,7 +97,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--record",
                 help="mcap (keep run.mcap) | none (summaries only).",
-                callback=_cli._choice("mcap", "none"),
+                callback=cli_common.choice("mcap", "none"),
             ),
         ] = "mcap",
         resume: Annotated[
@@ -117,7 +118,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--duration",
                 help="Simulated seconds per run.",
-                callback=_cli._number("s", gt=0.0, le=MAX_DURATION_S),
+                callback=cli_common.number("s", gt=0.0, le=MAX_DURATION_S),
             ),
         ] = None,
         baseline: Annotated[
@@ -137,13 +138,13 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.campaign import CampaignError, load_campaign, run_campaign, select
 
         if record not in ("mcap", "none"):
-            _cli._fail(f"--record {record!r}: expected mcap or none")
+            cli_common.fail(f"--record {record!r}: expected mcap or none")
         try:
             c = load_campaign(campaign)
             if cases or controllers or seeds is not None or duration is not None or baseline:
                 c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
         except CampaignError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
         try:
             result = run_campaign(
@@ -157,7 +158,7 @@ def register(app: typer.Typer, console: Console) -> None:
             )
         except (OSError, TimeoutError) as exc:
             where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
-            _cli._fail(f"cannot use {where}: {exc}")
+            cli_common.fail(f"cannot use {where}: {exc}")
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
@@ -179,21 +180,21 @@ def register(app: typer.Typer, console: Console) -> None:
         runs: Annotated[list[Path], typer.Argument(help="Two or more run MCAP files.")],
         out: Annotated[
             Path,
-            typer.Option("--out", help="Output folder.", callback=_cli._writable("folder")),
+            typer.Option("--out", help="Output folder.", callback=cli_common.writable("folder")),
         ] = Path("compare"),
     ) -> None:
         """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
         from hil.html_report import compare_runs, fmt
 
         if len(runs) < 2:
-            _cli._fail("give at least two MCAP files")
+            cli_common.fail("give at least two MCAP files")
         for p in runs:
             if not p.is_file():
-                _cli._fail(f"{p} is not a file")
+                cli_common.fail(f"{p} is not a file")
         try:
             res = compare_runs(runs, out)
         except ValueError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         labels = [r["label"] for r in res["runs"]]
         t = Table(title="KPIs (Δ % vs run 0)")
         t.add_column("KPI")
@@ -216,7 +217,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--out",
                 help="HTML file (default: report.html beside it).",
-                callback=_cli._writable("file"),
+                callback=cli_common.writable("file"),
             ),
         ] = None,
     ) -> None:
@@ -224,19 +225,19 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import run_html
 
         if not mcap.is_file():
-            _cli._fail(f"{mcap} is not a file")
+            cli_common.fail(f"{mcap} is not a file")
         from hil.mcap_log import NotMcapError
 
         try:
             text, _summary = run_html(mcap)
         except NotMcapError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         path = out or mcap.parent / "report.html"
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text)
         except OSError as exc:
-            _cli._fail(_cli._os_error_text(exc, path), code=1)
+            cli_common.fail(cli_common.os_error_text(exc, path), code=1)
         console.print(f"report: {path}", markup=False)
 
 

@@ -30,9 +30,9 @@ from bus_schemas.registry import MessageType
 from hil._fast_loop import rows_to_structs
 from hil.campaign import _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
 from hil.controller_node import ControllerRuntime, publishing_step
+from hil.inprocess_run import run_inprocess
 from hil.log_writer import InProcessRunLog
 from hil.mcap_log import BatchRunLog, MessageList, RunData, read_run
-from hil.plant_node import run_inprocess
 from hil.review import _col, summarize
 from hil.scenario import Scenario, load_scenario
 

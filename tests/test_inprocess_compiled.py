@@ -25,8 +25,9 @@ from hil import _loop_kernels as lk
 from hil._fast_loop import CompiledLoop, compiled_unsupported
 from hil.controller_node import ControllerRuntime, publishing_step
 from hil.envelope import controller_variant
+from hil.inprocess_run import run_inprocess
 from hil.launch import RunRequest, launch
-from hil.plant_node import PlantLoop, run_inprocess
+from hil.plant_node import PlantLoop
 from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
 from hil.timing import LatencyHistogram
 
