@@ -722,7 +722,8 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
         ``runs`` (labels, paths, KPI windows), ``kpi[name] = [value per run]``,
         ``diff_pct[name] = [100 (x_j / x_0 − 1) per run]`` (None where not given) and
         ``diff_status[name]`` (``ok``, ``n/m``: x_0 near zero against the largest |x| of the
-        runs, :mod:`hil.kpi_stats`; ``n/a``: missing).
+        runs, :mod:`hil.kpi_stats`; ``n/a``: missing); ``psd_ylabels`` (the PSD panels'
+        axis labels: units squared per Hz).
     """
     import json  # noqa: PLC0415
 
@@ -790,6 +791,7 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
     axes2[-1].set_xlabel("frequency [Hz]")
     fig.tight_layout()
     fig2.tight_layout()
+    psd_ylabels = [ax.get_ylabel() for ax in axes2]
     ts_path = out / "compare_timeseries.png"
     psd_path = out / "compare_psd.png"
     fig.savefig(ts_path, dpi=90)
@@ -804,6 +806,7 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
         "kpi": kpi_rows,
         "diff_pct": diff,
         "diff_status": diff_status,
+        "psd_ylabels": psd_ylabels,
     }
     from hil.campaign import _json_clean  # noqa: PLC0415
 
