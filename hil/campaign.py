@@ -877,9 +877,9 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
         waves / baseline still; each of the three with ``stats`` = the same figures as
         ``{value, se, status}`` (:mod:`hil.kpi_stats`: standard error between paired seeds,
         ``n/m`` for a near-zero denominator, ``noise`` for a change within its noise);
-        ``scales[kpi]`` (the n/m rule's S); ``noise`` (k, f, seeds, the controller whose
-        still-water twins are used); ``probabilities``; ``not_available`` (KPIs the plant
-        cannot give, with the reason); ``runs`` counts.
+        ``scales[kpi][case or "weibull"]`` (the n/m rule's S); ``noise`` (k, f, seeds,
+        the controller whose still-water twins are used); ``probabilities``;
+        ``not_available`` (KPIs the plant cannot give, with the reason); ``runs`` counts.
     """
     spec = campaign.spec
     probs = campaign.case_probabilities
@@ -930,24 +930,14 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
         common = [i for i in common if all(math.isfinite(float(x[i][k])) for x in runs)]
         return [np.array([float(x[i][k]) for i in common]) for x in runs]
 
-    scales = {
-        k: kst.scale_of(
-            [v[k]["mean"] for c in cases for blk in per_case[c].values() for v in blk.values()]
-        )
-        for k in ck.KPIS
-    }
+    Side = dict[str, tuple[float, np.ndarray]]  # case -> (mean, paired seed values)
 
-    def ratio_stats(
-        k: str,
-        num: Callable[[str], tuple[float, np.ndarray]],
-        den: Callable[[str], tuple[float, np.ndarray]],
-        offset: float,
-    ) -> dict[str, Any]:
+    def ratio_stats(k: str, num: Side, den: Side, offset: float) -> dict[str, Any]:
         """The ratio's figure per case, Weibull-weighted and Σp· (:mod:`hil.kpi_stats`)."""
-        nums = [num(c) for c in cases]
-        dens = [den(c) for c in cases]
+        nums = [num[c] for c in cases]
+        dens = [den[c] for c in cases]
         per = {
-            c: kst.weighted_ratio([n[0]], [d[0]], [1.0], [n[1]], [d[1]], scales[k], offset)
+            c: kst.weighted_ratio([n[0]], [d[0]], [1.0], [n[1]], [d[1]], scales[k][c], offset)
             for c, n, d in zip(cases, nums, dens, strict=True)
         }
         weib = kst.weighted_ratio(
@@ -956,7 +946,7 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
             p,
             [n[1] for n in nums],
             [d[1] for d in dens],
-            scales[k],
+            scales[k]["weibull"],
             offset,
         )
         of_cases = kst.weighted_mean_of([per[c] for c in cases], p, offset)
@@ -968,6 +958,19 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
 
     def weibull(waves: str, ctrl: str, k: str) -> float:
         return ck.weibull_mean([mean_of(c, waves, ctrl, k) for c in cases], p)
+
+    # S of the n/m rule: per case the largest |mean| over its configurations (waves/still,
+    # every controller); Weibull-weighted the largest |X_W| over the configurations
+    scales: dict[str, dict[str, float]] = {
+        k: {
+            c: kst.scale_of([v[k]["mean"] for blk in per_case[c].values() for v in blk.values()])
+            for c in cases
+        }
+        for k in ck.KPIS
+    }
+    configs = sorted({(str(r["waves"]), str(r["controller"])) for r in rows})
+    for k in ck.KPIS:
+        scales[k]["weibull"] = kst.scale_of([weibull(w, ctrl, k) for w, ctrl in configs])
 
     relative: dict[str, Any] = {}
     normalised: dict[str, Any] = {}
@@ -986,11 +989,8 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                 "weibull_of_cases": ck.weibull_mean(list(rel_cases.values()), p),
                 "stats": ratio_stats(
                     k,
-                    lambda c, ctrl=ctrl, k=k, pair=pair: (
-                        mean_of(c, "waves", ctrl, k),
-                        pair[c][0],
-                    ),
-                    lambda c, k=k, pair=pair: (mean_of(c, "waves", base, k), pair[c][1]),
+                    {c: (mean_of(c, "waves", ctrl, k), pair[c][0]) for c in cases},
+                    {c: (mean_of(c, "waves", base, k), pair[c][1]) for c in cases},
                     1.0,
                 ),
             }
@@ -1017,14 +1017,20 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                     "weibull_of_cases": ck.weibull_mean(list(n_cases.values()), p),
                     "stats": ratio_stats(
                         k,
-                        lambda c, ctrl=ctrl, k=k, trio=trio: (
-                            mean_of(c, "waves", ctrl, k) - mean_of(c, "still", base, k),
-                            trio[c][0] - trio[c][2],
-                        ),
-                        lambda c, k=k, trio=trio: (
-                            mean_of(c, "waves", base, k) - mean_of(c, "still", base, k),
-                            trio[c][1] - trio[c][2],
-                        ),
+                        {
+                            c: (
+                                mean_of(c, "waves", ctrl, k) - mean_of(c, "still", base, k),
+                                trio[c][0] - trio[c][2],
+                            )
+                            for c in cases
+                        },
+                        {
+                            c: (
+                                mean_of(c, "waves", base, k) - mean_of(c, "still", base, k),
+                                trio[c][1] - trio[c][2],
+                            )
+                            for c in cases
+                        },
                         0.0,
                     ),
                 }
@@ -1042,8 +1048,8 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                 "weibull_of_cases": ck.weibull_mean(list(inc_cases.values()), p),
                 "stats": ratio_stats(
                     k,
-                    lambda c, k=k, twin=twin: (mean_of(c, "waves", base, k), twin[c][0]),
-                    lambda c, k=k, twin=twin: (mean_of(c, "still", base, k), twin[c][1]),
+                    {c: (mean_of(c, "waves", base, k), twin[c][0]) for c in cases},
+                    {c: (mean_of(c, "still", base, k), twin[c][1]) for c in cases},
                     0.0,
                 ),
             }

@@ -58,7 +58,8 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
     src = "paired seeds" if noise.get("estimable") else "not estimable with one seed (± ?)"
     console.print(
         f"± one standard error ({src}); n/m: denominator near zero (|D| < max({k_se:g} SE, "
-        f"{f:g} % of the KPI's largest |X| in the campaign)); !: change within {k_se:g} SE; "
+        f"{f:g} % of the KPI's largest |X| over the configurations)); !: change within "
+        f"{k_se:g} SE; "
         f"P_n and waves/still against {base}'s still-water twins",
         markup=False,
     )

@@ -32,9 +32,10 @@ near zero when
 - SE(D): its standard error between seeds (below); k = :data:`NOISE_K` = 2, so D lies within
   its noise band (about 95 % for a normal error); left out when not estimable.
 - S: the KPI's scale, the largest |X| of that KPI among the configurations compared (a
-  campaign: every case, waves/still and controller mean; ``fowt compare``: the runs); f =
-  :data:`NEAR_ZERO_FRACTION` = 1 %. A denominator under 1 % of the scale makes a difference
-  of 1 % of the scale a ratio above 100 %, which the scale of the quantity does not
+  campaign's load case: the means of its waves/still and controller configurations; the
+  Weibull-weighted figures: the configurations' Weibull-weighted X_W; ``fowt compare``: the
+  runs); f = :data:`NEAR_ZERO_FRACTION` = 1 %. A denominator under 1 % of the scale makes
+  a difference of 1 % of the scale a ratio above 100 %, which the scale of the quantity does not
   support however small the noise (a constant baseline torque has a DEL with almost no
   seed-to-seed noise and still no meaning as a reference).
 
@@ -197,7 +198,7 @@ def weighted_ratio(
     var_e = 0.0
     var_d = 0.0
     estimable = True
-    for c in np.flatnonzero(used):
+    for c in (int(i) for i in np.flatnonzero(used)):
         ai = np.asarray(num_seeds[c], dtype=np.float64).reshape(-1)
         di = np.asarray(den_seeds[c], dtype=np.float64).reshape(-1)
         ok = np.isfinite(ai) & np.isfinite(di)
