@@ -146,6 +146,7 @@ def _bars(
     x = np.arange(len(groups))
     base_line = 0.0 if ref is None else ref * scale
     any_noise = any_nm = False
+    legend: list[tuple[str, Any]] = []
     for i, (name, vals) in enumerate(series.items()):
         st = (stats or {}).get(name) or [None] * len(vals)
         status = [str((d or {}).get("status", kst.OK)) for d in st]
@@ -180,6 +181,7 @@ def _bars(
             shown = np.clip(shown, lo, hi)
         bars = ax.bar(xs, shown, width, label=name)
         color = bars.patches[0].get_facecolor() if bars.patches else None
+        legend.append((name, color))
         for bar, s_ in zip(bars.patches, status, strict=True):
             if s_ == kst.NOISE:
                 any_noise = True
@@ -211,7 +213,11 @@ def _bars(
         title = f"{title}\n({'; '.join(notes)})"
     ax.set_title(title, fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(fontsize=7, ncol=min(n, 8))
+    # plain swatches: a series' first bar may be hatched (within noise), its legend must not
+    from matplotlib.patches import Patch  # noqa: PLC0415
+
+    handles = [Patch(facecolor=c, label=lab) for lab, c in legend]
+    ax.legend(handles=handles, fontsize=7, ncol=min(n, 8))
     fig.tight_layout()
     return png_data_uri(fig)
 
@@ -404,7 +410,7 @@ def campaign_html(
                 )
             )
     # per-case mean and spread
-    parts.append("<h2>Per load case: mean ± spread over seeds</h2>")
+    parts.append("<h2>Per load case: mean ± sample standard deviation over seeds (n seeds)</h2>")
     body = []
     for case in cases:
         for waves, block in agg["per_case"].get(case, {}).items():
