@@ -26,7 +26,7 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
     """
     from hil import campaign_kpi as ck
     from hil import kpi_stats as kst
-    from hil.html_report import _ratio_text, _stat
+    from hil.html_report import figure_stat, ratio_text
 
     kpis = list(ck.KPIS)
     base = agg["baseline"]
@@ -43,12 +43,14 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
         unit, _d, label = ck.KPIS[k]
         row = [f"{label} [{unit}]"]
         if agg.get("wave_increment"):
-            row.append(_ratio_text(_stat(agg["wave_increment"][k], "weibull")))
+            row.append(ratio_text(figure_stat(agg["wave_increment"][k], "weibull")))
         for ctrl, rel in agg["relative"].items():
-            row.append(kst.percent_text(_stat(rel[k], "weibull")))
+            row.append(kst.percent_text(figure_stat(rel[k], "weibull")))
             if agg["normalised"].get(ctrl):
                 row.append(
-                    kst.percent_text(_stat(agg["normalised"][ctrl][k], "weibull"), signed=False)
+                    kst.percent_text(
+                        figure_stat(agg["normalised"][ctrl][k], "weibull"), signed=False
+                    )
                 )
         t.add_row(*[escape(c) for c in row])
     console.print(t)

@@ -312,9 +312,9 @@ def campaign_html(
                 [
                     [
                         lab,
-                        *[_ratio_text(_stat(inc[k], c)) for c in cases],
-                        _ratio_text(_stat(inc[k], "weibull")),
-                        _ratio_text(_stat(inc[k], "weibull_of_cases")),
+                        *[ratio_text(figure_stat(inc[k], c)) for c in cases],
+                        ratio_text(figure_stat(inc[k], "weibull")),
+                        ratio_text(figure_stat(inc[k], "weibull_of_cases")),
                     ]
                     for k, lab in zip(kpis, labels, strict=True)
                 ],
@@ -322,8 +322,8 @@ def campaign_html(
         )
         series = {c: [inc[k]["per_case"].get(c) for k in kpis] for c in cases}
         series["Weibull"] = [inc[k]["weibull"] for k in kpis]
-        stats = {c: [_stat(inc[k], c) for k in kpis] for c in cases}
-        stats["Weibull"] = [_stat(inc[k], "weibull") for k in kpis]
+        stats = {c: [figure_stat(inc[k], c) for k in kpis] for c in cases}
+        stats["Weibull"] = [figure_stat(inc[k], "weibull") for k in kpis]
         parts.append(
             img(
                 _bars(
@@ -351,13 +351,13 @@ def campaign_html(
         for k, lab in zip(kpis, labels, strict=True):
             row = [
                 lab,
-                kst.percent_text(_stat(rel[k], "weibull")),
-                kst.percent_text(_stat(rel[k], "weibull_of_cases")),
+                kst.percent_text(figure_stat(rel[k], "weibull")),
+                kst.percent_text(figure_stat(rel[k], "weibull_of_cases")),
             ]
             if norm:
                 row += [
-                    kst.percent_text(_stat(norm[k], "weibull"), signed=False),
-                    kst.percent_text(_stat(norm[k], "weibull_of_cases"), signed=False),
+                    kst.percent_text(figure_stat(norm[k], "weibull"), signed=False),
+                    kst.percent_text(figure_stat(norm[k], "weibull_of_cases"), signed=False),
                 ]
             body.append(row)
         parts.append(
@@ -372,8 +372,8 @@ def campaign_html(
         parts.append(_per_case_table(kpis, labels, cases, rel, norm))
         series = {c: [rel[k]["per_case"].get(c) for k in kpis] for c in cases}
         series["Weibull"] = [rel[k]["weibull"] for k in kpis]
-        stats = {c: [_stat(rel[k], c) for k in kpis] for c in cases}
-        stats["Weibull"] = [_stat(rel[k], "weibull") for k in kpis]
+        stats = {c: [figure_stat(rel[k], c) for k in kpis] for c in cases}
+        stats["Weibull"] = [figure_stat(rel[k], "weibull") for k in kpis]
         parts.append(
             img(
                 _bars(
@@ -392,8 +392,8 @@ def campaign_html(
         if norm:
             series = {c: [norm[k]["per_case"].get(c) for k in kpis] for c in cases}
             series["Weibull"] = [norm[k]["weibull"] for k in kpis]
-            stats = {c: [_stat(norm[k], c) for k in kpis] for c in cases}
-            stats["Weibull"] = [_stat(norm[k], "weibull") for k in kpis]
+            stats = {c: [figure_stat(norm[k], c) for k in kpis] for c in cases}
+            stats["Weibull"] = [figure_stat(norm[k], "weibull") for k in kpis]
             parts.append(
                 img(
                     _bars(
@@ -439,22 +439,20 @@ def campaign_html(
     return page(f"Campaign {agg['campaign']}", "".join(parts))
 
 
-def _stat(block: dict[str, Any], where: str) -> dict[str, Any] | None:
-    """``{value, se, status}`` of a figure: ``where`` is a case, ``weibull`` or
-    ``weibull_of_cases`` (None in aggregates written before the statistics)."""
+def figure_stat(block: dict[str, Any], where: str) -> dict[str, Any] | None:
+    """``{value, se, status}`` of a figure of the aggregates; ``where`` is a case,
+    ``weibull`` or ``weibull_of_cases``. Aggregates written before the statistics (no
+    ``stats``) give the bare value with an unknown SE and status ``ok``."""
+    whole = where in ("weibull", "weibull_of_cases")
     st = block.get("stats")
-    if not st:
-        v = block.get(where) if where in ("weibull", "weibull_of_cases") else None
-        if v is None and where not in ("weibull", "weibull_of_cases"):
-            v = (block.get("per_case") or {}).get(where)
-        return None if v is None else {"value": v, "se": math.nan, "status": kst.OK}
-    if where in ("weibull", "weibull_of_cases"):
-        out: dict[str, Any] | None = st.get(where)
+    if st:
+        out: dict[str, Any] | None = st.get(where) if whole else st["per_case"].get(where)
         return out
-    return (st.get("per_case") or {}).get(where)
+    v = block.get(where) if whole else (block.get("per_case") or {}).get(where)
+    return None if v is None else {"value": v, "se": math.nan, "status": kst.OK}
 
 
-def _ratio_text(d: dict[str, Any] | None) -> str:
+def ratio_text(d: dict[str, Any] | None) -> str:
     """A ratio (wave increment) as ``1.234 ± 0.01``, ``n/m`` or ``-`` (``!`` within noise)."""
     if d is None:
         return "-"
@@ -507,9 +505,9 @@ def _per_case_table(
         head += [f"{c} P_n" for c in cases]
     body = []
     for k, lab in zip(kpis, labels, strict=True):
-        row = [lab, *[kst.percent_text(_stat(rel[k], c)) for c in cases]]
+        row = [lab, *[kst.percent_text(figure_stat(rel[k], c)) for c in cases]]
         if norm:
-            row += [kst.percent_text(_stat(norm[k], c), signed=False) for c in cases]
+            row += [kst.percent_text(figure_stat(norm[k], c), signed=False) for c in cases]
         body.append(row)
     return table(head, body)
 
@@ -699,8 +697,6 @@ def compare_diffs(vals: Sequence[Any]) -> tuple[list[float | None], list[str]]:
     status: list[str] = []
     for x in nums:
         st = kst.simple_ratio_status(x, ref, scale)
-        if st == kst.NO_VALUE and math.isfinite(x) and ref == 0.0 and x == 0.0:
-            st = kst.NOT_MEANINGFUL
         status.append(st)
         diffs.append(100.0 * (x / ref - 1.0) if st == kst.OK else None)
     return diffs, status
