@@ -200,8 +200,12 @@ def run_kpis(
         "mean_power_w": kpi.mean_power_w(col("electrical_power_w")),
         "rotor_speed_error_var_rpm2": rotor_speed_error_var_rpm2(rotor, omega_opt),
         "rotor_speed_var_rpm2": float(np.var(rotor * RPM_PER_RAD_S)) if rotor.size else NAN,
-        "tower_base_del_nm": kpi.damage_equivalent_load(col("tower_base_moment_nm"), t),
-        "shaft_del_nm": kpi.damage_equivalent_load(col("shaft_torque_nm"), t),
+        "tower_base_del_nm": kpi.damage_equivalent_load(
+            col("tower_base_moment_nm"), t, kpi.DEL_WOHLER_M, kpi.DEL_N_EQ_HZ
+        ),
+        "shaft_del_nm": kpi.damage_equivalent_load(
+            col("shaft_torque_nm"), t, kpi.DEL_WOHLER_M, kpi.DEL_N_EQ_HZ
+        ),
         "pitch_rate_mean_abs_deg_s": kpi.pitch_travel_deg_s(t, col("blade_pitch_rad")),
         "platform_pitch_std_deg": math.degrees(kpi.std(col("platform_pitch_rad"))),
         "platform_surge_std_m": kpi.std(col("platform_surge_m")),
