@@ -628,7 +628,8 @@ def run_sections(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ("kpi", "KPIs of the run (fowt review; KPI window)"),
         (
             "campaign_kpi",
-            f"Campaign KPIs (al-2019 table 2-3; KPI window; Ω_opt with λ* = {fmt(tsr)})",
+            f"Campaign KPIs (al-2019 table 2-3; KPI window; Ω_opt with λ* = {fmt(tsr)}, "
+            f"Ω_min = {fmt(cw.get('min_rotor_speed_rad_s'))} rad/s)",
         ),
         ("timing", "Timing and deadline accounts (whole run)"),
         ("estimator", "Estimator against the truth (KPI window)"),

@@ -162,7 +162,7 @@ def test_run_report_sections_say_what_they_show(runs: dict[str, Any]) -> None:
     expected += list(PLOT_TITLES.values())
     assert titles == expected
     lam = summary["campaign_kpi_window"]["tsr_opt"]
-    assert f"λ* = {lam:.4g}" in titles[1]
+    assert f"λ* = {lam:.4g}, Ω_min = 0.5236 rad/s" in titles[1]
     assert "t = 60-150 s" in unescape(text)
 
 
