@@ -4,7 +4,6 @@ Registered on the ``fowt`` Typer app by :func:`register` (kept out of :mod:`hil.
 campaign work stays in its own files).
 """
 
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -21,36 +20,53 @@ def _names(text: str | None) -> list[str] | None:
 
 
 def render_aggregates(agg: dict[str, Any], console: Console) -> None:
-    """Print the Weibull-weighted aggregates: wave increment, relative and normalised."""
+    """Print the Weibull-weighted aggregates: wave increment, relative and normalised.
+
+    Each figure with ± one standard error between seeds (``± ?``: one seed, not
+    estimable), ``n/m`` for a near-zero denominator and ``!`` for a change within its noise
+    (:mod:`hil.kpi_stats`).
+    """
     from hil import campaign_kpi as ck
+    from hil import kpi_stats as kst
+    from hil.html_report import figure_stat, ratio_text
 
     kpis = list(ck.KPIS)
-    t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {agg['baseline']}")
+    base = agg["baseline"]
+    t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {base}")
     t.add_column("KPI")
     if agg.get("wave_increment"):
-        t.add_column("waves/still (baseline)", justify="right")
+        t.add_column(f"waves/still ({base})", justify="right")
     for ctrl in agg["relative"]:
         t.add_column(f"{ctrl} relative", justify="right")
         if agg["normalised"].get(ctrl):
             t.add_column(f"{ctrl} P_n", justify="right")
 
-    def pct(v: Any, signed: bool = True) -> str:
-        if v is None or not math.isfinite(float(v)):
-            return "-"
-        return f"{100 * float(v):+.1f} %" if signed else f"{100 * float(v):.0f} %"
-
     for k in kpis:
         unit, _d, label = ck.KPIS[k]
         row = [f"{label} [{unit}]"]
         if agg.get("wave_increment"):
-            v = agg["wave_increment"][k]["weibull"]
-            row.append("-" if v is None or not math.isfinite(v) else f"{v:.3f}")
+            row.append(ratio_text(figure_stat(agg["wave_increment"][k], "weibull")))
         for ctrl, rel in agg["relative"].items():
-            row.append(pct(rel[k]["weibull"]))
+            row.append(kst.percent_text(figure_stat(rel[k], "weibull")))
             if agg["normalised"].get(ctrl):
-                row.append(pct(agg["normalised"][ctrl][k]["weibull"], signed=False))
-        t.add_row(*row)
+                row.append(
+                    kst.percent_text(
+                        figure_stat(agg["normalised"][ctrl][k], "weibull"), signed=False
+                    )
+                )
+        t.add_row(*[escape(c) for c in row])
     console.print(t)
+    noise = agg.get("noise") or {}
+    f = 100 * float(noise.get("near_zero_fraction", kst.NEAR_ZERO_FRACTION))
+    k_se = float(noise.get("k", kst.NOISE_K))
+    src = "paired seeds" if noise.get("estimable") else "not estimable with one seed (± ?)"
+    console.print(
+        f"± one standard error ({src}); n/m: denominator near zero (|D| < max({k_se:g} SE, "
+        f"{f:g} % of the KPI's largest |X| over the configurations)); !: change within "
+        f"{k_se:g} SE; "
+        f"P_n and waves/still against {base}'s still-water twins",
+        markup=False,
+    )
     for reason in agg.get("not_available", {}).values():
         console.print(f"[yellow]not computed:[/] {escape(str(reason))}")
     for reason in agg.get("notes", {}).values():
@@ -184,7 +200,7 @@ def register(app: typer.Typer, console: Console) -> None:
         ] = Path("compare"),
     ) -> None:
         """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
-        from hil.html_report import compare_runs, fmt
+        from hil.html_report import compare_runs, diff_text, fmt
 
         if len(runs) < 2:
             cli_common.fail("give at least two MCAP files")
@@ -202,8 +218,10 @@ def register(app: typer.Typer, console: Console) -> None:
             t.add_column(lab, justify="right")
         for k, vals in res["kpi"].items():
             cells = [fmt(vals[0])]
-            for v, d in zip(vals[1:], res["diff_pct"][k][1:], strict=True):
-                cells.append(f"{fmt(v)} ({'-' if d is None else f'{d:+.2f} %'})")
+            for v, d, st in zip(
+                vals[1:], res["diff_pct"][k][1:], res["diff_status"][k][1:], strict=True
+            ):
+                cells.append(f"{fmt(v)} ({diff_text(d, st)})")
             t.add_row(k, *cells)
         console.print(t)
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
