@@ -367,7 +367,8 @@ class RunLog:
             recs["sequence"] = (seq + np.arange(n, dtype=np.int64)) & 0xFFFFFFFF
             recs["log_time"] = log_time
             recs["publish_time"] = publish
-            recs["payload"] = ros2.encode_rows(mt, rows)
+            payload = ros2.encode_rows(mt, rows)
+            recs["payload"] = payload.view(recs.dtype["payload"])
             logs.append(log_time)
             offs.append(at + size * np.arange(n, dtype=np.int64))
             out.append(recs)
@@ -560,7 +561,7 @@ def _record_dtype(mt: MessageType) -> np.dtype[np.void]:
             ("sequence", "<u4"),
             ("log_time", "<u8"),
             ("publish_time", "<u8"),
-            ("payload", ros2.cdr_dtype(mt)),
+            ("payload", f"V{ros2.cdr_dtype(mt).itemsize}"),  # raw bytes: padding copied too
         ]
     )
 
@@ -1035,12 +1036,17 @@ def read_run(path: Path) -> RunData:
 
 
 def _cdr_messages(dtype: np.dtype[np.void], data: bytearray) -> MessageList:
-    """A CDR channel's payloads as the dicts a JSON channel's give (field name to Python int
-    or float, in declaration order), their columns kept (:class:`MessageList`)."""
+    """A CDR channel's payloads as the dicts a JSON channel's give: field name to Python int
+    or float in declaration order, a non-finite float None (as the JSON channels wrote it),
+    their columns kept (:class:`MessageList`)."""
     recs = ros2.decode_as(dtype, bytes(data))
     names = list(dtype.names or ())[1:]  # without the encapsulation header
     rows = recs[names]
     messages = [dict(zip(names, t, strict=True)) for t in rows.tolist()]
+    for name in names:
+        if rows.dtype[name].kind == "f":
+            for i in np.flatnonzero(~np.isfinite(rows[name])).tolist():
+                messages[i][name] = None
     return MessageList(messages, [(0, len(messages), rows)])
 
 

@@ -28,6 +28,7 @@ from _mcap_conformance import check_complete_mcap
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from bus_schemas import ros2
 from bus_schemas.registry import BY_CLASS, MESSAGES
 from hil.mcap_log import read_run, recover
 from hil.review import review
@@ -44,12 +45,18 @@ def _key(values: typing.Iterable[typing.Any]) -> tuple[typing.Any, ...]:
 
 
 def _decoded(path: Path) -> dict[str, list[tuple[typing.Any, ...]]]:
-    """Every message's values per topic, by mcap's reader and mcap-ros2-support's decoder."""
+    """Every message's values per topic, by mcap's reader and mcap-ros2-support's decoder;
+    each payload is also byte for byte :func:`bus_schemas.ros2.encode_rows` of its values
+    (its padding bytes zero: a file is a function of its messages)."""
     out: dict[str, list[tuple[typing.Any, ...]]] = {}
     with open(path, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        for _schema, ch, _msg, dec in reader.iter_decoded_messages(log_time_order=False):
-            out.setdefault(ch.topic, []).append(_key(getattr(dec, k) for k in dec.__slots__))
+        for schema, ch, msg, dec in reader.iter_decoded_messages(log_time_order=False):
+            values = [getattr(dec, k) for k in dec.__slots__]
+            mt = next(m for m in BY_CLASS.values() if schema.name == ros2.schema_name(m))
+            row = np.array([tuple(values)], mt.row_dtype)
+            assert ros2.encode_rows(mt, row).tobytes() == msg.data
+            out.setdefault(ch.topic, []).append(_key(values))
     return out
 
 
