@@ -574,13 +574,13 @@ def _compressor(compression: str) -> Callable[[bytes], bytes]:
         params = zstandard.ZstdCompressionParameters.from_level(
             ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, hash_log=ZSTD_HASH_LOG
         )
-        return zstandard.ZstdCompressor(compression_params=params).compress  # type: ignore[no-any-return]
+        return zstandard.ZstdCompressor(compression_params=params).compress
     if compression == "lz4":
         try:
             import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415
         except ImportError as exc:  # not a dependency: mcap's writer makes it optional too
             raise ValueError("compression 'lz4': the lz4 package is not installed") from exc
-        return lz4.frame.compress  # type: ignore[no-any-return]
+        return lz4.frame.compress
     return bytes
 
 
