@@ -61,10 +61,13 @@ def msgdef(mt: MessageType) -> str:
     doc = (mt.cls.__doc__ or "").strip().splitlines()
     lines = [f"# fowt-hil {mt.name} v{mt.version}: {doc[0] if doc else mt.name}"]
     for f in mt.codec.fields:
-        lines.append(
-            f"{_ROS2_TYPE[f.wire]} {f.name}  # {f.description} [{f.unit}]"
-            f" range {f.minimum:g}..{f.maximum:g}"
-        )
+        if f.is_float:
+            lo, hi = repr(f.minimum), repr(f.maximum)
+        else:  # the declared range within the wire type's (a float bound may round past it)
+            info = np.iinfo(np.dtype(_NUMPY_TYPE[f.wire]))
+            lo = str(max(int(f.minimum), int(info.min)))
+            hi = str(min(int(f.maximum), int(info.max)))
+        lines.append(f"{_ROS2_TYPE[f.wire]} {f.name}  # {f.description} [{f.unit}] range {lo}..{hi}")
     return "\n".join(lines) + "\n"
 
 
