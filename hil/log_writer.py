@@ -23,8 +23,8 @@ and the CRC of the chunk; nothing is compiled. The MCAP ``publish_time`` of a me
 its own ``publish_time_ns`` (the host's monotonic clock) moved to the unix epoch: in
 process, publishing and logging are the same moment; ``log_time`` is the run's start plus
 ``sample_time_ns``. If the parent dies, the child sees the pipe close and finishes the
-file, so nothing handed over is lost. What the child costs a message is measured by
-bench/runlog_encoding.py (docs/recording.md).
+file, so nothing handed over is lost. The child's CPU a message: 0.78 us for a 600 s LC2
+stream, zstd and CRC 0.34 us of it (bench/runlog_encoding.py; docs/recording.md).
 
 Data in flight (what a SIGKILL of the run's process loses): a batch goes to the writer when
 it holds :data:`BATCH_MESSAGES` messages, and whatever went into the pipe survives the

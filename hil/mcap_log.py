@@ -93,16 +93,14 @@ from bus_schemas.registry import MESSAGES, MessageType
 
 PROFILE = "fowt-hil"
 RAW_SCHEMA_NAME = "fowt.RawPayload"
-#: zstd level of :class:`BatchRunLog`. bench/inprocess_speed.py measured levels 1 and 3 on
-#: a 600 s LC2 run's chunks (1024 messages, ~370 kB of JSON each): level 1 is both faster
+#: zstd level of :class:`RunLog`. bench/inprocess_speed.py measured levels 1 and 3 on a
+#: 600 s LC2 run's chunks (1024 messages, then ~370 kB of JSON each): level 1 was both faster
 #: (~540 against ~320 MB/s) and smaller (ratio 7.4 against 6.5) on these small chunks.
 ZSTD_LEVEL = 1
-#: zstd window and hash table of :class:`BatchRunLog` [log2 bytes / entries; 0 and 0: the
-#: level's own, chosen by zstd for the chunk's size]. 18 and 12 (a 256 kB window, a 16 kB
-#: hash table that stays in the core's caches) compress a real LC2 run's chunks faster than
-#: level 1's own at the same ratio (bench/log_writer_speed.py, ``stages.compression``:
-#: ``zstd1`` against ``zstd1_level_tables``). Any zstd decoder reads it (a smaller window
-#: than level 1's own 512 kB).
+#: zstd window and hash table of :class:`RunLog` [log2 bytes / entries]. 18 and 12 (a
+#: 256 kB window, a 16 kB hash table that stays in the core's caches) compressed a real LC2
+#: run's JSON chunks faster than level 1's own tables at the same ratio (measured with the
+#: JSON writer); a CDR chunk (~170 kB) fits the window whole. Any zstd decoder reads it.
 ZSTD_WINDOW_LOG = 18
 ZSTD_HASH_LOG = 12
 
