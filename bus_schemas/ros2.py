@@ -67,7 +67,8 @@ def msgdef(mt: MessageType) -> str:
             info = np.iinfo(np.dtype(_NUMPY_TYPE[f.wire]))
             lo = str(max(int(f.minimum), int(info.min)))
             hi = str(min(int(f.maximum), int(info.max)))
-        lines.append(f"{_ROS2_TYPE[f.wire]} {f.name}  # {f.description} [{f.unit}] range {lo}..{hi}")
+        line = f"{_ROS2_TYPE[f.wire]} {f.name}  # {f.description} [{f.unit}]"
+        lines.append(f"{line} range {lo}..{hi}")
     return "\n".join(lines) + "\n"
 
 

@@ -292,7 +292,11 @@ class RunLog:
 
     def write(self, key: str, msg: Any, receive_unix_ns: int | None = None) -> None:
         """Queue one message (a registered Struct) under its topic; flush a chunk when due
-        (:meth:`maybe_flush`). ``receive_unix_ns``: its ``publish_time`` (default: now)."""
+        (:meth:`maybe_flush`). ``receive_unix_ns``: its ``publish_time`` (default: now).
+
+        Raises ``KeyError`` for a topic of no channel and ``ValueError`` (nothing queued)
+        for a ``uint64`` field above ``2**63 - 1`` (the rows are int64; no run counts so far).
+        """
         cid = self._by_topic.get(key)
         if cid is None:
             raise KeyError(f"no channel registered for key {key!r}")
@@ -300,7 +304,12 @@ class RunLog:
         if ch.mt is None:
             raise KeyError(f"channel {key!r} is a JSON channel: use write_json")
         recv = time.time_ns() if receive_unix_ns is None else receive_unix_ns
-        self._queue(ch, "structs", msgspec.structs.astuple(msg), recv)
+        values = msgspec.structs.astuple(msg)
+        for i in _wide_fields(ch.mt):
+            if values[i] > _I64_MAX:  # a row holds int64 (the codec allows up to 2**64 - 1)
+                name = ch.mt.cls.__struct_fields__[i]
+                raise ValueError(f"{ch.mt.name}.{name} = {values[i]} does not fit the run log")
+        self._queue(ch, "structs", values, recv)
         ch.queued += 1
         self._queued += 1
         self.count += 1
@@ -546,6 +555,15 @@ COMPRESSIONS = ("zstd", "lz4", "")
 #: The ``encoding_version`` in a CDR channel's metadata: 2 since the per-cycle channels
 #: became ros2msg + CDR (1: the JSON channels of older files, which had none).
 CDR_ENCODING_VERSION = "2"
+
+
+_I64_MAX = 2**63 - 1
+
+
+@functools.cache
+def _wide_fields(mt: MessageType) -> tuple[int, ...]:
+    """Indices of ``mt``'s ``u64`` fields (the only ones whose range exceeds int64)."""
+    return tuple(i for i, f in enumerate(mt.codec.fields) if f.wire == "u64")
 
 
 @functools.cache

@@ -329,17 +329,22 @@ class Recorder:
         prefix = self.prefix
         while True:
             key, msg, recv = item
-            self.log.write(key, msg, recv)
-            counts[key.removeprefix(prefix)] += 1
-            if isinstance(msg, PlantReport):
-                self.plant_report = msgspec.structs.asdict(msg)
-            elif isinstance(msg, ControllerReport):
-                self.controller_reports.append(msgspec.structs.asdict(msg))
-            if isinstance(msg, _PER_CYCLE) and (
-                self.first_cycle is None or msg.seq < self.first_cycle
-            ):
-                self.first_cycle = int(msg.seq)
-            n += 1
+            try:
+                self.log.write(key, msg, recv)
+            except ValueError:  # a sequence number past int64: counted, not written
+                self.rejected[f"{key.removeprefix(prefix)}:range"] += 1
+                msg = None
+            if msg is not None:
+                counts[key.removeprefix(prefix)] += 1
+                if isinstance(msg, PlantReport):
+                    self.plant_report = msgspec.structs.asdict(msg)
+                elif isinstance(msg, ControllerReport):
+                    self.controller_reports.append(msgspec.structs.asdict(msg))
+                if isinstance(msg, _PER_CYCLE) and (
+                    self.first_cycle is None or msg.seq < self.first_cycle
+                ):
+                    self.first_cycle = int(msg.seq)
+                n += 1
             try:
                 item = self.queue.get_nowait()
             except queue.Empty:

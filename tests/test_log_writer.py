@@ -565,3 +565,25 @@ def test_pipe_framing_whole_batches_end_marker_and_cut_batches() -> None:
     assert reader.read() is None
     assert reader.read() is None  # and the pipe stays at its end
     os.close(r)
+
+
+def test_a_sequence_number_past_int64_is_refused_and_counted_by_the_recorder(
+    tmp_path: Path,
+) -> None:
+    """The codec lets a ``uint64`` sequence number reach 2**64 - 1; the run log's rows are
+    int64. ``RunLog.write`` refuses such a message (ValueError, nothing queued) and the
+    recorder counts it as a ``range`` rejection; the messages around it are written."""
+    from hil.recorder import Recorder, RecorderLog
+
+    mt = MESSAGES[0]
+    fields = {f.name: 0.0 if f.is_float else 0 for f in mt.codec.fields}
+    log = RecorderLog(tmp_path / "r.mcap", "t1")
+    with pytest.raises(ValueError, match="does not fit"):
+        log.write(mt.key("t1"), mt.cls(**{**fields, "seq": 2**63}))
+    rec = Recorder(log)
+    for seq in (0, 2**64 - 1, 1):
+        rec.on_sample(mt.key("t1"), mt.codec.encode(mt.cls(**{**fields, "seq": seq})))
+    assert rec.drain(0.0) == 2
+    log.close()
+    assert rec.rejected == {"sensors:range": 1}
+    assert [m["seq"] for m in read_run(tmp_path / "r.mcap").topic("sensors")] == [0, 1]
