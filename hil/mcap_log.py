@@ -147,7 +147,8 @@ class RunLog:
     The structural records (Header, Schemas, Channels, Metadata, DataEnd, the summary
     section, Footer) are written with the mcap package's record classes; only the message
     records and their indexes are built here, with numpy (no per-message Python work for
-    rows; ~0.4 us a message for the in-process writer, bench/runlog_encoding.py).
+    rows; 0.78 us of CPU a message in the in-process writer child, zstd included,
+    bench/runlog_encoding.py).
 
     Crash safety: :meth:`write` flushes a chunk every ``flush_interval_s`` of wall time or
     ``batch_messages`` messages (:meth:`maybe_flush`), and every chunk is handed to the OS

@@ -44,7 +44,7 @@ time, so the same wall time is more simulated time there.
 Log batches: the plant puts its truth and cycle timing, the controller its status, a few
 per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
 (:class:`hil.bus.LogBatcher`); the recorder splits them and writes each message on its own
-channel exactly as if it had been put alone (same channel, schema and JSON; the MCAP
+channel exactly as if it had been put alone (same channel, schema and payload; the MCAP
 publish time is the batch's receive time). A batch that does not split is counted under
 ``rejected`` as ``<batch suffix>:<reason>``.
 
