@@ -727,6 +727,8 @@ def recover_cmd(
 
     The new file holds every message that can be read, with summary and footer: a damaged
     chunk is skipped (one line each: its bytes and log times) and the chunks after it kept.
+    Exit 0 when nothing was skipped, 4 (recording incomplete) when a range was: the new file
+    is complete as a file but lacks those messages.
     """
     from hil.mcap_log import NotMcapError, SkippedRange, recover
 
@@ -745,6 +747,12 @@ def recover_cmd(
     for r in skipped:  # plain lines: never wrapped, one per range
         sys.stdout.write(f"skipped {r.describe()}\n")
     console.print(f"recovered {n} messages into {target}", markup=False)
+    if skipped:
+        stderr.print(
+            f"warning: {len(skipped)} damaged range(s) skipped; their messages are lost",
+            markup=False,
+        )
+        raise typer.Exit(int(ExitCode.RECORDING_INCOMPLETE))
 
 
 def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
