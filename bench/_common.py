@@ -222,10 +222,15 @@ def codes(args: argparse.Namespace) -> dict[str, Code]:
     return out
 
 
+def order(names: list[str], k: int) -> list[str]:
+    """Round ``k``'s order of the sides: reversed every other round (ABBA...), so that
+    neither side always runs first on a machine whose load drifts."""
+    return names if k % 2 == 0 else names[::-1]
+
+
 def alternate(names: list[str], rounds: int) -> list[tuple[int, str]]:
-    """(round, name) pairs, the order reversed every other round (ABBA...), so that neither
-    side always runs first on a machine whose load drifts."""
-    return [(k, name) for k in range(rounds) for name in (names if k % 2 == 0 else names[::-1])]
+    """(round, side) pairs of ``rounds`` rounds, each in :func:`order`."""
+    return [(k, name) for k in range(rounds) for name in order(names, k)]
 
 
 def run_child(

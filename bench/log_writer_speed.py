@@ -12,9 +12,9 @@ reports:
 * ``rows``: the messages as ``row_dtype`` rows in blocks of ``--block-cycles`` cycles through
   ``publish_block`` (what the compiled loop hands over);
 * ``structs``: the same messages as Structs through ``publish``;
-* ``main_rows`` and ``main_structs`` (with ``--compare-python PY --compare-root DIR``, e.g.
-  main's venv and checkout): the same two paths with DIR's code, each in a child process
-  with its own interpreter;
+* ``compare_rows`` and ``compare_structs`` (with ``--compare-python PY --compare-root DIR``,
+  e.g. main's venv and checkout): the same two paths with DIR's code, each in a child
+  process with its own interpreter (``_common.run_child``);
 
 each with the writer child's CPU per message (``writer_cpu_s / writer_messages``, its own
 measurement after start-up), the parent's CPU per message for the hand-over (thread CPU
@@ -41,8 +41,7 @@ the stream; ``total_us`` is the whole writer per message (decode to file) with t
 per batch, i.e. per chunk): the child's CPU per message and the file size.
 
     python bench/log_writer_speed.py [--streams lqri_ff,baseline] [--passes 4] [--rounds 3] \\
-        [--compare-python REF/.venv/bin/python --compare-root REF] \\
-        [--save-as log_writer_speed_compare]
+        [--compare-python REF/.venv/bin/python --compare-root REF]
 """
 
 from __future__ import annotations
@@ -59,7 +58,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import save
+from _common import Code, add_compare_args, codes, run_child, save
 
 #: The streams (``--streams``): the scenario whose 60 s in-process run is replayed.
 STREAMS = {"lqri_ff": "iea15mw-lc2-lqri-ff", "baseline": "iea15mw-lc2"}
@@ -341,17 +340,12 @@ def stages(batches: list[bytes], repeats: int) -> dict[str, Any]:
     return out
 
 
-def compare_path(args: argparse.Namespace, kind: str, mcap: Path) -> dict[str, Any]:
-    """``kind`` (rows or structs) with ``--compare-root``'s code in its own interpreter."""
-    cmd = [args.compare_python, str(Path(__file__).resolve()), "--only-path", kind]
-    cmd += ["--mcap", str(mcap), "--passes", str(args.passes)]
-    cmd += ["--block-cycles", str(args.block_cycles)]
-    env = dict(os.environ, PYTHONPATH=str(args.compare_root))
-    proc = subprocess.run(
-        cmd, check=True, capture_output=True, text=True, cwd=args.compare_root, env=env
-    )
-    result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
-    return result
+def compare_path(args: argparse.Namespace, code: Code, kind: str, mcap: Path) -> dict[str, Any]:
+    """``kind`` (rows or structs) with another checkout's code in its own interpreter."""
+    argv = [str(Path(__file__).resolve()), "--only-path", kind]
+    argv += ["--mcap", str(mcap), "--passes", str(args.passes)]
+    argv += ["--block-cycles", str(args.block_cycles)]
+    return run_child(code, argv)
 
 
 def main() -> None:
@@ -363,8 +357,7 @@ def main() -> None:
     ap.add_argument("--block-cycles", type=int, default=8)
     ap.add_argument("--stage-repeats", type=int, default=5)
     ap.add_argument("--batch-sizes", default="512,2048,4096", help="'' for none")
-    ap.add_argument("--compare-python", default=None)
-    ap.add_argument("--compare-root", type=Path, default=None)
+    add_compare_args(ap)
     ap.add_argument("--only-path", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--save-as", default="log_writer_speed")
     args = ap.parse_args()
@@ -376,7 +369,8 @@ def main() -> None:
     names = [s for s in args.streams.split(",") if s]
     if any(s not in STREAMS for s in names) or (args.mcap and len(names) != 1):
         raise SystemExit(f"--streams: of {list(STREAMS)}; --mcap with one stream only")
-    compare = bool(args.compare_python and args.compare_root)
+    sides = codes(args)
+    compare = "compare" in sides
     result: dict[str, Any] = {"streams": {}, "block_cycles": args.block_cycles}
     for name in names:
         mcap = args.mcap or real_run(STREAMS[name])  # the same stream for the compared code
@@ -385,9 +379,11 @@ def main() -> None:
         for r in range(args.rounds):
             entry: dict[str, Any] = {}
             for kind in ("rows", "structs"):
-                entry[kind] = run_path(kind, order, arrays, args.passes, args.block_cycles)
-                if compare:
-                    entry[f"main_{kind}"] = compare_path(args, kind, mcap)
+                for side in order(list(sides), r):
+                    if side == "this":
+                        entry[kind] = run_path(kind, order, arrays, args.passes, args.block_cycles)
+                    else:
+                        entry[f"compare_{kind}"] = compare_path(args, sides[side], kind, mcap)
             cpu = {k: round(v["writer_cpu_us_per_msg"], 3) for k, v in entry.items()}
             print(f"{name} round {r}: writer CPU per message [us] {cpu}", flush=True)
             rounds.append(entry)
@@ -419,8 +415,9 @@ def main() -> None:
             "batch_sizes": sizes,
         }
         if compare:
-            entry_out["writer_ratio_main_rows_over_rows"] = (
-                best["main_rows"]["writer_cpu_us_per_msg"] / best["rows"]["writer_cpu_us_per_msg"]
+            entry_out["writer_ratio_compare_rows_over_rows"] = (
+                best["compare_rows"]["writer_cpu_us_per_msg"]
+                / best["rows"]["writer_cpu_us_per_msg"]
             )
         result["streams"][name] = entry_out
     result["loadavg"] = os.getloadavg()
