@@ -5,6 +5,11 @@ Imported as ``from _helpers import ...``: pytest puts ``tests/`` on ``sys.path``
 
 from __future__ import annotations
 
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
 from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
@@ -12,12 +17,69 @@ from typing import Any
 
 import msgspec
 
-from bus_schemas import ActuatorCommand, PlantState, SensorFrame
+from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
 from hil.plant_node import PlantRunResult, run_inprocess
 from hil.scenario import Scenario
+
+REPO = Path(__file__).resolve().parent.parent
+
+#: The smallest floating scenario (TOML): the IEA 15 MW on the VolturnUS-S, steady 10 m/s
+#: wind, every other section as defaulted.
+STEADY_FLOATING_SCENARIO = """
+name = "t"
+turbine = "iea15mw"
+platform = "iea15mw_volturnus"
+[wind]
+kind = "steady"
+speed_m_s = 10.0
+"""
+
+
+def fowt(
+    *args: str,
+    timeout: float | None = 180.0,
+    cwd: Path | None = None,
+    columns: int | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """The ``fowt`` CLI (``python -m hil ARGS``) in a child process, its output captured.
+
+    The exit code is left to the caller (tests check it). The checkout leads
+    ``PYTHONPATH``, so ``cwd`` may be any folder; ``columns`` sets the terminal width rich
+    wraps at (None: the environment's).
+    """
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
+    }
+    if columns is not None:
+        env["COLUMNS"] = str(columns)
+    return subprocess.run(
+        [sys.executable, "-m", "hil", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+        env=env,
+        cwd=cwd,
+    )
+
+
+def can_netns_skip_reason() -> str | None:
+    """Why a CAN run (python-can's ``udp_multicast`` bus inside a private network namespace,
+    so that nothing leaves the machine) cannot run here, or None."""
+    if not sys.platform.startswith("linux"):
+        return "network namespaces are Linux only"
+    if os.geteuid() != 0:
+        return "not root: creating a network namespace (unshare -n) for udp_multicast needs root"
+    for tool in ("unshare", "ip"):
+        if shutil.which(tool) is None:
+            return f"{tool} not found: needed to create the private network namespace"
+    if importlib.util.find_spec("msgpack") is None:
+        return "msgpack not installed: python-can's udp_multicast bus needs it"
+    return None
 
 
 def key_file_args(folder: Path) -> list[str]:
@@ -149,3 +211,45 @@ def controller_report(cycles: int, sample_time_ns: int, **published: int) -> Any
         **counts,
         **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
     )
+
+
+def cycle_timing(seq: int, sample_time_ns: int, **fields: int) -> CycleTiming:
+    """A cycle's timing record for a synthetic log: published at its sample time, every count
+    and duration 0, but ``fields``."""
+    base = {
+        "seq": seq,
+        "sample_time_ns": sample_time_ns,
+        "publish_time_ns": sample_time_ns,
+        "latency_ns": 0,
+        "deadline_missed": 0,
+        "command_held": 0,
+        "safe_state": 0,
+        "plant_compute_ns": 0,
+        "tick_lateness_ns": 0,
+    }
+    return CycleTiming(**(base | fields))
+
+
+def timing_summary(cycles: int, sample_time_ns: int, **fields: Any) -> TimingSummary:
+    """The plant's final timing summary of ``cycles`` cycles for a synthetic log: every count
+    0, latencies 0.0 us, speed 1.0, published at 0, but ``fields``."""
+    base: dict[str, Any] = {
+        "seq": 0,
+        "sample_time_ns": sample_time_ns,
+        "publish_time_ns": 0,
+        "cycles": cycles,
+        "deadline_misses": 0,
+        "commands_held": 0,
+        "commands_rejected": 0,
+        "commands_late": 0,
+        "safe_state": 0,
+        "safe_state_cycles": 0,
+        "faults_injected": 0,
+        "final": 1,
+        "latency_p50_us": 0.0,
+        "latency_p99_us": 0.0,
+        "latency_p999_us": 0.0,
+        "latency_max_us": 0.0,
+        "sim_seconds_per_wall_second": 1.0,
+    }
+    return TimingSummary(**(base | fields))

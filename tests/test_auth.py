@@ -36,6 +36,7 @@ import can
 import msgspec
 import pytest
 import zenoh
+from _helpers import fowt
 
 from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.auth import (
@@ -285,26 +286,10 @@ class Attacker:
 
 def _clean_run(tmp_path: Path) -> Path:
     out = tmp_path / "clean"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "hil",
-            "run",
-            SCENARIO,
-            "--mode",
-            "lockstep",
-            "--duration",
-            str(DURATION_S),
-            "--out",
-            str(out),
-            "--no-plots",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        check=False,
-    )
+    proc = fowt(
+        "run", SCENARIO, "--mode", "lockstep", "--duration", str(DURATION_S), "--out", str(out),
+        "--no-plots", timeout=180,
+    )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return out / "run.mcap"
 

@@ -28,6 +28,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from _helpers import fowt
 
 from bus_schemas import ActuatorCommand, DecodeError
 from bus_schemas.auth import TAG_BYTES, AuthError, new_key, verify
@@ -251,26 +252,10 @@ def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
 @pytest.mark.e2e
 def test_fuzzing_a_lockstep_run_is_rejected_counted_and_changes_nothing(tmp_path: Path) -> None:
     base = tmp_path / "base"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "hil",
-            "run",
-            SCENARIO,
-            "--mode",
-            "lockstep",
-            "--duration",
-            str(DURATION_S),
-            "--out",
-            str(base),
-            "--no-plots",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    proc = fowt(
+        "run", SCENARIO, "--mode", "lockstep", "--duration", str(DURATION_S), "--out", str(base),
+        "--no-plots", timeout=120,
+    )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
     baseline = json.loads((base / "summary.json").read_text())
 
