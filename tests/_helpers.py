@@ -13,6 +13,7 @@ import sys
 from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 import msgspec
@@ -20,6 +21,7 @@ import msgspec
 from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
+from hil.bus import free_tcp_endpoint
 from hil.controller_node import ControllerRuntime
 from hil.plant_node import PlantRunResult, run_inprocess
 from hil.scenario import Scenario
@@ -80,6 +82,76 @@ def can_netns_skip_reason() -> str | None:
     if importlib.util.find_spec("msgpack") is None:
         return "msgpack not installed: python-can's udp_multicast bus needs it"
     return None
+
+
+def two_endpoints() -> tuple[str, str]:
+    """Two different free loopback endpoints: the plant's and the controller's listen."""
+    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
+    while ctrl_ep == plant_ep:
+        ctrl_ep = free_tcp_endpoint()
+    return plant_ep, ctrl_ep
+
+
+def lockstep_node_cmds(
+    scenario: str,
+    duration_s: float,
+    out: Path,
+    endpoints: tuple[str, str],
+    key: list[str],
+    require: str = "controller,recorder",
+) -> dict[str, list[str]]:
+    """The commands of a lock-step run's nodes started by hand, in start order: the recorder
+    (``out/run.mcap``) and the controller connect to the plant, which waits for ``require``.
+    ``endpoints``: the plant's and the controller's listen; ``key``: :func:`key_file_args`."""
+    plant_ep, ctrl_ep = endpoints
+
+    def node(sub: str, *args: str) -> list[str]:
+        return [sys.executable, "-m", "hil", sub, scenario, "--duration", str(duration_s),
+                *args, *key]  # fmt: skip
+
+    mcap = str(out / "run.mcap")
+    return {
+        "recorder": node("record", "--out", mcap, "--connect", plant_ep, "--connect", ctrl_ep),
+        "controller": node("controller", "--listen", ctrl_ep, "--connect", plant_ep),
+        "plant": node("plant", "--listen", plant_ep, "--mode", "lockstep", "--require", require),
+    }
+
+
+class NodeProcesses:
+    """Processes started by hand, each writing to ``<out>/<name>.log`` (unbuffered); as a
+    context manager, every one still running at its end is killed."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self._files: list[Any] = []
+
+    def start(self, name: str, cmd: list[str]) -> subprocess.Popen[bytes]:
+        fh = open(self.out / f"{name}.log", "wb")  # noqa: SIM115 - closed in __exit__
+        self._files.append(fh)
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self.procs[name] = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env)
+        return self.procs[name]
+
+    def wait(self, timeout: float) -> dict[str, int]:
+        """Every process's exit code (each waited for up to ``timeout`` s)."""
+        return {name: p.wait(timeout=timeout) for name, p in self.procs.items()}
+
+    def logs(self) -> dict[str, str]:
+        return {name: (self.out / f"{name}.log").read_text() for name in self.procs}
+
+    def __enter__(self) -> NodeProcesses:
+        return self
+
+    def __exit__(
+        self, _t: type[BaseException] | None, _e: BaseException | None, _tb: TracebackType | None
+    ) -> None:
+        for p in self.procs.values():
+            if p.poll() is None:
+                p.kill()
+                p.wait(10)
+        for fh in self._files:
+            fh.close()
 
 
 def key_file_args(folder: Path) -> list[str]:
