@@ -519,12 +519,12 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
 
     run = fl.CompiledLoop.run
 
-    def run_timed(self: Any, cycles: int) -> None:
+    def run_timed(self: Any, *a: Any, **k: Any) -> None:
         t.ns.clear()  # nothing before the loop counts
         t.calls.clear()
         marks["cpu0"] = time.thread_time_ns()
         marks["wall0"] = time.perf_counter_ns()
-        run(self, cycles)
+        run(self, *a, **k)
         marks["cpu1"] = time.thread_time_ns()
         marks["wall1"] = time.perf_counter_ns()
         marks["cycles"] = self.loop.k
