@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 from _common import Code, add_compare_args, codes, run_child, save
+from _common import order as round_order
 
 #: The streams (``--streams``): the scenario whose 60 s in-process run is replayed.
 STREAMS = {"lqri_ff": "iea15mw-lc2-lqri-ff", "baseline": "iea15mw-lc2"}
@@ -379,7 +380,7 @@ def main() -> None:
         for r in range(args.rounds):
             entry: dict[str, Any] = {}
             for kind in ("rows", "structs"):
-                for side in order(list(sides), r):
+                for side in round_order(list(sides), r):
                     if side == "this":
                         entry[kind] = run_path(kind, order, arrays, args.passes, args.block_cycles)
                     else:
