@@ -30,8 +30,10 @@ REPO = Path(__file__).resolve().parents[1]
 BINARY = bytes([0xFF, 0xFE, 0x00, 0x81]) + bytes(range(256)) * 4
 
 
-def _fowt(args: list[str], cwd: Path, columns: int = 80) -> subprocess.CompletedProcess[str]:
-    return fowt(*args, timeout=120.0, cwd=cwd, columns=columns)
+def _fowt(
+    args: list[str], cwd: Path, timeout: float = 120.0, columns: int = 80
+) -> subprocess.CompletedProcess[str]:
+    return fowt(*args, timeout=timeout, cwd=cwd, columns=columns)
 
 
 def _tree(root: Path) -> set[str]:
