@@ -1,7 +1,10 @@
-"""Shared helpers of the benchmark scripts: run a scenario through the launcher, save JSON."""
+"""Shared helpers of the benchmark scripts: run a scenario through the launcher, save JSON,
+compare this checkout's code with another's (A/B: :func:`codes`, :func:`alternate`,
+:func:`run_child`)."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -10,6 +13,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -176,3 +180,80 @@ def load() -> list[float]:
     import os
 
     return [round(v, 2) for v in os.getloadavg()]
+
+
+# --- A/B comparisons: this checkout against another one, in one run on the same machine ---
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@dataclass(frozen=True)
+class Code:
+    """One side of an A/B comparison: an interpreter and the checkout whose code it runs."""
+
+    python: str
+    root: Path
+
+    def info(self) -> dict[str, str]:
+        """What the result records of it (paths are scrubbed by :func:`save`)."""
+        return {"python": self.python, "root": str(self.root)}
+
+
+#: This checkout, run by this interpreter.
+THIS = Code(sys.executable, ROOT)
+
+
+def add_compare_args(ap: argparse.ArgumentParser) -> None:
+    """The options of every script that compares this code with another checkout's."""
+    ap.add_argument(
+        "--compare-python", default=None, help="the other checkout's interpreter (its venv)"
+    )
+    ap.add_argument("--compare-root", type=Path, default=None, help="the other checkout's root")
+
+
+def codes(args: argparse.Namespace) -> dict[str, Code]:
+    """``{"this": THIS}``, plus ``"compare"`` when ``--compare-python``/``--compare-root`` are
+    given (both or neither)."""
+    if (args.compare_python is None) != (args.compare_root is None):
+        raise SystemExit("--compare-python and --compare-root go together")
+    out = {"this": THIS}
+    if args.compare_python is not None:
+        out["compare"] = Code(str(args.compare_python), args.compare_root.resolve())
+    return out
+
+
+def order(names: list[str], k: int) -> list[str]:
+    """Round ``k``'s order of the sides: reversed every other round (ABBA...), so that
+    neither side always runs first on a machine whose load drifts."""
+    return names if k % 2 == 0 else names[::-1]
+
+
+def alternate(names: list[str], rounds: int) -> list[tuple[int, str]]:
+    """(round, side) pairs of ``rounds`` rounds, each in :func:`order`."""
+    return [(k, name) for k in range(rounds) for name in order(names, k)]
+
+
+def run_child(
+    code: Code, argv: list[str], env: dict[str, str] | None = None, timeout: float | None = None
+) -> dict[str, Any]:
+    """Run ``code.python ARGV`` on ``code``'s checkout (``PYTHONPATH`` = its root, working
+    folder its root) and return the JSON object its stdout's last line holds.
+
+    The script named in ``argv`` is this checkout's (one harness); the code it imports is
+    ``code``'s. A child that fails stops the benchmark with its output.
+    """
+    full_env = {**os.environ, **(env or {}), "PYTHONPATH": str(code.root)}
+    proc = subprocess.run(
+        [code.python, *argv],
+        cwd=code.root,
+        env=full_env,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=timeout,
+    )
+    lines = proc.stdout.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        raise SystemExit(f"child failed ({code.root}):\n{proc.stdout}\n{proc.stderr}")
+    result: dict[str, Any] = json.loads(lines[-1])
+    return result

@@ -28,14 +28,12 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-from _common import save
+from _common import Code, add_compare_args, codes, order, run_child, save
 
 CONTROLLERS = ("lqri_ff_bp", "baseline")
 RECORDS = ("none", "mcap")
@@ -88,25 +86,10 @@ def _child(duration_s: float, repeat: int, controller: str) -> dict[str, Any]:
     return out
 
 
-def _spawn(python: str, root: Path, args: argparse.Namespace, controller: str) -> dict[str, Any]:
-    script = Path(__file__).resolve()
-    cmd = [
-        python,
-        str(script),
-        "--child",
-        "--controller",
-        controller,
-        "--duration",
-        str(args.duration),
-        "--repeat",
-        str(args.repeat),
-    ]
-    env = {**os.environ, "PYTHONPATH": str(root)}
-    proc = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        raise SystemExit(f"child failed ({root}):\n{proc.stdout}\n{proc.stderr}")
-    result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
-    return result
+def _spawn(code: Code, args: argparse.Namespace, controller: str) -> dict[str, Any]:
+    argv = [str(Path(__file__).resolve()), "--child", "--controller", controller]
+    argv += ["--duration", str(args.duration), "--repeat", str(args.repeat)]
+    return run_child(code, argv)
 
 
 def _stats(runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -129,10 +112,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--repeat", type=int, default=2, help="runs per record mode per child")
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--compare-python", default=None, help="that checkout's Python interpreter")
-    ap.add_argument(
-        "--compare-root", type=Path, default=None, help="another checkout's root folder"
-    )
+    add_compare_args(ap)
     ap.add_argument("--save-as", default="campaign_run_speed")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--controller", default=CONTROLLERS[0], help=argparse.SUPPRESS)
@@ -140,26 +120,20 @@ def main() -> None:
     if args.child:
         print(json.dumps(_child(args.duration, args.repeat, args.controller)))
         return
-    here = Path(__file__).resolve().parent.parent
-    codes: dict[str, tuple[str, Path]] = {"this": (sys.executable, here)}
-    if args.compare_python is not None:
-        if args.compare_root is None:
-            raise SystemExit("--compare-python needs --compare-root")
-        codes["compare"] = (args.compare_python, args.compare_root.resolve())
+    sides = codes(args)
     rounds: list[dict[str, Any]] = []
     runs: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
-        code: {c: {r: [] for r in RECORDS} for c in CONTROLLERS} for code in codes
+        code: {c: {r: [] for r in RECORDS} for c in CONTROLLERS} for code in sides
     }
     firsts: dict[str, dict[str, list[float]]] = {
-        code: {c: [] for c in CONTROLLERS} for code in codes
+        code: {c: [] for c in CONTROLLERS} for code in sides
     }
     for k in range(args.rounds):
-        order = list(codes) if k % 2 == 0 else list(reversed(codes))
         for controller in CONTROLLERS:
-            for code in order:
-                python, root = codes[code]
+            for code in order(list(sides), k):
+                root = sides[code].root
                 load0 = os.getloadavg()[0]
-                res = _spawn(python, root, args, controller)
+                res = _spawn(sides[code], args, controller)
                 rounds.append(
                     {
                         "round": k,
@@ -181,8 +155,8 @@ def main() -> None:
     summary: dict[str, Any] = {}
     for controller in CONTROLLERS:
         for r in RECORDS:
-            entry = {code: _stats(runs[code][controller][r]) for code in codes}
-            if "compare" in codes:
+            entry = {code: _stats(runs[code][controller][r]) for code in sides}
+            if "compare" in sides:
                 a, b = entry["this"], entry["compare"]
                 entry["wall_ratio_compare_over_this"] = b["wall_s_median"] / a["wall_s_median"]
                 entry["cpu_ratio_compare_over_this"] = b["cpu_s_median"] / a["cpu_s_median"]
@@ -201,7 +175,7 @@ def main() -> None:
             "duration_s": args.duration,
             "repeat": args.repeat,
             "rounds_n": args.rounds,
-            "codes": {k: str(v[1]) for k, v in codes.items()},
+            "codes": {k: str(v.root) for k, v in sides.items()},
             "summary": summary,
             "first_wall_s": firsts,
             "rounds": rounds,

@@ -10,9 +10,9 @@ measured from outside. ``--repeats`` pairs are run (the machine is shared: the l
 is saved beside the figures).
 
 With ``--compare-python`` and ``--compare-root`` (e.g. ``REF/.venv/bin/python`` and
-``REF``, another checkout) each repeat runs that checkout's cold/warm pair first (its
-interpreter, its working directory, its own private cache), so both sides are measured in
-one run under the same load.
+``REF``, another checkout) each repeat also runs that checkout's cold/warm pair (its
+interpreter and code, its own private cache), the two sides' order alternating
+(``_common.order``), so both are measured in one run under the same load.
 
 Usage: ``python bench/controller_compile.py [--repeats 2] [--compare-python PY
 --compare-root DIR]``; saves ``bench/results/controller_compile.json``.
@@ -32,9 +32,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _common import machine, save
-
-ROOT = Path(__file__).resolve().parents[1]
+from _common import THIS, Code, add_compare_args, codes, machine, order, save
 
 CHILD = """
 import json, time
@@ -62,13 +60,14 @@ print(json.dumps({"import_s": t1 - t0, "construct_with_warm_up_s": t2 - t1,
 """
 
 
-def child(cache_dir: str, python: str = sys.executable, root: Path = ROOT) -> dict[str, Any]:
-    """One fresh process (``python`` in ``root``) with ``cache_dir`` as numba's cache."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+def child(cache_dir: str, code: Code = THIS) -> dict[str, Any]:
+    """One fresh process (``code``'s interpreter on its checkout) with ``cache_dir`` as
+    numba's cache."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir, PYTHONPATH=str(code.root))
     t0 = time.perf_counter()
     proc = subprocess.run(
-        [python, "-c", CHILD],
-        cwd=root,
+        [code.python, "-c", CHILD],
+        cwd=code.root,
         env=env,
         capture_output=True,
         text=True,
@@ -85,25 +84,19 @@ def main() -> None:
     """Run the cold/warm pairs, print and save."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=2, help="cold/warm pairs")
-    ap.add_argument("--compare-python", default=None, help="reference interpreter")
-    ap.add_argument("--compare-root", type=Path, default=None, help="reference checkout")
+    add_compare_args(ap)
     args = ap.parse_args()
-    runs = []
-    reference = []
+    sides = codes(args)
+    pairs: dict[str, list[dict[str, Any]]] = {side: [] for side in sides}
     load_before = os.getloadavg()
-    for _ in range(args.repeats):
-        if args.compare_python is not None:
-            root = args.compare_root or ROOT
+    for k in range(args.repeats):
+        for side in order(list(sides), k):
             with tempfile.TemporaryDirectory(prefix="fowt-numba-cache-") as cache:
-                cold = child(cache, args.compare_python, root)
-                warm = child(cache, args.compare_python, root)
-            reference.append({"cold": cold, "warm": warm})
-            print("reference cold", cold, "warm", warm)
-        with tempfile.TemporaryDirectory(prefix="fowt-numba-cache-") as cache:
-            cold = child(cache)
-            warm = child(cache)
-        runs.append({"cold": cold, "warm": warm})
-        print("cold", cold, "warm", warm)
+                cold = child(cache, sides[side])
+                warm = child(cache, sides[side])
+            pairs[side].append({"cold": cold, "warm": warm})
+            print(side, "cold", cold, "warm", warm)
+    runs, reference = pairs["this"], pairs.get("compare", [])
     result: dict[str, Any] = {
         "machine": machine(),
         "load_average_before": list(load_before),
@@ -111,11 +104,7 @@ def main() -> None:
         "runs": runs,
     }
     if reference:
-        result["reference"] = {
-            "python": args.compare_python,
-            "root": str(args.compare_root or ROOT),
-            "runs": reference,
-        }
+        result["reference"] = {**sides["compare"].info(), "runs": reference}
     save("controller_compile", result)
 
 

@@ -21,7 +21,7 @@ core), measured beside ROSCO's compiled controller in the same process and run:
    cycles with every part on (forecast valid and wave FF stepping), with the ratio to
    ROSCO's per-call p50/p99. The machine's load average is saved before and after.
 
-4. **Before/after in one run** (``--compare-python REF/.venv/bin/python
+4. **This code against another checkout in one run** (``--compare-python REF/.venv/bin/python
    --compare-root REF``): the same frames (pickled) are replayed into the ``lqri_ff``
    and ``baseline`` cores of that checkout by a child process with that interpreter,
    alternating with this checkout's replays and ROSCO's for ``--rounds`` rounds; each
@@ -43,7 +43,6 @@ import json
 import math
 import os
 import pickle
-import subprocess
 import sys
 import tempfile
 import time
@@ -58,7 +57,7 @@ sys.path.insert(
     0, str(Path.cwd() if "--child" in sys.argv else Path(__file__).resolve().parents[1])
 )
 
-from _common import machine, save
+from _common import add_compare_args, codes, machine, order, run_child, save
 
 from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST
@@ -248,8 +247,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=300.0, help="recorded run [s]")
     ap.add_argument("--repeats", type=int, default=3, help="replays per core (best kept)")
     ap.add_argument("--rounds", type=int, default=1, help="alternating rounds (best kept)")
-    ap.add_argument("--compare-python", type=Path, default=None)
-    ap.add_argument("--compare-root", type=Path, default=None)
+    add_compare_args(ap)
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:  # replay pickled frames in this checkout, print JSON
@@ -258,6 +256,7 @@ def main() -> None:
         scenario = load_scenario(SCENARIO).with_duration(args.duration)
         print(json.dumps(replay_all(COMPARED, scenario, frames, args.repeats)))
         return
+    sides = codes(args)
     load_before = os.getloadavg()
     t0 = time.monotonic()
     scenario, frames = record(args.duration)
@@ -267,18 +266,14 @@ def main() -> None:
         frames_file = Path(tmp) / "frames.pickle"
         with open(frames_file, "wb") as fh:
             pickle.dump(frames, fh)
-        for _ in range(args.rounds):
-            if args.compare_python is not None:
-                cmd = [str(args.compare_python), str(Path(__file__).resolve())]
-                cmd += ["--child", str(frames_file), "--duration", str(args.duration)]
-                cmd += ["--repeats", str(args.repeats)]
-                proc = subprocess.run(
-                    cmd, cwd=args.compare_root, capture_output=True, text=True, check=False
-                )
-                if proc.returncode != 0:
-                    raise SystemExit(f"comparison run failed:\n{proc.stderr}")
-                ref_rounds.append(json.loads(proc.stdout.strip().splitlines()[-1]))
-            this_rounds.append(replay_all(COMPARED + ROSCO, scenario, frames, args.repeats))
+        for k in range(args.rounds):
+            for side in order(list(sides), k):
+                if side == "this":
+                    this_rounds.append(replay_all(COMPARED + ROSCO, scenario, frames, args.repeats))
+                    continue
+                argv = [str(Path(__file__).resolve()), "--child", str(frames_file)]
+                argv += ["--duration", str(args.duration), "--repeats", str(args.repeats)]
+                ref_rounds.append(run_child(sides[side], argv))
     cores = _best(this_rounds)
     for kind, fig in cores.items():
         print(kind, fig)
@@ -337,8 +332,7 @@ def main() -> None:
                 for q in ("p50", "p99")
             }
         result["reference"] = {
-            "python": str(args.compare_python),
-            "root": str(args.compare_root),
+            **sides["compare"].info(),
             "cores": reference,
             "cpu_p50_us_every_round": {k: [_cpu_p50(r[k]) for r in ref_rounds] for k in reference},
         }

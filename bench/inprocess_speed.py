@@ -35,20 +35,14 @@ The machine is shared (2 cores, other jobs): the load average is saved with the 
 
     python bench/inprocess_speed.py [--duration 600] [--only NAME] [--repeat 2] [--legacy]
     python bench/inprocess_speed.py --compare-python REF/.venv/bin/python \
-        --compare-root REF --compare-only --rounds 3 --save-as inprocess_speed_compare
-
-Earlier figures came from this script run on an export of the
-older commit with this venv (the script copes with the older log writer)::
-
-    git archive 47d7306 | tar -x -C /tmp/before && cp bench/inprocess_speed.py /tmp/before/bench/
-    cd /tmp/before && PYTHONPATH=/tmp/before python bench/inprocess_speed.py \
-        --label "main 47d7306" --save-as inprocess_speed_reference
+        --compare-root REF --compare-only --rounds 3
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import json
 import os
 import resource
 import sys
@@ -58,7 +52,17 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from _common import Patches, run_fowt, save, scenario_variant
+from _common import (
+    THIS,
+    Patches,
+    add_compare_args,
+    alternate,
+    codes,
+    run_child,
+    run_fowt,
+    save,
+    scenario_variant,
+)
 
 CONFIGS: dict[str, dict[str, Any]] = {
     "lc2-lqri-ff": {"scenario": "iea15mw-lc2-lqri-ff", "target": 1000},
@@ -397,51 +401,38 @@ def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
 
 def _split_child(name: str, duration_s: float, loop: str = "auto") -> None:
     """``--split-child``: one split run, its JSON on stdout (for ``--compare-python``)."""
-    import json
-
     r = split_run(CONFIGS[name]["scenario"], duration_s, keep_batches=False, loop=loop)
     r.pop("_batches")
     r["load_average"] = os.getloadavg()
-    print("SPLIT " + json.dumps(r), flush=True)
+    print(json.dumps(r), flush=True)
 
 
 def compare_rounds(args: argparse.Namespace, names: list[str]) -> dict[str, Any]:
     """Alternate split runs of this code and of ``--compare-root`` (same script, each in a
     child process with its own interpreter), ``--rounds`` times; per configuration the
     least-CPU round of each and every round's figures."""
-    import json
-    import subprocess
-
-    here = Path(__file__).resolve()
-    # (python, code root, --loop): this code's compiled and Python loops, and the other code
-    codes = {
-        "this": (sys.executable, here.parent.parent, "compiled"),
-        "this_python_loop": (sys.executable, here.parent.parent, "python"),
-        "compare": (str(args.compare_python), args.compare_root.resolve(), "auto"),
+    here = str(Path(__file__).resolve())
+    # (code, --loop): this code's compiled and Python loops, and the other code
+    sides = {
+        "this": (THIS, "compiled"),
+        "this_python_loop": (THIS, "python"),
+        "compare": (codes(args)["compare"], "auto"),
     }
     out: dict[str, Any] = {"compare_root": str(args.compare_root), "rounds": args.rounds}
     for name in names:
-        per: dict[str, list[dict[str, Any]]] = {code: [] for code in codes}
-        for _ in range(args.rounds):
-            for code, (python, root, loop) in codes.items():
-                env = {**os.environ, "PYTHONPATH": str(root)}
-                cmd = [python, str(here), "--split-child", name, "--duration", str(args.duration)]
-                cmd += ["--loop", loop]
-                proc = subprocess.run(
-                    cmd, cwd=root, env=env, capture_output=True, text=True, check=False
-                )
-                line = [ln for ln in proc.stdout.splitlines() if ln.startswith("SPLIT ")]
-                if proc.returncode != 0 or not line:
-                    raise SystemExit(f"{code} split run failed:\n{proc.stdout}\n{proc.stderr}")
-                split = json.loads(line[-1][6:])
-                if args.compare_user_runs and code != "this_python_loop":
-                    # the command as a user runs it, with this code's or the other's
-                    # interpreter and checkout, right after its split run
-                    u = run_fowt(CONFIGS[name]["scenario"], "inprocess", args.duration,
-                                 python=python, cwd=root)  # fmt: skip
-                    split["user_run_sim_s_per_wall_s"] = u["timing"]["sim_seconds_per_wall_second"]
-                    split["user_run_load_average"] = os.getloadavg()[0]
-                per[code].append(split)
+        per: dict[str, list[dict[str, Any]]] = {code: [] for code in sides}
+        for _k, code in alternate(list(sides), args.rounds):
+            c, loop = sides[code]
+            argv = [here, "--split-child", name, "--duration", str(args.duration), "--loop", loop]
+            split = run_child(c, argv)
+            if args.compare_user_runs and code != "this_python_loop":
+                # the command as a user runs it, with this code's or the other's
+                # interpreter and checkout, right after its split run
+                u = run_fowt(CONFIGS[name]["scenario"], "inprocess", args.duration,
+                             python=c.python, cwd=c.root)  # fmt: skip
+                split["user_run_sim_s_per_wall_s"] = u["timing"]["sim_seconds_per_wall_second"]
+                split["user_run_load_average"] = os.getloadavg()[0]
+            per[code].append(split)
         entry: dict[str, Any] = {}
         for code, runs in per.items():
             best = min(runs, key=lambda r: r["per_cycle_cpu_us_total"])
@@ -489,10 +480,7 @@ def main() -> None:
     ap.add_argument("--label", default="", help="what code was measured (saved)")
     ap.add_argument("--save-as", default="inprocess_speed", help="name of the JSON")
     ap.add_argument("--split-child", choices=sorted(CONFIGS), default=None, help=argparse.SUPPRESS)
-    ap.add_argument("--compare-python", type=Path, default=None, help="e.g. main's venv python")
-    ap.add_argument(
-        "--compare-root", type=Path, default=None, help="another checkout's root folder"
-    )
+    add_compare_args(ap)
     ap.add_argument("--compare-only", action="store_true", help="only the --compare-* rounds")
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds with --compare-*")
     ap.add_argument(
@@ -596,9 +584,7 @@ def main() -> None:
                 "target": 500,
             }
     results["runs"] = runs
-    if args.compare_python is not None:
-        if args.compare_root is None:
-            raise SystemExit("--compare-python needs --compare-root")
+    if "compare" in codes(args):
         names = [n for n in CONFIGS if not args.only or n == args.only]
         results["compare"] = compare_rounds(args, names)
     results["load_average_end"] = os.getloadavg()

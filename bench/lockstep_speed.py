@@ -25,7 +25,8 @@ an additional reference, not the target's.
 
 ``--rounds N`` runs each configuration N times (figures: means over the rounds, each
 round under ``runs``); ``--compare-python PY --compare-root DIR`` runs another checkout
-(e.g. main) right after each of this checkout's runs, so both meet the same load, and
+(e.g. main) alternating with this checkout's runs (``_common.alternate``), so both meet the
+same load, and
 reports its figures under ``compare`` and ``speedup_over_compare``.
 
 The machine's load average is saved beside the figures (the bench machine is shared).
@@ -44,7 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import run_fowt, save
+from _common import add_compare_args, alternate, codes, run_fowt, save
 from _zenoh_pingpong import measure
 
 CONFIGS: dict[str, str] = {
@@ -134,13 +135,9 @@ def main() -> None:
         help="SCHED_FIFO for plant and controller, and for both ping-pong processes",
     )
     ap.add_argument("--rounds", type=int, default=1, help="lock-step runs per configuration")
-    ap.add_argument(
-        "--compare-python",
-        default=None,
-        help="another checkout's interpreter: its run alternates with this one's each round",
-    )
-    ap.add_argument("--compare-root", type=Path, default=None, help="that checkout's root")
+    add_compare_args(ap)
     args = ap.parse_args()
+    sides = codes(args)
     prio = args.realtime_priority
     rt = ["--realtime-priority", str(prio)] if prio else []
     results: dict[str, Any] = {}
@@ -150,22 +147,14 @@ def main() -> None:
         load_before = os.getloadavg()
         raw_before = measure(count=args.count, priority=prio)
         obs_before = measure(count=args.count, priority=prio, observer=True)
-        this: list[dict[str, Any]] = []
-        other: list[dict[str, Any]] = []
-        for _ in range(args.rounds):
-            this.append(run_fowt(scenario, "lockstep", args.duration, rt, inspect=_inspect))
-            if args.compare_python:
-                other.append(
-                    run_fowt(
-                        scenario,
-                        "lockstep",
-                        args.duration,
-                        rt,
-                        inspect=_inspect,
-                        python=args.compare_python,
-                        cwd=args.compare_root,
-                    )
-                )
+        summaries: dict[str, list[dict[str, Any]]] = {side: [] for side in sides}
+        for _k, side in alternate(list(sides), args.rounds):
+            code = sides[side]
+            summary = run_fowt(
+                scenario, "lockstep", args.duration, rt, _inspect, code.python, code.root
+            )
+            summaries[side].append(summary)
+        this, other = summaries["this"], summaries.get("compare", [])
         raw_after = measure(count=args.count, priority=prio)
         obs_after = measure(count=args.count, priority=prio, observer=True)
         raw_mean = 0.5 * (raw_before["round_trip_us"]["mean"] + raw_after["round_trip_us"]["mean"])
@@ -188,8 +177,7 @@ def main() -> None:
         if other:
             cmp_runs = [_figures(s, raw_mean, obs_mean) for s in other]
             res["compare"] = {
-                "python": args.compare_python,
-                "root": str(args.compare_root),
+                **sides["compare"].info(),
                 "sim_seconds_per_wall_second": _mean(cmp_runs, "sim_seconds_per_wall_second"),
                 "cycle_wall_us": _mean(cmp_runs, "cycle_wall_us"),
                 "cycle_over_raw_rtt": _mean(cmp_runs, "cycle_over_raw_rtt"),

@@ -47,8 +47,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from bus_schemas.jit import njit_nogil as _jit
 
 __all__ = [
     "EKF_PARAMS",
@@ -83,7 +84,6 @@ EKF_PARAMS = (
     "q_omega",  # rotor-speed process PSD [(rad/s)²/s]
 )
 
-_jit = numba.njit(cache=True, nogil=True)
 # Element loops rather than slice assignments (``a[:] = b``) throughout: numba compiles the
 # array-expression machinery of a slice assignment about ten times slower (18 s against 2 s
 # for the KF predict on this machine), and a first run pays that compile once.

@@ -1,28 +1,36 @@
-"""The controller kinds of the bench: one table mapping ``kind`` to a constructor.
+"""The controller kinds of the bench: one table mapping ``kind`` to what the kind needs.
 
-:data:`CONTROLLER_KINDS` maps each ``[controller] kind`` of a scenario to a function that builds
-the core from :class:`ControllerOptions`; :func:`make_controller` looks the kind up there.
-Adding a kind is one constructor function and one entry in that table (the core implements
-:class:`controller.interface.Controller`, including ``actuator_limits()``).
+:data:`CONTROLLER_KINDS` maps each ``[controller] kind`` of a scenario to a
+:class:`ControllerKind`: the function that builds the core from :class:`ControllerOptions`
+(:func:`make_controller` looks it up) and, for a kind that loads design artefacts, the
+function that makes a missing one before the run (:func:`ensure_design`, called by the
+launcher, which knows no kind). Adding a kind is one constructor function and one entry in
+that table (the core implements :class:`controller.interface.Controller`, including
+``actuator_limits()``).
 
 The cores are imported inside their constructors, so building a baseline core never imports
-numpy/scipy of the advanced one. This module imports the cores; the cores import only
-:mod:`controller.interface`, never this module.
+numpy/scipy of the advanced one; the design functions import :mod:`controller.design.on_demand`
+inside them, so the runtime never imports design code. This module imports the cores; the
+cores import only :mod:`controller.interface`, never this module.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from controller.interface import ActuatorLimits, Controller
 
 __all__ = [
     "CONTROLLER_KINDS",
+    "ControllerKind",
     "ControllerOptions",
+    "DesignRequest",
     "actuator_limits",
     "available_controllers",
+    "ensure_design",
     "make_controller",
 ]
 
@@ -69,6 +77,40 @@ class ControllerOptions:
     overlap: float | None = None
 
 
+@dataclass(frozen=True)
+class DesignRequest:
+    """What a kind's design function receives: the scenario's data a design may start from.
+
+    Attributes
+    ----------
+    kind, preset : str
+        ``[controller] kind`` and ``preset``.
+    control_period_s : float
+        Control period [s] (discrete designs are made for it).
+    feedforward : str or None
+        ``[controller] feedforward`` (``"lqri_ff"``; None: ``"balanced"``).
+    platform : str or None
+        The scenario's platform: a shipped preset name or a preset file (None: bottom-fixed).
+    wind_speed_m_s, hs_m, t1_s : float or None
+        Mean wind speed [m/s], significant wave height [m] and mean wave period T1 [s] of
+        the scenario's wind and sea, when it has them (design for one load case).
+    """
+
+    kind: str
+    preset: str
+    control_period_s: float
+    feedforward: str | None = None
+    platform: str | None = None
+    wind_speed_m_s: float | None = None
+    hs_m: float | None = None
+    t1_s: float | None = None
+
+
+def _feedforward(kind: str, feedforward: str | None) -> str:
+    """The advanced controller's wave-FF setting of a kind: ``lqri`` has none."""
+    return "off" if kind == "lqri" else (feedforward or "balanced")
+
+
 def _baseline(o: ControllerOptions) -> Controller[Any]:
     from controller.baseline import BaselineController, load_baseline  # noqa: PLC0415
 
@@ -78,7 +120,7 @@ def _baseline(o: ControllerOptions) -> Controller[Any]:
 def _advanced(o: ControllerOptions) -> Controller[Any]:
     from controller.runtime import AdvancedController, load_advanced_settings  # noqa: PLC0415
 
-    ff = "off" if o.kind == "lqri" else (o.feedforward or "balanced")
+    ff = _feedforward(o.kind, o.feedforward)
     return AdvancedController(
         load_advanced_settings(o.preset),
         o.control_period_s,
@@ -118,25 +160,108 @@ def _casanovas(o: ControllerOptions) -> Controller[Any]:
     )
 
 
-CONTROLLER_KINDS: dict[str, Callable[[ControllerOptions], Controller[Any]]] = {
-    "baseline": _baseline,
-    "lqri": _advanced,
-    "lqri_ff": _advanced,
-    "rosco": _rosco,
-    "lqr_wave": _lqr_wave,  # christiansen-2013, controller/lqr_wave.py
-    # casanovas-2014 (controller/casanovas.py)
-    "no_control": _casanovas,
-    "base_torque": _casanovas,
-    "lqr_steady": _casanovas,
-    "lqr_finite": _casanovas,
-    "lqr_overlaid": _casanovas,
+Say = Callable[[str], None]
+
+
+def _design_advanced(r: DesignRequest, say: Say) -> Path | None:
+    from controller.design.on_demand import ensure_advanced  # noqa: PLC0415
+
+    ff = _feedforward(r.kind, r.feedforward)
+    return ensure_advanced(r.preset, r.control_period_s, ff, r.platform, say)
+
+
+def _design_lqr_wave(r: DesignRequest, say: Say) -> Path | None:
+    from controller.design.on_demand import ensure_lqr_wave  # noqa: PLC0415
+
+    return ensure_lqr_wave(r.preset, r.control_period_s, say)
+
+
+def _design_casanovas(r: DesignRequest, say: Say) -> Path | None:
+    from controller.design.on_demand import ensure_casanovas  # noqa: PLC0415
+
+    return ensure_casanovas(
+        r.preset, r.control_period_s, r.platform, r.wind_speed_m_s, r.hs_m, r.t1_s, say
+    )
+
+
+@dataclass(frozen=True)
+class ControllerKind:
+    """One entry of :data:`CONTROLLER_KINDS`.
+
+    Attributes
+    ----------
+    build : callable
+        ``build(options) -> core``: the core from :class:`ControllerOptions`.
+    design : callable or None
+        ``design(request, say) -> Path | None``: makes the kind's missing design artefacts
+        for a :class:`DesignRequest` before the run (progress messages through ``say``) and
+        returns the folder designed into, or None when nothing was missing or nothing can be
+        designed; None for a kind that loads no design artefact.
+    """
+
+    build: Callable[[ControllerOptions], Controller[Any]]
+    design: Callable[[DesignRequest, Say], Path | None] | None = None
+
+
+_CASANOVAS = ControllerKind(
+    _casanovas, _design_casanovas
+)  # casanovas-2014, controller/casanovas.py
+
+CONTROLLER_KINDS: dict[str, ControllerKind] = {
+    "baseline": ControllerKind(_baseline),
+    "lqri": ControllerKind(_advanced, _design_advanced),
+    "lqri_ff": ControllerKind(_advanced, _design_advanced),
+    "rosco": ControllerKind(_rosco),
+    "lqr_wave": ControllerKind(_lqr_wave, _design_lqr_wave),  # christiansen-2013
+    "no_control": _CASANOVAS,
+    "base_torque": _CASANOVAS,
+    "lqr_steady": _CASANOVAS,
+    "lqr_finite": _CASANOVAS,
+    "lqr_overlaid": _CASANOVAS,
 }
-"""``kind`` -> constructor: the one place a controller kind is registered."""
+"""``kind`` -> constructor and design: the one place a controller kind is registered."""
 
 
 def available_controllers() -> tuple[str, ...]:
     """Names accepted by :func:`make_controller` as ``kind``."""
     return tuple(CONTROLLER_KINDS)
+
+
+def _kind(kind: str) -> ControllerKind:
+    entry = CONTROLLER_KINDS.get(kind)
+    if entry is None:
+        raise ValueError(
+            f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
+        )
+    return entry
+
+
+def ensure_design(request: DesignRequest, say: Say = print) -> Path | None:
+    """Make the design artefacts a run of ``request.kind`` needs, if missing.
+
+    Parameters
+    ----------
+    request : DesignRequest
+        The scenario's controller, period, platform, wind and sea.
+    say : callable
+        Where the progress messages go (what is designed, how long it took).
+
+    Returns
+    -------
+    Path or None
+        The folder designed into (to hand to the controller as ``$FOWT_DESIGN_DIR`` or
+        ``design_dir``), or None when nothing was missing, nothing can be designed or the
+        kind loads no design.
+
+    Raises
+    ------
+    ValueError
+        If the kind is unknown or its preset cannot be loaded.
+    controller.design.on_demand.DesignFailedError
+        If a design fails (its output is in the message).
+    """
+    design = _kind(request.kind).design
+    return None if design is None else design(request, say)
 
 
 def make_controller(
@@ -196,12 +321,7 @@ def make_controller(
         :class:`controller.lqri.DesignNotFoundError` (a ValueError) if a design artefact for
         ``control_period_s`` is missing.
     """
-    build = CONTROLLER_KINDS.get(kind)
-    if build is None:
-        raise ValueError(
-            f"unknown controller kind {kind!r}; known kinds: {', '.join(available_controllers())}"
-        )
-    return build(
+    return _kind(kind).build(
         ControllerOptions(
             kind=kind,
             preset=preset,

@@ -38,88 +38,36 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import hashlib
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import Any, cast
 
 import llvmlite.binding as llvm  # type: ignore[import-untyped]
-import numba
 import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.core.caching import CacheImpl
 from numba.extending import intrinsic
 
+from bus_schemas.jit import key_cache_by, njit
 from controller._kernels import advanced_cycle, baseline_step
 from plant._kernels import TRUTH_FIELDS, TRUTH_FLOATING, advance_floating, floating_truth_into
 from sensors._kernels import suite_step
 
-_F = TypeVar("_F", bound=Callable[..., Any])
-
-
-#: The kernels' sources composed by :func:`run_cycles` (its cache key includes them).
+#: The kernels' sources composed by :func:`run_cycles` (its cache key includes them, so a
+#: change there recompiles it: numba alone keys a cache by the function's own file).
 _CALLEE_FILES = tuple(
     Path(__file__).resolve().parent.parent / name / "_kernels.py"
     for name in ("plant", "sensors", "controller")
 )
-
-
-def _callees_hash() -> bytes:
-    h = hashlib.sha256()
-    for path in _CALLEE_FILES:
-        h.update(path.read_bytes())
-    return h.digest()
-
-
-def _with_callee_stamp(base: Any) -> Any:
-    """``base`` (a numba cache locator) for this file only, its source stamp extended by
-    the composed kernels' sources."""
-
-    class _Locator(base):
-        @classmethod
-        def from_function(cls, py_func: Any, py_file: str) -> Any:
-            if Path(py_file).resolve() != Path(__file__).resolve():
-                return None
-            return super().from_function(py_func, py_file)
-
-        def get_source_stamp(self) -> Any:
-            return (super().get_source_stamp(), _callees_hash())
-
-    _Locator.__name__ = f"LoopKernel{base.__name__}"
-    return _Locator
-
-
-def _key_cache_by_callees() -> None:
-    """numba keys a cached function by its own file's content only; :func:`run_cycles`
-    composes kernels from three other files, whose changes would otherwise leave its old
-    machine code in use (a stale cache). This module's functions get locators that add
-    those files' content to the key (numba's ``CacheImpl._locator_classes``: ahead of the
-    standard ones, each in the same order, so ``NUMBA_CACHE_DIR`` and the rest behave as
-    for every other kernel)."""
-    classes = CacheImpl._locator_classes
-    if any(getattr(c, "_fowt_loop", False) for c in classes):
-        return
-    wrapped = [_with_callee_stamp(c) for c in classes]
-    for c in wrapped:
-        c._fowt_loop = True
-    classes[:0] = wrapped
-
-
-_key_cache_by_callees()
+key_cache_by(__file__, _CALLEE_FILES)
 
 # clock_gettime by name: the cached machine code refers to the symbol, bound here in every
 # process (so the kernel stays cacheable, unlike a ctypes pointer baked in as a constant).
 _libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=False)
 llvm.add_symbol("clock_gettime", ctypes.cast(_libc.clock_gettime, ctypes.c_void_p).value or 0)
 _CLOCK_MONOTONIC = 1  # Linux <time.h>; time.monotonic_ns reads the same clock
-
-
-def njit(fn: _F) -> _F:
-    """``numba.njit(cache=True)`` (no fastmath), typed as ``fn``."""
-    return cast(_F, numba.njit(cache=True)(fn))
 
 
 @intrinsic

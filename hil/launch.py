@@ -299,67 +299,18 @@ def can_config(req: RunRequest, scenario: Scenario) -> CanBusConfig:
     return CanBusConfig.for_interface(c.interface, c.channel, c.fd, scenario.turbine_id)
 
 
-def _design_preset(scenario: Scenario, name: str) -> str:
-    """The plant preset to design ``name`` from: the scenario's platform when its stem is
-    ``name`` (a preset file keeps its path), else ``name`` itself (a shipped preset)."""
-    platform = scenario.platform
-    if platform is not None and Path(platform).stem == name:
-        return str(Path(platform).resolve()) if Path(platform).suffix == ".toml" else platform
-    return name
-
-
-def _ensure_lqr_wave(scenario: Scenario, console: Console) -> Path | None:
-    """First-use design of an ``lqr_wave`` gain table for the scenario's control period.
-
-    Runs ``fowt design DESIGN --lqr-wave VARIANT --control-period T_s --out CACHE`` in a child
-    process when neither the shipped designs nor the user cache hold it.
-    """
-    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
-    from controller.lqr_wave import (  # noqa: PLC0415
-        LqrWaveDesignNotFoundError,
-        find_lqr_wave_design,
-        load_lqr_wave_preset,
-    )
-    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
-
-    dt = scenario.timing.control_period_s
-    p = load_lqr_wave_preset(scenario.controller.preset)
-    if p.design.endswith(".npz"):  # a path to the artefact itself: loading reports a problem
-        return None
-    try:
-        find_lqr_wave_design(p.design, p.variant, dt)
-        return None
-    except LqrWaveDesignNotFoundError:
-        pass
-    cache = user_design_dir()
-    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
-    cmd = [sys.executable, "-m", "hil", "design", p.design, "--lqr-wave", p.variant]
-    cmd += ["--control-period", repr(dt), "--out", str(cache)]
-    console.print(f"no lqr_wave design {p.design} {p.variant} at {dt:g} s: {' '.join(cmd[2:])}")
-    t0 = time.monotonic()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
-    if proc.returncode != 0:
-        raise RunFailedError(
-            f"lqr_wave design failed ({proc.returncode}):\n{proc.stdout}{proc.stderr}"
-        )
-    console.print(f"designed lqr_wave {p.variant} at {dt:g} s in {time.monotonic() - t0:.1f} s")
-    return cache
-
-
 def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path | None:
-    """Design the advanced controller's artefacts for the scenario's control period if missing.
+    """Make the design artefacts the scenario's controller needs, if missing.
 
-    Looks the artefacts up as the controller will (:func:`controller.runtime.missing_designs`:
-    shipped designs, then the user design cache :func:`controller.lqri.user_design_dir`). For
-    each design with an artefact missing, runs ``fowt design PRESET --control-period T_s
-    --out CACHE`` in a child process (one BLAS thread, see :mod:`controller.design`; this
-    process and the controller process import no design code) and prints what it does and
-    how long it took.
+    The controller registry knows which kinds load design artefacts and how to make them
+    (:func:`controller.registry.ensure_design`); this hands it the scenario's controller,
+    period, platform, wind and sea. A design runs in a child process (this process and the
+    controller process import no design code) and prints what it does and how long it took.
 
     Parameters
     ----------
     scenario : Scenario
-        The run's scenario (its controller kind, preset and control period).
+        The run's scenario.
     console : Console, optional
         Where the messages go.
 
@@ -367,106 +318,31 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
     -------
     Path or None
         The cache folder designed into (to hand to the controller as ``$FOWT_DESIGN_DIR`` or
-        ``design_dir``), or None when nothing was missing or the controller is the baseline.
+        ``design_dir``), or None when nothing was missing or the kind loads no design.
 
     Raises
     ------
     RunFailedError
         If the design fails (its output is in the message).
     """
-    c = scenario.controller
-    if c.kind in _CASANOVAS_KINDS:
-        return _ensure_casanovas_design(scenario, console or Console())
-    if c.kind == "lqr_wave":
-        return _ensure_lqr_wave(scenario, console or Console())
-    if c.kind not in ("lqri", "lqri_ff"):  # only these designs remain; the others design nothing
-        return None
-        return None
-    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
-    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
-    from controller.runtime import load_advanced_settings, missing_designs  # noqa: PLC0415
-
-    dt = scenario.timing.control_period_s
-    ff = "off" if c.kind == "lqri" else (c.feedforward or "balanced")
-    missing = missing_designs(load_advanced_settings(c.preset), dt, ff)
-    if not missing:
-        return None
-    console = console or Console()
-    cache = user_design_dir()
-    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
-    for name in sorted({m.name for m in missing}):
-        kinds = ", ".join(m.kind for m in missing if m.name == name)
-        preset = _design_preset(scenario, name)
-        console.print(
-            f"no {name} controller design ({kinds}) for control period {dt:g} s: "
-            f"designing it into {cache} (fowt design {preset} --control-period {dt:g}) ..."
-        )
-        cmd = [
-            sys.executable,
-            "-m",
-            "hil",
-            "design",
-            preset,
-            "--control-period",
-            repr(dt),
-            "--out",
-            str(cache),
-        ]
-        t0 = time.monotonic()
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
-        if proc.returncode != 0:
-            raise RunFailedError(
-                f"design of {name} at {dt:g} s failed ({proc.returncode}):\n"
-                f"{proc.stdout}{proc.stderr}"
-            )
-        console.print(f"designed {name} at {dt:g} s in {time.monotonic() - t0:.1f} s")
-    still = missing_designs(load_advanced_settings(c.preset), dt, ff, cache)
-    if still:
-        raise RunFailedError(str(still[0]))
-    return cache
-
-
-_CASANOVAS_KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
-
-
-def _ensure_casanovas_design(scenario: Scenario, console: Console) -> Path | None:
-    """Design a missing casanovas-2014 artefact from the scenario's platform, wind and sea.
-
-    Runs ``python -m controller.design.casanovas --preset PLATFORM --wind U --hs H --t1 T1
-    --out CACHE`` (one BLAS thread) when ``[controller] preset`` is not found and is the
-    artefact name of that case; otherwise the controller's own error names what is missing.
-    """
-    from controller.casanovas import load_casanovas_design  # noqa: PLC0415
-    from controller.design import BLAS_SINGLE_THREAD_ENV  # noqa: PLC0415
-    from controller.lqri import DESIGN_DIR_ENV, user_design_dir  # noqa: PLC0415
+    from controller.design.on_demand import DesignFailedError  # noqa: PLC0415
+    from controller.registry import DesignRequest, ensure_design  # noqa: PLC0415
 
     c = scenario.controller
+    request = DesignRequest(
+        kind=c.kind,
+        preset=c.preset,
+        control_period_s=scenario.timing.control_period_s,
+        feedforward=c.feedforward,
+        platform=scenario.platform,
+        wind_speed_m_s=getattr(scenario.wind, "speed_m_s", None),
+        hs_m=getattr(scenario.waves, "hs_m", None),
+        t1_s=getattr(scenario.waves, "t1_s", None),
+    )
     try:
-        load_casanovas_design(c.preset)
-        return None
-    except ValueError:
-        pass
-    waves, wind = scenario.waves, scenario.wind
-    hs, t1 = getattr(waves, "hs_m", None), getattr(waves, "t1_s", None)
-    speed = getattr(wind, "speed_m_s", None)
-    if scenario.platform is None or hs is None or t1 is None or speed is None:
-        return None  # nothing to design from: the controller reports the missing artefact
-    from controller.design.casanovas import artefact_stem  # noqa: PLC0415
-
-    if artefact_stem(scenario.platform, speed, hs) != c.preset:
-        return None
-    cache = user_design_dir()
-    cmd = [
-        sys.executable, "-m", "controller.design.casanovas", "--preset", scenario.platform,
-        "--wind", repr(speed), "--hs", repr(hs), "--t1", repr(t1), "--out", str(cache),
-        "--control-period", repr(scenario.timing.control_period_s),
-    ]  # fmt: skip
-    console.print(f"no design {c.preset}: designing it into {cache} ...")
-    env = {**os.environ, **BLAS_SINGLE_THREAD_ENV, DESIGN_DIR_ENV: str(cache)}
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
-    if proc.returncode != 0:
-        raise RunFailedError(f"design of {c.preset} failed:\n{proc.stdout}{proc.stderr}")
-    return cache
+        return ensure_design(request, (console or Console()).print)
+    except DesignFailedError as exc:
+        raise RunFailedError(str(exc)) from exc
 
 
 def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:

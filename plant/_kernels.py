@@ -39,19 +39,10 @@ the offsets below.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
 
-import numba
 import numpy as np
 
-_F = TypeVar("_F", bound=Callable[..., Any])
-
-
-def njit(fn: _F) -> _F:
-    """``numba.njit(cache=True)`` (compiled on first call, cached on disk), typed as ``fn``."""
-    return cast(_F, numba.njit(cache=True)(fn))
-
+from bus_schemas.jit import njit
 
 WIND_MIN_M_S = 1.0e-3  # = plant.turbine.WIND_MIN_M_S (kept equal by tests/test_plant_kernels.py)
 

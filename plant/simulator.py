@@ -30,7 +30,8 @@ A control period, the truth outputs and the sensor readings are one compiled cal
 (:mod:`plant._kernels`, :mod:`sensors._kernels`): the simulator keeps the state as an array
 beside the tuple it returned (a caller passing that tuple back costs no conversion), the
 turbulent wind is looked up in the kernels, and the constants are packed in one array.
-``bench/plant_cycle_speed.py`` measures a whole plant cycle against the main checkout.
+``bench/loop_profile.py plant`` measures a whole plant cycle (against another checkout with
+``--compare-python``/``--compare-root``).
 
 Sensor faults
 -------------

@@ -31,19 +31,10 @@ Layouts (rows are channels)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
 
-import numba
 import numpy as np
 
-_F = TypeVar("_F", bound=Callable[..., Any])
-
-
-def njit(fn: _F) -> _F:
-    """``numba.njit(cache=True)`` (compiled on first call, cached on disk), typed as ``fn``."""
-    return cast(_F, numba.njit(cache=True)(fn))
-
+from bus_schemas.jit import njit
 
 DELAY, PERIOD, LAST_T, HAS_LAST, SAMPLE_K, HAS_SAMPLE, HEAD, COUNT = range(8)
 NORMAL_I, UNIFORM_I, SAMPLES, DROPPED = range(8, 12)

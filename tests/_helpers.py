@@ -5,20 +5,154 @@ Imported as ``from _helpers import ...``: pytest puts ``tests/`` on ``sys.path``
 
 from __future__ import annotations
 
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
 from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 import msgspec
 
-from bus_schemas import ActuatorCommand, PlantState, SensorFrame
+from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
+from hil.bus import free_tcp_endpoint
 from hil.controller_node import ControllerRuntime
 from hil.inprocess_run import run_inprocess
 from hil.plant_node import PlantRunResult
 from hil.scenario import Scenario
+
+REPO = Path(__file__).resolve().parent.parent
+
+#: The smallest floating scenario (TOML): the IEA 15 MW on the VolturnUS-S, steady 10 m/s
+#: wind, every other section as defaulted.
+STEADY_FLOATING_SCENARIO = """
+name = "t"
+turbine = "iea15mw"
+platform = "iea15mw_volturnus"
+[wind]
+kind = "steady"
+speed_m_s = 10.0
+"""
+
+
+def fowt(
+    *args: str,
+    timeout: float | None = 180.0,
+    cwd: Path | None = None,
+    columns: int | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """The ``fowt`` CLI (``python -m hil ARGS``) in a child process, its output captured.
+
+    The exit code is left to the caller (tests check it). The checkout leads
+    ``PYTHONPATH``, so ``cwd`` may be any folder; ``columns`` sets the terminal width rich
+    wraps at (None: the environment's).
+    """
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
+    }
+    if columns is not None:
+        env["COLUMNS"] = str(columns)
+    return subprocess.run(
+        [sys.executable, "-m", "hil", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+        env=env,
+        cwd=cwd,
+    )
+
+
+def can_netns_skip_reason() -> str | None:
+    """Why a CAN run (python-can's ``udp_multicast`` bus inside a private network namespace,
+    so that nothing leaves the machine) cannot run here, or None."""
+    if not sys.platform.startswith("linux"):
+        return "network namespaces are Linux only"
+    if os.geteuid() != 0:
+        return "not root: creating a network namespace (unshare -n) for udp_multicast needs root"
+    for tool in ("unshare", "ip"):
+        if shutil.which(tool) is None:
+            return f"{tool} not found: needed to create the private network namespace"
+    if importlib.util.find_spec("msgpack") is None:
+        return "msgpack not installed: python-can's udp_multicast bus needs it"
+    return None
+
+
+def two_endpoints() -> tuple[str, str]:
+    """Two different free loopback endpoints: the plant's and the controller's listen."""
+    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
+    while ctrl_ep == plant_ep:
+        ctrl_ep = free_tcp_endpoint()
+    return plant_ep, ctrl_ep
+
+
+def lockstep_node_cmds(
+    scenario: str,
+    duration_s: float,
+    out: Path,
+    endpoints: tuple[str, str],
+    key: list[str],
+    require: str = "controller,recorder",
+) -> dict[str, list[str]]:
+    """The commands of a lock-step run's nodes started by hand, in start order: the recorder
+    (``out/run.mcap``) and the controller connect to the plant, which waits for ``require``.
+    ``endpoints``: the plant's and the controller's listen; ``key``: :func:`key_file_args`."""
+    plant_ep, ctrl_ep = endpoints
+
+    def node(sub: str, *args: str) -> list[str]:
+        return [sys.executable, "-m", "hil", sub, scenario, "--duration", str(duration_s),
+                *args, *key]  # fmt: skip
+
+    mcap = str(out / "run.mcap")
+    return {
+        "recorder": node("record", "--out", mcap, "--connect", plant_ep, "--connect", ctrl_ep),
+        "controller": node("controller", "--listen", ctrl_ep, "--connect", plant_ep),
+        "plant": node("plant", "--listen", plant_ep, "--mode", "lockstep", "--require", require),
+    }
+
+
+class NodeProcesses:
+    """Processes started by hand, each writing to ``<out>/<name>.log`` (unbuffered); as a
+    context manager, every one still running at its end is killed."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self._files: list[Any] = []
+
+    def start(self, name: str, cmd: list[str]) -> subprocess.Popen[bytes]:
+        fh = open(self.out / f"{name}.log", "wb")  # noqa: SIM115 - closed in __exit__
+        self._files.append(fh)
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self.procs[name] = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env)
+        return self.procs[name]
+
+    def wait(self, timeout: float) -> dict[str, int]:
+        """Every process's exit code (each waited for up to ``timeout`` s)."""
+        return {name: p.wait(timeout=timeout) for name, p in self.procs.items()}
+
+    def logs(self) -> dict[str, str]:
+        return {name: (self.out / f"{name}.log").read_text() for name in self.procs}
+
+    def __enter__(self) -> NodeProcesses:
+        return self
+
+    def __exit__(
+        self, _t: type[BaseException] | None, _e: BaseException | None, _tb: TracebackType | None
+    ) -> None:
+        for p in self.procs.values():
+            if p.poll() is None:
+                p.kill()
+                p.wait(10)
+        for fh in self._files:
+            fh.close()
 
 
 def key_file_args(folder: Path) -> list[str]:
@@ -150,3 +284,45 @@ def controller_report(cycles: int, sample_time_ns: int, **published: int) -> Any
         **counts,
         **rejection_fields({}, "frames_rejected", CONTROLLER_REJECT_REASONS),
     )
+
+
+def cycle_timing(seq: int, sample_time_ns: int, **fields: int) -> CycleTiming:
+    """A cycle's timing record for a synthetic log: published at its sample time, every count
+    and duration 0, but ``fields``."""
+    base = {
+        "seq": seq,
+        "sample_time_ns": sample_time_ns,
+        "publish_time_ns": sample_time_ns,
+        "latency_ns": 0,
+        "deadline_missed": 0,
+        "command_held": 0,
+        "safe_state": 0,
+        "plant_compute_ns": 0,
+        "tick_lateness_ns": 0,
+    }
+    return CycleTiming(**(base | fields))
+
+
+def timing_summary(cycles: int, sample_time_ns: int, **fields: Any) -> TimingSummary:
+    """The plant's final timing summary of ``cycles`` cycles for a synthetic log: every count
+    0, latencies 0.0 us, speed 1.0, published at 0, but ``fields``."""
+    base: dict[str, Any] = {
+        "seq": 0,
+        "sample_time_ns": sample_time_ns,
+        "publish_time_ns": 0,
+        "cycles": cycles,
+        "deadline_misses": 0,
+        "commands_held": 0,
+        "commands_rejected": 0,
+        "commands_late": 0,
+        "safe_state": 0,
+        "safe_state_cycles": 0,
+        "faults_injected": 0,
+        "final": 1,
+        "latency_p50_us": 0.0,
+        "latency_p99_us": 0.0,
+        "latency_p999_us": 0.0,
+        "latency_max_us": 0.0,
+        "sim_seconds_per_wall_second": 1.0,
+    }
+    return TimingSummary(**(base | fields))

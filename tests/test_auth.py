@@ -22,7 +22,6 @@ attacker (a second Zenoh session in this process) on the same loopback endpoints
 from __future__ import annotations
 
 import ast
-import os
 import random
 import re
 import stat
@@ -36,6 +35,7 @@ import can
 import msgspec
 import pytest
 import zenoh
+from _helpers import NodeProcesses, fowt, key_file_args, lockstep_node_cmds, two_endpoints
 
 from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.auth import (
@@ -285,85 +285,38 @@ class Attacker:
 
 def _clean_run(tmp_path: Path) -> Path:
     out = tmp_path / "clean"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "hil",
-            "run",
-            SCENARIO,
-            "--mode",
-            "lockstep",
-            "--duration",
-            str(DURATION_S),
-            "--out",
-            str(out),
-            "--no-plots",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        check=False,
-    )
+    proc = fowt(
+        "run", SCENARIO, "--mode", "lockstep", "--duration", str(DURATION_S), "--out", str(out),
+        "--no-plots", timeout=180,
+    )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return out / "run.mcap"
 
 
 def _attacked_run(out: Path, attacker_key: str) -> tuple[dict[str, str], Attacker]:
     """Plant, controller, recorder by hand (with the run's key) and an attacker."""
-    from _helpers import key_file_args
-
     out.mkdir(parents=True)
     key_args = key_file_args(out)
     run_key = read_key_file(Path(key_args[1]))
-    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
-    while ctrl_ep == plant_ep:
-        ctrl_ep = free_tcp_endpoint()
-    base = [sys.executable, "-m", "hil"]
-    dur = [SCENARIO, "--duration", str(DURATION_S), *key_args]
-    cmds = {
-        "recorder": [
-            *base,
-            "record",
-            *dur,
-            "--out",
-            str(out / "run.mcap"),
-            "--connect",
-            plant_ep,
-            "--connect",
-            ctrl_ep,
-        ],
-        "controller": [*base, "controller", *dur, "--listen", ctrl_ep, "--connect", plant_ep],
-    }
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    procs: dict[str, subprocess.Popen[bytes]] = {}
-    files = []
+    endpoints = two_endpoints()
+    # The plant waits for the attacker's token too (it declares itself as the fuzzer).
+    nodes = lockstep_node_cmds(
+        SCENARIO, DURATION_S, out, endpoints, key_args, "controller,recorder,fuzzer"
+    )
     attacker: Attacker | None = None
     try:
-        for name, cmd in cmds.items():
-            fh = open(out / f"{name}.log", "wb")  # noqa: SIM115 - closed in finally
-            files.append(fh)
-            procs[name] = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env)
-        fh = open(out / "plant.log", "wb")  # noqa: SIM115 - closed in finally
-        files.append(fh)
-        plant_cmd = [*base, "plant", *dur, "--listen", plant_ep, "--mode", "lockstep"]
-        plant_cmd += ["--require", "controller,recorder,fuzzer"]
-        procs["plant"] = subprocess.Popen(plant_cmd, stdout=fh, stderr=subprocess.STDOUT, env=env)
-        # The attacker connects to both nodes (Zenoh retries until they listen).
-        forger_key = None if attacker_key == "none" else run_key
-        attacker = Attacker((plant_ep, ctrl_ep), forger_key)
-        codes = {name: p.wait(timeout=240) for name, p in procs.items()}
+        with NodeProcesses(out) as procs:
+            for name, cmd in nodes.items():  # recorder, controller, then the plant
+                procs.start(name, cmd)
+            # The attacker connects to both nodes (Zenoh retries until they listen).
+            forger_key = None if attacker_key == "none" else run_key
+            attacker = Attacker(endpoints, forger_key)
+            codes = procs.wait(timeout=240)
     finally:
-        for p in procs.values():
-            if p.poll() is None:
-                p.kill()
-                p.wait(10)
-        for fh in files:
-            fh.close()
         if attacker is not None:
             attacker.close()
     assert attacker is not None
-    logs = {n: (out / f"{n}.log").read_text() for n in procs}
+    logs = procs.logs()
     assert codes == dict.fromkeys(codes, 0), logs
     return logs, attacker
 

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from _helpers import cycle_timing
 
 from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming
 from bus_schemas.codec import HeaderError, TruncatedError
@@ -33,17 +34,10 @@ from hil.recorder import Recorder, RecorderLog
 
 
 def _timing(seq: int) -> CycleTiming:
-    return CycleTiming(
-        seq=seq,
-        sample_time_ns=seq * 25_000_000,
-        publish_time_ns=10_000 + seq,
-        latency_ns=300_000 + seq,
-        deadline_missed=0,
-        command_held=0,
-        safe_state=0,
+    return cycle_timing(
+        seq, seq * 25_000_000, publish_time_ns=10_000 + seq, latency_ns=300_000 + seq,
         plant_compute_ns=20_000,
-        tick_lateness_ns=0,
-    )
+    )  # fmt: skip
 
 
 def _command(seq: int) -> ActuatorCommand:

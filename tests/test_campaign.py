@@ -5,6 +5,7 @@ campaign file's validation, and a small campaign on a real 2-worker Dask LocalCl
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _helpers import fowt
 
 from hil import campaign_kpi as ck
 from hil.campaign import (
@@ -409,10 +411,7 @@ def test_same_kpis_with_one_worker_and_resume(small: dict[str, object]) -> None:
 # --------------------------------------------------------------------------- compare, HTML
 
 
-def _fowt(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args], capture_output=True, text=True, check=False
-    )
+_fowt = functools.partial(fowt, timeout=None)
 
 
 def test_compare_and_report(small: dict[str, object], tmp_path: Path) -> None:
@@ -510,9 +509,9 @@ def test_campaign_on_an_existing_scheduler(tmp_path: Path) -> None:
     import socket
     import time
 
-    with socket.socket() as s0:  # a free loopback port
-        s0.bind(("127.0.0.1", 0))
-        port = s0.getsockname()[1]
+    from hil.bus import free_tcp_endpoint
+
+    port = int(free_tcp_endpoint().rsplit(":", 1)[1])  # a free loopback port
     dask = str(Path(sys.executable).parent / "dask")
     sched = subprocess.Popen(
         [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],

@@ -15,16 +15,14 @@ logged every raw frame (7 classic frames per sensor frame, 4 per command, every 
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import can_netns_skip_reason
 
 from bus_schemas.can_codec import layouts
 from bus_schemas.can_db import auth_frame_id
@@ -37,20 +35,7 @@ from hil.scenario import scenario_text
 pytestmark = pytest.mark.e2e
 
 
-def _skip_reason() -> str | None:
-    if not sys.platform.startswith("linux"):
-        return "network namespaces are Linux only"
-    if os.geteuid() != 0:
-        return "not root: creating a network namespace (unshare -n) for udp_multicast needs root"
-    for tool in ("unshare", "ip"):
-        if shutil.which(tool) is None:
-            return f"{tool} not found: needed to create the private network namespace"
-    if importlib.util.find_spec("msgpack") is None:
-        return "msgpack not installed: python-can's udp_multicast bus needs it"
-    return None
-
-
-_SKIP = _skip_reason()
+_SKIP = can_netns_skip_reason()
 needs_netns = pytest.mark.skipif(_SKIP is not None, reason=_SKIP or "")
 
 KPIS = ("mean_power_w", "rotor_speed_std_rad_s", "pitch_travel_deg_s")

@@ -15,13 +15,12 @@ scenario has a description, ``fowt presets``), a shipped name winning over a str
 from __future__ import annotations
 
 import json
-import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from _helpers import fowt
 
 from hil.scenario import load_scenario, scenario_text, shipped_scenarios
 
@@ -34,20 +33,7 @@ BINARY = bytes([0xFF, 0xFE, 0x00, 0x81]) + bytes(range(256)) * 4
 def _fowt(
     args: list[str], cwd: Path, timeout: float = 120.0, columns: int = 80
 ) -> subprocess.CompletedProcess[str]:
-    env = {
-        **os.environ,
-        "COLUMNS": str(columns),
-        "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
-    }
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
+    return fowt(*args, timeout=timeout, cwd=cwd, columns=columns)
 
 
 def _tree(root: Path) -> set[str]:

@@ -13,16 +13,11 @@ from controller.design import design, linear_report
 from controller.design.linear import LinearModel, linear_model, reduce_radiation
 from controller.design.lqri import _MODEL_INDEX, LqriSettings, design_lqri, gains_at
 from plant.modes import PITCH_LENGTH_M, identify_modes
-from plant.platform import FloatingParams, load_floating
+from plant.platform import FloatingParams
 
 REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
 LIN_DIR = REFERENCE / "openfast" / "IEA-15-240-RWT-UMaineSemi" / "linearizations"
 LIN_FILES = {5.0: "00", 9.0: "04", 12.0: "07", 15.0: "10", 19.0: "14", 24.0: "19"}
-
-
-@pytest.fixture(scope="module")
-def params() -> FloatingParams:
-    return load_floating("iea15mw_volturnus")
 
 
 @pytest.fixture(scope="module")

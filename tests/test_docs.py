@@ -107,6 +107,41 @@ def test_benchmark_page_is_generated_from_the_results() -> None:
         assert f"## {result.stem}\n" in page
 
 
+def _bench_recipe() -> str:
+    """The commands of ``make bench`` (its target and the targets it depends on)."""
+    make = (ROOT / "Makefile").read_text()
+    deps = re.search(r"(?m)^bench:([^\n]*)", make)
+    assert deps, "the Makefile has no bench target"
+    recipe = []
+    for target in ["bench", *deps.group(1).split()]:
+        m = re.search(rf"(?ms)^{re.escape(target)}:[^\n]*\n((?:\t[^\n]*\n)*)", make)
+        if m:
+            recipe.append(m.group(1))
+    return "".join(recipe)
+
+
+def test_make_bench_runs_every_benchmark_the_docs_cite() -> None:
+    """Each ``bench/<script>.py`` a page names, and the script of each
+    ``bench/results/<name>.json`` a page names (its name, or the longest script name it
+    starts with), is run by ``make bench``."""
+    recipe = _bench_recipe()
+    scripts = {p.stem for p in (ROOT / "bench").glob("*.py") if not p.stem.startswith("_")}
+    cited: set[str] = set()
+    for page in (ROOT / "docs").rglob("*.md"):
+        if page.name == "benchmarks.md":  # generated: lists every result file
+            continue
+        text = page.read_text()
+        cited.update(re.findall(r"bench/([a-z0-9_]+)\.py", text))
+        for name in re.findall(r"results/([a-z0-9_]+)\.json", text):
+            owners = sorted((s for s in scripts if name == s or name.startswith(s + "_")), key=len)
+            assert owners, f"{page.name}: no bench script writes {name}.json"
+            cited.add(owners[-1])
+    cited.discard("report")
+    assert cited, "no benchmark cited (the pattern is wrong)"
+    missing = sorted(s for s in cited if f"bench/{s}.py" not in recipe)
+    assert not missing, f"cited in docs/ but not run by make bench: {missing}"
+
+
 def _python_blocks(page: Path) -> list[str]:
     return re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
 

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+from _helpers import fowt
 
 from hil.mcap_log import read_run
 from hil.review import summarize
@@ -18,19 +19,9 @@ from hil.review import summarize
 pytestmark = pytest.mark.e2e
 
 
-def _fowt(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-
-
 def test_lockstep_run_over_zenoh_records_every_channel(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    proc = _fowt("run", "nrel5mw-ramp", "--mode", "lockstep", "--duration", "10", "--out", str(out))
+    proc = fowt("run", "nrel5mw-ramp", "--mode", "lockstep", "--duration", "10", "--out", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     cycles = 1000  # 10 s at 100 Hz
     run = read_run(out / "run.mcap")
@@ -62,7 +53,7 @@ def test_lockstep_over_zenoh_equals_inprocess(tmp_path: Path) -> None:
     kpis = []
     for mode in ("lockstep", "inprocess"):
         out = tmp_path / mode
-        proc = _fowt(
+        proc = fowt(
             "run",
             "nrel5mw-ramp",
             "--mode",
@@ -152,7 +143,7 @@ def test_recorder_killed_mid_run_leaves_a_readable_file(tmp_path: Path) -> None:
 def test_lockstep_floating_run_records_platform_waves_and_loads(tmp_path: Path) -> None:
     """The default (floating, load case 2) scenario over Zenoh in lock-step, 5 s."""
     out = tmp_path / "floating"
-    proc = _fowt(
+    proc = fowt(
         "run", "default", "--mode", "lockstep", "--duration", "5", "--out", str(out), "--no-plots"
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -19,15 +19,15 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
-import os
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import fowt
 
 from hil.mcap_log import read_run
 from hil.outcome import (
@@ -239,23 +239,7 @@ def test_a_duration_under_one_control_period_is_refused() -> None:
 # --------------------------------------------------------------------------- the CLI
 
 
-def _env() -> dict[str, str]:
-    root = str(Path(__file__).resolve().parents[1])
-    return {**os.environ, "PYTHONPATH": root, "COLUMNS": "200"}
-
-
-def _fowt(
-    *args: str, timeout: float = 300, cwd: Path | None = None
-) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-        env=_env(),
-        cwd=cwd,
-    )
+_fowt = functools.partial(fowt, timeout=300.0, columns=200)
 
 
 def _one_error_line(proc: subprocess.CompletedProcess[str]) -> str:

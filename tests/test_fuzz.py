@@ -20,19 +20,17 @@ from __future__ import annotations
 
 import ast
 import json
-import os
 import re
-import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
 
 import pytest
+from _helpers import NodeProcesses, fowt, key_file_args, lockstep_node_cmds, two_endpoints
 
 from bus_schemas import ActuatorCommand, DecodeError
 from bus_schemas.auth import TAG_BYTES, AuthError, new_key, verify
 from bus_schemas.registry import COMMAND, SENSORS
-from hil.bus import free_tcp_endpoint
 from hil.controller_node import ControllerRuntime
 from hil.fuzz import KINDS, REPLAY_REASON, FuzzConfig, Fuzzer, PayloadFactory
 from hil.mcap_log import read_run
@@ -166,10 +164,6 @@ def test_pacing_follows_cycles_and_the_rate_cap() -> None:
     assert fuzzer.allowed(now_s=0.001, started_s=0.0) == 21  # 20 000/s for 1 ms, plus one
 
 
-def _node_cmd(sub: str, *args: str) -> list[str]:
-    return [sys.executable, "-m", "hil", sub, SCENARIO, "--duration", str(DURATION_S), *args]
-
-
 def test_a_fuzzer_without_the_key_sends_no_forged_kind() -> None:
     fuzzer = Fuzzer(FuzzConfig(), lambda _k, _p: None)
     assert "forged" not in fuzzer.kinds and set(fuzzer.kinds) == set(KINDS) - {"forged"}
@@ -177,100 +171,34 @@ def test_a_fuzzer_without_the_key_sends_no_forged_kind() -> None:
 
 def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
     """The lock-step run with the fuzzer; returns exit codes and the fuzzer's report."""
-    from _helpers import key_file_args
-
-    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
-    while ctrl_ep == plant_ep:
-        ctrl_ep = free_tcp_endpoint()
+    plant_ep, ctrl_ep = two_endpoints()
     out.mkdir(parents=True)
     key = key_file_args(out)
-    cmds = {
-        "recorder": _node_cmd(
-            "record",
-            "--out",
-            str(out / "run.mcap"),
-            "--connect",
-            plant_ep,
-            "--connect",
-            ctrl_ep,
-            *key,
-        ),
-        "controller": _node_cmd("controller", "--listen", ctrl_ep, "--connect", plant_ep, *key),
-        "fuzzer": [
-            sys.executable,
-            "-m",
-            "hil.fuzz",
-            "--connect",
-            plant_ep,
-            "--connect",
-            ctrl_ep,
-            "--total",
-            str(FUZZ_TOTAL),
-            "--per-cycle",
-            str(FUZZ_PER_CYCLE),
-            "--max-rate",
-            str(FUZZ_MAX_RATE_HZ),
-            "--stop-cycle",
-            str(FUZZ_STOP_CYCLE),
-            "--timeout",
-            "150",
-            "--report",
-            str(out / "fuzz.json"),
-            *key,
-        ],
-        "plant": _node_cmd(
-            "plant",
-            "--listen",
-            plant_ep,
-            "--mode",
-            "lockstep",
-            "--require",
-            "controller,recorder,fuzzer",
-            *key,
-        ),
-    }
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    procs: dict[str, subprocess.Popen[bytes]] = {}
-    files = []
-    try:
-        for name, cmd in cmds.items():
-            fh = open(out / f"{name}.log", "wb")  # noqa: SIM115 - closed in finally
-            files.append(fh)
-            procs[name] = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT, env=env)
-        codes = {name: p.wait(timeout=170) for name, p in procs.items()}
-    finally:
-        for p in procs.values():
-            if p.poll() is None:
-                p.kill()
-                p.wait(10)
-        for fh in files:
-            fh.close()
+    nodes = lockstep_node_cmds(
+        SCENARIO, DURATION_S, out, (plant_ep, ctrl_ep), key, "controller,recorder,fuzzer"
+    )
+    fuzzer = [
+        sys.executable, "-m", "hil.fuzz", "--connect", plant_ep, "--connect", ctrl_ep,
+        "--total", str(FUZZ_TOTAL), "--per-cycle", str(FUZZ_PER_CYCLE),
+        "--max-rate", str(FUZZ_MAX_RATE_HZ), "--stop-cycle", str(FUZZ_STOP_CYCLE),
+        "--timeout", "150", "--report", str(out / "fuzz.json"), *key,
+    ]  # fmt: skip
+    with NodeProcesses(out) as procs:
+        procs.start("recorder", nodes["recorder"])
+        procs.start("controller", nodes["controller"])
+        procs.start("fuzzer", fuzzer)
+        procs.start("plant", nodes["plant"])
+        codes = procs.wait(timeout=170)
     return codes, json.loads((out / "fuzz.json").read_text())
 
 
 @pytest.mark.e2e
 def test_fuzzing_a_lockstep_run_is_rejected_counted_and_changes_nothing(tmp_path: Path) -> None:
     base = tmp_path / "base"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "hil",
-            "run",
-            SCENARIO,
-            "--mode",
-            "lockstep",
-            "--duration",
-            str(DURATION_S),
-            "--out",
-            str(base),
-            "--no-plots",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    proc = fowt(
+        "run", SCENARIO, "--mode", "lockstep", "--duration", str(DURATION_S), "--out", str(base),
+        "--no-plots", timeout=120,
+    )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
     baseline = json.loads((base / "summary.json").read_text())
 

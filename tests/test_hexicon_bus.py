@@ -8,16 +8,13 @@ namespace) and reads the MCAP file they wrote.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
-import os
-import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _helpers import can_netns_skip_reason
 
 from controller.design.hexicon_identify import TABLE5, experiment_wind
 from controller.hexicon import (
@@ -186,20 +183,7 @@ def test_review_of_a_platform_run(tmp_path: Path) -> None:
 
 
 # ----------------------------------------------------------------------------- CAN
-def _can_skip_reason() -> str | None:
-    if not sys.platform.startswith("linux"):
-        return "network namespaces are Linux only"
-    if os.geteuid() != 0:
-        return "not root: creating a network namespace (unshare -n) for udp_multicast needs root"
-    for tool in ("unshare", "ip"):
-        if shutil.which(tool) is None:
-            return f"{tool} not found: needed to create the private network namespace"
-    if importlib.util.find_spec("msgpack") is None:
-        return "msgpack not installed: python-can's udp_multicast bus needs it"
-    return None
-
-
-_CAN_SKIP = _can_skip_reason()
+_CAN_SKIP = can_netns_skip_reason()
 
 
 @pytest.mark.skipif(_CAN_SKIP is not None, reason=_CAN_SKIP or "")

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bus_schemas import jit
 from bus_schemas.registry import CONTROLLER_STATUS, TIMING_SUMMARY, MessageType
 from controller.forecast import ForecasterState
 from hil import _loop_kernels as lk
@@ -359,13 +360,32 @@ def test_kernel_entry_point_is_dropped_when_an_array_type_changes() -> None:
 
 def test_loop_kernel_cache_is_keyed_by_the_composed_kernels_sources() -> None:
     """numba keys a cache by the function's own file; the loop kernel's key also holds the
-    plant, sensor and controller kernel files it composes (a change there recompiles it)."""
+    compile options' file and the plant, sensor and controller kernel files it composes (a
+    change there recompiles it)."""
     locator = lk.run_cycles._cache._impl._locator
-    assert type(locator).__name__.startswith("LoopKernel")
-    _own, callees = locator.get_source_stamp()
-    assert callees == lk._callees_hash()
+    assert type(locator).__name__.startswith("Keyed")
+    _own, extra = locator.get_source_stamp()
+    files = jit.cache_key_files(lk.__file__)
+    assert files == (Path(jit.__file__).resolve(), *lk._CALLEE_FILES)
+    assert extra == jit._files_hash(files)
     assert [p.name for p in lk._CALLEE_FILES] == ["_kernels.py"] * 3
     assert all(p.is_file() for p in lk._CALLEE_FILES)
+
+
+def test_every_kernel_cache_is_keyed_by_the_compile_options() -> None:
+    """A kernel compiled through :mod:`bus_schemas.jit` has a cache key holding that file
+    (its options live there, not beside the kernel)."""
+    from controller import _kernels as ck
+    from plant import _kernels as pk
+    from sensors import _kernels as sk
+
+    for fn in (pk.floating_step, sk.suite_step, ck.advanced_cycle):
+        locator = fn._cache._impl._locator
+        assert type(locator).__name__.startswith("Keyed"), fn
+        assert jit.cache_key_files(locator._py_file) == (Path(jit.__file__).resolve(),)
+    assert ck.advanced_cycle.targetoptions.get("nogil") is True
+    assert not pk.floating_step.targetoptions.get("nogil")
+    assert not any(f.targetoptions.get("fastmath") for f in (pk.floating_step, ck.advanced_cycle))
 
 
 @pytest.mark.parametrize(("name", "duration_s"), [("iea15mw-lc2", 30.0), ("iea15mw-lc2-lqri", 9.0)])

@@ -17,7 +17,6 @@ streaming readers and rewritten complete by :func:`hil.mcap_log.recover`
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import os
 import shutil
@@ -29,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import can_netns_skip_reason, fowt
 from _mcap_conformance import check_complete_mcap
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader
@@ -42,19 +42,6 @@ ROOT = Path(__file__).resolve().parents[1]
 NODE_TOOL = ROOT / "tools" / "mcap-conformance"
 
 
-def _can_skip_reason() -> str | None:
-    if not sys.platform.startswith("linux"):
-        return "network namespaces are Linux only"
-    if os.geteuid() != 0:
-        return "not root: the CAN run's private network namespace (unshare -n) needs root"
-    for tool in ("unshare", "ip"):
-        if shutil.which(tool) is None:
-            return f"{tool} not found: needed to create the private network namespace"
-    if importlib.util.find_spec("msgpack") is None:
-        return "msgpack not installed: python-can's udp_multicast bus needs it"
-    return None
-
-
 #: (id, fowt run arguments, cycles expected); each run is 3 simulated seconds.
 RUNS: list[tuple[str, list[str], int]] = [
     ("lockstep-zenoh", ["nrel5mw-ramp", "--mode", "lockstep"], 300),
@@ -64,26 +51,16 @@ RUNS: list[tuple[str, list[str], int]] = [
 ]
 
 
-def _fowt(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-
-
 @pytest.fixture(scope="module")
 def run_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, int]]:
     """The run logs of :data:`RUNS` that could be made here (CAN needs a namespace)."""
     out: dict[str, tuple[Path, int]] = {}
     base = tmp_path_factory.mktemp("runs")
     for name, args, cycles in RUNS:
-        if "can" in args and _can_skip_reason() is not None:
+        if "can" in args and can_netns_skip_reason() is not None:
             continue
         folder = base / name
-        proc = _fowt("run", *args, "--duration", "3", "--out", str(folder), "--no-plots")
+        proc = fowt("run", *args, "--duration", "3", "--out", str(folder), "--no-plots")
         # A real-time run on a loaded host may miss deadlines (and trip the plant's
         # watchdog): judged unhealthy (hil.outcome), yet its file is what is checked here.
         judged_on_load = (
@@ -98,7 +75,7 @@ def run_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, 
 
 def _log(run_logs: dict[str, tuple[Path, int]], name: str) -> tuple[Path, int]:
     if name not in run_logs:
-        pytest.skip(f"{name}: {_can_skip_reason()}")
+        pytest.skip(f"{name}: {can_netns_skip_reason()}")
     return run_logs[name]
 
 
@@ -160,7 +137,7 @@ def test_cut_log_reads_to_the_cut_and_recovers(
     assert {"scenario", "run"} <= set(found.metadata)
     again = read_run(fixed)
     assert again.complete and again.messages == run.messages
-    proc = _fowt("recover", str(cut), "--out", str(tmp_path / "cli.mcap"))
+    proc = fowt("recover", str(cut), "--out", str(tmp_path / "cli.mcap"))
     # The messages of the cut chunk are lost: exit 4 (recording incomplete), never 0.
     assert proc.returncode == 4, proc.stdout + proc.stderr
     assert f"recovered {n_read} messages" in proc.stdout

@@ -16,7 +16,7 @@ from plant.modes import (
     natural_modes,
     operating_point,
 )
-from plant.platform import FloatingParams, load_floating
+from plant.platform import FloatingParams
 
 REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
 LIN_DIR = REFERENCE / "openfast" / "IEA-15-240-RWT-UMaineSemi" / "linearizations"
@@ -96,11 +96,6 @@ def _lin_torque_slope(params: FloatingParams, wind: float, path: Path) -> float:
     w = next(i for i, s in enumerate(names) if "First time derivative of Variable speed" in s)
     a = linearize(params, operating_point(params, wind))
     return float(-(a_of[w, w] - a[8, 8]) * params.turbine.drivetrain_inertia_kg_m2)
-
-
-@pytest.fixture(scope="module")
-def params() -> FloatingParams:
-    return load_floating("iea15mw_volturnus")
 
 
 @pytest.fixture(scope="module")

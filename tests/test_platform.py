@@ -15,15 +15,9 @@ from plant.platform import (
     conservative,
     energy,
     f,
-    load_floating,
     relative_wind,
     rotor_thrust,
 )
-
-
-@pytest.fixture(scope="module")
-def params() -> FloatingParams:
-    return load_floating("iea15mw_volturnus")
 
 
 def _run(

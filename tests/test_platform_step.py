@@ -7,12 +7,7 @@ import pytest
 
 from plant.integrate import rk4_step
 from plant.modes import operating_point
-from plant.platform import FloatingParams, f, load_floating, step_floating
-
-
-@pytest.fixture(scope="module")
-def params() -> FloatingParams:
-    return load_floating("iea15mw_volturnus")
+from plant.platform import FloatingParams, f, step_floating
 
 
 def _wave_inputs(t: float, base: tuple[float, ...]) -> tuple[float, ...]:

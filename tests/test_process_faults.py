@@ -24,6 +24,7 @@ End to end (real time, real processes over Zenoh):
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import subprocess
@@ -33,10 +34,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import STEADY_FLOATING_SCENARIO, cycle_timing, fowt
 from _mcap_conformance import check_complete_mcap
 from rich.console import Console
 
-from bus_schemas import CycleTiming
 from bus_schemas.registry import CYCLE_TIMING
 from hil import launch
 from hil.launch import ProcessFaultDriver, ProcessFaultError, check_process_faults
@@ -51,28 +52,14 @@ from hil.scenario import (
     scenario_text,
 )
 
-BASE = """
-name = "t"
-turbine = "iea15mw"
-platform = "iea15mw_volturnus"
-[wind]
-kind = "steady"
-speed_m_s = 10.0
-"""
+BASE = STEADY_FLOATING_SCENARIO  # the smallest floating scenario (TOML)
 
 
 def _with_faults(*tables: str, base: str = BASE) -> str:
     return base + "".join(f"\n[[faults]]\n{t}\n" for t in tables)
 
 
-def _fowt(*args: str, timeout: float = 240.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
+_fowt = functools.partial(fowt, timeout=240.0)
 
 
 # --------------------------------------------------------------------------- validation
@@ -193,16 +180,13 @@ def test_modes_that_cannot_act_are_refused_before_anything_starts(tmp_path: Path
 
 def _cycle(k: int, period_ns: int, safe: int = 0) -> bytes:
     return CYCLE_TIMING.codec.encode(
-        CycleTiming(
-            seq=k,
-            sample_time_ns=k * period_ns,
+        cycle_timing(
+            k,
+            k * period_ns,
             publish_time_ns=0,
-            latency_ns=0,
             deadline_missed=safe,
             command_held=safe,
             safe_state=safe,
-            plant_compute_ns=0,
-            tick_lateness_ns=0,
         )
     )
 

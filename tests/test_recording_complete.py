@@ -18,15 +18,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from _helpers import controller_report, plant_report
+from _helpers import controller_report, cycle_timing, plant_report, timing_summary
 
 from bus_schemas import (
     ActuatorCommand,
     ControllerStatus,
-    CycleTiming,
     PlantState,
     SensorFrame,
-    TimingSummary,
 )
 from bus_schemas.messages import (
     PlantReport,
@@ -133,41 +131,17 @@ def _cycle(k: int) -> list[tuple[MessageType, Any]]:
         **{f: 0 for f in ControllerStatus.__struct_fields__}
         | {"seq": k, "answered_seq": k, "sample_time_ns": t}
     )
-    timing = CycleTiming(
-        seq=k,
-        sample_time_ns=t,
-        publish_time_ns=t,
-        latency_ns=100_000,
-        deadline_missed=0,
-        command_held=0,
-        safe_state=0,
-        plant_compute_ns=10_000,
-        tick_lateness_ns=0,
-    )
+    timing = cycle_timing(k, t, latency_ns=100_000, plant_compute_ns=10_000)
     return [(SENSORS, frame), (TRUTH, truth), (COMMAND, command), (CONTROLLER_STATUS, status),
             (CYCLE_TIMING, timing)]  # fmt: skip
 
 
 def _summary(cycles: int, final: bool) -> Any:
-    return TimingSummary(
-        seq=0,
-        sample_time_ns=cycles * PERIOD_NS,
-        publish_time_ns=0,
-        cycles=cycles,
-        deadline_misses=0,
-        commands_held=0,
-        commands_rejected=0,
-        commands_late=0,
-        safe_state=0,
-        safe_state_cycles=0,
-        faults_injected=0,
-        final=int(final),
-        latency_p50_us=100.0,
-        latency_p99_us=120.0,
-        latency_p999_us=130.0,
-        latency_max_us=140.0,
+    return timing_summary(
+        cycles, cycles * PERIOD_NS, final=int(final), latency_p50_us=100.0,
+        latency_p99_us=120.0, latency_p999_us=130.0, latency_max_us=140.0,
         sim_seconds_per_wall_second=20.0,
-    )
+    )  # fmt: skip
 
 
 def _plant_report(cycles: int) -> Any:

@@ -16,12 +16,13 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from _helpers import cycle_timing, timing_summary
 from mcap.reader import make_reader
 from mcap.records import Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from typer.testing import CliRunner
 
-from bus_schemas import ActuatorCommand, CycleTiming, TimingSummary
+from bus_schemas import ActuatorCommand
 from bus_schemas.registry import COMMAND, CYCLE_TIMING, TIMING_SUMMARY
 from hil.cli import app
 from hil.mcap_log import RunLog, SkippedRange, read_run, recover
@@ -55,17 +56,7 @@ def _write_log(path: Path) -> None:
         )
         log.write(
             CYCLE_TIMING.key(TID),
-            CycleTiming(
-                seq=k,
-                sample_time_ns=t,
-                publish_time_ns=t,
-                latency_ns=500_000 + k,
-                deadline_missed=0,
-                command_held=0,
-                safe_state=0,
-                plant_compute_ns=80_000,
-                tick_lateness_ns=0,
-            ),
+            cycle_timing(k, t, latency_ns=500_000 + k, plant_compute_ns=80_000),
             receive_unix_ns=START_NS + t,
         )
         n += 2
@@ -73,24 +64,13 @@ def _write_log(path: Path) -> None:
             log.flush()
     log.write(
         TIMING_SUMMARY.key(TID),
-        TimingSummary(
-            seq=0,
-            sample_time_ns=CYCLES * PERIOD_NS,
-            publish_time_ns=0,
-            cycles=CYCLES,
-            deadline_misses=0,
-            commands_held=0,
-            commands_rejected=0,
-            commands_late=0,
-            safe_state=0,
-            safe_state_cycles=0,
-            faults_injected=0,
-            final=1,
+        timing_summary(
+            CYCLES,
+            CYCLES * PERIOD_NS,
             latency_p50_us=500.0,
             latency_p99_us=510.0,
             latency_p999_us=511.0,
             latency_max_us=511.5,
-            sim_seconds_per_wall_second=1.0,
         ),
         receive_unix_ns=START_NS + CYCLES * PERIOD_NS,
     )

@@ -7,21 +7,19 @@ runs the shipped ``iea15mw-lc2-lqri-ff`` scenario in process for 4 s.
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import math
-import os
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from _helpers import controller_report, plant_report
+from _helpers import controller_report, fowt, plant_report, timing_summary
 from rich.console import Console
 
-from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame, TimingSummary
+from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame
 from bus_schemas.registry import CONTROLLER_REPORT, PLANT_REPORT, SENSORS, TIMING_SUMMARY, TRUTH
 from hil.mcap_log import NotMcapError, RunLog, read_run
 from hil.review import (
@@ -38,17 +36,8 @@ DT_NS = 50_000_000  # 20 Hz
 N = 600  # 30 s
 
 
-def _fowt(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
-    # A wide terminal, so that rich does not wrap the one-line messages checked here.
-    env = {**os.environ, "COLUMNS": "400"}
-    return subprocess.run(
-        [sys.executable, "-m", "hil", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-        env=env,
-    )
+# A wide terminal, so that rich does not wrap the one-line messages checked here.
+_fowt = functools.partial(fowt, timeout=120.0, columns=400)
 
 
 def _write(path: Path, *, floating: bool, settle_s: float | None, pitch_zero: bool = False) -> None:
@@ -117,27 +106,8 @@ def _write(path: Path, *, floating: bool, settle_s: float | None, pitch_zero: bo
     # The plant's final timing summary: without it the run is incomplete (--strict fails).
     log.write(
         TIMING_SUMMARY.key("t1"),
-        TimingSummary(
-            seq=0,
-            sample_time_ns=N * DT_NS,
-            publish_time_ns=N * DT_NS,
-            cycles=N,
-            deadline_misses=0,
-            commands_held=0,
-            commands_rejected=0,
-            commands_late=0,
-            safe_state=0,
-            safe_state_cycles=0,
-            faults_injected=0,
-            final=1,
-            latency_p50_us=0.0,
-            latency_p99_us=0.0,
-            latency_p999_us=0.0,
-            latency_max_us=0.0,
-            sim_seconds_per_wall_second=1.0,
-        ),
+        timing_summary(N, N * DT_NS, publish_time_ns=N * DT_NS),
     )
-    # The nodes' end-of-run accounts: what the file must hold (sensors and truth only here).
     # The nodes' end-of-run accounts: what the file must hold (sensors and truth only here).
     log.write(
         PLANT_REPORT.key("t1"),

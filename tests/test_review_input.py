@@ -12,10 +12,10 @@ import json
 from pathlib import Path
 
 import pytest
+from _helpers import cycle_timing
 from mcap.writer import Writer
 from typer.testing import CliRunner
 
-from bus_schemas import CycleTiming
 from bus_schemas.registry import CYCLE_TIMING
 from hil.cli import app
 from hil.mcap_log import RunLog, read_run
@@ -41,17 +41,7 @@ def _bench_log_without_final_summary(path: Path) -> None:
     for k in range(20):
         log.write(
             CYCLE_TIMING.key("t1"),
-            CycleTiming(
-                seq=k,
-                sample_time_ns=k * 10**7,
-                publish_time_ns=0,
-                latency_ns=400_000,
-                deadline_missed=0,
-                command_held=0,
-                safe_state=0,
-                plant_compute_ns=1,
-                tick_lateness_ns=0,
-            ),
+            cycle_timing(k, k * 10**7, publish_time_ns=0, latency_ns=400_000, plant_compute_ns=1),
             receive_unix_ns=0,
         )
     log.close()

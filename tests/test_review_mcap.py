@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _helpers import cycle_timing, timing_summary
 from rich.console import Console
 
 from bus_schemas.messages import (
     ActuatorCommand,
     ControllerStatus,
-    CycleTiming,
     PlantState,
     SensorFrame,
     TimingSummary,
@@ -183,38 +183,25 @@ def _write_run(path: Path, scenario_cfg: dict | None = None) -> Written:
         )
         log.write(
             CYCLE_TIMING.key(TURBINE),
-            CycleTiming(
-                seq=i,
-                sample_time_ns=ts,
+            cycle_timing(
+                i,
+                ts,
                 publish_time_ns=pub,
                 latency_ns=int(latency[i]),
                 deadline_missed=int(missed[i]),
                 command_held=int(held[i]),
-                safe_state=0,
                 plant_compute_ns=50_000,
                 tick_lateness_ns=1_000,
             ),
         )
         if i in (N // 2, N - 1):
-            final = TimingSummary(
-                seq=0 if i < N - 1 else 1,
-                sample_time_ns=ts,
-                publish_time_ns=pub,
-                cycles=i + 1,
+            final = timing_summary(
+                i + 1, ts, seq=0 if i < N - 1 else 1, publish_time_ns=pub,
                 deadline_misses=int(missed[: i + 1].sum()),
-                commands_held=int(held[: i + 1].sum()),
-                commands_rejected=3,
-                commands_late=2,
-                safe_state=0,
-                safe_state_cycles=0,
-                faults_injected=0,
-                final=int(i == N - 1),
-                latency_p50_us=300.0,
-                latency_p99_us=600.0,
-                latency_p999_us=800.0,
-                latency_max_us=900.0,
-                sim_seconds_per_wall_second=2.0,
-            )
+                commands_held=int(held[: i + 1].sum()), commands_rejected=3, commands_late=2,
+                final=int(i == N - 1), latency_p50_us=300.0, latency_p99_us=600.0,
+                latency_p999_us=800.0, latency_max_us=900.0, sim_seconds_per_wall_second=2.0,
+            )  # fmt: skip
             log.write(TIMING_SUMMARY.key(TURBINE), final)
     log.close()
     return Written(

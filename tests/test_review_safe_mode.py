@@ -16,9 +16,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from _helpers import cycle_timing, timing_summary
 from rich.console import Console
 
-from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming, TimingSummary
+from bus_schemas import ActuatorCommand, ControllerStatus
 from bus_schemas.messages import (
     EST_FEEDFORWARD,
     EST_WAVE_FORECAST,
@@ -98,23 +99,19 @@ def _write(path: Path, reports: bool, plant_safe: bool = False) -> None:
         )
         log.write(
             CYCLE_TIMING.key(TID),
-            CycleTiming(
-                seq=k,
-                sample_time_ns=t,
-                publish_time_ns=t,
+            cycle_timing(
+                k,
+                t,
                 latency_ns=400_000,
-                deadline_missed=0,
-                command_held=0,
                 safe_state=int(plant_safe and k in PLANT_SAFE),
                 plant_compute_ns=1,
-                tick_lateness_ns=0,
             ),
         )
-    summary = {**_zero(TimingSummary), "final": 1, "cycles": CYCLES, "commands_rejected": 5}
-    summary.update(sim_seconds_per_wall_second=1.0, sample_time_ns=CYCLES * PERIOD_NS)
-    if plant_safe:
-        summary["safe_state_cycles"] = len(PLANT_SAFE)
-    log.write(TIMING_SUMMARY.key(TID), TimingSummary(**summary))
+    summary = timing_summary(
+        CYCLES, CYCLES * PERIOD_NS, commands_rejected=5,
+        safe_state_cycles=len(PLANT_SAFE) if plant_safe else 0,
+    )  # fmt: skip
+    log.write(TIMING_SUMMARY.key(TID), summary)
     if reports:
         plant = {**_zero(PlantReport), "final": 1, "cycles": CYCLES, "commands_applied": 195}
         plant.update(commands_rejected_auth=3, commands_rejected_range=2)

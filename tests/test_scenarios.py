@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from _helpers import STEADY_FLOATING_SCENARIO
 
 from hil.scenario import (
     JonswapWavesSpec,
@@ -14,14 +15,7 @@ from hil.scenario import (
     shipped_scenarios,
 )
 
-BASE = """
-name = "t"
-turbine = "iea15mw"
-platform = "iea15mw_volturnus"
-[wind]
-kind = "steady"
-speed_m_s = 10.0
-"""
+BASE = STEADY_FLOATING_SCENARIO  # the smallest floating scenario (TOML)
 
 
 def test_every_shipped_scenario_loads() -> None:

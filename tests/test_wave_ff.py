@@ -31,7 +31,6 @@ from controller.lqri import (
     load_lqri_design,
     load_wave_ff_design,
 )
-from plant.platform import load_floating
 from plant.waves import JonswapSpectrum, excitation_force, synthesize
 
 DT = 0.025
@@ -40,11 +39,6 @@ DT = 0.025
 @pytest.fixture(scope="module")
 def ff() -> WaveFfDesign:
     return load_wave_ff_design("iea15mw_volturnus")
-
-
-@pytest.fixture(scope="module")
-def params():  # type: ignore[no-untyped-def]
-    return load_floating("iea15mw_volturnus")
 
 
 def _response(ff: WaveFfDesign, k: int, w: np.ndarray) -> np.ndarray:
