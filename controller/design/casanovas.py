@@ -159,6 +159,7 @@ class LinearModel:
     drag_linear_n_s_m: float
     quadratic_drag_n_s2_m2: float
     hessian: FloatArray  # (3, 3) of P in (ϖ, ξ̇, ψ) [W per unit²]
+    power_gradient: FloatArray  # (3,) of P in (ϖ, ξ̇, ψ) [W per unit]
 
 
 def _quadratic_surface(table: Any, which: str, tsr: float, pitch: float) -> FloatArray:
@@ -287,6 +288,9 @@ def linear_model(preset: str, settings: CasanovasSettings) -> LinearModel:
                 4 * steps[i] * steps[j]
             )
     hess = 0.5 * (hess + hess.T)
+    grad_p = np.array(
+        [(p_of(e) - p_of(-e)) / (2 * h) for e, h in zip(np.diag(steps), steps, strict=True)]
+    )
 
     inertia = tp.drivetrain_inertia_kg_m2
     gear = tp.gearbox_ratio
@@ -362,6 +366,7 @@ def linear_model(preset: str, settings: CasanovasSettings) -> LinearModel:
         drag_linear_n_s_m=d_lin,
         quadratic_drag_n_s2_m2=bq,
         hessian=hess,
+        power_gradient=grad_p,
     )
 
 
@@ -437,10 +442,26 @@ def hydro_rho(hydro: Any) -> float:
 
 def steady_gain(lm: LinearModel, a: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """ARE of the indefinite cost: (K (2, 7), P (7, 7)); u = -K x. Raises if not stabilising."""
-    am = lm.a if a is None else a
-    p = linalg.solve_continuous_are(am, lm.b, lm.q, lm.r, s=lm.n)
-    k = np.linalg.solve(lm.r, lm.b.T @ p + lm.n.T)
-    eig = np.linalg.eigvals(am - lm.b @ k)
+    return are_gain(lm.a if a is None else a, lm.b, lm.q, lm.r, lm.n)
+
+
+def are_gain(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, n: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """K = R⁻¹(BᵀP + Nᵀ) and P of AᵀP + PA - (PB + N)R⁻¹(BᵀP + Nᵀ) + Q = 0 (section 4.5).
+
+    Raises
+    ------
+    ValueError
+        If the solver fails or A - BK is not stable (e.g. a torque weight so small that the
+        indefinite cost has no stabilising solution).
+    """
+    try:
+        p = linalg.solve_continuous_are(a, b, q, r, s=n)
+    except (linalg.LinAlgError, ValueError) as exc:
+        raise ValueError(f"steady LQR: no stabilising ARE solution ({exc})") from exc
+    k = np.linalg.solve(r, b.T @ p + n.T)
+    eig = np.linalg.eigvals(a - b @ k)
     if not np.all(eig.real < 0):
         raise ValueError(f"steady LQR: closed loop not stable, eigenvalues {eig}")
     return k, p
@@ -449,20 +470,37 @@ def steady_gain(lm: LinearModel, a: FloatArray | None = None) -> tuple[FloatArra
 def steady_kernel(
     lm: LinearModel, k: FloatArray, p: FloatArray, gamma: float, a: FloatArray | None = None
 ) -> FloatArray:
+    """Feed-forward kernel W (PREVIEW_SAMPLES, 2) of :func:`preview_kernel` for ``lm``."""
+    return preview_kernel(lm.a if a is None else a, lm.b, lm.r, lm.e, k, p, gamma)
+
+
+def preview_kernel(
+    a: FloatArray,
+    b: FloatArray,
+    r: FloatArray,
+    e: FloatArray,
+    k: FloatArray,
+    p: FloatArray,
+    gamma: float,
+) -> FloatArray:
     """Feed-forward kernel W (PREVIEW_SAMPLES, 2): u_ff = -Σ_j W_j X(t + jΔ) Δ (trapezoid).
 
-    W(τ) = R⁻¹ Bᵀ e^{A_clᵀ τ} P E e^{γτ} (module docstring, item 4).
+    W(τ) = R⁻¹ Bᵀ e^{A_clᵀ τ} P E e^{γτ}, A_cl = A - BK (module docstring, item 4). γ = -∞
+    is the no-preview limit: W ≡ 0, u = -K x (the continuous kernel's weight,
+    ∫₀^∞ W dτ = -R⁻¹Bᵀ(A_clᵀ + γI)⁻¹ P E, vanishes like 1/|γ|; the trapezoid's first
+    sample would not, so the limit is taken exactly).
     """
-    am = lm.a if a is None else a
-    acl = am - lm.b @ k
-    taus = PREVIEW_STEP_S * np.arange(PREVIEW_SAMPLES)
-    rinv_bt = np.linalg.solve(lm.r, lm.b.T)
-    pe = p @ lm.e
+    if math.isnan(gamma) or gamma >= 0:
+        raise ValueError(f"preview kernel: gamma = {gamma!r} 1/s, expected < 0 (or -inf)")
+    if math.isinf(gamma):
+        return np.zeros((PREVIEW_SAMPLES, 2))
+    acl = a - b @ k
+    rinv_bt = np.linalg.solve(r, b.T)
     out = np.zeros((PREVIEW_SAMPLES, 2))
     step = linalg.expm(acl.T * PREVIEW_STEP_S)
-    vec = pe.copy()
-    for j, tau in enumerate(taus):
-        out[j] = rinv_bt @ vec * math.exp(gamma * tau)
+    vec = p @ e
+    for j in range(PREVIEW_SAMPLES):
+        out[j] = rinv_bt @ vec * math.exp(gamma * PREVIEW_STEP_S * j)
         vec = step @ vec
     w = np.full(PREVIEW_SAMPLES, PREVIEW_STEP_S)
     w[0] = w[-1] = 0.5 * PREVIEW_STEP_S
