@@ -407,7 +407,9 @@ class CasanovasController:
         if torque_weight_factor is not None:
             f = float(torque_weight_factor)
             if not lqr:
-                raise ValueError(f"torque_weight_factor is used only by the LQR kinds, not {kind!r}")
+                raise ValueError(
+                    f"torque_weight_factor is used only by the LQR kinds, not {kind!r}"
+                )
             if not (math.isfinite(f) and f > 0):
                 raise ValueError(f"torque_weight_factor = {torque_weight_factor!r}, expected > 0")
             # r_τ = ½ρπR² · factor (design item 2): rescale the design's entry

@@ -124,7 +124,7 @@ def run_linear(
         overlap=c.overlap,
         symmetric_pitch_limit_deg=c.symmetric_pitch_limit_deg,
         torque_weight_factor=c.torque_weight_factor,
-        gamma_1_s=c.gamma_1_s,
+        gamma_1_s=c.gamma_value,
     )
     design = load_casanovas_design(c.preset)
     lm = linear_model(design.meta["preset"], CasanovasSettings(**design.meta["settings"]))

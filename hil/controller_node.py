@@ -244,7 +244,7 @@ class ControllerRuntime:
             overlap=c.overlap,
             symmetric_pitch_limit_deg=c.symmetric_pitch_limit_deg,
             torque_weight_factor=c.torque_weight_factor,
-            gamma_1_s=c.gamma_1_s,
+            gamma_1_s=c.gamma_value,
         )
         self.state: Any = self.controller.initial_state()
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.

@@ -472,8 +472,8 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     has no pitch limit (default: the turbine's range, [0°, 90°] for the NREL 5 MW; θ_s must
     stay within the rotor table, -5° for the NREL 5 MW); ``torque_weight_factor``:
     r_τ / (½ρπR²) of the LQR kinds (default 0.1, the seed's; smaller = more torque activity);
-    ``gamma_1_s``: the steady LQR's oscillator decay γ [1/s] (< 0; default -1/T₁; ``-inf`` =
-    the no-preview limit, u = -K x̂)). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
+    ``gamma_1_s``: the steady LQR's oscillator decay γ [1/s] (< 0; default -1/T₁;
+    ``"no_preview"`` = the limit γ → -∞, u = -K x̂)). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
     ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
     ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
     ``[waves] gauge_distance_m``.
@@ -507,7 +507,7 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     overlap: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] | None = None
     symmetric_pitch_limit_deg: Annotated[float, msgspec.Meta(gt=0.0, le=90.0)] | None = None
     torque_weight_factor: Annotated[float, msgspec.Meta(gt=0.0)] | None = None
-    gamma_1_s: float | None = None
+    gamma_1_s: float | Literal["no_preview"] | None = None
 
     def __post_init__(self) -> None:
         if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
@@ -529,13 +529,21 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
         if self.gamma_1_s is not None:
             if self.kind != "lqr_steady":
                 raise ValueError(
-                    f"controller.gamma_1_s is used only by kind 'lqr_steady' (kind is {self.kind!r})"
+                    "controller.gamma_1_s is used only by kind 'lqr_steady' "
+                    f"(kind is {self.kind!r})"
                 )
-            if math.isnan(self.gamma_1_s) or self.gamma_1_s >= 0.0:
+            if self.gamma_1_s != "no_preview" and not self.gamma_1_s < 0.0:
                 raise ValueError(
                     f"controller.gamma_1_s = {self.gamma_1_s!r} 1/s: expected < 0 "
-                    "(the oscillator decay; -inf for the no-preview limit)"
+                    "(the oscillator decay) or 'no_preview'"
                 )
+
+    @property
+    def gamma_value(self) -> float | None:
+        """``gamma_1_s`` as a number [1/s]: ``"no_preview"`` is -inf (None: the design's)."""
+        if self.gamma_1_s == "no_preview":
+            return -math.inf
+        return self.gamma_1_s
 
 
 class CanSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
