@@ -296,7 +296,7 @@ def deviations(args: argparse.Namespace) -> int:
     for hs in hs_list:
         for u in winds:
             for seed in range(args.seed_start, args.seed_start + args.seeds):
-                for name in names:
+                for name in list(VARIANTS) if f"{hs}:{u}" == args.full_case else names:
                     jobs.append({**base, "scenario": f"casanovas-tlp-hs{hs}-u{u}",
                                  "kind": VARIANTS[name][0], "variant": name,
                                  "options": _options(name, hs), "seed": seed,
@@ -309,9 +309,12 @@ def deviations(args: argparse.Namespace) -> int:
         for i, r in enumerate(pool.map(run_case, jobs)):
             runs.append(r)
             name = r.get("variant", r["kind"])
-            print(f"[{i + 1}/{len(jobs)} {time.monotonic() - t0:6.0f} s] "
-                  f"{r['scenario']} {name} seed {r.get('seed')}: "
-                  f"{r['mean_power_w'] / 1e3:.2f} kW (wall {r['wall_s']} s)", flush=True)  # fmt: skip
+            kw, el = r["mean_power_w"] / 1e3, time.monotonic() - t0
+            print(
+                f"[{i + 1}/{len(jobs)} {el:6.0f} s] {r['scenario']} {name} "
+                f"seed {r.get('seed')}: {kw:.2f} kW (wall {r['wall_s']} s)",
+                flush=True,
+            )
     fixed = {r["wind_m_s"]: r["mean_power_w"] for r in runs if r["role"] == "fixed"}
     for r in runs:
         if r["role"] == "deviation" and args.metric == "electrical":
@@ -494,6 +497,7 @@ def main(argv: list[str] | None = None) -> int:
         help="table 5.2 as published and one deviation at a time (VARIANTS)",
     )
     ap.add_argument("--variants", default="all", help="--deviations: comma list or 'all'")
+    ap.add_argument("--full-case", default="", help="--deviations: HS:U run with every variant")
     ap.add_argument("--tag", default="", help="--deviations: suffix of the result's name")
     ap.add_argument(
         "--metric",

@@ -473,10 +473,10 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     stay within the rotor table, -5° for the NREL 5 MW); ``torque_weight_factor``:
     r_τ / (½ρπR²) of the LQR kinds (default 0.1, the seed's; smaller = more torque activity);
     ``gamma_1_s``: the steady LQR's oscillator decay γ [1/s] (< 0; default -1/T₁;
-    ``"no_preview"`` = the limit γ → -∞, u = -K x̂)). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
-    ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
-    ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
-    ``[waves] gauge_distance_m``.
+    ``"no_preview"`` = the limit γ → -∞, u = -K x̂)). For the advanced kinds: ``forecaster``
+    (``"dispersion"`` | ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward``
+    (``"balanced"`` | ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes
+    from ``[waves] gauge_distance_m``.
 
     ``"rosco"``: a Bladed-style DISCON library (:mod:`controller.rosco`); ``preset`` names
     a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
