@@ -277,6 +277,77 @@ def region2_torque_stiffness() -> dict[str, Any]:
     return out
 
 
+def summary_rows(table: dict[str, Any]) -> dict[str, str]:
+    """One line per case and variant: increase, and the paired differences ± standard error."""
+    out = {}
+    for k, v in table.items():
+        parts = [f"{v['increase_percent']['mean']:.3f} % (n={v['increase_percent']['n']})"]
+        for ref, label in (("no_control", "none"), ("lqr_steady", "steady")):
+            d = v.get(f"minus_{ref}_pp")
+            if d is not None:
+                parts.append(f"vs {label} {d['mean']:+.4f} ± {d['se']:.4f} pp")
+        out[k] = "; ".join(parts)
+    return out
+
+
+def markdown(paths: list[str]) -> str:
+    """Markdown tables of saved ``--deviations`` results: per case, per variant, the increase
+    over the fixed-bottom turbine and the paired differences to no_control and to the steady
+    LQR (mean ± standard error over the seeds, percentage points), beside the seed's."""
+    out: list[str] = []
+    for path in paths:
+        res = json.loads(Path(path).read_text())
+        table = res["table52"]
+        cases = sorted({tuple(k.split("/")[:2]) for k in table}, key=lambda c: (
+            int(c[0][2:]), int(c[1][1:])))  # fmt: skip
+        out += [f"`{Path(path).name}` (metric {res['metric']}):", ""]
+        for hs, u in cases:
+            nc_seed = SEED_T52["no_control"][(int(hs[2:]), int(u[1:]))]
+            st_seed = SEED_T52["lqr_steady"][(int(hs[2:]), int(u[1:]))]
+            out += [f"H_s {hs[2:]} m, {u[1:]} m/s:", "",
+                    "| variant | increase % | minus no control (pp) | minus steady LQR (pp) "
+                    "| seed: increase % / minus no control / minus steady |",
+                    "| --- | --- | --- | --- | --- |"]  # fmt: skip
+            for name in VARIANTS:
+                v = table.get(f"{hs}/{u}/{name}")
+                if v is None:
+                    continue
+                inc = v["increase_percent"]
+                cells = [f"{inc['mean']:.3f} ± {inc['se']:.3f} (n={inc['n']})"]
+                for ref in ("no_control", "lqr_steady"):
+                    d = v.get(f"minus_{ref}_pp")
+                    cells.append("-" if d is None else f"{d['mean']:+.4f} ± {d['se']:.4f}")
+                sp = v.get("seed_percent")
+                seed = "" if sp is None else (
+                    f"{sp} / {sp - nc_seed:+.3f} / {sp - st_seed:+.3f}")  # fmt: skip
+                out.append(f"| {name} | " + " | ".join(cells) + f" | {seed} |")
+            out.append("")
+    return "\n".join(out)
+
+
+def _ordered(res: dict[str, Any]) -> dict[str, Any]:
+    """``res`` with its table and summary recomputed from its runs, the summary first (the
+    benchmark page shows a result's first figures)."""
+    table = paired_stats(res["runs"])
+    desc = (
+        "casanovas-2014 table 5.2: the seed's controllers as published and one deviation at "
+        f"a time; metric {res['metric']}; increase over the fixed-bottom turbine and paired "
+        "differences (same wave seeds) to no control and to the steady LQR, mean ± standard "
+        "error over the seeds [pp]"
+    )
+    rest = {k: v for k, v in res.items() if k not in ("summary", "description", "table52")}
+    return {"summary": summary_rows(table), "description": desc, **rest, "table52": table}
+
+
+def resummarise(path: str) -> None:
+    """Rewrite a saved ``--deviations`` result with the table and summary recomputed from its
+    runs (what it measured, when and on which commit stay as saved)."""
+    res = json.loads(Path(path).read_text())
+    meta = {k: res.pop(k) for k in ("benchmark", "measured_utc", "commit", "machine")}
+    Path(path).write_text(json.dumps({**meta, **_ordered(res)}, indent=2))
+    print(f"rewrote {path}")
+
+
 def deviations(args: argparse.Namespace) -> int:
     """``--deviations``: table 5.2 as published and one deviation at a time (module doc)."""
     from bench._common import load, save
@@ -328,25 +399,21 @@ def deviations(args: argparse.Namespace) -> int:
               + (f"  vs steady {e['mean']:+.4f} ± {e['se']:.4f}" if e else ""))  # fmt: skip
     save(
         f"casanovas_table52_deviations_{args.metric}" + (f"_{args.tag}" if args.tag else ""),
-        {
-            "script": "casanovas_table52.py",
-            "description": (
-                "casanovas-2014 table 5.2: the seed's controllers as published and one "
-                f"deviation at a time; metric {args.metric}; paired differences (same wave "
-                "seeds) with standard errors across seeds"
-            ),
-            "metric": args.metric,
-            "args": {k: v for k, v in vars(args).items() if k != "out"},
-            "symmetric_pitch_deg": SYMMETRIC_PITCH_DEG,
-            "torque_weight_factor": TORQUE_WEIGHT,
-            "torque_stiffness_n_m_s_rad": region2_torque_stiffness(),
-            "load_before": load_before,
-            "load_after": load(),
-            "wall_s": round(time.monotonic() - t0, 1),
-            "fixed_power_w": fixed,
-            "table52": table,
-            "runs": runs,
-        },
+        _ordered(
+            {
+                "script": "casanovas_table52.py",
+                "metric": args.metric,
+                "args": {k: v for k, v in vars(args).items() if k != "out"},
+                "symmetric_pitch_deg": SYMMETRIC_PITCH_DEG,
+                "torque_weight_factor": TORQUE_WEIGHT,
+                "torque_stiffness_n_m_s_rad": region2_torque_stiffness(),
+                "load_before": load_before,
+                "load_after": load(),
+                "wall_s": round(time.monotonic() - t0, 1),
+                "fixed_power_w": fixed,
+                "runs": runs,
+            }
+        ),
     )
     return 0
 
@@ -505,7 +572,16 @@ def main(argv: list[str] | None = None) -> int:
         default="electrical",
         help="--deviations: the power compared",
     )
+    ap.add_argument("--markdown", nargs="+", help="print saved --deviations results as tables")
+    ap.add_argument("--resummarise", nargs="+", help="recompute saved --deviations tables")
     args = ap.parse_args(argv)
+    if args.resummarise:
+        for path in args.resummarise:
+            resummarise(path)
+        return 0
+    if args.markdown:
+        print(markdown(args.markdown))
+        return 0
     if args.deviations:
         return deviations(args)
     if args.from_logs:
