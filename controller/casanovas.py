@@ -23,6 +23,17 @@ Kinds (``[controller] kind``), all pure cores ``step(state, frame, dt_s) -> (sta
 * ``lqr_overlaid``: section 4.7: the same on the model with the linearised region-2 law folded
   into A; pitch = ψ, torque = K ω_g² + τ.
 
+Deviations from the design, for table 5.2's "which deviation matters" runs (scenario keys of
+the same names): ``pitch_limits_rad`` (:func:`make_casanovas`: ``symmetric_pitch_limit_deg``
+θ_s gives [-θ_s, θ_s]; default [0°, 90°], the NREL 5 MW's, which clips the negative half of
+the linear design's pitch); ``torque_weight_factor`` (r_τ / (½ρπR²), default the design's
+0.1, which leaves the torque all but inert: the steady gain on ϖ is ~2e-6 of the region-2
+law's slope); ``gamma_1_s`` (``lqr_steady``: the oscillator decay γ of the preview kernel,
+default -1/T₁; -inf is the no-preview limit, kernel ≡ 0, u = -K x̂). A changed r_τ or γ
+re-solves the steady ARE and kernel (:func:`controller.design.casanovas.are_gain`,
+:func:`~controller.design.casanovas.preview_kernel`) and, for the finite-horizon kinds, the
+Riccati trajectory, at construction.
+
 The state x̂ = [ϖ, ξ - ξ̄, ξ̇, r₁..r₄] comes from a steady-state Kalman filter (designed offline)
 on the measured rotor speed and surge, driven by the commands and by the current excitation
 (preview sample 0). The seed assumes the full state known; the observer is the bench's price.

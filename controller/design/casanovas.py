@@ -28,7 +28,8 @@ Choices where the seed's printed equations slip (stated)
 2. *Torque weight*: R = diag(r_τ, r_ψ) with r_τ = +½ρπR² · 0.1 W/(N m)² (the seed's 0.1 with
    its overall factor, but positive: its printed R = -½ρS diag(0.1, ...) would reward torque
    activity without bound and make the problem ill-posed), torque on the HSS in N m;
-   r_ψ = -½ · ½ρπR² ∂²C_p/∂θ² V³ > 0 exactly as the seed.
+   r_ψ = -½ · ½ρπR² ∂²C_p/∂θ² V³ > 0 exactly as the seed. The factor is a scenario key of
+   the controller (``torque_weight_factor``), which rescales r_τ at construction.
 3. *Cost*: Q, N from the exact Hessian of P = ½ρπR² C_p(λ, θ) V_r³ in (ϖ, ξ̇, ψ) (equal to
    the seed's Q₀* with ∂C_p/∂λ = 0), with the sign changed (minimise -P), factor ½ as in
    J = ∫ (xᵀQx + uᵀRu + 2xᵀNu) dt with Q = -½ H.
@@ -37,7 +38,8 @@ Choices where the seed's printed equations slip (stated)
    Riccati solution is the ARE of the plant alone and the wave block gives
    u_ff(t) = -R⁻¹Bᵀ ∫₀^∞ e^{A_clᵀτ} P E e^{γτ} X(t+τ) dτ, a kernel on the excitation over the
    preview; :func:`steady_kernel` tabulates it on the preview grid (exactly the oscillator
-   design when every wave component is an oscillator state).
+   design when every wave component is an oscillator state). The controller's
+   ``gamma_1_s`` changes γ; ``"no_preview"`` is γ → -∞ (:func:`preview_kernel`).
 5. *Overlap*: δ is the fraction of the horizon shared by consecutive solutions, so the reset
    period is T_R = (1 - δ) T (the seed's text: "high overlap requires more frequent control
    resets"; its formula δ = T_R/T says the opposite). δ = 0.5 gives T_R = T/2 either way.
