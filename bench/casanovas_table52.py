@@ -301,7 +301,28 @@ def markdown(paths: list[str]) -> str:
         cases = sorted({tuple(k.split("/")[:2]) for k in table}, key=lambda c: (
             int(c[0][2:]), int(c[1][1:])))  # fmt: skip
         out += [f"`{Path(path).name}` (metric {res['metric']}):", ""]
+        if len(cases) > 1:  # compact: paired differences per case, the seed's below
+            for ref in ("no_control", "lqr_steady"):
+                out += [f"minus {ref} (pp, mean ± standard error over the seeds):", "",
+                        "| variant | " + " | ".join(f"{h[2:]} m, {w[1:]} m/s" for h, w in cases)
+                        + " |", "| --- |" + " --- |" * len(cases)]  # fmt: skip
+                for name in VARIANTS:
+                    cells = []
+                    for hs, u in cases:
+                        d = table.get(f"{hs}/{u}/{name}", {}).get(f"minus_{ref}_pp")
+                        cells.append("" if d is None else f"{d['mean']:+.3f} ± {d['se']:.3f}")
+                    if any(cells):
+                        out.append(f"| {name} | " + " | ".join(cells) + " |")
+                for kind in KINDS:
+                    if kind == ref:
+                        continue
+                    keys = [(int(h[2:]), int(w[1:])) for h, w in cases]
+                    cells = [f"{SEED_T52[kind][c] - SEED_T52[ref][c]:+.3f}" for c in keys]
+                    out.append(f"| seed: {kind} | " + " | ".join(cells) + " |")
+                out.append("")
         for hs, u in cases:
+            if len(cases) > 1 and sum(k.startswith(f"{hs}/{u}/") for k in table) <= 9:
+                continue  # the compact tables above hold these cases
             nc_seed = SEED_T52["no_control"][(int(hs[2:]), int(u[1:]))]
             st_seed = SEED_T52["lqr_steady"][(int(hs[2:]), int(u[1:]))]
             out += [f"H_s {hs[2:]} m, {u[1:]} m/s:", "",
