@@ -90,7 +90,7 @@ def run_linear(
         A floating scenario with a casanovas-2014 controller kind and a perfect preview.
     duration_s, settle_s : float or None
         Simulated time and the start of the averaging window [s] (None: the scenario's
-        ``duration_s`` and ``[review] settle_s``).
+        ``duration_s`` and min(``[review] settle_s``, duration / 2), the review's window).
 
     Raises
     ------
@@ -112,6 +112,8 @@ def run_linear(
         raise ValueError("quadratic_linear metric: only preview = 'perfect' (the seed's table)")
     duration = float(scenario.duration_s if duration_s is None else duration_s)
     settle = float(scenario.review.settle_s if settle_s is None else settle_s)
+    if settle_s is None:  # as the review's KPI window: a short run keeps its second half
+        settle = min(settle, 0.5 * duration)
     dt = float(scenario.timing.control_period_s)
     sub = int(scenario.steps_per_cycle)
     h = dt / sub
@@ -169,6 +171,8 @@ def run_linear(
             raise ValueError(f"linear model diverged at t = {k * dt:.1f} s")
     p = quadratic_power(lm.aero_power_w, lm.power_gradient, lm.hessian, z)
     sel = dt * np.arange(n_cycles) >= settle
+    if not np.any(sel):
+        raise ValueError(f"quadratic_linear metric: no sample after settle_s = {settle} s")
     mean_p = float(np.mean(p[sel]))
     return LinearRunResult(
         mean_power_w=mean_p,

@@ -96,15 +96,24 @@ def test_symmetric_limits_let_the_pitch_go_negative_in_closed_loop(tmp_path: Pat
     from hil.launch import RunRequest, launch
 
     pitch = {}
+    summaries = {}
     for name, extra in (("turbine", ""), ("symmetric", "symmetric_pitch_limit_deg = 5.0\n")):
-        path = _scenario(tmp_path, "lqr_steady", extra)
+        review = 'power_metric = "quadratic_linear"\n' if name == "symmetric" else ""
+        path = _scenario(tmp_path, "lqr_steady", extra, review)
         out = tmp_path / name
-        launch(
+        summaries[name] = launch(
             RunRequest(str(path), mode="inprocess", duration_s=60.0, out_dir=out, plots=False),
             Console(file=None, quiet=True),
         )
         run = read_run(out / "run.mcap")
         pitch[name] = np.degrees([m["blade_pitch_rad"] for m in run.topic("truth")])
+    # the seed's metric rides along when the scenario asks for it, and only then
+    assert "casanovas_quadratic_linear" not in summaries["turbine"]
+    lin = summaries["symmetric"]["casanovas_quadratic_linear"]
+    assert lin["pitch_std_deg"] > 0.1 and math.isfinite(lin["increase_percent"])
+    assert lin["mean_power_w"] == pytest.approx(
+        lin["fixed_power_w"] * (1 + lin["increase_percent"] / 100), rel=1e-12
+    )
     assert pitch["turbine"].min() >= -1e-9
     assert pitch["symmetric"].min() < -0.1  # the LQR's demand is about ±0.5 deg (1 sigma)
     assert pitch["symmetric"].min() >= -5.0 - 1e-9 and pitch["symmetric"].max() <= 5.0 + 1e-9
