@@ -49,6 +49,7 @@ bench: setup
 	$(BIN)/python bench/realtime_latency.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/lockstep_speed.py
 	$(BIN)/python bench/inprocess_speed.py
+	$(BIN)/python bench/runlog_encoding.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py

@@ -53,7 +53,7 @@ from bus_schemas import ActuatorCommand, ControllerStatus, PlantState, SensorFra
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST
 from bus_schemas.registry import TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from hil.inprocess_run import run_inprocess
 from hil.scenario import load_scenario
 
 #: The all-parts-on scenario of parts a and b (lqri_ff, dispersion forecast, balanced FF).

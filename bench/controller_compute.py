@@ -64,7 +64,7 @@ from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST
 from controller.registry import make_controller
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from hil.inprocess_run import run_inprocess
 from hil.scenario import load_scenario
 
 SCENARIO = "iea15mw-lc2-lqri-ff"

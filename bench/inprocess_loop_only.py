@@ -2,7 +2,7 @@
 
 What the compiled loop (:mod:`hil._loop_kernels`) and the Python loop cost per 25 ms cycle
 without the logging, which the log writer's side (``BackgroundRunLog.publish_block``) adds:
-each configuration runs :func:`hil.plant_node.run_inprocess` in a child process (own
+each configuration runs :func:`hil.inprocess_run.run_inprocess` in a child process (own
 interpreter, kernels loaded before the loop starts) with a ``publish`` and a
 ``publish_block`` that drop everything, alternating the two loops ``--rounds`` times in one
 run; the loop's CPU time (this thread's clock from the first cycle to the final summary)
@@ -34,7 +34,7 @@ def _child(scenario: str, loop: str, duration_s: float) -> None:
     import time
 
     from hil.controller_node import ControllerRuntime, publishing_step
-    from hil.plant_node import run_inprocess
+    from hil.inprocess_run import run_inprocess
     from hil.scenario import load_scenario
 
     scn = load_scenario(scenario).with_duration(duration_s)

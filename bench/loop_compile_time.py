@@ -32,7 +32,8 @@ _CHILD = r"""
 import json, sys, time
 from hil.scenario import load_scenario
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import PlantLoop, run_inprocess
+from hil.plant_node import PlantLoop
+from hil.inprocess_run import run_inprocess
 out = {}
 scn = load_scenario("iea15mw-lc2-lqri-ff").with_duration(1.0)
 if sys.argv[1] == "callees":

@@ -47,7 +47,7 @@ sys.path.insert(0, str(ROOT))
 from bus_schemas import ActuatorCommand, SensorFrame  # noqa: E402
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType  # noqa: E402
 from hil.controller_node import ControllerRuntime  # noqa: E402
-from hil.plant_node import run_inprocess  # noqa: E402
+from hil.inprocess_run import run_inprocess  # noqa: E402
 from hil.scenario import Scenario, load_scenario, parse_scenario  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results"

@@ -1,6 +1,6 @@
 """The compiled in-process loop's Python side: when it may run, its state in and out.
 
-:func:`hil.plant_node.run_inprocess` with ``loop="compiled"`` (or ``"auto"`` when
+:func:`hil.inprocess_run.run_inprocess` with ``loop="compiled"`` (or ``"auto"`` when
 :func:`compiled_unsupported` finds nothing against it) runs :class:`CompiledLoop`: batches
 of cycles in :func:`hil._loop_kernels.run_cycles`, and every cycle the kernel hands back
 through today's path (:meth:`PlantLoop.sample`, the runtime's ``handle_frame``,

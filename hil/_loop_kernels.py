@@ -1,6 +1,6 @@
 """Compiled in-process loop: several control cycles per call (numba, cached on disk).
 
-The in-process loop (:func:`hil.plant_node.run_inprocess`) calls, per 25 ms cycle, the
+The in-process loop (:func:`hil.inprocess_run.run_inprocess`) calls, per 25 ms cycle, the
 plant's truth and sensor kernels, the controller runtime's checks, the controller core's
 kernel, the plant's period kernel and five publishes, with Python between them (about 40 us
 of glue per cycle against about 17 us of kernels). :func:`run_cycles` composes the same

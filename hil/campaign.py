@@ -12,7 +12,7 @@ Every (case, waves/still, controller, seed) is one run. Seed index i (0 ... seed
 ``i * seed_stride`` to the scenario's wind, wave and sensor seeds, so seed 0 is the scenario
 as shipped and two campaigns with the same file run the same realisations. Each run is a
 Dask task (:func:`execute_run`) running the in-process runner of ``fowt run --mode
-inprocess`` (plant and controller in one process, :func:`hil.plant_node.run_inprocess`) or,
+inprocess`` (plant and controller in one process, :func:`hil.inprocess_run.run_inprocess`) or,
 with ``mode = "lockstep"``, :func:`hil.launch.launch` (plant, controller and recorder as OS
 processes over Zenoh). A task never raises: a failing run comes back with its error, is
 recorded (``status = "failed"``) and the campaign goes on. The KPIs of a run depend only on
@@ -61,6 +61,7 @@ import msgspec
 import numpy as np
 
 from hil import campaign_kpi as ck
+from hil import kpi_stats as kst
 from hil.scenario import (
     ControllerSection,
     Scenario,
@@ -135,6 +136,9 @@ class CampaignFile(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     still_water: bool = True
     still_water_controllers: list[str] | None = None
     min_rotor_speed_rad_s: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
+    #: λ* [-] of Ω_opt in var(Ω − Ω_opt), written into every run's ``[review] tsr_opt`` (so
+    #: it is part of the scenario hash); None: each scenario's own (default: from the Cp table).
+    tsr_opt: Annotated[float, msgspec.Meta(gt=0.0)] | None = None
 
     def __post_init__(self) -> None:
         if not self.cases:
@@ -319,6 +323,8 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
         raw = _scenario_base(case.scenario, base_dir, where)
         merged = _deep_merge(raw, case.overrides)
         merged["duration_s"] = spec.duration_s
+        if spec.tsr_opt is not None:
+            merged["review"] = {**(merged.get("review") or {}), "tsr_opt": spec.tsr_opt}
         _convert(merged, f"{where}.overrides")
         kinds: list[Literal["waves", "still"]] = ["waves"]
         if twins:
@@ -499,7 +505,12 @@ def to_toml(d: dict[str, Any], prefix: str = "") -> str:
 
 @lru_cache(maxsize=8)
 def _turbine_figures(turbine: str) -> tuple[float, float, float]:
-    """(λ*, R [m], Ω_rated [rad/s]) of a turbine preset."""
+    """(λ*, R [m], Ω_rated [rad/s]) of a turbine preset.
+
+    λ* is the default of ``[review] tsr_opt``: the argmax over λ of Cp(λ, θ = 0) as the
+    plant evaluates the table (:meth:`plant.aero.AeroTable.optimal_tsr`; bilinear, so a
+    grid point of the table).
+    """
     from plant.turbine import load_turbine  # noqa: PLC0415
 
     params = load_turbine(turbine)
@@ -531,14 +542,29 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
     run_data : hil.mcap_log.RunData
         The run's messages (from memory or from its MCAP file).
     scenario : Scenario
-        The run's scenario (its turbine gives λ*, R and the rated speed).
+        The run's scenario: its turbine gives R, the rated speed and the default λ*,
+        ``[review] tsr_opt`` overrides λ*, ``[review] settle_s`` sets the KPI window.
     min_rad_s : float or None
         Ω_min [rad/s] of Ω_opt; None: :data:`hil.campaign_kpi.MIN_ROTOR_SPEED_RAD_S` of the
         turbine (0 if unknown).
+
+    Returns
+    -------
+    dict
+        ``kpi`` (over the KPI window [t_0, t_end], t_0 = :func:`hil.kpi.window_start_s` of
+        ``[review] settle_s``: the window of ``fowt review``, ``report`` and ``compare``),
+        ``psd`` (the same window), ``kpi_window`` (``from_s``, ``to_s``, ``settle_s``,
+        ``tsr_opt``, ``min_rotor_speed_rad_s``).
     """
-    from hil.review import _col  # noqa: PLC0415
+    from hil import kpi  # noqa: PLC0415
+    from hil.review import _col, _since  # noqa: PLC0415
 
     truth = run_data.topic("truth")
+    t_all = _col(truth, "sample_time_ns") / 1e9
+    t_fin = t_all[np.isfinite(t_all)]
+    end = float(t_fin.max()) if t_fin.size else math.nan
+    t0 = kpi.window_start_s(end, scenario.review.settle_s)
+    truth = _since(truth, t0)
     t = _col(truth, "sample_time_ns") / 1e9
     names = (
         "electrical_power_w",
@@ -554,6 +580,8 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
     summaries = [s for s in run_data.topic("timing/summary") if int(s.get("final", 0)) == 1]
     misses = int(summaries[-1]["deadline_misses"]) if summaries else None
     tsr, radius, rated = _turbine_figures(scenario.turbine)
+    if scenario.review.tsr_opt is not None:
+        tsr = float(scenario.review.tsr_opt)
     if min_rad_s is None:
         min_rad_s = ck.MIN_ROTOR_SPEED_RAD_S.get(Path(scenario.turbine).stem, 0.0)
     kpis = ck.run_kpis(t, cols, misses, tsr, radius, rated, min_rad_s)
@@ -562,7 +590,14 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         "platform_pitch_deg": _psd(t, np.degrees(cols["platform_pitch_rad"])),
         "tower_base_moment_mnm": _psd(t, cols["tower_base_moment_nm"] / 1e6),
     }
-    return {"kpi": kpis, "psd": psd}
+    window = {
+        "settle_s": scenario.review.settle_s,
+        "from_s": t0,
+        "to_s": end,
+        "tsr_opt": tsr,
+        "min_rotor_speed_rad_s": min_rad_s,
+    }
+    return {"kpi": kpis, "psd": psd, "kpi_window": window}
 
 
 class _RunSink:
@@ -670,7 +705,7 @@ def _inprocess(
         controller_report,
         publishing_step,
     )
-    from hil.plant_node import run_inprocess  # noqa: PLC0415
+    from hil.inprocess_run import run_inprocess  # noqa: PLC0415
     from hil.recorder import scenario_metadata  # noqa: PLC0415
 
     turbine = scenario.turbine_id
@@ -839,8 +874,12 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
         run succeeded); ``relative[controller][kpi] = {per_case, weibull, weibull_of_cases}``
         vs the baseline with waves; ``normalised`` the same with eq. (5-1) against the
         baseline in still water; ``wave_increment[kpi] = {per_case, weibull, ...}`` baseline
-        waves / baseline still; ``probabilities``; ``not_available`` (KPIs the plant cannot
-        give, with the reason); ``runs`` counts.
+        waves / baseline still; each of the three with ``stats`` = the same figures as
+        ``{value, se, status}`` (:mod:`hil.kpi_stats`: standard error between paired seeds,
+        ``n/m`` for a near-zero denominator, ``noise`` for a change within its noise);
+        ``scales[kpi][case or "weibull"]`` (the n/m rule's S); ``noise`` (k, f, seeds,
+        the controller whose still-water twins are used); ``probabilities``;
+        ``not_available`` (KPIs the plant cannot give, with the reason); ``runs`` counts.
     """
     spec = campaign.spec
     probs = campaign.case_probabilities
@@ -879,9 +918,59 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
             return math.nan
 
     p = [probs[c] for c in cases]
+    by_seed: dict[tuple[str, str, str], dict[int, dict[str, Any]]] = {}
+    for r in rows:
+        if r["status"] == "ok":
+            by_seed.setdefault((r["case"], r["waves"], r["controller"]), {})[r["seed"]] = r
+
+    def paired(case: str, configs: Sequence[tuple[str, str]], k: str) -> list[np.ndarray]:
+        """Per config, the KPI of the seeds every config has (ok runs, finite values)."""
+        runs = [by_seed.get((case, w, c), {}) for w, c in configs]
+        common = sorted(set.intersection(*(set(x) for x in runs))) if runs else []
+        common = [i for i in common if all(math.isfinite(float(x[i][k])) for x in runs)]
+        return [np.array([float(x[i][k]) for i in common]) for x in runs]
+
+    Side = dict[str, tuple[float, np.ndarray]]  # case -> (mean, paired seed values)
+
+    def ratio_stats(k: str, num: Side, den: Side, offset: float) -> dict[str, Any]:
+        """The ratio's figure per case, Weibull-weighted and Σp· (:mod:`hil.kpi_stats`)."""
+        nums = [num[c] for c in cases]
+        dens = [den[c] for c in cases]
+        per = {
+            c: kst.weighted_ratio([n[0]], [d[0]], [1.0], [n[1]], [d[1]], scales[k][c], offset)
+            for c, n, d in zip(cases, nums, dens, strict=True)
+        }
+        weib = kst.weighted_ratio(
+            [n[0] for n in nums],
+            [d[0] for d in dens],
+            p,
+            [n[1] for n in nums],
+            [d[1] for d in dens],
+            scales[k]["weibull"],
+            offset,
+        )
+        of_cases = kst.weighted_mean_of([per[c] for c in cases], p, offset)
+        return {
+            "per_case": {c: r.as_dict() for c, r in per.items()},
+            "weibull": weib.as_dict(),
+            "weibull_of_cases": of_cases.as_dict(),
+        }
 
     def weibull(waves: str, ctrl: str, k: str) -> float:
         return ck.weibull_mean([mean_of(c, waves, ctrl, k) for c in cases], p)
+
+    # S of the n/m rule: per case the largest |mean| over its configurations (waves/still,
+    # every controller); Weibull-weighted the largest |X_W| over the configurations
+    scales: dict[str, dict[str, float]] = {
+        k: {
+            c: kst.scale_of([v[k]["mean"] for blk in per_case[c].values() for v in blk.values()])
+            for c in cases
+        }
+        for k in ck.KPIS
+    }
+    configs = sorted({(str(r["waves"]), str(r["controller"])) for r in rows})
+    for k in ck.KPIS:
+        scales[k]["weibull"] = kst.scale_of([weibull(w, ctrl, k) for w, ctrl in configs])
 
     relative: dict[str, Any] = {}
     normalised: dict[str, Any] = {}
@@ -893,10 +982,17 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                 c: ck.relative(mean_of(c, "waves", ctrl, k), mean_of(c, "waves", base, k))
                 for c in cases
             }
+            pair = {c: paired(c, [("waves", ctrl), ("waves", base)], k) for c in cases}
             relative[ctrl][k] = {
                 "per_case": rel_cases,
                 "weibull": ck.relative(weibull("waves", ctrl, k), weibull("waves", base, k)),
                 "weibull_of_cases": ck.weibull_mean(list(rel_cases.values()), p),
+                "stats": ratio_stats(
+                    k,
+                    {c: (mean_of(c, "waves", ctrl, k), pair[c][0]) for c in cases},
+                    {c: (mean_of(c, "waves", base, k), pair[c][1]) for c in cases},
+                    1.0,
+                ),
             }
             if spec.still_water:
                 n_cases = {
@@ -907,6 +1003,10 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                     )
                     for c in cases
                 }
+                trio = {
+                    c: paired(c, [("waves", ctrl), ("waves", base), ("still", base)], k)
+                    for c in cases
+                }
                 normalised[ctrl][k] = {
                     "per_case": n_cases,
                     "weibull": ck.normalised(
@@ -915,6 +1015,24 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                         weibull("still", base, k),
                     ),
                     "weibull_of_cases": ck.weibull_mean(list(n_cases.values()), p),
+                    "stats": ratio_stats(
+                        k,
+                        {
+                            c: (
+                                mean_of(c, "waves", ctrl, k) - mean_of(c, "still", base, k),
+                                trio[c][0] - trio[c][2],
+                            )
+                            for c in cases
+                        },
+                        {
+                            c: (
+                                mean_of(c, "waves", base, k) - mean_of(c, "still", base, k),
+                                trio[c][1] - trio[c][2],
+                            )
+                            for c in cases
+                        },
+                        0.0,
+                    ),
                 }
     increment: dict[str, Any] = {}
     if spec.still_water:
@@ -923,10 +1041,17 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                 c: ck.increment_ratio(mean_of(c, "waves", base, k), mean_of(c, "still", base, k))
                 for c in cases
             }
+            twin = {c: paired(c, [("waves", base), ("still", base)], k) for c in cases}
             increment[k] = {
                 "per_case": inc_cases,
                 "weibull": ck.increment_ratio(weibull("waves", base, k), weibull("still", base, k)),
                 "weibull_of_cases": ck.weibull_mean(list(inc_cases.values()), p),
+                "stats": ratio_stats(
+                    k,
+                    {c: (mean_of(c, "waves", base, k), twin[c][0]) for c in cases},
+                    {c: (mean_of(c, "still", base, k), twin[c][1]) for c in cases},
+                    0.0,
+                ),
             }
     weighted = {
         f"{waves}/{ctrl}": {k: weibull(waves, ctrl, k) for k in ck.KPIS}
@@ -947,6 +1072,14 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
             "failed": sum(r["status"] != "ok" for r in rows),
         },
         "per_case": per_case,
+        "scales": scales,
+        "noise": {
+            "k": kst.NOISE_K,
+            "near_zero_fraction": kst.NEAR_ZERO_FRACTION,
+            "seeds": spec.seeds,
+            "estimable": spec.seeds > 1,
+            "still_water_of": base if spec.still_water else None,
+        },
         "weibull": weighted,
         "relative": relative,
         "normalised": normalised,
@@ -1042,6 +1175,7 @@ def _write_summary(spec: RunSpec, result: dict[str, Any], out: Path) -> None:
         "wall_s": result.get("wall_s"),
         "kpi": result.get("kpi", {}),
         "psd": result.get("psd", {}),
+        "kpi_window": result.get("kpi_window", {}),
         "scenario": spec.scenario,
     }
     text = json.dumps(_json_clean(summary), indent=1, allow_nan=False)

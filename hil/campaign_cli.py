@@ -4,7 +4,6 @@ Registered on the ``fowt`` Typer app by :func:`register` (kept out of :mod:`hil.
 campaign work stays in its own files).
 """
 
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -13,42 +12,61 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from hil import cli_common
+
 
 def _names(text: str | None) -> list[str] | None:
     return [n.strip() for n in text.split(",") if n.strip()] if text else None
 
 
 def render_aggregates(agg: dict[str, Any], console: Console) -> None:
-    """Print the Weibull-weighted aggregates: wave increment, relative and normalised."""
+    """Print the Weibull-weighted aggregates: wave increment, relative and normalised.
+
+    Each figure with ± one standard error between seeds (``± ?``: one seed, not
+    estimable), ``n/m`` for a near-zero denominator and ``!`` for a change within its noise
+    (:mod:`hil.kpi_stats`).
+    """
     from hil import campaign_kpi as ck
+    from hil import kpi_stats as kst
+    from hil.html_report import figure_stat, ratio_text
 
     kpis = list(ck.KPIS)
-    t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {agg['baseline']}")
+    base = agg["baseline"]
+    t = Table(title=f"campaign {agg['campaign']}: Weibull-weighted, vs {base}")
     t.add_column("KPI")
     if agg.get("wave_increment"):
-        t.add_column("waves/still (baseline)", justify="right")
+        t.add_column(f"waves/still ({base})", justify="right")
     for ctrl in agg["relative"]:
         t.add_column(f"{ctrl} relative", justify="right")
         if agg["normalised"].get(ctrl):
             t.add_column(f"{ctrl} P_n", justify="right")
 
-    def pct(v: Any, signed: bool = True) -> str:
-        if v is None or not math.isfinite(float(v)):
-            return "-"
-        return f"{100 * float(v):+.1f} %" if signed else f"{100 * float(v):.0f} %"
-
     for k in kpis:
         unit, _d, label = ck.KPIS[k]
         row = [f"{label} [{unit}]"]
         if agg.get("wave_increment"):
-            v = agg["wave_increment"][k]["weibull"]
-            row.append("-" if v is None or not math.isfinite(v) else f"{v:.3f}")
+            row.append(ratio_text(figure_stat(agg["wave_increment"][k], "weibull")))
         for ctrl, rel in agg["relative"].items():
-            row.append(pct(rel[k]["weibull"]))
+            row.append(kst.percent_text(figure_stat(rel[k], "weibull")))
             if agg["normalised"].get(ctrl):
-                row.append(pct(agg["normalised"][ctrl][k]["weibull"], signed=False))
-        t.add_row(*row)
+                row.append(
+                    kst.percent_text(
+                        figure_stat(agg["normalised"][ctrl][k], "weibull"), signed=False
+                    )
+                )
+        t.add_row(*[escape(c) for c in row])
     console.print(t)
+    noise = agg.get("noise") or {}
+    f = 100 * float(noise.get("near_zero_fraction", kst.NEAR_ZERO_FRACTION))
+    k_se = float(noise.get("k", kst.NOISE_K))
+    src = "paired seeds" if noise.get("estimable") else "not estimable with one seed (± ?)"
+    console.print(
+        f"± one standard error ({src}); n/m: denominator near zero (|D| < max({k_se:g} SE, "
+        f"{f:g} % of the KPI's largest |X| over the configurations)); !: change within "
+        f"{k_se:g} SE; "
+        f"P_n and waves/still against {base}'s still-water twins",
+        markup=False,
+    )
     for reason in agg.get("not_available", {}).values():
         console.print(f"[yellow]not computed:[/] {escape(str(reason))}")
     for reason in agg.get("notes", {}).values():
@@ -60,10 +78,9 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
 def register(app: typer.Typer, console: Console) -> None:
     """Add ``campaign``, ``compare`` and ``report`` to the ``fowt`` app.
 
-    Called at the end of :mod:`hil.cli`, so its option checks (finite numbers, writable
-    paths, choices) are used here too: bad input is one line and exit code 2.
+    Called at the end of :mod:`hil.cli`; the option checks (finite numbers, writable paths,
+    choices) are :mod:`hil.cli_common`'s, so bad input is one line and exit code 2 here too.
     """
-    from hil import cli as _cli
     from hil.scenario import MAX_DURATION_S
 
     @app.command("campaign", short_help="Run a campaign of cases x seeds x controllers on Dask.")
@@ -76,7 +93,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--out",
                 help="Output folder (runs/campaign-<name>).",
-                callback=_cli._writable("folder"),
+                callback=cli_common.writable("folder"),
             ),
         ] = None,
         scheduler: Annotated[
@@ -96,7 +113,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--record",
                 help="mcap (keep run.mcap) | none (summaries only).",
-                callback=_cli._choice("mcap", "none"),
+                callback=cli_common.choice("mcap", "none"),
             ),
         ] = "mcap",
         resume: Annotated[
@@ -117,7 +134,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--duration",
                 help="Simulated seconds per run.",
-                callback=_cli._number("s", gt=0.0, le=MAX_DURATION_S),
+                callback=cli_common.number("s", gt=0.0, le=MAX_DURATION_S),
             ),
         ] = None,
         baseline: Annotated[
@@ -137,13 +154,13 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.campaign import CampaignError, load_campaign, run_campaign, select
 
         if record not in ("mcap", "none"):
-            _cli._fail(f"--record {record!r}: expected mcap or none")
+            cli_common.fail(f"--record {record!r}: expected mcap or none")
         try:
             c = load_campaign(campaign)
             if cases or controllers or seeds is not None or duration is not None or baseline:
                 c = select(c, _names(cases), _names(controllers), seeds, duration, baseline)
         except CampaignError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         out_dir = out or Path("runs") / f"campaign-{c.spec.name}"
         try:
             result = run_campaign(
@@ -157,7 +174,7 @@ def register(app: typer.Typer, console: Console) -> None:
             )
         except (OSError, TimeoutError) as exc:
             where = f"scheduler {scheduler}" if scheduler else "the local Dask cluster"
-            _cli._fail(f"cannot use {where}: {exc}")
+            cli_common.fail(f"cannot use {where}: {exc}")
         render_aggregates(result.aggregates, console)
         if html:
             path = write_campaign_report(result, c)
@@ -179,21 +196,21 @@ def register(app: typer.Typer, console: Console) -> None:
         runs: Annotated[list[Path], typer.Argument(help="Two or more run MCAP files.")],
         out: Annotated[
             Path,
-            typer.Option("--out", help="Output folder.", callback=_cli._writable("folder")),
+            typer.Option("--out", help="Output folder.", callback=cli_common.writable("folder")),
         ] = Path("compare"),
     ) -> None:
         """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
-        from hil.html_report import compare_runs, fmt
+        from hil.html_report import compare_runs, diff_text, fmt
 
         if len(runs) < 2:
-            _cli._fail("give at least two MCAP files")
+            cli_common.fail("give at least two MCAP files")
         for p in runs:
             if not p.is_file():
-                _cli._fail(f"{p} is not a file")
+                cli_common.fail(f"{p} is not a file")
         try:
             res = compare_runs(runs, out)
         except ValueError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         labels = [r["label"] for r in res["runs"]]
         t = Table(title="KPIs (Δ % vs run 0)")
         t.add_column("KPI")
@@ -201,8 +218,10 @@ def register(app: typer.Typer, console: Console) -> None:
             t.add_column(lab, justify="right")
         for k, vals in res["kpi"].items():
             cells = [fmt(vals[0])]
-            for v, d in zip(vals[1:], res["diff_pct"][k][1:], strict=True):
-                cells.append(f"{fmt(v)} ({'-' if d is None else f'{d:+.2f} %'})")
+            for v, d, st in zip(
+                vals[1:], res["diff_pct"][k][1:], res["diff_status"][k][1:], strict=True
+            ):
+                cells.append(f"{fmt(v)} ({diff_text(d, st)})")
             t.add_row(k, *cells)
         console.print(t)
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
@@ -216,7 +235,7 @@ def register(app: typer.Typer, console: Console) -> None:
             typer.Option(
                 "--out",
                 help="HTML file (default: report.html beside it).",
-                callback=_cli._writable("file"),
+                callback=cli_common.writable("file"),
             ),
         ] = None,
     ) -> None:
@@ -224,19 +243,19 @@ def register(app: typer.Typer, console: Console) -> None:
         from hil.html_report import run_html
 
         if not mcap.is_file():
-            _cli._fail(f"{mcap} is not a file")
+            cli_common.fail(f"{mcap} is not a file")
         from hil.mcap_log import NotMcapError
 
         try:
             text, _summary = run_html(mcap)
         except NotMcapError as exc:
-            _cli._fail(str(exc))
+            cli_common.fail(str(exc))
         path = out or mcap.parent / "report.html"
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text)
         except OSError as exc:
-            _cli._fail(_cli._os_error_text(exc, path), code=1)
+            cli_common.fail(cli_common.os_error_text(exc, path), code=1)
         console.print(f"report: {path}", markup=False)
 
 

@@ -1,24 +1,30 @@
 """Campaign KPIs and their aggregation: al-2019 table 2-3, Weibull weighting, eq. (5-1).
 
 Pure functions on numpy arrays and plain numbers, no I/O. Kept apart from :mod:`hil.kpi`
-(which the single-run review uses) so the two grow independently.
+(which the single-run review uses; a quantity in both is computed by the one function in
+:mod:`hil.kpi`, so the two agree).
 
 KPIs of one run (:func:`run_kpis`, al-2019 table 2-3 plus the bench's own)
 ---------------------------------------------------------------------------
+All over the run's KPI window (the start-up left out, :func:`hil.kpi.window_start_s`), the
+window of ``fowt review``, ``report`` and ``compare`` (:func:`hil.campaign.run_kpis_of`
+cuts it); the functions shared with the review come from :mod:`hil.kpi`.
+
 ``mean_power_w``
     mean(P) [W] of the electrical power (1.1, maximise).
 ``rotor_speed_error_var_rpm2``
     var(Ω − Ω_opt) [rpm²] (1.2, minimise), Ω the true rotor speed and Ω_opt the optimal
     rotor speed for maximum power at the rotor-effective wind U (al-2019 section 2-4,
     nomenclature "optimal rotor speed for maximum power production"), see
-    :func:`optimal_rotor_speed_rad_s`.
+    :func:`optimal_rotor_speed_rad_s`; λ* from scenario ``[review] tsr_opt`` (default: the
+    argmax of the plant's Cp(λ, 0), a table grid point).
 ``rotor_speed_var_rpm2``
     var(Ω) [rpm²], the quantity of al-2019 table 2-5.
 ``tower_base_del_nm``, ``shaft_del_nm``
     DEL(M_y,T) and DEL(M_LSS) [N m] (2.1, 2.2), rainflow, Wöhler m = 4, 1 Hz equivalent
     (:func:`hil.kpi.damage_equivalent_load`).
 ``pitch_rate_mean_abs_deg_s``
-    mean |dθ_c/dt| [deg/s] (2.4), total pitch travel over the record.
+    mean |dθ_c/dt| [deg/s] (2.4), total pitch travel over the window.
 ``platform_pitch_std_deg``, ``platform_surge_std_m``
     standard deviations of the true platform pitch [deg] and surge [m].
 ``deadline_misses``
@@ -32,6 +38,7 @@ Aggregates (al-2019 sections 2-5 and 5)
 Weibull weighting (:func:`weibull_mean`): X_W = Σ_i p_i X_i / Σ_i p_i over the load cases i
 with occurrence probabilities p_i (table 2-2; they sum to 99.54 %, hence the division).
 Relative performance (:func:`relative`): X_ctrl / X_base − 1 (figure 5-1, 5-3/5-5 top).
+Standard errors and the n/m rule for near-zero denominators: :mod:`hil.kpi_stats`.
 Normalised performance (:func:`normalised`, eq. 5-1): P_n = (X_ctrl − X_still) /
 (X_base − X_still); 1 = baseline with waves, 0 = baseline in still water (figure 5-2, 5-3/5-5
 bottom). Wave-induced increment (:func:`increment_ratio`, table 2-5, figure 2-5):
@@ -83,12 +90,12 @@ NOTES: dict[str, str] = {
     "shaft_del_nm": (
         "DEL(M_LSS) is the DEL of the low-speed-shaft torque N·T_g: the plant's drivetrain is "
         "rigid, so the shaft carries the generator torque only, and a controller holding "
-        "constant torque above rated (the baseline) gives a DEL near 0 there; ratios to it "
-        "are then meaningless"
+        "constant torque above rated gives a DEL near 0 there; ratios to it are then not "
+        "meaningful and shown as n/m (hil.kpi_stats)"
     ),
     "pitch_rate_mean_abs_deg_s": (
         "mean|dθ/dt| is 0 below rated where only the torque acts (al-2019 footnote 3): its "
-        "ratios are undefined there"
+        "ratios are undefined there (n/m)"
     ),
 }
 
@@ -193,8 +200,12 @@ def run_kpis(
         "mean_power_w": kpi.mean_power_w(col("electrical_power_w")),
         "rotor_speed_error_var_rpm2": rotor_speed_error_var_rpm2(rotor, omega_opt),
         "rotor_speed_var_rpm2": float(np.var(rotor * RPM_PER_RAD_S)) if rotor.size else NAN,
-        "tower_base_del_nm": kpi.damage_equivalent_load(col("tower_base_moment_nm"), t),
-        "shaft_del_nm": kpi.damage_equivalent_load(col("shaft_torque_nm"), t),
+        "tower_base_del_nm": kpi.damage_equivalent_load(
+            col("tower_base_moment_nm"), t, kpi.DEL_WOHLER_M, kpi.DEL_N_EQ_HZ
+        ),
+        "shaft_del_nm": kpi.damage_equivalent_load(
+            col("shaft_torque_nm"), t, kpi.DEL_WOHLER_M, kpi.DEL_N_EQ_HZ
+        ),
         "pitch_rate_mean_abs_deg_s": kpi.pitch_travel_deg_s(t, col("blade_pitch_rad")),
         "platform_pitch_std_deg": math.degrees(kpi.std(col("platform_pitch_rad"))),
         "platform_surge_std_m": kpi.std(col("platform_surge_m")),

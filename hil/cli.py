@@ -4,7 +4,7 @@ presets, analyze, preset, and campaign, compare, report (:mod:`hil.campaign_cli`
 Bad input on the command line (an option's value, a scenario file) ends the command with one
 line on stderr, ``error: ...`` naming the option or the scenario key and what was expected, and
 exit code 2, before anything is started or written: every number option is checked by a
-callback (:func:`_number`), every output path by :func:`_writable` (nothing is created by the
+callback (:func:`number`), every output path by :func:`writable` (nothing is created by the
 check), and a usage error of the parser is turned into the same one line by :func:`main`.
 """
 
@@ -16,11 +16,10 @@ import json
 import math
 import os
 import sys
-import tempfile
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, NoReturn, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
 from rich.console import Console
@@ -29,6 +28,7 @@ from rich.table import Table
 from rich.text import Text
 
 from hil.bus import BusOpenError
+from hil.cli_common import choice, fail, number, os_error_text, stderr, text_file, writable
 from hil.hexicon_cli import app as hexicon_app
 from hil.outcome import ExitCode
 from hil.scenario import (
@@ -51,141 +51,12 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 console = Console()
-_stderr = Console(stderr=True, soft_wrap=True)
-
-
-def _fail(message: str, code: int = 2) -> NoReturn:
-    """Print ``error: message`` as one line on stderr and exit with ``code``.
-
-    The message is plain text (a Text, never parsed as markup): brackets in it, e.g. a
-    path or a TOML section, are printed as they are.
-    """
-    _stderr.print(Text.assemble(("error: ", "bold red"), message.replace("\n", " ")))
-    raise typer.Exit(int(code))
-
-
-def _os_error_text(exc: OSError, path: object = None) -> str:
-    """``<file>: <reason>`` of an OSError (``No space left on device``), no errno digits."""
-    where = exc.filename if exc.filename is not None else path
-    reason = exc.strerror or str(exc)
-    return f"{where}: {reason}" if where is not None else reason
-
-
-# ----------------------------------------------------------------- option checks
-
-
-def _number(
-    unit: str,
-    *,
-    gt: float | None = None,
-    ge: float | None = None,
-    le: float | None = None,
-) -> Callable[[float | None], float | None]:
-    """Callback checking a float option: finite and within the bounds, else a usage error.
-
-    The message (printed by :func:`main` as one line) names the option and what was expected,
-    e.g. ``Invalid value for '--duration': expected a finite number > 0 and <= 604800 (s),
-    got nan``.
-    """
-    bounds = " and ".join(
-        b
-        for b in (
-            f"> {gt:g}" if gt is not None else "",
-            f">= {ge:g}" if ge is not None else "",
-            f"<= {le:g}" if le is not None else "",
-        )
-        if b
-    )
-    expected = f"expected a finite number {bounds} ({unit})".replace("  ", " ")
-
-    def check(value: float | None) -> float | None:
-        if value is None:
-            return None
-        ok = math.isfinite(value)
-        ok = ok and (gt is None or value > gt) and (ge is None or value >= ge)
-        ok = ok and (le is None or value <= le)
-        if not ok:
-            raise typer.BadParameter(f"{expected}, got {value:g}")
-        return value
-
-    return check
-
-
-def _existing_ancestor(path: Path) -> Path:
-    """The nearest ancestor of ``path`` (itself included) that exists."""
-    p = path.absolute()
-    while not p.exists() and p != p.parent:
-        p = p.parent
-    return p
-
-
-def _probe_writable(folder: Path) -> str | None:
-    """Why ``folder`` (an existing directory) cannot take a new file, or None if it can.
-
-    Tries for real (a temporary file, removed at once): permission bits say nothing for root,
-    nor about read-only or pseudo file systems.
-    """
-    try:
-        fd, name = tempfile.mkstemp(prefix=".fowt-write-check-", dir=folder)
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    os.close(fd)
-    os.unlink(name)
-    return None
-
-
-def _writable(kind: str) -> Callable[[Path | None], Path | None]:
-    """Callback checking an output path: ``kind`` is ``"folder"`` or ``"file"``.
-
-    A folder may exist (as a directory) or not (it is made when the run starts, with its
-    parents); a file may exist (as a file) or not. Either way the nearest existing ancestor
-    must be a directory that takes a new file. Nothing is left behind by the check.
-    """
-
-    def check(path: Path | None) -> Path | None:
-        if path is None:
-            return None
-        if path.exists():
-            if kind == "folder" and not path.is_dir():
-                raise typer.BadParameter(f"expected a folder, {path} is a file")
-            if kind == "file" and path.is_dir():
-                raise typer.BadParameter(f"expected a file name, {path} is a folder")
-        ancestor = _existing_ancestor(path if kind == "folder" else path.parent)
-        if not ancestor.is_dir():
-            raise typer.BadParameter(f"cannot create {path}: {ancestor} is a file, not a folder")
-        why = _probe_writable(ancestor)
-        if why is not None:
-            raise typer.BadParameter(f"cannot write {path}: {ancestor} is not writable ({why})")
-        return path
-
-    return check
-
-
-def _text_file(path: Path | None) -> Path | None:
-    """Callback: an input text file that exists and can be read (no NUL byte in its start)."""
-    if path is None:
-        return None
-    if not path.is_file():
-        raise typer.BadParameter(f"expected an existing file, {path} is not one")
-    try:
-        with path.open("rb") as fh:
-            head = fh.read(65536)
-    except OSError as exc:
-        raise typer.BadParameter(f"cannot read {path} ({exc.strerror or exc})") from exc
-    try:
-        head.decode("utf-8")
-        binary = b"\0" in head
-    except UnicodeDecodeError as exc:  # a character cut at the end of the head is fine
-        binary = exc.start < len(head) - 3
-    if binary:
-        raise typer.BadParameter(f"expected a UTF-8 text file, {path} holds binary data")
-    return path
 
 
 def _preset_ref(value: str) -> str:
     """Callback of a preset argument: a shipped name, or a path to a readable text file."""
     if value.endswith(".toml") or "/" in value:
-        _text_file(Path(value))
+        text_file(Path(value))
     return value
 
 
@@ -195,17 +66,6 @@ def _forecasters(values: list[str] | None) -> list[str] | None:
         if value not in ("dispersion", "ar", "esprit"):
             raise typer.BadParameter(f"expected dispersion, ar or esprit, got {value!r}")
     return values
-
-
-def _choice(*allowed: str) -> Callable[[str], str]:
-    """Callback: one of ``allowed``."""
-
-    def check(value: str) -> str:
-        if value not in allowed:
-            raise typer.BadParameter(f"expected one of {', '.join(allowed)}, got {value!r}")
-        return value
-
-    return check
 
 
 #: Nodes the plant can wait for (their liveliness tokens ``fowt/<turbine>/alive/<name>``).
@@ -250,7 +110,7 @@ DurationOpt = Annotated[
     typer.Option(
         "--duration",
         help="Simulated seconds (overrides the scenario's duration_s).",
-        callback=_number("s", gt=0.0, le=MAX_DURATION_S),
+        callback=number("s", gt=0.0, le=MAX_DURATION_S),
     ),
 ]
 SpeedOpt = Annotated[
@@ -258,7 +118,7 @@ SpeedOpt = Annotated[
     typer.Option(
         "--speed",
         help="Real-time factor (realtime mode).",
-        callback=_number("real-time factor", gt=0, le=1000),
+        callback=number("real-time factor", gt=0, le=1000),
     ),
 ]
 ListenOpt = Annotated[
@@ -282,7 +142,7 @@ ZenohConfigOpt = Annotated[
         "--zenoh-config",
         help="Zenoh JSON5 config for multi-host use (router, TLS, ACL); its endpoints are"
         " kept unless --listen/--connect are given.",
-        callback=_text_file,
+        callback=text_file,
     ),
 ]
 KeyFileOpt = Annotated[
@@ -317,7 +177,7 @@ TransportOpt = Annotated[
         "--transport",
         help="zenoh | can: with can, the sensor frame and the command travel on CAN "
         "(python-can), everything else on the loopback Zenoh session.",
-        callback=_choice("zenoh", "can"),
+        callback=choice("zenoh", "can"),
     ),
 ]
 CanInterfaceOpt = Annotated[
@@ -361,7 +221,7 @@ def _can_config(
             sc.turbine_id,
         )
     except CanConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
 
 
 def _scenario(ref: str, duration: float | None) -> Scenario:
@@ -369,7 +229,7 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
     try:
         sc = load_scenario(ref).with_duration(duration)
     except ScenarioError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     c = sc.controller
     try:  # parsing the preset costs milliseconds and imports no plant
         if c.kind == "baseline":
@@ -382,7 +242,7 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
             load_advanced_settings(c.preset)
         # other kinds check their presets when built (rosco: its DISCON.IN, at load)
     except (ValueError, OSError) as exc:
-        _fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+        fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
     return sc
 
 
@@ -395,7 +255,7 @@ def _realtime(priority: int, who: str) -> None:
     try:
         console.print(f"{who}: {set_realtime_priority(priority)}")
     except RealtimeError as exc:
-        _fail(str(exc))
+        fail(str(exc))
 
 
 def _bus(
@@ -429,22 +289,22 @@ def _bus(
             config_file=zenoh_config,
         )
     except BusConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     if zenoh_config is not None:
         try:  # parse it now: a bad file is an input error, not a crash when the node starts
             config.zenoh_config()
         except (zenoh.ZError, ValueError, OSError) as exc:
-            _fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
+            fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
     auth_key: bytes | None = None
     if key_file is not None and insecure:
-        _fail("--key-file and --insecure exclude each other")
+        fail("--key-file and --insecure exclude each other")
     if key_file is not None:
         try:
             auth_key = read_key_file(key_file)
         except KeyFileError as exc:
-            _fail(f"--key-file: {exc}")
+            fail(f"--key-file: {exc}")
     elif not insecure:
-        _fail(
+        fail(
             "no --key-file: the bus payloads are authenticated with the run's secret "
             "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
             "run unauthenticated"
@@ -462,7 +322,7 @@ def run(
         str,
         typer.Option(
             help="realtime | lockstep | inprocess",
-            callback=_choice("realtime", "lockstep", "inprocess"),
+            callback=choice("realtime", "lockstep", "inprocess"),
         ),
     ] = "realtime",
     speed: SpeedOpt = 1.0,
@@ -474,7 +334,7 @@ def run(
     out: Annotated[
         Path | None,
         typer.Option(
-            "--out", help="Output folder (default: runs/<scenario>).", callback=_writable("folder")
+            "--out", help="Output folder (default: runs/<scenario>).", callback=writable("folder")
         ),
     ] = None,
     plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
@@ -484,7 +344,7 @@ def run(
         typer.Option(
             help="--mode inprocess: auto | compiled | python (the cycle loop; auto: compiled "
             "where the scenario allows it)",
-            callback=_choice("auto", "compiled", "python"),
+            callback=choice("auto", "compiled", "python"),
         ),
     ] = "auto",
 ) -> None:
@@ -513,9 +373,9 @@ def run(
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if can is not None and mode == "inprocess":
-        _fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+        fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
     if loop != "auto" and mode != "inprocess":
-        _fail(f"--loop {loop}: only with --mode inprocess")
+        fail(f"--loop {loop}: only with --mode inprocess")
     from hil.launch import (
         ProcessFaultError,
         RunAbortedError,
@@ -527,9 +387,9 @@ def run(
 
     if out is None:
         try:
-            _writable("folder")(default_out_dir(sc))
+            writable("folder")(default_out_dir(sc))
         except typer.BadParameter as exc:
-            _fail(f"default output folder: {exc.message} (give --out)")
+            fail(f"default output folder: {exc.message} (give --out)")
     req = RunRequest(
         scenario=scenario,
         mode=mode,  # type: ignore[arg-type]  # checked by its callback
@@ -545,15 +405,15 @@ def run(
     try:
         summary = launch(req, console)
     except RunAbortedError as exc:  # stopped before anything was recorded
-        _fail(str(exc), code=ExitCode.ABORTED)
+        fail(str(exc), code=ExitCode.ABORTED)
     except ProcessFaultError as exc:  # the scenario's process faults and the mode disagree
-        _fail(str(exc), code=ExitCode.USAGE)
+        fail(str(exc), code=ExitCode.USAGE)
     except RunFailedError as exc:
-        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
+        fail(f"run failed: {exc}", code=ExitCode.FAILED)
     except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written
-        _fail(_os_error_text(exc), code=ExitCode.FAILED)
+        fail(os_error_text(exc), code=ExitCode.FAILED)
     except ValueError as exc:  # a model refusing the scenario as built (e.g. its length)
-        _fail(f"run failed: {exc}", code=ExitCode.FAILED)
+        fail(f"run failed: {exc}", code=ExitCode.FAILED)
     raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
 
 
@@ -561,7 +421,7 @@ def run(
 def plant(
     scenario: ScenarioArg = "default",
     mode: Annotated[
-        str, typer.Option(help="realtime | lockstep", callback=_choice("realtime", "lockstep"))
+        str, typer.Option(help="realtime | lockstep", callback=choice("realtime", "lockstep"))
     ] = "realtime",
     speed: SpeedOpt = 1.0,
     duration: DurationOpt = None,
@@ -583,7 +443,7 @@ def plant(
             "--wait-timeout",
             help="Seconds to wait for the required nodes before giving up (exit 1); 0 waits"
             " until they come or Ctrl-C.",
-            callback=_number("s", ge=0.0, le=MAX_DURATION_S),
+            callback=number("s", ge=0.0, le=MAX_DURATION_S),
         ),
     ] = 120.0,
     transport: TransportOpt = "zenoh",
@@ -624,7 +484,7 @@ def plant(
             can=can,
         )
     except PeerWaitInterruptedError as exc:
-        _stderr.print(f"plant: {exc}", markup=False)
+        stderr.print(f"plant: {exc}", markup=False)
         sys.stdout.flush()
         sys.stderr.flush()
         # Nothing is left to clean up (the session is closed, nothing was written), and the
@@ -632,7 +492,7 @@ def plant(
         # 2-core machine: end the process now, as Ctrl-C asks.
         os._exit(128 + exc.signum)
     except TimeoutError as exc:
-        _fail(str(exc), code=1)
+        fail(str(exc), code=1)
     if result.aborted and result.aborted != "stopped by signal":
         raise typer.Exit(1)
 
@@ -686,7 +546,7 @@ def controller(
 def record(
     scenario: ScenarioArg = "default",
     out: Annotated[
-        Path, typer.Option("--out", help="MCAP file to write.", callback=_writable("file"))
+        Path, typer.Option("--out", help="MCAP file to write.", callback=writable("file"))
     ] = Path("run.mcap"),
     duration: DurationOpt = None,
     listen: ListenOpt = None,
@@ -731,7 +591,7 @@ def record(
             can=can,
         )
     except OSError as exc:  # disk full, file too large: the file is readable up to it
-        _fail(f"recorder: writing failed: {_os_error_text(exc, out)}", code=ExitCode.FAILED)
+        fail(f"recorder: writing failed: {os_error_text(exc, out)}", code=ExitCode.FAILED)
 
 
 @app.command(short_help="Run the Zenoh router of a two-host bench.")
@@ -753,9 +613,9 @@ def router(
     try:
         run_router(zenoh_config, echo=console.print)
     except RouterConfigError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     except Exception as exc:  # zenoh.ZError: certificate file, port in use
-        _fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
+        fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
 
 
 #: ``summary["run"]`` keys only the launcher writes (:func:`hil.launch.launch`): a review of
@@ -810,7 +670,7 @@ def review_cmd(
     )
 
     if not mcap.is_file():
-        _fail(f"{mcap} is not a file")
+        fail(f"{mcap} is not a file")
     # What only the launcher knew (aborted, failed, process faults, its verdict) is in the
     # run's summary.json beside the file: read it before the review writes its own there,
     # and keep it in that one.
@@ -826,9 +686,9 @@ def review_cmd(
     try:
         summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
     except (NotMcapError, NotRunLogError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     except OSError as exc:
-        _fail(_os_error_text(exc, mcap))
+        fail(os_error_text(exc, mcap))
     for key, value in launched.items():
         summary["run"].setdefault(key, value)
     if launched:
@@ -837,12 +697,12 @@ def review_cmd(
         try:
             written.write_text(json.dumps(summary, indent=2) + "\n")
         except OSError as exc:
-            _fail(_os_error_text(exc, written), code=ExitCode.FAILED)
+            fail(os_error_text(exc, written), code=ExitCode.FAILED)
     note = truncation_note(summary)
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
         if note:
-            _stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
+            stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
     else:
         render_summary(summary, console)
     if not strict:
@@ -850,10 +710,10 @@ def review_cmd(
     problems = review_problems(summary)
     if note is not None or problems or summary["run"].get("statistics_ok") is False:
         reason = "; ".join(([note] if note else []) + problems) or str(summary["run"].get("error"))
-        _fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
+        fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
     code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.outcome)
     if code != ExitCode.OK:
-        _fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
+        fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
 
 
 @app.command("recover", short_help="Make a truncated MCAP file complete.")
@@ -871,17 +731,17 @@ def recover_cmd(
     from hil.mcap_log import NotMcapError, SkippedRange, recover
 
     if not mcap.is_file():
-        _fail(f"{mcap} is not a file")
+        fail(f"{mcap} is not a file")
     target = out if out is not None else mcap.with_suffix(".recovered.mcap")
     if target.resolve() == mcap.resolve():
-        _fail("--out must differ from the input file")
+        fail("--out must differ from the input file")
     skipped: list[SkippedRange] = []
     try:
         n = recover(mcap, target, skipped)
     except NotMcapError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     except OSError as exc:
-        _fail(_os_error_text(exc, target))
+        fail(os_error_text(exc, target))
     for r in skipped:  # plain lines: never wrapped, one per range
         sys.stdout.write(f"skipped {r.describe()}\n")
     console.print(f"recovered {n} messages into {target}", markup=False)
@@ -970,7 +830,7 @@ WindOpt = Annotated[
     typer.Option(
         "--wind",
         help="Steady hub-height wind of the model, m/s.",
-        callback=_number("m/s", gt=0.0, le=70.0),
+        callback=number("m/s", gt=0.0, le=70.0),
     ),
 ]
 
@@ -980,7 +840,7 @@ ModesWindOpt = Annotated[
     typer.Option(
         "--wind",
         help="Steady hub-height wind of the model, m/s (0: parked, no aerodynamic damping).",
-        callback=_number("m/s", ge=0.0, le=70.0),
+        callback=number("m/s", ge=0.0, le=70.0),
     ),
 ]
 
@@ -990,7 +850,7 @@ def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
     try:
         return fn(preset, wind)
     except (ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
 
 
 @analyze_app.command("modes", short_help="Natural periods and damping of the platform modes.")
@@ -1005,7 +865,7 @@ def analyze_modes(
         typer.Option(
             "--torque-slope",
             help="Generator-torque law in the loop, dT/domega in N m s/rad (default 0: open loop).",
-            callback=_number("N m s/rad", ge=0.0),
+            callback=number("N m s/rad", ge=0.0),
         ),
     ] = 0.0,
 ) -> None:
@@ -1061,7 +921,7 @@ def design_cmd(
         typer.Option(
             "--control-period",
             help="Control period of the discrete gains and filters, s.",
-            callback=_number("s", ge=0.001, le=1.0),
+            callback=number("s", ge=0.001, le=1.0),
         ),
     ] = 0.025,
     out: Annotated[
@@ -1069,7 +929,7 @@ def design_cmd(
         typer.Option(
             "--out",
             help="Folder for the artefacts (default: the shipped designs).",
-            callback=_writable("folder"),
+            callback=writable("folder"),
         ),
     ] = None,
     lqr_wave: Annotated[
@@ -1102,14 +962,14 @@ def design_cmd(
         try:
             npz = design_lqr_wave(preset, control_period, LqrWaveSettings(variant=lqr_wave), out)
         except (ValueError, OSError) as exc:
-            _fail(str(exc))
+            fail(str(exc))
         console.print(f"lqr_wave: {npz}", markup=False)
         console.print(f"designed in {time.perf_counter() - t0:.1f} s")
         return
     try:
         paths = design_all(preset, control_period, out)
     except (ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     for key, path in paths.items():
         console.print(f"{key}: {path}", markup=False)
     console.print(f"designed in {time.perf_counter() - t0:.1f} s")
@@ -1157,7 +1017,7 @@ def analyze_damping_map(
     try:
         report = damping_map(preset)
     except (ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     if as_json:
         sys.stdout.write(json.dumps(report) + "\n")
         return
@@ -1173,27 +1033,25 @@ def analyze_forecast(
     hs: Annotated[
         float,
         typer.Option(
-            "--hs", help="JONSWAP significant height, m.", callback=_number("m", gt=0.0, le=30.0)
+            "--hs", help="JONSWAP significant height, m.", callback=number("m", gt=0.0, le=30.0)
         ),
     ] = 2.2,
     tp: Annotated[
         float,
-        typer.Option(
-            "--tp", help="JONSWAP peak period, s.", callback=_number("s", gt=0.0, le=40.0)
-        ),
+        typer.Option("--tp", help="JONSWAP peak period, s.", callback=number("s", gt=0.0, le=40.0)),
     ] = 8.0,
     distance: Annotated[
         float,
         typer.Option(
             "--distance",
             help="Gauge distance up-wave, m.",
-            callback=_number("m", ge=0.0, le=10_000.0),
+            callback=number("m", ge=0.0, le=10_000.0),
         ),
     ] = 450.0,
     horizon: Annotated[
         float,
         typer.Option(
-            "--horizon", help="Forecast horizon, s.", callback=_number("s", gt=0.0, le=120.0)
+            "--horizon", help="Forecast horizon, s.", callback=number("s", gt=0.0, le=120.0)
         ),
     ] = 10.0,
     duration: Annotated[
@@ -1201,7 +1059,7 @@ def analyze_forecast(
         typer.Option(
             "--duration",
             help="Evaluated seconds of the seeded sea (after the dispersion filter fills).",
-            callback=_number("s", gt=0.0, le=36_000.0),
+            callback=number("s", gt=0.0, le=36_000.0),
         ),
     ] = 600.0,
     forecaster: Annotated[
@@ -1238,7 +1096,7 @@ def analyze_forecast(
                 kinds=kinds,
             )
     except ValueError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     if as_json:
         sys.stdout.write(json.dumps(report, indent=2, default=str) + "\n")
         return
@@ -1288,11 +1146,11 @@ def analyze_forecast(
 @preset_app.command("import-openfast", short_help="Import a floating OpenFAST deck as a preset.")
 def preset_import_openfast(
     fst_file: Annotated[
-        Path, typer.Argument(help="The OpenFAST deck's .fst file.", callback=_text_file)
+        Path, typer.Argument(help="The OpenFAST deck's .fst file.", callback=text_file)
     ],
     out: Annotated[
         Path,
-        typer.Option("--out", help="Folder for the preset files.", callback=_writable("folder")),
+        typer.Option("--out", help="Folder for the preset files.", callback=writable("folder")),
     ] = Path("presets"),
     name: Annotated[
         str | None, typer.Option("--name", help="File stem / preset name (default: deck title).")
@@ -1313,7 +1171,7 @@ def preset_import_openfast(
         typer.Option(
             "--radiation-omega-max",
             help="Upper end of the radiation fit band, rad/s (0: the whole band of the data).",
-            callback=_number("rad/s", ge=0.0, le=100.0),
+            callback=number("rad/s", ge=0.0, le=100.0),
         ),
     ] = 2.0,
 ) -> None:
@@ -1334,7 +1192,7 @@ def preset_import_openfast(
         )
         path = write_preset(deck, out, stem=name)
     except (ValueError, OSError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     for item, kg in deck.mass_budget:
         console.print(f"mass {item}: {kg:.6g} kg", markup=False)
     if no_mooring:
@@ -1378,20 +1236,20 @@ def main(argv: list[str] | None = None) -> None:
         text = exc.format_message()  # type: ignore[attr-defined]
         ctx = getattr(exc, "ctx", None)
         where = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
-        _stderr.print(Text.assemble(("error: ", "bold red"), f"{text}{where}"))
+        stderr.print(Text.assemble(("error: ", "bold red"), f"{text}{where}"))
         sys.exit(2)
     except click_error as exc:
-        _stderr.print(Text.assemble(("error: ", "bold red"), exc.format_message()))  # type: ignore[attr-defined]
+        stderr.print(Text.assemble(("error: ", "bold red"), exc.format_message()))  # type: ignore[attr-defined]
         sys.exit(getattr(exc, "exit_code", 1))
     except typer.Abort:
         sys.exit(130)
     except BusOpenError as exc:  # a node whose session was refused: one line, not a traceback
-        _stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
+        stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
         sys.exit(1)
     except OSError as exc:  # disk full, a folder gone read-only: the system's reason, one line
-        _stderr.print(Text.assemble(("error: ", "bold red"), _os_error_text(exc)))
+        stderr.print(Text.assemble(("error: ", "bold red"), os_error_text(exc)))
         sys.exit(1)
     except KeyboardInterrupt:  # Ctrl-C in a command that does not handle it itself
-        _stderr.print(Text.assemble(("error: ", "bold red"), "interrupted (SIGINT)"))
+        stderr.print(Text.assemble(("error: ", "bold red"), "interrupted (SIGINT)"))
         sys.exit(130)
     sys.exit(rv if isinstance(rv, int) else 0)

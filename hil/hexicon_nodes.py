@@ -49,8 +49,6 @@ from pathlib import Path
 from typing import Any
 
 import msgspec
-from mcap.reader import make_reader
-from mcap.writer import CompressionType, Writer
 
 from bus_schemas.messages import (
     PlatformControllerStatus,
@@ -87,6 +85,7 @@ from hil.hexicon import (
     plant_input,
     truth_sample,
 )
+from hil.mcap_log import RunLog, read_run
 from hil.rt import set_realtime_priority
 from plant.hexicon.environment import SampledWind
 from plant.hexicon.model import outputs, step_rk4, torque_law_nm
@@ -485,53 +484,33 @@ def run_controller_node(
 
 # ------------------------------------------------------------------------------ recorder
 class PlatformMcap:
-    """MCAP writer with one JSON channel per key of a platform (per-turbine and truth keys)."""
+    """A platform's run log: :class:`hil.mcap_log.RunLog` with one CDR channel per key of
+    the platform (per-turbine and truth keys). ``log_time`` is the message's simulated
+    ``sample_time_ns`` itself (start 0); sequence numbers count per channel."""
 
     def __init__(self, path: Path, platform: str) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._stream = open(path, "wb")  # noqa: SIM115 - closed in close()
-        self._w = Writer(self._stream, compression=CompressionType.ZSTD)
-        self._w.start(profile="", library="fowt-hil hexicon")
-        self._channels: dict[str, int] = {}
-        self.count = 0
+        self._log = RunLog(path, None, start_unix_ns=0, profile="", library="fowt-hil hexicon")
         for mt in PLATFORM_MESSAGES:
-            sid = self._w.register_schema(
-                name=f"fowt.{mt.name}",
-                encoding="jsonschema",
-                data=json.dumps(mt.json_schema()).encode(),
-            )
             per_turbine = mt in (TURBINE_FRAME, TURBINE_COMMAND)
-            keys = []
             for ident in [f"{platform}/{t}" for t in TURBINES] if per_turbine else [platform]:
-                keys.append(mt.key(ident))
+                self._log.add_channel(mt.key(ident), mt)
                 if mt in (TURBINE_FRAME, PLATFORM_FRAME):
-                    keys.append(truth_key(mt, ident))
-            for key in keys:
-                self._channels[key] = self._w.register_channel(
-                    topic=key,
-                    message_encoding="json",
-                    schema_id=sid,
-                    metadata={"version": str(mt.version), "message_id": str(mt.message_id)},
-                )
+                    self._log.add_channel(truth_key(mt, ident), mt)
+
+    @property
+    def count(self) -> int:
+        """Messages written so far."""
+        return self._log.count
 
     def write(self, key: str, msg: Any) -> None:
-        cid = self._channels.get(key)
-        if cid is None:
-            return
-        now = time.time_ns()
-        self._w.add_message(
-            cid,
-            log_time=int(msg.sample_time_ns),
-            data=msgspec.json.encode(msg),
-            publish_time=now,
-            sequence=self.count,
-        )
-        self.count += 1
+        """Write one message under its key (a key of no channel is ignored)."""
+        if self._log.channel_for(key) is not None:
+            self._log.write(key, msg)
 
     def close(self, metadata: dict[str, str]) -> None:
-        self._w.add_metadata("hexicon_run", metadata)
-        self._w.finish()
-        self._stream.close()
+        """Add the run's metadata, finish the file."""
+        self._log.add_metadata("hexicon_run", metadata)
+        self._log.close()
 
 
 def _netns_rerun(argv: list[str], out: Path) -> dict[str, Any]:
@@ -868,13 +847,16 @@ def _cli_argv(
 
 
 def read_platform_run(path: Path) -> dict[str, list[Any]]:
-    """Decoded messages of a platform MCAP by topic (JSON dicts in log order)."""
-
-    by_topic: dict[str, list[Any]] = {}
-    with open(path, "rb") as fh:
-        for _schema, channel, message in make_reader(fh).iter_messages(log_time_order=True):
-            by_topic.setdefault(channel.topic, []).append(json.loads(message.data))
-    return by_topic
+    """Decoded messages of a platform MCAP by topic (dicts in log time order; the CDR
+    channels and the JSON ones of older files alike, :func:`hil.mcap_log.read_run`)."""
+    run = read_run(path)
+    if run.error and not run.messages:
+        raise ValueError(f"{path}: {run.error}")
+    return {
+        topic: sorted(msgs, key=lambda m: m["sample_time_ns"])
+        for topic, msgs in run.messages.items()
+        if msgs
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

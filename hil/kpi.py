@@ -25,11 +25,41 @@ NAN = float("nan")
 WOHLER_M_STEEL = 4.0
 #: Default equivalent-load frequency f_eq in Hz (one equivalent cycle per second).
 N_EQ_HZ = 1.0
+#: Wöhler exponent m of every DEL the bench reports (shaft, tower base, thrust): one value
+#: for ``fowt review``/``report``/``compare`` and campaigns, so their DELs agree.
+DEL_WOHLER_M = WOHLER_M_STEEL
+#: Equivalent-load frequency f_eq [Hz] of every DEL the bench reports.
+DEL_N_EQ_HZ = N_EQ_HZ
 
 
 def _as_1d(x: ArrayLike) -> npt.NDArray[np.float64]:
     """``x`` as a flat float64 array (copy-free when already one)."""
     return np.asarray(x, dtype=np.float64).reshape(-1)
+
+
+def window_start_s(end_s: float, settle_s: float) -> float:
+    """Start t_0 of the KPI window: the start-up transient left out of every KPI.
+
+    .. math:: t_0 = \\min(T_s,\\ t_{end} / 2)
+
+    with T_s the requested settling time (scenario ``[review] settle_s``) and t_end the last
+    sample time: a run shorter than 2 T_s keeps its second half. ``fowt review``, ``fowt
+    report``, ``fowt compare`` and campaign runs all take their KPIs over [t_0, t_end] with
+    this t_0, so one run gives one set of KPIs whichever command computes them.
+
+    Parameters
+    ----------
+    end_s : float
+        Last sample time t_end [s] (``nan`` when the run has no sample).
+    settle_s : float
+        Requested settling time T_s [s].
+
+    Returns
+    -------
+    float
+        t_0 [s]; T_s when t_end is not finite.
+    """
+    return min(settle_s, 0.5 * end_s) if math.isfinite(end_s) else settle_s
 
 
 def mean_power_w(power_w: ArrayLike) -> float:
@@ -298,6 +328,8 @@ def finite_or_none(v: Any) -> Any:
 
 
 __all__ = [
+    "DEL_N_EQ_HZ",
+    "DEL_WOHLER_M",
     "N_EQ_HZ",
     "WOHLER_M_STEEL",
     "damage_equivalent_load",
@@ -311,4 +343,5 @@ __all__ = [
     "pitch_travel_deg_s",
     "settling_time_s",
     "std",
+    "window_start_s",
 ]

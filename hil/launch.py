@@ -115,9 +115,10 @@ from hil.controller_node import (
     feedforward_notice,
     publishing_step,
 )
+from hil.inprocess_run import run_inprocess
 from hil.log_writer import BackgroundRunLog, LogWriteError
 from hil.outcome import outcome_line, record_outcome
-from hil.plant_node import Mode, run_inprocess
+from hil.plant_node import Mode
 from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
 from hil.scenario import ProcessFault, Scenario, load_scenario, scenario_text
@@ -141,7 +142,7 @@ class RunRequest:
     plots: bool = True
     can: CanBusConfig | None = None
     realtime_priority: int = 0  # SCHED_FIFO for the plant and controller (0: normal)
-    inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # hil.plant_node.run_inprocess
+    inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # see run_inprocess
 
 
 class RunFailedError(RuntimeError):

@@ -1,19 +1,19 @@
-"""MCAP run logs: one file per run, JSON Schema channels that Foxglove can plot.
+"""MCAP run logs: one file per run, one writer for every kind of run.
 
 Writing
 -------
-:class:`RunLog` registers one channel per bus key with the JSON Schema derived from the
-message declaration (:meth:`bus_schemas.registry.MessageType.json_schema`) and writes each
-message as JSON. ``log_time`` is the run's wall-clock start plus the message's simulated
-``sample_time_ns``, so Foxglove's timeline is simulated time; ``publish_time`` is when the
-recorder took it from its subscriber's queue (at most about 20 ms after it arrived, see
-:mod:`hil.recorder`; for a message that came in a log batch, when the batch was taken).
-
-In-process runs and campaign workers write through :class:`BatchRunLog` instead: many
-messages at once (one chunk per batch, the message records and indexes built with numpy),
-about 2.8 times cheaper per message than :meth:`RunLog.write_json` (5.5 against 15 us
-CPU on the loaded 2-core machine, the same JSON messages, zstd both), same channels,
-schemas, sequence numbering and summary (see its docstring and :mod:`hil.log_writer`).
+:class:`RunLog` is the only writer: the real-time and lock-step recorder
+(:mod:`hil.recorder`), the in-process mode's writer child and a campaign worker's
+(:mod:`hil.log_writer`) and a Hexicon platform's recorder all write through it. Every bus
+message goes to a ``cdr`` channel whose schema is the ``ros2msg`` definition generated from
+the message's declaration (:mod:`bus_schemas.ros2`): fixed-size binary payloads that
+Foxglove and any ROS 2 tool decode, a third of the bytes of the JSON the older files hold
+and cheaper to write (docs/recording.md, bench/runlog_encoding.py). ``log_time`` is the
+run's wall-clock start plus the message's simulated ``sample_time_ns``, so Foxglove's
+timeline is simulated time; ``publish_time`` is when the recorder took it from its
+subscriber's queue (at most about 20 ms after it arrived, see :mod:`hil.recorder`; for a
+message that came in a log batch, when the batch was taken), or in process the message's
+own publish time. Sequence numbers count per channel.
 
 File layout and crash safety
 ----------------------------
@@ -23,33 +23,34 @@ then the summary section (Schemas, Channels, Statistics, ChunkIndexes, MetadataI
 SummaryOffsets), the Footer and the closing magic, so any MCAP reader opens it (the mcap
 package's seeking and non-seeking readers, ``@mcap/core``, Foxglove).
 
-The file is opened *buffered*: mcap's :class:`~mcap.writer.Writer` uses a buffered stream
-as it is, whereas it wraps a raw (unbuffered) one in a buffer of its own that
-:meth:`~mcap.writer.Writer.finish` does not flush, so closing the raw file under it loses
-the end of the summary, the Footer and the closing magic. Crash safety comes from
-:meth:`RunLog.maybe_flush` instead: every ``flush_interval_s`` (default 0.25 s of wall time)
-the chunk in progress is closed and written with its message indexes, and the stream is
-flushed to the OS. A SIGKILL of the writing process therefore loses at most the messages
-of the last ``flush_interval_s`` (plus whatever the caller had not handed over yet); the
-file then ends after its last flushed chunk (or inside a chunk the buffer had started to
-write) without a summary. Such a file is read by any sequential reader up to the cut
-(:func:`read_run`, mcap's ``NonSeekingReader``) and :func:`recover` rewrites it as a
-complete file (``fowt recover``; with mcap's Go CLI: ``mcap recover``).
+Crash safety comes from :meth:`RunLog.maybe_flush`: every ``flush_interval_s`` (default 0.25
+s of wall time; the recorder's 0.15 s) the queued messages are written as a chunk with its
+message indexes, and the stream is flushed to the OS. A SIGKILL of the writing process
+therefore loses at most the messages of the last ``flush_interval_s`` (plus whatever the
+caller had not handed over yet); the file then ends after its last flushed chunk (or inside
+a chunk the buffer had started to write) without a summary. Such a file is read by any
+sequential reader up to the cut (:func:`read_run`, mcap's ``NonSeekingReader``) and
+:func:`recover` rewrites it as a complete file (``fowt recover``; with mcap's Go CLI: ``mcap
+recover``).
 
 Reading
 -------
 :func:`read_run` reads a file front to back with mcap's stream reader through its summary,
-Footer and closing magic (:class:`RecordScan`). It stops cleanly at a cut (a run whose
-recorder was killed still reviews up to its last flushed chunk), skips a damaged chunk in the
-middle (bad zstd data, a CRC that does not match, an unreadable record) and reads the chunks
-after it, and says so (``truncated``, ``error``, ``skipped``); a file that does not start
-with the MCAP magic raises :class:`NotMcapError`. :func:`recover` writes what it reads into
+Footer and closing magic (:class:`RecordScan`); a ``cdr`` channel's payloads are decoded
+with the layout of its own ``ros2msg`` schema (so a file of an older schema version still
+reads), a ``json`` channel's (files written before the CDR channels) as JSON. It stops
+cleanly at a cut (a run whose recorder was killed still reviews up to its last flushed
+chunk), skips a damaged chunk in the middle (bad zstd data, a CRC that does not match, an
+unreadable record) and reads the chunks after it, and says so (``truncated``, ``error``,
+``skipped``); a file that does not start with the MCAP magic raises :class:`NotMcapError`.
+:func:`recover` writes what it reads into
 a complete file.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import mmap
@@ -57,7 +58,6 @@ import os
 import struct
 import time
 import zlib
-from array import array
 from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field
 from io import BytesIO
@@ -88,20 +88,19 @@ from mcap.records import (
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 
+from bus_schemas import ros2
 from bus_schemas.registry import MESSAGES, MessageType
 
 PROFILE = "fowt-hil"
 RAW_SCHEMA_NAME = "fowt.RawPayload"
-#: zstd level of :class:`BatchRunLog`. bench/inprocess_speed.py measured levels 1 and 3 on
-#: a 600 s LC2 run's chunks (1024 messages, ~370 kB of JSON each): level 1 is both faster
+#: zstd level of :class:`RunLog`. bench/inprocess_speed.py measured levels 1 and 3 on a
+#: 600 s LC2 run's chunks (1024 messages, then ~370 kB of JSON each): level 1 was both faster
 #: (~540 against ~320 MB/s) and smaller (ratio 7.4 against 6.5) on these small chunks.
 ZSTD_LEVEL = 1
-#: zstd window and hash table of :class:`BatchRunLog` [log2 bytes / entries; 0 and 0: the
-#: level's own, chosen by zstd for the chunk's size]. 18 and 12 (a 256 kB window, a 16 kB
-#: hash table that stays in the core's caches) compress a real LC2 run's chunks faster than
-#: level 1's own at the same ratio (bench/log_writer_speed.py, ``stages.compression``:
-#: ``zstd1`` against ``zstd1_level_tables``). Any zstd decoder reads it (a smaller window
-#: than level 1's own 512 kB).
+#: zstd window and hash table of :class:`RunLog` [log2 bytes / entries]. 18 and 12 (a
+#: 256 kB window, a 16 kB hash table that stays in the core's caches) compressed a real LC2
+#: run's JSON chunks faster than level 1's own tables at the same ratio (measured with the
+#: JSON writer); a CDR chunk (~170 kB) fits the window whole. Any zstd decoder reads it.
 ZSTD_WINDOW_LOG = 18
 ZSTD_HASH_LOG = 12
 
@@ -113,387 +112,314 @@ class NotMcapError(ValueError):
     """The file is not an MCAP file (it does not start with the MCAP magic)."""
 
 
+@dataclass
+class _Channel:
+    """A channel of :class:`RunLog`: its record, message type (None: a JSON channel) and the
+    messages queued for the next chunk (parts in publish order)."""
+
+    record: Channel
+    mt: MessageType | None
+    #: Queued parts: ``("rows", rows, publish_unix_ns)``, ``("structs", [tuple], [int])`` or
+    #: ``("json", [(data, log_time, publish_time)], None)``.
+    parts: list[tuple[str, Any, Any]] = field(default_factory=list)
+    queued: int = 0
+
+
 class RunLog:
-    """Writer of one run's MCAP file.
+    """The writer of every run log: real-time recorder, in-process writer, campaigns, Hexicon.
+
+    A message of a registered type goes to a ``cdr`` channel with a ``ros2msg`` schema
+    (:mod:`bus_schemas.ros2`; schema and channel metadata carry the schema version and
+    message id); a few records that are not bus messages (the raw CAN frames) go to a
+    ``json`` channel with a JSON Schema (:meth:`add_json_channel`). Messages are queued per
+    channel, one by one (:meth:`write`: a Struct, kept as a tuple) or many at once
+    (:meth:`write_rows`: rows of ``row_dtype``), and written as one Chunk per :meth:`flush`:
+    per channel its queued messages become one numpy record array (the 31-byte MCAP
+    Message record header, then the CDR payload, :func:`bus_schemas.ros2.encode_rows`),
+    the channels' arrays one after the other (a channel's messages in publish order;
+    channels in ascending id), followed by one MessageIndex per channel. Sequence numbers
+    count per channel from 0 (MCAP ``sequence``); ``log_time`` is the run's wall-clock
+    start plus the message's simulated ``sample_time_ns`` (Foxglove's timeline is
+    simulated time); ``publish_time`` is what the caller gives (the recorder: when it took
+    the message from its queue; in process: the message's own publish time on the unix
+    epoch).
+
+    The structural records (Header, Schemas, Channels, Metadata, DataEnd, the summary
+    section, Footer) are written with the mcap package's record classes; only the message
+    records and their indexes are built here, with numpy (no per-message Python work for
+    rows; 0.78 us of CPU a message in the in-process writer child, zstd included,
+    bench/runlog_encoding.py).
+
+    Crash safety: :meth:`write` flushes a chunk every ``flush_interval_s`` of wall time or
+    ``batch_messages`` messages (:meth:`maybe_flush`), and every chunk is handed to the OS
+    as it is written, so a SIGKILL loses at most what was queued since the last one; the
+    file then reads up to its last chunk and :func:`recover` closes it.
 
     Parameters
     ----------
     path : Path
         Output file (created, parent directories made).
-    turbine : str
-        Turbine id in the key expressions (``fowt/<turbine>/...``).
-    start_unix_ns : int
-        Wall-clock time of simulated t = 0, used to place ``log_time``.
-    flush_interval_s : float
-        Wall seconds between chunk flushes (bounds the data lost on SIGKILL).
-    """
-
-    def __init__(
-        self,
-        path: Path,
-        turbine: str,
-        start_unix_ns: int | None = None,
-        flush_interval_s: float = 0.25,
-    ) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.path = path
-        self.turbine = turbine
-        self.start_unix_ns = time.time_ns() if start_unix_ns is None else start_unix_ns
-        # Buffered, so the Writer writes to this stream itself (module docstring: a raw
-        # stream would get a private buffer that finish() never flushes). maybe_flush()
-        # pushes finished chunks to the OS.
-        self._stream: IO[bytes] = open(path, "wb")  # noqa: SIM115 - closed in close()
-        self._writer = Writer(self._stream, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
-        self._writer.start(profile=PROFILE, library="fowt-hil")
-        self._channels: dict[str, tuple[int, MessageType]] = {}
-        self._seq: dict[int, int] = {}
-        for mt in MESSAGES:
-            schema_id = self._writer.register_schema(
-                name=f"fowt.{mt.name}",
-                encoding="jsonschema",
-                data=json.dumps(mt.json_schema()).encode(),
-            )
-            key = mt.key(turbine)
-            channel_id = self._writer.register_channel(
-                topic=key,
-                message_encoding="json",
-                schema_id=schema_id,
-                metadata={"version": str(mt.version), "message_id": str(mt.message_id)},
-            )
-            self._channels[key] = (channel_id, mt)
-        self._flush_interval_ns = int(flush_interval_s * 1e9)
-        self._last_flush_ns = time.monotonic_ns()
-        self.count = 0
-        self._closed = False
-
-    def channel_for(self, key: str) -> tuple[int, MessageType] | None:
-        """The channel id and message type registered for a key expression."""
-        return self._channels.get(key)
-
-    def write(self, key: str, msg: Any, receive_unix_ns: int | None = None) -> None:
-        """Write one decoded message (a registered Struct) under its key."""
-        entry = self._channels.get(key)
-        if entry is None:
-            raise KeyError(f"no channel registered for key {key!r}")
-        channel_id, _mt = entry
-        data = msgspec.json.encode(msg)
-        seq = self._seq.get(channel_id, 0)
-        self._seq[channel_id] = seq + 1
-        log_time = self.start_unix_ns + int(msg.sample_time_ns)
-        self._writer.add_message(
-            channel_id=channel_id,
-            log_time=log_time,
-            data=data,
-            publish_time=receive_unix_ns if receive_unix_ns is not None else time.time_ns(),
-            sequence=seq,
-        )
-        self.count += 1
-        self.maybe_flush()
-
-    def write_json(self, key: str, sample_time_ns: int, data: bytes, receive_unix_ns: int) -> None:
-        """Write one message already encoded as JSON (the background writer's path)."""
-        entry = self._channels.get(key)
-        if entry is None:
-            raise KeyError(f"no channel registered for key {key!r}")
-        channel_id = entry[0]
-        seq = self._seq.get(channel_id, 0)
-        self._seq[channel_id] = seq + 1
-        self._writer.add_message(
-            channel_id=channel_id,
-            log_time=self.start_unix_ns + sample_time_ns,
-            data=data,
-            publish_time=receive_unix_ns,
-            sequence=seq,
-        )
-        self.count += 1
-        self.maybe_flush()
-
-    def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        """Add a metadata record (scenario, run information, counters) and flush it."""
-        self._writer.add_metadata(name, data)
-        self.flush()
-
-    def flush(self) -> None:
-        """Close the chunk in progress and hand everything written so far to the OS."""
-        self._writer.flush()
-        self._last_flush_ns = time.monotonic_ns()
-
-    def maybe_flush(self) -> None:
-        """Flush the chunk in progress if the flush interval has passed."""
-        if time.monotonic_ns() - self._last_flush_ns >= self._flush_interval_ns:
-            self.flush()
-
-    def close(self) -> None:
-        """Write the summary section, Footer and closing magic; close the file (idempotent)."""
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self._writer.finish()
-            self._stream.flush()
-        finally:
-            self._stream.close()
-
-
-#: Bytes of an MCAP Message record before its data: opcode (1), record length (8),
-#: channel id (2), sequence (4), log time (8), publish time (8).
-MESSAGE_HEADER_BYTES = 31
-_MESSAGE_HEADER = np.dtype(
-    [
-        ("opcode", "u1"),
-        ("length", "<u8"),
-        ("channel_id", "<u2"),
-        ("sequence", "<u4"),
-        ("log_time", "<u8"),
-        ("publish_time", "<u8"),
-    ]
-)  # packed (no alignment): 31 bytes, the record's layout
-_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
-_GAP = bytes(MESSAGE_HEADER_BYTES)
-#: Compressions :class:`BatchRunLog` can write ("" = none).
-COMPRESSIONS = ("zstd", "lz4", "")
-
-
-class BatchRunLog:
-    """Writer of one run's MCAP file from whole batches of pre-encoded messages.
-
-    The in-process mode's log writer (:mod:`hil.log_writer`) receives the messages of many
-    cycles at once. Writing them one by one through ``mcap.Writer.add_message`` costs
-    several us each in Python (a record object, struct packs into a BytesIO, an index
-    tuple): the writer before this class managed 53 000 to 68 000 messages per CPU second
-    on the loaded 2-core machine (bench/inprocess_speed.py). Here a batch is one buffer that
-    already holds the messages' JSON with a 31-byte gap before each
-    (:data:`MESSAGE_HEADER_BYTES`); the headers of the MCAP Message records (opcode 0x05,
-    record length 22 + len(data), channel id, per-channel sequence, log time = run start +
-    ``sample_time_ns``, publish time) are filled into the gaps with one numpy assignment,
-    and the buffer is then exactly the records of one Chunk. Each batch is written as one
-    Chunk (compressed), followed by one MessageIndex record per channel in it (log time,
-    offset of the record in the chunk), and handed to the OS at once
-    (:meth:`write_chunk`). :mod:`hil.log_writer`'s child builds the whole records itself
-    (headers included, sequence numbers from :attr:`channel_seq`) and calls
-    :meth:`write_chunk` directly; :meth:`write_batch` is the reference it is tested against.
-
-    The file is laid out as :class:`RunLog`'s (same channels, schemas, ids and sequence
-    numbering): magic, Header, Schemas and Channels (here in the data section, outside
-    the chunks), Metadata, Chunks with their MessageIndexes, DataEnd, then the summary
-    section (Schemas, Channels, Statistics, ChunkIndexes, MetadataIndexes,
-    SummaryOffsets), the Footer (with the summary's CRC-32) and the closing magic. The
-    structural records are written with the mcap package's record classes; only the
-    message records and their indexes are built here.
-
-    Parameters
-    ----------
-    path : Path
-        Output file (created, parent directories made).
-    turbine : str
-        Turbine id in the key expressions.
-    compression : str
-        ``"zstd"`` (default), ``"lz4"`` or ``""`` (none).
+    turbine : str or None
+        Turbine id: registers one channel per :data:`~bus_schemas.registry.MESSAGES` type
+        under ``fowt/<turbine>/<suffix>``. None: no channel (add them with
+        :meth:`add_channel`, e.g. a platform's).
     start_unix_ns : int, optional
         Wall-clock time of simulated t = 0 (default: now).
-    batch_messages, flush_interval_s : int, float
-        For :meth:`add_json` (one message at a time, e.g. a campaign worker's run): a chunk
-        is written every ``batch_messages`` messages or ``flush_interval_s`` of wall time,
-        which bounds what a SIGKILL of the writing process loses.
-    place_headers : callable, optional
-        ``place_headers(buf, offsets, headers)`` writes row ``i`` of the ``(n, 31)`` uint8
-        ``headers`` to ``buf[offsets[i]:offsets[i] + 31]``; default: one numpy assignment
-        (about 0.5 us a message). :mod:`hil.log_writer` passes a compiled loop (~0.03 us).
+    flush_interval_s : float
+        Wall seconds between the chunks :meth:`write` flushes.
+    compression : str
+        ``"zstd"`` (default), ``"lz4"`` or ``""`` (none).
+    batch_messages : int
+        Queued messages that make :meth:`write` flush a chunk whatever the time.
+    profile, library : str
+        The Header's profile and library.
     """
 
     def __init__(
         self,
         path: Path,
-        turbine: str,
-        compression: str = "zstd",
+        turbine: str | None,
         start_unix_ns: int | None = None,
-        batch_messages: int = 1024,
         flush_interval_s: float = 0.25,
-        place_headers: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+        *,
+        compression: str = "zstd",
+        batch_messages: int = 1024,
+        profile: str = PROFILE,
+        library: str = "fowt-hil",
     ) -> None:
-        self._place_headers = place_headers
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression {compression!r}: expected one of {COMPRESSIONS}")
-        self._compress: Callable[[bytearray], bytes]
-        if compression == "zstd":
-            import zstandard  # noqa: PLC0415
-
-            if ZSTD_WINDOW_LOG or ZSTD_HASH_LOG:
-                params = zstandard.ZstdCompressionParameters.from_level(
-                    ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, hash_log=ZSTD_HASH_LOG
-                )
-                self._compress = zstandard.ZstdCompressor(compression_params=params).compress
-            else:
-                self._compress = zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress
-        elif compression == "lz4":
-            try:
-                import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415
-            except ImportError as exc:  # not a dependency: mcap's writer makes it optional too
-                raise ValueError("compression 'lz4': the lz4 package is not installed") from exc
-            self._compress = lz4.frame.compress
-        else:
-            self._compress = bytes
+        if batch_messages < 1:
+            raise ValueError(f"batch_messages: expected an integer >= 1, got {batch_messages}")
+        self._compress = _compressor(compression)
         self.compression = compression
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
+        self.turbine = turbine or ""
         self.start_unix_ns = time.time_ns() if start_unix_ns is None else start_unix_ns
         self._stream: IO[bytes] = open(path, "wb")  # noqa: SIM115 - closed in close()
         self._stream.write(MCAP_MAGIC)
         self._builder = RecordBuilder()
-        Header(profile=PROFILE, library="fowt-hil").write(self._builder)
+        Header(profile=profile, library=library).write(self._builder)
         self._schemas: list[Schema] = []
-        self._channels: list[Channel] = []
-        self.channel_of_message_id = np.zeros(max(mt.message_id for mt in MESSAGES) + 1, np.int64)
-        for mt in MESSAGES:
-            schema = Schema(
-                id=len(self._schemas) + 1,
-                name=f"fowt.{mt.name}",
-                encoding="jsonschema",
-                data=json.dumps(mt.json_schema()).encode(),
-            )
-            self._schemas.append(schema)
-            schema.write(self._builder)
-            channel = Channel(
-                id=len(self._channels) + 1,
-                topic=mt.key(turbine),
-                message_encoding="json",
-                schema_id=schema.id,
-                metadata={"version": str(mt.version), "message_id": str(mt.message_id)},
-            )
-            self._channels.append(channel)
-            channel.write(self._builder)
-            self.channel_of_message_id[mt.message_id] = channel.id
-        self._write_records()
-        self._seq = np.zeros(len(self._channels) + 1, np.int64)
-        self._counts = np.zeros(len(self._channels) + 1, np.int64)
+        self._schema_of: dict[str, int] = {}
+        self._channels: list[_Channel] = []
+        self._by_topic: dict[str, int] = {}
+        self._seq: list[int] = [0]  # per channel id (0: none)
+        self._counts: list[int] = [0]
         self._chunk_indexes: list[ChunkIndex] = []
         self._metadata_indexes: list[MetadataIndex] = []
         self._start_time: int | None = None
         self._end_time = 0
+        #: Messages handed to the log (written, or queued for the next chunk).
         self.count = 0
+        self._queued = 0
         self._closed = False
         self.batch_messages = batch_messages
         self._flush_interval_ns = int(flush_interval_s * 1e9)
         self._last_flush_ns = time.monotonic_ns()
-        self._pending = bytearray()
-        self._pending_meta = array("q")
+        #: Channel id per message id of the turbine's own channels (0: none).
+        self.channel_of_message_id = np.zeros(max(mt.message_id for mt in MESSAGES) + 1, np.int64)
+        if turbine is not None:
+            for mt in MESSAGES:
+                self.channel_of_message_id[mt.message_id] = self.add_channel(mt.key(turbine), mt)
+        self._write_records()
 
-    def _write_records(self) -> None:
-        self._stream.write(self._builder.end())
+    # ------------------------------------------------------------------ channels
+    def _schema(self, name: str, encoding: str, data: bytes) -> int:
+        sid = self._schema_of.get(name)
+        if sid is None:
+            schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
+            self._schemas.append(schema)
+            schema.write(self._builder)
+            sid = self._schema_of[name] = schema.id
+        return sid
 
-    def add_json(
-        self, message_id: int, data: bytes, sample_time_ns: int, publish_unix_ns: int
-    ) -> None:
-        """Queue one message already encoded as JSON; the batch is written (one chunk) when
-        it holds ``batch_messages`` messages or ``flush_interval_s`` of wall time has passed
-        since the last one (the clock read every 32 messages), and by :meth:`close`."""
-        records = self._pending
-        offset = len(records)
-        records += _GAP
-        records += data
-        self._pending_meta.extend((message_id, sample_time_ns, publish_unix_ns, offset))
-        n = len(self._pending_meta) >> 2
-        if n >= self.batch_messages or (
-            not n & 31 and time.monotonic_ns() - self._last_flush_ns >= self._flush_interval_ns
-        ):
-            self.flush_pending()
+    def _channel(
+        self, topic: str, encoding: str, sid: int, mt: MessageType | None, meta: dict[str, str]
+    ) -> int:
+        if topic in self._by_topic:
+            raise ValueError(f"channel {topic!r} is registered already")
+        rec = Channel(
+            id=len(self._channels) + 1,
+            topic=topic,
+            message_encoding=encoding,
+            schema_id=sid,
+            metadata=meta,
+        )
+        rec.write(self._builder)
+        self._write_records()
+        self._channels.append(_Channel(rec, mt))
+        self._by_topic[topic] = rec.id
+        self._seq.append(0)
+        self._counts.append(0)
+        return rec.id
 
-    def flush_pending(self) -> None:
-        """Write the messages queued by :meth:`add_json` as one chunk."""
-        if self._pending_meta:
-            meta = np.frombuffer(self._pending_meta, np.int64).reshape(-1, 4)
-            self.write_batch(meta, self._pending)
-            self._pending = bytearray()
-            self._pending_meta = array("q")
+    def add_channel(self, topic: str, mt: MessageType) -> int:
+        """Register a ``cdr`` channel of a registered message type; return its id.
+
+        Its schema is ``mt``'s ros2msg (:func:`bus_schemas.ros2.msgdef`, one Schema record
+        per type); the channel's metadata give the schema version, message id and
+        encoding version (:data:`CDR_ENCODING_VERSION`).
+        """
+        sid = self._schema(ros2.schema_name(mt), "ros2msg", ros2.msgdef(mt).encode())
+        meta = {
+            "version": str(mt.version),
+            "message_id": str(mt.message_id),
+            "encoding_version": CDR_ENCODING_VERSION,
+        }
+        return self._channel(topic, "cdr", sid, mt, meta)
+
+    def add_json_channel(self, topic: str, schema_name: str, json_schema: dict[str, Any]) -> int:
+        """Register a ``json`` channel with a JSON Schema (records that are not bus
+        messages, e.g. raw CAN frames); return its id."""
+        sid = self._schema(schema_name, "jsonschema", json.dumps(json_schema).encode())
+        return self._channel(topic, "json", sid, None, {})
+
+    def channel_for(self, key: str) -> tuple[int, MessageType | None] | None:
+        """The channel id and message type (None: a JSON channel) registered for a topic."""
+        cid = self._by_topic.get(key)
+        return None if cid is None else (cid, self._channels[cid - 1].mt)
+
+    # ------------------------------------------------------------------ messages
+    def _queue(self, ch: _Channel, kind: str, item: Any, publish: Any) -> None:
+        parts = ch.parts
+        if parts and parts[-1][0] == kind and kind != "rows":
+            parts[-1][1].append(item)
+            if publish is not None:
+                parts[-1][2].append(publish)
+        else:
+            parts.append((kind, [item], None if publish is None else [publish]))
+
+    def write(self, key: str, msg: Any, receive_unix_ns: int | None = None) -> None:
+        """Queue one message (a registered Struct) under its topic; flush a chunk when due
+        (:meth:`maybe_flush`). ``receive_unix_ns``: its ``publish_time`` (default: now).
+
+        Raises ``KeyError`` for a topic of no channel and ``ValueError`` (nothing queued)
+        for a ``uint64`` field above ``2**63 - 1`` (the rows are int64; no run counts so far).
+        """
+        cid = self._by_topic.get(key)
+        if cid is None:
+            raise KeyError(f"no channel registered for key {key!r}")
+        ch = self._channels[cid - 1]
+        if ch.mt is None:
+            raise KeyError(f"channel {key!r} is a JSON channel: use write_json")
+        recv = time.time_ns() if receive_unix_ns is None else receive_unix_ns
+        values = msgspec.structs.astuple(msg)
+        for i in _wide_fields(ch.mt):
+            if values[i] > _I64_MAX:  # a row holds int64 (the codec allows up to 2**64 - 1)
+                name = ch.mt.cls.__struct_fields__[i]
+                raise ValueError(f"{ch.mt.name}.{name} = {values[i]} does not fit the run log")
+        self._queue(ch, "structs", values, recv)
+        ch.queued += 1
+        self._queued += 1
+        self.count += 1
+        self.maybe_flush()
+
+    def write_json(self, cid: int, data: bytes, sample_time_ns: int, receive_unix_ns: int) -> None:
+        """Queue one JSON message on a channel of :meth:`add_json_channel` (then as
+        :meth:`write`)."""
+        ch = self._channels[cid - 1]
+        if ch.mt is not None:
+            raise ValueError(f"channel {ch.record.topic!r} is not a JSON channel")
+        self._queue(ch, "json", (data, self.start_unix_ns + sample_time_ns, receive_unix_ns), None)
+        ch.queued += 1
+        self._queued += 1
+        self.count += 1
+        self.maybe_flush()
+
+    def write_rows(self, cid: int, rows: np.ndarray, publish_unix_ns: np.ndarray | int) -> None:
+        """Queue many messages of a ``cdr`` channel as rows (its type's ``row_dtype``, in
+        publish order) with their publish times [ns, unix]; written by the next
+        :meth:`flush` (no flush here: the caller decides where a chunk ends)."""
+        ch = self._channels[cid - 1]
+        if ch.mt is None:
+            raise ValueError(f"channel {ch.record.topic!r} is not a CDR channel")
+        if rows.ndim != 1 or rows.dtype.names != ch.mt.row_dtype.names:
+            raise ValueError(f"write_rows: {ch.mt.name} rows must be 1-D {ch.mt.row_dtype}")
+        if len(rows):
+            ch.parts.append(("rows", rows, publish_unix_ns))
+            ch.queued += len(rows)
+            self._queued += len(rows)
+            self.count += len(rows)
+
+    def _records(self, cid: int, ch: _Channel, at: int) -> tuple[list[Any], np.ndarray, np.ndarray]:
+        """A channel's queued messages as Message records; their log times and offsets."""
+        out: list[Any] = []
+        logs: list[np.ndarray] = []
+        offs: list[np.ndarray] = []
+        seq = self._seq[cid]
+        for kind, items, publish in ch.parts:
+            if kind == "json":
+                hdr = struct.Struct("<BQHIQQ")
+                for data, log_time, pub in items:
+                    rec = hdr.pack(
+                        _OP_MESSAGE, 22 + len(data), cid, seq & 0xFFFFFFFF, log_time, pub
+                    )
+                    logs.append(np.array([log_time], np.int64))
+                    offs.append(np.array([at], np.int64))
+                    out.append(rec + data)
+                    at += len(rec) + len(data)
+                    seq += 1
+                continue
+            mt = ch.mt
+            assert mt is not None
+            rows = items if kind == "rows" else np.array(items, mt.row_dtype)
+            n = len(rows)
+            recs = np.empty(n, _record_dtype(mt))
+            size = recs.dtype.itemsize
+            log_time = self.start_unix_ns + rows["sample_time_ns"].astype(np.int64)
+            recs["opcode"] = _OP_MESSAGE
+            recs["length"] = size - 9
+            recs["channel_id"] = cid
+            recs["sequence"] = (seq + np.arange(n, dtype=np.int64)) & 0xFFFFFFFF
+            recs["log_time"] = log_time
+            recs["publish_time"] = publish
+            payload = ros2.encode_rows(mt, rows)
+            recs["payload"] = payload.view(recs.dtype["payload"])
+            logs.append(log_time)
+            offs.append(at + size * np.arange(n, dtype=np.int64))
+            out.append(recs)
+            at += size * n
+            seq += n
+        self._seq[cid] = seq
+        return out, np.concatenate(logs), np.concatenate(offs)
+
+    def flush(self) -> None:
+        """Write the queued messages as one Chunk with its MessageIndexes and hand the file
+        to the OS."""
+        if self._queued:
+            self._write_chunk()
+        self._stream.flush()
         self._last_flush_ns = time.monotonic_ns()
 
-    def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        """Add a metadata record and hand it to the OS."""
-        offset = self._stream.tell()
-        Metadata(name=name, metadata=data).write(self._builder)
-        self._metadata_indexes.append(
-            MetadataIndex(offset=offset, length=self._builder.count, name=name)
-        )
-        self._write_records()
-        self._stream.flush()
+    def maybe_flush(self) -> None:
+        """Flush if ``flush_interval_s`` has passed since the last chunk, or ``batch_messages``
+        are queued."""
+        if (
+            self._queued >= self.batch_messages
+            or time.monotonic_ns() - self._last_flush_ns >= self._flush_interval_ns
+        ):
+            self.flush()
 
-    def write_batch(self, meta: np.ndarray, records: bytearray) -> None:
-        """Write one batch as a Chunk with its MessageIndexes and flush it to the OS.
-
-        Parameters
-        ----------
-        meta : ndarray, shape (n, 4), int64
-            Per message: message id, ``sample_time_ns``, publish (receive) time [ns, unix],
-            offset of its record in ``records`` (the 31-byte gap before its JSON).
-        records : bytearray
-            The messages' JSON, each after its 31-byte gap, in order; modified in place.
-        """
-        n = len(meta)
-        if n == 0:
-            return
-        offsets = meta[:, 3]
-        ends = np.empty(n, np.int64)
-        ends[:-1] = offsets[1:]
-        ends[-1] = len(records)
-        data_len = ends - offsets - MESSAGE_HEADER_BYTES
-        if offsets[0] != 0 or np.any(data_len < 0):
-            raise ValueError("batch offsets do not describe the record buffer")
-        channel = self.channel_of_message_id[meta[:, 0]]
-        if np.any(channel == 0):
-            raise ValueError("batch holds an unregistered message id")
-        log_time = self.start_unix_ns + meta[:, 1]
-        sequence = np.empty(n, np.int64)
-        counts = np.zeros(len(self._seq), np.int64)
-        entries = np.empty((n, 2), np.int64)
-        k0 = 0
-        for cid in np.unique(channel).tolist():
-            mask = channel == cid
-            k = int(np.count_nonzero(mask))
-            sequence[mask] = self._seq[cid] + np.arange(k)
-            counts[cid] = k
-            entries[k0 : k0 + k, 0] = log_time[mask]
-            entries[k0 : k0 + k, 1] = offsets[mask]
-            k0 += k
-        header = np.empty(n, _MESSAGE_HEADER)
-        header["opcode"] = _OP_MESSAGE
-        header["length"] = data_len + (MESSAGE_HEADER_BYTES - 9)
-        header["channel_id"] = channel
-        header["sequence"] = sequence
-        header["log_time"] = log_time
-        header["publish_time"] = meta[:, 2]
-        buf = np.frombuffer(records, np.uint8)
-        headers = header.view(np.uint8).reshape(n, MESSAGE_HEADER_BYTES)
-        if self._place_headers is not None:
-            self._place_headers(buf, offsets, headers)
-        else:
-            buf[offsets[:, None] + np.arange(MESSAGE_HEADER_BYTES)] = headers
-        self.write_chunk(records, counts, entries, int(log_time.min()), int(log_time.max()))
-
-    @property
-    def channel_seq(self) -> np.ndarray:
-        """Per channel id, the sequence number of its next message (read only; advanced by
-        :meth:`write_chunk`)."""
-        return self._seq
-
-    def write_chunk(
-        self, records: Any, counts: np.ndarray, entries: np.ndarray, start: int, end: int
-    ) -> None:
-        """Write finished Message records as one Chunk with its MessageIndexes, flush it.
-
-        Parameters
-        ----------
-        records : bytes-like
-            The chunk's records (each Message record's header filled, sequence numbers
-            continuing from :attr:`channel_seq`).
-        counts : ndarray of int64, shape (channels + 1,)
-            The chunk's messages per channel id.
-        entries : ndarray of int64, shape (n, 2)
-            Per message its log time [ns] and record offset in ``records``, grouped by
-            channel in ascending channel id (publish order within one).
-        start, end : int
-            The first and last log time [ns].
-        """
-        n = len(entries)
+    def _write_chunk(self) -> None:
+        parts: list[Any] = []
+        index: list[tuple[int, np.ndarray, np.ndarray]] = []
+        at = 0
+        for cid, ch in enumerate(self._channels, start=1):
+            if not ch.queued:
+                continue
+            recs, logs, offs = self._records(cid, ch, at)
+            parts.extend(recs)
+            index.append((cid, logs, offs))
+            self._counts[cid] += ch.queued
+            ch.parts = []
+            ch.queued = 0
+            at += sum(p.nbytes if isinstance(p, np.ndarray) else len(p) for p in recs)
+        records = b"".join(p.tobytes() if isinstance(p, np.ndarray) else p for p in parts)
+        self._queued = 0
+        start = min(int(lg.min()) for _, lg, _ in index)
+        end = max(int(lg.max()) for _, lg, _ in index)
         compressed = self._compress(records)
         stream = self._stream
         chunk_start = stream.tell()
@@ -508,25 +434,20 @@ class BatchRunLog:
         stream.write(compressed)
         index_start = stream.tell()
         index_offsets: dict[int, int] = {}
-        parts = []
+        out = []
         pos = index_start
-        k0 = 0
-        for cid in np.flatnonzero(counts).tolist():
-            k = int(counts[cid])
+        for cid, logs, offs in index:
+            k = len(logs)
+            entries = np.empty((k, 2), np.int64)
+            entries[:, 0] = logs
+            entries[:, 1] = offs
             part = (
-                struct.pack("<BQHI", _OP_MESSAGE_INDEX, 6 + 16 * k, cid, 16 * k)
-                + entries[k0 : k0 + k].tobytes()
+                struct.pack("<BQHI", _OP_MESSAGE_INDEX, 6 + 16 * k, cid, 16 * k) + entries.tobytes()
             )
-            k0 += k
             index_offsets[cid] = pos
             pos += len(part)
-            parts.append(part)
-        if k0 != n:
-            raise ValueError(f"write_chunk: {n} index entries for {k0} messages")
-        stream.write(b"".join(parts))
-        stream.flush()
-        self._seq += counts
-        self._counts += counts
+            out.append(part)
+        stream.write(b"".join(out))
         self._chunk_indexes.append(
             ChunkIndex(
                 message_start_time=start,
@@ -542,73 +463,142 @@ class BatchRunLog:
         )
         self._start_time = start if self._start_time is None else min(self._start_time, start)
         self._end_time = max(self._end_time, end)
-        self.count += n
+
+    def _write_records(self) -> None:
+        self._stream.write(self._builder.end())
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """Add a metadata record (scenario, run information, counters) and flush it."""
+        offset = self._stream.tell()
+        Metadata(name=name, metadata=data).write(self._builder)
+        self._metadata_indexes.append(
+            MetadataIndex(offset=offset, length=self._builder.count, name=name)
+        )
+        self._write_records()
+        self._stream.flush()
 
     def close(self) -> None:
-        """Write DataEnd, the summary section, Footer and closing magic (idempotent)."""
+        """Flush, write DataEnd, the summary section, Footer and closing magic, close the file
+        (idempotent)."""
         if self._closed:
             return
+        self._closed = True
         try:
-            self.flush_pending()
-        finally:
-            self._closed = True
-        try:
-            stream = self._stream
-            DataEnd(data_section_crc=0).write(self._builder)
-            self._write_records()
-            summary_start = stream.tell()
-            b = RecordBuilder()
-            offsets: list[SummaryOffset] = []
-
-            def group(opcode: Opcode, records: list[Any]) -> None:
-                begin = b.count
-                for rec in records:
-                    rec.write(b)
-                if records:
-                    offsets.append(
-                        SummaryOffset(
-                            group_opcode=opcode,
-                            group_start=summary_start + begin,
-                            group_length=b.count - begin,
-                        )
-                    )
-
-            counts = {cid: int(n) for cid, n in enumerate(self._counts.tolist()) if n}
-            stats = Statistics(
-                attachment_count=0,
-                channel_count=len(self._channels),
-                channel_message_counts=counts,
-                chunk_count=len(self._chunk_indexes),
-                message_count=self.count,
-                metadata_count=len(self._metadata_indexes),
-                message_start_time=self._start_time or 0,
-                message_end_time=self._end_time,
-                schema_count=len(self._schemas),
-            )
-            group(Opcode.SCHEMA, list(self._schemas))
-            group(Opcode.CHANNEL, list(self._channels))
-            group(Opcode.STATISTICS, [stats])
-            group(Opcode.CHUNK_INDEX, list(self._chunk_indexes))
-            group(Opcode.METADATA_INDEX, list(self._metadata_indexes))
-            summary_offset_start = summary_start + b.count
-            for off in offsets:
-                off.write(b)
-            summary = b.end()
-            crc = zlib.crc32(summary)
-            crc = zlib.crc32(
-                struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, summary_offset_start), crc
-            )
-            stream.write(summary)
-            Footer(
-                summary_start=summary_start,
-                summary_offset_start=summary_offset_start,
-                summary_crc=crc,
-            ).write(self._builder)
-            self._write_records()
-            stream.write(MCAP_MAGIC)
-            stream.flush()
+            if self._queued:
+                self._write_chunk()
+            self._finish()
         finally:
             self._stream.close()
+
+    def _finish(self) -> None:
+        stream = self._stream
+        DataEnd(data_section_crc=0).write(self._builder)
+        self._write_records()
+        summary_start = stream.tell()
+        b = RecordBuilder()
+        offsets: list[SummaryOffset] = []
+
+        def group(opcode: Opcode, records: list[Any]) -> None:
+            begin = b.count
+            for rec in records:
+                rec.write(b)
+            if records:
+                offsets.append(
+                    SummaryOffset(
+                        group_opcode=opcode,
+                        group_start=summary_start + begin,
+                        group_length=b.count - begin,
+                    )
+                )
+
+        counts = {cid: n for cid, n in enumerate(self._counts) if n}
+        stats = Statistics(
+            attachment_count=0,
+            channel_count=len(self._channels),
+            channel_message_counts=counts,
+            chunk_count=len(self._chunk_indexes),
+            message_count=self.count,
+            metadata_count=len(self._metadata_indexes),
+            message_start_time=self._start_time or 0,
+            message_end_time=self._end_time,
+            schema_count=len(self._schemas),
+        )
+        group(Opcode.SCHEMA, list(self._schemas))
+        group(Opcode.CHANNEL, [c.record for c in self._channels])
+        group(Opcode.STATISTICS, [stats])
+        group(Opcode.CHUNK_INDEX, list(self._chunk_indexes))
+        group(Opcode.METADATA_INDEX, list(self._metadata_indexes))
+        summary_offset_start = summary_start + b.count
+        for off in offsets:
+            off.write(b)
+        summary = b.end()
+        crc = zlib.crc32(summary)
+        crc = zlib.crc32(
+            struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, summary_offset_start), crc
+        )
+        stream.write(summary)
+        Footer(
+            summary_start=summary_start,
+            summary_offset_start=summary_offset_start,
+            summary_crc=crc,
+        ).write(self._builder)
+        self._write_records()
+        stream.write(MCAP_MAGIC)
+        stream.flush()
+
+
+#: Bytes of an MCAP Message record before its data: opcode (1), record length (8),
+#: channel id (2), sequence (4), log time (8), publish time (8).
+MESSAGE_HEADER_BYTES = 31
+_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
+#: Compressions :class:`RunLog` can write ("" = none).
+COMPRESSIONS = ("zstd", "lz4", "")
+#: The ``encoding_version`` in a CDR channel's metadata: 2 since the per-cycle channels
+#: became ros2msg + CDR (1: the JSON channels of older files, which had none).
+CDR_ENCODING_VERSION = "2"
+
+
+_I64_MAX = 2**63 - 1
+
+
+@functools.cache
+def _wide_fields(mt: MessageType) -> tuple[int, ...]:
+    """Indices of ``mt``'s ``u64`` fields (the only ones whose range exceeds int64)."""
+    return tuple(i for i, f in enumerate(mt.codec.fields) if f.wire == "u64")
+
+
+@functools.cache
+def _record_dtype(mt: MessageType) -> np.dtype[np.void]:
+    """A whole MCAP Message record of ``mt``: the packed 31-byte header, then the payload."""
+    return np.dtype(
+        [
+            ("opcode", "u1"),
+            ("length", "<u8"),
+            ("channel_id", "<u2"),
+            ("sequence", "<u4"),
+            ("log_time", "<u8"),
+            ("publish_time", "<u8"),
+            ("payload", f"V{ros2.cdr_dtype(mt).itemsize}"),  # raw bytes: padding copied too
+        ]
+    )
+
+
+def _compressor(compression: str) -> Callable[[bytes], bytes]:
+    """The chunk compressor of ``compression`` (:data:`COMPRESSIONS`)."""
+    if compression == "zstd":
+        import zstandard  # noqa: PLC0415
+
+        params = zstandard.ZstdCompressionParameters.from_level(
+            ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, hash_log=ZSTD_HASH_LOG
+        )
+        return zstandard.ZstdCompressor(compression_params=params).compress
+    if compression == "lz4":
+        try:
+            import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415
+        except ImportError as exc:  # not a dependency: mcap's writer makes it optional too
+            raise ValueError("compression 'lz4': the lz4 package is not installed") from exc
+        return lz4.frame.compress
+    return bytes
 
 
 class MessageList(list[dict[str, Any]]):
@@ -978,35 +968,54 @@ def read_run(path: Path) -> RunData:
     check_magic(path)
     run = RunData()
     channels: dict[int, str] = {}
-    schema_names: dict[int, str] = {}
+    schemas: dict[int, Schema] = {}
+    # Per CDR channel id: its payload layout and its payloads so far (decoded at the end,
+    # all at once: _cdr_messages).
+    cdr: dict[int, tuple[np.dtype[np.void], bytearray]] = {}
     in_summary = False
     stats: Statistics | None = None
     scan = RecordScan(path)
     summary: Any = None
+
+    def add_channel(rec: Channel, schema: Schema | None) -> None:
+        channels[rec.id] = rec.topic
+        run.schemas[rec.topic] = schema.name if schema is not None else ""
+        run.messages.setdefault(rec.topic, [])
+        if rec.message_encoding == "cdr":
+            if schema is None or schema.encoding != "ros2msg":
+                raise ValueError(f"channel {rec.topic}: cdr without a ros2msg schema")
+            cdr[rec.id] = (ros2.dtype_of_msgdef(schema.data.decode()), bytearray())
+
     try:
         for rec in scan.records():
             if isinstance(rec, Header):
                 run.profile = rec.profile
             elif isinstance(rec, Schema):
-                schema_names[rec.id] = rec.name
+                schemas[rec.id] = rec
             elif isinstance(rec, Channel):
-                if not in_summary:
-                    channels[rec.id] = rec.topic
-                    run.schemas[rec.topic] = schema_names.get(rec.schema_id, "")
-                    run.messages.setdefault(rec.topic, [])
+                if not in_summary and rec.id not in channels:
+                    add_channel(rec, schemas.get(rec.schema_id))
             elif isinstance(rec, Message):
-                topic = channels.get(rec.channel_id)
-                if topic is None and scan.skipped:  # its Channel record was in a lost chunk
+                cid = rec.channel_id
+                if cid not in channels and scan.skipped:  # its Channel was in a lost chunk
                     if summary is None:
                         summary = _summary_of(path) or False
-                    ch = summary.channels.get(rec.channel_id) if summary else None
+                    ch = summary.channels.get(cid) if summary else None
                     if ch is not None:
-                        topic = channels[rec.channel_id] = ch.topic
-                        schema = summary.schemas.get(ch.schema_id)
-                        run.schemas[topic] = schema.name if schema is not None else ""
-                        run.messages.setdefault(topic, [])
-                if topic is not None:
+                        add_channel(ch, summary.schemas.get(ch.schema_id))
+                topic = channels.get(cid)
+                if topic is None:
+                    continue
+                layout = cdr.get(cid)
+                if layout is None:
                     run.messages[topic].append(orjson.loads(rec.data))
+                elif len(rec.data) != layout[0].itemsize:
+                    raise ros2.CdrLengthError(
+                        f"{topic}: a {len(rec.data)}-byte payload, its schema's is "
+                        f"{layout[0].itemsize} bytes"
+                    )
+                else:
+                    layout[1].extend(rec.data)
             elif isinstance(rec, Metadata):
                 run.metadata[rec.name] = dict(rec.metadata)
             elif isinstance(rec, DataEnd):
@@ -1017,8 +1026,10 @@ def read_run(path: Path) -> RunData:
                 # The stream reader checks the closing magic right after this record.
                 in_summary = True
         run.complete = in_summary and scan.footer
-    except Exception as exc:  # e.g. a message that is not JSON
+    except Exception as exc:  # e.g. a message that is not JSON, a payload of another size
         run.error = _why(exc)
+    for cid, (dtype, data) in cdr.items():
+        run.messages[channels[cid]] = _cdr_messages(dtype, data)
     run.skipped = list(scan.skipped)
     run.first_log_ns = scan.first_log_ns
     if scan.error and not run.error:
@@ -1039,6 +1050,21 @@ def read_run(path: Path) -> RunData:
         if not run.statistics_ok and not run.error:
             run.error = f"summary statistics {run.statistics} differ from the messages read {read}"
     return run
+
+
+def _cdr_messages(dtype: np.dtype[np.void], data: bytearray) -> MessageList:
+    """A CDR channel's payloads as the dicts a JSON channel's give: field name to Python int
+    or float in declaration order, a non-finite float None (as the JSON channels wrote it),
+    their columns kept (:class:`MessageList`)."""
+    recs = ros2.decode_as(dtype, bytes(data))
+    names = list(dtype.names or ())[1:]  # without the encapsulation header
+    rows = recs[names]
+    messages = [dict(zip(names, t, strict=True)) for t in rows.tolist()]
+    for name in names:
+        if rows.dtype[name].kind == "f":
+            for i in np.flatnonzero(~np.isfinite(rows[name])).tolist():
+                messages[i][name] = None
+    return MessageList(messages, [(0, len(messages), rows)])
 
 
 def recover(path: Path, out: Path, skipped: list[SkippedRange] | None = None) -> int:

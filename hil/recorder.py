@@ -44,7 +44,7 @@ time, so the same wall time is more simulated time there.
 Log batches: the plant puts its truth and cycle timing, the controller its status, a few
 per put on ``fowt/<turbine>/timing/batch`` and ``fowt/<turbine>/controller/batch``
 (:class:`hil.bus.LogBatcher`); the recorder splits them and writes each message on its own
-channel exactly as if it had been put alone (same channel, schema and JSON; the MCAP
+channel exactly as if it had been put alone (same channel, schema and payload; the MCAP
 publish time is the batch's receive time). A batch that does not split is counted under
 ``rejected`` as ``<batch suffix>:<reason>``.
 
@@ -211,34 +211,24 @@ class RecorderLog(RunLog):
         super().__init__(path, turbine, flush_interval_s=flush_interval_s)
         self.can_raw_key = f"{KEY_PREFIX}/{turbine}/{CAN_RAW_SUFFIX}"
         self._can_raw_channel: int | None = None
-        self._can_raw_seq = 0
         if can_raw:
-            schema_id = self._writer.register_schema(
-                name="fowt.CanRawFrame",
-                encoding="jsonschema",
-                data=json.dumps(CAN_RAW_SCHEMA).encode(),
-            )
-            self._can_raw_channel = self._writer.register_channel(
-                topic=self.can_raw_key, message_encoding="json", schema_id=schema_id
+            self._can_raw_channel = self.add_json_channel(
+                self.can_raw_key, "fowt.CanRawFrame", CAN_RAW_SCHEMA
             )
 
     def write(self, key: str, msg: Any, receive_unix_ns: int | None = None) -> None:
-        """Write one message; a :class:`CanRawFrame` goes to the raw CAN channel."""
+        """Write one message; a :class:`CanRawFrame` goes to the raw CAN channel (JSON)."""
         if not isinstance(msg, CanRawFrame):
             super().write(key, msg, receive_unix_ns)
             return
         if self._can_raw_channel is None:
             raise KeyError(f"no channel registered for key {key!r}")
-        self._writer.add_message(
-            channel_id=self._can_raw_channel,
-            log_time=self.start_unix_ns + msg.sample_time_ns,
-            data=msgspec.json.encode(msg),
-            publish_time=receive_unix_ns if receive_unix_ns is not None else time.time_ns(),
-            sequence=self._can_raw_seq,
+        self.write_json(
+            self._can_raw_channel,
+            msgspec.json.encode(msg),
+            msg.sample_time_ns,
+            receive_unix_ns if receive_unix_ns is not None else time.time_ns(),
         )
-        self._can_raw_seq += 1
-        self.count += 1
-        self.maybe_flush()
 
 
 #: The plant's messages that carry the cycle number (``seq``) of every control cycle.
@@ -339,17 +329,22 @@ class Recorder:
         prefix = self.prefix
         while True:
             key, msg, recv = item
-            self.log.write(key, msg, recv)
-            counts[key.removeprefix(prefix)] += 1
-            if isinstance(msg, PlantReport):
-                self.plant_report = msgspec.structs.asdict(msg)
-            elif isinstance(msg, ControllerReport):
-                self.controller_reports.append(msgspec.structs.asdict(msg))
-            if isinstance(msg, _PER_CYCLE) and (
-                self.first_cycle is None or msg.seq < self.first_cycle
-            ):
-                self.first_cycle = int(msg.seq)
-            n += 1
+            try:
+                self.log.write(key, msg, recv)
+            except ValueError:  # a sequence number past int64: counted, not written
+                self.rejected[f"{key.removeprefix(prefix)}:range"] += 1
+                msg = None
+            if msg is not None:
+                counts[key.removeprefix(prefix)] += 1
+                if isinstance(msg, PlantReport):
+                    self.plant_report = msgspec.structs.asdict(msg)
+                elif isinstance(msg, ControllerReport):
+                    self.controller_reports.append(msgspec.structs.asdict(msg))
+                if isinstance(msg, _PER_CYCLE) and (
+                    self.first_cycle is None or msg.seq < self.first_cycle
+                ):
+                    self.first_cycle = int(msg.seq)
+                n += 1
             try:
                 item = self.queue.get_nowait()
             except queue.Empty:

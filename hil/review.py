@@ -112,10 +112,10 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Wöhler exponent used for the shaft (and thrust) DEL in the summary.
-SHAFT_WOHLER_M = 4.0
-#: Equivalent-load frequency of the DELs in the summary [Hz].
-DEL_N_EQ_HZ = 1.0
+#: Wöhler exponent used for the shaft (and thrust) DEL in the summary (the bench's one value).
+SHAFT_WOHLER_M = kpi.DEL_WOHLER_M
+#: Equivalent-load frequency of the DELs in the summary [Hz] (the bench's one value).
+DEL_N_EQ_HZ = kpi.DEL_N_EQ_HZ
 
 PLOT_FILES = ("timeseries.png", "timing.png", "psd.png")
 
@@ -360,7 +360,7 @@ def kpi_window(run: RunData) -> dict[str, Any]:
     t = _t_s(run.topic("truth"))
     t = t[np.isfinite(t)]
     end = float(t.max()) if t.size else math.nan
-    start = min(settle, 0.5 * end) if math.isfinite(end) else settle
+    start = kpi.window_start_s(end, settle)
     return {
         "settle_s": settle,
         "from_s": start,

@@ -572,7 +572,15 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     value from t = 50 s; the platform pitch mean takes 185 s and the surge mean 356 s (the
     lightly damped slow modes; ``bench/settling.py``), so load cases that judge platform
     means may set more. A run shorter than 2 ``settle_s`` keeps its second half
-    (``hil.review.kpi_window``).
+    (``hil.review.kpi_window``). The same window serves ``fowt report``, ``fowt compare``
+    and the campaign KPIs.
+
+    ``tsr_opt``: the tip-speed ratio λ* [-] of the optimal rotor speed
+    Ω_opt = λ* U / R in the KPI var(Ω − Ω_opt). Unset: derived from the turbine's Cp
+    table as the argmax over λ of Cp(λ, θ = 0) as the plant evaluates it (bilinear between
+    the table's rows, so the maximum is a grid point: 8.5 for the IEA 15 MW, whose table steps
+    λ by 0.5); a cubic spline through the same column peaks at 8.71. var(Ω − Ω_opt) depends
+    on it (docs/guide/campaigns.md, "λ* of Ω_opt"). A campaign's ``tsr_opt`` overrides it.
 
     ``power_metric``: ``"electrical"`` (default: the KPIs' electrical power of the plant) or
     ``"quadratic_linear"`` (casanovas-2014 kinds with the perfect preview): ``fowt run`` also
@@ -582,6 +590,7 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     """
 
     settle_s: NonNegative = 60.0
+    tsr_opt: Positive | None = None
     power_metric: Literal["electrical", "quadratic_linear"] = "electrical"
 
 

@@ -16,10 +16,10 @@ deck's adjustment factors (``AdjTwMa``, ``AdjFASt``, ``FAStTunr(1)``) are applie
 
 Versions: the environment (``Gravity``, ``WtrDens``, ``WtrDpth``) is read from the ``.fst``
 (OpenFAST ≥ 3.5) or from ElastoDyn/HydroDyn/SeaState (older decks); tables (blade, tower,
-HydroDyn members and fill groups, MoorDyn v1 and v2) are found by their header names, never by
-column position; HydroDyn's filled member groups add their ballast to the platform
-(:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the mass comes
-from. See docs/openfast-import.md.
+AeroDyn tower drag, HydroDyn members and fill groups, MoorDyn v1 and v2) are found by their
+header names, never by column position; HydroDyn's filled member groups add their ballast to
+the platform (:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the
+mass comes from. See docs/openfast-import.md.
 
 What is hand-written here and why: OpenFAST input files are "value  Key  - description" lines
 plus tables; no maintained lightweight reader exists outside the heavy ``openfast_toolbox`` /
@@ -160,7 +160,8 @@ def _header_table(
     """
     want = {r.upper() for r in required}
     for i in range(start, len(lines)):
-        tok = [t.upper() for t in lines[i].split()]
+        # "!" starts a comment (AeroDyn's tower header carries one): not column names.
+        tok = [t.upper() for t in lines[i].split("!", 1)[0].split()]
         if want <= set(tok):
             cols: dict[str, int] = {}
             for k, name in enumerate(tok):
@@ -185,22 +186,6 @@ def _header_table(
                 rows.append((j + 1, row))
             return cols, rows, i + 1
     raise ValueError(f"{source}: {what}: no table header naming {', '.join(required)}")
-
-
-def _table_after(lines: list[str], marker: str, ncols: int, source: Path) -> list[list[float]]:
-    """Numeric rows (at least ``ncols`` numbers) following the line containing ``marker``."""
-    for i, line in enumerate(lines):
-        if marker.upper() in line.upper():
-            rows: list[list[float]] = []
-            for nxt in lines[i + 1 :]:
-                tok = nxt.split()
-                if len(tok) >= ncols and all(_NUMBER.match(t) for t in tok[:ncols]):
-                    rows.append([float(t) for t in tok[:ncols]])
-                elif rows:
-                    break
-            if rows:
-                return rows
-    raise ValueError(f"{source}: no numeric table after a line containing {marker!r}")
 
 
 def _matrix_rows(lines: list[str], key: str, source: Path) -> list[list[float]]:
@@ -881,10 +866,19 @@ def import_openfast(
         ad_path = root / _text(fst, "AeroFile", fst_path)
         ad, ad_lines = read_keyed_file(ad_path)
         if ad.get("TWRAERO", "false").strip().lower() == "true":
-            trows = _table_after(ad_lines, "TwrElev", 3, ad_path)
-            twr_h = [r[0] for r in trows]
-            twr_d = [r[1] for r in trows]
-            twr_cd = [r[2] for r in trows]
+            # By header name (and units): AeroDyn's tower table gained TwrTI, TwrCb, TwrCp and
+            # TwrCa columns over the versions, so its column order is not fixed.
+            trows = _distributed_table(
+                ad_path,
+                ad_lines,
+                "TwrElev",
+                ("TwrDiam", "TwrCd"),
+                {"TwrElev": "(m)", "TwrDiam": "(m)"},
+                "tower aerodynamics",
+            )
+            twr_h = [float(v) for v in trows[:, 0]]
+            twr_d = [float(v) for v in trows[:, 1]]
+            twr_cd = [float(v) for v in trows[:, 2]]
         if int(_num(fst, "CompInflow", fst_path, 0.0)) == 1:
             ifw_path = root / _text(fst, "InflowFile", fst_path)
             ifw, _ = read_keyed_file(ifw_path)

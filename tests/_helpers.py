@@ -16,7 +16,8 @@ from bus_schemas import ActuatorCommand, PlantState, SensorFrame
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import PlantRunResult, run_inprocess
+from hil.inprocess_run import run_inprocess
+from hil.plant_node import PlantRunResult
 from hil.scenario import Scenario
 
 

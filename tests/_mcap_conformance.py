@@ -1,4 +1,5 @@
-"""MCAP conformance checks with the mcap package's own readers and ``jsonschema``.
+"""MCAP conformance checks with the mcap package's own readers, ``mcap-ros2-support`` and
+``jsonschema``.
 
 Imported as ``from _mcap_conformance import ...`` (``tests/`` is on ``sys.path``). The bench's
 reader (:func:`hil.mcap_log.read_run`) is not used here: these checks read the file the way
@@ -16,6 +17,9 @@ from typing import Any
 
 import jsonschema
 from mcap.reader import NonSeekingReader, SeekingReader, make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from bus_schemas.registry import ALL_MESSAGES
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -57,8 +61,12 @@ def check_complete_mcap(path: Path, validate: bool = True) -> Conformance:
     * the messages read by the seeking reader and by the non-seeking reader (a forward-only
       stream, :class:`_NoSeek`) agree, per channel, with ``Statistics.channel_message_counts``
       and in total with ``message_count``;
-    * every channel is JSON with a ``jsonschema`` schema and (``validate``) every message is
-      valid JSON that validates against its channel's schema (Draft 2020-12 validator).
+    * every channel is either ``cdr`` with a ``ros2msg`` schema, every message decoded by
+      mcap-ros2-support (an independent CDR decoder) from the file's own schema text, or JSON
+      with a ``jsonschema`` schema; and (``validate``) every message validates against its
+      channel's JSON Schema (Draft 2020-12 validator), for a CDR channel the JSON Schema of
+      the registered message of the same name (its physical ranges), the decoded fields as
+      the object.
     """
     data = path.read_bytes()
     assert data[:8] == MAGIC, f"{path}: no opening magic"
@@ -73,19 +81,34 @@ def check_complete_mcap(path: Path, validate: bool = True) -> Conformance:
         assert stats is not None, f"{path}: no Statistics record"
         assert stats.chunk_count == len(summary.chunk_indexes) > 0
         validators: dict[int, jsonschema.protocols.Validator] = {}
+        decoders: dict[int, Any] = {}
+        registered = {f"fowt_hil/msg/{mt.name}": mt for mt in ALL_MESSAGES}
         for cid, ch in summary.channels.items():
-            assert ch.message_encoding == "json", ch
             schema = summary.schemas[ch.schema_id]
-            assert schema.encoding == "jsonschema", schema
-            doc = json.loads(schema.data)
+            if ch.message_encoding == "cdr":
+                assert schema.encoding == "ros2msg", schema
+                decoder = DecoderFactory().decoder_for("cdr", schema)
+                assert decoder is not None, schema
+                decoders[cid] = decoder
+                doc = registered[schema.name].json_schema()
+            else:
+                assert ch.message_encoding == "json", ch
+                assert schema.encoding == "jsonschema", schema
+                doc = json.loads(schema.data)
             cls = jsonschema.validators.validator_for(doc, default=jsonschema.Draft202012Validator)
             cls.check_schema(doc)
             validators[cid] = cls(doc)
         seeking: Counter[str] = Counter()
         for _schema, channel, message in reader.iter_messages(log_time_order=False):
             seeking[channel.topic] += 1
+            decode = decoders.get(channel.id)
+            if decode is not None:
+                decoded = decode(message.data)
+                value = {k: getattr(decoded, k) for k in decoded.__slots__}
+            else:
+                value = json.loads(message.data)
             if validate:
-                validators[channel.id].validate(json.loads(message.data))
+                validators[channel.id].validate(value)
         metadata = [m.name for m in reader.iter_metadata()]
     nonseeking: Counter[str] = Counter()
     ns = make_reader(io.BufferedReader(_NoSeek(data)))

@@ -26,7 +26,7 @@ from scipy.signal import butter, sosfiltfilt
 from bus_schemas import ActuatorCommand, ControllerStatus, PlantState, SensorFrame
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from hil.inprocess_run import run_inprocess
 from hil.scenario import load_scenario
 
 DURATION_S = 200.0

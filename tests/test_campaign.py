@@ -283,7 +283,13 @@ def test_small_campaign_table_and_failures(small: dict[str, object]) -> None:
     assert all(r["status"] == "ok" for r in good), [r["error"] for r in good]
     for r in good:
         assert r["mean_power_w"] > 0 and r["tower_base_del_nm"] > 0
-        assert r["shaft_del_nm"] > 0 and r["platform_pitch_std_deg"] > 0
+        assert r["platform_pitch_std_deg"] > 0
+        # the KPI window leaves the start-up out (here the second half of 30 s): above rated
+        # both controllers hold a constant torque there, so the shaft DEL is 0 (ratios n/m)
+        if r["case"] == "lc1":
+            assert r["shaft_del_nm"] > 0
+        else:
+            assert r["shaft_del_nm"] >= 0
         assert r["deadline_misses"] == 0
         assert len(str(r["scenario_hash"])) == 64
     # the failing run's summary says why; the good ones have their MCAP file

@@ -1,14 +1,14 @@
 """A campaign run's in-process path taking the compiled loop's rows (hil.campaign._RunSink,
 hil.log_writer.InProcessRunLog) against the path before it (every message a Struct,
-JSON-encoded by msgspec when published, ``BatchRunLog.add_json`` when recording,
-``orjson.loads`` at the end).
+JSON-encoded by msgspec when published, ``orjson.loads`` at the end) and the recorder's
+(every Struct written by ``RunLog.write``).
 
 One run feeds both: its Python-path Structs go to both sinks, its compiled blocks of rows to
 the new sink as rows and to the old one as the Structs ``CompiledLoop`` makes of them without
 ``publish_block`` (``rows_to_structs``). So everything must be equal, wall-clock fields
 included: the RunData message for message and dict for dict (a non-finite float None), the
 review summary and the campaign KPIs, and the MCAP files' messages (topic, sequence, log
-time, JSON bytes); only the records' ``publish_time`` (the wall clock, read at another
+time, CDR bytes); only the records' ``publish_time`` (the wall clock, read at another
 moment) may differ.
 """
 
@@ -30,17 +30,18 @@ from bus_schemas.registry import MessageType
 from hil._fast_loop import rows_to_structs
 from hil.campaign import _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
 from hil.controller_node import ControllerRuntime, publishing_step
+from hil.inprocess_run import run_inprocess
 from hil.log_writer import InProcessRunLog
-from hil.mcap_log import BatchRunLog, MessageList, RunData, read_run
-from hil.plant_node import run_inprocess
+from hil.mcap_log import MessageList, RunData, RunLog, read_run
 from hil.review import _col, summarize
 from hil.scenario import Scenario, load_scenario
 
 
 class _OldSink:
-    """hil.campaign._inprocess before the rows: JSON per message, add_json, orjson.loads."""
+    """hil.campaign._inprocess before the rows: JSON per message, orjson.loads; the file
+    written message by message (RunLog.write, the recorder's path)."""
 
-    def __init__(self, turbine: str, log: BatchRunLog | None) -> None:
+    def __init__(self, turbine: str, log: RunLog | None) -> None:
         self.turbine = turbine
         self.log = log
         self.store: dict[str, list[bytes]] = {}
@@ -49,7 +50,7 @@ class _OldSink:
         data = msgspec.json.encode(msg)
         self.store.setdefault(mt.key(self.turbine), []).append(data)
         if self.log is not None:
-            self.log.add_json(mt.message_id, data, msg.sample_time_ns, time.time_ns())
+            self.log.write(mt.key(self.turbine), msg, time.time_ns())
 
     def run_data(self) -> RunData:
         run = RunData()
@@ -62,7 +63,7 @@ def _both(scenario: Scenario, tmp: Path | None) -> tuple[RunData, RunData, str]:
     """One run into the old and the new sink (files old.mcap / new.mcap in ``tmp``)."""
     turbine = scenario.turbine_id
     meta = {"run": {"mode": "inprocess"}}
-    old_log = BatchRunLog(tmp / "old.mcap", turbine) if tmp is not None else None
+    old_log = RunLog(tmp / "old.mcap", turbine) if tmp is not None else None
     if old_log is not None:
         old_log.add_metadata("run", meta["run"])
     new_log = InProcessRunLog(tmp / "new.mcap", turbine, meta) if tmp is not None else None
@@ -143,7 +144,7 @@ def test_rows_path_equals_the_json_path(
     k_old = run_kpis_of(old, scenario, None)
     k_new = run_kpis_of(new, scenario, None)
     assert _same_json(k_old, k_new)
-    # the files: per topic the same messages (sequence, log time, JSON bytes)
+    # the files: per topic the same messages (sequence, log time, CDR bytes)
     a, b = _records(tmp_path / "old.mcap"), _records(tmp_path / "new.mcap")
     assert a.keys() == b.keys()
     for topic, recs in a.items():

@@ -53,7 +53,7 @@ from controller.baseline import BaselineController, load_baseline
 from controller.interface import ControlOutput
 from controller.runtime import AdvancedController, load_advanced_settings
 from hil.controller_node import ControllerRuntime
-from hil.plant_node import run_inprocess
+from hil.inprocess_run import run_inprocess
 from hil.scenario import load_scenario
 
 DT = 0.025

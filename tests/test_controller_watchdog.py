@@ -25,9 +25,9 @@ from bus_schemas import ActuatorCommand, ControllerStatus, SensorFrame
 from bus_schemas.registry import SENSORS, MessageType
 from controller.interface import REGIME_SAFE
 from hil.controller_node import MODE_NORMAL, MODE_RESUMING, MODE_SAFE, ControllerRuntime
+from hil.inprocess_run import run_inprocess
 from hil.mcap_log import read_run
 from hil.outcome import ExitCode
-from hil.plant_node import run_inprocess
 from hil.scenario import Scenario, load_scenario, scenario_text
 
 BASE = "nrel5mw-steady-18"

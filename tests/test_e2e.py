@@ -127,8 +127,10 @@ def test_recorder_killed_mid_run_leaves_a_readable_file(tmp_path: Path) -> None:
         env=env,
     )
     try:
+        # The file opens with its schemas and channels (~24 kB of ros2msg text, outside the
+        # chunks), then about 62 B a message in zstd chunks: 75 kB is seconds of data.
         deadline = time.monotonic() + 60
-        while (not mcap.exists() or mcap.stat().st_size < 50_000) and time.monotonic() < deadline:
+        while (not mcap.exists() or mcap.stat().st_size < 75_000) and time.monotonic() < deadline:
             time.sleep(0.2)
         time.sleep(1.0)
         rec.send_signal(signal.SIGKILL)

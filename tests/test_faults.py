@@ -26,8 +26,9 @@ from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming, PlantSta
 from bus_schemas.messages import VALID_BITS
 from bus_schemas.registry import CYCLE_TIMING, SENSORS, TRUTH, MessageType
 from hil.controller_node import ControllerRuntime
+from hil.inprocess_run import run_inprocess
 from hil.outcome import ExitCode
-from hil.plant_node import PlantRunResult, run_inprocess
+from hil.plant_node import PlantRunResult
 from hil.scenario import Scenario, ScenarioError, parse_scenario, scenario_text
 from sensors import ChannelSpec, default_floating_suite
 from sensors.faults import BusFaultPlan, FaultSchedule, FaultSpec, counter_uniform

@@ -9,15 +9,14 @@ runtime and the final state of plant, sensor suite and controller core must be e
 
 from __future__ import annotations
 
+import json
 import math
-import re
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from mcap.reader import make_reader
 
 from bus_schemas.registry import CONTROLLER_STATUS, TIMING_SUMMARY, MessageType
 from controller.forecast import ForecasterState
@@ -25,8 +24,10 @@ from hil import _loop_kernels as lk
 from hil._fast_loop import CompiledLoop, compiled_unsupported
 from hil.controller_node import ControllerRuntime, publishing_step
 from hil.envelope import controller_variant
+from hil.inprocess_run import run_inprocess
 from hil.launch import RunRequest, launch
-from hil.plant_node import PlantLoop, run_inprocess
+from hil.mcap_log import read_run
+from hil.plant_node import PlantLoop
 from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
 from hil.timing import LatencyHistogram
 
@@ -295,19 +296,21 @@ def test_unsupported_scenarios_take_the_python_loop() -> None:
 
 
 def _json_by_topic(path: Path) -> dict[str, list[bytes]]:
-    """Each topic's message payloads (JSON) in file order, wall-clock fields masked."""
-    wall = re.compile(rb'"(' + "|".join(sorted(WALL)).encode() + rb')":[^,}]*')
+    """Each topic's messages in file order (decoded from their CDR payloads as JSON text of
+    their fields, in declaration order; a non-finite float null), wall-clock fields 0."""
     out: dict[str, list[bytes]] = {}
-    with path.open("rb") as f:
-        for _schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
-            out.setdefault(channel.topic, []).append(wall.sub(rb'"\1":0', message.data))
+    for topic, msgs in read_run(path).messages.items():
+        out[topic] = [
+            json.dumps({k: 0 if k in WALL else v for k, v in m.items()}).encode() for m in msgs
+        ]
     return out
 
 
 @pytest.mark.parametrize("name", ["iea15mw-lc2-lqri-ff", "iea15mw-lc2"])
 def test_mcap_of_compiled_loop_equals_python_loop(name: str, tmp_path: Path) -> None:
     """Through the launcher (BackgroundRunLog.publish_block): the file's messages per topic,
-    in order, the same JSON text byte for byte but for the wall-clock fields."""
+    in order, the same values bit for bit (their full-precision text) but for the wall-clock
+    fields."""
     runs = {}
     for loop in ("python", "compiled"):
         summary = launch(

@@ -320,3 +320,50 @@ def test_short_joint_row_names_file_and_line(tmp_path: Path) -> None:
     values, lines = read_keyed_file(path)
     with pytest.raises(ValueError, match=rf"hd\.dat:{row + 1}: member joints: expected at least 4"):
         read_fill_groups(path, lines, values, 1025.0)
+
+
+#: The tower table of aerodyn_tower.dat: elevation [m], diameter [m], drag coefficient [-].
+TOWER_AERO = ([15.0, 50.0, 100.0, 144.4], [10.0, 8.5, 7.0, 6.5], [0.5, 0.55, 0.6, 0.6])
+
+
+def _with_aerodyn(deck: Path, aerodyn: str) -> Path:
+    """The deck with CompAero = 2 and AeroFile naming ``aerodyn`` (next to it)."""
+    fst = deck.read_text()
+    fst = fst.replace("          0   CompAero", "          2   CompAero")
+    fst = fst.replace('"unused"      AeroFile', f'"{aerodyn}"      AeroFile')
+    deck.write_text(fst)
+    return deck
+
+
+def test_tower_drag_table_is_read_by_header_in_any_column_order(tmp_path: Path) -> None:
+    from plant.openfast_import import import_openfast
+
+    deck = _with_aerodyn(_deck(tmp_path), "aerodyn_tower.dat")
+    p = import_openfast(deck, mooring=False).preset
+    assert (p.tower_drag_height_m, p.tower_drag_diameter_m, p.tower_drag_coefficient) == (
+        TOWER_AERO
+    )
+    # OpenFAST 4's layout: more columns, TwrCd before TwrDiam. The same values must be read.
+    text = (tmp_path / "aerodyn_tower.dat").read_text().splitlines()
+    head = text.index(next(ln for ln in text if ln.startswith("TwrElev")))
+    rows = [ln.split() for ln in text[head + 2 : head + 6]]
+    text[head] = "TwrElev  TwrCd  TwrTI  TwrDiam  TwrCb  TwrCp  TwrCa"
+    text[head + 1] = "(m)      (-)    (-)    (m)      (-)    (-)    (-)"
+    for i, (z, d, cd, ti) in enumerate(rows):
+        text[head + 2 + i] = f"{z}  {cd}  {ti}  {d}  0.0  0.0  0.0"
+    (tmp_path / "aerodyn_v4.dat").write_text("\n".join(text) + "\n")
+    deck.write_text(deck.read_text().replace('"aerodyn_tower.dat"', '"aerodyn_v4.dat"'))
+    q = import_openfast(deck, mooring=False).preset
+    assert (q.tower_drag_height_m, q.tower_drag_diameter_m, q.tower_drag_coefficient) == (
+        TOWER_AERO
+    )
+
+
+def test_tower_drag_table_without_a_diameter_column_is_refused(tmp_path: Path) -> None:
+    from plant.openfast_import import import_openfast
+
+    deck = _with_aerodyn(_deck(tmp_path), "aerodyn_tower.dat")
+    ad = tmp_path / "aerodyn_tower.dat"
+    ad.write_text(ad.read_text().replace("TwrDiam", "TwrWidth"))
+    with pytest.raises(ValueError, match=r"aerodyn_tower\.dat.*tower aerodynamics.*TwrDiam"):
+        import_openfast(deck, mooring=False)

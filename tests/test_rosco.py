@@ -22,8 +22,8 @@ from bus_schemas.messages import VALID_BITS
 from controller.discon import DisconError, DisconLoadError
 from controller.rosco import make_rosco_controller, read_discon_in, shipped_parameter_files
 from hil.controller_node import ControllerRuntime
+from hil.inprocess_run import run_inprocess
 from hil.launch import RunFailedError, RunRequest, launch
-from hil.plant_node import run_inprocess
 from hil.review import review
 from hil.scenario import parse_scenario
 
