@@ -18,6 +18,17 @@ Usage::
     python bench/casanovas_table52.py --seeds 3 --duration 300 --settle 60 --workers 2
     python bench/casanovas_table52.py --sensitivity --duration 300
     python bench/casanovas_table52.py --table31-only
+    python bench/casanovas_table52.py --deviations --metric quadratic_linear --seeds 10
+    python bench/casanovas_table52.py --deviations --metric electrical --hs 10 --winds 8
+
+``--deviations`` reruns table 5.2 for the as-published configuration and for each deviation
+of :data:`VARIANTS` changed alone (symmetric pitch limits, the torque weight r_τ, the steady
+LQR's oscillator decay γ), on the same wave seeds, and reports every variant's paired
+difference (same seeds) to ``no_control`` and to the steady LQR with its standard error
+across seeds. ``--metric electrical``: ``fowt run`` in-process, mean electrical power
+(above); ``--metric quadratic_linear``: the seed's own metric, the quadratic aerodynamic
+power on its linear model (:mod:`hil.casanovas_linear`), against P̄. Saved (``save()``) as
+``casanovas_table52_deviations_<metric>.json``.
 
 Writes ``bench/results/casanovas_table52.json`` (or ``--out``). Runs with one BLAS thread (set
 before numpy is imported): on this 2-vCPU shared machine a threaded OpenBLAS made an 81 x 100
@@ -34,6 +45,7 @@ for _k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
+import math  # noqa: E402
 import re  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -76,6 +88,44 @@ SEED_T52 = {
 }  # fmt: skip
 
 
+#: Symmetric pitch range of the deviation runs [deg]: the lowest pitch of the NREL 5 MW rotor
+#: table (the plant never extrapolates C_p), wide beside the LQRs' pitch (std < 1 deg).
+SYMMETRIC_PITCH_DEG = 5.0
+_SYM = {"symmetric_pitch_limit_deg": SYMMETRIC_PITCH_DEG}
+#: Torque weight factor r_τ / (½ρπR²) of the deviation runs: the decade at which the steady
+#: LQR's torque gain on ϖ reaches the order of the linearised region-2 law's 2KN²Ω̄ (the seed's
+#: 0.1 leaves the torque inert: its gain is ~5e5 times smaller; printed by --deviations).
+TORQUE_WEIGHT = 1e-7
+#: Table 5.2's variants: name -> (kind, scenario options). The first five are the seed's
+#: controllers as published; each other changes one deviation (the last one two).
+VARIANTS: dict[str, tuple[str, dict[str, float | str]]] = {
+    "no_control": ("no_control", {}),
+    "base_torque": ("base_torque", {}),
+    "lqr_steady": ("lqr_steady", {}),
+    "lqr_finite": ("lqr_finite", {}),
+    "lqr_overlaid": ("lqr_overlaid", {}),
+    "lqr_steady+symmetric_pitch": ("lqr_steady", _SYM),
+    "lqr_finite+symmetric_pitch": ("lqr_finite", _SYM),
+    "lqr_overlaid+symmetric_pitch": ("lqr_overlaid", _SYM),
+    "lqr_steady+torque_weight": ("lqr_steady", {"torque_weight_factor": TORQUE_WEIGHT}),
+    "lqr_finite+torque_weight": ("lqr_finite", {"torque_weight_factor": TORQUE_WEIGHT}),
+    "lqr_steady+no_preview": ("lqr_steady", {"gamma_1_s": "no_preview"}),
+    "lqr_steady+slow_gamma": ("lqr_steady", {"gamma_1_s": -0.1}),  # x 1/T1, set per case
+    "lqr_finite+symmetric_pitch+torque_weight": (
+        "lqr_finite",
+        {"symmetric_pitch_limit_deg": SYMMETRIC_PITCH_DEG, "torque_weight_factor": TORQUE_WEIGHT},
+    ),
+}  # fmt: skip
+
+
+def _options(name: str, hs: int) -> dict[str, float | str]:
+    """The scenario options of variant ``name`` at H_s ``hs`` (γ scaled by 1/T₁)."""
+    opts = dict(VARIANTS[name][1])
+    if name == "lqr_steady+slow_gamma":
+        opts["gamma_1_s"] = -0.1 / HS_T1[hs]  # memory of 10 T₁ instead of the design's T₁
+    return opts
+
+
 def _variant(
     text: str,
     kind: str,
@@ -83,6 +133,7 @@ def _variant(
     preview: str | None,
     horizon_s: float | None,
     overlap: float | None,
+    options: dict[str, float | str] | None = None,
 ) -> str:
     text = re.sub(r'(?m)^kind = "(no_control|base_torque|lqr_\w+)"$', f'kind = "{kind}"', text)
     if seed is not None:
@@ -95,6 +146,8 @@ def _variant(
         extra += f"horizon_s = {horizon_s}\n"
     if overlap is not None:
         extra += f"overlap = {overlap}\n"
+    for key, value in (options or {}).items():
+        extra += f"{key} = {json.dumps(value)}\n"  # a TOML string or number
     return text.replace("[controller]\n", "[controller]\n" + extra)
 
 
@@ -108,8 +161,10 @@ def run_case(job: dict[str, Any]) -> dict[str, Any]:
     text = (SCENARIOS / f"{job['scenario']}.toml").read_text()
     text = _variant(
         text, job["kind"], job.get("seed"), job.get("preview"), job.get("horizon_s"),
-        job.get("overlap"),
+        job.get("overlap"), job.get("options"),
     )  # fmt: skip
+    if job.get("metric") == "quadratic_linear":
+        return _run_linear_case(job, text)
     with tempfile.TemporaryDirectory(prefix="casanovas-") as tmp:
         path = Path(tmp) / f"{job['scenario']}.toml"
         path.write_text(text)
@@ -155,6 +210,233 @@ def run_case(job: dict[str, Any]) -> dict[str, Any]:
         out["reset_steps"] = core.reset_steps
         out["reset_compute_us"] = resets.tolist()
     return out
+
+
+def _run_linear_case(job: dict[str, Any], text: str) -> dict[str, Any]:
+    """One run of the seed's metric: the controller on the linear model (hil.casanovas_linear)."""
+    from dataclasses import asdict
+
+    from hil.casanovas_linear import run_linear
+    from hil.scenario import load_scenario
+
+    with tempfile.TemporaryDirectory(prefix="casanovas-") as tmp:
+        path = Path(tmp) / f"{job['scenario']}.toml"
+        path.write_text(text)
+        scenario = load_scenario(str(path))
+    t0 = time.monotonic()
+    res = asdict(run_linear(scenario, job["duration_s"], job["settle_s"]))
+    return {**job, **res, "wall_s": round(time.monotonic() - t0, 2)}
+
+
+def paired_stats(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per case and variant: mean increase and the paired differences (same wave seeds) to
+    ``no_control`` and to ``lqr_steady`` [percentage points], each with its standard error
+    across seeds (sample std / √n)."""
+    by: dict[tuple[int, int, str], dict[int, float]] = {}
+    for r in runs:
+        if r.get("role") == "deviation":
+            key = (r["hs_m"], r["wind_m_s"], r["variant"])
+            by.setdefault(key, {})[r["seed"]] = r["increase_percent"]
+
+    def stat(v: list[float]) -> dict[str, float]:
+        a = np.asarray(v)
+        se = float(np.std(a, ddof=1) / math.sqrt(a.size)) if a.size > 1 else math.nan
+        return {"mean": float(np.mean(a)), "se": se, "n": int(a.size)}
+
+    out: dict[str, Any] = {}
+    for (hs, u, name), seeds in sorted(by.items()):
+        row: dict[str, Any] = {"increase_percent": stat(list(seeds.values()))}
+        for ref in ("no_control", "lqr_steady"):
+            other = by.get((hs, u, ref), {})
+            common = sorted(set(seeds) & set(other))
+            if common and name != ref:
+                row[f"minus_{ref}_pp"] = stat([seeds[k] - other[k] for k in common])
+        seed_kind = VARIANTS[name][0] if name == VARIANTS[name][0] else None
+        row["seed_percent"] = SEED_T52.get(seed_kind or "", {}).get((hs, u))
+        out[f"hs{hs}/u{u}/{name}"] = row
+    return out
+
+
+def region2_torque_stiffness() -> dict[str, Any]:
+    """Torque per ϖ [N m s/rad, HSS torque per rotor rad/s]: the linearised region-2 law
+    2KN²Ω̄ beside the steady LQR's -K_τϖ at the seed's r_τ and at :data:`TORQUE_WEIGHT`."""
+    from controller.casanovas import make_casanovas
+
+    out = {}
+    for hs in HS_T1:
+        for u in WINDS:
+            preset = f"nrel5mw_tlp_casanovas_u{u}_hs{hs}"
+            c0 = make_casanovas("lqr_steady", preset, control_period_s=0.1)
+            c1 = make_casanovas("lqr_steady", preset, control_period_s=0.1,
+                                torque_weight_factor=TORQUE_WEIGHT)  # fmt: skip
+            out[f"hs{hs}/u{u}"] = {
+                "region2_law": 2 * c0.k_gen * c0.gear**2 * c0.omega0,
+                "lqr_seed_weight": float(-c0.k_steady[0, 0]),
+                "lqr_torque_weight": float(-c1.k_steady[0, 0]),
+            }
+    return out
+
+
+def summary_rows(table: dict[str, Any]) -> dict[str, str]:
+    """One line per case and variant: increase, and the paired differences ± standard error."""
+    out = {}
+    for k, v in table.items():
+        parts = [f"{v['increase_percent']['mean']:.3f} % (n={v['increase_percent']['n']})"]
+        for ref, label in (("no_control", "none"), ("lqr_steady", "steady")):
+            d = v.get(f"minus_{ref}_pp")
+            if d is not None:
+                parts.append(f"vs {label} {d['mean']:+.4f} ± {d['se']:.4f} pp")
+        out[k] = "; ".join(parts)
+    return out
+
+
+def markdown(paths: list[str]) -> str:
+    """Markdown tables of saved ``--deviations`` results: per case, per variant, the increase
+    over the fixed-bottom turbine and the paired differences to no_control and to the steady
+    LQR (mean ± standard error over the seeds, percentage points), beside the seed's."""
+    out: list[str] = []
+    for path in paths:
+        res = json.loads(Path(path).read_text())
+        table = res["table52"]
+        cases = sorted({tuple(k.split("/")[:2]) for k in table}, key=lambda c: (
+            int(c[0][2:]), int(c[1][1:])))  # fmt: skip
+        out += [f"`{Path(path).name}` (metric {res['metric']}):", ""]
+        if len(cases) > 1:  # compact: paired differences per case, the seed's below
+            for ref in ("no_control", "lqr_steady"):
+                out += [f"minus {ref} (pp, mean ± standard error over the seeds):", "",
+                        "| variant | " + " | ".join(f"{h[2:]} m, {w[1:]} m/s" for h, w in cases)
+                        + " |", "| --- |" + " --- |" * len(cases)]  # fmt: skip
+                for name in VARIANTS:
+                    cells = []
+                    for hs, u in cases:
+                        d = table.get(f"{hs}/{u}/{name}", {}).get(f"minus_{ref}_pp")
+                        cells.append("" if d is None else f"{d['mean']:+.3f} ± {d['se']:.3f}")
+                    if any(cells):
+                        out.append(f"| {name} | " + " | ".join(cells) + " |")
+                for kind in KINDS:
+                    if kind == ref:
+                        continue
+                    keys = [(int(h[2:]), int(w[1:])) for h, w in cases]
+                    cells = [f"{SEED_T52[kind][c] - SEED_T52[ref][c]:+.3f}" for c in keys]
+                    out.append(f"| seed: {kind} | " + " | ".join(cells) + " |")
+                out.append("")
+        for hs, u in cases:
+            if len(cases) > 1 and sum(k.startswith(f"{hs}/{u}/") for k in table) <= 9:
+                continue  # the compact tables above hold these cases
+            nc_seed = SEED_T52["no_control"][(int(hs[2:]), int(u[1:]))]
+            st_seed = SEED_T52["lqr_steady"][(int(hs[2:]), int(u[1:]))]
+            out += [f"H_s {hs[2:]} m, {u[1:]} m/s:", "",
+                    "| variant | increase % | minus no control (pp) | minus steady LQR (pp) "
+                    "| seed: increase % / minus no control / minus steady |",
+                    "| --- | --- | --- | --- | --- |"]  # fmt: skip
+            for name in VARIANTS:
+                v = table.get(f"{hs}/{u}/{name}")
+                if v is None:
+                    continue
+                inc = v["increase_percent"]
+                cells = [f"{inc['mean']:.3f} ± {inc['se']:.3f} (n={inc['n']})"]
+                for ref in ("no_control", "lqr_steady"):
+                    d = v.get(f"minus_{ref}_pp")
+                    cells.append("-" if d is None else f"{d['mean']:+.4f} ± {d['se']:.4f}")
+                sp = v.get("seed_percent")
+                seed = "" if sp is None else (
+                    f"{sp} / {sp - nc_seed:+.3f} / {sp - st_seed:+.3f}")  # fmt: skip
+                out.append(f"| {name} | " + " | ".join(cells) + f" | {seed} |")
+            out.append("")
+    return "\n".join(out)
+
+
+def _ordered(res: dict[str, Any]) -> dict[str, Any]:
+    """``res`` with its table and summary recomputed from its runs, the summary first (the
+    benchmark page shows a result's first figures)."""
+    table = paired_stats(res["runs"])
+    desc = (
+        "casanovas-2014 table 5.2: the seed's controllers as published and one deviation at "
+        f"a time; metric {res['metric']}; increase over the fixed-bottom turbine and paired "
+        "differences (same wave seeds) to no control and to the steady LQR, mean ± standard "
+        "error over the seeds [pp]"
+    )
+    rest = {k: v for k, v in res.items() if k not in ("summary", "description", "table52")}
+    return {"summary": summary_rows(table), "description": desc, **rest, "table52": table}
+
+
+def resummarise(path: str) -> None:
+    """Rewrite a saved ``--deviations`` result with the table and summary recomputed from its
+    runs (what it measured, when and on which commit stay as saved)."""
+    res = json.loads(Path(path).read_text())
+    meta = {k: res.pop(k) for k in ("benchmark", "measured_utc", "commit", "machine")}
+    Path(path).write_text(json.dumps({**meta, **_ordered(res)}, indent=2))
+    print(f"rewrote {path}")
+
+
+def deviations(args: argparse.Namespace) -> int:
+    """``--deviations``: table 5.2 as published and one deviation at a time (module doc)."""
+    from bench._common import load, save
+
+    hs_list = [int(x) for x in args.hs.split(",")]
+    winds = [int(x) for x in args.winds.split(",")]
+    names = list(VARIANTS) if args.variants == "all" else args.variants.split(",")
+    for n in names:
+        if n not in VARIANTS:
+            raise SystemExit(f"unknown variant {n!r}; known: {', '.join(VARIANTS)}")
+    base = {"duration_s": args.duration, "settle_s": args.settle, "metric": args.metric}
+    jobs: list[dict[str, Any]] = []
+    if args.metric == "electrical":
+        for u in winds:
+            jobs.append({**base, "scenario": f"casanovas-fixed-u{u}", "kind": "base_torque",
+                         "role": "fixed", "wind_m_s": u})  # fmt: skip
+    for hs in hs_list:
+        for u in winds:
+            for seed in range(args.seed_start, args.seed_start + args.seeds):
+                for name in list(VARIANTS) if f"{hs}:{u}" == args.full_case else names:
+                    jobs.append({**base, "scenario": f"casanovas-tlp-hs{hs}-u{u}",
+                                 "kind": VARIANTS[name][0], "variant": name,
+                                 "options": _options(name, hs), "seed": seed,
+                                 "preview": "perfect", "role": "deviation", "hs_m": hs,
+                                 "wind_m_s": u})  # fmt: skip
+    load_before = load()
+    t0 = time.monotonic()
+    runs: list[dict[str, Any]] = []
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        for i, r in enumerate(pool.map(run_case, jobs)):
+            runs.append(r)
+            name = r.get("variant", r["kind"])
+            kw, el = r["mean_power_w"] / 1e3, time.monotonic() - t0
+            print(
+                f"[{i + 1}/{len(jobs)} {el:6.0f} s] {r['scenario']} {name} "
+                f"seed {r.get('seed')}: {kw:.2f} kW (wall {r['wall_s']} s)",
+                flush=True,
+            )
+    fixed = {r["wind_m_s"]: r["mean_power_w"] for r in runs if r["role"] == "fixed"}
+    for r in runs:
+        if r["role"] == "deviation" and args.metric == "electrical":
+            r["increase_percent"] = 100 * (r["mean_power_w"] / fixed[r["wind_m_s"]] - 1)
+    table = paired_stats(runs)
+    for k, v in table.items():
+        d = v.get("minus_no_control_pp")
+        e = v.get("minus_lqr_steady_pp")
+        print(f"{k:50s} {v['increase_percent']['mean']:7.3f} %  seed {v['seed_percent']}"
+              + (f"  vs no_control {d['mean']:+.4f} ± {d['se']:.4f}" if d else "")
+              + (f"  vs steady {e['mean']:+.4f} ± {e['se']:.4f}" if e else ""))  # fmt: skip
+    save(
+        f"casanovas_table52_deviations_{args.metric}" + (f"_{args.tag}" if args.tag else ""),
+        _ordered(
+            {
+                "script": "casanovas_table52.py",
+                "metric": args.metric,
+                "args": {k: v for k, v in vars(args).items() if k != "out"},
+                "symmetric_pitch_deg": SYMMETRIC_PITCH_DEG,
+                "torque_weight_factor": TORQUE_WEIGHT,
+                "torque_stiffness_n_m_s_rad": region2_torque_stiffness(),
+                "load_before": load_before,
+                "load_after": load(),
+                "wall_s": round(time.monotonic() - t0, 1),
+                "fixed_power_w": fixed,
+                "runs": runs,
+            }
+        ),
+    )
+    return 0
 
 
 def _preset(text: str) -> str:
@@ -297,7 +579,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--table31-only", action="store_true")
     ap.add_argument("--out", default=str(RESULTS / "casanovas_table52.json"))
     ap.add_argument("--from-logs", nargs="+", help="rebuild the tables from printed run lines")
+    ap.add_argument(
+        "--deviations",
+        action="store_true",
+        help="table 5.2 as published and one deviation at a time (VARIANTS)",
+    )
+    ap.add_argument("--variants", default="all", help="--deviations: comma list or 'all'")
+    ap.add_argument("--full-case", default="", help="--deviations: HS:U run with every variant")
+    ap.add_argument("--tag", default="", help="--deviations: suffix of the result's name")
+    ap.add_argument(
+        "--metric",
+        choices=("electrical", "quadratic_linear"),
+        default="electrical",
+        help="--deviations: the power compared",
+    )
+    ap.add_argument("--markdown", nargs="+", help="print saved --deviations results as tables")
+    ap.add_argument("--resummarise", nargs="+", help="recompute saved --deviations tables")
     args = ap.parse_args(argv)
+    if args.resummarise:
+        for path in args.resummarise:
+            resummarise(path)
+        return 0
+    if args.markdown:
+        print(markdown(args.markdown))
+        return 0
+    if args.deviations:
+        return deviations(args)
     if args.from_logs:
         res = {"machine": machine(), "from_logs": args.from_logs, "table31": table31(),
                **tables_from_logs(args.from_logs)}  # fmt: skip

@@ -23,6 +23,17 @@ Kinds (``[controller] kind``), all pure cores ``step(state, frame, dt_s) -> (sta
 * ``lqr_overlaid``: section 4.7: the same on the model with the linearised region-2 law folded
   into A; pitch = ψ, torque = K ω_g² + τ.
 
+Deviations from the design, for table 5.2's "which deviation matters" runs (scenario keys of
+the same names): ``pitch_limits_rad`` (:func:`make_casanovas`: ``symmetric_pitch_limit_deg``
+θ_s gives [-θ_s, θ_s]; default [0°, 90°], the NREL 5 MW's, which clips the negative half of
+the linear design's pitch); ``torque_weight_factor`` (r_τ / (½ρπR²), default the design's
+0.1, which leaves the torque all but inert: the steady gain on ϖ is ~2e-6 of the region-2
+law's slope); ``gamma_1_s`` (``lqr_steady``: the oscillator decay γ of the preview kernel,
+default -1/T₁; -inf is the no-preview limit, kernel ≡ 0, u = -K x̂). A changed r_τ or γ
+re-solves the steady ARE and kernel (:func:`controller.design.casanovas.are_gain`,
+:func:`~controller.design.casanovas.preview_kernel`) and, for the finite-horizon kinds, the
+Riccati trajectory, at construction.
+
 The state x̂ = [ϖ, ξ - ξ̄, ξ̇, r₁..r₄] comes from a steady-state Kalman filter (designed offline)
 on the measured rotor speed and surge, driven by the commands and by the current excitation
 (preview sample 0). The seed assumes the full state known; the observer is the bench's price.
@@ -354,6 +365,8 @@ class CasanovasController:
         gauge_distance_m: float | None = None,
         pitch_limits_rad: tuple[float, float] = (0.0, math.radians(90.0)),
         riccati: Literal["cached", "every_reset"] = "cached",
+        torque_weight_factor: float | None = None,
+        gamma_1_s: float | None = None,
         clock: Callable[[], int] = time.perf_counter_ns,
     ) -> None:
         if kind not in CASANOVAS_KINDS:
@@ -391,13 +404,44 @@ class CasanovasController:
         self.k_gen = s["torque_gain_nm_s2"]
         self.gear = s["gearbox_ratio"]
         self.surge_bar = s["surge_mean_m"]
-        self.pitch_limits = pitch_limits_rad
+        lo, hi = (float(v) for v in pitch_limits_rad)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ValueError(f"pitch_limits_rad = {pitch_limits_rad!r}, expected finite lo < hi")
+        self.pitch_limits = (lo, hi)
         ar = design.arrays
         self.a = ar["a_base"] if kind == "lqr_overlaid" else ar["a"]
         self.b, self.e = ar["b"], ar["e"]
         self.q, self.r, self.n = ar["q"], ar["r"], ar["n"]
         self.k_steady = ar["steady_k"]
         self.w_steady = ar["steady_kernel"]
+        lqr = kind in ("lqr_steady", "lqr_finite", "lqr_overlaid")
+        if torque_weight_factor is not None:
+            f = float(torque_weight_factor)
+            if not lqr:
+                raise ValueError(
+                    f"torque_weight_factor is used only by the LQR kinds, not {kind!r}"
+                )
+            if not (math.isfinite(f) and f > 0):
+                raise ValueError(f"torque_weight_factor = {torque_weight_factor!r}, expected > 0")
+            # r_τ = ½ρπR² · factor (design item 2): rescale the design's entry
+            self.r = self.r.copy()
+            self.r[0, 0] *= f / float(design.meta["settings"]["torque_weight_factor"])
+        self.gamma = s["gamma_1_s"]
+        if gamma_1_s is not None:
+            g = float(gamma_1_s)
+            if kind != "lqr_steady":
+                raise ValueError(f"gamma_1_s is used only by kind 'lqr_steady', not {kind!r}")
+            if math.isnan(g) or g >= 0:
+                raise ValueError(f"gamma_1_s = {gamma_1_s!r} 1/s, expected < 0 (-inf: no preview)")
+            self.gamma = g
+        if kind == "lqr_steady" and (torque_weight_factor is not None or gamma_1_s is not None):
+            # the steady gain and its preview kernel for these weights (design module, item 4)
+            from controller.design.casanovas import are_gain, preview_kernel  # noqa: PLC0415
+
+            self.k_steady, p_are = are_gain(self.a, self.b, self.q, self.r, self.n)
+            self.w_steady = preview_kernel(
+                self.a, self.b, self.r, self.e, self.k_steady, p_are, self.gamma
+            )
         self.obs = (ar["obs_ad"], ar["obs_bd"], ar["obs_ed"], ar["obs_c"], ar["obs_l"])
         # sample times of the finite-horizon forcing (half steps) on the preview grid
         self._t_half = 0.5 * self.dt * np.arange(2 * self.m_steps + 1)
@@ -590,9 +634,26 @@ def make_casanovas(
     overlap: float | None = None,
     gauge_distance_m: float | None = None,
     design_dir: str | None = None,
+    symmetric_pitch_limit_deg: float | None = None,
+    torque_weight_factor: float | None = None,
+    gamma_1_s: float | None = None,
 ) -> CasanovasController:
-    """Build a casanovas core; ``preset`` names the design (``nrel5mw_tlp_casanovas_u8_hs6``)."""
+    """Build a casanovas core; ``preset`` names the design (``nrel5mw_tlp_casanovas_u8_hs6``).
+
+    ``symmetric_pitch_limit_deg`` θ_s: pitch range [-θ_s, θ_s] about the design's θ̄ = 0
+    (None: the NREL 5 MW's [0°, 90°]); ``torque_weight_factor``: r_τ / (½ρπR²) (None: the
+    design's, 0.1 as the seed); ``gamma_1_s``: the steady LQR's oscillator decay γ [1/s]
+    (None: the design's -1/T₁; ``-inf``: no preview, u = -K x̂).
+    """
     design = load_casanovas_design(preset, design_dir)
+    limits = (0.0, math.radians(90.0))
+    if symmetric_pitch_limit_deg is not None:
+        th = float(symmetric_pitch_limit_deg)
+        if not (math.isfinite(th) and 0.0 < th <= 90.0):
+            raise ValueError(
+                f"symmetric_pitch_limit_deg = {symmetric_pitch_limit_deg!r}, expected 0 < θ <= 90"
+            )
+        limits = (-math.radians(th), math.radians(th))
     return CasanovasController(
         kind,
         design,
@@ -601,4 +662,7 @@ def make_casanovas(
         horizon_s=horizon_s,
         overlap=0.5 if overlap is None else overlap,
         gauge_distance_m=gauge_distance_m,
+        pitch_limits_rad=limits,
+        torque_weight_factor=torque_weight_factor,
+        gamma_1_s=gamma_1_s,
     )

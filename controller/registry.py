@@ -58,7 +58,7 @@ class ControllerOptions:
     library, parameter_file, output_dir : str or None
         ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
         (None: the shipped one named by ``preset``) and the folder for its files.
-    preview, horizon_s, overlap : optional
+    preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
     """
 
@@ -75,6 +75,9 @@ class ControllerOptions:
     preview: str | None = None
     horizon_s: float | None = None
     overlap: float | None = None
+    symmetric_pitch_limit_deg: float | None = None
+    torque_weight_factor: float | None = None
+    gamma_1_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -157,6 +160,9 @@ def _casanovas(o: ControllerOptions) -> Controller[Any]:
         overlap=o.overlap,
         gauge_distance_m=o.gauge_distance_m,
         design_dir=o.design_dir,
+        symmetric_pitch_limit_deg=o.symmetric_pitch_limit_deg,
+        torque_weight_factor=o.torque_weight_factor,
+        gamma_1_s=o.gamma_1_s,
     )
 
 
@@ -279,6 +285,9 @@ def make_controller(
     preview: str | None = None,
     horizon_s: float | None = None,
     overlap: float | None = None,
+    symmetric_pitch_limit_deg: float | None = None,
+    torque_weight_factor: float | None = None,
+    gamma_1_s: float | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -306,7 +315,7 @@ def make_controller(
         ``"rosco"`` only: the DISCON library (None: the ``rosco`` wheel's), its DISCON.IN
         (None: the shipped one named by ``preset``) and the folder for its files
         (:func:`controller.rosco.make_rosco_controller`).
-    preview, horizon_s, overlap : optional
+    preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
 
     Returns
@@ -336,6 +345,9 @@ def make_controller(
             preview=preview,
             horizon_s=horizon_s,
             overlap=overlap,
+            symmetric_pitch_limit_deg=symmetric_pitch_limit_deg,
+            torque_weight_factor=torque_weight_factor,
+            gamma_1_s=gamma_1_s,
         )
     )
 

@@ -242,6 +242,9 @@ class ControllerRuntime:
             preview=c.preview,
             horizon_s=c.horizon_s,
             overlap=c.overlap,
+            symmetric_pitch_limit_deg=c.symmetric_pitch_limit_deg,
+            torque_weight_factor=c.torque_weight_factor,
+            gamma_1_s=c.gamma_value,
         )
         self.state: Any = self.controller.initial_state()
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.

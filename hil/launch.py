@@ -439,6 +439,12 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         summary["run"]["aborted_at_s"] = aborted.sim_s
     if loop_ran:
         summary["run"]["inprocess_loop"] = loop_ran
+    if scenario.review.power_metric == "quadratic_linear" and aborted is None:
+        from dataclasses import asdict  # noqa: PLC0415
+
+        from hil.casanovas_linear import run_linear  # noqa: PLC0415
+
+        summary["casanovas_quadratic_linear"] = asdict(run_linear(scenario))
     if driver is not None:
         summary["run"]["process_faults"] = driver.records
         summary["run"]["plant_killed"] = driver.plant_killed

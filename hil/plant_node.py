@@ -241,6 +241,29 @@ def _excitation_table(hydro: HydroData, locked_dofs: tuple[int, ...]) -> tuple[A
     return exc.omega_rad_s, table
 
 
+def pitch_limited(turbine: TurbineParams, symmetric_limit_deg: float | None) -> TurbineParams:
+    """The turbine with its pitch actuator range set to [-θ_s, θ_s] (``[controller]
+    symmetric_pitch_limit_deg``; None: unchanged).
+
+    Raises
+    ------
+    ValueError
+        If -θ_s lies below the lowest pitch of the rotor's C_p/C_T table (the plant would
+        extrapolate the aerodynamics).
+    """
+    if symmetric_limit_deg is None:
+        return turbine
+    th = math.radians(float(symmetric_limit_deg))
+    lowest = float(turbine.table.pitch_rad[0])
+    if -th < lowest - 1e-12:
+        raise ValueError(
+            f"controller.symmetric_pitch_limit_deg = {symmetric_limit_deg}: the rotor table of "
+            f"{turbine.name!r} starts at {math.degrees(lowest):.3g} deg pitch; expected "
+            f"<= {-math.degrees(lowest):.3g}"
+        )
+    return replace(turbine, pitch_min_rad=-th, pitch_max_rad=th)
+
+
 def floating_plant(scenario: Scenario) -> FloatingPlant:
     """Load the platform preset and build the waves and their excitation (offline, ~1 s)."""
     from plant.hydro.wamit import HydroData  # noqa: PLC0415
@@ -251,6 +274,9 @@ def floating_plant(scenario: Scenario) -> FloatingPlant:
 
     assert scenario.platform is not None
     params = load_floating(scenario.platform)
+    turbine = pitch_limited(params.turbine, scenario.controller.symmetric_pitch_limit_deg)
+    if turbine is not params.turbine:
+        params = replace(params, turbine=turbine)
     preset, base, _ = read_floating_preset(scenario.platform)
     hydro_ref = preset.hydro_file
     if hydro_ref.startswith("preset:"):
@@ -295,7 +321,9 @@ def plant_config(scenario: Scenario) -> PlantConfig:
             "wind_speed_measured_m_s",
         )
     }
-    turbine = load_turbine(scenario.turbine)
+    turbine = pitch_limited(
+        load_turbine(scenario.turbine), scenario.controller.symmetric_pitch_limit_deg
+    )
     floating = floating_plant(scenario) if scenario.floating else None
     channels: dict[str, ChannelSpec] | None = None
     if floating is not None or s.channels:

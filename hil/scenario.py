@@ -467,10 +467,16 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     ``"nrel5mw_tlp_casanovas_u8_hs6"``; ``preview`` = ``"perfect"`` (default: the plant
     publishes the excitation force over 20 s, a bench oracle) or ``"forecast"`` (from the
     up-wave gauge); ``horizon_s`` (default T₁ of the design) and ``overlap`` (default 0.5) of
-    the finite-horizon LQR). For the advanced kinds: ``forecaster`` (``"dispersion"`` |
-    ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward`` (``"balanced"`` |
-    ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes from
-    ``[waves] gauge_distance_m``.
+    the finite-horizon LQR; ``symmetric_pitch_limit_deg`` θ_s: pitch allowed in [-θ_s, θ_s]
+    by the controller and by the plant's pitch actuator, as the seed's linear design, which
+    has no pitch limit (default: the turbine's range, [0°, 90°] for the NREL 5 MW; θ_s must
+    stay within the rotor table, -5° for the NREL 5 MW); ``torque_weight_factor``:
+    r_τ / (½ρπR²) of the LQR kinds (default 0.1, the seed's; smaller = more torque activity);
+    ``gamma_1_s``: the steady LQR's oscillator decay γ [1/s] (< 0; default -1/T₁;
+    ``"no_preview"`` = the limit γ → -∞, u = -K x̂)). For the advanced kinds: ``forecaster``
+    (``"dispersion"`` | ``"ar"`` | ``"esprit"``, default: the preset's), ``feedforward``
+    (``"balanced"`` | ``"max_performance"``, used by ``"lqri_ff"``); the gauge distance comes
+    from ``[waves] gauge_distance_m``.
 
     ``"rosco"``: a Bladed-style DISCON library (:mod:`controller.rosco`); ``preset`` names
     a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
@@ -499,6 +505,9 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     preview: Literal["perfect", "forecast"] | None = None
     horizon_s: Annotated[float, msgspec.Meta(gt=0.0, le=20.0)] | None = None
     overlap: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] | None = None
+    symmetric_pitch_limit_deg: Annotated[float, msgspec.Meta(gt=0.0, le=90.0)] | None = None
+    torque_weight_factor: Annotated[float, msgspec.Meta(gt=0.0)] | None = None
+    gamma_1_s: float | Literal["no_preview"] | None = None
 
     def __post_init__(self) -> None:
         if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
@@ -506,6 +515,35 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
                 "controller.library and controller.parameter_file are used only by "
                 f"kind = 'rosco' (kind is {self.kind!r})"
             )
+        casanovas = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
+        if self.symmetric_pitch_limit_deg is not None and self.kind not in casanovas:
+            raise ValueError(
+                "controller.symmetric_pitch_limit_deg is used only by the casanovas-2014 kinds "
+                f"{casanovas} (kind is {self.kind!r})"
+            )
+        if self.torque_weight_factor is not None and self.kind not in casanovas[2:]:
+            raise ValueError(
+                "controller.torque_weight_factor is used only by kinds 'lqr_steady', "
+                f"'lqr_finite', 'lqr_overlaid' (kind is {self.kind!r})"
+            )
+        if self.gamma_1_s is not None:
+            if self.kind != "lqr_steady":
+                raise ValueError(
+                    "controller.gamma_1_s is used only by kind 'lqr_steady' "
+                    f"(kind is {self.kind!r})"
+                )
+            if self.gamma_1_s != "no_preview" and not self.gamma_1_s < 0.0:
+                raise ValueError(
+                    f"controller.gamma_1_s = {self.gamma_1_s!r} 1/s: expected < 0 "
+                    "(the oscillator decay) or 'no_preview'"
+                )
+
+    @property
+    def gamma_value(self) -> float | None:
+        """``gamma_1_s`` as a number [1/s]: ``"no_preview"`` is -inf (None: the design's)."""
+        if self.gamma_1_s == "no_preview":
+            return -math.inf
+        return self.gamma_1_s
 
 
 class CanSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -543,10 +581,17 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     the table's rows, so the maximum is a grid point: 8.5 for the IEA 15 MW, whose table steps
     λ by 0.5); a cubic spline through the same column peaks at 8.71. var(Ω − Ω_opt) depends
     on it (docs/guide/campaigns.md, "λ* of Ω_opt"). A campaign's ``tsr_opt`` overrides it.
+
+    ``power_metric``: ``"electrical"`` (default: the KPIs' electrical power of the plant) or
+    ``"quadratic_linear"`` (casanovas-2014 kinds with the perfect preview): ``fowt run`` also
+    runs the scenario's controller on the seed's linear surge + rotor model and reports the
+    quadratic aerodynamic power of its section 4.4, the figure of its table 5.2
+    (``casanovas_quadratic_linear`` in the run summary, :mod:`hil.casanovas_linear`).
     """
 
     settle_s: NonNegative = 60.0
     tsr_opt: Positive | None = None
+    power_metric: Literal["electrical", "quadratic_linear"] = "electrical"
 
 
 class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -611,6 +656,19 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
+        if self.review.power_metric == "quadratic_linear":
+            casanovas = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
+            if self.controller.kind not in casanovas or self.waves is None:
+                raise ValueError(
+                    "review.power_metric = 'quadratic_linear' is the casanovas-2014 metric: it "
+                    f"needs a casanovas-2014 controller kind {casanovas} and [waves] "
+                    f"(kind is {self.controller.kind!r})"
+                )
+            if self.controller.preview == "forecast":
+                raise ValueError(
+                    "review.power_metric = 'quadratic_linear' needs [controller] preview = "
+                    "'perfect' (the seed's table 5.2 assumes a perfect preview)"
+                )
         if self.controller.kind in ("lqri", "lqri_ff", "lqr_wave") and self.platform is None:
             raise ValueError(
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "

@@ -28,7 +28,8 @@ Choices where the seed's printed equations slip (stated)
 2. *Torque weight*: R = diag(r_τ, r_ψ) with r_τ = +½ρπR² · 0.1 W/(N m)² (the seed's 0.1 with
    its overall factor, but positive: its printed R = -½ρS diag(0.1, ...) would reward torque
    activity without bound and make the problem ill-posed), torque on the HSS in N m;
-   r_ψ = -½ · ½ρπR² ∂²C_p/∂θ² V³ > 0 exactly as the seed.
+   r_ψ = -½ · ½ρπR² ∂²C_p/∂θ² V³ > 0 exactly as the seed. The factor is a scenario key of
+   the controller (``torque_weight_factor``), which rescales r_τ at construction.
 3. *Cost*: Q, N from the exact Hessian of P = ½ρπR² C_p(λ, θ) V_r³ in (ϖ, ξ̇, ψ) (equal to
    the seed's Q₀* with ∂C_p/∂λ = 0), with the sign changed (minimise -P), factor ½ as in
    J = ∫ (xᵀQx + uᵀRu + 2xᵀNu) dt with Q = -½ H.
@@ -37,7 +38,8 @@ Choices where the seed's printed equations slip (stated)
    Riccati solution is the ARE of the plant alone and the wave block gives
    u_ff(t) = -R⁻¹Bᵀ ∫₀^∞ e^{A_clᵀτ} P E e^{γτ} X(t+τ) dτ, a kernel on the excitation over the
    preview; :func:`steady_kernel` tabulates it on the preview grid (exactly the oscillator
-   design when every wave component is an oscillator state).
+   design when every wave component is an oscillator state). The controller's
+   ``gamma_1_s`` changes γ; ``"no_preview"`` is γ → -∞ (:func:`preview_kernel`).
 5. *Overlap*: δ is the fraction of the horizon shared by consecutive solutions, so the reset
    period is T_R = (1 - δ) T (the seed's text: "high overlap requires more frequent control
    resets"; its formula δ = T_R/T says the opposite). δ = 0.5 gives T_R = T/2 either way.
@@ -159,6 +161,7 @@ class LinearModel:
     drag_linear_n_s_m: float
     quadratic_drag_n_s2_m2: float
     hessian: FloatArray  # (3, 3) of P in (ϖ, ξ̇, ψ) [W per unit²]
+    power_gradient: FloatArray  # (3,) of P in (ϖ, ξ̇, ψ) [W per unit]
 
 
 def _quadratic_surface(table: Any, which: str, tsr: float, pitch: float) -> FloatArray:
@@ -287,6 +290,9 @@ def linear_model(preset: str, settings: CasanovasSettings) -> LinearModel:
                 4 * steps[i] * steps[j]
             )
     hess = 0.5 * (hess + hess.T)
+    grad_p = np.array(
+        [(p_of(e) - p_of(-e)) / (2 * h) for e, h in zip(np.diag(steps), steps, strict=True)]
+    )
 
     inertia = tp.drivetrain_inertia_kg_m2
     gear = tp.gearbox_ratio
@@ -362,6 +368,7 @@ def linear_model(preset: str, settings: CasanovasSettings) -> LinearModel:
         drag_linear_n_s_m=d_lin,
         quadratic_drag_n_s2_m2=bq,
         hessian=hess,
+        power_gradient=grad_p,
     )
 
 
@@ -437,10 +444,26 @@ def hydro_rho(hydro: Any) -> float:
 
 def steady_gain(lm: LinearModel, a: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """ARE of the indefinite cost: (K (2, 7), P (7, 7)); u = -K x. Raises if not stabilising."""
-    am = lm.a if a is None else a
-    p = linalg.solve_continuous_are(am, lm.b, lm.q, lm.r, s=lm.n)
-    k = np.linalg.solve(lm.r, lm.b.T @ p + lm.n.T)
-    eig = np.linalg.eigvals(am - lm.b @ k)
+    return are_gain(lm.a if a is None else a, lm.b, lm.q, lm.r, lm.n)
+
+
+def are_gain(
+    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, n: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """K = R⁻¹(BᵀP + Nᵀ) and P of AᵀP + PA - (PB + N)R⁻¹(BᵀP + Nᵀ) + Q = 0 (section 4.5).
+
+    Raises
+    ------
+    ValueError
+        If the solver fails or A - BK is not stable (e.g. a torque weight so small that the
+        indefinite cost has no stabilising solution).
+    """
+    try:
+        p = linalg.solve_continuous_are(a, b, q, r, s=n)
+    except (linalg.LinAlgError, ValueError) as exc:
+        raise ValueError(f"steady LQR: no stabilising ARE solution ({exc})") from exc
+    k = np.linalg.solve(r, b.T @ p + n.T)
+    eig = np.linalg.eigvals(a - b @ k)
     if not np.all(eig.real < 0):
         raise ValueError(f"steady LQR: closed loop not stable, eigenvalues {eig}")
     return k, p
@@ -449,20 +472,37 @@ def steady_gain(lm: LinearModel, a: FloatArray | None = None) -> tuple[FloatArra
 def steady_kernel(
     lm: LinearModel, k: FloatArray, p: FloatArray, gamma: float, a: FloatArray | None = None
 ) -> FloatArray:
+    """Feed-forward kernel W (PREVIEW_SAMPLES, 2) of :func:`preview_kernel` for ``lm``."""
+    return preview_kernel(lm.a if a is None else a, lm.b, lm.r, lm.e, k, p, gamma)
+
+
+def preview_kernel(
+    a: FloatArray,
+    b: FloatArray,
+    r: FloatArray,
+    e: FloatArray,
+    k: FloatArray,
+    p: FloatArray,
+    gamma: float,
+) -> FloatArray:
     """Feed-forward kernel W (PREVIEW_SAMPLES, 2): u_ff = -Σ_j W_j X(t + jΔ) Δ (trapezoid).
 
-    W(τ) = R⁻¹ Bᵀ e^{A_clᵀ τ} P E e^{γτ} (module docstring, item 4).
+    W(τ) = R⁻¹ Bᵀ e^{A_clᵀ τ} P E e^{γτ}, A_cl = A - BK (module docstring, item 4). γ = -∞
+    is the no-preview limit: W ≡ 0, u = -K x (the continuous kernel's weight,
+    ∫₀^∞ W dτ = -R⁻¹Bᵀ(A_clᵀ + γI)⁻¹ P E, vanishes like 1/|γ|; the trapezoid's first
+    sample would not, so the limit is taken exactly).
     """
-    am = lm.a if a is None else a
-    acl = am - lm.b @ k
-    taus = PREVIEW_STEP_S * np.arange(PREVIEW_SAMPLES)
-    rinv_bt = np.linalg.solve(lm.r, lm.b.T)
-    pe = p @ lm.e
+    if math.isnan(gamma) or gamma >= 0:
+        raise ValueError(f"preview kernel: gamma = {gamma!r} 1/s, expected < 0 (or -inf)")
+    if math.isinf(gamma):
+        return np.zeros((PREVIEW_SAMPLES, 2))
+    acl = a - b @ k
+    rinv_bt = np.linalg.solve(r, b.T)
     out = np.zeros((PREVIEW_SAMPLES, 2))
     step = linalg.expm(acl.T * PREVIEW_STEP_S)
-    vec = pe.copy()
-    for j, tau in enumerate(taus):
-        out[j] = rinv_bt @ vec * math.exp(gamma * tau)
+    vec = p @ e
+    for j in range(PREVIEW_SAMPLES):
+        out[j] = rinv_bt @ vec * math.exp(gamma * PREVIEW_STEP_S * j)
         vec = step @ vec
     w = np.full(PREVIEW_SAMPLES, PREVIEW_STEP_S)
     w[0] = w[-1] = 0.5 * PREVIEW_STEP_S
