@@ -68,6 +68,7 @@ from bus_schemas.messages import (
     VALID_WIND,
 )
 from plant import _kernels as _k
+from plant.initial import InitialCondition
 from plant.platform import FloatingParams, FloatingPreset, step_blocks, tower_modal
 from plant.turbine import TurbineParams, outputs
 from plant.waves import WaveField
@@ -274,6 +275,9 @@ class PlantConfig:
     sensor_faults : tuple of FaultSpec
         Faults of the run (:mod:`sensors.faults`); the sensor kinds are applied to the
         frames here, the bus kinds are ignored (the plant node applies them).
+    initial : InitialCondition
+        Where the run starts (:meth:`PlantSimulator.initial_state`; all None: the plant's
+        own operating point).
     """
 
     turbine: TurbineParams
@@ -285,6 +289,7 @@ class PlantConfig:
     floating: FloatingPlant | None = None
     sensor_channels: Mapping[str, ChannelSpec] | None = field(default=None)
     sensor_faults: tuple[FaultSpec, ...] = ()
+    initial: InitialCondition = field(default_factory=InitialCondition)
 
     def __post_init__(self) -> None:
         if not (self.plant_step_s > 0 and math.isfinite(self.plant_step_s)):
