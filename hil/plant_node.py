@@ -381,9 +381,20 @@ STARTUP_S = 1.0
 class PlantLoop:
     """Cycle bookkeeping shared by every mode: sampling, applying commands, timing."""
 
-    def __init__(self, scenario: Scenario, publish: Publish, speed: float = 1.0) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        publish: Publish,
+        speed: float = 1.0,
+        initial: InitialCondition | None = None,
+    ) -> None:
         self.scenario = scenario
-        self.sim = PlantSimulator(plant_config(scenario))
+        if initial is None:  # the scenario's [initial] (trimmed: a settling run, hil.trim)
+            from hil.trim import initial_condition  # noqa: PLC0415
+
+            initial = initial_condition(scenario)
+        self.initial = initial
+        self.sim = PlantSimulator(build_plant(plant_spec(scenario, initial)))
         self.publish = publish
         self.speed = speed
         self.period_ns = round(scenario.timing.control_period_s * 1e9)
@@ -1412,6 +1423,7 @@ def run_inprocess(
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
     published: Callable[[], Mapping[str, int]] | None = None,
     stop: threading.Event | None = None,
+    initial: InitialCondition | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -1439,8 +1451,10 @@ def run_inprocess(
     ``stop`` (set by a signal handler) ends the run early, before the next cycle (the
     compiled loop: before its next batch); the final summary is still published and
     ``PlantRunResult.aborted`` says "stopped by signal".
+
+    ``initial``: where the run starts (None: the scenario's ``[initial]``, :mod:`hil.trim`).
     """
-    plant = PlantLoop(scenario, publish)
+    plant = PlantLoop(scenario, publish, initial=initial)
     if log is not None:
         plant.log = log
     from hil._fast_loop import CompiledLoop, compiled_unsupported  # noqa: PLC0415

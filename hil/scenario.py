@@ -540,6 +540,36 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     settle_s: NonNegative = 60.0
 
 
+class InitialSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Where the run starts (as OpenFAST's ``RotSpeed``, ``BlPitch``, ``PtfmSurge``, ...).
+
+    ``trim = true`` (default): trimmed at the controller's steady state for the mean wind
+    (steady: its speed; step and ramp: the initial speed; turbulent: the mean; gust: the hub
+    speed): rotor speed, blade pitch and generator torque where the scenario's controller
+    settles in that steady wind (a short settling run of plant and controller, still water,
+    no noise: :mod:`hil.trim`), and the platform's surge, heave and pitch at the static
+    equilibrium of that point's mean thrust with the mooring and hydrostatic stiffness
+    (:mod:`plant.build`). Without it a run starts where the plant alone would put it (the
+    optimal tip-speed ratio capped at rated, :meth:`plant.simulator.PlantSimulator.
+    initial_state`), which a controller with a minimum rotor speed or a minimum-pitch
+    schedule leaves at once, kicking the lightly damped platform modes.
+
+    ``trim = false``: the plant's own start. Either way the keys below, where set, replace
+    the value: ``rotor_speed_rpm`` [rpm], ``pitch_deg`` (collective blade pitch) [deg],
+    ``generator_torque_nm`` [N m, high-speed shaft; unset: balancing the aerodynamic
+    torque], ``platform_surge_m``, ``platform_heave_m`` [m], ``platform_pitch_deg`` [deg]
+    (platform keys unset: the static equilibrium).
+    """
+
+    trim: bool = True
+    rotor_speed_rpm: Annotated[float, msgspec.Meta(ge=0.0, le=100.0)] | None = None
+    pitch_deg: Annotated[float, msgspec.Meta(ge=-10.0, le=90.0)] | None = None
+    generator_torque_nm: Annotated[float, msgspec.Meta(ge=0.0, le=1e9)] | None = None
+    platform_surge_m: Annotated[float, msgspec.Meta(ge=-200.0, le=200.0)] | None = None
+    platform_heave_m: Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)] | None = None
+    platform_pitch_deg: Annotated[float, msgspec.Meta(ge=-30.0, le=30.0)] | None = None
+
+
 class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """One run of the bench."""
 
@@ -557,6 +587,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     faults: list[FaultSection] = msgspec.field(default_factory=list)
     can: CanSection = msgspec.field(default_factory=CanSection)
     review: ReviewSection = msgspec.field(default_factory=ReviewSection)
+    initial: InitialSection = msgspec.field(default_factory=InitialSection)
 
     def __post_init__(self) -> None:
         ratio = self.timing.control_period_s / self.timing.plant_step_s
@@ -602,6 +633,13 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 )
             self.waves.check()
         self.sensors.check(self.timing.control_period_s)
+        if self.platform is None:
+            for key in ("platform_surge_m", "platform_heave_m", "platform_pitch_deg"):
+                if getattr(self.initial, key) is not None:
+                    raise ValueError(
+                        f"initial.{key}: a bottom-fixed turbine has no platform (set platform "
+                        "for a floating plant)"
+                    )
         if self.controller.kind in ("lqri", "lqri_ff", "lqr_wave") and self.platform is None:
             raise ValueError(
                 f"controller.kind = {self.controller.kind!r} needs a floating plant "
