@@ -10,7 +10,11 @@ Runs
 ----
 Every (case, waves/still, controller, seed) is one run. Seed index i (0 ... seeds - 1) adds
 ``i * seed_stride`` to the scenario's wind, wave and sensor seeds, so seed 0 is the scenario
-as shipped and two campaigns with the same file run the same realisations. Each run is a
+as shipped and two campaigns with the same file run the same realisations. ``discard_s``
+(optional): the start transient left out of every run's KPIs and PSDs (the KPI window is
+t >= ``discard_s``; each run's ``[review] settle_s`` is set to it too, so its own summary
+agrees): al-2019's protocol is 1200 s runs with the first 600 s discarded. Unset: the
+whole run. Each run is a
 Dask task (:func:`execute_run`) running the in-process runner of ``fowt run --mode
 inprocess`` (plant and controller in one process, :func:`hil.plant_node.run_inprocess`) or,
 with ``mode = "lockstep"``, :func:`hil.launch.launch` (plant, controller and recorder as OS
@@ -135,8 +139,13 @@ class CampaignFile(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     still_water: bool = True
     still_water_controllers: list[str] | None = None
     min_rotor_speed_rad_s: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
+    discard_s: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
 
     def __post_init__(self) -> None:
+        if self.discard_s is not None and not self.discard_s < self.duration_s:
+            raise ValueError(
+                f"discard_s = {self.discard_s:g} s: expected < duration_s = {self.duration_s:g} s"
+            )
         if not self.cases:
             raise ValueError("cases: expected at least one [[cases]] table")
         if not self.controllers:
@@ -319,6 +328,8 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
         raw = _scenario_base(case.scenario, base_dir, where)
         merged = _deep_merge(raw, case.overrides)
         merged["duration_s"] = spec.duration_s
+        if spec.discard_s is not None:  # the run's own review windows its KPIs alike
+            merged["review"] = {**merged.get("review", {}), "settle_s": spec.discard_s}
         _convert(merged, f"{where}.overrides")
         kinds: list[Literal["waves", "still"]] = ["waves"]
         if twins:
@@ -523,7 +534,9 @@ def _psd(t: np.ndarray, x: np.ndarray, f_max_hz: float = 0.5) -> dict[str, list[
     return {"f_hz": [float(v) for v in f[sel]], "pxx": [float(v) for v in p[sel]]}
 
 
-def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> dict[str, Any]:
+def run_kpis_of(
+    run_data: Any, scenario: Scenario, min_rad_s: float | None, discard_s: float | None = None
+) -> dict[str, Any]:
     """Campaign KPIs (:data:`hil.campaign_kpi.KPIS`) and PSDs of a run's messages.
 
     Parameters
@@ -535,6 +548,8 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
     min_rad_s : float or None
         Ω_min [rad/s] of Ω_opt; None: :data:`hil.campaign_kpi.MIN_ROTOR_SPEED_RAD_S` of the
         turbine (0 if unknown).
+    discard_s : float or None
+        Start transient left out [s]: the KPIs and PSDs see t >= ``discard_s`` (None: all).
     """
     from hil.review import _col  # noqa: PLC0415
 
@@ -551,6 +566,9 @@ def run_kpis_of(run_data: Any, scenario: Scenario, min_rad_s: float | None) -> d
         "platform_surge_m",
     )
     cols = {n: _col(truth, n) for n in names}
+    if discard_s is not None:
+        keep = t >= discard_s
+        t, cols = t[keep], {n: c[keep] for n, c in cols.items()}
     summaries = [s for s in run_data.topic("timing/summary") if int(s.get("final", 0)) == 1]
     misses = int(summaries[-1]["deadline_misses"]) if summaries else None
     tsr, radius, rated = _turbine_figures(scenario.turbine)
@@ -719,7 +737,8 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
     payload : dict
         ``scenario`` (the full scenario dict), ``mode`` (``inprocess`` | ``lockstep``),
         ``run_dir`` (the run's folder; ``run.mcap`` goes there unless ``record`` is
-        ``"none"``), ``record``, ``design_dir`` (or None), ``min_rotor_speed_rad_s``.
+        ``"none"``), ``record``, ``design_dir`` (or None), ``min_rotor_speed_rad_s``,
+        ``discard_s`` (or None).
 
     Returns
     -------
@@ -756,7 +775,14 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
         summary = summarize(run_data)
         if record:
             summary["run"]["source"] = str(run_dir / "run.mcap")
-        out.update(run_kpis_of(run_data, scenario, payload.get("min_rotor_speed_rad_s")))
+        out.update(
+            run_kpis_of(
+                run_data,
+                scenario,
+                payload.get("min_rotor_speed_rad_s"),
+                payload.get("discard_s"),
+            )
+        )
         out["summary"] = summary
         out["status"] = "ok"
     except Exception as exc:
@@ -1233,6 +1259,7 @@ def _submit_all(
             "record": record,
             "design_dir": design_dir,
             "min_rotor_speed_rad_s": campaign.spec.min_rotor_speed_rad_s,
+            "discard_s": campaign.spec.discard_s,
         }
         fut = client.submit(
             execute_run, payload, key=f"fowt-run-{i}-{spec.scenario_hash[:16]}", pure=False

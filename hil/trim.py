@@ -8,8 +8,11 @@ it is found here, in the launcher's layer that sees both, by a settling run of t
 plant and the real controller core in process:
 
 1. the scenario made steady: wind at the mean speed U (:func:`mean_wind_m_s`), still water,
-   no sensor noise, dropouts or faults, the plant starting at its own operating point
-   (``[initial] trim = false``), :data:`SETTLE_S` simulated seconds;
+   no sensor noise, quantization, dropouts or faults (a quantization step that the noise
+   dithers in the run would, noise-free, leave a dead band: the default encoder's
+   2π/(4096 h) = 0.061 rad/s at h = 0.025 s is 12 % of the IEA 15 MW's 5 rpm), the plant
+   starting at its own operating point (``[initial] trim = false``), :data:`SETTLE_S`
+   simulated seconds;
 2. the rotor speed ω and blade pitch θ averaged over the last :data:`AVERAGE_S` (one surge
    period of the IEA 15 MW on VolturnUS-S, so what is left of the platform's slow
    oscillation averages out);
@@ -116,8 +119,13 @@ def settling_scenario(scenario: Scenario, duration_s: float = SETTLE_S) -> Scena
             sensors[key] = 0.0
     names = SENSOR_CHANNELS if scenario.platform is not None else _TURBINE_CHANNELS
     channels = sensors.setdefault("channels", {})
-    for name in names:  # noise and dropouts off; biases, delays, resolution kept
-        channels[name] = {**channels.get(name, {}), "std": 0.0, "dropout_probability": 0.0}
+    for name in names:  # noise, quantization and dropouts off; biases and delays kept
+        channels[name] = {
+            **channels.get(name, {}),
+            "std": 0.0,
+            "resolution": 0.0,
+            "dropout_probability": 0.0,
+        }
     d["initial"] = {"trim": False}
     d.pop("review", None)
     return msgspec.convert(d, Scenario)
