@@ -19,7 +19,8 @@ plant and the real controller core in process:
 3. the plant is handed that rotor point (:class:`plant.initial.InitialCondition`); it
    balances the generator torque against the aerodynamic torque there (N T_g = Q_a) and
    puts the platform at the static equilibrium under that point's mean thrust on its own
-   hydrostatic and mooring stiffness (:mod:`plant.build`).
+   hydrostatic and mooring stiffness (:mod:`plant.build`), both at the mean wind U (not
+   the wind at t = 0 of a turbulent record).
 
 The plant never imports the controller nor the controller the plant: the settling run goes
 through the same in-process loop as a run (:func:`hil.plant_node.run_inprocess`). The
@@ -195,4 +196,5 @@ def initial_condition(scenario: Scenario) -> InitialCondition:
         platform_surge_m=explicit.platform_surge_m,
         platform_heave_m=explicit.platform_heave_m,
         platform_pitch_rad=explicit.platform_pitch_rad,
+        wind_m_s=mean_wind_m_s(scenario.wind),
     )

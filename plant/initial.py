@@ -25,6 +25,9 @@ class InitialCondition:
         Platform surge and heave [m]; None: the static equilibrium under the mean thrust.
     platform_pitch_rad : float, optional
         Platform pitch [rad]; None: the static equilibrium.
+    wind_m_s : float, optional
+        Steady hub-height wind [m/s] the rotor point and the platform equilibrium are solved
+        at (a trim's mean wind); None: the run's wind at t = 0.
     """
 
     rotor_speed_rad_s: float | None = None
@@ -33,6 +36,7 @@ class InitialCondition:
     platform_surge_m: float | None = None
     platform_heave_m: float | None = None
     platform_pitch_rad: float | None = None
+    wind_m_s: float | None = None
 
     def __post_init__(self) -> None:
         for name in (
@@ -42,6 +46,7 @@ class InitialCondition:
             "platform_surge_m",
             "platform_heave_m",
             "platform_pitch_rad",
+            "wind_m_s",
         ):
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int | float) and math.isfinite(v)):
@@ -51,6 +56,8 @@ class InitialCondition:
                 "InitialCondition.rotor_speed_rad_s must be >= 0 rad/s, got "
                 f"{self.rotor_speed_rad_s}"
             )
+        if self.wind_m_s is not None and self.wind_m_s < 0.0:
+            raise ValueError(f"InitialCondition.wind_m_s must be >= 0 m/s, got {self.wind_m_s}")
         if self.generator_torque_nm is not None and self.generator_torque_nm < 0.0:
             raise ValueError(
                 f"InitialCondition.generator_torque_nm must be >= 0 N m, got "

@@ -487,6 +487,7 @@ class PlantSimulator:
     def initial_state(self) -> State:
         """Operating point at t = 0 (``PlantConfig.initial``; fields left None: defaults).
 
+        Solved at the wind ``initial.wind_m_s`` (None: the run's wind at t = 0).
         Default: the rotor at the optimal tip-speed ratio, capped at rated; above rated, the
         pitch at which aerodynamic power equals rated mechanical power at rated speed;
         generator torque balancing the aerodynamic torque. A given rotor speed or pitch
@@ -518,8 +519,13 @@ class PlantSimulator:
                 out = outputs(0.0, (omega, theta, 0.0), (theta, 0.0, u_n), tp)
                 return omega, theta, max(0.0, out.aero_torque_nm / tp.gearbox_ratio)
 
-            u0 = max(0.5, self._wind(0.0))
-            x = list(operating_point(fp, u0, rotor=None if ic.is_default else rotor).state)
+            u0 = max(0.5, self._wind(0.0) if ic.wind_m_s is None else ic.wind_m_s)
+            default = ic.is_default or (
+                ic.rotor_speed_rad_s is None
+                and ic.blade_pitch_rad is None
+                and ic.generator_torque_nm is None
+            )
+            x = list(operating_point(fp, u0, rotor=None if default else rotor).state)
             for i, v in enumerate((ic.platform_surge_m, ic.platform_heave_m)):
                 if v is not None:
                     x[i] = v
@@ -527,7 +533,7 @@ class PlantSimulator:
                 x[2] = ic.platform_pitch_rad
             return tuple(x)
         p = self.params
-        u = wind_speed(0.0, self.config.wind)
+        u = wind_speed(0.0, self.config.wind) if ic.wind_m_s is None else ic.wind_m_s
         tsr_opt = p.table.optimal_tsr()
         omega = p.rated_rotor_speed_rad_s
         if u > 0:
