@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= runs/default
 
-.PHONY: setup run test lint typecheck docs pytest bench clean
+.PHONY: setup run test lint typecheck docs pytest bench golden clean
 
 setup: $(STAMP)
 
@@ -42,6 +42,11 @@ pytest: setup
 	$(BIN)/python -m pytest
 
 test: lint typecheck docs pytest
+
+# Regenerate the golden in-process KPIs (tests/test_golden_inprocess.py) after a deliberate
+# change of what a run computes; `--check` instead only lists what would change.
+golden: setup
+	$(BIN)/python tools/golden_inprocess.py
 
 RTPRIO ?= 20
 

@@ -157,8 +157,8 @@ def _settled(encoded: bytes) -> tuple[float, float]:
 
         result = run_inprocess(
             scenario,
-            publish,  # type: ignore[arg-type]
-            publishing_step(runtime, publish),  # type: ignore[arg-type]
+            publish,
+            publishing_step(runtime, publish),
             runtime=runtime,
             initial=InitialCondition(),
         )
