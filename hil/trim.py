@@ -106,7 +106,10 @@ def _overrides(section: InitialSection) -> InitialCondition:
 def settling_scenario(scenario: Scenario, duration_s: float = SETTLE_S) -> Scenario:
     """Step 1 of the module docstring: the scenario made steady, quiet and untrimmed."""
     d = msgspec.to_builtins(scenario)
-    d["name"] = f"{scenario.name}-trim"
+    # what cannot change the steady state is made the same, so that a campaign's seeds and
+    # cases with one controller and mean wind share one settling run (the cache's key)
+    d["name"] = "trim"
+    d["description"] = ""
     d["duration_s"] = duration_s
     d["wind"] = {"kind": "steady", "speed_m_s": mean_wind_m_s(scenario.wind)}
     if scenario.waves is not None:
@@ -115,6 +118,7 @@ def settling_scenario(scenario: Scenario, duration_s: float = SETTLE_S) -> Scena
             d["waves"]["depth_m"] = scenario.waves.depth_m
     d["faults"] = []
     sensors = d.setdefault("sensors", {})
+    sensors["seed"] = 1  # noise and dropouts are off: the seed draws nothing
     for key in list(sensors):
         if key.endswith("_std_rad_s") or "_std_" in key:
             sensors[key] = 0.0
