@@ -549,7 +549,8 @@ def run_kpis_of(
         Ω_min [rad/s] of Ω_opt; None: :data:`hil.campaign_kpi.MIN_ROTOR_SPEED_RAD_S` of the
         turbine (0 if unknown).
     discard_s : float or None
-        Start transient left out [s]: the KPIs and PSDs see t >= ``discard_s`` (None: all).
+        Start transient left out [s]: the KPIs and PSDs see t >= ``discard_s`` (None: all;
+        a run shorter than 2 ``discard_s``: its second half).
     """
     from hil.review import _col  # noqa: PLC0415
 
@@ -566,8 +567,10 @@ def run_kpis_of(
         "platform_surge_m",
     )
     cols = {n: _col(truth, n) for n in names}
-    if discard_s is not None:
-        keep = t >= discard_s
+    if discard_s is not None and t.size:
+        # a run shortened below 2 discard_s (``--duration``) keeps its second half, as the
+        # review's KPI window does (hil.review.kpi_window)
+        keep = t >= min(discard_s, 0.5 * float(t[-1]))
         t, cols = t[keep], {n: c[keep] for n, c in cols.items()}
     summaries = [s for s in run_data.topic("timing/summary") if int(s.get("final", 0)) == 1]
     misses = int(summaries[-1]["deadline_misses"]) if summaries else None

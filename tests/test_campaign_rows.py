@@ -150,6 +150,10 @@ def test_rows_path_equals_the_json_path(
     k_late = run_kpis_of(new, scenario, None, half)["kpi"]
     assert k_late["mean_power_w"] == pytest.approx(float(power[t >= half].mean()), rel=1e-12)
     assert k_new["kpi"]["mean_power_w"] == pytest.approx(float(power.mean()), rel=1e-12)
+    # a discard longer than half the run (a campaign shortened by --duration): its second half
+    k_short = run_kpis_of(new, scenario, None, 10.0 * duration_s)["kpi"]
+    second = t >= 0.5 * t[-1]
+    assert k_short["mean_power_w"] == pytest.approx(float(power[second].mean()), rel=1e-12)
     # the files: per topic the same messages (sequence, log time, JSON bytes)
     a, b = _records(tmp_path / "old.mcap"), _records(tmp_path / "new.mcap")
     assert a.keys() == b.keys()
