@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= runs/default
 
-.PHONY: setup run test lint typecheck docs pytest bench bench-speed bench-studies clean
+.PHONY: setup run test lint typecheck docs pytest bench bench-speed bench-studies golden clean
 
 setup: $(STAMP)
 
@@ -42,6 +42,11 @@ pytest: setup
 	$(BIN)/python -m pytest
 
 test: lint typecheck docs pytest
+
+# Regenerate the golden in-process KPIs (tests/test_golden_inprocess.py) after a deliberate
+# change of what a run computes; `--check` instead only lists what would change.
+golden: setup
+	$(BIN)/python tools/golden_inprocess.py
 
 RTPRIO ?= 20
 
@@ -94,6 +99,7 @@ bench-studies: setup
 	$(BIN)/python bench/casanovas_table52.py --table31-only
 	$(BIN)/python bench/casanovas_table52.py --seeds 3 --duration 450 --settle 160 --forecast
 	$(BIN)/python bench/casanovas_table52.py --sensitivity --duration 300 --settle 100
+	$(BIN)/python bench/trimmed_start.py
 	$(BIN)/python bench/casanovas_forecast_vaf.py
 
 clean:

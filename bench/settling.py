@@ -1,4 +1,7 @@
-"""Start-up settling time of the floating plant: the basis of ``[review] settle_s``'s default.
+"""Start-up settling time of the floating plant in steady wind and still water.
+
+(``[review] settle_s``'s default is based on ``bench/trimmed_start.py``, which measures
+trimmed and untrimmed starts side by side; this script runs the scenario's own start.)
 
 Runs the IEA 15 MW on VolturnUS-S with its baseline controller in steady wind and still
 water in process (no turbulence, no waves: what is left is the start-up transient) and

@@ -10,11 +10,15 @@ Runs
 ----
 Every (case, waves/still, controller, seed) is one run. Seed index i (0 ... seeds - 1) adds
 ``i * seed_stride`` to the scenario's wind, wave and sensor seeds, so seed 0 is the scenario
-as shipped and two campaigns with the same file run the same realisations. Each run is a
-Dask task (:func:`execute_run`) running the in-process runner of ``fowt run --mode
-inprocess`` (plant and controller in one process, :func:`hil.inprocess_run.run_inprocess`) or,
-with ``mode = "lockstep"``, :func:`hil.launch.launch` (plant, controller and recorder as OS
-processes over Zenoh). A task never raises: a failing run comes back with its error, is
+as shipped and two campaigns with the same file run the same realisations. ``discard_s``
+(optional): the start transient left out of every run's KPIs and PSDs, written into each
+run's ``[review] settle_s`` (the one KPI window of review, report, compare and campaigns,
+:func:`hil.kpi.window_start_s`): al-2019's protocol is 1200 s runs with the first 600 s
+discarded. Unset: each scenario's own ``settle_s``. Each run is a Dask task
+(:func:`execute_run`) running the in-process runner of ``fowt run --mode inprocess`` (plant
+and controller in one process, :func:`hil.inprocess_run.run_inprocess`) or, with ``mode =
+"lockstep"``, :func:`hil.launch.launch` (plant, controller and recorder as OS processes over
+Zenoh). A task never raises: a failing run comes back with its error, is
 recorded (``status = "failed"``) and the campaign goes on. The KPIs of a run depend only on
 its scenario (seeded, simulated time), never on the worker or the order.
 
@@ -139,8 +143,15 @@ class CampaignFile(_Section, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     #: λ* [-] of Ω_opt in var(Ω − Ω_opt), written into every run's ``[review] tsr_opt`` (so
     #: it is part of the scenario hash); None: each scenario's own (default: from the Cp table).
     tsr_opt: Annotated[float, msgspec.Meta(gt=0.0)] | None = None
+    #: start transient [s] left out of every run's KPIs: written into each run's
+    #: ``[review] settle_s`` (the one KPI window of review, report, compare and campaigns).
+    discard_s: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
 
     def __post_init__(self) -> None:
+        if self.discard_s is not None and not self.discard_s < self.duration_s:
+            raise ValueError(
+                f"discard_s = {self.discard_s:g} s: expected < duration_s = {self.duration_s:g} s"
+            )
         if not self.cases:
             raise ValueError("cases: expected at least one [[cases]] table")
         if not self.controllers:
@@ -325,6 +336,8 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
         merged["duration_s"] = spec.duration_s
         if spec.tsr_opt is not None:
             merged["review"] = {**(merged.get("review") or {}), "tsr_opt": spec.tsr_opt}
+        if spec.discard_s is not None:  # the run's own review windows its KPIs alike
+            merged["review"] = {**(merged.get("review") or {}), "settle_s": spec.discard_s}
         _convert(merged, f"{where}.overrides")
         kinds: list[Literal["waves", "still"]] = ["waves"]
         if twins:
@@ -754,7 +767,8 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
     payload : dict
         ``scenario`` (the full scenario dict), ``mode`` (``inprocess`` | ``lockstep``),
         ``run_dir`` (the run's folder; ``run.mcap`` goes there unless ``record`` is
-        ``"none"``), ``record``, ``design_dir`` (or None), ``min_rotor_speed_rad_s``.
+        ``"none"``), ``record``, ``design_dir`` (or None), ``min_rotor_speed_rad_s`` (the
+        campaign's ``discard_s`` is the scenario's ``[review] settle_s`` by then).
 
     Returns
     -------
@@ -791,7 +805,13 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
         summary = summarize(run_data)
         if record:
             summary["run"]["source"] = str(run_dir / "run.mcap")
-        out.update(run_kpis_of(run_data, scenario, payload.get("min_rotor_speed_rad_s")))
+        out.update(
+            run_kpis_of(
+                run_data,
+                scenario,
+                payload.get("min_rotor_speed_rad_s"),
+            )
+        )
         out["summary"] = summary
         out["status"] = "ok"
     except Exception as exc:

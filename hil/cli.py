@@ -471,7 +471,9 @@ def plant(
         insecure=insecure,
     )
     from hil.plant_node import PeerWaitInterruptedError, run_plant_node
+    from hil.trim import initial_condition
 
+    initial = initial_condition(sc)  # the trim's settling run, before any peer waits
     _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
@@ -482,6 +484,7 @@ def plant(
             require=tuple(r for r in require.split(",") if r),
             peer_timeout_s=wait_timeout if wait_timeout > 0 else math.inf,
             can=can,
+            initial=initial,
         )
     except PeerWaitInterruptedError as exc:
         stderr.print(f"plant: {exc}", markup=False)

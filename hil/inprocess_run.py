@@ -27,6 +27,7 @@ from hil.plant_node import (
     plant_report,
 )
 from hil.scenario import Scenario
+from plant.initial import InitialCondition
 
 
 def run_inprocess(
@@ -41,6 +42,7 @@ def run_inprocess(
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
     published: Callable[[], Mapping[str, int]] | None = None,
     stop: threading.Event | None = None,
+    initial: InitialCondition | None = None,
 ) -> PlantRunResult:
     """Run plant and controller in one process, no bus: the fastest mode (campaigns).
 
@@ -68,8 +70,15 @@ def run_inprocess(
     ``stop`` (set by a signal handler) ends the run early, before the next cycle (the
     compiled loop: before its next batch); the final summary is still published and
     ``PlantRunResult.aborted`` says "stopped by signal".
+
+    ``initial``: where the run starts (None: the scenario's ``[initial]``, trimmed by a
+    settling run when ``trim = true``: :func:`hil.trim.initial_condition`).
     """
-    plant = PlantLoop(scenario, publish)
+    if initial is None:
+        from hil.trim import initial_condition  # noqa: PLC0415 - the trim runs this module
+
+        initial = initial_condition(scenario)
+    plant = PlantLoop(scenario, publish, initial=initial)
     if log is not None:
         plant.log = log
     from hil._fast_loop import CompiledLoop, compiled_unsupported  # noqa: PLC0415

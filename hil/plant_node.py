@@ -63,15 +63,13 @@ and end is logged, as are the final counts.
 from __future__ import annotations
 
 import contextlib
-import importlib.resources
 import math
 import signal
 import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
@@ -108,6 +106,7 @@ from hil.bus import (
 )
 from hil.rt import freeze_heap
 from hil.scenario import (
+    InitialSection,
     JonswapWavesSpec,
     PiersonMoskowitzWavesSpec,
     RampWindSpec,
@@ -120,42 +119,40 @@ from hil.scenario import (
     WindSpecSection,
 )
 from hil.timing import LatencyHistogram, Pacer, wait_until
-from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator, TowerBaseLoads
-from plant.turbine import TurbineParams, load_turbine
+from plant.build import (
+    GustRequest,
+    PlantSpec,
+    SensorRequest,
+    TurbulenceRequest,
+    WaveRequest,
+    WindRequest,
+    build_plant,
+    make_waves,
+    make_wind,
+)
+from plant.build import floating_plant as build_floating_plant
+from plant.initial import InitialCondition
+from plant.simulator import FloatingPlant, PlantConfig, PlantSimulator
+from plant.turbine import TurbineParams
 from plant.waves import (
     ExcitationForce,
     IsscSpectrum,
     JonswapSpectrum,
     PiersonMoskowitzSpectrum,
     WaveField,
-    excitation_force,
-    still_water,
-    synthesize,
 )
-from plant.wind import GustWind, RampWind, SteadyWind, StepWind, TurbulentWind, WindSpec
-from sensors import ChannelSpec, NoiseSpec, default_floating_suite
+from plant.wind import RampWind, SteadyWind, StepWind, WindSpec
 from sensors.faults import OPEN_END_NS, BusFaultPlan
 
 if TYPE_CHECKING:
     from hil.can_bus import CanBus, CanBusConfig, HybridBus
-    from plant.hydro.wamit import HydroData
 
 Mode = Literal["realtime", "lockstep", "inprocess"]
 Publish = Callable[[MessageType, msgspec.Struct], None]
 
 
-def wind_from_scenario(
-    spec: WindSpecSection,
-    turbine: TurbineParams | None = None,
-    duration_s: float = 600.0,
-    dt_s: float = 0.05,
-) -> WindSpec:
-    """The plant's wind model for a scenario's ``[wind]`` section.
-
-    A turbulent record is synthesised for the run (``duration_s`` long, sampled every
-    ``dt_s``, rotor-averaged over the ``turbine``'s rotor at its hub height); a gust uses
-    the turbine's rotor diameter and hub height.
-    """
+def wind_request(spec: WindSpecSection) -> WindRequest:
+    """The plant's wind request (:mod:`plant.build`) of a scenario's ``[wind]`` section."""
     if isinstance(spec, SteadyWindSpec):
         return SteadyWind(speed_m_s=spec.speed_m_s)
     if isinstance(spec, StepWindSpec):
@@ -167,190 +164,109 @@ def wind_from_scenario(
             start_s=spec.start_s,
             end_s=spec.end_s,
         )
-    hub = turbine.hub_height_m if turbine is not None else 90.0
-    radius = turbine.rotor_radius_m if turbine is not None else 63.0
     if isinstance(spec, TurbulentWindSpec):
-        return TurbulentWind(
-            mean_m_s=spec.mean_m_s,
-            turbulence_class=spec.turbulence_class,
-            seed=spec.seed,
-            hub_height_m=hub,
-            rotor_radius_m=radius,
-            duration_s=duration_s,
-            dt_s=dt_s,
+        return TurbulenceRequest(
+            mean_m_s=spec.mean_m_s, turbulence_class=spec.turbulence_class, seed=spec.seed
         )
-    return GustWind(
+    return GustRequest(
         hub_speed_m_s=spec.hub_speed_m_s,
         start_s=spec.start_s,
         turbine_class=spec.turbine_class,
         turbulence_class=spec.turbulence_class,
-        rotor_diameter_m=2.0 * radius,
-        hub_height_m=hub,
         period_s=spec.period_s,
     )
 
 
-def waves_from_scenario(spec: WavesSection | None, depth_m: float) -> WaveField:
-    """The wave field of a scenario's ``[waves]`` section (None or ``still``: still water).
+def wind_from_scenario(
+    spec: WindSpecSection,
+    turbine: TurbineParams | None = None,
+    duration_s: float = 600.0,
+    dt_s: float = 0.05,
+) -> WindSpec:
+    """The plant's wind model of a scenario's ``[wind]`` (:func:`plant.build.make_wind`)."""
+    return make_wind(wind_request(spec), turbine, duration_s=duration_s, dt_s=dt_s)
 
-    Depth: ``depth_m`` of the section if given, else the platform preset's water depth.
-    """
+
+def wave_request(spec: WavesSection | None) -> WaveRequest | None:
+    """The plant's wave request (:mod:`plant.build`) of a scenario's ``[waves]`` section."""
     if spec is None:
-        return still_water(depth_m)
-    depth = spec.depth_m if spec.depth_m is not None else depth_m
-    spectrum: JonswapSpectrum | PiersonMoskowitzSpectrum | IsscSpectrum
+        return None
+    spectrum: JonswapSpectrum | PiersonMoskowitzSpectrum | IsscSpectrum | None
     if isinstance(spec, StillWavesSpec):
-        return still_water(depth)
-    if isinstance(spec, JonswapWavesSpec):
+        spectrum = None
+    elif isinstance(spec, JonswapWavesSpec):
         spectrum = JonswapSpectrum(hs_m=spec.hs_m, tp_s=spec.tp_s, gamma=spec.gamma)
     elif isinstance(spec, PiersonMoskowitzWavesSpec):
         spectrum = PiersonMoskowitzSpectrum(hs_m=spec.hs_m, tp_s=spec.tp_s)
     else:
         spectrum = IsscSpectrum(hs_m=spec.hs_m, t1_s=spec.t1_s)
-    return synthesize(
-        spectrum,
-        depth_m=depth,
+    return WaveRequest(
+        spectrum=spectrum,
+        depth_m=spec.depth_m,
         seed=spec.seed,
         omega_min_rad_s=spec.omega_min_rad_s,
         omega_max_rad_s=spec.omega_max_rad_s,
         n_components=spec.n_components,
+        gauge_distance_m=spec.gauge_distance_m,
     )
 
 
-def _excitation_table(hydro: HydroData, locked_dofs: tuple[int, ...]) -> tuple[Any, Any]:
-    """Frequencies [rad/s] and the head-sea surge, heave, pitch excitation per metre of wave.
+def waves_from_scenario(spec: WavesSection | None, depth_m: float) -> WaveField:
+    """The wave field of a scenario's ``[waves]`` section (:func:`plant.build.make_waves`)."""
+    return make_waves(wave_request(spec), depth_m)
 
-    A preset whose hydrodynamic data lack heave or pitch (the ``nrel5mw_tlp`` buoy has surge
-    only) has those modes locked; their column is 0. A missing mode that is not locked is
-    an error.
+
+def initial_overrides(section: InitialSection) -> InitialCondition:
+    """The ``[initial]`` keys that are set, in the plant's units (rad, rad/s); the rest None."""
+
+    def rad(deg: float | None) -> float | None:
+        return None if deg is None else math.radians(deg)
+
+    rpm = section.rotor_speed_rpm
+    return InitialCondition(
+        rotor_speed_rad_s=None if rpm is None else rpm * math.pi / 30.0,
+        blade_pitch_rad=rad(section.pitch_deg),
+        generator_torque_nm=section.generator_torque_nm,
+        platform_surge_m=section.platform_surge_m,
+        platform_heave_m=section.platform_heave_m,
+        platform_pitch_rad=rad(section.platform_pitch_deg),
+    )
+
+
+def plant_spec(scenario: Scenario, initial: InitialCondition | None = None) -> PlantSpec:
+    """The plant's part of a scenario (:class:`plant.build.PlantSpec`).
+
+    ``initial``: where the run starts (None: the plant's own operating point).
     """
-    import numpy as np  # noqa: PLC0415
-
-    wanted = (0, 2, 4)  # surge, heave, pitch in the 6-DOF hydrodynamic numbering
-    present = [d for d in wanted if d in hydro.excitation.dofs]
-    exc = hydro.excitation.select(present, heading_deg=0.0)
-    table = np.zeros((exc.omega_rad_s.size, len(wanted)), dtype=np.complex128)
-    for model_dof, d in enumerate(wanted):  # model DOFs: 0 surge, 1 heave, 2 pitch
-        if d in present:
-            table[:, model_dof] = exc.force[:, 0, present.index(d)]
-        elif model_dof not in locked_dofs:
-            raise ValueError(
-                f"the platform's hydrodynamic data have no excitation for DOF {d} and the "
-                "preset does not lock it (locked_dofs)"
-            )
-    return exc.omega_rad_s, table
-
-
-def pitch_limited(turbine: TurbineParams, symmetric_limit_deg: float | None) -> TurbineParams:
-    """The turbine with its pitch actuator range set to [-θ_s, θ_s] (``[controller]
-    symmetric_pitch_limit_deg``; None: unchanged).
-
-    Raises
-    ------
-    ValueError
-        If -θ_s lies below the lowest pitch of the rotor's C_p/C_T table (the plant would
-        extrapolate the aerodynamics).
-    """
-    if symmetric_limit_deg is None:
-        return turbine
-    th = math.radians(float(symmetric_limit_deg))
-    lowest = float(turbine.table.pitch_rad[0])
-    if -th < lowest - 1e-12:
-        raise ValueError(
-            f"controller.symmetric_pitch_limit_deg = {symmetric_limit_deg}: the rotor table of "
-            f"{turbine.name!r} starts at {math.degrees(lowest):.3g} deg pitch; expected "
-            f"<= {-math.degrees(lowest):.3g}"
-        )
-    return replace(turbine, pitch_min_rad=-th, pitch_max_rad=th)
+    s = scenario.sensors
+    return PlantSpec(
+        turbine=scenario.turbine,
+        wind=wind_request(scenario.wind),
+        plant_step_s=scenario.timing.plant_step_s,
+        steps_per_cycle=scenario.steps_per_cycle,
+        control_period_s=scenario.timing.control_period_s,
+        duration_s=scenario.duration_s,
+        platform=scenario.platform,
+        waves=wave_request(scenario.waves),
+        sensors=SensorRequest(seed=s.seed, std=s.std_overrides(), channels=dict(s.channels)),
+        sensor_faults=scenario.fault_specs(),
+        initial=initial if initial is not None else InitialCondition(),
+    )
 
 
 def floating_plant(scenario: Scenario) -> FloatingPlant:
     """Load the platform preset and build the waves and their excitation (offline, ~1 s)."""
-    from plant.hydro.wamit import HydroData  # noqa: PLC0415
-    from plant.platform import (  # noqa: PLC0415
-        load_floating,
-        read_floating_preset,
-    )
-
     assert scenario.platform is not None
-    params = load_floating(scenario.platform)
-    turbine = pitch_limited(params.turbine, scenario.controller.symmetric_pitch_limit_deg)
-    if turbine is not params.turbine:
-        params = replace(params, turbine=turbine)
-    preset, base, _ = read_floating_preset(scenario.platform)
-    hydro_ref = preset.hydro_file
-    if hydro_ref.startswith("preset:"):
-        res = importlib.resources.files("plant.presets").joinpath(
-            *hydro_ref.removeprefix("preset:").split("/")
-        )
-        with importlib.resources.as_file(res) as path:
-            hydro = HydroData.load_npz(path)
-    else:
-        hydro = HydroData.load_npz((base or Path(".")) / hydro_ref)
-    field = waves_from_scenario(scenario.waves, preset.water_depth_m)
-    force = excitation_force(field, *_excitation_table(hydro, params.locked_dofs))
-    gauge = scenario.waves.gauge_distance_m if scenario.waves is not None else 450.0
-    hub = float(params.hub_lever[2])
-    return FloatingPlant(
-        params=params,
-        loads=TowerBaseLoads.from_preset(preset, hub),
-        waves=field,
-        excitation_transfer=force.transfer,
-        gauge_distance_m=gauge,
+    return build_floating_plant(
+        scenario.platform,
+        wave_request(scenario.waves),
+        scenario.controller.symmetric_pitch_limit_deg,
     )
 
 
 def plant_config(scenario: Scenario) -> PlantConfig:
-    """Build the plant's configuration from a scenario.
-
-    Sensors: a bottom-fixed scenario without ``[sensors.channels]`` keeps the foundation's
-    noise-only sensors; otherwise every channel is a full model
-    (:class:`sensors.ChannelSpec`): :func:`sensors.default_floating_suite` for a floating
-    plant, the five noise-only turbine channels for a bottom-fixed one, then the
-    ``*_std_*`` keys that are set, then the per-channel tables.
-    """
-    s = scenario.sensors
-    std = s.std_overrides()
-    noise = {
-        name: NoiseSpec(std=std.get(name, 0.0))
-        for name in (
-            "generator_speed_measured_rad_s",
-            "blade_pitch_measured_rad",
-            "generator_torque_measured_nm",
-            "electrical_power_measured_w",
-            "wind_speed_measured_m_s",
-        )
-    }
-    turbine = pitch_limited(
-        load_turbine(scenario.turbine), scenario.controller.symmetric_pitch_limit_deg
-    )
-    floating = floating_plant(scenario) if scenario.floating else None
-    channels: dict[str, ChannelSpec] | None = None
-    if floating is not None or s.channels:
-        if floating is not None:
-            channels = dict(default_floating_suite(scenario.timing.control_period_s))
-            for name, value in std.items():
-                channels[name] = replace(channels[name], std=value)
-        else:
-            channels = {name: ChannelSpec(name=name, std=n.std) for name, n in noise.items()}
-        for name, table in s.channels.items():
-            channels[name] = ChannelSpec.from_table(name, table, channels.get(name))
-    return PlantConfig(
-        turbine=turbine,
-        wind=wind_from_scenario(
-            scenario.wind,
-            turbine,
-            duration_s=scenario.duration_s + 1.0,
-            dt_s=scenario.timing.plant_step_s,
-        ),
-        plant_step_s=scenario.timing.plant_step_s,
-        steps_per_cycle=scenario.steps_per_cycle,
-        sensor_noise=noise,
-        sensor_seed=s.seed,
-        floating=floating,
-        sensor_channels=channels,
-        sensor_faults=tuple(f for f in scenario.fault_specs() if not f.is_bus),
-    )
+    """Build the plant's configuration from a scenario (:func:`plant.build.build_plant`)."""
+    return build_plant(plant_spec(scenario))
 
 
 @dataclass
@@ -487,9 +403,22 @@ STARTUP_S = 1.0
 class PlantLoop:
     """Cycle bookkeeping shared by every mode: sampling, applying commands, timing."""
 
-    def __init__(self, scenario: Scenario, publish: Publish, speed: float = 1.0) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        publish: Publish,
+        speed: float = 1.0,
+        initial: InitialCondition | None = None,
+    ) -> None:
+        """``initial``: where the run starts, the trim resolved by the caller
+        (:func:`hil.trim.initial_condition`; None: the plant's own start with the scenario's
+        ``[initial]`` keys that are set, :func:`initial_overrides`).
+        """
         self.scenario = scenario
-        self.sim = PlantSimulator(plant_config(scenario))
+        if initial is None:  # untrimmed: the plant's own start, the [initial] keys set
+            initial = initial_overrides(scenario.initial)
+        self.initial = initial
+        self.sim = PlantSimulator(build_plant(plant_spec(scenario, initial)))
         self.publish = publish
         self.speed = speed
         self.period_ns = round(scenario.timing.control_period_s * 1e9)
@@ -1136,8 +1065,12 @@ def run_plant_node(
     lockstep_timeout_s: float = 10.0,
     log: Callable[[str], None] = print,
     can: CanBusConfig | None = None,
+    initial: InitialCondition | None = None,
 ) -> PlantRunResult:
     """Run the plant as its own process on the bus in ``realtime`` or ``lockstep`` mode.
+
+    ``initial``: where the run starts (the caller resolves the scenario's trim,
+    :func:`hil.trim.initial_condition`; None: :class:`PlantLoop`'s untrimmed start).
 
     Transport: with ``can`` None everything goes over the Zenoh session of ``bus_config``;
     with a :class:`hil.can_bus.CanBusConfig` the sensor frame goes out and the command
@@ -1219,7 +1152,9 @@ def run_plant_node(
     # The plant is built, and its kernels loaded (warm_up: their first call must not fall
     # into a paced cycle), before the liveliness token says it is ready; it becomes the run's
     # loop once the peers are there (a run that never starts publishes no summary).
-    prepared = PlantLoop(scenario, publish, speed=speed if mode == "realtime" else 1.0)
+    prepared = PlantLoop(
+        scenario, publish, speed=speed if mode == "realtime" else 1.0, initial=initial
+    )
     if mode == "realtime":
         prepared.sim.warm_up(prepared.x, prepared.applied)
         prepared.startup_cycles = max(1, round(STARTUP_S * 1e9 / prepared.period_ns))

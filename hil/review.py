@@ -341,7 +341,7 @@ def _since(msgs: list[dict[str, Any]], t0_s: float) -> list[dict[str, Any]]:
 def kpi_window(run: RunData) -> dict[str, Any]:
     """The part of the run the KPIs are computed over (the start-up transient left out).
 
-    The scenario's ``[review] settle_s`` (:data:`DEFAULT_SETTLE_S` = 60 s when absent, e.g. in
+    The scenario's ``[review] settle_s`` (:data:`DEFAULT_SETTLE_S` = 40 s when absent, e.g. in
     a log written before the key existed) is the requested settling time T_s. The KPIs use the
     truth samples with t >= t_0, t_0 = min(T_s, t_end / 2): a run shorter than 2 T_s keeps
     its second half (``shortened`` True), so short test and CI runs still review.

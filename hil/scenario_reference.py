@@ -38,6 +38,7 @@ _SECTIONS: tuple[tuple[str, str], ...] = (
     ("FaultSection", "[[faults]] (one table per fault)"),
     ("CanSection", "[can]"),
     ("ReviewSection", "[review]"),
+    ("InitialSection", "[initial]"),
 )
 
 

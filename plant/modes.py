@@ -100,8 +100,9 @@ the difference to 1.99 s.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -182,6 +183,11 @@ class OperatingPoint:
     thrust_n: float
 
 
+def rotor_point(p: FloatingParams, wind_m_s: float) -> tuple[float, float, float]:
+    """Step 1 of the module docstring: (ω rad/s, θ rad, T_g N m) at rotor-normal wind U_n."""
+    return _rotor_point(p, wind_m_s)
+
+
 def _rotor_point(p: FloatingParams, wind_m_s: float) -> tuple[float, float, float]:
     tp = p.turbine
     omega = min(tp.rated_rotor_speed_rad_s, tp.table.optimal_tsr() * wind_m_s / tp.rotor_radius_m)
@@ -200,7 +206,11 @@ def _rotor_point(p: FloatingParams, wind_m_s: float) -> tuple[float, float, floa
     return omega, theta, torque
 
 
-def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingPoint:
+def operating_point(
+    params: FloatingParams,
+    wind_m_s: float = 5.0,
+    rotor: Callable[[float], tuple[float, float, float]] | None = None,
+) -> OperatingPoint:
     """Steady rotor state and static platform equilibrium at a steady wind (module docstring).
 
     Parameters
@@ -210,6 +220,10 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
         Hub-height wind speed U (m/s), >= 0. U = 0: parked in still air (rotor at rest, no
         thrust and no aerodynamic damping; the platform modes are those of the hydrodynamics,
         mooring and structure alone).
+    rotor : callable, optional
+        U_n -> (ω rad/s, θ rad, T_g N m): the rotor point to hold at rotor-normal wind U_n
+        (e.g. a controller's steady state); None: step 1 of the module docstring. The
+        platform equilibrium is then that under this point's thrust.
 
     Returns
     -------
@@ -226,7 +240,7 @@ def operating_point(params: FloatingParams, wind_m_s: float = 5.0) -> OperatingP
     u_n = wind_m_s
     q_eq = np.zeros(4)
     for _ in range(50):
-        omega, theta, torque = _rotor_point(params, u_n)
+        omega, theta, torque = (rotor or partial(_rotor_point, params))(u_n)
         u = (theta, torque, wind_m_s, 0.0, 0.0, 0.0)
 
         def state(

@@ -69,6 +69,7 @@ from bus_schemas.messages import (
     VALID_WIND,
 )
 from plant import _kernels as _k
+from plant.initial import InitialCondition
 from plant.platform import FloatingParams, FloatingPreset, step_blocks, tower_modal
 from plant.turbine import TurbineParams, outputs
 from plant.waves import WaveField
@@ -275,6 +276,9 @@ class PlantConfig:
     sensor_faults : tuple of FaultSpec
         Faults of the run (:mod:`sensors.faults`); the sensor kinds are applied to the
         frames here, the bus kinds are ignored (the plant node applies them).
+    initial : InitialCondition
+        Where the run starts (:meth:`PlantSimulator.initial_state`; all None: the plant's
+        own operating point).
     """
 
     turbine: TurbineParams
@@ -286,6 +290,7 @@ class PlantConfig:
     floating: FloatingPlant | None = None
     sensor_channels: Mapping[str, ChannelSpec] | None = field(default=None)
     sensor_faults: tuple[FaultSpec, ...] = ()
+    initial: InitialCondition = field(default_factory=InitialCondition)
 
     def __post_init__(self) -> None:
         if not (self.plant_step_s > 0 and math.isfinite(self.plant_step_s)):
@@ -481,25 +486,61 @@ class PlantSimulator:
 
     # ------------------------------------------------------------------ initial state
     def initial_state(self) -> State:
-        """Operating point at t = 0: the steady state the baseline would settle to.
+        """Operating point at t = 0 (``PlantConfig.initial``; fields left None: defaults).
 
-        Rotor speed at the optimal tip-speed ratio, capped at rated; above rated, the pitch
-        at which aerodynamic power equals rated mechanical power at rated speed; generator
-        torque balancing the aerodynamic torque, so the run starts without a transient.
-        Floating: the same rotor point and the static platform equilibrium under its mean
-        thrust (:func:`plant.modes.operating_point`), at rest, radiation states zero.
+        Solved at the wind ``initial.wind_m_s`` (None: the run's wind at t = 0).
+        Default: the rotor at the optimal tip-speed ratio, capped at rated; above rated, the
+        pitch at which aerodynamic power equals rated mechanical power at rated speed;
+        generator torque balancing the aerodynamic torque. A given rotor speed or pitch
+        replaces the default's; a torque not given balances the aerodynamic torque at the
+        resulting point (N T_g = Q_a). Floating: that rotor point and the static platform
+        equilibrium under its mean thrust on the platform's own hydrostatic and mooring
+        stiffness (:func:`plant.modes.operating_point`), surge, heave and pitch replaced where
+        given, at rest, radiation states zero.
         """
+        ic = self.config.initial
         if self.floating is not None:
-            from plant.modes import operating_point  # noqa: PLC0415  scipy, once at start
+            from plant.modes import operating_point, rotor_point  # noqa: PLC0415  scipy, once
 
-            u0 = max(0.5, self._wind(0.0))
-            return tuple(operating_point(self.floating.params, u0).state)
+            fp = self.floating.params
+            tp = fp.turbine
+
+            def rotor(u_n: float) -> tuple[float, float, float]:
+                omega, theta, torque = rotor_point(fp, u_n)
+                if ic.rotor_speed_rad_s is None and ic.blade_pitch_rad is None:
+                    return (
+                        omega,
+                        theta,
+                        (torque if ic.generator_torque_nm is None else ic.generator_torque_nm),
+                    )
+                omega = omega if ic.rotor_speed_rad_s is None else ic.rotor_speed_rad_s
+                theta = theta if ic.blade_pitch_rad is None else ic.blade_pitch_rad
+                if ic.generator_torque_nm is not None:
+                    return omega, theta, ic.generator_torque_nm
+                out = outputs(0.0, (omega, theta, 0.0), (theta, 0.0, u_n), tp)
+                return omega, theta, max(0.0, out.aero_torque_nm / tp.gearbox_ratio)
+
+            u0 = max(0.5, self._wind(0.0) if ic.wind_m_s is None else ic.wind_m_s)
+            default = ic.is_default or (
+                ic.rotor_speed_rad_s is None
+                and ic.blade_pitch_rad is None
+                and ic.generator_torque_nm is None
+            )
+            x = list(operating_point(fp, u0, rotor=None if default else rotor).state)
+            for i, v in enumerate((ic.platform_surge_m, ic.platform_heave_m)):
+                if v is not None:
+                    x[i] = v
+            if ic.platform_pitch_rad is not None:
+                x[2] = ic.platform_pitch_rad
+            return tuple(x)
         p = self.params
-        u = wind_speed(0.0, self.config.wind)
+        u = wind_speed(0.0, self.config.wind) if ic.wind_m_s is None else ic.wind_m_s
         tsr_opt = p.table.optimal_tsr()
         omega = p.rated_rotor_speed_rad_s
         if u > 0:
             omega = min(omega, tsr_opt * u / p.rotor_radius_m)
+        if ic.rotor_speed_rad_s is not None:
+            omega = ic.rotor_speed_rad_s
         pitch = p.pitch_min_rad
         rated_mech_w = p.rated_power_w / p.generator_efficiency
 
@@ -507,7 +548,9 @@ class PlantSimulator:
             out = outputs(0.0, (omega, theta, 0.0), (theta, 0.0, u), p)
             return out.aero_torque_nm * omega
 
-        if aero_power(pitch) > rated_mech_w:
+        if ic.blade_pitch_rad is not None:
+            pitch = ic.blade_pitch_rad
+        elif aero_power(pitch) > rated_mech_w:
             lo, hi = p.pitch_min_rad, min(p.pitch_max_rad, math.radians(45.0))
             for _ in range(60):
                 mid = 0.5 * (lo + hi)
@@ -516,6 +559,8 @@ class PlantSimulator:
                 else:
                     hi = mid
             pitch = 0.5 * (lo + hi)
+        if ic.generator_torque_nm is not None:
+            return (omega, pitch, ic.generator_torque_nm)
         out = outputs(0.0, (omega, pitch, 0.0), (pitch, 0.0, u), p)
         torque = max(0.0, min(p.torque_max_nm, out.aero_torque_nm / p.gearbox_ratio))
         return (omega, pitch, torque)

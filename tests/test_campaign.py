@@ -169,16 +169,25 @@ def test_controller_variant_validation() -> None:
         parse_campaign(body + dup, "c.toml")
 
 
+def test_discard_must_leave_part_of_the_run() -> None:
+    body = 'name = "x"\nduration_s = 100.0\ndiscard_s = 100.0\n'
+    body += '[[cases]]\nname = "a"\nscenario = "iea15mw-lc1"\nprobability = 0.5\n'
+    with pytest.raises(CampaignError, match="discard_s = 100 s: expected < duration_s"):
+        parse_campaign(body + _CONTROLLERS, "c.toml")
+
+
 def test_shipped_campaign_and_expansion() -> None:
     c = load_campaign("al2019-iea15mw")
     spec = c.spec
     assert [x.name for x in spec.cases] == [f"lc{i}" for i in range(1, 8)]
     assert [x.probability for x in spec.cases] == [0.14, 0.24, 0.26, 0.20, 0.11, 0.038, 0.0074]
-    assert spec.duration_s == 600.0 and spec.seeds == 6
+    # al-2019's protocol: 1200 s runs, the first 600 s discarded as transient
+    assert spec.duration_s == 1200.0 and spec.discard_s == 600.0 and spec.seeds == 6
     assert [x.name for x in spec.controllers] == ["baseline", "lqri", "lqri_ff_bp", "lqri_ff_mp"]
     assert len(c.runs) == 7 * 6 * (4 + 1)  # four variants in waves + the baseline's twin
     by = {(r.case, r.waves, r.controller, r.seed): r for r in c.runs}
     r0, r1 = by[("lc2", "waves", "baseline", 0)], by[("lc2", "waves", "baseline", 1)]
+    assert r0.scenario["duration_s"] == 1200.0 and r0.scenario["review"]["settle_s"] == 600.0
     assert r0.scenario["wind"]["seed"] == 2 and r1.scenario["wind"]["seed"] == 1002
     assert r1.scenario["waves"]["seed"] == 1102 and r1.scenario["sensors"]["seed"] == 1002
     still = by[("lc2", "still", "baseline", 1)]

@@ -144,6 +144,22 @@ def test_rows_path_equals_the_json_path(
     k_old = run_kpis_of(old, scenario, None)
     k_new = run_kpis_of(new, scenario, None)
     assert _same_json(k_old, k_new)
+    # the KPI window (a campaign's discard_s is each run's [review] settle_s): t >= settle_s
+    t = new.topic("truth").column("sample_time_ns") / 1e9
+    power = new.topic("truth").column("electrical_power_w")
+    quarter = 0.25 * duration_s
+    late = msgspec.structs.replace(
+        scenario, review=msgspec.structs.replace(scenario.review, settle_s=quarter)
+    )
+    k_late = run_kpis_of(new, late, None)["kpi"]
+    assert k_late["mean_power_w"] == pytest.approx(float(power[t >= quarter].mean()), rel=1e-12)
+    # a settle time longer than half the run (a campaign shortened by --duration): its second half
+    short = msgspec.structs.replace(
+        scenario, review=msgspec.structs.replace(scenario.review, settle_s=10.0 * duration_s)
+    )
+    k_short = run_kpis_of(new, short, None)["kpi"]
+    second = t >= 0.5 * t[-1]
+    assert k_short["mean_power_w"] == pytest.approx(float(power[second].mean()), rel=1e-12)
     # the files: per topic the same messages (sequence, log time, CDR bytes)
     a, b = _records(tmp_path / "old.mcap"), _records(tmp_path / "new.mcap")
     assert a.keys() == b.keys()

@@ -79,7 +79,7 @@ def test_bad_option_values_are_refused_by_the_core_and_the_plant() -> None:
     with pytest.raises(ValueError, match="symmetric_pitch_limit_deg"):
         make_casanovas("lqr_steady", PRESET, control_period_s=0.1, symmetric_pitch_limit_deg=-3)
     # the plant's rotor table starts at -5 deg: a wider range would extrapolate C_p
-    from hil.plant_node import pitch_limited
+    from plant.build import pitch_limited
     from plant.turbine import load_turbine
 
     with pytest.raises(ValueError, match="starts at -5 deg"):

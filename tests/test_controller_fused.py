@@ -93,6 +93,11 @@ resolution = 0.001
 kind = "lqri_ff"
 preset = "iea15mw_advanced"
 feedforward = "balanced"
+
+# The recorded sequences are chosen for the transitions they cover (regime switches, KF
+# designs); they were found with the plant's own start, so they keep it.
+[initial]
+trim = false
 """
 
 RUNS = {

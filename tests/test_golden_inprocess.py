@@ -2,9 +2,11 @@
 
 The in-process loop is fast (compiled plant, sensors and controller cores,
 batched logging); none of it may change what a run computes. The reference KPIs in
-``tests/data/golden_inprocess_lc2.json`` were recorded on main before that work (the file
-says which commit); every KPI, estimator and forecast figure of the review must agree to
-1e-6 relative (absolute 1e-9 for figures that are zero).
+``tests/data/golden_inprocess_lc2.json`` say which commit recorded them; every KPI,
+estimator and forecast figure of the review must agree to 1e-6 relative (absolute 1e-9 for
+figures that are zero). A change meant to change what a run computes regenerates them with
+one command, ``python tools/golden_inprocess.py`` (``make golden``; ``--check`` lists what
+would change).
 """
 
 from __future__ import annotations

@@ -208,7 +208,7 @@ def test_default_settle_is_shortened_to_half_a_short_run(tmp_path: Path) -> None
     _write(path, floating=False, settle_s=None)
     s = review(path, tmp_path, plots=False)
     w = s["kpi_window"]
-    assert w["settle_s"] == DEFAULT_SETTLE_S == 60.0
+    assert w["settle_s"] == DEFAULT_SETTLE_S == 40.0
     assert w["shortened"] is True and w["from_s"] == pytest.approx(w["to_s"] / 2)
     assert s["kpi"]["rotor_speed_mean_rad_s"] == pytest.approx(2.0)
 

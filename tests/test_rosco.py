@@ -168,14 +168,23 @@ def _run_request(tmp: Path, text: str, mode: str) -> RunRequest:
 @needs_gcc
 @pytest.mark.parametrize("mode", ["inprocess", "lockstep"])
 def test_library_failure_ends_the_run_with_its_message(tmp_path: Path, mode: str) -> None:
-    """aviFAIL < 0 at t = 1 s: a RunFailedError with the library's message; the MCAP reviews."""
+    """aviFAIL < 0 at t = 1 s: a RunFailedError with the library's message; the MCAP reviews.
+
+    The run is untrimmed (its start needs no settling run of the library): the failure comes
+    in the run. Trimmed, the settling run meets it first and the run fails with the same
+    message before its first cycle."""
     lib = _build(tmp_path, fail_at=1.0)
-    text = _scenario(f'kind = "rosco"\npreset = "nrel5mw"\nlibrary = "{lib}"\n', duration=3.0)
+    kind = f'kind = "rosco"\npreset = "nrel5mw"\nlibrary = "{lib}"\n'
+    text = _scenario(kind + "[initial]\ntrim = false\n", duration=3.0)
     with pytest.raises(RunFailedError, match="test DISCON: deliberate failure"):
         launch(_run_request(tmp_path, text, mode))
     summary = review(tmp_path / "run" / "run.mcap", plots=False)
     cycles = summary["timing"]["cycles"]
     assert 30 <= cycles <= 41 if mode == "inprocess" else cycles <= 41  # stopped near 1 s
+    if mode == "inprocess":
+        (tmp_path / "trimmed").mkdir()
+        with pytest.raises(RunFailedError, match="test DISCON: deliberate failure"):
+            launch(_run_request(tmp_path / "trimmed", _scenario(kind, duration=3.0), mode))
 
 
 @pytest.mark.parametrize(
