@@ -97,7 +97,7 @@ def main() -> None:
         "duration_s": duration,
         "runs": runs,
     }
-    GOLDEN.write_text(json.dumps(out, indent=2) + "\n")
+    GOLDEN.write_text(json.dumps(out, indent=1) + "\n")
     print(f"wrote {GOLDEN.relative_to(ROOT)}")
 
 
