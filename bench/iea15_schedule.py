@@ -33,7 +33,32 @@ from _common import save
 
 from bus_schemas.messages import EST_WIND_SPEED, ControllerStatus, PlantState
 
-WINDS = (4, 5, 6, 7, 8, 9, 10, 10.5, 11, 11.5, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25)
+WINDS = (
+    4,
+    5,
+    6,
+    7,
+    8,
+    9,
+    10,
+    10.5,
+    11,
+    11.5,
+    12,
+    13,
+    14,
+    15,
+    16,
+    17,
+    18,
+    19,
+    20,
+    21,
+    22,
+    23,
+    24,
+    25,
+)
 PRESETS = {"baseline": "iea15mw_baseline", "rosco": "iea15mw_volturnus"}
 
 SCENARIO = """

@@ -1142,8 +1142,8 @@ def baseline_step(
             else:
                 j = int(np.searchsorted(gs[o : o + n_ps], v_f, side="right"))
                 w0 = gs[o + j - 1]
-                q = o + n_ps + j
-                th_s = gs[q - 1] + (v_f - w0) / (gs[o + j] - w0) * (gs[q] - gs[q - 1])
+                jq = o + n_ps + j
+                th_s = gs[jq - 1] + (v_f - w0) / (gs[o + j] - w0) * (gs[jq] - gs[jq - 1])
             th_lo = th_s if th_s > th_min else th_min
         th_lo_prev = th_lo if first_call else st[9]
         p_el = eta * tq_prev * w_f
@@ -1158,8 +1158,7 @@ def baseline_step(
         w_vs = _pmin(_pmax(tsr_gain * v_f, w_ci), w_tq_ref)
         if ss > 0.0:
             w_vs = w_vs - ss
-        if w_vs < w_ci:
-            w_vs = w_ci
+        w_vs = _pmax(w_vs, w_ci)
         e_t = w_f - w_vs
         if first_call:
             i_t = tq_prev / ki_t
@@ -1260,10 +1259,7 @@ def baseline_step(
         th = th_max
     if tsr:  # platform-pitch-rate feedback, outside the PI
         k_fl, w_fl, zeta_fl, w_hp = bl[43], bl[44], bl[45], bl[46]
-        if prate_valid:
-            q = prate
-        else:
-            q = 0.0 if first_call else st[22]
+        q = prate if prate_valid else (0.0 if first_call else st[22])  # held on dropout
         a_h = math.exp(-dt_s * w_hp)
         hp_lp = q if first_call else (1.0 - a_h) * q + a_h * st[19]
         u_f = q - hp_lp

@@ -44,6 +44,27 @@ not copied from any source code):
    back-calculation anti-windup (the integrator is reset so the PI output equals the
    saturated torque). Region 3 is then entered on the pitch criterion only.
 
+   Option ``torque_law = "tsr_tracking"`` (the IEA 15 MW preset: the operating schedule of
+   ROSCO's ``VS_ControlMode = 2``, ``PS_Mode = 1``, ``SS_Mode = 1``, ``Fl_Mode = 2``)
+   replaces the laws above by:
+
+   * a wind-speed estimate :math:`\\hat v` from the EKF of
+     :class:`controller.estimators.WindSpeedEKF` (rotor speed :math:`\\omega/N`, measured pitch
+     and torque; started from the anemometer, at least 3 m/s, as ROSCO), filtered to
+     :math:`\\hat v_f` (first order, :math:`e^{-\\Delta t\\,\\omega_{we}}`);
+   * the minimum pitch :math:`\\theta_{lo} = \\max(\\theta_{PS}(\\hat v_f), \\theta_{min})`, a
+     linear interpolation of the table (``PS_WindSpeeds``, ``PS_BldPitchMin``), ends held;
+   * the setpoint smoother: :math:`\\Delta\\omega = \\big[(\\theta_{k-1} -
+     \\theta_{lo,k-1})/0.524\\,g_{VS} - (P_{rt,e} - \\eta T_{k-1}\\omega_f)/P_{rt,e}\\,g_{PC}
+     \\big]\\,\\omega_{ref}`, filtered (first order) to :math:`\\Delta\\omega_f`;
+   * the torque PI on :math:`e_T = \\omega_f - \\omega_{vs}` with the TSR reference
+     :math:`\\omega_{vs} = \\max(\\mathrm{clip}(\\lambda^* N \\hat v_f / R,\\ \\omega_{ci},
+     \\omega_{rt}) - \\max(\\Delta\\omega_f, 0),\\ \\omega_{ci})`, its integral clamped so that
+     :math:`0 \\le K_{I,T} \\int e_T \\le T_{rt}` and its output clipped to :math:`[0, T_{rt}]`
+     (constant torque above rated follows from the saturation); the regime reported is 3
+     when :math:`\\theta_{k-1} \\ge \\theta_{lo} + (\\theta_3 - \\theta_{min})`, 2.5 at rated
+     torque, 1.5 at the minimum-speed reference, else 2.
+
 3. **Blade pitch** (collective): gain schedule from the previous command,
    :math:`G_K = 1/(1+\\theta_{k-1}/\\theta_K)` (or a table of :math:`K_P(\\theta)`,
    :math:`K_I(\\theta)` with linear interpolation, end values held); speed error
@@ -51,6 +72,11 @@ not copied from any source code):
    clamped to :math:`[\\theta_{min}/(G_K K_I),\\ \\theta_{max}/(G_K K_I)]` (anti-windup);
    :math:`\\theta = G_K (K_P e + K_I I)` clamped to :math:`[\\theta_{min}, \\theta_{max}]`,
    then rate limited: :math:`|\\theta_k - \\theta_{k-1}| \\le \\dot\\theta_{max}\\Delta t`.
+   ``"tsr_tracking"``: the lower limit is :math:`\\theta_{lo}` instead of
+   :math:`\\theta_{min}`, the speed reference :math:`\\omega_{ref} + \\max(-\\Delta\\omega_f,
+   0)`, and the platform pitch rate :math:`q` (gyro; held on dropout) high-passed (first
+   order, :math:`\\omega_{hp}`) and low-passed (second order, Tustin) to :math:`q_f` adds
+   :math:`K_{fl} q_f` to the clamped PI output, clamped again, before the rate limit.
    On the first call :math:`\\theta_{k-1}` is the measured pitch (clamped to the limits) and
    :math:`I = \\theta_{k-1}/(G_K K_I)`, so that the PI output equals the measured pitch when
    the speed error is zero.
@@ -71,19 +97,19 @@ Deviations from the original DISCON, each deliberate:
   of dividing by zero; for :math:`0 < \\omega_f \\le P_{rt}/T_{max}` it gives :math:`T_{max}`
   (same as DISCON's saturation).
 
-The hot path uses plain Python floats (no numpy) and allocates two small frozen structs per
-call.
+The hot path uses plain Python floats (no numpy; the ``"tsr_tracking"`` EKF step is a
+compiled kernel) and allocates two small frozen structs per call.
 """
 
 from __future__ import annotations
 
 import math
 from bisect import bisect_right
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
-from collections.abc import Callable
 
 import msgspec
 import numpy as np
@@ -873,7 +899,7 @@ class BaselineController:
             p_rt_e,
             th_switch,
             gear,
-            p22_0,
+            _p22_0,
             _n_ps,
             k_fl,
             w_fl,
@@ -967,7 +993,9 @@ class BaselineController:
             # pitch and from the power deficit (electrical power eta * T * w_f)
             th_lo_prev = th_lo if state.first_call else state.min_pitch_rad
             p_el = eta * tq_prev * w_f
-            d_om = ((th_prev - th_lo_prev) / 0.524 * ss_vs - (p_rt_e - p_el) / p_rt_e * ss_pc) * w_ref
+            d_om = (
+                (th_prev - th_lo_prev) / 0.524 * ss_vs - (p_rt_e - p_el) / p_rt_e * ss_pc
+            ) * w_ref
             if state.first_call:
                 ss = d_om
             else:
@@ -978,8 +1006,7 @@ class BaselineController:
             w_vs = min(max(tsr_gain * v_f, w_ci), w_tq_ref)
             if ss > 0.0:
                 w_vs = w_vs - ss
-            if w_vs < w_ci:
-                w_vs = w_ci
+            w_vs = max(w_vs, w_ci)
             e_t = w_f - w_vs
             if state.first_call:
                 i_t = tq_prev / ki_t
@@ -1356,6 +1383,7 @@ def load_baseline(name_or_path: str | Path) -> BaselineParams:
 
         def read(name: str) -> bytes:
             return (resources.files(_PRESET_PACKAGE) / name).read_bytes()
+
     try:
         data = msgspec.toml.decode(text, type=_PresetFile)
     except msgspec.DecodeError as exc:

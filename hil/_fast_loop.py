@@ -478,7 +478,23 @@ class CompiledLoop:
         else:
             b = self.bst.tolist()
             rt.state = BaselineState(
-                False, *b[:10], tuple(b[10:13]), tuple(b[13:19]), *b[19:23]
+                False,
+                b[0],
+                b[1],
+                b[2],
+                b[3],
+                b[4],
+                b[5],
+                b[6],
+                b[7],
+                b[8],
+                b[9],
+                (b[10], b[11], b[12]),
+                (b[13], b[14], b[15], b[16], b[17], b[18]),
+                b[19],
+                b[20],
+                b[21],
+                b[22],
             )
         n_summary = int(ist[lk.I_N_SUMMARY])
         if n_summary:  # what publish_summary leaves besides the message
