@@ -770,6 +770,12 @@ class BaselineController:
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "ekf", ekf)
         object.__setattr__(self, "_k", k)
+        if ekf is not None:  # load the EKF's kernel now, not in the first (paced) cycle
+            ekf.step(
+                ekf.initial_state(0.5, 0.0, 0.0, 8.0),
+                WindEKFMeasurement(0.5, 0.0, 0.0, True),
+                0.025,
+            )
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
