@@ -240,6 +240,33 @@ class BaselineParams:
         Alternative gain schedule: table of pitch angles [rad] (strictly increasing) and the
         gains there (same units as above; positive :math:`K_I`); linear interpolation, end
         values held. Exactly one of the two schedules must be given.
+    torque_law : {"k_omega2", "tsr_tracking"}
+        The NREL-style laws above, or ROSCO's TSR tracking with the wind EKF, minimum-pitch
+        schedule, setpoint smoother and platform-pitch-rate feedback (module docstring).
+    optimal_tsr : float or None
+        :math:`\\lambda^*` (``VS_TSRopt``) [-] (``"tsr_tracking"``).
+    rotor_radius_m, drivetrain_inertia_kg_m2, air_density_kg_m3 : float
+        The wind EKF's R [m], J about the low-speed shaft [kg m^2], :math:`\\rho` [kg/m^3]
+        (``WE_BladeRadius``, ``WE_Jtot``, ``WE_RhoAir``).
+    cp_table : CpTable or None
+        The EKF's Cp table (preset key ``cp_table_file``, ROSCO text layout).
+    wind_estimator_speed_noise_std_rad_s : float
+        The EKF's rotor-speed measurement noise [rad/s].
+    wind_estimate_lpf_corner_rad_s : float
+        :math:`\\omega_{we}` of the wind-estimate filter [rad/s] (``F_WECornerFreq``).
+    min_pitch_wind_m_s, min_pitch_schedule_rad : tuple of float
+        Minimum-pitch table [m/s] -> [rad] (``PS_WindSpeeds``, ``PS_BldPitchMin``); empty:
+        ``min_pitch_rad``.
+    setpoint_smoother_vs_gain, setpoint_smoother_pc_gain : float
+        :math:`g_{VS}`, :math:`g_{PC}` [-] (``SS_VSGain``, ``SS_PCGain``); both 0: off.
+    setpoint_smoother_lpf_corner_rad_s : float
+        Corner of the shift's filter [rad/s] (``F_SSCornerFreq``).
+    platform_pitch_rate_gain_s : float
+        :math:`K_{fl}` [s] (-``Fl_Kp``); 0: off.
+    platform_pitch_rate_lpf_corner_rad_s, platform_pitch_rate_lpf_damping : float
+        Second-order low pass of the rate [rad/s], [-] (``F_FlCornerFreq``).
+    platform_pitch_rate_hpf_corner_rad_s : float
+        First-order high pass of the rate [rad/s] (``F_FlHighPassFreq``).
     """
 
     generator_speed_lpf_corner_rad_s: float
