@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= runs/default
 
-.PHONY: setup run test lint typecheck docs pytest bench bench-speed bench-studies golden clean
+.PHONY: setup run test lint typecheck docs pytest bench bench-speed bench-studies al2019-docs golden clean
 
 setup: $(STAMP)
 
@@ -102,6 +102,25 @@ bench-studies: setup
 	$(BIN)/python bench/trimmed_start.py
 	$(BIN)/python bench/tsr_opt_sensitivity.py
 	$(BIN)/python bench/casanovas_forecast_vaf.py
+
+# The al-2019 study's figures (docs/studies/al-2019.md): the below-rated table
+# (bench/results/below_rated_kpis.json) and the load-case campaign's aggregates and per-run
+# tables (docs/al2019-reduced/): against the baseline (210 runs), and the wave FF against
+# lqri (168 runs). The page's tables quote these files.
+al2019-docs: setup
+	$(BIN)/python bench/below_rated_kpis.py
+	$(BIN)/fowt campaign al2019-iea15mw --record none --no-html --out runs/al2019
+	cp runs/al2019/aggregates.json docs/al2019-reduced/aggregates-vs-baseline.json
+	cp runs/al2019/results.csv docs/al2019-reduced/results-baseline-view.csv
+	$(BIN)/fowt campaign al2019-iea15mw --baseline lqri --controllers lqri_ff_bp,lqri_ff_mp \
+		--record none --no-html --out runs/al2019-vs-lqri
+	cp runs/al2019-vs-lqri/aggregates.json docs/al2019-reduced/aggregates-vs-lqri.json
+	cp runs/al2019-vs-lqri/results.csv docs/al2019-reduced/results-lqri-view.csv
+
+# The golden in-process KPIs (tests/data/golden_inprocess_lc2.json), when a change is meant
+# to change what a run computes: prints which KPIs moved and by how much.
+golden: setup
+	$(BIN)/python tools/golden_inprocess.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -969,7 +969,25 @@ BL_CONSTANTS = (
     "theta_k",
     "inv_ki_ref",
     "w_pmax",
+    "tsr",  # 1: TSR-tracking torque law, wind EKF, minimum-pitch schedule, setpoint smoother
+    "tsr_gain",  # lambda* N / R [rad/m]
+    "w_we",  # wind-estimate filter corner [rad/s]
+    "ss_vs",  # setpoint-smoother gains [-] and corner [rad/s]
+    "ss_pc",
+    "w_ss",
+    "eta",  # generator efficiency [-]
+    "p_rt_e",  # rated electrical power [W]
+    "th_switch",  # region-3 pitch margin above the minimum pitch [rad]
+    "gear",  # gearbox ratio [-]
+    "p22_0",  # initial mean-wind standard deviation of the EKF [m/s]
+    "n_ps",  # length of the minimum-pitch schedule (after the gain table in ``gs``)
+    "k_fl",  # platform-pitch-rate feedback gain [s]
+    "w_fl",  # its second-order low pass: corner [rad/s], damping [-]
+    "zeta_fl",
+    "w_hp",  # its high pass corner [rad/s]
 )
+#: Length of the baseline's float state array (``baseline_step``'s ``st``).
+BL_STATE_SIZE = 23
 
 
 @_jit
@@ -1018,13 +1036,27 @@ def baseline_step(
     torque_meas: float,
     dt_s: float,
     st_out: np.ndarray,
-) -> tuple[float, float, int, float, float, float]:
+    wind_meas: float,
+    prm: np.ndarray,
+    tsr_grid: np.ndarray,
+    pitch_grid: np.ndarray,
+    cells: np.ndarray,
+    prate: float,
+    prate_valid: bool,
+) -> tuple[float, float, int, float, float, float, float]:
     """``BaselineController.step`` (:mod:`controller.baseline`, same operations in order).
 
-    ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev), the new state goes
-    to ``st_out``; ``w`` is the generator speed [rad/s], ``pitch_meas`` and ``torque_meas``
-    the measured pitch [rad] and torque [N m] (used on the first call). Returns the
-    :class:`ControlOutput` fields (θ, T, regime, ω_f, K_I I, G_K).
+    ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev) and, for the
+    TSR-tracking law only (``bl[tsr]`` = 1; the array then has :data:`BL_STATE_SIZE`
+    entries), (v_f, Δω_f, θ_lo, EKF x (3), EKF P (6), the platform-pitch-rate filters (3),
+    the last valid rate); the new state goes to ``st_out``;
+    ``w`` is the generator speed [rad/s], ``pitch_meas`` and ``torque_meas`` the measured
+    pitch [rad] and torque [N m], ``wind_meas`` the anemometer [m/s] (the EKF's start);
+    ``prm``, ``tsr_grid``, ``pitch_grid``, ``cells``: the wind EKF's constants and Cp table
+    (:class:`controller.estimators.WindSpeedEKF`; unused by the K ω² law); ``prate`` the
+    platform pitch rate [rad/s] and ``prate_valid`` its valid bit. Returns the
+    :class:`ControlOutput` fields (θ, T, regime, ω_f, K_I I, G_K) and the wind estimate
+    (0 for the K ω² law).
     """
     order2 = bl[0] != 0.0
     w_c, zeta, w_ci, w_2, K, slope15 = bl[1], bl[2], bl[3], bl[4], bl[5], bl[6]
@@ -1068,9 +1100,95 @@ def baseline_step(
         th_prev = st[5]
         tq_prev = st[6]
     kp_eff, ki_eff, gk = baseline_gains(bl, gs, n_gs, th_prev)
-    # generator torque
+    # wind estimate, minimum pitch, setpoint smoother, TSR-tracking torque
+    th_lo = th_min
+    w_pc = w_ref
     i_t = st[4]
-    if w_f >= w_rt or th_prev >= theta_3:
+    tsr = bl[31] != 0.0
+    v = 0.0
+    v_f = 0.0
+    ss = 0.0
+    if tsr:
+        tsr_gain, w_we, ss_vs, ss_pc, w_ss = bl[32], bl[33], bl[34], bl[35], bl[36]
+        eta, p_rt_e, th_switch, gear, p22_0 = bl[37], bl[38], bl[39], bl[40], bl[41]
+        n_ps = int(bl[42])
+        omega_r = w / gear
+        if first_call:
+            u_m = _pmin(_pmax(_pmax(wind_meas, 3.0), prm[8]), prm[9])
+            sigma_t = prm[10] * u_m
+            x_e = (omega_r, 0.0, u_m)
+            p_e = (prm[4], 0.0, 0.0, sigma_t * sigma_t, 0.0, p22_0 * p22_0)
+        else:
+            x_e = (st[10], st[11], st[12])
+            p_e = (st[13], st[14], st[15], st[16], st[17], st[18])
+        x_e, p_e, _y, _upd, _ta = ekf_step(
+            prm, tsr_grid, pitch_grid, cells, x_e, p_e, omega_r, True, pitch_meas,
+            torque_meas, dt_s,
+        )  # fmt: skip
+        v = x_e[1] + x_e[2]
+        if first_call:
+            v_f = v
+        else:
+            a_w = math.exp(-dt_s * w_we)
+            v_f = (1.0 - a_w) * v + a_w * st[7]
+        o = 3 * n_gs
+        if n_ps == 0:
+            th_lo = th_min
+        else:
+            if v_f <= gs[o]:
+                th_s = gs[o + n_ps]
+            elif v_f >= gs[o + n_ps - 1]:
+                th_s = gs[o + 2 * n_ps - 1]
+            else:
+                j = int(np.searchsorted(gs[o : o + n_ps], v_f, side="right"))
+                w0 = gs[o + j - 1]
+                jq = o + n_ps + j
+                th_s = gs[jq - 1] + (v_f - w0) / (gs[o + j] - w0) * (gs[jq] - gs[jq - 1])
+            th_lo = th_s if th_s > th_min else th_min
+        th_lo_prev = th_lo if first_call else st[9]
+        p_el = eta * tq_prev * w_f
+        d_om = ((th_prev - th_lo_prev) / 0.524 * ss_vs - (p_rt_e - p_el) / p_rt_e * ss_pc) * w_ref
+        if first_call:
+            ss = d_om
+        else:
+            a_s = math.exp(-dt_s * w_ss)
+            ss = (1.0 - a_s) * d_om + a_s * st[8]
+        if ss < 0.0:
+            w_pc = w_ref - ss
+        w_vs = _pmin(_pmax(tsr_gain * v_f, w_ci), w_tq_ref)
+        if ss > 0.0:
+            w_vs = w_vs - ss
+        w_vs = _pmax(w_vs, w_ci)
+        e_t = w_f - w_vs
+        if first_call:
+            i_t = tq_prev / ki_t
+        i_t += e_t * dt_s
+        if i_t < 0.0:
+            i_t = 0.0
+        elif i_t > tq_rated / ki_t:
+            i_t = tq_rated / ki_t
+        tq = kp_t * e_t + ki_t * i_t
+        if tq < 0.0:
+            tq = 0.0
+        elif tq > tq_rated:
+            tq = tq_rated
+        if th_prev >= th_lo + th_switch:
+            regime = 4
+        elif tq >= tq_rated:
+            regime = 3
+        elif w_vs <= w_ci:
+            regime = 1
+        else:
+            regime = 2
+        st_out[7] = v_f
+        st_out[8] = ss
+        st_out[9] = th_lo
+        for k in range(3):
+            st_out[10 + k] = x_e[k]
+        for k in range(6):
+            st_out[13 + k] = p_e[k]
+    # generator torque (K omega^2 law)
+    elif w_f >= w_rt or th_prev >= theta_3:
         if const_torque:
             tq = tq_rated
             regime = 4
@@ -1124,10 +1242,10 @@ def baseline_step(
     elif d_tq < -lim:
         tq = tq_prev - lim
     # blade pitch
-    err = w_f - w_ref
+    err = w_f - w_pc
     integ = th_prev / ki_eff if first_call else st[3]
     integ += err * dt_s
-    lo = th_min / ki_eff
+    lo = th_lo / ki_eff
     hi = th_max / ki_eff
     if integ < lo:
         integ = lo
@@ -1135,10 +1253,42 @@ def baseline_step(
         integ = hi
     i_term = ki_eff * integ
     th = kp_eff * err + i_term
-    if th < th_min:
-        th = th_min
+    if th < th_lo:
+        th = th_lo
     elif th > th_max:
         th = th_max
+    if tsr:  # platform-pitch-rate feedback, outside the PI
+        k_fl, w_fl, zeta_fl, w_hp = bl[43], bl[44], bl[45], bl[46]
+        q = prate if prate_valid else (0.0 if first_call else st[22])  # held on dropout
+        a_h = math.exp(-dt_s * w_hp)
+        hp_lp = q if first_call else (1.0 - a_h) * q + a_h * st[19]
+        u_f = q - hp_lp
+        c = 2.0 / dt_s
+        c2 = c * c
+        wc2 = w_fl * w_fl
+        cz = 2.0 * zeta_fl * w_fl * c
+        inv_a0 = 1.0 / (c2 + cz + wc2)
+        b0 = wc2 * inv_a0
+        a1 = 2.0 * (wc2 - c2) * inv_a0
+        a2 = (c2 - cz + wc2) * inv_a0
+        if first_call:
+            f1 = (1.0 - b0) * u_f
+            f2 = (b0 - a2) * u_f
+        else:
+            f1 = st[20]
+            f2 = st[21]
+        q_f = b0 * u_f + f1
+        f1 = 2.0 * b0 * u_f - a1 * q_f + f2
+        f2 = b0 * u_f - a2 * q_f
+        th = th + k_fl * q_f
+        if th < th_lo:
+            th = th_lo
+        elif th > th_max:
+            th = th_max
+        st_out[19] = hp_lp
+        st_out[20] = f1
+        st_out[21] = f2
+        st_out[22] = q
     dth = th - th_prev
     lim = th_rate * dt_s
     if dth > lim:
@@ -1152,7 +1302,7 @@ def baseline_step(
     st_out[4] = i_t
     st_out[5] = th
     st_out[6] = tq
-    return th, tq, regime, w_f, i_term, gk
+    return th, tq, regime, w_f, i_term, gk, v
 
 
 @_jit
@@ -1334,9 +1484,11 @@ def advanced_cycle(
     n_gs = lay[_L_N_GS]
     gs = c[lay[_L_BL_GS] : lay[_L_BL_GS] + 3 * n_gs]
     w_b = gen_speed if speed_ok else omega * gear
-    th_b, tq_b, regime_b, _wf_b, iterm_b, _gk_b = baseline_step(
-        bl, gs, n_gs, first_bl, bst_in, w_b, pitch_meas, torque_meas, dt_s, bst
-    )
+    # (a K omega^2 baseline: the TSR-tracking part and its state are not used)
+    th_b, tq_b, regime_b, _wf_b, iterm_b, _gk_b, _v_b = baseline_step(
+        bl, gs, n_gs, first_bl, bst_in, w_b, pitch_meas, torque_meas, dt_s, bst,
+        0.0, prm, tsr, pgrid, cells, 0.0, False,
+    )  # fmt: skip
     si_out[_I_BL_PRESENT] = 1
     si_out[_I_BL_FIRST] = 0
     # 6. regime logic + LQRI (+ wave FF)

@@ -44,6 +44,27 @@ not copied from any source code):
    back-calculation anti-windup (the integrator is reset so the PI output equals the
    saturated torque). Region 3 is then entered on the pitch criterion only.
 
+   Option ``torque_law = "tsr_tracking"`` (the IEA 15 MW preset: the operating schedule of
+   ROSCO's ``VS_ControlMode = 2``, ``PS_Mode = 1``, ``SS_Mode = 1``, ``Fl_Mode = 2``)
+   replaces the laws above by:
+
+   * a wind-speed estimate :math:`\\hat v` from the EKF of
+     :class:`controller.estimators.WindSpeedEKF` (rotor speed :math:`\\omega/N`, measured pitch
+     and torque; started from the anemometer, at least 3 m/s, as ROSCO), filtered to
+     :math:`\\hat v_f` (first order, :math:`e^{-\\Delta t\\,\\omega_{we}}`);
+   * the minimum pitch :math:`\\theta_{lo} = \\max(\\theta_{PS}(\\hat v_f), \\theta_{min})`, a
+     linear interpolation of the table (``PS_WindSpeeds``, ``PS_BldPitchMin``), ends held;
+   * the setpoint smoother: :math:`\\Delta\\omega = \\big[(\\theta_{k-1} -
+     \\theta_{lo,k-1})/0.524\\,g_{VS} - (P_{rt,e} - \\eta T_{k-1}\\omega_f)/P_{rt,e}\\,g_{PC}
+     \\big]\\,\\omega_{ref}`, filtered (first order) to :math:`\\Delta\\omega_f`;
+   * the torque PI on :math:`e_T = \\omega_f - \\omega_{vs}` with the TSR reference
+     :math:`\\omega_{vs} = \\max(\\mathrm{clip}(\\lambda^* N \\hat v_f / R,\\ \\omega_{ci},
+     \\omega_{rt}) - \\max(\\Delta\\omega_f, 0),\\ \\omega_{ci})`, its integral clamped so that
+     :math:`0 \\le K_{I,T} \\int e_T \\le T_{rt}` and its output clipped to :math:`[0, T_{rt}]`
+     (constant torque above rated follows from the saturation); the regime reported is 3
+     when :math:`\\theta_{k-1} \\ge \\theta_{lo} + (\\theta_3 - \\theta_{min})`, 2.5 at rated
+     torque, 1.5 at the minimum-speed reference, else 2.
+
 3. **Blade pitch** (collective): gain schedule from the previous command,
    :math:`G_K = 1/(1+\\theta_{k-1}/\\theta_K)` (or a table of :math:`K_P(\\theta)`,
    :math:`K_I(\\theta)` with linear interpolation, end values held); speed error
@@ -51,6 +72,11 @@ not copied from any source code):
    clamped to :math:`[\\theta_{min}/(G_K K_I),\\ \\theta_{max}/(G_K K_I)]` (anti-windup);
    :math:`\\theta = G_K (K_P e + K_I I)` clamped to :math:`[\\theta_{min}, \\theta_{max}]`,
    then rate limited: :math:`|\\theta_k - \\theta_{k-1}| \\le \\dot\\theta_{max}\\Delta t`.
+   ``"tsr_tracking"``: the lower limit is :math:`\\theta_{lo}` instead of
+   :math:`\\theta_{min}`, the speed reference :math:`\\omega_{ref} + \\max(-\\Delta\\omega_f,
+   0)`, and the platform pitch rate :math:`q` (gyro; held on dropout) high-passed (first
+   order, :math:`\\omega_{hp}`) and low-passed (second order, Tustin) to :math:`q_f` adds
+   :math:`K_{fl} q_f` to the clamped PI output, clamped again, before the rate limit.
    On the first call :math:`\\theta_{k-1}` is the measured pitch (clamped to the limits) and
    :math:`I = \\theta_{k-1}/(G_K K_I)`, so that the PI output equals the measured pitch when
    the speed error is zero.
@@ -71,22 +97,32 @@ Deviations from the original DISCON, each deliberate:
   of dividing by zero; for :math:`0 < \\omega_f \\le P_{rt}/T_{max}` it gives :math:`T_{max}`
   (same as DISCON's saturation).
 
-The hot path uses plain Python floats (no numpy) and allocates two small frozen structs per
-call.
+The hot path uses plain Python floats (no numpy; the ``"tsr_tracking"`` EKF step is a
+compiled kernel) and allocates two small frozen structs per call.
 """
 
 from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from dataclasses import dataclass, field, fields
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
 import msgspec
+import numpy as np
 
-from bus_schemas.messages import SensorFrame
+from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
+from controller.estimators import (
+    CpTable,
+    WindEKFConfig,
+    WindEKFMeasurement,
+    WindEKFState,
+    WindSpeedEKF,
+    cp_table_from_rosco_text,
+)
 from controller.interface import (
     REGIME_REGION_1,
     REGIME_REGION_1_5,
@@ -204,6 +240,33 @@ class BaselineParams:
         Alternative gain schedule: table of pitch angles [rad] (strictly increasing) and the
         gains there (same units as above; positive :math:`K_I`); linear interpolation, end
         values held. Exactly one of the two schedules must be given.
+    torque_law : {"k_omega2", "tsr_tracking"}
+        The NREL-style laws above, or ROSCO's TSR tracking with the wind EKF, minimum-pitch
+        schedule, setpoint smoother and platform-pitch-rate feedback (module docstring).
+    optimal_tsr : float or None
+        :math:`\\lambda^*` (``VS_TSRopt``) [-] (``"tsr_tracking"``).
+    rotor_radius_m, drivetrain_inertia_kg_m2, air_density_kg_m3 : float
+        The wind EKF's R [m], J about the low-speed shaft [kg m^2], :math:`\\rho` [kg/m^3]
+        (``WE_BladeRadius``, ``WE_Jtot``, ``WE_RhoAir``).
+    cp_table : CpTable or None
+        The EKF's Cp table (preset key ``cp_table_file``, ROSCO text layout).
+    wind_estimator_speed_noise_std_rad_s : float
+        The EKF's rotor-speed measurement noise [rad/s].
+    wind_estimate_lpf_corner_rad_s : float
+        :math:`\\omega_{we}` of the wind-estimate filter [rad/s] (``F_WECornerFreq``).
+    min_pitch_wind_m_s, min_pitch_schedule_rad : tuple of float
+        Minimum-pitch table [m/s] -> [rad] (``PS_WindSpeeds``, ``PS_BldPitchMin``); empty:
+        ``min_pitch_rad``.
+    setpoint_smoother_vs_gain, setpoint_smoother_pc_gain : float
+        :math:`g_{VS}`, :math:`g_{PC}` [-] (``SS_VSGain``, ``SS_PCGain``); both 0: off.
+    setpoint_smoother_lpf_corner_rad_s : float
+        Corner of the shift's filter [rad/s] (``F_SSCornerFreq``).
+    platform_pitch_rate_gain_s : float
+        :math:`K_{fl}` [s] (-``Fl_Kp``); 0: off.
+    platform_pitch_rate_lpf_corner_rad_s, platform_pitch_rate_lpf_damping : float
+        Second-order low pass of the rate [rad/s], [-] (``F_FlCornerFreq``).
+    platform_pitch_rate_hpf_corner_rad_s : float
+        First-order high pass of the rate [rad/s] (``F_FlHighPassFreq``).
     """
 
     generator_speed_lpf_corner_rad_s: float
@@ -236,6 +299,23 @@ class BaselineParams:
     pitch_gs_angles_rad: tuple[float, ...] = field(default_factory=tuple)
     pitch_gs_kp_s: tuple[float, ...] = field(default_factory=tuple)
     pitch_gs_ki_dimensionless: tuple[float, ...] = field(default_factory=tuple)
+    torque_law: Literal["k_omega2", "tsr_tracking"] = "k_omega2"
+    optimal_tsr: float | None = None
+    rotor_radius_m: float | None = None
+    drivetrain_inertia_kg_m2: float | None = None
+    air_density_kg_m3: float = 1.225
+    cp_table: CpTable | None = None
+    wind_estimator_speed_noise_std_rad_s: float = 1e-3
+    wind_estimate_lpf_corner_rad_s: float = 0.20944
+    min_pitch_wind_m_s: tuple[float, ...] = field(default_factory=tuple)
+    min_pitch_schedule_rad: tuple[float, ...] = field(default_factory=tuple)
+    setpoint_smoother_vs_gain: float = 0.0
+    setpoint_smoother_pc_gain: float = 0.0
+    setpoint_smoother_lpf_corner_rad_s: float = 0.6283
+    platform_pitch_rate_gain_s: float = 0.0
+    platform_pitch_rate_lpf_corner_rad_s: float = 0.2130
+    platform_pitch_rate_lpf_damping: float = 1.0
+    platform_pitch_rate_hpf_corner_rad_s: float = 0.01042
 
     def __post_init__(self) -> None:
         """Validate every field; raise ``ValueError``/``TypeError`` naming field and unit."""
@@ -395,6 +475,117 @@ class BaselineParams:
                 self, "pitch_gs_ki_dimensionless", tuple(self.pitch_gs_ki_dimensionless)
             )
 
+        self._check_tsr_tracking()
+
+    def _check_tsr_tracking(self) -> None:
+        """Validate the TSR-tracking torque law, its wind estimator and the pitch schedule."""
+        if self.torque_law not in ("k_omega2", "tsr_tracking"):
+            raise ValueError(
+                "BaselineParams.torque_law must be 'k_omega2' or 'tsr_tracking', "
+                f"got {self.torque_law!r}"
+            )
+        schedule = bool(self.min_pitch_wind_m_s or self.min_pitch_schedule_rad)
+        smoother = self.setpoint_smoother_vs_gain != 0.0 or self.setpoint_smoother_pc_gain != 0.0
+        _check_finite("platform_pitch_rate_gain_s", self.platform_pitch_rate_gain_s, "s")
+        if self.torque_law == "k_omega2":
+            if schedule or smoother or self.platform_pitch_rate_gain_s != 0.0:
+                raise ValueError(
+                    "BaselineParams: the minimum-pitch schedule (min_pitch_wind_m_s, "
+                    "min_pitch_schedule_rad), the setpoint smoother and the platform-pitch-rate "
+                    "feedback belong to ROSCO's schedule: use torque_law = 'tsr_tracking'"
+                )
+            return
+        for name in (
+            "platform_pitch_rate_lpf_corner_rad_s",
+            "platform_pitch_rate_lpf_damping",
+            "platform_pitch_rate_hpf_corner_rad_s",
+        ):
+            _check_positive(name, getattr(self, name), "rad/s" if "corner" in name else "(-)")
+        for name, unit in (
+            ("optimal_tsr", "(-)"),
+            ("rotor_radius_m", "m"),
+            ("drivetrain_inertia_kg_m2", "kg m^2"),
+        ):
+            value = getattr(self, name)
+            if value is None:
+                raise ValueError(f"BaselineParams.{name} [{unit}] is required with tsr_tracking")
+            _check_positive(name, value, unit)
+        if not isinstance(self.cp_table, CpTable):
+            raise ValueError(
+                "BaselineParams.cp_table (a Cp table, preset key cp_table_file) is required "
+                "with tsr_tracking"
+            )
+        if self.region25_mode != "pi":
+            raise ValueError(
+                "BaselineParams: tsr_tracking uses the torque PI; set region25_mode = 'pi' "
+                "with torque_pi_kp_nm_s_per_rad and torque_pi_ki_nm_per_rad"
+            )
+        _check_positive("air_density_kg_m3", self.air_density_kg_m3, "kg/m^3")
+        _check_positive(
+            "wind_estimator_speed_noise_std_rad_s",
+            self.wind_estimator_speed_noise_std_rad_s,
+            "rad/s",
+        )
+        _check_positive(
+            "wind_estimate_lpf_corner_rad_s", self.wind_estimate_lpf_corner_rad_s, "rad/s"
+        )
+        _check_nonnegative("setpoint_smoother_vs_gain", self.setpoint_smoother_vs_gain, "(-)")
+        _check_nonnegative("setpoint_smoother_pc_gain", self.setpoint_smoother_pc_gain, "(-)")
+        _check_positive(
+            "setpoint_smoother_lpf_corner_rad_s", self.setpoint_smoother_lpf_corner_rad_s, "rad/s"
+        )
+        n = len(self.min_pitch_wind_m_s)
+        if n != len(self.min_pitch_schedule_rad):
+            raise ValueError(
+                "BaselineParams.min_pitch_wind_m_s [m/s] and min_pitch_schedule_rad [rad] must "
+                f"be of equal length, got {n} and {len(self.min_pitch_schedule_rad)}"
+            )
+        for i, v in enumerate(self.min_pitch_wind_m_s):
+            _check_finite(f"min_pitch_wind_m_s[{i}]", v, "m/s")
+            if i and v <= self.min_pitch_wind_m_s[i - 1]:
+                raise ValueError(
+                    "BaselineParams.min_pitch_wind_m_s must be strictly increasing (m/s), "
+                    f"entry {i} is {v!r}"
+                )
+        for i, th in enumerate(self.min_pitch_schedule_rad):
+            _check_finite(f"min_pitch_schedule_rad[{i}]", th, "rad")
+            if not self.min_pitch_rad <= th < self.max_pitch_rad:
+                raise ValueError(
+                    f"BaselineParams.min_pitch_schedule_rad[{i}] must lie in [min_pitch_rad, "
+                    f"max_pitch_rad) ({self.min_pitch_rad!r}, {self.max_pitch_rad!r} rad), "
+                    f"got {th!r} rad"
+                )
+        object.__setattr__(self, "min_pitch_wind_m_s", tuple(self.min_pitch_wind_m_s))
+        object.__setattr__(self, "min_pitch_schedule_rad", tuple(self.min_pitch_schedule_rad))
+
+    def without_wind_schedule(self) -> BaselineParams:
+        """These parameters with the K omega^2 torque law and a fixed minimum pitch.
+
+        The advanced controller (:mod:`controller.runtime`) uses the baseline's region-1.5/2
+        torque law and its pitch PI at fine pitch below rated; it has its own wind estimate
+        and regime logic, so the TSR tracking, the minimum-pitch schedule and the setpoint
+        smoother of a ``"tsr_tracking"`` preset are dropped here.
+        """
+        return replace(
+            self,
+            torque_law="k_omega2",
+            min_pitch_wind_m_s=(),
+            min_pitch_schedule_rad=(),
+            setpoint_smoother_vs_gain=0.0,
+            setpoint_smoother_pc_gain=0.0,
+            platform_pitch_rate_gain_s=0.0,
+        )
+
+    def min_pitch_at(self, wind_m_s: float) -> float:
+        """Minimum pitch of the schedule at a wind estimate [rad] (``min_pitch_rad`` without).
+
+        Linear interpolation in (``min_pitch_wind_m_s``, ``min_pitch_schedule_rad``), end
+        values held (ROSCO's ``interp1d``), never below ``min_pitch_rad``.
+        """
+        return _min_pitch(
+            self.min_pitch_wind_m_s, self.min_pitch_schedule_rad, wind_m_s, self.min_pitch_rad
+        )
+
     # --- derived quantities -------------------------------------------------------------
 
     @property
@@ -459,6 +650,20 @@ class BaselineState(msgspec.Struct, frozen=True, gc=False):
         Last pitch command [rad].
     generator_torque_commanded_nm : float
         Last torque command [N m].
+    wind_filtered_m_s : float
+        ``"tsr_tracking"``: low-pass filtered wind estimate :math:`\\hat v_f` [m/s].
+    setpoint_shift_rad_s : float
+        ``"tsr_tracking"``: filtered setpoint-smoother shift :math:`\\Delta\\omega_f` [rad/s].
+    min_pitch_rad : float
+        ``"tsr_tracking"``: the last minimum pitch :math:`\\theta_{lo}` [rad].
+    wind_ekf_x, wind_ekf_p : tuple of float
+        ``"tsr_tracking"``: the wind EKF's state and covariance
+        (:class:`controller.estimators.WindEKFState`).
+    fl_hpf_lp, fl_lpf_z1, fl_lpf_z2 : float
+        ``"tsr_tracking"``: states of the platform-pitch-rate filters [rad/s] (the high
+        pass's low-pass part, the second-order low pass).
+    platform_pitch_rate_rad_s : float
+        ``"tsr_tracking"``: the last valid platform pitch rate [rad/s] (held on dropout).
     """
 
     first_call: bool
@@ -469,6 +674,15 @@ class BaselineState(msgspec.Struct, frozen=True, gc=False):
     torque_speed_error_integral_rad: float
     blade_pitch_commanded_rad: float
     generator_torque_commanded_nm: float
+    wind_filtered_m_s: float = 0.0
+    setpoint_shift_rad_s: float = 0.0
+    min_pitch_rad: float = 0.0
+    wind_ekf_x: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    wind_ekf_p: tuple[float, float, float, float, float, float] = (0.0,) * 6
+    fl_hpf_lp: float = 0.0
+    fl_lpf_z1: float = 0.0
+    fl_lpf_z2: float = 0.0
+    platform_pitch_rate_rad_s: float = 0.0
 
 
 _INITIAL_STATE = BaselineState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -486,9 +700,10 @@ class BaselineController:
         Validated controller parameters.
     """
 
-    __slots__ = ("_k", "params")
+    __slots__ = ("_k", "ekf", "params")
 
     params: BaselineParams
+    ekf: WindSpeedEKF | None
     _k: tuple[Any, ...]
 
     def __init__(self, params: BaselineParams) -> None:
@@ -508,6 +723,21 @@ class BaselineController:
             theta_k = p.pitch_gain_schedule_theta_k_rad
             ki_ref = ki0
         pi_mode = p.region25_mode == "pi"
+        tsr = p.torque_law == "tsr_tracking"
+        ekf: WindSpeedEKF | None = None
+        if tsr:
+            assert p.cp_table is not None and p.rotor_radius_m is not None
+            assert p.drivetrain_inertia_kg_m2 is not None
+            ekf = WindSpeedEKF(
+                WindEKFConfig(
+                    p.cp_table,
+                    p.rotor_radius_m,
+                    p.drivetrain_inertia_kg_m2,
+                    p.gearbox_ratio,
+                    air_density_kg_m3=p.air_density_kg_m3,
+                    rotor_speed_noise_std_rad_s=p.wind_estimator_speed_noise_std_rad_s,
+                )
+            )
         k = (
             p.generator_speed_lpf_order == 2,
             p.generator_speed_lpf_corner_rad_s,
@@ -544,15 +774,60 @@ class BaselineController:
             p.pitch_gs_ki_dimensionless,
             1.0 / ki_ref,
             p.rated_mechanical_power_w / p.max_generator_torque_nm,
+            # --- "tsr_tracking" (indices 34-47; module docstring, step 2b)
+            tsr,
+            (p.optimal_tsr or 0.0) * p.gearbox_ratio / (p.rotor_radius_m or 1.0),
+            p.wind_estimate_lpf_corner_rad_s,
+            p.setpoint_smoother_vs_gain,
+            p.setpoint_smoother_pc_gain,
+            p.setpoint_smoother_lpf_corner_rad_s,
+            0.01 * p.generator_efficiency_percent,
+            0.01 * p.generator_efficiency_percent * p.rated_mechanical_power_w,
+            p.region3_min_pitch_rad - p.min_pitch_rad,
+            p.gearbox_ratio,
+            ekf.config.initial_wind_std_m_s if ekf is not None else 0.0,
+            len(p.min_pitch_wind_m_s),
+            p.platform_pitch_rate_gain_s,
+            p.platform_pitch_rate_lpf_corner_rad_s,
+            p.platform_pitch_rate_lpf_damping,
+            p.platform_pitch_rate_hpf_corner_rad_s,
+            p.min_pitch_wind_m_s,
+            p.min_pitch_schedule_rad,
         )
         object.__setattr__(self, "params", params)
+        object.__setattr__(self, "ekf", ekf)
         object.__setattr__(self, "_k", k)
+        if ekf is not None:  # load the EKF's kernel now, not in the first (paced) cycle
+            ekf.step(
+                ekf.initial_state(0.5, 0.0, 0.0, 8.0),
+                WindEKFMeasurement(0.5, 0.0, 0.0, True),
+                0.025,
+            )
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
 
     def __repr__(self) -> str:
         return f"BaselineController(params={self.params!r})"
+
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, int]:
+        """The constants of :func:`controller._kernels.baseline_step` as arrays.
+
+        Returns
+        -------
+        bl : ndarray
+            ``_k`` without its four table tuples, flags as 0/1
+            (:data:`controller._kernels.BL_CONSTANTS` order).
+        gs : ndarray
+            Pitch gain table (angles, K_P, K_I), then the minimum-pitch schedule (winds,
+            pitches).
+        n_gs : int
+            Length of the gain table.
+        """
+        k = self._k
+        bl = np.array([float(v) for v in (*k[:29], *k[32:50])])
+        gs = np.array([*k[29], *k[30], *k[31], *k[50], *k[51]], dtype=np.float64)
+        return bl, gs, len(k[29])
 
     def initial_state(self) -> BaselineState:
         """State before the first call; the first :meth:`step` initialises it from data."""
@@ -647,6 +922,24 @@ class BaselineController:
             gs_ki,
             inv_ki_ref,
             w_pmax,
+            tsr,
+            tsr_gain,
+            w_we,
+            ss_vs,
+            ss_pc,
+            w_ss,
+            eta,
+            p_rt_e,
+            th_switch,
+            gear,
+            _p22_0,
+            _n_ps,
+            k_fl,
+            w_fl,
+            zeta_fl,
+            w_hp,
+            ps_wind,
+            ps_pitch,
         ) = self._k
         w = measurement.generator_speed_measured_rad_s
 
@@ -693,9 +986,83 @@ class BaselineController:
             kp_eff = gk * kp0
             ki_eff = gk * ki0
 
-        # --- generator torque -------------------------------------------------------------
+        # --- wind estimate, minimum pitch, setpoint smoother, TSR-tracking torque -----------
+        th_lo = th_min
+        w_pc = w_ref
         i_t = state.torque_speed_error_integral_rad
-        if w_f >= w_rt or th_prev >= theta_3:
+        if tsr:
+            ekf = self.ekf
+            assert ekf is not None
+            omega_r = w / gear
+            if state.first_call:  # ROSCO: the anemometer, at least 3 m/s
+                est0 = ekf.initial_state(
+                    omega_r,
+                    measurement.blade_pitch_measured_rad,
+                    measurement.generator_torque_measured_nm,
+                    max(measurement.wind_speed_measured_m_s, 3.0),
+                )
+                x_e, p_e = est0.x, est0.p
+            else:
+                x_e, p_e = state.wind_ekf_x, state.wind_ekf_p
+            ekf_state, _ = ekf.step(
+                WindEKFState(x_e, p_e),
+                WindEKFMeasurement(
+                    omega_r,
+                    measurement.blade_pitch_measured_rad,
+                    measurement.generator_torque_measured_nm,
+                    True,
+                ),
+                dt_s,
+            )
+            x_e, p_e = ekf_state.x, ekf_state.p
+            v = x_e[1] + x_e[2]
+            if state.first_call:
+                v_f = v
+            else:
+                a_w = math.exp(-dt_s * w_we)
+                v_f = (1.0 - a_w) * v + a_w * state.wind_filtered_m_s
+            th_lo = _min_pitch(ps_wind, ps_pitch, v_f, th_min)
+            # setpoint smoother: the shift from the previous pitch over the last minimum
+            # pitch and from the power deficit (electrical power eta * T * w_f)
+            th_lo_prev = th_lo if state.first_call else state.min_pitch_rad
+            p_el = eta * tq_prev * w_f
+            d_om = (
+                (th_prev - th_lo_prev) / 0.524 * ss_vs - (p_rt_e - p_el) / p_rt_e * ss_pc
+            ) * w_ref
+            if state.first_call:
+                ss = d_om
+            else:
+                a_s = math.exp(-dt_s * w_ss)
+                ss = (1.0 - a_s) * d_om + a_s * state.setpoint_shift_rad_s
+            if ss < 0.0:
+                w_pc = w_ref - ss
+            w_vs = min(max(tsr_gain * v_f, w_ci), w_tq_ref)
+            if ss > 0.0:
+                w_vs = w_vs - ss
+            w_vs = max(w_vs, w_ci)
+            e_t = w_f - w_vs
+            if state.first_call:
+                i_t = tq_prev / ki_t
+            i_t += e_t * dt_s
+            if i_t < 0.0:
+                i_t = 0.0
+            elif i_t > tq_rated / ki_t:
+                i_t = tq_rated / ki_t
+            tq = kp_t * e_t + ki_t * i_t
+            if tq < 0.0:
+                tq = 0.0
+            elif tq > tq_rated:
+                tq = tq_rated
+            if th_prev >= th_lo + th_switch:
+                regime = REGIME_REGION_3
+            elif tq >= tq_rated:
+                regime = REGIME_REGION_2_5
+            elif w_vs <= w_ci:
+                regime = REGIME_REGION_1_5
+            else:
+                regime = REGIME_REGION_2
+        # --- generator torque (K omega^2 law) -----------------------------------------------
+        elif w_f >= w_rt or th_prev >= theta_3:
             if const_torque:
                 tq = tq_rated
                 regime = REGIME_REGION_3
@@ -750,10 +1117,10 @@ class BaselineController:
             tq = tq_prev - lim
 
         # --- blade pitch --------------------------------------------------------------------
-        err = w_f - w_ref
+        err = w_f - w_pc
         integ = th_prev / ki_eff if state.first_call else state.pitch_speed_error_integral_rad
         integ += err * dt_s
-        lo = th_min / ki_eff
+        lo = th_lo / ki_eff
         hi = th_max / ki_eff
         if integ < lo:
             integ = lo
@@ -761,10 +1128,40 @@ class BaselineController:
             integ = hi
         i_term = ki_eff * integ
         th = kp_eff * err + i_term
-        if th < th_min:
-            th = th_min
+        if th < th_lo:
+            th = th_lo
         elif th > th_max:
             th = th_max
+        if tsr:  # platform-pitch-rate feedback (ROSCO Fl_Mode = 2), outside the PI
+            if measurement.valid_mask & VALID_PLATFORM_PITCH_RATE:
+                q = measurement.platform_pitch_rate_measured_rad_s
+            else:  # held (0 before any valid sample)
+                q = 0.0 if state.first_call else state.platform_pitch_rate_rad_s
+            a_h = math.exp(-dt_s * w_hp)
+            hp_lp = q if state.first_call else (1.0 - a_h) * q + a_h * state.fl_hpf_lp
+            u_f = q - hp_lp
+            c = 2.0 / dt_s
+            c2 = c * c
+            wc2 = w_fl * w_fl
+            cz = 2.0 * zeta_fl * w_fl * c
+            inv_a0 = 1.0 / (c2 + cz + wc2)
+            b0 = wc2 * inv_a0
+            a1 = 2.0 * (wc2 - c2) * inv_a0
+            a2 = (c2 - cz + wc2) * inv_a0
+            if state.first_call:
+                f1 = (1.0 - b0) * u_f
+                f2 = (b0 - a2) * u_f
+            else:
+                f1 = state.fl_lpf_z1
+                f2 = state.fl_lpf_z2
+            q_f = b0 * u_f + f1
+            f1 = 2.0 * b0 * u_f - a1 * q_f + f2
+            f2 = b0 * u_f - a2 * q_f
+            th = th + k_fl * q_f
+            if th < th_lo:
+                th = th_lo
+            elif th > th_max:
+                th = th_max
         dth = th - th_prev
         lim = th_rate * dt_s
         if dth > lim:
@@ -772,10 +1169,51 @@ class BaselineController:
         elif dth < -lim:
             th = th_prev - lim
 
+        if tsr:
+            return (
+                BaselineState(
+                    False,
+                    z1,
+                    z2,
+                    w_f,
+                    integ,
+                    i_t,
+                    th,
+                    tq,
+                    v_f,
+                    ss,
+                    th_lo,
+                    x_e,
+                    p_e,
+                    hp_lp,
+                    f1,
+                    f2,
+                    q,
+                ),
+                ControlOutput(th, tq, regime, w_f, i_term, gk, EST_WIND_SPEED, 0, v),
+            )
         return (
             BaselineState(False, z1, z2, w_f, integ, i_t, th, tq),
             ControlOutput(th, tq, regime, w_f, i_term, gk),
         )
+
+
+def _min_pitch(
+    winds: tuple[float, ...], pitches: tuple[float, ...], wind_m_s: float, floor: float
+) -> float:
+    """Minimum pitch at ``wind_m_s``: linear interpolation, end values held, >= ``floor``."""
+    n = len(winds)
+    if n == 0:
+        return floor
+    if wind_m_s <= winds[0]:
+        th = pitches[0]
+    elif wind_m_s >= winds[n - 1]:
+        th = pitches[n - 1]
+    else:
+        j = bisect_right(winds, wind_m_s)
+        w0 = winds[j - 1]
+        th = pitches[j - 1] + (wind_m_s - w0) / (winds[j] - w0) * (pitches[j] - pitches[j - 1])
+    return th if th > floor else floor
 
 
 def _table_gains(
@@ -853,6 +1291,23 @@ class _PresetFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     pitch_gs_angles_deg: list[float] | None = None
     pitch_gs_kp_s: list[float] | None = None
     pitch_gs_ki_dimensionless: list[float] | None = None
+    torque_law: Literal["k_omega2", "tsr_tracking"] | None = None
+    optimal_tsr: float | None = None
+    rotor_radius_m: float | None = None
+    drivetrain_inertia_kg_m2: float | None = None
+    air_density_kg_m3: float | None = None
+    cp_table_file: str | None = None
+    wind_estimator_speed_noise_std_rad_s: float | None = None
+    wind_estimate_lpf_corner_rad_s: float | None = None
+    min_pitch_wind_m_s: list[float] | None = None
+    min_pitch_schedule_rad: list[float] | None = None
+    setpoint_smoother_vs_gain: float | None = None
+    setpoint_smoother_pc_gain: float | None = None
+    setpoint_smoother_lpf_corner_rad_s: float | None = None
+    platform_pitch_rate_gain_s: float | None = None
+    platform_pitch_rate_lpf_corner_rad_s: float | None = None
+    platform_pitch_rate_lpf_damping: float | None = None
+    platform_pitch_rate_hpf_corner_rad_s: float | None = None
 
 
 # Alternative spellings: field of BaselineParams -> ((toml key, factor to SI), ...).
@@ -874,10 +1329,18 @@ _UNIT_ALIASES: dict[str, tuple[tuple[str, float], ...]] = {
 }
 
 
-def _params_from_file(data: _PresetFile, origin: str, default_name: str) -> BaselineParams:
+def _params_from_file(
+    data: _PresetFile, origin: str, default_name: str, read: Callable[[str], bytes]
+) -> BaselineParams:
     raw = {k: v for k, v in msgspec.structs.asdict(data).items() if v is not None}
     raw.pop("source", None)
     kwargs: dict[str, Any] = {"name": default_name}
+    cp_file = raw.pop("cp_table_file", None)
+    if cp_file is not None:  # relative to the preset file (ROSCO text layout)
+        try:
+            kwargs["cp_table"] = cp_table_from_rosco_text(read(cp_file).decode())
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{origin}: cp_table_file {cp_file!r}: {exc}") from exc
     for f in fields(BaselineParams):
         spellings = ((f.name, 1.0), *_UNIT_ALIASES.get(f.name, ()))
         given = [(key, factor) for key, factor in spellings if key in raw]
@@ -936,6 +1399,10 @@ def load_baseline(name_or_path: str | Path) -> BaselineParams:
             raise ValueError(f"baseline preset file not found: {path}")
         text = path.read_bytes()
         origin = str(path)
+        folder = path.parent
+
+        def read(name: str) -> bytes:
+            return (folder / name).read_bytes()
     else:
         stem = str(name_or_path).removesuffix(".toml")
         resource = resources.files(_PRESET_PACKAGE) / f"{stem}.toml"
@@ -946,8 +1413,12 @@ def load_baseline(name_or_path: str | Path) -> BaselineParams:
             )
         text = resource.read_bytes()
         origin = f"preset {stem}"
+
+        def read(name: str) -> bytes:
+            return (resources.files(_PRESET_PACKAGE) / name).read_bytes()
+
     try:
         data = msgspec.toml.decode(text, type=_PresetFile)
     except msgspec.DecodeError as exc:
         raise ValueError(f"{origin}: {exc}") from exc
-    return _params_from_file(data, origin, path.stem)
+    return _params_from_file(data, origin, path.stem, read)

@@ -603,7 +603,10 @@ class AdvancedController:
                 f"below_rated_baseline {s.below_rated_baseline!r} has gearbox_ratio "
                 f"{base.gearbox_ratio}, the advanced preset {s.gearbox_ratio}: expected the same"
             )
-        self.baseline = BaselineController(base)
+        # its K omega^2 law and fine-pitch PI (the TSR tracking and minimum-pitch schedule of
+        # a "tsr_tracking" preset need a wind estimate the advanced controller has its own
+        # regime logic for)
+        self.baseline = BaselineController(base.without_wind_schedule())
         kind = forecaster or fc.kind
         distance = fc.gauge_distance_m if gauge_distance_m is None else gauge_distance_m
         self.forecast_kind = kind
@@ -703,15 +706,10 @@ class AdvancedController:
             put("ff_b", b)
             put("ff_c", c)
             put("ff_d", dd)
-        bk = self.baseline._k
-        # BaselineController._k without its three table tuples (indices 29-31), flags as 0/1
-        put("bl", [float(v) for v in (*bk[:29], *bk[32:])])
-        bp = self.baseline.params
-        put(
-            "bl_gs",
-            [*bp.pitch_gs_angles_rad, *bp.pitch_gs_kp_s, *bp.pitch_gs_ki_dimensionless],
-        )
-        setv("n_gs", len(bp.pitch_gs_angles_rad))
+        bl, gs, n_gs = self.baseline.kernel_arrays()
+        put("bl", bl)
+        put("bl_gs", gs)
+        setv("n_gs", n_gs)
         for name, bit in (
             ("bit_speed", VALID_GENERATOR_SPEED),
             ("bit_pitch", VALID_PITCH),

@@ -22,7 +22,13 @@ import numba
 import numpy as np
 
 from bus_schemas import CycleTiming, SensorFrame
-from bus_schemas.messages import VALID_GENERATOR_SPEED, VALID_ROTOR_SPEED, VALID_WAVE_GAUGE
+from bus_schemas.messages import (
+    EST_WIND_SPEED,
+    VALID_GENERATOR_SPEED,
+    VALID_PLATFORM_PITCH_RATE,
+    VALID_ROTOR_SPEED,
+    VALID_WAVE_GAUGE,
+)
 from bus_schemas.registry import (
     COMMAND,
     CONTROLLER_STATUS,
@@ -32,6 +38,7 @@ from bus_schemas.registry import (
     TRUTH,
     MessageType,
 )
+from controller._kernels import BL_STATE_SIZE
 from controller.baseline import BaselineController, BaselineState
 from controller.forecast import DispersionPredictor
 from controller.runtime import AdvancedController
@@ -212,22 +219,33 @@ class CompiledLoop:
             ist[lk.I_GAUGE_BIT] = VALID_WAVE_GAUGE
         else:
             assert isinstance(ctrl, BaselineController)
-            bk = ctrl._k
-            p = ctrl.params
-            self.bl = np.array([float(v) for v in (*bk[:29], *bk[32:])])
-            self.gs = np.array(
-                [*p.pitch_gs_angles_rad, *p.pitch_gs_kp_s, *p.pitch_gs_ki_dimensionless],
-                dtype=np.float64,
-            )
-            self.n_gs = len(p.pitch_gs_angles_rad)
-            self.cc, self.lay = empty, np.zeros(0, dtype=np.int64)
+            self.bl, self.gs, self.n_gs = ctrl.kernel_arrays()
+            # the TSR-tracking law's wind EKF: its constants and Cp table in cc, and in lay
+            # the status's estimate bit, the four lengths (prm, TSR, pitch, cells) and the
+            # valid bit of the platform pitch rate
+            if ctrl.ekf is not None:
+                prm, tsr, pitch, cells = ctrl.ekf._tables
+                self.cc = np.concatenate([prm, tsr, pitch, cells.ravel()])
+                self.lay = np.array(
+                    [
+                        EST_WIND_SPEED,
+                        prm.size,
+                        tsr.size,
+                        pitch.size,
+                        cells.shape[0],
+                        VALID_PLATFORM_PITCH_RATE,
+                    ],
+                    dtype=np.int64,
+                )
+            else:
+                self.cc, self.lay = empty, np.zeros(6, dtype=np.int64)
             self.fc_kernel = False
         if not self.fc_kernel:
             self.fir = np.zeros(0)
         self.fc_buf = np.zeros(0)
         self.fc_drop = np.zeros(0, dtype=np.bool_)
-        self.bst = np.zeros(7)
-        self.bst2 = np.zeros(7)
+        self.bst = np.zeros(BL_STATE_SIZE)
+        self.bst2 = np.zeros(BL_STATE_SIZE)
         # The latency histogram's counts while the kernel records into them (hist_in_kernel;
         # PlantLoop.hist gets them back before Python needs it: _hist_to_python).
         self.hist = np.zeros(lk.H_N_BINS, dtype=np.int64)
@@ -330,6 +348,15 @@ class CompiledLoop:
                 bs.torque_speed_error_integral_rad,
                 bs.blade_pitch_commanded_rad,
                 bs.generator_torque_commanded_nm,
+                bs.wind_filtered_m_s,
+                bs.setpoint_shift_rad_s,
+                bs.min_pitch_rad,
+                *bs.wind_ekf_x,
+                *bs.wind_ekf_p,
+                bs.fl_hpf_lp,
+                bs.fl_lpf_z1,
+                bs.fl_lpf_z2,
+                bs.platform_pitch_rate_rad_s,
             )
             self.cv, self.cv2 = np.zeros(0), np.zeros(0)
             self.cf, self.cf2 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -450,7 +477,25 @@ class CompiledLoop:
                 rt.state = st._replace(values=self.cv, flags=self.cf)
         else:
             b = self.bst.tolist()
-            rt.state = BaselineState(False, *b)
+            rt.state = BaselineState(
+                False,
+                b[0],
+                b[1],
+                b[2],
+                b[3],
+                b[4],
+                b[5],
+                b[6],
+                b[7],
+                b[8],
+                b[9],
+                (b[10], b[11], b[12]),
+                (b[13], b[14], b[15], b[16], b[17], b[18]),
+                b[19],
+                b[20],
+                b[21],
+                b[22],
+            )
         n_summary = int(ist[lk.I_N_SUMMARY])
         if n_summary:  # what publish_summary leaves besides the message
             self.summaries += n_summary

@@ -467,6 +467,7 @@ def run_cycles(
     gen = 0.0
     pitch_m = 0.0
     torque_m = 0.0
+    wind_m = 0.0
     acc = 0.0
     ppitch = 0.0
     prate = 0.0
@@ -483,6 +484,7 @@ def run_cycles(
         gen = r_sen[j, 4]
         pitch_m = r_sen[j, 6]
         torque_m = r_sen[j, 7]
+        wind_m = r_sen[j, 9]
         acc = r_sen[j, 10]
         ppitch = r_sen[j, 11]
         prate = r_sen[j, 12]
@@ -518,6 +520,7 @@ def run_cycles(
                 mask |= ist[I_ROTOR_BIT]
             pitch_m = record[1]
             torque_m = record[2]
+            wind_m = record[4]
             acc = record[5]
             ppitch = record[6]
             prate = record[7]
@@ -621,9 +624,16 @@ def run_cycles(
             r_sta_i[js, 22] = ist[I_UNSTABLE]
             r_sta_i[js, 23] = ist[I_GUARDED]
         else:
+            # the TSR-tracking law's wind EKF tables travel in cc (layout in lay; module
+            # docstring of hil._fast_loop), empty for the K omega^2 law
+            o1 = lay[1]
+            o2 = o1 + lay[2]
+            o3 = o2 + lay[3]
             rb = baseline_step(
-                bl, gs, n_gs, ist[I_BL_FIRST] != 0, b, gen, pitch_m, torque_m, dt, b2
-            )
+                bl, gs, n_gs, ist[I_BL_FIRST] != 0, b, gen, pitch_m, torque_m, dt, b2,
+                wind_m, cc[0:o1], cc[o1:o2], cc[o2:o3], cc[o3:].reshape((lay[4], 8)),
+                prate, (mask & lay[5]) != 0,
+            )  # fmt: skip
             ist[I_BL_FIRST] = 0
             b, b2 = b2, b
             swaps += 1
@@ -633,9 +643,10 @@ def run_cycles(
             r_sta[js, 7] = rb[3]
             r_sta[js, 8] = rb[4]
             r_sta[js, 9] = rb[5]
-            r_sta_i[js, 10] = 0
+            r_sta_i[js, 10] = lay[0]  # EST_WIND_SPEED for the TSR-tracking law, else 0
             r_sta_i[js, 11] = 0
-            for q in range(12, 19):
+            r_sta[js, 12] = rb[6]
+            for q in range(13, 19):
                 r_sta[js, q] = 0.0
             r_sta_i[js, 19] = 0
             r_sta[js, 20] = 0.0

@@ -315,35 +315,49 @@ def test_fused_cycle_equals_the_composed_classes(
 @pytest.mark.parametrize("preset", ["iea15mw_baseline", "nrel5mw_baseline"])
 def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
     """``baseline_step`` against ``BaselineController.step`` on a seeded speed sequence that
-    crosses every torque region and drives the pitch from fine to feathered and back."""
+    crosses every torque region and drives the pitch from fine to feathered and back (the
+    IEA 15 MW preset: TSR tracking on the wind EKF, minimum-pitch schedule, smoother)."""
     params = load_baseline(preset)
     ctrl = BaselineController(params)
-    bk = ctrl._k
-    bl = np.array([float(v) for v in (*bk[:29], *bk[32:])])
+    bl, gs, n_gs = ctrl.kernel_arrays()
     assert bl.size == len(_kernels.BL_CONSTANTS)
-    gs = np.array(
-        [*params.pitch_gs_angles_rad, *params.pitch_gs_kp_s, *params.pitch_gs_ki_dimensionless]
-    )
-    n_gs = len(params.pitch_gs_angles_rad)
+    tsr = params.torque_law == "tsr_tracking"
+    assert tsr == (preset == "iea15mw_baseline")
+    if ctrl.ekf is not None:
+        prm, tsr_grid, pitch_grid, cells = ctrl.ekf._tables
+    else:
+        prm, tsr_grid, pitch_grid, cells = np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 8))
     rng = np.random.default_rng(3)
     w_rt = params.region25_end_generator_speed_rad_s
     n = 4000
     t = np.arange(n) * 0.01
     # generator speed from below cut-in to 1.3 x rated and back, with noise
     speed = w_rt * (0.3 + 1.0 * np.sin(np.pi * t / t[-1])) + 0.01 * w_rt * rng.normal(size=n)
+    # measured torque following the speed (the wind estimate then sweeps the schedule)
     state = ctrl.initial_state()
-    st = np.zeros(7)
+    st = np.zeros(_kernels.BL_STATE_SIZE)
     first = True
     regimes = set()
+    winds = []
     for k in range(n):
         dt = 0.01 if k % 97 else 0.02
-        frame_pitch, frame_torque = 0.05 * rng.random(), params.rated_torque_nm * rng.random()
-        frame = sensor_frame(float(speed[k]), frame_pitch, frame_torque)
-        state, want = ctrl.step(state, frame, dt)
-        st_out = np.empty(7)
-        got = _kernels.baseline_step(
-            bl, gs, n_gs, first, st, float(speed[k]), frame_pitch, frame_torque, dt, st_out
+        frame_pitch = 0.05 * rng.random() + (0.2 * max(0.0, speed[k] / w_rt - 1.0))
+        frame_torque = params.rated_torque_nm * min(1.0, (speed[k] / w_rt) ** 2) * rng.random()
+        # platform pitch rate with dropouts (held by the feedback's filter input)
+        rate = 0.01 * math.sin(2.0 * math.pi * t[k] / 30.0) + 0.002 * rng.normal()
+        rate_ok = k % 53 != 7
+        frame = msgspec.structs.replace(
+            sensor_frame(float(speed[k]), frame_pitch, frame_torque),
+            wind_speed_measured_m_s=7.5,
+            platform_pitch_rate_measured_rad_s=rate,
+            valid_mask=VALID_PLATFORM_PITCH_RATE if rate_ok else 0,
         )
+        state, want = ctrl.step(state, frame, dt)
+        st_out = np.empty(_kernels.BL_STATE_SIZE)
+        got = _kernels.baseline_step(
+            bl, gs, n_gs, first, st, float(speed[k]), frame_pitch, frame_torque, dt, st_out,
+            7.5, prm, tsr_grid, pitch_grid, cells, rate, rate_ok,
+        )  # fmt: skip
         first = False
         st = st_out
         w = (
@@ -353,28 +367,42 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
             want.generator_speed_filtered_rad_s,
             want.pitch_integrator_rad,
             want.gain_schedule_factor,
+            want.wind_speed_estimated_m_s,
         )
         for a, b in zip(got, w, strict=True):
             assert _close(a, b), f"{preset} cycle {k}: {got} != {w}"
-        _same_arrays(
-            k,
-            "baseline state",
-            st,
-            [
-                state.lpf_z1,
-                state.lpf_z2,
-                state.generator_speed_filtered_rad_s,
-                state.pitch_speed_error_integral_rad,
-                state.torque_speed_error_integral_rad,
-                state.blade_pitch_commanded_rad,
-                state.generator_torque_commanded_nm,
-            ],
-        )
+        want_st = [
+            state.lpf_z1,
+            state.lpf_z2,
+            state.generator_speed_filtered_rad_s,
+            state.pitch_speed_error_integral_rad,
+            state.torque_speed_error_integral_rad,
+            state.blade_pitch_commanded_rad,
+            state.generator_torque_commanded_nm,
+        ]
+        if tsr:
+            want_st += [
+                state.wind_filtered_m_s,
+                state.setpoint_shift_rad_s,
+                state.min_pitch_rad,
+                *state.wind_ekf_x,
+                *state.wind_ekf_p,
+                state.fl_hpf_lp,
+                state.fl_lpf_z1,
+                state.fl_lpf_z2,
+                state.platform_pitch_rate_rad_s,
+            ]
+        _same_arrays(k, "baseline state", st[: len(want_st)], want_st)
         for theta in (-0.01, 0.0, 0.07, 0.2, 0.5):
             g = _kernels.baseline_gains(bl, gs, n_gs, theta)
             assert all(_close(a, b) for a, b in zip(g, ctrl.pitch_gains(theta), strict=True))
         regimes.add(want.regime)
-    assert {0, 2, 3, 4} <= regimes, f"{preset}: regions covered {sorted(regimes)}"
+        winds.append(want.wind_speed_estimated_m_s)
+    if tsr:
+        assert {1, 2, 4} <= regimes, f"{preset}: regions covered {sorted(regimes)}"
+        assert min(winds) < 5.0 and max(winds) > 12.0, "the schedule was swept"
+    else:
+        assert {0, 2, 3, 4} <= regimes, f"{preset}: regions covered {sorted(regimes)}"
 
 
 def test_int_fields_reuse_the_compiled_cycle(recorded: dict[str, list[SensorFrame]]) -> None:
