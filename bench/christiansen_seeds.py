@@ -24,7 +24,7 @@ blade-pitch travel ∫|β̇|dt, mean electrical power. Saves
 ``christiansen_seed_statistics.partial.json`` beside it, removed at the end).
 
     python bench/christiansen_seeds.py [--pairs 10] [--periods 2 5 10] [--published]
-        [--decoupled] [--workers 1] [--duration 600]
+        [--decoupled] [--workers 1] [--duration 600] [--reuse RESULT.json] [--name STEM]
 """
 
 from __future__ import annotations
@@ -186,6 +186,28 @@ def statistics(runs: dict[str, Any], periods: list[int], variants: list[str]) ->
     return out
 
 
+def summary(stats: dict[str, Any], periods: list[int], variants: list[str]) -> dict[str, Any]:
+    """One line per Tp and controller: mean ± std across pairs of the seed's four measures."""
+    short = {
+        "platform_pitch_std_deg": "pitch",
+        "pitch_travel_deg": "travel",
+        "electrical_power_std_w": "power std",
+        "tower_fore_aft_std_m": "tower",
+    }
+    return {
+        f"tp{tp}": {
+            v: ", ".join(
+                f"{name} {stats[f'tp{tp}'][v][k]['mean_percent']:+.0f}"
+                f"±{stats[f'tp{tp}'][v][k]['std_percent']:.0f}"
+                for k, name in short.items()
+            )
+            + " %"
+            for v in variants
+        }
+        for tp in periods
+    }
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pairs", type=int, default=10, help="seed pairs (>= 2)")
@@ -196,6 +218,9 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--name", default="christiansen_seed_statistics", help="result file stem")
+    ap.add_argument(
+        "--reuse", type=Path, help="a saved result whose runs (same seeds, deterministic) count"
+    )
     a = ap.parse_args()
     if a.pairs < 2:
         raise SystemExit("--pairs: expected >= 2 (a spread needs two pairs)")
@@ -203,16 +228,29 @@ def main() -> int:
     variants += ["lqr1_pub", "lqr2_pub"] if a.published else []
     variants += ["lqr2_dec"] if a.decoupled else []
     t0 = time.perf_counter()
+    names = ["baseline", *variants]
+    pairs = list(range(a.first_pair, a.first_pair + a.pairs))
+    todo = [(p, tp, v) for p in pairs for tp in a.periods for v in names]
+    runs: dict[str, Any] = {f"tp{tp}": {} for tp in a.periods}
+    reused: dict[str, Any] = {}
+    if a.reuse is not None:  # the in-process runs are deterministic given the seeds
+        saved = json.loads(a.reuse.read_text())
+        if saved.get("duration_s") == a.duration:
+            for tp in a.periods:
+                for pair, row in saved["runs"].get(f"tp{tp}", {}).items():
+                    if int(pair) in pairs:
+                        runs[f"tp{tp}"][pair] = {v: m for v, m in row.items() if v in names}
+            keys = ("measured_utc", "commit", "wall_s", "load_average_start", "command")
+            reused = saved.get("runs_measured") or {k: saved.get(k) for k in keys}
+        todo = [j for j in todo if j[2] not in runs[f"tp{j[1]}"].get(str(j[0]), {})]
     tmp = Path(tempfile.mkdtemp(prefix="christiansen-seeds-"))
     presets: dict[str, str | None] = {"baseline": None, "lqr1": None, "lqr2": None}
-    for v in variants:
+    for v in sorted({j[2] for j in todo}):  # design only the variants still to run
         over = VARIANTS[v][1]
         if over is not None:
             presets[v] = str(design_variant(v, over, tmp))
     design_s = time.perf_counter() - t0
-    pairs = list(range(a.first_pair, a.first_pair + a.pairs))
-    jobs = [(p, tp, v, presets[v], a.duration) for p in pairs for tp in a.periods for v in presets]
-    runs: dict[str, Any] = {f"tp{tp}": {} for tp in a.periods}
+    jobs = [(p, tp, v, presets[v], a.duration) for p, tp, v in todo]
     partial = RESULTS / f"{a.name}.partial.json"
     load_start = load()
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
@@ -245,6 +283,7 @@ def main() -> int:
             "periods_s": a.periods,
             "variants": variants,
             "duration_s": a.duration,
+            "summary": summary(stats, a.periods, variants),
             "statistics": stats,
             "runs": runs,
             "design_wall_s": design_s,
@@ -252,6 +291,8 @@ def main() -> int:
             "workers": a.workers,
             "load_average_start": load_start,
             "cpu_count": os.cpu_count(),
+            "runs_reused": sum(len(r) for tp in runs.values() for r in tp.values()) - len(jobs),
+            "runs_measured": reused or None,
         },
     )
     partial.unlink(missing_ok=True)
