@@ -11,6 +11,7 @@ by the measured outputs, :func:`controller.design.hexicon_identify.predict_one_s
 ``bench/results/hexicon_identify_amplitude.json``.
 
     python bench/hexicon_identify_amplitude.py [--amplitudes 1 0.5 0.25 0.1] [--duration 3000]
+        [--workers 1]
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -80,13 +82,16 @@ def main() -> None:
     ap.add_argument("--amplitudes", type=float, nargs="+", default=[1.0, 0.5, 0.25, 0.1])
     ap.add_argument("--duration", type=float, default=3000.0, help="seconds per experiment")
     ap.add_argument("--block-rows", type=int, default=10)
+    ap.add_argument("--workers", type=int, default=1, help="amplitudes fitted in parallel")
     a = ap.parse_args()
     t0 = time.perf_counter()
     load_start = load()
     rows = []
-    for amp in a.amplitudes:
-        r = fits(amp, a.duration, a.block_rows)
-        rows.append(r)
+    with ProcessPoolExecutor(max_workers=a.workers) as pool:
+        futures = [pool.submit(fits, amp, a.duration, a.block_rows) for amp in a.amplitudes]
+        rows = [f.result() for f in futures]
+    for r in rows:
+        amp = r["amplitude"]
         print(
             f"amplitude {amp:g}: order {r['order']}, free run "
             f"{r['free_run_estimation_percent']} / held out {r['free_run_validation_percent']}; "
@@ -111,6 +116,7 @@ def main() -> None:
             "noise": "none (in-process plant, true outputs)",
             "duration_s_per_experiment": a.duration,
             "block_rows": a.block_rows,
+            "workers": a.workers,
             "results": rows,
             "load_average_start": load_start,
             "wall_s": time.perf_counter() - t0,
