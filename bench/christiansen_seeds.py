@@ -24,7 +24,7 @@ blade-pitch travel ∫|β̇|dt, mean electrical power. Saves
 ``christiansen_seed_statistics.partial.json`` beside it, removed at the end).
 
     python bench/christiansen_seeds.py [--pairs 10] [--periods 2 5 10] [--published]
-        [--decoupled] [--workers 1] [--duration 600] [--reuse RESULT.json] [--name STEM]
+        [--decoupled] [--workers 1] [--duration 600] [--reuse RESULT.json ...] [--name STEM]
 """
 
 from __future__ import annotations
@@ -219,7 +219,11 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--name", default="christiansen_seed_statistics", help="result file stem")
     ap.add_argument(
-        "--reuse", type=Path, help="a saved result whose runs (same seeds, deterministic) count"
+        "--reuse",
+        type=Path,
+        nargs="+",
+        default=[],
+        help="saved results whose runs (same seeds, deterministic) count",
     )
     a = ap.parse_args()
     if a.pairs < 2:
@@ -233,16 +237,18 @@ def main() -> int:
     todo = [(p, tp, v) for p in pairs for tp in a.periods for v in names]
     runs: dict[str, Any] = {f"tp{tp}": {} for tp in a.periods}
     reused: dict[str, Any] = {}
-    if a.reuse is not None:  # the in-process runs are deterministic given the seeds
-        saved = json.loads(a.reuse.read_text())
-        if saved.get("duration_s") == a.duration:
-            for tp in a.periods:
-                for pair, row in saved["runs"].get(f"tp{tp}", {}).items():
-                    if int(pair) in pairs:
-                        runs[f"tp{tp}"][pair] = {v: m for v, m in row.items() if v in names}
-            keys = ("measured_utc", "commit", "wall_s", "load_average_start", "command")
-            reused = saved.get("runs_measured") or {k: saved.get(k) for k in keys}
-        todo = [j for j in todo if j[2] not in runs[f"tp{j[1]}"].get(str(j[0]), {})]
+    for path in a.reuse:  # the in-process runs are deterministic given the seeds
+        saved = json.loads(path.read_text())
+        if saved.get("duration_s") != a.duration:
+            continue
+        for tp in a.periods:
+            for pair, row in saved["runs"].get(f"tp{tp}", {}).items():
+                if int(pair) in pairs:
+                    have = runs[f"tp{tp}"].setdefault(pair, {})
+                    have.update({v: m for v, m in row.items() if v in names})
+        keys = ("measured_utc", "commit", "wall_s", "load_average_start", "command")
+        reused[path.stem] = saved.get("runs_measured") or {k: saved.get(k) for k in keys}
+    todo = [j for j in todo if j[2] not in runs[f"tp{j[1]}"].get(str(j[0]), {})]
     tmp = Path(tempfile.mkdtemp(prefix="christiansen-seeds-"))
     presets: dict[str, str | None] = {"baseline": None, "lqr1": None, "lqr2": None}
     for v in sorted({j[2] for j in todo}):  # design only the variants still to run
