@@ -278,7 +278,9 @@ def main() -> int:
     save(
         a.name,
         {
-            "command": "python bench/christiansen_seeds.py " + " ".join(sys.argv[1:]),
+            # absolute paths (a --reuse file outside the checkout) by their file name only
+            "command": "python bench/christiansen_seeds.py "
+            + " ".join(Path(x).name if Path(x).is_absolute() else x for x in sys.argv[1:]),
             "note": (
                 "percent change against the detuned baseline of the same seed pair; mean, "
                 "std (ddof 1) and standard error across pairs; in process, "
