@@ -950,6 +950,22 @@ def design_cmd(
             help="Design the lqr_wave gain table instead: variant lqr1 or lqr2 (christiansen).",
         ),
     ] = None,
+    decoupled: Annotated[
+        bool,
+        typer.Option(
+            "--decoupled",
+            help="With --lqr-wave: gains on the seed's model without surge-pitch coupling "
+            "(same file name: give --out a folder of its own).",
+        ),
+    ] = False,
+    published_weights: Annotated[
+        bool,
+        typer.Option(
+            "--published-weights",
+            help="With --lqr-wave: the seed's published Bryson weights only (no rotor-speed "
+            "weight; same file name: give --out a folder of its own).",
+        ),
+    ] = False,
 ) -> None:
     """Offline controller design: LQRI gain schedule, wave-FF filters, platform observer.
 
@@ -967,11 +983,18 @@ def design_cmd(
             os.environ.setdefault(var, value)
 
     t0 = time.perf_counter()
+    if (decoupled or published_weights) and lqr_wave is None:
+        _fail("--decoupled and --published-weights go with --lqr-wave")
     if lqr_wave is not None:
         from controller.design.lqr_wave import LqrWaveSettings, design_lqr_wave
 
         try:
-            npz = design_lqr_wave(preset, control_period, LqrWaveSettings(variant=lqr_wave), out)
+            settings = LqrWaveSettings(
+                variant=lqr_wave,
+                decoupled=decoupled,
+                **({"rotor_speed_max_rad_s": 0.0} if published_weights else {}),
+            )
+            npz = design_lqr_wave(preset, control_period, settings, out)
         except (ValueError, OSError) as exc:
             fail(str(exc))
         console.print(f"lqr_wave: {npz}", markup=False)
@@ -1020,13 +1043,21 @@ def analyze_damping_map(
         str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
     ] = "nrel5mw_oc3_hywind",
     as_json: Annotated[bool, typer.Option("--json", help="Print the whole map as JSON.")] = False,
+    decoupled: Annotated[
+        bool,
+        typer.Option(
+            "--decoupled",
+            help="On the seed's model: surge-pitch coupling removed from mass, added mass, "
+            "damping and stiffness (christiansen-2013 sect. 2.1).",
+        ),
+    ] = False,
 ) -> None:
     """Open-loop damping ratio of the platform-pitch mode over wind speed (3-25 m/s) and wave
     frequency (0.05-3 rad/s), christiansen-2013 sect. 2.9 (controller.design.lqr_wave)."""
     from controller.design.lqr_wave import damping_map
 
     try:
-        report = damping_map(preset)
+        report = damping_map(preset, decoupled=decoupled)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     if as_json:

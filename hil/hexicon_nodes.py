@@ -91,7 +91,10 @@ from plant.hexicon.environment import SampledWind
 from plant.hexicon.model import outputs, step_rk4, torque_law_nm
 
 TURBINES = ("t1", "t2", "t3")
-_STARTUP_TIMEOUT_S = 30.0
+#: How long the plant waits for its peers to appear (s). A node's start (interpreter, numba
+#: kernels from the cache, Zenoh session) took more than 30 s on a 2-core machine under a load
+#: average of ~25; a peer that never comes still fails the run, only later.
+_STARTUP_TIMEOUT_S = 120.0
 #: PlatformControllerStatus.controller codes.
 CONTROLLER_CODES = {"bang_bang": 0, "mpc": 1, "mpc_id": 2, "prbs": 3}
 #: Controllers a node runs (``prbs``: the identification excitation).

@@ -252,10 +252,15 @@ def operating_point(
             dx = f(0.0, state(q), u, params)  # type: ignore[operator]
             return np.array(dx[4:8]) * np.array([1.0, 1.0, PITCH_LENGTH_M, 1.0])
 
-        q_eq, _, ier, msg = fsolve(residual, q_eq, full_output=True, xtol=1e-12)
+        q_try, _, ier, msg = fsolve(residual, q_eq, full_output=True, xtol=1e-12)
         # From the previous pass's solution fsolve may stop without "progress" at the solution.
-        if ier != 1 and float(np.max(np.abs(residual(q_eq)))) > 1e-9:
-            raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {msg}")
+        if ier != 1 and float(np.max(np.abs(residual(q_try)))) > 1e-9:
+            # The mooring force is piecewise affine in surge with a first-order heave/pitch
+            # term whose slope jumps at the table's knots (MooringTable), so the residual
+            # jumps there and fsolve's trust region can stall at a knot short of the root
+            # (9.5 m/s on OC3-Hywind: stalls at the 19 m knot, root at 19.26 m).
+            q_try = _bracketed_equilibrium(residual, q_try, wind_m_s, msg)
+        q_eq = q_try
         x = state(q_eq)
         u_new = relative_wind(x, wind_m_s, params) if params.aero else wind_m_s
         if abs(u_new - u_n) <= 1e-10 * wind_m_s:
@@ -265,6 +270,50 @@ def operating_point(
         raise ValueError(f"operating point at U = {wind_m_s} m/s: rotor-normal wind not converged")
     thrust = rotor_thrust(omega, theta, u_n, params.turbine)
     return OperatingPoint(wind_m_s, x, u, float(thrust))
+
+
+def _bracketed_equilibrium(
+    residual: Callable[[FloatArray], FloatArray], q0: FloatArray, wind_m_s: float, why: str
+) -> FloatArray:
+    """Static equilibrium by a bracket in surge, robust to the mooring table's jumps.
+
+    For a surge x the other three DOFs solve their (smooth in them) equations, leaving the
+    surge residual g(x); the bracket widens from ``q0``'s surge in 0.5 m steps (doubling) to a
+    sign change of g, then Brent's method finds the root. The full residual must then be
+    below 1e-9 (scaled accelerations), else ValueError with fsolve's message ``why``.
+    """
+    from scipy.optimize import brentq, fsolve  # noqa: PLC0415  offline only
+
+    rest = np.array(q0[1:], dtype=np.float64)
+
+    def solve_rest(x: float) -> FloatArray:
+        nonlocal rest
+        sol = fsolve(lambda y: residual(np.array([x, *y]))[1:], rest, xtol=1e-13, full_output=True)[
+            0
+        ]
+        rest = np.asarray(sol, dtype=np.float64)
+        return rest
+
+    def g(x: float) -> float:
+        return float(residual(np.array([x, *solve_rest(x)]))[0])
+
+    x0 = float(q0[0])
+    g0 = g(x0)
+    lo = hi = x0
+    step = 0.5
+    for _ in range(12):
+        lo, hi = x0 - step, x0 + step
+        if g(lo) * g0 <= 0.0 or g(hi) * g0 <= 0.0:
+            break
+        step *= 2.0
+    else:
+        raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {why}")
+    a, b = (lo, x0) if g(lo) * g0 <= 0.0 else (x0, hi)
+    x = float(brentq(g, a, b, xtol=1e-12, rtol=1e-14))
+    q = np.array([x, *solve_rest(x)])
+    if float(np.max(np.abs(residual(q)))) > 1e-9:
+        raise ValueError(f"no static equilibrium found at U = {wind_m_s} m/s: {why}")
+    return q
 
 
 def linearize(params: FloatingParams, op: OperatingPoint, rel_step: float = 1e-6) -> FloatArray:

@@ -119,6 +119,10 @@ class LqrWaveSettings:
         Bryson limits of ψ (20 rad), φ̇ (1 deg/s), β and β_c (60 deg).
     observer_wave_rad_s : float
         Wave frequency of the observer's hydrodynamics (0.2 rad/s).
+    decoupled : bool
+        Gains designed on the seed's model without the surge-pitch coupling
+        (:class:`SparModel`); the observer keeps the plant's coupled model (it estimates the
+        plant's states). Default False (the plant's model).
     """
 
     variant: str = "lqr2"
@@ -133,6 +137,7 @@ class LqrWaveSettings:
     platform_rate_max_deg_s: float = 1.0
     pitch_max_deg: float = 60.0
     observer_wave_rad_s: float = 0.2
+    decoupled: bool = False
 
     def __post_init__(self) -> None:
         if self.variant not in VARIANTS:
@@ -172,18 +177,54 @@ class _Base:
     x_op: FloatArray  # (11,)
     m_inf: FloatArray  # (4, 4)
     hub_lever: FloatArray  # (4,)
+    #: Decoupled model only: generalised-force Jacobians (4 rows q̈·M) over the 11 states, the
+    #: 2 demands and the 4 disturbances, and the mass matrix, surge-pitch terms removed.
+    force_x: FloatArray | None = None
+    force_u: FloatArray | None = None
+    force_dist: FloatArray | None = None
+    m_dec: FloatArray | None = None
+
+
+#: Surge (0) and pitch (2) DOF indices of (surge, heave, pitch, tower): the coupling removed
+#: by the decoupled model.
+_SURGE, _PITCH = 0, 2
+
+
+def decouple(m: FloatArray, offset: int = 0) -> FloatArray:
+    """Copy of a matrix over the DOFs with its surge-pitch cross terms set to zero.
+
+    ``offset``: column offset of the DOF block (4 for the q̇ columns of a state Jacobian).
+    """
+    out = np.array(m, dtype=np.float64, copy=True)
+    out[_SURGE, offset + _PITCH] = 0.0
+    out[_PITCH, offset + _SURGE] = 0.0
+    return out
 
 
 class SparModel:
-    """The plant's linearisation and its BEM data (offline; imports ``plant``)."""
+    """The plant's linearisation and its BEM data (offline; imports ``plant``).
 
-    def __init__(self, preset: str) -> None:
+    ``decoupled``: christiansen-2013's model (sect. 2.1-2.4) instead of the plant's. The seed
+    keeps "the dominating diagonal elements only" of the platform's mass matrix (its cross
+    terms, "i.e. pitch and surge", left out on the strength of unpublished simulations), and
+    writes the platform mass, added mass, damping and stiffness about the SWL as diagonal
+    matrices plus the turbine/tower coupling. Here that is: the surge-pitch (and
+    pitch-surge) entries set to zero in the mass matrix M_s + A_∞, in A(ω) − A_∞, in the
+    radiation damping B(ω), and in the non-aerodynamic stiffness and damping of the
+    linearisation (hydrostatics, gravity, mooring, linear and quadratic hydrodynamic drag:
+    the Jacobian of the plant with its rotor loads off). The aerodynamic terms (thrust and
+    torque derivatives with respect to the surge and pitch rates through the relative wind
+    v − ẋ − h_h θ̇, the seed's sect. 2.5) keep their coupling, as in the seed's model.
+    """
+
+    def __init__(self, preset: str, decoupled: bool = False) -> None:
         from importlib import resources  # noqa: PLC0415
 
         from plant.hydro.wamit import HydroData  # noqa: PLC0415
         from plant.platform import _resolve, load_floating, read_floating_preset  # noqa: PLC0415
 
         self.preset = preset
+        self.decoupled = bool(decoupled)
         self.params = load_floating(preset, radiation=False)
         fp, base, _ = read_floating_preset(preset)
         with resources.as_file(_resolve(base, fp.hydro_file)) as path:
@@ -220,14 +261,30 @@ class SparModel:
         a = linearize(p, op)
         x0 = np.array(op.state, dtype=np.float64)
         bu = _jacobian_u(p, x0, op.inputs)
+        m_inf = np.asarray(p.mass_matrix, dtype=np.float64)
+        dec: dict[str, FloatArray] = {}
+        if self.decoupled:
+            from dataclasses import replace  # noqa: PLC0415
+
+            # Generalised forces M q̈ = F: F's Jacobian split into the rotor's (aero) part and
+            # the rest (the linearisation with the rotor loads off, same state and inputs).
+            fx = m_inf @ a[4:8, :]
+            fx_rest = m_inf @ linearize(replace(p, aero=False), op)[4:8, :]
+            dec = {
+                "force_x": decouple(decouple(fx_rest), offset=4) + (fx - fx_rest),
+                "force_u": m_inf @ bu[4:8, 0:2],
+                "force_dist": m_inf @ bu[4:8, 2:6],
+                "m_dec": decouple(m_inf),
+            }
         out = _Base(
             wind_m_s=float(wind_m_s),
             a=a,
             b=bu[:, 0:2].copy(),
             b_dist=bu[:, 2:6].copy(),
             x_op=x0,
-            m_inf=np.asarray(p.mass_matrix, dtype=np.float64),
+            m_inf=m_inf,
             hub_lever=np.asarray(p.hub_lever, dtype=np.float64),
+            **dec,
         )
         self._cache[key] = out
         return out
@@ -236,6 +293,8 @@ class SparModel:
         """(A, B, B_dist) of the 11-state model with the hydrodynamics at ``omega_rad_s``."""
         bs = self.base(wind_m_s)
         a_w, b_w = self.hydro_at(omega_rad_s)
+        if self.decoupled:
+            return self._at_decoupled(bs, a_w, b_w)
         m_new = bs.m_inf.copy()
         m_new[:3, :3] += a_w - self.a_inf
         d_new = np.zeros((4, 4))
@@ -250,10 +309,67 @@ class SparModel:
         bd[4:8, :] = t @ bs.b_dist[4:8, :]
         return a, b, bd
 
+    def _at_decoupled(
+        self, bs: _Base, a_w: FloatArray, b_w: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`at` of the decoupled model (class docstring): every surge-pitch term zero."""
+        assert bs.m_dec is not None and bs.force_x is not None
+        assert bs.force_u is not None and bs.force_dist is not None
+        m_new = bs.m_dec.copy()
+        m_new[:3, :3] += decouple(a_w - self.a_inf)
+        d_new = np.zeros((4, 4))
+        d_new[:3, :3] = decouple(b_w)
+        a = bs.a.copy()
+        b = bs.b.copy()
+        bd = bs.b_dist.copy()
+        a[4:8, :] = np.linalg.solve(m_new, bs.force_x)
+        a[4:8, 4:8] -= np.linalg.solve(m_new, d_new)
+        b[4:8, :] = np.linalg.solve(m_new, bs.force_u)
+        bd[4:8, :] = np.linalg.solve(m_new, bs.force_dist)
+        return a, b, bd
 
-def spar_model(preset: str) -> SparModel:
-    """The linear spar model of a floating preset (offline)."""
-    return SparModel(preset)
+    def coupling_terms(self, wind_m_s: float, omega_rad_s: float) -> dict[str, float]:
+        """The surge-pitch cross terms of the model's mass, added mass, radiation damping and
+        non-aerodynamic stiffness and damping at (v, ω) (all zero when ``decoupled``)."""
+        bs = self.base(wind_m_s)
+        a_w, b_w = self.hydro_at(omega_rad_s)
+        if self.decoupled:
+            assert bs.m_dec is not None and bs.force_x is not None
+            m, a_add, b_rad = bs.m_dec, decouple(a_w - self.a_inf), decouple(b_w)
+            fx = bs.force_x - (bs.m_inf @ bs.a[4:8, :] - self._rest(wind_m_s, decoupled=False))
+        else:
+            m, a_add, b_rad = bs.m_inf, a_w - self.a_inf, b_w
+            fx = self._rest(wind_m_s, decoupled=False)
+        p, s_ = _PITCH, _SURGE
+        return {
+            "mass_surge_pitch": float(m[s_, p]),
+            "mass_pitch_surge": float(m[p, s_]),
+            "added_mass_surge_pitch": float(a_add[s_, p]),
+            "added_mass_pitch_surge": float(a_add[p, s_]),
+            "radiation_damping_surge_pitch": float(b_rad[s_, p]),
+            "radiation_damping_pitch_surge": float(b_rad[p, s_]),
+            "stiffness_surge_pitch": float(fx[s_, p]),
+            "stiffness_pitch_surge": float(fx[p, s_]),
+            "damping_surge_pitch": float(fx[s_, 4 + p]),
+            "damping_pitch_surge": float(fx[p, 4 + s_]),
+        }
+
+    def _rest(self, wind_m_s: float, decoupled: bool) -> FloatArray:
+        """Non-aerodynamic generalised-force Jacobian (4 x 11) at ``wind_m_s``."""
+        from dataclasses import replace  # noqa: PLC0415
+
+        from plant.modes import linearize, operating_point  # noqa: PLC0415
+
+        p = self.params
+        op = operating_point(p, wind_m_s)
+        rest = np.asarray(p.mass_matrix) @ linearize(replace(p, aero=False), op)[4:8, :]
+        return decouple(decouple(rest), offset=4) if decoupled else rest
+
+
+def spar_model(preset: str, decoupled: bool = False) -> SparModel:
+    """The linear spar model of a floating preset (offline); ``decoupled``: the seed's model
+    without the surge-pitch coupling (:class:`SparModel`)."""
+    return SparModel(preset, decoupled)
 
 
 def design_matrices(
@@ -341,7 +457,10 @@ def design_lqr_wave(
     s = settings or LqrWaveSettings()
     if not 0.0 < control_period_s <= 1.0:
         raise ValueError(f"control_period_s = {control_period_s!r}: expected (0, 1] s")
-    m = model or SparModel(preset)
+    m = model or SparModel(preset, decoupled=s.decoupled)
+    if m.decoupled != s.decoupled:
+        raise ValueError(f"design_lqr_wave: settings.decoupled = {s.decoupled}, model not")
+    m_obs = SparModel(preset) if m.decoupled else m  # the observer estimates the plant's states
     winds, waves = s.winds(), s.waves()
     q, r = weights(s)
     gains = np.zeros((winds.size, waves.size, 12))
@@ -355,7 +474,7 @@ def design_lqr_wave(
             k, f, g = discrete_lqr(a, b, q, r, control_period_s)
             gains[i, j] = k[0]
             rho_max[i, j] = float(np.max(np.abs(np.linalg.eigvals(f - g @ k))))
-        for key, val in _observer(m, float(v), s.observer_wave_rad_s).items():
+        for key, val in _observer(m_obs, float(v), s.observer_wave_rad_s).items():
             obs[key].append(val)
     tp = m.params.turbine
     out = Path(out_dir) if out_dir is not None else DEFAULT_DESIGN_DIR
@@ -400,8 +519,12 @@ def damping_map(
     winds_m_s: FloatArray | None = None,
     waves_rad_s: FloatArray | None = None,
     model: SparModel | None = None,
+    decoupled: bool = False,
 ) -> dict[str, Any]:
     """Open-loop damping ratio of the platform-pitch mode over wind and wave frequency (s. 2.9).
+
+    ``decoupled``: on the seed's model without the surge-pitch coupling (:class:`SparModel`;
+    ignored when ``model`` is given, whose own setting holds).
 
     Open loop: pitch and torque demands held at their operating values (the actuator states
     stay, driven by nothing), the 11-state model of :meth:`SparModel.at` at each (v, ω_w); the
@@ -417,7 +540,7 @@ def damping_map(
     from plant.modes import PITCH_LENGTH_M, identify_modes  # noqa: PLC0415
     from plant.platform import DOF_NAMES  # noqa: PLC0415
 
-    m = model or SparModel(preset)
+    m = model or SparModel(preset, decoupled=decoupled)
     winds = np.arange(3.0, 25.0 + 1e-9, 0.5) if winds_m_s is None else np.asarray(winds_m_s)
     waves = np.arange(0.05, 3.0 + 1e-9, 0.05) if waves_rad_s is None else np.asarray(waves_rad_s)
     zeta = np.full((winds.size, waves.size), np.nan)
@@ -442,6 +565,7 @@ def damping_map(
     i_max, j_max = divmod(k, waves.size)
     return {
         "preset": preset,
+        "decoupled": m.decoupled,
         "wind_m_s": winds.tolist(),
         "wave_omega_rad_s": waves.tolist(),
         "pitch_damping_ratio": zeta.tolist(),
