@@ -102,6 +102,12 @@ bench-studies: setup
 	$(BIN)/python bench/trimmed_start.py
 	$(BIN)/python bench/tsr_opt_sensitivity.py
 	$(BIN)/python bench/casanovas_forecast_vaf.py
+	$(BIN)/python bench/iea15_schedule.py
+	$(BIN)/python bench/christiansen_seeds.py --pairs 10 --published --workers 2
+	$(BIN)/python bench/christiansen_seeds.py --pairs 10 --decoupled --reuse bench/results/christiansen_seeds_statistics.json
+	$(BIN)/python bench/christiansen_damping_map.py
+	$(BIN)/python bench/hexicon_identify_amplitude.py --workers 4
+	$(BIN)/python bench/hexicon_yaw_coast_down.py
 
 # The al-2019 study's figures (docs/studies/al-2019.md): the below-rated table
 # (bench/results/below_rated_kpis.json) and the load-case campaign's aggregates and per-run

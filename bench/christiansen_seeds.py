@@ -20,8 +20,8 @@ run on the full plant.
 KPIs (statistics after ``SETTLE_S``, truth channel, as ``christiansen_case.py``): standard
 deviation of platform pitch, electrical power, tower-top fore-aft deflection and rotor speed,
 blade-pitch travel ∫|β̇|dt, mean electrical power. Saves
-``bench/results/christiansen_seed_statistics.json`` (partial results after every pair in
-``christiansen_seed_statistics.partial.json`` beside it, removed at the end).
+``bench/results/christiansen_seeds_statistics.json`` (partial results after every pair in
+``christiansen_seeds_statistics.partial.json`` beside it, removed at the end).
 
     python bench/christiansen_seeds.py [--pairs 10] [--periods 2 5 10] [--published]
         [--decoupled] [--workers 1] [--duration 600] [--reuse RESULT.json ...] [--name STEM]
@@ -217,7 +217,7 @@ def main() -> int:
     ap.add_argument("--decoupled", action="store_true", help="also LQR2 on the decoupled model")
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--name", default="christiansen_seed_statistics", help="result file stem")
+    ap.add_argument("--name", default="christiansen_seeds_statistics", help="result file stem")
     ap.add_argument(
         "--reuse",
         type=Path,

@@ -984,7 +984,7 @@ def design_cmd(
 
     t0 = time.perf_counter()
     if (decoupled or published_weights) and lqr_wave is None:
-        _fail("--decoupled and --published-weights go with --lqr-wave")
+        fail("--decoupled and --published-weights go with --lqr-wave")
     if lqr_wave is not None:
         from controller.design.lqr_wave import LqrWaveSettings, design_lqr_wave
 
