@@ -105,7 +105,7 @@ from bus_schemas.messages import (
 )
 from hil import kpi
 from hil import review_stream as rs
-from hil.mcap_columns import ColumnBatch, RunInfo, run_batches, run_info
+from hil.mcap_columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
 from hil.mcap_log import PROFILE, MessageList, RunData, read_run
 from hil.recording import completeness, describe
 from hil.scenario import ReviewSection
