@@ -105,7 +105,7 @@ class RunInfo:
 def _struct_decoder(fields: Sequence[str]) -> Any:
     """A msgspec JSON decoder of a list of objects into Structs of ``fields`` only."""
     spec = [(name, float | None, math.nan) for name in fields]
-    cls = msgspec.defstruct("Columns", spec)  # type: ignore[arg-type]
+    cls = msgspec.defstruct("Columns", spec)
     return msgspec.json.Decoder(list[cls])  # type: ignore[valid-type]
 
 
@@ -319,8 +319,15 @@ def _cdr_records(sfx: str, schema_name: str, payloads: list[bytes]) -> np.ndarra
     raise ValueError(f"cdr channel {sfx!r} (schema {schema_name!r}) is no registered message")
 
 
-def run_batches(run: RunData, fields: Mapping[str, Sequence[str]]) -> Iterator[ColumnBatch]:
-    """A :class:`hil.mcap_log.RunData` (messages in memory) as one batch per topic.
+def run_batches(
+    run: RunData,
+    fields: Mapping[str, Sequence[str]],
+    block: int = 4096,
+    lead: Sequence[str] = (),
+) -> Iterator[ColumnBatch]:
+    """A :class:`hil.mcap_log.RunData` (messages in memory) as batches of ``block`` messages,
+    the topics taken in turn (as a file's chunks interleave them), those whose suffix is in
+    ``lead`` first in each turn.
 
     The columns are :func:`hil.review._col`'s (a :class:`hil.mcap_log.MessageList`'s own
     columns where it has them), so a run summarised from memory and from its file agree.
@@ -328,6 +335,7 @@ def run_batches(run: RunData, fields: Mapping[str, Sequence[str]]) -> Iterator[C
     from hil.mcap_log import MessageList  # noqa: PLC0415
 
     seen: set[str] = set()
+    whole: list[tuple[str, str, bool, dict[str, np.ndarray], list[dict[str, Any]]]] = []
     for topic, msgs in run.messages.items():
         sfx = suffix_of(topic)
         first = sfx not in seen
@@ -341,7 +349,15 @@ def run_batches(run: RunData, fields: Mapping[str, Sequence[str]]) -> Iterator[C
                 cols[name] = msgs.column(name)
             else:
                 cols[name] = np.array([m.get(name, math.nan) for m in msgs], dtype=np.float64)
-        yield ColumnBatch(sfx, topic, first, cols, len(msgs), msgs.__getitem__)
+        whole.append((sfx, topic, first, cols, msgs))
+    whole.sort(key=lambda w: w[0] not in lead)  # stable: file order otherwise
+    longest = max((len(w[4]) for w in whole), default=0)
+    for a in range(0, longest, block):
+        for sfx, topic, first, cols, msgs in whole:
+            part = msgs[a : a + block]
+            if part:
+                sub = {k: v[a : a + block] for k, v in cols.items()}
+                yield ColumnBatch(sfx, topic, first, sub, len(part), part.__getitem__)
 
 
 def run_info(run: RunData) -> RunInfo:

@@ -940,7 +940,7 @@ def open_chunk_batch(rec: Chunk) -> list[Any]:
             rec.data, max_output_size=rec.uncompressed_size
         )
     elif rec.compression == "lz4":
-        import lz4.frame  # type: ignore[import-untyped]  # noqa: PLC0415
+        import lz4.frame  # noqa: PLC0415
 
         data = lz4.frame.decompress(rec.data)
     elif rec.compression == "":

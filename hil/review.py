@@ -91,7 +91,6 @@ import numpy as np
 import numpy.typing as npt
 from rich.markup import escape
 from rich.table import Table
-from scipy.signal import welch
 
 from bus_schemas.messages import (
     CONTROLLER_REJECT_REASONS,
@@ -867,7 +866,10 @@ def summarize(run: RunData) -> dict[str, Any]:
         ``{"timing", "kpi", "run", "scenario", ...}``; keys and units in the module
         docstring. The same figures as :func:`review` computes from the file by streaming.
     """
-    return summarize_batches(run_batches(run, rs.FIELDS), run_info(run))
+    # The status before the truth of the same cycles: the join keeps the truth from the
+    # last status it resolved on (hil.review_stream.TruthJoin).
+    batches = run_batches(run, rs.FIELDS, lead=("controller/status",))
+    return summarize_batches(batches, run_info(run))
 
 
 # --------------------------------------------------------------------------- plots
@@ -1278,6 +1280,8 @@ def _psd_plot(
             if not np.isfinite(x).all():
                 _no_data(ax, "not logged")
                 continue
+            from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+
             f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
             pos = pxx[1:] > 0
             if not pos.any():
@@ -1325,11 +1329,11 @@ def review(
     reader = ColumnReader(mcap_path, rs.FIELDS)
     summary = summarize_batches(reader.batches(), reader.info)
     check_run_log(reader.info, mcap_path)
-    from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
-
     platform = _is_platform(reader.info)
     run = read_run(mcap_path) if platform or plots else None
     if platform and run is not None:
+        from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
+
         summary = hexicon_review.summarize(run)
     summary["run"]["source"] = str(mcap_path)
     if write_summary or plots:
@@ -1339,7 +1343,12 @@ def review(
             json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
         )
     if plots and run is not None:
-        (hexicon_review.write_plots if platform else write_plots)(run, out)
+        if platform:
+            from hil import hexicon_review  # noqa: PLC0415
+
+            hexicon_review.write_plots(run, out)
+        else:
+            write_plots(run, out)
     return summary
 
 

@@ -333,6 +333,10 @@ class Window:
         }
 
 
+#: Simulated time of truth the join keeps behind its last sample [s]: a status message
+#: logged up to this much later than the truth of its cycle still finds it.
+RETAIN_S = 30.0
+
 _JOIN_TRUTH = (
     "wind_speed_m_s",
     "platform_pitch_rate_rad_s",
@@ -357,6 +361,7 @@ class TruthJoin:
         self._tt: list[np.ndarray] = []
         self._tv: list[dict[str, np.ndarray]] = []
         self._pending: list[dict[str, np.ndarray]] = []
+        self._last_ts = NAN
 
     def add_truth(self, cols: dict[str, np.ndarray]) -> None:
         t = cols["sample_time_ns"]
@@ -369,6 +374,8 @@ class TruthJoin:
         self._tt.append(t)
         self._tv.append({k: cols[k] for k in _JOIN_TRUTH})
         self._resolve(final=False)
+        if not self._pending:  # nothing waits: keep from the last status resolved on
+            self._trim(self._floor())
 
     def add_status(self, cols: dict[str, np.ndarray]) -> None:
         self._pending.append(cols)
@@ -415,16 +422,32 @@ class TruthJoin:
             eta[f_ok] = np.interp(f_t[f_ok], tt, tv["wave_elevation_platform_m"])
         done["truth_eta_at_forecast"] = eta
         self.out(done)
-        # Keep the truth from the sample at or before the oldest time still needed.
+        self._last_ts = float(ts[-1])
+        self._trim(self._floor())
+
+    def _floor(self) -> float:
+        """The oldest truth time [ns] still needed: the oldest waiting status's (a forecast
+        is for a time after its own), else the last resolved one's (statuses come in
+        order), and at least the last :data:`RETAIN_S` (a status logged later than its
+        truth)."""
+        floor = self.t_last - RETAIN_S * 1e9
         if self._pending:
-            # (a forecast is for a time after its own)
-            floor = float(np.nanmin(self._pending[0]["sample_time_ns"]))
-        else:
-            floor = float(ts[-1])
-        if tt.size and math.isfinite(floor):
-            j = max(int(np.searchsorted(tt, floor, side="right")) - 1, 0)
-            self._tt = [tt[j:]]
-            self._tv = [{n: v[j:] for n, v in tv.items()}]
+            return min(floor, float(np.nanmin(self._pending[0]["sample_time_ns"])))
+        if math.isfinite(self._last_ts):
+            return min(floor, self._last_ts)
+        return floor
+
+    def _trim(self, floor: float) -> None:
+        """Drop the truth before the last sample at or before ``floor`` [ns]."""
+        if not self._tt or not math.isfinite(floor):
+            return
+        tt = np.concatenate(self._tt) if len(self._tt) > 1 else self._tt[0]
+        j = max(int(np.searchsorted(tt, floor, side="right")) - 1, 0)
+        if j == 0 and len(self._tt) == 1:
+            return
+        tv = _concat(self._tv)
+        self._tt = [tt[j:]]
+        self._tv = [{n: v[j:] for n, v in tv.items()}]
 
 
 def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:

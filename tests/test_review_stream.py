@@ -8,6 +8,7 @@ relative (summation order), rainflow DEL and pitch travel to 1e-12, the median e
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import Counter
 from pathlib import Path
@@ -27,7 +28,7 @@ from hil.mcap_log import BatchRunLog, read_run
 def _pieces(x: np.ndarray, rng: np.random.Generator) -> list[slice]:
     cuts = np.sort(rng.choice(np.arange(1, x.size), size=7, replace=False))
     edges = [0, *cuts.tolist(), x.size]
-    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    return [slice(a, b) for a, b in itertools.pairwise(edges)]
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
