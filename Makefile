@@ -49,6 +49,8 @@ bench: setup
 	$(BIN)/python bench/realtime_latency.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/lockstep_speed.py
 	$(BIN)/python bench/inprocess_speed.py
+	$(BIN)/python bench/whole_command_speed.py
+	$(BIN)/python bench/review_speed.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py

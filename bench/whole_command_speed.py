@@ -6,7 +6,9 @@ time) and the baseline (>= 600x). Per run: the loop's speed (the plant's final s
 simulated seconds per wall second of the cycle loop), the whole command's (600 s over the
 command's wall time, measured outside the process: interpreter start to exit) and the
 phases the command reports in ``summary["run"]["wall_phases_s"]`` (start-up to the loop's
-first cycle, run, log writer finishing, review; :func:`hil.launch.speed_line`). Medians of
+first cycle, run, log writer finishing, review; :func:`hil.launch.speed_line`) and the CPU
+seconds of the command and its children (the log writer), which a loaded machine inflates
+less than the wall time. Medians of
 ``--repeat`` runs, first with the machine as it is, then with ``--hogs`` CPU hogs
 (busy-looping child processes started and stopped here). The load average is saved with
 each figure: the machine is shared.
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import statistics
 import subprocess
 import sys
@@ -38,15 +41,19 @@ def _one(scenario: str, duration: float) -> dict[str, Any]:
         out = Path(tmp) / "run"
         cmd = [sys.executable, "-m", "hil", "run", scenario, "--mode", "inprocess",
                "--duration", str(duration), "--out", str(out), "--no-plots"]  # fmt: skip
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.monotonic()
         subprocess.run(cmd, capture_output=True, check=True)
         wall = time.monotonic() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
         summary = json.loads((out / "summary.json").read_text())
     phases = summary["run"].get("wall_phases_s", {})
     return {
         "loop_x": summary["timing"]["sim_seconds_per_wall_second"],
         "whole_x": duration / wall,
         "wall_s": wall,
+        "cpu_s": cpu,
         "phases_s": phases,
     }
 
@@ -57,6 +64,7 @@ def _median(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "loop_x": statistics.median(r["loop_x"] for r in runs),
         "whole_x": statistics.median(r["whole_x"] for r in runs),
         "wall_s": statistics.median(r["wall_s"] for r in runs),
+        "cpu_s": statistics.median(r["cpu_s"] for r in runs),
         "phases_s": {k: statistics.median(r["phases_s"][k] for r in runs) for k in keys},
     }
 
