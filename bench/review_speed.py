@@ -34,20 +34,26 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from _common import load, save
 
 CHILD = r"""
-import json, resource, sys, time
+import json, sys, time
 from pathlib import Path
+def hwm():
+    # VmHWM: this process's peak resident set [MB]; ru_maxrss would keep the parent's
+    # peak across fork and exec.
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
 from hil.mcap_log import read_run
 from hil.review import review, summarize
 how, path = sys.argv[1], Path(sys.argv[2])
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = hwm()
 t0 = time.process_time()
 if how == "streaming":
     s = review(path, plots=False, write_summary=False)
 else:
     s = summarize(read_run(path))
 cpu = time.process_time() - t0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({"cpu_s": cpu, "peak_rss_mb": peak / 1024, "import_rss_mb": base / 1024,
+peak = hwm()
+print(json.dumps({"cpu_s": cpu, "peak_rss_mb": peak, "import_rss_mb": base,
                   "kpi": s["kpi"]}))
 """
 

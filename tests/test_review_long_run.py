@@ -70,11 +70,17 @@ def write_log(path: Path, duration_s: float) -> None:
 
 
 CHILD = r"""
-import json, resource, sys
+import json, sys
 from pathlib import Path
+def hwm():
+    # VmHWM: this process's peak resident set [MB]; ru_maxrss would keep the parent's
+    # peak across fork and exec.
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
 from hil.review import review
 s = review(Path(sys.argv[1]), plots=False, write_summary=False)
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+peak = hwm()
 print(json.dumps({"peak_mb": peak, "kpi": s["kpi"], "window": s["kpi_window"],
                   "cycles": s["timing"]["latency_cycles"]}))
 """
