@@ -62,6 +62,8 @@ bench-speed: setup
 	$(BIN)/python bench/lockstep_speed.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/inprocess_speed.py
 	$(BIN)/python bench/runlog_encoding.py
+	$(BIN)/python bench/whole_command_speed.py
+	$(BIN)/python bench/review_speed.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py

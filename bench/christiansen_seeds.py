@@ -126,7 +126,7 @@ def run_one(job: tuple[int, int, str, str | None, float]) -> tuple[int, int, str
 
     from bus_schemas.registry import TRUTH
     from hil.controller_node import ControllerRuntime
-    from hil.plant_node import run_inprocess
+    from hil.inprocess_run import run_inprocess
     from hil.scenario import load_scenario
 
     pair, tp, variant, preset, duration = job

@@ -1,6 +1,6 @@
 """Where an in-process control cycle's time goes: one profiler, five views of the same loop.
 
-The in-process loop (:func:`hil.plant_node.run_inprocess`) runs, per control cycle, the
+The in-process loop (:func:`hil.inprocess_run.run_inprocess`) runs, per control cycle, the
 plant's truth and sensor frame, the controller runtime and its core, the plant's period and
 the publishes, either compiled (:mod:`hil._loop_kernels`) or in Python. Each subcommand
 times it from one side and saves ``bench/results/loop_profile_<subcommand>.json``:
@@ -365,7 +365,7 @@ def measure_kernel(args: argparse.Namespace) -> dict[str, Any]:
 
 def _loop_only_one(scenario: str, loop: str, duration_s: float) -> dict[str, Any]:
     from hil.controller_node import ControllerRuntime, publishing_step
-    from hil.plant_node import run_inprocess
+    from hil.inprocess_run import run_inprocess
     from hil.scenario import load_scenario
 
     scn = load_scenario(scenario).with_duration(duration_s)

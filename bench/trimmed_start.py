@@ -47,7 +47,7 @@ from _common import save
 
 from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
 from hil.controller_node import ControllerRuntime, publishing_step
-from hil.plant_node import run_inprocess
+from hil.inprocess_run import run_inprocess
 from hil.scenario import Scenario, load_scenario, parse_scenario
 from hil.trim import initial_condition, mean_wind_m_s, settling_scenario
 

@@ -75,7 +75,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import IO, Any, Literal
+from typing import IO, TYPE_CHECKING, Any, Literal
 
 import msgspec
 from rich.console import Console
@@ -103,12 +103,6 @@ from hil.bus import (
     free_tcp_endpoint,
     unbatching,
 )
-from hil.can_bus import (
-    CanBusConfig,
-    in_private_netns,
-    netns_command,
-    transport_unavailable_reason,
-)
 from hil.controller_node import (
     ControllerRuntime,
     controller_report,
@@ -122,6 +116,9 @@ from hil.plant_node import Mode
 from hil.recorder import scenario_metadata
 from hil.review import render_summary, review
 from hil.scenario import ProcessFault, Scenario, load_scenario, scenario_text
+
+if TYPE_CHECKING:
+    from hil.can_bus import CanBusConfig
 
 #: Set in the environment of a launcher re-executed in a fresh network namespace.
 _NETNS_ENV = "FOWT_NETNS_CHILD"
@@ -286,15 +283,23 @@ def run_info(req: RunRequest, scenario: Scenario) -> dict[str, str]:
             can_interface=can.interface,
             can_channel=can.effective_channel,
             can_fd=str(int(can.fd)),
-            network_namespace="private" if in_private_netns() else "host",
+            network_namespace="private" if _in_private_netns() else "host",
         )
     return info
+
+
+def _in_private_netns() -> bool:
+    from hil.can_bus import in_private_netns  # noqa: PLC0415 - python-can: CAN runs only
+
+    return in_private_netns()
 
 
 def can_config(req: RunRequest, scenario: Scenario) -> CanBusConfig:
     """The run's CAN bus: the request's, else the scenario's ``[can]`` section."""
     if req.can is not None:
         return req.can
+    from hil.can_bus import CanBusConfig  # noqa: PLC0415 - python-can: CAN runs only
+
     c = scenario.can
     return CanBusConfig.for_interface(c.interface, c.channel, c.fd, scenario.turbine_id)
 
@@ -378,6 +383,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if req.transport == "can":
         if req.mode == "inprocess":
             raise RunFailedError("--transport can: an in-process run has no bus (use lockstep)")
+        from hil.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
+
         can = can_config(req, scenario)
         if can.turbine_id != scenario.turbine_id:
             raise RunFailedError(
@@ -403,13 +410,14 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
             markup=level == "warning",
         )
     t0 = time.monotonic()
+    phases: dict[str, float] = {}
     driver: ProcessFaultDriver | None = None
     loop_ran = ""
     aborted: RunAbortedError | None = None
     try:
         if req.mode == "inprocess":
             loop_ran = _run_inprocess(
-                scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop, abort
+                scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop, abort, phases
             )
             console.print(f"in-process loop: {loop_ran}")
         else:
@@ -431,8 +439,13 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         _failed_summary(mcap_path, out, exc)
         raise
     wall = time.monotonic() - t0
+    phases.setdefault("log_end", time.monotonic())
     summary = review(mcap_path, out, plots=req.plots)
+    phases["review_end"] = time.monotonic()
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
+    speed = (
+        speed_line(summary, phases, float(scenario.duration_s)) if req.mode == "inprocess" else None
+    )
     summary["run"]["aborted"] = aborted is not None
     if aborted is not None:
         summary["run"]["abort_signal"] = aborted.signal_name
@@ -460,6 +473,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     console.print(f"summary: {escape(str(out / 'summary.json'))}")
     for png in sorted(out.glob("*.png")):
         console.print(f"plot:    {escape(str(png))}")
+    if speed:
+        console.print(speed, markup=False, soft_wrap=True)
     console.print(
         outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
     )
@@ -494,8 +509,12 @@ def _run_inprocess(
     design_dir: Path | None = None,
     loop: Literal["auto", "compiled", "python"] = "auto",
     abort: AbortSignals | None = None,
+    phases: dict[str, float] | None = None,
 ) -> str:
     """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``).
+
+    ``phases`` gets the monotonic times [s] the loop started (``loop_start``) and ended
+    (``loop_end``) and the log was closed (``log_end``), for :func:`speed_line`.
 
     A signal (``abort``) stops the loop at the next cycle (compiled: at the next batch's
     start); the plant's final summary is written and the file closed, then
@@ -525,6 +544,11 @@ def _run_inprocess(
     # Without the perfect preview every message goes straight to the log (one call less).
     publish = publish_with_preview if scenario.controller.preview == "perfect" else log.publish
     step = publishing_step(runtime, publish)
+    marks: dict[str, float] = phases if phases is not None else {}
+
+    def before_loop() -> None:
+        log.wait_ready()
+        marks["loop_start"] = time.monotonic()
 
     try:
         try:
@@ -532,13 +556,14 @@ def _run_inprocess(
                 scenario,
                 publish,
                 step,
-                before_loop=log.wait_ready,
+                before_loop=before_loop,
                 runtime=runtime,
                 loop=loop,
                 publish_block=log.publish_block,
                 published=log.published,  # the plant's report follows its final summary
                 stop=abort.event if abort is not None else None,
             )
+            marks["loop_end"] = time.monotonic()
             # The controller stops with the plant: its report goes last, as a process's would.
             counts = log.published()
             log.publish(
@@ -567,11 +592,59 @@ def _run_inprocess(
             except LogWriteError:
                 if failing is None:
                     raise
+            marks["log_end"] = time.monotonic()
     except LogWriteError as exc:
         raise RunFailedError(f"{exc} (the file is readable up to the failure)") from None
     if result.aborted and abort is not None and abort.signum is not None:
         raise RunAbortedError(abort.signum, result.sim_s)
     return result.loop
+
+
+def process_start_monotonic() -> float | None:
+    """When this process started, on the :func:`time.monotonic` clock [s] (None: unknown).
+
+    From the start time in ``/proc/self/stat`` (clock ticks since boot) and ``/proc/uptime``:
+    the interpreter's own start-up (before any module of the bench ran) is then counted.
+    """
+    try:
+        stat = Path("/proc/self/stat").read_text()
+        uptime = float(Path("/proc/uptime").read_text().split()[0])
+        ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22: starttime
+        age = uptime - ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+    return time.monotonic() - age
+
+
+def speed_line(summary: dict[str, Any], phases: dict[str, float], sim_s: float) -> str | None:
+    """``speed: loop 1150x real time, whole command 420x (start-up 0.4 s, ...)``.
+
+    The loop's figure is the plant's own (its final summary's simulated seconds per wall
+    second, the cycle loop alone); the whole command's is the simulated time over the
+    command's wall time so far, from the process's start (interpreter included) through the
+    review: start-up (imports, scenario, designs, controller and log writer up to the
+    loop's first cycle), run (the loop), log (the writer finishing the file) and review.
+    Also stored in ``summary["run"]["wall_phases_s"]``. None without the loop's times.
+    """
+    start = process_start_monotonic()
+    if start is None or "loop_start" not in phases or "loop_end" not in phases:
+        return None
+    now = phases.get("review_end", time.monotonic())
+    parts = {
+        "start_up": phases["loop_start"] - start,
+        "run": phases["loop_end"] - phases["loop_start"],
+        "log": phases.get("log_end", phases["loop_end"]) - phases["loop_end"],
+        "review": now - phases.get("log_end", phases["loop_end"]),
+        "whole": now - start,
+    }
+    summary.setdefault("run", {})["wall_phases_s"] = {k: round(v, 3) for k, v in parts.items()}
+    loop = summary.get("timing", {}).get("sim_seconds_per_wall_second")
+    loop_text = f"loop {loop:.0f}x real time" if isinstance(loop, int | float) else "loop -"
+    return (
+        f"speed: {loop_text}, whole command {sim_s / parts['whole']:.0f}x "
+        f"(start-up {parts['start_up']:.2f} s, run {parts['run']:.2f} s, "
+        f"log {parts['log']:.2f} s, review {parts['review']:.2f} s)"
+    )
 
 
 def _scenario_ref(ref: str) -> str:
@@ -619,6 +692,8 @@ def _launch_in_netns(
     if req.realtime_priority:  # the child's plant and controller need it as much
         cmd += ["--realtime-priority", str(req.realtime_priority)]
     env = {**os.environ, _NETNS_ENV: "1"}
+    from hil.can_bus import netns_command  # noqa: PLC0415
+
     child = subprocess.Popen(netns_command(cmd), env=env)
     try:
         passed_on = False

@@ -82,7 +82,8 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections import Counter
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -90,7 +91,6 @@ import numpy as np
 import numpy.typing as npt
 from rich.markup import escape
 from rich.table import Table
-from scipy.signal import welch
 
 from bus_schemas.messages import (
     CONTROLLER_REJECT_REASONS,
@@ -103,6 +103,8 @@ from bus_schemas.messages import (
     VALID_BITS,
 )
 from hil import kpi
+from hil import review_stream as rs
+from hil.mcap_columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
 from hil.mcap_log import PROFILE, MessageList, RunData, read_run
 from hil.recording import completeness, describe
 from hil.scenario import ReviewSection
@@ -159,8 +161,8 @@ def _suffix(topic: str) -> str:
     return parts[2] if len(parts) == 3 else topic
 
 
-def _turbine(run: RunData) -> str | None:
-    for topic in run.messages:
+def _turbine(topics: Iterable[str]) -> str | None:
+    for topic in topics:
         parts = topic.split("/", 2)
         if len(parts) == 3 and parts[0] == "fowt":
             return parts[1]
@@ -171,7 +173,7 @@ class NotRunLogError(ValueError):
     """The file is an MCAP file, but not a run log of this bench (nothing to review)."""
 
 
-def check_run_log(run: RunData, source: Path | str = "") -> None:
+def check_run_log(run: RunData | RunInfo, source: Path | str = "") -> None:
     """Raise :class:`NotRunLogError` unless ``run`` is a run log of this bench.
 
     A run log of this bench has the ``fowt-hil`` profile in its MCAP Header
@@ -183,14 +185,15 @@ def check_run_log(run: RunData, source: Path | str = "") -> None:
 
     Parameters
     ----------
-    run : RunData
-        What :func:`hil.mcap_log.read_run` read.
+    run : RunData or RunInfo
+        What :func:`hil.mcap_log.read_run` (or :class:`hil.mcap_columns.ColumnReader`) read.
     source : Path or str
         The file, for the message.
     """
-    if run.profile == PROFILE or any(t.startswith("fowt/") for t in run.messages):
+    names = list(run.messages) if isinstance(run, RunData) else run.topics
+    if run.profile == PROFILE or any(t.startswith("fowt/") for t in names):
         return
-    topics = sorted(run.messages)
+    topics = sorted(names)
     shown = ", ".join(topics[:5]) + (f" and {len(topics) - 5} more" if len(topics) > 5 else "")
     where = f"{source}: " if str(source) else ""
     raise NotRunLogError(
@@ -241,7 +244,7 @@ def _cycle_latency_ns(cycles: Sequence[dict[str, Any]]) -> tuple[FloatArray, int
     return lat, int(none.sum())
 
 
-def _deadline_us(run: RunData) -> float:
+def _deadline_us(run: RunData | RunInfo) -> float:
     """The command deadline in wall time [us]: the control period / the speed factor."""
     cfg = _scenario(run).get("config") or {}
     timing = cfg.get("timing") if isinstance(cfg, dict) else None
@@ -253,81 +256,6 @@ def _deadline_us(run: RunData) -> float:
     except ValueError:
         speed = 1.0
     return float(period) * 1e6 / (speed if speed > 0 else 1.0)
-
-
-def _timing(run: RunData) -> dict[str, Any]:
-    cycles = run.topic("timing/cycle")
-    summaries = run.topic("timing/summary")
-    status = run.topic("controller/status")
-    final = next((s for s in reversed(summaries) if int(s.get("final", 0)) == 1), None)
-    last_summary = final if final is not None else (summaries[-1] if summaries else None)
-
-    lat_ns, unanswered = _cycle_latency_ns(cycles)
-    plant_lat = (
-        {
-            "p50": last_summary.get("latency_p50_us"),
-            "p99": last_summary.get("latency_p99_us"),
-            "p999": last_summary.get("latency_p999_us"),
-            "max": last_summary.get("latency_max_us"),
-        }
-        if last_summary is not None
-        else {"p50": None, "p99": None, "p999": None, "max": None}
-    )
-    if lat_ns.size or last_summary is None:
-        latency: dict[str, Any] = dict(kpi.latency_percentiles_us(lat_ns))
-        latency_source = "timing/cycle"
-    else:
-        latency = dict(plant_lat)
-        latency_source = "timing/summary"
-
-    out: dict[str, Any] = {
-        "complete": final is not None,
-        "latency_us": latency,
-        "latency_cycles": int(lat_ns.size),
-        "unanswered_cycles": unanswered,
-        "deadline_us": _deadline_us(run),
-        "latency_source": latency_source,
-        "latency_us_plant": plant_lat,
-        "cycles_logged": len(cycles),
-    }
-    if final is not None:
-        out.update(
-            cycles=int(final["cycles"]),
-            deadline_misses=int(final["deadline_misses"]),
-            commands_held=int(final["commands_held"]),
-            commands_rejected=int(final["commands_rejected"]),
-            commands_late=int(final["commands_late"]),
-            safe_state=int(final["safe_state"]),
-            safe_state_cycles=int(final.get("safe_state_cycles", 0)),
-            faults_injected=int(final.get("faults_injected", 0)),
-            sim_seconds_per_wall_second=float(final["sim_seconds_per_wall_second"]),
-        )
-    else:
-        # Crashed run: count what the logged cycles show. Rejected and late commands are not
-        # in the cycle record; the last running summary (if any) gives a lower bound.
-        def _sum(name: str) -> int:
-            return int(sum(int(c.get(name, 0)) for c in cycles))
-
-        sample = _col(cycles, "sample_time_ns")
-        wall = _col(cycles, "publish_time_ns")
-        speed = math.nan
-        if len(cycles) >= 2 and wall[-1] > wall[0]:
-            speed = float((sample[-1] - sample[0]) / (wall[-1] - wall[0]))
-        out.update(
-            cycles=len(cycles),
-            deadline_misses=_sum("deadline_missed"),
-            commands_held=_sum("command_held"),
-            commands_rejected=_int_or_none(
-                last_summary.get("commands_rejected") if last_summary else None
-            ),
-            commands_late=_int_or_none(last_summary.get("commands_late") if last_summary else None),
-            safe_state=max((int(c.get("safe_state", 0)) for c in cycles), default=0),
-            sim_seconds_per_wall_second=speed,
-        )
-    out["controller_compute_us"] = kpi.percentiles(
-        _col(status, "compute_time_ns") / 1e3, [50.0, 99.0], ["p50", "p99", "max"]
-    )
-    return out
 
 
 def _since(msgs: list[dict[str, Any]], t0_s: float) -> list[dict[str, Any]]:
@@ -369,133 +297,6 @@ def kpi_window(run: RunData) -> dict[str, Any]:
     }
 
 
-def _kpis(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
-    truth = _since(run.topic("truth"), t0_s)
-    sensors = _since(run.topic("sensors"), t0_s)
-    t = _t_s(truth)
-    rotor = _col(truth, "rotor_speed_rad_s")
-    platform_pitch = _col(truth, "platform_pitch_rad")
-    if truth and not np.isfinite(platform_pitch).all():  # a log of PlantState version 1
-        platform_pitch = _col(sensors, "platform_pitch_measured_rad")
-    surge = _col(truth, "platform_surge_m")
-    if not _is_floating(truth):  # a bottom-fixed plant has no platform: null, not 0
-        platform_pitch = surge = np.array([math.nan])
-    return {
-        "mean_power_w": kpi.mean_power_w(_col(truth, "electrical_power_w")),
-        "rotor_speed_mean_rad_s": kpi.mean(rotor),
-        "rotor_speed_std_rad_s": kpi.std(rotor),
-        "pitch_travel_deg_s": kpi.pitch_travel_deg_s(t, _col(truth, "blade_pitch_rad")),
-        "generator_torque_mean_nm": kpi.mean(_col(truth, "generator_torque_nm")),
-        "thrust_mean_n": kpi.mean(_col(truth, "rotor_thrust_n")),
-        "thrust_max_n": kpi.maximum(_col(truth, "rotor_thrust_n")),
-        "shaft_del_nm": kpi.damage_equivalent_load(
-            _col(truth, "shaft_torque_nm"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
-        ),
-        "tower_base_del_nm": kpi.damage_equivalent_load(
-            _col(truth, "tower_base_moment_nm"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
-        ),
-        "thrust_del_n": kpi.damage_equivalent_load(
-            _col(truth, "rotor_thrust_n"), t, SHAFT_WOHLER_M, DEL_N_EQ_HZ
-        ),
-        "shaft_del_wohler_m": SHAFT_WOHLER_M,
-        "del_n_eq_hz": DEL_N_EQ_HZ,
-        "platform_pitch_mean_deg": math.degrees(kpi.mean(platform_pitch)),
-        "platform_pitch_std_deg": math.degrees(kpi.std(platform_pitch)),
-        "surge_mean_m": kpi.mean(surge),
-        "surge_std_m": kpi.std(surge),
-        "tower_base_moment_mean_nm": kpi.mean(_col(truth, "tower_base_moment_nm")),
-    }
-
-
-def _estimates(run: RunData, t0_s: float = 0.0) -> dict[str, Any]:
-    """Estimator, forecast and compute-time KPIs of an advanced controller's status messages.
-
-    The truth (``truth`` channel) is linearly interpolated to each status sample time.
-    Wind: error e = Û − U (rotor-effective wind, ``wind_speed_m_s``) over the cycles whose
-    status sets ``EST_WIND_SPEED``: mean 100 mean(e)/mean(U) [%] and RMS [m/s]. Forecast: each
-    distinct (``wave_forecast_time_ns``, forecast) pair with ``EST_WAVE_FORECAST`` set is
-    compared with the true platform elevation ``wave_elevation_platform_m`` at the time it is
-    a forecast for; VAF = 100 (1 − var(η − η̂)/var(η)) [%] over the pairs inside the record.
-    Only the status messages at or after ``t0_s`` [s] count (the KPI window); the compute
-    time percentiles use every cycle.
-    """
-    all_status = run.topic("controller/status")
-    status = _since(all_status, t0_s)
-    truth = run.topic("truth")
-    nan = math.nan
-    est: dict[str, Any] = {
-        "wind_speed_error_mean_pct": nan,
-        "wind_speed_error_rms_m_s": nan,
-        "platform_pitch_rate_error_rms_rad_s": nan,
-        "platform_surge_velocity_error_rms_m_s": nan,
-        "degraded_fraction": nan,
-    }
-    fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
-    compute = kpi.percentiles(
-        _col(all_status, "compute_time_ns") / 1e3, [50.0, 99.0], ["p50", "p99", "max"]
-    )
-    out = {"estimator": est, "forecast": fc, "controller": {"compute_us": compute}}
-    if not status or not truth:
-        return out
-    mask = _col(status, "estimates_valid_mask")
-    if not np.isfinite(mask).all():  # a log of ControllerStatus version 1
-        return out
-    m = mask.astype(np.int64)
-    ts = _col(status, "sample_time_ns")
-    tt = _col(truth, "sample_time_ns")
-    inside = (ts >= tt[0]) & (ts <= tt[-1])
-    est["degraded_fraction"] = float(np.mean(_col(status, "estimator_degraded") > 0))
-
-    def _err(bit: int, est_name: str, truth_name: str) -> FloatArray:
-        sel = inside & ((m & bit) != 0)
-        ref = np.interp(ts[sel], tt, _col(truth, truth_name))
-        err: FloatArray = _col(status, est_name)[sel] - ref
-        return err
-
-    wind_sel = inside & ((m & EST_WIND_SPEED) != 0)
-    if wind_sel.any():
-        u_true = np.interp(ts[wind_sel], tt, _col(truth, "wind_speed_m_s"))
-        e = _col(status, "wind_speed_estimated_m_s")[wind_sel] - u_true
-        est["wind_speed_error_mean_pct"] = float(100.0 * np.mean(e) / np.mean(u_true))
-        est["wind_speed_error_rms_m_s"] = float(np.sqrt(np.mean(e * e)))
-    for key, bit, name, tname in (
-        (
-            "platform_pitch_rate_error_rms_rad_s",
-            EST_PLATFORM_PITCH_RATE,
-            "platform_pitch_rate_estimated_rad_s",
-            "platform_pitch_rate_rad_s",
-        ),
-        (
-            "platform_surge_velocity_error_rms_m_s",
-            EST_PLATFORM_SURGE_VELOCITY,
-            "platform_surge_velocity_estimated_m_s",
-            "platform_surge_velocity_m_s",
-        ),
-    ):
-        e = _err(bit, name, tname)
-        if e.size:
-            est[key] = float(np.sqrt(np.mean(e * e)))
-    f_sel = (m & EST_WAVE_FORECAST) != 0
-    if f_sel.any():
-        f_t = _col(status, "wave_forecast_time_ns")[f_sel]
-        f_v = _col(status, "wave_elevation_forecast_m")[f_sel]
-        keep = np.ones(f_t.size, dtype=bool)
-        keep[1:] = f_t[1:] != f_t[:-1]  # a forecast is held between forecaster calls
-        f_t, f_v = f_t[keep], f_v[keep]
-        ok = (f_t >= tt[0]) & (f_t <= tt[-1])
-        if ok.sum() >= 2:
-            eta = np.interp(f_t[ok], tt, _col(truth, "wave_elevation_platform_m"))
-            fc["samples"] = int(ok.sum())
-            var = float(np.var(eta))
-            if var > 0.0:
-                fc["vaf_pct"] = float(100.0 * (1.0 - np.var(eta - f_v[ok]) / var))
-    # AR/ESPRIT forecaster: fits stabilised and forecasts guarded (counts since the start)
-    for key, name in (("unstable_fits", "forecast_unstable_fits"), ("guarded", "forecast_guarded")):
-        col = _col(status, name)
-        fc[key] = int(np.nanmax(col)) if col.size and np.isfinite(col).any() else 0
-    return out
-
-
 #: ``ActuatorCommand.mode`` of a command sent in the controller's safe mode
 #: (:data:`hil.controller_node.MODE_SAFE`; not imported: that module loads the bus).
 MODE_SAFE_COMMAND = 2
@@ -503,11 +304,9 @@ MODE_SAFE_COMMAND = 2
 
 def _control_period_s(run: RunData, commands: Sequence[dict[str, Any]]) -> float:
     """The scenario's control period [s], else the median spacing of the commands' times."""
-    cfg = _scenario(run).get("config") or {}
-    timing = cfg.get("timing") if isinstance(cfg, dict) else None
-    period = timing.get("control_period_s") if isinstance(timing, dict) else None
-    if isinstance(period, int | float) and period > 0:
-        return float(period)
+    period = _scenario_period_s(run)
+    if math.isfinite(period):
+        return period
     t = _t_s(commands)
     t = t[np.isfinite(t)]
     return float(np.median(np.diff(t))) if t.size >= 2 else math.nan
@@ -524,100 +323,7 @@ def _reasons(record: dict[str, Any], prefix: str, reasons: tuple[str, ...]) -> d
     return {r: int(record.get(f"{prefix}_{r}", 0)) for r in reasons}
 
 
-def _controller_account(run: RunData) -> dict[str, Any]:
-    """The controller's safe mode and rejected frames (``summary["controller"]``).
-
-    From the final ``controller/report`` (:class:`bus_schemas.messages.ControllerReport`)
-    when the log has one (``source`` = ``"controller/report"``), else derived from the
-    ``command`` channel's ``mode`` flags (``source`` = ``"commands"``; frames missing and
-    stale are then unknown, and the rejected frames are the last ``controller/status``
-    ``rejected_frames`` total, without reasons). The time in the safe mode always comes from
-    the commands when there are any: the commands sent with ``mode`` = safe times the
-    control period.
-    """
-    commands = run.topic("command")
-    report = _final_record(run.topic("controller/report"))
-    period = _control_period_s(run, commands)
-    t = _t_s(commands)
-    safe = _col(commands, "mode") == MODE_SAFE_COMMAND
-    entries_at = np.flatnonzero(safe & ~np.concatenate(([False], safe[:-1])))
-    out: dict[str, Any] = {
-        "source": "commands",
-        "commands": len(commands),
-        "safe_mode_entries": int(entries_at.size),
-        "safe_mode_first_entry_s": float(t[entries_at[0]]) if entries_at.size else None,
-        "safe_mode_commands": int(safe.sum()),
-        "safe_mode_at_end": bool(safe[-1]) if safe.size else None,
-        "frames_missing": None,
-        "frames_stale": None,
-        "frames_rejected": None,
-        "frames_rejected_total": None,
-    }
-    status = run.topic("controller/status")
-    if status:
-        last = _col(status, "rejected_frames")[-1]
-        out["frames_rejected_total"] = int(last) if math.isfinite(last) else None
-    if report is not None:
-        rejected = _reasons(report, "frames_rejected", CONTROLLER_REJECT_REASONS)
-        first_ns = int(report.get("safe_mode_first_entry_ns", 0))
-        out.update(
-            source="controller/report",
-            report_final=bool(int(report.get("final", 0))),
-            commands=int(report.get("commands_published", len(commands))),
-            safe_mode_entries=int(report.get("safe_mode_entries", 0)),
-            safe_mode_first_entry_s=first_ns / 1e9
-            if int(report.get("safe_mode_entries", 0))
-            else None,
-            safe_mode_commands=int(report.get("safe_mode_commands", 0)),
-            safe_mode_at_end=bool(int(report.get("safe_mode", 0))),
-            frames_missing=int(report.get("frames_missing", 0)),
-            frames_stale=int(report.get("frames_stale", 0)),
-            frames_rejected=rejected,
-            frames_rejected_total=sum(rejected.values()),
-        )
-    n_safe = int(safe.sum()) if commands else int(out["safe_mode_commands"])
-    out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
-    out["safe_mode_entered"] = bool(out["safe_mode_entries"])
-    out["control_period_s"] = period
-    return out
-
-
-def _plant_account(run: RunData) -> dict[str, Any]:
-    """The plant's applied and rejected commands (``summary["plant"]``).
-
-    From the final ``timing/report`` (:class:`bus_schemas.messages.PlantReport`) when the
-    log has one (``source`` = ``"timing/report"``: rejections by reason), else from the last
-    ``timing/summary`` (``source`` = ``"timing/summary"``: the rejected total only, and
-    the commands applied as the cycles that did not hold the last command, an upper bound:
-    a command that came in a safe-state cycle counts though the safe demand replaced it).
-    """
-    report = _final_record(run.topic("timing/report"))
-    if report is not None:
-        rejected = _reasons(report, "commands_rejected", PLANT_REJECT_REASONS)
-        return {
-            "source": "timing/report",
-            "report_final": bool(int(report.get("final", 0))),
-            "commands_applied": int(report.get("commands_applied", 0)),
-            "commands_rejected": rejected,
-            "commands_rejected_total": sum(rejected.values()),
-        }
-    summary = _final_record(run.topic("timing/summary"))
-    if summary is None:
-        return {
-            "source": None,
-            "commands_applied": None,
-            "commands_rejected": None,
-            "commands_rejected_total": None,
-        }
-    return {
-        "source": "timing/summary",
-        "commands_applied": int(summary.get("cycles", 0)) - int(summary.get("commands_held", 0)),
-        "commands_rejected": None,
-        "commands_rejected_total": int(summary.get("commands_rejected", 0)),
-    }
-
-
-def _scenario(run: RunData) -> dict[str, Any]:
+def _scenario(run: RunData | RunInfo) -> dict[str, Any]:
     rec = run.metadata.get("scenario", {})
     out: dict[str, Any] = {"name": rec.get("name"), "config": None}
     raw = rec.get("json")
@@ -629,38 +335,521 @@ def _scenario(run: RunData) -> dict[str, Any]:
     return out
 
 
-def _run_info(run: RunData) -> dict[str, Any]:
-    t_min, t_max = math.inf, -math.inf
-    for msgs in run.messages.values():
-        if msgs:
-            ts = _col(msgs, "sample_time_ns")
-            ts = ts[np.isfinite(ts)]
-            if ts.size:
-                t_min = min(t_min, float(ts.min()))
-                t_max = max(t_max, float(ts.max()))
-    duration = (t_max - t_min) / 1e9 if t_max >= t_min else math.nan
-    info: dict[str, Any] = dict(run.metadata.get("run", {}))
-    info.update(
-        turbine=_turbine(run),
-        duration_s=duration,
-        messages={_suffix(k): len(v) for k, v in run.messages.items()},
-        truncated=run.truncated,
-        truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if run.truncated else None,
-        statistics_ok=run.statistics_ok,
-        error=run.error,
-        skipped_ranges=[r.as_dict() for r in run.skipped],
-    )
-    return info
+class _Summary:
+    """The review's figures accumulated over batches of columns (:mod:`hil.review_stream`).
+
+    Feed every :class:`hil.mcap_columns.ColumnBatch` of the run to :meth:`add` in file
+    order, then :meth:`result` with the run's :class:`hil.mcap_columns.RunInfo` gives
+    :func:`summarize`'s dict. The figures are those of the module docstring, computed as
+    over whole series (see :mod:`hil.review_stream` for how each is kept).
+    """
+
+    def __init__(self, info: RunInfo) -> None:
+        self.info = info
+        self.t_min, self.t_max = math.inf, -math.inf
+        # timing/cycle
+        self.latency = rs.Store()
+        self.unanswered = 0
+        self.cycles = 0
+        self.cycle_sums = {"deadline_missed": 0, "command_held": 0}
+        self.cycle_safe = 0
+        self.cycle_first: tuple[float, float] | None = None
+        self.cycle_last: tuple[float, float] = (math.nan, math.nan)
+        # timing/summary
+        self.last_summary: dict[str, Any] | None = None
+        self.final_summary: dict[str, Any] | None = None
+        # controller/status
+        self.compute = rs.Store()
+        self.status_count = 0
+        self.last_rejected = math.nan
+        # command
+        self.commands = 0
+        self.safe_prev = False
+        self.safe_entries = 0
+        self.safe_first_s: float | None = None
+        self.safe_count = 0
+        self.safe_last: bool | None = None
+        self.cmd_last_t = math.nan
+        self.cmd_diffs: Counter[float] = Counter()
+        self.rows: dict[str, list[dict[str, Any]]] = {t: [] for t in rs.ROW_TOPICS}
+        # windowed (KPI window): truth, sensors, joined status
+        self.window: rs.Window | None = None
+        self.truth_any = False
+        self.k = {
+            n: rs.Moments()
+            for n in (
+                "electrical_power_w",
+                "rotor_speed_rad_s",
+                "generator_torque_nm",
+                "rotor_thrust_n",
+                "platform_pitch_rad",
+                "platform_surge_m",
+                "tower_base_moment_nm",
+                "platform_pitch_measured_rad",
+            )
+        }
+        self.floating_sum = 0.0
+        self.window_truth = 0
+        self.pitch_finite = True
+        self.travel = rs.Travel()
+        self.dels = {
+            n: rs.Reversals() for n in ("shaft_torque_nm", "tower_base_moment_nm", "rotor_thrust_n")
+        }
+        self.join = rs.TruthJoin(lambda cols: self._window().feed("status", cols))
+        self.w_status = 0
+        self.w_mask_finite = True
+        self.w_degraded = 0
+        self.wind = [0, 0.0, 0.0, 0.0]  # n, Σe, Σu, Σe²
+        self.rms = {"pr": [0, 0.0], "sv": [0, 0.0]}
+        self.f_prev = math.nan
+        self.f_started = False
+        self.f_ok = 0
+        self.f_eta = rs.Moments()
+        self.f_err = rs.Moments()
+        self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
+
+    def _window(self) -> rs.Window:
+        if self.window is None:  # the scenario's metadata comes before the messages
+            self.window = rs.Window(_settle_s(self.info), self._windowed)
+        return self.window
+
+    def add(self, b: ColumnBatch) -> None:
+        c = b.columns
+        t = c["sample_time_ns"]
+        fin = t[np.isfinite(t)]
+        if fin.size:
+            self.t_min = min(self.t_min, float(fin.min()))
+            self.t_max = max(self.t_max, float(fin.max()))
+        if not b.first:
+            return
+        s = b.suffix
+        if s == "truth":
+            self.truth_any = True
+            self._window().truth_times(t / 1e9)
+            self._window().feed("truth", {"t_ns": t, **c})
+            self.join.add_truth(c)
+        elif s == "sensors":
+            self._window().feed("sensors", {"t_ns": t, **c})
+        elif s == "controller/status":
+            self.compute.add(c["compute_time_ns"])
+            self.status_count += b.size
+            self.last_rejected = float(c["rejected_frames"][-1])
+            self.join.add_status(c)
+        elif s == "timing/cycle":
+            self._cycles(c, b.size)
+        elif s == "timing/summary":
+            self.last_summary = b.row(b.size - 1)
+            final = np.flatnonzero(c["final"] == 1)
+            if final.size:
+                self.final_summary = b.row(int(final[-1]))
+        elif s == "command":
+            self._commands(c, b.size)
+        elif s in self.rows:
+            self.rows[s].extend(b.row(i) for i in range(b.size))
+
+    def _cycles(self, c: dict[str, np.ndarray], n: int) -> None:
+        lat = c["latency_ns"]
+        missed = c["deadline_missed"] > 0
+        keep = np.isfinite(lat) & ((lat > 0) | missed)
+        none = missed & (lat <= 0) & keep
+        self.latency.add(np.where(none, np.inf, lat)[keep])
+        self.unanswered += int(none.sum())
+        self.cycles += n
+        for name in self.cycle_sums:
+            self.cycle_sums[name] += int(np.nansum(c[name]))
+        self.cycle_safe = max(self.cycle_safe, int(np.nanmax(np.nan_to_num(c["safe_state"]))))
+        t, w = c["sample_time_ns"], c["publish_time_ns"]
+        if self.cycle_first is None:
+            self.cycle_first = (float(t[0]), float(w[0]))
+        self.cycle_last = (float(t[-1]), float(w[-1]))
+
+    def _commands(self, c: dict[str, np.ndarray], n: int) -> None:
+        t = c["sample_time_ns"] / 1e9
+        safe = c["mode"] == MODE_SAFE_COMMAND
+        before = np.concatenate(([self.safe_prev], safe[:-1]))
+        entries = np.flatnonzero(safe & ~before)
+        if entries.size and self.safe_first_s is None:
+            self.safe_first_s = float(t[entries[0]])
+        self.safe_entries += int(entries.size)
+        self.safe_count += int(safe.sum())
+        self.safe_prev = bool(safe[-1])
+        self.safe_last = bool(safe[-1])
+        self.commands += n
+        tf = t[np.isfinite(t)]
+        if tf.size:
+            self.cmd_diffs.update(np.diff(np.concatenate(([self.cmd_last_t], tf))).tolist())
+            if math.isnan(self.cmd_last_t):
+                del self.cmd_diffs[next(k for k in self.cmd_diffs if math.isnan(k))]
+            self.cmd_last_t = float(tf[-1])
+
+    def _windowed(self, kind: str, c: dict[str, np.ndarray]) -> None:
+        """A batch inside the KPI window (t >= t_0)."""
+        if kind == "truth":
+            self.window_truth += c["t_ns"].size
+            t = c["sample_time_ns"] / 1e9
+            for name in (
+                "electrical_power_w",
+                "rotor_speed_rad_s",
+                "generator_torque_nm",
+                "rotor_thrust_n",
+                "platform_pitch_rad",
+                "platform_surge_m",
+                "tower_base_moment_nm",
+            ):
+                self.k[name].add(c[name])
+            self.pitch_finite = self.pitch_finite and bool(
+                np.isfinite(c["platform_pitch_rad"]).all()
+            )
+            self.floating_sum += float(np.nansum(np.abs(c["floating"])))
+            self.travel.add(c["blade_pitch_rad"], t)
+            for name, acc in self.dels.items():
+                acc.add(c[name], t)
+        elif kind == "sensors":
+            self.k["platform_pitch_measured_rad"].add(c["platform_pitch_measured_rad"])
+        else:
+            self._window_status(c)
+
+    def _window_status(self, c: dict[str, np.ndarray]) -> None:
+        n = c["t_ns"].size
+        self.w_status += n
+        mask = c["estimates_valid_mask"]
+        self.w_mask_finite = self.w_mask_finite and bool(np.isfinite(mask).all())
+        m = np.where(np.isfinite(mask), mask, 0).astype(np.int64)
+        self.w_degraded += int(np.count_nonzero(c["estimator_degraded"] > 0))
+        inside = c["inside"]
+        sel = inside & ((m & EST_WIND_SPEED) != 0)
+        if sel.any():
+            u = c["truth_wind_speed_m_s"][sel]
+            e = c["wind_speed_estimated_m_s"][sel] - u
+            self.wind[0] += int(sel.sum())
+            self.wind[1] += float(np.sum(e))
+            self.wind[2] += float(np.sum(u))
+            self.wind[3] += float(np.sum(e * e))
+        for key, bit, est, tru in (
+            (
+                "pr",
+                EST_PLATFORM_PITCH_RATE,
+                "platform_pitch_rate_estimated_rad_s",
+                "truth_platform_pitch_rate_rad_s",
+            ),
+            (
+                "sv",
+                EST_PLATFORM_SURGE_VELOCITY,
+                "platform_surge_velocity_estimated_m_s",
+                "truth_platform_surge_velocity_m_s",
+            ),
+        ):
+            sel = inside & ((m & bit) != 0)
+            if sel.any():
+                e = c[est][sel] - c[tru][sel]
+                self.rms[key][0] += int(sel.sum())
+                self.rms[key][1] += float(np.sum(e * e))
+        f_sel = (m & EST_WAVE_FORECAST) != 0
+        if f_sel.any():
+            f_t = c["wave_forecast_time_ns"][f_sel]
+            keep = np.empty(f_t.size, bool)
+            keep[0] = not self.f_started or f_t[0] != self.f_prev
+            keep[1:] = f_t[1:] != f_t[:-1]  # a forecast is held between forecaster calls
+            self.f_started, self.f_prev = True, float(f_t[-1])
+            ok = c["f_ok"][f_sel] & keep
+            if ok.any():
+                eta = c["truth_eta_at_forecast"][f_sel][ok]
+                self.f_ok += int(ok.sum())
+                self.f_eta.add(eta)
+                self.f_err.add(eta - c["wave_elevation_forecast_m"][f_sel][ok])
+        for name in self.f_max:
+            col = c[name]
+            if np.isfinite(col).any():
+                self.f_max[name] = max(self.f_max[name], float(np.nanmax(col)))
+
+    def result(self) -> dict[str, Any]:
+        """:func:`summarize`'s dict (call once, after the last batch)."""
+        self.join.finish()
+        window = self._window().finish()
+        summary = {
+            "timing": self._timing(),
+            "kpi": self._kpis(),
+            "kpi_window": window,
+            "run": self._run_info(),
+            "scenario": _scenario(self.info),
+            **self._estimates(),
+            "recording": self._recording(),
+            "plant": self._plant_account(),
+        }
+        summary["controller"].update(self._controller_account())
+        return summary
+
+    def _timing(self) -> dict[str, Any]:
+        final, last_summary = self.final_summary, self.final_summary or self.last_summary
+        lat_ns = self.latency.array()
+        plant_lat = (
+            {
+                "p50": last_summary.get("latency_p50_us"),
+                "p99": last_summary.get("latency_p99_us"),
+                "p999": last_summary.get("latency_p999_us"),
+                "max": last_summary.get("latency_max_us"),
+            }
+            if last_summary is not None
+            else {"p50": None, "p99": None, "p999": None, "max": None}
+        )
+        if lat_ns.size or last_summary is None:
+            latency: dict[str, Any] = dict(kpi.latency_percentiles_us(lat_ns))
+            latency_source = "timing/cycle"
+        else:
+            latency = dict(plant_lat)
+            latency_source = "timing/summary"
+        out: dict[str, Any] = {
+            "complete": final is not None,
+            "latency_us": latency,
+            "latency_cycles": int(lat_ns.size),
+            "unanswered_cycles": self.unanswered,
+            "deadline_us": _deadline_us(self.info),
+            "latency_source": latency_source,
+            "latency_us_plant": plant_lat,
+            "cycles_logged": self.cycles,
+        }
+        if final is not None:
+            out.update(
+                cycles=int(final["cycles"]),
+                deadline_misses=int(final["deadline_misses"]),
+                commands_held=int(final["commands_held"]),
+                commands_rejected=int(final["commands_rejected"]),
+                commands_late=int(final["commands_late"]),
+                safe_state=int(final["safe_state"]),
+                safe_state_cycles=int(final.get("safe_state_cycles", 0)),
+                faults_injected=int(final.get("faults_injected", 0)),
+                sim_seconds_per_wall_second=float(final["sim_seconds_per_wall_second"]),
+            )
+        else:
+            # Crashed run: count what the logged cycles show. Rejected and late commands are
+            # not in the cycle record; the last running summary (if any) gives a lower bound.
+            speed = math.nan
+            if self.cycles >= 2 and self.cycle_first is not None:
+                (s0, w0), (s1, w1) = self.cycle_first, self.cycle_last
+                if w1 > w0:
+                    speed = float((s1 - s0) / (w1 - w0))
+            out.update(
+                cycles=self.cycles,
+                deadline_misses=self.cycle_sums["deadline_missed"],
+                commands_held=self.cycle_sums["command_held"],
+                commands_rejected=_int_or_none(
+                    last_summary.get("commands_rejected") if last_summary else None
+                ),
+                commands_late=_int_or_none(
+                    last_summary.get("commands_late") if last_summary else None
+                ),
+                safe_state=self.cycle_safe,
+                sim_seconds_per_wall_second=speed,
+            )
+        out["controller_compute_us"] = self._compute_us()
+        return out
+
+    def _compute_us(self) -> dict[str, float]:
+        return kpi.percentiles(self.compute.array() / 1e3, [50.0, 99.0], ["p50", "p99", "max"])
+
+    def _kpis(self) -> dict[str, Any]:
+        k = self.k
+        pitch, surge = k["platform_pitch_rad"], k["platform_surge_m"]
+        if self.window_truth and not self.pitch_finite:  # a log of PlantState version 1
+            pitch = k["platform_pitch_measured_rad"]
+        floating = bool(self.window_truth) and self.floating_sum > 0
+        pitch_mean = math.degrees(pitch.mean()) if floating else math.nan
+        pitch_std = math.degrees(pitch.std()) if floating else math.nan
+        dels = {
+            n: acc.damage_equivalent_load(SHAFT_WOHLER_M, DEL_N_EQ_HZ)
+            for n, acc in self.dels.items()
+        }
+        return {
+            "mean_power_w": k["electrical_power_w"].mean(),
+            "rotor_speed_mean_rad_s": k["rotor_speed_rad_s"].mean(),
+            "rotor_speed_std_rad_s": k["rotor_speed_rad_s"].std(),
+            "pitch_travel_deg_s": self.travel.per_second(),
+            "generator_torque_mean_nm": k["generator_torque_nm"].mean(),
+            "thrust_mean_n": k["rotor_thrust_n"].mean(),
+            "thrust_max_n": k["rotor_thrust_n"].max(),
+            "shaft_del_nm": dels["shaft_torque_nm"],
+            "tower_base_del_nm": dels["tower_base_moment_nm"],
+            "thrust_del_n": dels["rotor_thrust_n"],
+            "shaft_del_wohler_m": SHAFT_WOHLER_M,
+            "del_n_eq_hz": DEL_N_EQ_HZ,
+            "platform_pitch_mean_deg": pitch_mean,
+            "platform_pitch_std_deg": pitch_std,
+            "surge_mean_m": surge.mean() if floating else math.nan,
+            "surge_std_m": surge.std() if floating else math.nan,
+            "tower_base_moment_mean_nm": k["tower_base_moment_nm"].mean(),
+        }
+
+    def _estimates(self) -> dict[str, Any]:
+        nan = math.nan
+        est: dict[str, Any] = {
+            "wind_speed_error_mean_pct": nan,
+            "wind_speed_error_rms_m_s": nan,
+            "platform_pitch_rate_error_rms_rad_s": nan,
+            "platform_surge_velocity_error_rms_m_s": nan,
+            "degraded_fraction": nan,
+        }
+        fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
+        out = {"estimator": est, "forecast": fc, "controller": {"compute_us": self._compute_us()}}
+        if not self.w_status or not self.truth_any or not self.w_mask_finite:
+            return out  # no estimate, or a log of ControllerStatus version 1
+        est["degraded_fraction"] = self.w_degraded / self.w_status
+        n, se, su, see = self.wind
+        if n:
+            est["wind_speed_error_mean_pct"] = float(100.0 * (se / n) / (su / n))
+            est["wind_speed_error_rms_m_s"] = math.sqrt(see / n)
+        for key, name in (
+            ("pr", "platform_pitch_rate_error_rms_rad_s"),
+            ("sv", "platform_surge_velocity_error_rms_m_s"),
+        ):
+            k, s2 = self.rms[key]
+            if k:
+                est[name] = math.sqrt(s2 / k)
+        if self.f_ok >= 2:
+            fc["samples"] = self.f_ok
+            var = self.f_eta.m2 / self.f_eta.n
+            if var > 0.0:
+                fc["vaf_pct"] = float(100.0 * (1.0 - (self.f_err.m2 / self.f_err.n) / var))
+        for key, name in (
+            ("unstable_fits", "forecast_unstable_fits"),
+            ("guarded", "forecast_guarded"),
+        ):
+            v = self.f_max[name]
+            fc[key] = int(v) if math.isfinite(v) else 0
+        return out
+
+    def _run_info(self) -> dict[str, Any]:
+        info = self.info
+        t_min, t_max = self.t_min, self.t_max
+        duration = (t_max - t_min) / 1e9 if t_max >= t_min else math.nan
+        out: dict[str, Any] = dict(info.metadata.get("run", {}))
+        out.update(
+            turbine=_turbine(info.topics),
+            duration_s=duration,
+            messages={_suffix(k): info.counts[k] for k in info.topics},
+            truncated=info.truncated,
+            truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if info.truncated else None,
+            statistics_ok=info.statistics_ok,
+            error=info.error,
+            skipped_ranges=[r.as_dict() for r in info.skipped],
+        )
+        return out
+
+    def _recording(self) -> dict[str, Any]:
+        info = self.info
+        recorded = {_suffix(k): info.counts[k] for k in info.topics}
+        plant = self.rows["timing/report"]
+        return completeness(
+            recorded,
+            plant[-1] if plant else None,
+            self.rows["controller/report"],
+            self.final_summary is not None,
+        )
+
+    def _plant_account(self) -> dict[str, Any]:
+        report = _final_record(self.rows["timing/report"])
+        if report is not None:
+            rejected = _reasons(report, "commands_rejected", PLANT_REJECT_REASONS)
+            return {
+                "source": "timing/report",
+                "report_final": bool(int(report.get("final", 0))),
+                "commands_applied": int(report.get("commands_applied", 0)),
+                "commands_rejected": rejected,
+                "commands_rejected_total": sum(rejected.values()),
+            }
+        summary = self.final_summary or self.last_summary
+        if summary is None:
+            return {
+                "source": None,
+                "commands_applied": None,
+                "commands_rejected": None,
+                "commands_rejected_total": None,
+            }
+        return {
+            "source": "timing/summary",
+            "commands_applied": int(summary.get("cycles", 0))
+            - int(summary.get("commands_held", 0)),
+            "commands_rejected": None,
+            "commands_rejected_total": int(summary.get("commands_rejected", 0)),
+        }
+
+    def _controller_account(self) -> dict[str, Any]:
+        report = _final_record(self.rows["controller/report"])
+        period = _scenario_period_s(self.info)
+        if not math.isfinite(period):
+            period = rs.median_of_counts(self.cmd_diffs)
+        out: dict[str, Any] = {
+            "source": "commands",
+            "commands": self.commands,
+            "safe_mode_entries": self.safe_entries,
+            "safe_mode_first_entry_s": self.safe_first_s,
+            "safe_mode_commands": self.safe_count,
+            "safe_mode_at_end": self.safe_last,
+            "frames_missing": None,
+            "frames_stale": None,
+            "frames_rejected": None,
+            "frames_rejected_total": None,
+        }
+        if self.status_count:
+            last = self.last_rejected
+            out["frames_rejected_total"] = int(last) if math.isfinite(last) else None
+        if report is not None:
+            rejected = _reasons(report, "frames_rejected", CONTROLLER_REJECT_REASONS)
+            first_ns = int(report.get("safe_mode_first_entry_ns", 0))
+            out.update(
+                source="controller/report",
+                report_final=bool(int(report.get("final", 0))),
+                commands=int(report.get("commands_published", self.commands)),
+                safe_mode_entries=int(report.get("safe_mode_entries", 0)),
+                safe_mode_first_entry_s=first_ns / 1e9
+                if int(report.get("safe_mode_entries", 0))
+                else None,
+                safe_mode_commands=int(report.get("safe_mode_commands", 0)),
+                safe_mode_at_end=bool(int(report.get("safe_mode", 0))),
+                frames_missing=int(report.get("frames_missing", 0)),
+                frames_stale=int(report.get("frames_stale", 0)),
+                frames_rejected=rejected,
+                frames_rejected_total=sum(rejected.values()),
+            )
+        n_safe = self.safe_count if self.commands else int(out["safe_mode_commands"])
+        out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
+        out["safe_mode_entered"] = bool(out["safe_mode_entries"])
+        out["control_period_s"] = period
+        return out
 
 
-def _recording(run: RunData) -> dict[str, Any]:
-    """The ``recording`` section: recorded against published, per topic."""
-    recorded = {_suffix(k): len(v) for k, v in run.messages.items()}
-    plant = run.topic("timing/report")
-    summaries = run.topic("timing/summary")
-    final = any(int(s.get("final", 0)) == 1 for s in summaries)
-    controllers = run.topic("controller/report")
-    return completeness(recorded, plant[-1] if plant else None, controllers, final)
+def _settle_s(info: RunInfo) -> float:
+    """The scenario's ``[review] settle_s`` [s] (:data:`DEFAULT_SETTLE_S` when absent)."""
+    cfg = _scenario(info).get("config") or {}
+    rv = cfg.get("review") if isinstance(cfg, dict) else None
+    if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
+        return float(rv["settle_s"])
+    return DEFAULT_SETTLE_S
+
+
+def _scenario_period_s(info: RunInfo | RunData) -> float:
+    """The scenario's control period [s] (nan when absent)."""
+    cfg = _scenario(info).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    return float(period) if isinstance(period, int | float) and period > 0 else math.nan
+
+
+def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str, Any]:
+    """The summary of a run given as batches of columns (filled into ``info`` meanwhile).
+
+    Parameters
+    ----------
+    batches : iterable of ColumnBatch
+        :meth:`hil.mcap_columns.ColumnReader.batches` (a file, chunk by chunk) or
+        :func:`hil.mcap_columns.run_batches` (a run in memory).
+    info : RunInfo
+        The run's counts, metadata and reading state; complete once ``batches`` is.
+    """
+    acc = _Summary(info)
+    for b in batches:
+        acc.add(b)
+    cleaned: dict[str, Any] = _clean(acc.result())
+    return cleaned
 
 
 def summarize(run: RunData) -> dict[str, Any]:
@@ -669,27 +858,18 @@ def summarize(run: RunData) -> dict[str, Any]:
     Parameters
     ----------
     run : RunData
-        Output of :func:`hil.mcap_log.read_run` (possibly truncated).
+        Output of :func:`hil.mcap_log.read_run` (possibly truncated), or a run in memory.
 
     Returns
     -------
     dict
-        ``{"timing", "kpi", "run", "scenario"}``; keys and units in the module docstring.
+        ``{"timing", "kpi", "run", "scenario", ...}``; keys and units in the module
+        docstring. The same figures as :func:`review` computes from the file by streaming.
     """
-    window = kpi_window(run)
-    summary = {
-        "timing": _timing(run),
-        "kpi": _kpis(run, window["from_s"]),
-        "kpi_window": window,
-        "run": _run_info(run),
-        "scenario": _scenario(run),
-        **_estimates(run, window["from_s"]),
-        "recording": _recording(run),
-        "plant": _plant_account(run),
-    }
-    summary["controller"].update(_controller_account(run))
-    cleaned: dict[str, Any] = _clean(summary)
-    return cleaned
+    # The status before the truth of the same cycles: the join keeps the truth from the
+    # last status it resolved on (hil.review_stream.TruthJoin).
+    batches = run_batches(run, rs.FIELDS, lead=("controller/status",))
+    return summarize_batches(batches, run_info(run))
 
 
 # --------------------------------------------------------------------------- plots
@@ -1100,6 +1280,8 @@ def _psd_plot(
             if not np.isfinite(x).all():
                 _no_data(ax, "not logged")
                 continue
+            from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+
             f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
             pos = pxx[1:] > 0
             if not pos.any():
@@ -1142,12 +1324,17 @@ def review(
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
-    run = read_run(mcap_path)
-    check_run_log(run, mcap_path)
-    from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
+    # One pass over the file chunk by chunk (hil.mcap_columns); memory does not grow with
+    # the run. A platform recording (small) and the plots read the messages whole.
+    reader = ColumnReader(mcap_path, rs.FIELDS)
+    summary = summarize_batches(reader.batches(), reader.info)
+    check_run_log(reader.info, mcap_path)
+    platform = _is_platform(reader.info)
+    run = read_run(mcap_path) if platform or plots else None
+    if platform and run is not None:
+        from hil import hexicon_review  # noqa: PLC0415 - platform recordings only
 
-    platform = hexicon_review.is_platform_run(run)
-    summary = hexicon_review.summarize(run) if platform else summarize(run)
+        summary = hexicon_review.summarize(run)
     summary["run"]["source"] = str(mcap_path)
     if write_summary or plots:
         out.mkdir(parents=True, exist_ok=True)
@@ -1155,9 +1342,22 @@ def review(
         (out / "summary.json").write_text(
             json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
         )
-    if plots:
-        (hexicon_review.write_plots if platform else write_plots)(run, out)
+    if plots and run is not None:
+        if platform:
+            from hil import hexicon_review  # noqa: PLC0415
+
+            hexicon_review.write_plots(run, out)
+        else:
+            write_plots(run, out)
     return summary
+
+
+def _is_platform(info: RunInfo) -> bool:
+    """Whether the log is a multi-turbine platform's (:func:`hil.hexicon_review.platform_of`)."""
+    meta = info.metadata.get("hexicon_run")
+    if meta and meta.get("platform"):
+        return True
+    return any(len(p) == 3 and p[2] == "platform" for p in (t.split("/") for t in info.topics))
 
 
 def truncation_note(summary: dict[str, Any]) -> str | None:

@@ -27,7 +27,8 @@ from scipy.optimize import brentq
 from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
 from controller.baseline import load_baseline
 from hil.controller_node import ControllerRuntime, publishing_step
-from hil.plant_node import plant_spec, run_inprocess
+from hil.inprocess_run import run_inprocess
+from hil.plant_node import plant_spec
 from hil.scenario import Scenario, load_scenario, parse_scenario
 from hil.trim import initial_condition, mean_wind_m_s, settling_scenario
 from plant.build import build_plant
