@@ -22,7 +22,7 @@ from bus_schemas.registry import MESSAGES
 from hil import kpi
 from hil import review_stream as rs
 from hil.mcap_columns import ColumnReader
-from hil.mcap_log import BatchRunLog, read_run
+from hil.mcap_log import RunLog, read_run
 
 
 def _pieces(x: np.ndarray, rng: np.random.Generator) -> list[slice]:
@@ -77,11 +77,15 @@ def _write(path: Path, encoding: str, n: int) -> None:
     rows["seq"] = np.arange(n)
     rows["rotor_speed_rad_s"] = 0.6 + 0.01 * rng.normal(size=n)
     rows["floating"] = 1
-    log = BatchRunLog(path, "t1")
-    if encoding == "json":
+    if encoding == "json":  # a log of the format before the CDR channels
+        log = RunLog(path, None)
+        cid = log.add_json_channel(mt.key("t1"), mt.name, mt.json_schema())
         for r in rows:
             msg = mt.cls(**{k: r[k].item() for k in mt.row_dtype.names or ()})
-            log.add_json(mt.message_id, msgspec.json.encode(msg), int(r["sample_time_ns"]), 0)
+            log.write_json(cid, msgspec.json.encode(msg), int(r["sample_time_ns"]), 0)
+    else:
+        log = RunLog(path, "t1")
+        log.write_rows(int(log.channel_of_message_id[mt.message_id]), rows, 0)
     log.close()
 
 
@@ -99,6 +103,20 @@ def test_json_columns_equal_the_dicts(tmp_path: Path) -> None:
     assert reader.info.complete and reader.info.statistics_ok
 
 
+@pytest.mark.parametrize("encoding", ["json", "cdr"])
+def test_columns_of_a_written_file_equal_the_dicts(encoding: str, tmp_path: Path) -> None:
+    """Both channel encodings, from files the run log wrote: the same columns as the dicts."""
+    path = tmp_path / "run.mcap"
+    _write(path, encoding, 3000)
+    reader = ColumnReader(path, {"truth": ("rotor_speed_rad_s", "floating")})
+    got = [b for b in reader.batches() if b.suffix == "truth"]
+    col = np.concatenate([b.columns["rotor_speed_rad_s"] for b in got])
+    truth = read_run(path).topic("truth")
+    assert len(truth) == 3000
+    assert col.tolist() == [m["rotor_speed_rad_s"] for m in truth]
+    assert reader.info.complete
+
+
 def test_cdr_payloads_decode_as_records() -> None:
     mt = next(m for m in MESSAGES if m.key_suffix == "truth")
     rows = np.zeros(4, mt.row_dtype)
@@ -106,7 +124,7 @@ def test_cdr_payloads_decode_as_records() -> None:
     rows["rotor_speed_rad_s"] = [0.5, 0.6, 0.7, 0.8]
     payloads = ros2.encode_rows(mt, rows)
     data = payloads.tobytes()
-    assert data[:4] == ros2.CDR_LE_HEADER
+    assert data[:4] == ros2.CDR_HEADER
     back = ros2.decode(mt, data)
     assert back["rotor_speed_rad_s"].tolist() == [0.5, 0.6, 0.7, 0.8]
     assert back["sample_time_ns"].tolist() == [0, 25, 50, 75]
