@@ -251,6 +251,7 @@ def plant_spec(scenario: Scenario, initial: InitialCondition | None = None) -> P
         sensors=SensorRequest(seed=s.seed, std=s.std_overrides(), channels=dict(s.channels)),
         sensor_faults=scenario.fault_specs(),
         initial=initial if initial is not None else InitialCondition(),
+        symmetric_pitch_limit_deg=scenario.controller.symmetric_pitch_limit_deg,
     )
 
 

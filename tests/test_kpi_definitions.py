@@ -27,9 +27,11 @@ from hil.html_report import PLOT_TITLES, compare_runs, run_html, run_sections
 from hil.launch import RunRequest, launch
 from hil.mcap_log import read_run
 from hil.review import _col
-from hil.scenario import Scenario
+from hil.scenario import ReviewSection, Scenario
 
-DURATION_S = 150.0  # > 2 x settle_s: the window is [60 s, 150 s]
+#: The default settle time: the KPI window is [SETTLE_S, DURATION_S].
+SETTLE_S = ReviewSection().settle_s
+DURATION_S = 150.0  # > 2 x settle_s
 
 #: review KPI name -> the campaign KPI computed by the same function on the same window
 SAME = {
@@ -63,7 +65,7 @@ def test_report_compare_and_campaign_give_identical_kpis(runs: dict[str, Any]) -
     res = compare_runs([a, b], runs["root"] / "cmp")
     # the review's and the campaign's KPIs of one run over one window
     win = summary["kpi_window"]
-    assert win["from_s"] == 60.0 and summary["campaign_kpi_window"]["from_s"] == 60.0
+    assert win["from_s"] == SETTLE_S and summary["campaign_kpi_window"]["from_s"] == SETTLE_S
     for rk, ckey in SAME.items():
         assert summary["kpi"][rk] == pytest.approx(summary["campaign_kpi"][ckey], rel=1e-12), rk
     assert summary["kpi"]["shaft_del_wohler_m"] == kpi.DEL_WOHLER_M == 4.0
@@ -89,7 +91,7 @@ def test_report_compare_and_campaign_give_identical_kpis(runs: dict[str, Any]) -
     assert task["status"] == "ok", task["error"]
     for k, v in summary["campaign_kpi"].items():
         assert task["kpi"][k] == pytest.approx(v, rel=1e-12, nan_ok=True), k
-    assert task["kpi_window"]["from_s"] == 60.0
+    assert task["kpi_window"]["from_s"] == SETTLE_S
 
 
 def test_campaign_kpis_leave_the_start_up_out(runs: dict[str, Any]) -> None:
@@ -101,7 +103,7 @@ def test_campaign_kpis_leave_the_start_up_out(runs: dict[str, Any]) -> None:
     p = _col(truth, "electrical_power_w")
     cfg = msgspec.json.decode(run.metadata["scenario"]["json"])
     k = run_kpis_of(run, msgspec.convert(cfg, Scenario), None)["kpi"]
-    assert k["mean_power_w"] == pytest.approx(float(np.mean(p[t >= 60.0])), rel=1e-12)
+    assert k["mean_power_w"] == pytest.approx(float(np.mean(p[t >= SETTLE_S])), rel=1e-12)
     assert k["mean_power_w"] != pytest.approx(float(np.mean(p)), rel=1e-4)
 
 
@@ -124,7 +126,7 @@ def test_tsr_opt_default_key_and_campaign_key(runs: dict[str, Any]) -> None:
     # by hand over the window with λ* = 8.71
     truth = run.topic("truth")
     t = _col(truth, "sample_time_ns") / 1e9
-    sel = t >= 60.0
+    sel = t >= SETTLE_S
     _, radius, rated = _turbine_figures("iea15mw")
     opt = ck.optimal_rotor_speed_rad_s(
         _col(truth, "wind_speed_m_s")[sel], 8.71, radius, rated, 0.5236
@@ -163,7 +165,7 @@ def test_run_report_sections_say_what_they_show(runs: dict[str, Any]) -> None:
     assert titles == expected
     lam = summary["campaign_kpi_window"]["tsr_opt"]
     assert f"λ* = {lam:.4g}, Ω_min = 0.5236 rad/s" in titles[1]
-    assert "t = 60-150 s" in unescape(text)
+    assert f"t = {SETTLE_S:g}-150 s" in unescape(text)
 
 
 def test_compare_psd_axes_are_squared_units_per_hz(runs: dict[str, Any]) -> None:
