@@ -30,6 +30,8 @@ run: setup
 lint: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	# the layering rules (import-linter contracts in pyproject.toml)
+	$(BIN)/lint-imports
 
 typecheck: setup
 	$(BIN)/mypy

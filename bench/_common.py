@@ -136,7 +136,7 @@ def scenario_variant(
     The copy goes to a temporary file that lives as long as the process; the TOML text is
     edited line by line so everything else (seeds, sea state, controller) stays as shipped.
     """
-    from hil.scenario import scenario_text
+    from hil.scenario.schema import scenario_text
 
     text, _source = scenario_text(scenario)
     step = plant_step_s if plant_step_s is not None else control_period_s

@@ -1,7 +1,7 @@
 """Raw zenoh-python ping-pong between two processes: the reference for the bench's bus figures.
 
 No bench code is in the loop: two plain zenoh-python sessions, configured as the bench's
-nodes are (:meth:`hil.bus.BusConfig.zenoh_config`: peer mode, multicast scouting off,
+nodes are (:meth:`hil.nodes.bus.BusConfig.zenoh_config`: peer mode, multicast scouting off,
 low-latency unicast transport, QoS off, explicit loopback endpoints), exchange a payload of
 the encoded :class:`bus_schemas.SensorFrame`'s size one way and one of the encoded
 :class:`bus_schemas.ActuatorCommand`'s size back, on express publishers as the bench's. The
@@ -55,7 +55,7 @@ def payload_sizes() -> tuple[int, int]:
 
 
 def _config(listen: list[str], connect: list[str], lowlatency: bool) -> Any:
-    from hil.bus import BusConfig
+    from hil.nodes.bus import BusConfig
 
     conf = BusConfig(listen=tuple(listen), connect=tuple(connect), lowlatency=lowlatency)
     return conf.zenoh_config()
@@ -212,11 +212,11 @@ def measure(
     """Run pong and ping as two processes; the ping side's figures and the sizes used.
 
     ``lowlatency``: Zenoh's low-latency unicast transport (the bench's default), else the
-    default transport (QoS on, a transmission task per link), as :class:`hil.bus.BusConfig`.
+    default transport (QoS on, a transmission task per link), as :class:`hil.nodes.bus.BusConfig`.
     ``observer``: a third, passive peer subscribed to both keys (module docstring).
     """
-    from hil.bus import free_tcp_endpoint
     from hil.launch import RECORDER_NICE
+    from hil.nodes.bus import free_tcp_endpoint
 
     req, rep = sizes if sizes is not None else payload_sizes()
     ep = free_tcp_endpoint()

@@ -52,9 +52,9 @@ from _common import machine, run_fowt, save, scenario_variant
 from bus_schemas import ActuatorCommand, ControllerStatus, PlantState, SensorFrame
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST
 from bus_schemas.registry import TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.scenario import load_scenario
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 
 #: The all-parts-on scenario of parts a and b (lqri_ff, dispersion forecast, balanced FF).
 FF_SCENARIO = "iea15mw-lc2-lqri-ff"

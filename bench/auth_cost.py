@@ -104,7 +104,7 @@ def per_message(count: int) -> dict[str, Any]:
 def _lockstep_speed(duration_s: float, secure: bool) -> dict[str, float]:
     """Simulated s per wall s of one hand-started lock-step run and the plant's cycle
     profile (its log lines: mean us per cycle of sample, sensor put, wait, finish)."""
-    from hil.bus import free_tcp_endpoint
+    from hil.nodes.bus import free_tcp_endpoint
 
     with tempfile.TemporaryDirectory(prefix="fowt-bench-auth-") as tmp:
         out = Path(tmp)

@@ -13,7 +13,7 @@ feedforward acts):
   λ_opt of the plant's Cp table, ω_min = 5 rpm (al-2019's rotor-speed KPI);
 * tower-base fore-aft and low-speed-shaft DELs (Wöhler m = 4, 1 Hz, as ``fowt review``);
 * pitch travel (deg/s) and platform pitch std (deg);
-* the envelope check of :mod:`hil.envelope` (from ``--settle``).
+* the envelope check of :mod:`hil.campaign.envelope` (from ``--settle``).
 
 Prints the table and saves ``bench/results/below_rated_kpis.json``.
 
@@ -33,11 +33,11 @@ import numpy as np
 from _common import save
 
 from controller.baseline import load_baseline
-from hil import kpi
-from hil.envelope import EnvelopeLimits, check_envelope, run_inprocess_logged
-from hil.mcap_log import RunData
-from hil.review import DEL_N_EQ_HZ, SHAFT_WOHLER_M
-from hil.scenario import scenario_text
+from hil.campaign.envelope import EnvelopeLimits, check_envelope, run_inprocess_logged
+from hil.review import kpi
+from hil.review.core import DEL_N_EQ_HZ, SHAFT_WOHLER_M
+from hil.runlog.mcap_io import RunData
+from hil.scenario.schema import scenario_text
 from plant.platform import load_floating
 
 CONTROLLERS = {"baseline": "", "lqri": "-lqri", "lqri_ff": "-lqri-ff"}

@@ -1,6 +1,6 @@
 """Does a Zenoh put block or drop when the subscriber cannot take more? (the recording path)
 
-Two processes on loopback with the bench's Zenoh config (:class:`hil.bus.BusConfig`): a
+Two processes on loopback with the bench's Zenoh config (:class:`hil.nodes.bus.BusConfig`): a
 subscriber with a small FIFO channel (``--capacity``, default 16) that takes nothing for
 ``--stall`` seconds, then takes everything; a publisher (express) that puts ``--count``
 samples of ``--size`` bytes as fast as it can, with congestion control ``DROP`` or
@@ -22,7 +22,7 @@ from typing import Any
 import zenoh
 from _common import commit, load, save
 
-from hil.bus import Bus, BusConfig, free_tcp_endpoint
+from hil.nodes.bus import Bus, BusConfig, free_tcp_endpoint
 
 
 def subscriber(endpoint: str, capacity: int, lowlatency: bool, stall_s: float) -> None:

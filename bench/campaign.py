@@ -11,7 +11,7 @@ the baseline and the balanced wave feedforward, the baseline's still-water twins
   when other load on the machine takes the cores, which caps the speed-up;
 * Dask's overhead per task: (a) the round trip of a no-op task on the 2-worker cluster
   (submit -> result, tasks one after the other); (b) inside the campaign, the wall time per
-  run not spent in :func:`hil.campaign.execute_run`,
+  run not spent in :func:`hil.campaign.runner.execute_run`,
   (workers x tasks wall − Σ run wall) / runs.
 
     python bench/campaign.py [--cases lc1,lc4] [--controllers baseline,lqri_ff_bp]
@@ -34,7 +34,7 @@ def _noop(x: int) -> int:
 
 
 def _campaign(args: argparse.Namespace) -> Any:
-    from hil.campaign import load_campaign, select
+    from hil.campaign.runner import load_campaign, select
 
     return select(
         load_campaign("al2019-iea15mw"),
@@ -46,7 +46,7 @@ def _campaign(args: argparse.Namespace) -> Any:
 
 
 def _measure(campaign: Any, workers: int) -> dict[str, Any]:
-    from hil.campaign import run_campaign
+    from hil.campaign.runner import run_campaign
 
     with tempfile.TemporaryDirectory(prefix="fowt-bench-campaign-") as tmp:
         t0 = time.monotonic()

@@ -1,4 +1,4 @@
-"""Benchmark: one campaign run (:func:`hil.campaign.execute_run`), 600 s of load case 2.
+"""Benchmark: one campaign run (:func:`hil.campaign.runner.execute_run`), 600 s of load case 2.
 
 A campaign worker's run in process: build the plant and controller, run 600 s of the
 shipped ``al2019-iea15mw`` campaign's ``lc2`` case (seed 0, waves) with the controller
@@ -41,7 +41,7 @@ RECORDS = ("none", "mcap")
 
 def _child(duration_s: float, repeat: int, controller: str) -> dict[str, Any]:
     """Run in the code under test: the first run, then ``repeat`` runs per record mode."""
-    from hil.campaign import execute_run, load_campaign
+    from hil.campaign.runner import execute_run, load_campaign
 
     camp = load_campaign("al2019-iea15mw")
     spec = next(

@@ -13,7 +13,7 @@
    * ``decode``: :class:`bus_schemas.can_codec.Reassembler` ``feed`` per frame (checks,
      reassembly, cantools decoding, range checks) up to the decoded message;
    * ``payload_wrap``: the binary re-encoding and decoding a node's Zenoh-style callback
-     adds (``hil.can_bus.CanBus.subscribe``), per message.
+     adds (``hil.nodes.can_bus.CanBus.subscribe``), per message.
 
    The measuring process runs under ``SCHED_FIFO`` at ``--realtime-priority`` (as the nodes
    do), so the figures are the work, not the shared machine's run queue. With
@@ -67,7 +67,7 @@ def frame_cost(count: int, fd: bool) -> dict[str, Any]:
     from bus_schemas import ActuatorCommand, SensorFrame
     from bus_schemas.can_codec import Encoder, Reassembler
     from bus_schemas.registry import COMMAND, SENSORS
-    from hil.can_bus import CanBusConfig, _raise_udp_rcvbuf
+    from hil.nodes.can_bus import CanBusConfig, _raise_udp_rcvbuf
 
     cfg = CanBusConfig("udp_multicast", fd=fd)
     tx = can.Bus(**cfg.bus_kwargs())
@@ -193,7 +193,7 @@ def _soak(duration_s: float, priority: int, fd: bool) -> dict[str, Any]:
 
 def _inspect(run_dir: Path) -> dict[str, Any]:
     """The nodes' CAN and watchdog lines, the recorder's rejections, the missed cycles."""
-    from hil.mcap_log import read_run
+    from hil.runlog.mcap_io import read_run
 
     out: dict[str, Any] = {}
     for name, marks in (
@@ -236,7 +236,7 @@ def main() -> None:
         return
     from _common import save
 
-    from hil.can_bus import in_private_netns, netns_command, netns_unavailable_reason
+    from hil.nodes.can_bus import in_private_netns, netns_command, netns_unavailable_reason
 
     cmd = [sys.executable, str(Path(__file__).resolve()), "--frame-cost-child"]
     cmd += ["--count", str(args.count), "--realtime-priority", str(args.realtime_priority)]

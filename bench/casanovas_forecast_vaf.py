@@ -1,7 +1,7 @@
 """VAF of the gauge-to-excitation preview (controller.casanovas.ExcitationPreviewPredictor).
 
 The casanovas-2014 cases' sea (ISSC, 100 bins to 2 rad/s, 100 m depth), the gauge 300 m
-up-wave as in ``hil/scenarios/casanovas-tlp-*``, no gauge noise: VAF = 1 - var(X̂ - X)/var(X)
+up-wave as in ``hil/scenario/presets/casanovas-tlp-*``, no gauge noise: VAF = 1 - var(X̂ - X)/var(X)
 of X(t + τ) over 600 s after the FIR has filled, for τ = 0, 5, 10, 13.6 and 20 s.
 
     python bench/casanovas_forecast_vaf.py   # -> bench/results/casanovas_forecast_vaf.json
@@ -27,8 +27,8 @@ from bench._common import RESULTS, machine  # noqa: E402
 
 def main() -> int:
     from controller.casanovas import make_casanovas
-    from hil.plant_node import floating_plant
-    from hil.scenario import load_scenario
+    from hil.nodes.plant_node import floating_plant
+    from hil.scenario.schema import load_scenario
     from plant.waves import ExcitationForce
 
     out: dict[str, object] = {"machine": machine(), "cases": []}

@@ -1,6 +1,7 @@
 """casanovas-2014 campaign: table 3.1 (frequency domain), table 5.2 and table 5.1 (time domain).
 
-Every time-domain case is a ``fowt run`` of a shipped scenario (``hil/scenarios/casanovas-*``)
+Every time-domain case is a ``fowt run`` of a shipped scenario
+(``hil/scenario/presets/casanovas-*``)
 in-process (``launch`` with ``mode="inprocess"``, the same code path as
 ``fowt run SCENARIO --mode inprocess``) with the controller kind, preview, wave seed, horizon
 and overlap substituted into the scenario text; the mean electrical power is read back from
@@ -27,7 +28,7 @@ LQR's oscillator decay γ), on the same wave seeds, and reports every variant's 
 difference (same seeds) to ``no_control`` and to the steady LQR with its standard error
 across seeds. ``--metric electrical``: ``fowt run`` in-process, mean electrical power
 (above); ``--metric quadratic_linear``: the seed's own metric, the quadratic aerodynamic
-power on its linear model (:mod:`hil.casanovas_linear`), against P̄. Saved (``save()``) as
+power on its linear model (:mod:`hil.review.casanovas_linear`), against P̄. Saved (``save()``) as
 ``casanovas_table52_deviations_<metric>.json``.
 
 Writes ``bench/results/casanovas_table52.json`` (or ``--out``). Runs with one BLAS thread (set
@@ -60,7 +61,7 @@ import numpy as np  # noqa: E402
 
 from bench._common import RESULTS, machine  # noqa: E402
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenario" / "presets"
 KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
 HS_T1 = {6: 11.6, 10: 13.6}
 WINDS = (6, 8, 10)
@@ -156,7 +157,7 @@ def run_case(job: dict[str, Any]) -> dict[str, Any]:
     from rich.console import Console
 
     from hil.launch import RunRequest, launch
-    from hil.mcap_log import read_run
+    from hil.runlog.mcap_io import read_run
 
     text = (SCENARIOS / f"{job['scenario']}.toml").read_text()
     text = _variant(
@@ -213,11 +214,12 @@ def run_case(job: dict[str, Any]) -> dict[str, Any]:
 
 
 def _run_linear_case(job: dict[str, Any], text: str) -> dict[str, Any]:
-    """One run of the seed's metric: the controller on the linear model (hil.casanovas_linear)."""
+    """One run of the seed's metric: the controller on the linear model
+    (hil.review.casanovas_linear)."""
     from dataclasses import asdict
 
-    from hil.casanovas_linear import run_linear
-    from hil.scenario import load_scenario
+    from hil.review.casanovas_linear import run_linear
+    from hil.scenario.schema import load_scenario
 
     with tempfile.TemporaryDirectory(prefix="casanovas-") as tmp:
         path = Path(tmp) / f"{job['scenario']}.toml"

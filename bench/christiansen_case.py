@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from hil.mcap_log import read_run
+from hil.runlog.mcap_io import read_run
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SETTLE_S = 60.0

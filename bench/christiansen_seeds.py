@@ -125,9 +125,9 @@ def run_one(job: tuple[int, int, str, str | None, float]) -> tuple[int, int, str
     import msgspec
 
     from bus_schemas.registry import TRUTH
-    from hil.controller_node import ControllerRuntime
-    from hil.inprocess_run import run_inprocess
-    from hil.scenario import load_scenario
+    from hil.inprocess.run import run_inprocess
+    from hil.nodes.controller_node import ControllerRuntime
+    from hil.scenario.schema import load_scenario
 
     pair, tp, variant, preset, duration = job
     sc = load_scenario(f"oc3-hywind-tp{tp}-{VARIANTS[variant][0]}").with_duration(duration)

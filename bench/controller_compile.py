@@ -37,8 +37,8 @@ from _common import THIS, Code, add_compare_args, codes, machine, order, save
 CHILD = """
 import json, time
 t0 = time.perf_counter()
-from hil.controller_node import ControllerRuntime
-from hil.scenario import load_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 from bus_schemas import SensorFrame
 t1 = time.perf_counter()
 scenario = load_scenario("iea15mw-lc2-lqri-ff")

@@ -62,9 +62,9 @@ from _common import add_compare_args, codes, machine, order, run_child, save
 from bus_schemas import ActuatorCommand, SensorFrame
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST
 from controller.registry import make_controller
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.scenario import load_scenario
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 
 SCENARIO = "iea15mw-lc2-lqri-ff"
 TARGET_P50_US = 50.0

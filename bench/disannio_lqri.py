@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from _common import run_fowt, save
 
-from hil.mcap_log import read_run
+from hil.runlog.mcap_io import read_run
 
 SCENARIOS = {"baseline": "iea15mw-baseline-15", "lqri": "iea15mw-lqri-15"}
 

@@ -4,7 +4,7 @@ JONSWAP (gamma 3.3, deep water, the same seed) at H_s 1, 2, 4, 6, 8 m and T_p 6,
 14 s, white sensor noise of 0.02 m (the gauge channel of the shipped scenarios) on what each
 forecaster measures, gauge 300 m up-wave, horizon 8 s for all three, 300 s
 evaluated after the dispersion filter has filled. Each forecaster runs through its runtime
-``step`` (``hil.analyze_forecast.forecast_grid``; ``fowt analyze forecast --grid`` prints the
+``step`` (``hil.review.forecast.forecast_grid``; ``fowt analyze forecast --grid`` prints the
 same table). Prints the table and saves ``bench/results/forecast_grid.json``.
 
     python bench/forecast_grid.py [--duration 300] [--distance 300] [--horizon 8] [--noise 0.02]
@@ -17,7 +17,7 @@ import time
 
 from _common import save
 
-from hil.analyze_forecast import forecast_grid
+from hil.review.forecast import forecast_grid
 
 
 def main() -> None:

@@ -19,7 +19,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import machine, save
-from hil.hexicon import (
+from hil.hexicon.model import (
     CONTROLLERS,
     compute_kpis,
     initial_state,

@@ -17,7 +17,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import machine, save
-from hil.hexicon_identify import identify_over_bus
+from hil.hexicon.identify import identify_over_bus
 
 
 def main() -> None:

@@ -101,9 +101,9 @@ FIELDS = {
 
 def steady_run(kind: str, wind: float, duration_s: float, window_s: float) -> dict[str, Any]:
     """One in-process run; means over the last ``window_s`` seconds (and the wall time)."""
-    from hil.controller_node import ControllerRuntime
-    from hil.inprocess_run import run_inprocess
-    from hil.scenario import parse_scenario
+    from hil.inprocess.run import run_inprocess
+    from hil.nodes.controller_node import ControllerRuntime
+    from hil.scenario.schema import parse_scenario
 
     text = SCENARIO.format(kind=kind, wind=wind, duration=duration_s, preset=PRESETS[kind])
     sc = parse_scenario(text)

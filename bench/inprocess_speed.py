@@ -82,7 +82,7 @@ def _children_cpu_s() -> float:
 
 def _writer_overhead_cpu_s() -> float:
     """CPU seconds of a writer child that starts, writes nothing and closes the file."""
-    from hil.log_writer import BackgroundRunLog
+    from hil.runlog.writer import BackgroundRunLog
 
     with tempfile.TemporaryDirectory() as tmp:
         c0 = _children_cpu_s()
@@ -166,10 +166,10 @@ def split_run(
     from rich.console import Console
 
     import hil.launch as launch_mod
-    import hil.log_writer as lw
-    import hil.plant_node as pn
+    import hil.nodes.plant_node as pn
+    import hil.runlog.writer as lw
     from hil.launch import RunRequest, ensure_designs, run_info
-    from hil.scenario import load_scenario, scenario_text
+    from hil.scenario.schema import load_scenario, scenario_text
     from plant.simulator import PlantSimulator
 
     scenario = load_scenario(scenario_name).with_duration(duration_s)
@@ -193,8 +193,8 @@ def split_run(
     import importlib.util
 
     kernel_mod = None  # the compiled loop (absent before s3)
-    if importlib.util.find_spec("hil._fast_loop") is not None:
-        kernel_mod = importlib.import_module("hil._fast_loop")
+    if importlib.util.find_spec("hil.inprocess.loop") is not None:
+        kernel_mod = importlib.import_module("hil.inprocess.loop")
     if kernel_mod is not None:
         dispatcher = kernel_mod.lk.run_cycles
         timers.wrap(kernel_mod.lk, "run_cycles", "kernel")
@@ -364,10 +364,10 @@ def split_run(
 
 def compression_table(batches: list[bytes], turbine: str) -> dict[str, Any]:
     """Write the recorded batches again with each compression (the writer child's framing,
-    :class:`hil.log_writer._BatchFramer`, into :class:`hil.mcap_log.RunLog`); writer CPU
+    :class:`hil.runlog.writer._BatchFramer`, into :class:`hil.runlog.mcap_io.RunLog`); writer CPU
     per message and file size."""
-    import hil.mcap_log as ml
-    from hil.log_writer import _BatchFramer, _decoders
+    import hil.runlog.mcap_io as ml
+    from hil.runlog.writer import _BatchFramer, _decoders
 
     decoders = _decoders()
     out: dict[str, Any] = {}

@@ -61,7 +61,7 @@ _PROFILE = re.compile(
 
 def _inspect(run_dir: Path) -> dict[str, Any]:
     """The plant's cycle profile (its log) and the controller's compute (the MCAP)."""
-    from hil.mcap_log import read_run
+    from hil.runlog.mcap_io import read_run
 
     out: dict[str, Any] = {}
     m = _PROFILE.search((run_dir / "logs" / "plant.log").read_text(errors="replace"))

@@ -1,6 +1,6 @@
 """The compiled in-process loop's kernel: cold compile, warm load, and its clock's cost.
 
-:func:`hil._loop_kernels.run_cycles` is compiled by numba on first use and cached on disk
+:func:`hil.inprocess.kernels.run_cycles` is compiled by numba on first use and cached on disk
 (``make setup`` pays it in ``python -m hil.warmup``). This script measures, each in a fresh
 child process with ``NUMBA_CACHE_DIR`` set to an empty temporary folder:
 
@@ -30,10 +30,10 @@ from _common import save
 
 _CHILD = r"""
 import json, sys, time
-from hil.scenario import load_scenario
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import PlantLoop
-from hil.inprocess_run import run_inprocess
+from hil.scenario.schema import load_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.plant_node import PlantLoop
+from hil.inprocess.run import run_inprocess
 out = {}
 scn = load_scenario("iea15mw-lc2-lqri-ff").with_duration(1.0)
 if sys.argv[1] == "callees":
@@ -45,7 +45,7 @@ if sys.argv[1] == "callees":
     run_inprocess(scn, lambda *a: None, step, runtime=rt, loop="python")
     out["callees_s"] = time.perf_counter() - t0
 t0 = time.perf_counter()
-from hil._fast_loop import CompiledLoop
+from hil.inprocess.loop import CompiledLoop
 rt = ControllerRuntime(scn)
 loop = PlantLoop(scn, lambda *a: None)
 t1 = time.perf_counter()
@@ -68,7 +68,7 @@ def _child(mode: str, cache: str) -> dict[str, float]:
 
 
 def main() -> None:
-    from hil import _loop_kernels as lk
+    from hil.inprocess import kernels as lk
 
     result: dict[str, object] = {"load_average_start": os.getloadavg()}
     with tempfile.TemporaryDirectory(prefix="fowt-numba-") as cache:

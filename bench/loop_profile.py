@@ -1,12 +1,12 @@
 """Where an in-process control cycle's time goes: one profiler, five views of the same loop.
 
-The in-process loop (:func:`hil.inprocess_run.run_inprocess`) runs, per control cycle, the
+The in-process loop (:func:`hil.inprocess.run.run_inprocess`) runs, per control cycle, the
 plant's truth and sensor frame, the controller runtime and its core, the plant's period and
-the publishes, either compiled (:mod:`hil._loop_kernels`) or in Python. Each subcommand
+the publishes, either compiled (:mod:`hil.inprocess.kernels`) or in Python. Each subcommand
 times it from one side and saves ``bench/results/loop_profile_<subcommand>.json``:
 
 * ``plant``: the plant side alone (:meth:`plant.simulator.PlantSimulator.truth`,
-  ``sensor_frame``, ``advance``, as :class:`hil.plant_node.PlantLoop` calls them, the
+  ``sensor_frame``, ``advance``, as :class:`hil.nodes.plant_node.PlantLoop` calls them, the
   command held at the initial actuator positions), every cycle timed (wall clock): its
   percentiles (p50 is the figure least disturbed on a shared machine), the best and median
   batch of 100 cycles and the process CPU per cycle; ``floating-40hz`` (LC2 lqri_ff:
@@ -28,7 +28,7 @@ times it from one side and saves ``bench/results/loop_profile_<subcommand>.json`
   Python, ``--duration`` of LC2 (lqri_ff and baseline): the loop's CPU (this thread's clock
   from the first cycle to the final summary) and wall time per cycle. Best: least CPU.
 * ``profile``: a launcher in-process run (:func:`hil.launch._run_inprocess`: the real log
-  writer, MCAP written) with each part of :meth:`hil._fast_loop.CompiledLoop.run` and what
+  writer, MCAP written) with each part of :meth:`hil.inprocess.loop.CompiledLoop.run` and what
   it calls wrapped in a timer; exclusive times per cycle, scaled by the loop's CPU/wall
   ratio, the time blocked in the pipe taken out; ``other`` is the loop's own lines,
   ``timers`` the timers' calibrated cost. Parts a code version lacks are absent. Best:
@@ -81,8 +81,8 @@ BATCH = 100  # cycles per timed batch (plant view)
 
 
 def _plant_one(scenario_name: str, cycles: int, reps: int) -> dict[str, Any]:
-    from hil.plant_node import plant_config
-    from hil.scenario import load_scenario
+    from hil.nodes.plant_node import plant_config
+    from hil.scenario.schema import load_scenario
     from plant.simulator import PlantSimulator
 
     t_build = time.perf_counter()
@@ -158,10 +158,10 @@ def measure_plant(args: argparse.Namespace) -> dict[str, Any]:
 def measure_parts(args: argparse.Namespace) -> dict[str, Any]:
     from bus_schemas import CycleTiming
     from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, SENSORS, TRUTH
-    from hil.controller_node import ControllerRuntime
-    from hil.log_writer import BackgroundRunLog
-    from hil.plant_node import plant_config
-    from hil.scenario import load_scenario
+    from hil.nodes.controller_node import ControllerRuntime
+    from hil.nodes.plant_node import plant_config
+    from hil.runlog.writer import BackgroundRunLog
+    from hil.scenario.schema import load_scenario
     from plant.simulator import PlantSimulator
 
     n = args.cycles
@@ -228,12 +228,12 @@ def measure_parts(args: argparse.Namespace) -> dict[str, Any]:
 def _kernel_one(scenario_name: str, duration_s: float) -> dict[str, float]:
     import numba
 
-    import hil._loop_kernels as lk
+    import hil.inprocess.kernels as lk
     from controller._kernels import advanced_cycle, baseline_step
-    from hil._fast_loop import CompiledLoop
-    from hil.controller_node import ControllerRuntime, publishing_step
-    from hil.plant_node import PlantLoop
-    from hil.scenario import load_scenario
+    from hil.inprocess.loop import CompiledLoop
+    from hil.nodes.controller_node import ControllerRuntime, publishing_step
+    from hil.nodes.plant_node import PlantLoop
+    from hil.scenario.schema import load_scenario
     from plant._kernels import advance_floating, floating_truth_into
     from sensors._kernels import suite_step
 
@@ -364,9 +364,9 @@ def measure_kernel(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _loop_only_one(scenario: str, loop: str, duration_s: float) -> dict[str, Any]:
-    from hil.controller_node import ControllerRuntime, publishing_step
-    from hil.inprocess_run import run_inprocess
-    from hil.scenario import load_scenario
+    from hil.inprocess.run import run_inprocess
+    from hil.nodes.controller_node import ControllerRuntime, publishing_step
+    from hil.scenario.schema import load_scenario
 
     scn = load_scenario(scenario).with_duration(duration_s)
     rt = ControllerRuntime(scn)
@@ -464,13 +464,13 @@ class _Stack(Patches):
 def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
     from rich.console import Console
 
-    import hil._fast_loop as fl
+    import hil.inprocess.loop as fl
     import hil.launch as launch_mod
-    import hil.log_writer as lw
-    import hil.plant_node as pn
+    import hil.nodes.plant_node as pn
+    import hil.runlog.writer as lw
     from hil.launch import RunRequest, ensure_designs, run_info
-    from hil.scenario import load_scenario, scenario_text
-    from hil.timing import LatencyHistogram
+    from hil.nodes.timing import LatencyHistogram
+    from hil.scenario.schema import load_scenario, scenario_text
     from sensors.channel import SensorSuite
 
     scenario = load_scenario(scenario_name).with_duration(duration_s)

@@ -36,8 +36,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from _common import machine, save
 from _two_hosts import NamespacesUnavailableError, stop, two_hosts
 
-from hil.mcap_log import read_run
-from hil.scenario import load_scenario
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import load_scenario
 
 LOWLATENCY_LINE = "    unicast: { lowlatency: true, qos: { enabled: false } },\n"
 TOPICS = ("sensors", "command", "truth", "controller/status", "timing/cycle")

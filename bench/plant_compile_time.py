@@ -25,8 +25,8 @@ from pathlib import Path
 CHILD = """
 import json, time
 t0 = time.perf_counter()
-from hil.plant_node import plant_config
-from hil.scenario import load_scenario
+from hil.nodes.plant_node import plant_config
+from hil.scenario.schema import load_scenario
 from plant.simulator import PlantSimulator
 out = {"import_s": time.perf_counter() - t0}
 for name in ("iea15mw-lc2-lqri-ff", "nrel5mw-ramp"):

@@ -23,7 +23,7 @@ from _common import save
 
 
 def _one(sig: signal.Signals) -> tuple[float, float, int]:
-    from hil.bus import free_tcp_endpoint
+    from hil.nodes.bus import free_tcp_endpoint
 
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     cmd = [sys.executable, "-m", "hil", "plant", "nrel5mw-ramp", "--insecure"]

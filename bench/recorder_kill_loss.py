@@ -7,7 +7,7 @@ launcher nices it: ``$FOWT_RECORDER_NICE``, default 10), beside N CPU hogs (``py
 frames, truth and controller status on the bus. At ``--kill-at`` seconds the recorder gets
 SIGKILL; the newest sample time the monitor had seen per topic is the kill's time. The
 loss per topic is that minus the newest sample time in the cut file [simulated s]
-(:func:`hil.mcap_log.read_run` reads it up to its last flushed chunk). Repeated
+(:func:`hil.runlog.mcap_io.read_run` reads it up to its last flushed chunk). Repeated
 ``--rounds`` times; prints and saves each round and the maximum per topic to
 ``bench/results/recorder_kill_loss.json`` with the commit and the load.
 
@@ -31,7 +31,8 @@ from typing import Any
 from _common import commit, load, save
 
 from bus_schemas.registry import CONTROLLER_STATUS, SENSORS, TRUTH, MessageType
-from hil.bus import (
+from hil.launch import RECORDER_NICE
+from hil.nodes.bus import (
     CONTROLLER_BATCH_SUFFIX,
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -40,8 +41,7 @@ from hil.bus import (
     free_tcp_endpoint,
     unbatching,
 )
-from hil.launch import RECORDER_NICE
-from hil.mcap_log import read_run
+from hil.runlog.mcap_io import read_run
 
 SCENARIO = "nrel5mw-ramp"
 TOPICS = (SENSORS, TRUTH, CONTROLLER_STATUS)

@@ -4,10 +4,10 @@ For LC2 runs of the lqri_ff controller in process (600 s and 3600 s of simulated
 ``fowt run iea15mw-lc2-lqri-ff --mode inprocess --no-plots``, the file kept), each file is
 reviewed in a fresh child process, alternately:
 
-* ``streaming``: :func:`hil.review.review` without plots (the column reader, one MCAP chunk
-  at a time, :mod:`hil.review_stream`);
-* ``dicts``: :func:`hil.mcap_log.read_run` (every message as a dict, the review's reader
-  before the streaming one) then :func:`hil.review.summarize` of it.
+* ``streaming``: :func:`hil.review.core.review` without plots (the column reader, one MCAP chunk
+  at a time, :mod:`hil.review.stream`);
+* ``dicts``: :func:`hil.runlog.mcap_io.read_run` (every message as a dict, the review's reader
+  before the streaming one) then :func:`hil.review.core.summarize` of it.
 
 Per child: CPU seconds of the call (``time.process_time``), the child's peak resident set
 (``ru_maxrss``) and its resident set after the imports (so the growth with the file is
@@ -42,8 +42,8 @@ def hwm():
     for line in Path("/proc/self/status").read_text().splitlines():
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
-from hil.mcap_log import read_run
-from hil.review import review, summarize
+from hil.runlog.mcap_io import read_run
+from hil.review.core import review, summarize
 how, path = sys.argv[1], Path(sys.argv[2])
 base = hwm()
 t0 = time.process_time()

@@ -39,9 +39,9 @@ LATENCY_SCENARIOS = {
 
 def _frames(scenario_name: str, duration_s: float) -> tuple[Any, list[SensorFrame]]:
     """The sensor frames of an in-process run of ``scenario_name`` (its own controller)."""
-    from hil.controller_node import ControllerRuntime
-    from hil.inprocess_run import run_inprocess
-    from hil.scenario import load_scenario
+    from hil.inprocess.run import run_inprocess
+    from hil.nodes.controller_node import ControllerRuntime
+    from hil.scenario.schema import load_scenario
 
     sc = load_scenario(scenario_name).with_duration(duration_s)
     frames: list[SensorFrame] = []

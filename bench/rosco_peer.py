@@ -46,9 +46,9 @@ sys.path.insert(0, str(ROOT))
 
 from bus_schemas import ActuatorCommand, SensorFrame  # noqa: E402
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType  # noqa: E402
-from hil.controller_node import ControllerRuntime  # noqa: E402
-from hil.inprocess_run import run_inprocess  # noqa: E402
-from hil.scenario import Scenario, load_scenario, parse_scenario  # noqa: E402
+from hil.inprocess.run import run_inprocess  # noqa: E402
+from hil.nodes.controller_node import ControllerRuntime  # noqa: E402
+from hil.scenario.schema import Scenario, load_scenario, parse_scenario  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results"
 
@@ -257,7 +257,7 @@ def cmp_wse(args: argparse.Namespace, tmp: Path) -> dict[str, Any]:
         f"(first {args.wse_skip:.0f} s skipped); error relative to the mean true "
         "rotor-effective wind"
     )
-    from hil.scenario import SteadyWindSpec
+    from hil.scenario.schema import SteadyWindSpec
 
     for case in ("steady-still", "turbulent-lc2"):
         base = load_scenario("iea15mw-still-water" if case == "steady-still" else "iea15mw-lc2")

@@ -1,23 +1,23 @@
 """Run log encoding: ros2msg + CDR channels against the JSON channels they replaced.
 
 A real in-process run of load case 2 (``iea15mw-lc2``, ``--duration`` simulated seconds,
-default 600) is recorded by the bench's own writer (:class:`hil.mcap_log.RunLog` through
+default 600) is recorded by the bench's own writer (:class:`hil.runlog.mcap_io.RunLog` through
 the in-process writer child); its messages, read back, are the stream measured. In publish
 order (by sample time, a cycle's messages in the loop's order) they are cut into batches of
-:data:`hil.log_writer.BATCH_MESSAGES`, as the writer child receives them, and per format:
+:data:`hil.runlog.writer.BATCH_MESSAGES`, as the writer child receives them, and per format:
 
 * ``bytes_per_message``: payload and whole MCAP Message record (31-byte header + payload),
   raw, and a chunk's records after zstd level 1 (the writer's compressor:
-  :data:`hil.mcap_log.ZSTD_LEVEL`, window 2^18, hash 2^12) divided by its messages; the
+  :data:`hil.runlog.mcap_io.ZSTD_LEVEL`, window 2^18, hash 2^12) divided by its messages; the
   JSON records are laid out as the JSON writer did (publish order), the CDR ones as
-  :class:`~hil.mcap_log.RunLog` does (per channel within a chunk);
+  :class:`~hil.runlog.mcap_io.RunLog` does (per channel within a chunk);
 * ``compress_crc_us_per_message``: zstd level 1 and the chunk's CRC-32 of each batch's
   records (best of ``--passes``, this process's CPU clock);
 * ``encode_us_per_message``: JSON: msgspec's encoder on each message's Struct (the cheapest
   Python path to that text; the compiled kernels the JSON writer used took 0.45-0.5 us for
   it); CDR: :func:`bus_schemas.ros2.encode_rows` per type and batch;
 * ``writer_us_per_message``: the CDR writer child's whole work per batch
-  (:meth:`hil.log_writer._BatchFramer.frame`: msgpack decode, rows, CDR, record headers,
+  (:meth:`hil.runlog.writer._BatchFramer.frame`: msgpack decode, rows, CDR, record headers,
   zstd, CRC, MessageIndexes, the write) into a file;
 * ``file_bytes``: the whole run's file by the bench's writer (CDR), and the same messages on
   JSON channels (JSON Schema, msgspec's JSON) through the same writer and chunking.
@@ -63,7 +63,7 @@ def _record(scenario: str, duration_s: float, out: Path) -> tuple[Path, float]:
 
 def _stream(path: Path) -> list[tuple[MessageType, np.ndarray]]:
     """The file's messages in publish order: (type, one row of its row_dtype) each."""
-    from hil.mcap_log import MessageList, read_run
+    from hil.runlog.mcap_io import MessageList, read_run
 
     run = read_run(path)
     items: list[tuple[int, int, int, MessageType, np.ndarray]] = []
@@ -130,7 +130,7 @@ def _best_cpu_us(fn: Any, passes: int, n: int) -> float:
 
 def _json_file(stream: list[tuple[MessageType, np.ndarray]], path: Path, size: int) -> int:
     """The same messages on JSON channels through RunLog (same chunking), its bytes."""
-    from hil.mcap_log import RunLog
+    from hil.runlog.mcap_io import RunLog
 
     log = RunLog(path, None, start_unix_ns=0, flush_interval_s=1e9, batch_messages=size)
     cids = {
@@ -155,9 +155,9 @@ def main() -> None:
 
     import zstandard
 
-    from hil import mcap_log
-    from hil.log_writer import BATCH_MESSAGES, ROW_FLAG, _BatchFramer, _decoders
-    from hil.log_writer import _encode_batch_payload as pack
+    from hil.runlog import mcap_io as mcap_log
+    from hil.runlog.writer import BATCH_MESSAGES, ROW_FLAG, _BatchFramer, _decoders
+    from hil.runlog.writer import _encode_batch_payload as pack
 
     params = zstandard.ZstdCompressionParameters.from_level(
         mcap_log.ZSTD_LEVEL, window_log=mcap_log.ZSTD_WINDOW_LOG, hash_log=mcap_log.ZSTD_HASH_LOG

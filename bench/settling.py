@@ -24,7 +24,7 @@ from _common import save
 from rich.console import Console
 
 from hil.launch import RunRequest, launch
-from hil.mcap_log import read_run
+from hil.runlog.mcap_io import read_run
 
 SIGNALS = ("rotor_speed_rad_s", "tower_base_moment_nm", "platform_pitch_rad", "platform_surge_m")
 

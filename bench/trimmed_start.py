@@ -3,7 +3,7 @@
 Runs the IEA 15 MW on VolturnUS-S in process, 600 s, from the plant's own operating point
 (``[initial] trim = false``: optimal tip-speed ratio capped at rated, the platform at the
 static equilibrium of *that* point's thrust) and from the controller's trimmed steady state
-(``trim = true``, :mod:`hil.trim`), and reports the standard deviation of rotor speed,
+(``trim = true``, :mod:`hil.inprocess.trim`), and reports the standard deviation of rotor speed,
 platform surge and platform pitch over 60-200, 200-400 and 400-600 s, and the first 10 s's
 largest rotor-speed deviation from the trim. Cases: steady wind in still water at 5 m/s
 (below rated, where the controller's 5 rpm minimum speed is above the optimal-TSR speed),
@@ -46,10 +46,10 @@ import numpy as np
 from _common import save
 
 from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
-from hil.controller_node import ControllerRuntime, publishing_step
-from hil.inprocess_run import run_inprocess
-from hil.scenario import Scenario, load_scenario, parse_scenario
-from hil.trim import initial_condition, mean_wind_m_s, settling_scenario
+from hil.inprocess.run import run_inprocess
+from hil.inprocess.trim import initial_condition, mean_wind_m_s, settling_scenario
+from hil.nodes.controller_node import ControllerRuntime, publishing_step
+from hil.scenario.schema import Scenario, load_scenario, parse_scenario
 
 #: Steady winds [m/s]: 5 (the 5 rpm minimum speed), al-2019 LC2 and LC3's means, 15 (above).
 STEADY_WINDS = (5.0, 7.1, 10.3, 15.0)

@@ -24,8 +24,15 @@ import numpy as np
 from _common import save
 from scipy.interpolate import CubicSpline
 
-from hil.campaign import _inprocess, _turbine_figures, load_campaign, run_kpis_of, select, to_toml
-from hil.scenario import Scenario
+from hil.campaign.runner import (
+    _inprocess,
+    _turbine_figures,
+    load_campaign,
+    run_kpis_of,
+    select,
+    to_toml,
+)
+from hil.scenario.schema import Scenario
 from plant.turbine import load_turbine
 
 KPI = "rotor_speed_error_var_rpm2"

@@ -24,7 +24,7 @@ Cache keys
 ----------
 numba keys a cached function by its own source file only. A kernel's machine code also
 depends on these options (here, in another file) and, for a kernel that composes others
-(:func:`hil._loop_kernels.run_cycles`), on their files; a change there would leave stale
+(:func:`hil.inprocess.kernels.run_cycles`), on their files; a change there would leave stale
 machine code in use. So every file whose functions are compiled through this module gets a
 cache key that also holds the content of this file and of the files named by
 :func:`key_cache_by` (SHA-256 of their bytes), through numba's cache locators

@@ -33,7 +33,7 @@ samples, and a cycle is one ring-buffer write plus one numpy dot product of fixe
 Retraining (AR: one p-column least squares, ESPRIT: one SVD, one eigenproblem and one
 pseudo-inverse) runs on the cycle that completes every ``retrain_every``-th model sample; its
 cost is bounded by the fixed window sizes and is reported by ``bench`` (see the report of
-``hil.analyze_forecast``).
+``hil.review.forecast``).
 
 Dropped samples
 ---------------

@@ -527,7 +527,7 @@ class IdentifiedModel:
     x_{k+1} = A x_k + B (u_k - ū), y_k = C x_k + D (u_k - ū) + ȳ with u = (V m/s, β deg,
     θ_1, θ_2, θ_3 deg), y = (yaw rate deg/s, platform power MW), sampled every
     ``sample_time_s``; ``kalman_gain`` L (n x 2) of the steady-state filter
-    x̂ += L (y - ŷ). Written by ``fowt hexicon identify`` (:mod:`hil.hexicon_identify`).
+    x̂ += L (y - ŷ). Written by ``fowt hexicon identify`` (:mod:`hil.hexicon.identify`).
     """
 
     a: np.ndarray

@@ -23,7 +23,7 @@ code  meaning
       or torque PI on generator speed)
 4     region 3: rated power/torque, speed regulated by blade pitch
 5     safe mode: set by the node (never by a core) while its sensor-frame watchdog holds
-      the safe command (:mod:`hil.controller_node`)
+      the safe command (:mod:`hil.nodes.controller_node`)
 ====  =========================================================================
 
 :class:`ActuatorLimits` is what a core's ``actuator_limits()`` returns: its pitch range and

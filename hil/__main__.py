@@ -1,5 +1,5 @@
 """``python -m hil``: the ``fowt`` command."""
 
-from hil.cli import main
+from hil.cli.fowt import main
 
 main()

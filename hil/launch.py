@@ -14,7 +14,7 @@ the same MCAP file directly.
 CAN transport (``--transport can``)
 -----------------------------------
 The sensor frame and the command travel on a CAN bus between the plant and controller
-processes (:class:`hil.can_bus.HybridBus`); truth, controller status, timing, liveliness
+processes (:class:`hil.nodes.can_bus.HybridBus`); truth, controller status, timing, liveliness
 and the run's end stay on the loopback Zenoh session above, as the bench's side channel.
 The recorder joins the CAN bus too and logs the decoded messages and the raw frames.
 python-can's ``virtual`` bus does not cross processes, so a process run takes:
@@ -22,7 +22,7 @@ python-can's ``virtual`` bus does not cross processes, so a process run takes:
 * ``udp_multicast``: allowed only inside a private network namespace. Run from the host's
   namespace as root with ``unshare`` and ``ip`` available, the launcher re-executes itself
   (the same ``fowt run`` command) under ``unshare --net`` with ``lo`` brought up with
-  multicast and ``224.0.0.0/4`` routed to it (:func:`hil.can_bus.netns_command`); plant,
+  multicast and ``224.0.0.0/4`` routed to it (:func:`hil.nodes.can_bus.netns_command`); plant,
   controller and recorder (and Zenoh on 127.0.0.1) all run in that namespace, which
   vanishes with the run. Otherwise the run is refused, saying why.
 * ``socketcan``: the netdevice (``vcan0``) must exist.
@@ -95,7 +95,8 @@ from bus_schemas.registry import (
 )
 from controller.discon import DisconError
 from controller.rosco import RUN_DIR_ENV
-from hil.bus import (
+from hil.inprocess.run import run_inprocess
+from hil.nodes.bus import (
     PLANT_BATCH_SUFFIX,
     Bus,
     BusConfig,
@@ -103,22 +104,21 @@ from hil.bus import (
     free_tcp_endpoint,
     unbatching,
 )
-from hil.controller_node import (
+from hil.nodes.controller_node import (
     ControllerRuntime,
     controller_report,
     feedforward_notice,
     publishing_step,
 )
-from hil.inprocess_run import run_inprocess
-from hil.log_writer import BackgroundRunLog, LogWriteError
-from hil.outcome import outcome_line, record_outcome
-from hil.plant_node import Mode
-from hil.recorder import scenario_metadata
-from hil.review import render_summary, review
-from hil.scenario import ProcessFault, Scenario, load_scenario, scenario_text
+from hil.nodes.plant_node import Mode
+from hil.nodes.recorder import scenario_metadata
+from hil.review.core import render_summary, review
+from hil.review.outcome import outcome_line, record_outcome
+from hil.runlog.writer import BackgroundRunLog, LogWriteError
+from hil.scenario.schema import ProcessFault, Scenario, load_scenario, scenario_text
 
 if TYPE_CHECKING:
-    from hil.can_bus import CanBusConfig
+    from hil.nodes.can_bus import CanBusConfig
 
 #: Set in the environment of a launcher re-executed in a fresh network namespace.
 _NETNS_ENV = "FOWT_NETNS_CHILD"
@@ -289,7 +289,7 @@ def run_info(req: RunRequest, scenario: Scenario) -> dict[str, str]:
 
 
 def _in_private_netns() -> bool:
-    from hil.can_bus import in_private_netns  # noqa: PLC0415 - python-can: CAN runs only
+    from hil.nodes.can_bus import in_private_netns  # noqa: PLC0415 - python-can: CAN runs only
 
     return in_private_netns()
 
@@ -298,7 +298,7 @@ def can_config(req: RunRequest, scenario: Scenario) -> CanBusConfig:
     """The run's CAN bus: the request's, else the scenario's ``[can]`` section."""
     if req.can is not None:
         return req.can
-    from hil.can_bus import CanBusConfig  # noqa: PLC0415 - python-can: CAN runs only
+    from hil.nodes.can_bus import CanBusConfig  # noqa: PLC0415 - python-can: CAN runs only
 
     c = scenario.can
     return CanBusConfig.for_interface(c.interface, c.channel, c.fd, scenario.turbine_id)
@@ -383,7 +383,7 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if req.transport == "can":
         if req.mode == "inprocess":
             raise RunFailedError("--transport can: an in-process run has no bus (use lockstep)")
-        from hil.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
+        from hil.nodes.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
 
         can = can_config(req, scenario)
         if can.turbine_id != scenario.turbine_id:
@@ -455,7 +455,7 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if scenario.review.power_metric == "quadratic_linear" and aborted is None:
         from dataclasses import asdict  # noqa: PLC0415
 
-        from hil.casanovas_linear import run_linear  # noqa: PLC0415
+        from hil.review.casanovas_linear import run_linear  # noqa: PLC0415
 
         summary["casanovas_quadratic_linear"] = asdict(run_linear(scenario))
     if driver is not None:
@@ -658,7 +658,7 @@ def _launch_in_netns(
     """Re-run this ``fowt run`` in a fresh network namespace; return its summary.
 
     The child launcher (same Python, same options, ``--out`` resolved) runs plant,
-    controller and recorder inside the namespace (:func:`hil.can_bus.netns_command`) and
+    controller and recorder inside the namespace (:func:`hil.nodes.can_bus.netns_command`) and
     prints its own progress and summary to this process's terminal.
 
     A signal to this launcher is passed on to the child launcher (SIGTERM), which stops its
@@ -692,7 +692,7 @@ def _launch_in_netns(
     if req.realtime_priority:  # the child's plant and controller need it as much
         cmd += ["--realtime-priority", str(req.realtime_priority)]
     env = {**os.environ, _NETNS_ENV: "1"}
-    from hil.can_bus import netns_command  # noqa: PLC0415
+    from hil.nodes.can_bus import netns_command  # noqa: PLC0415
 
     child = subprocess.Popen(netns_command(cmd), env=env)
     try:
@@ -938,7 +938,7 @@ def _wait_for_recorder(
     """Wait for the recorder to finish the run's file after the plant's end.
 
     No fixed timeout: a recorder behind the run (niced, under load) writes what it still
-    holds and records until the nodes' reports are in (:mod:`hil.recorder`), which takes as
+    holds and records until the nodes' reports are in (:mod:`hil.nodes.recorder`), which takes as
     long as it takes. The wait goes on while it makes progress (its MCAP file grows or it
     uses CPU); only after ``stall_s`` [s] without any is it stopped (SIGTERM: it finishes
     the file; SIGKILL 30 s later), with a warning; the review then says what is missing.
@@ -1081,7 +1081,7 @@ def _follow(
         if driver is not None:
             tid = scenario.turbine_id
             bus.subscribe(CYCLE_TIMING.key(tid), driver.on_cycle)
-            # The plant's node puts its cycle records in log batches (hil.bus.LogBatcher).
+            # The plant's node puts its cycle records in log batches (hil.nodes.bus.LogBatcher).
             batches = unbatching(CYCLE_TIMING, driver.on_cycle, tid)
             bus.subscribe(batch_key(tid, PLANT_BATCH_SUFFIX), batches)
             # The plant waits for this token (``--require ...,launcher``), so no cycle passes

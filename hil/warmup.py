@@ -13,7 +13,7 @@ arguments, so every signature a run uses is compiled: a short in-process run of 
 IEA 15 MW with ``lqri_ff`` (floating plant, sensor suite, observers, forecaster, LQRI and
 wave feed-forward), of the bottom-fixed NREL 5 MW with the baseline, and of the Hexicon
 platform's sensor suite (another channel count). The in-process runs take the compiled
-loop where the scenario allows it (:mod:`hil._loop_kernels`, about 9 s to compile once its
+loop where the scenario allows it (:mod:`hil.inprocess.kernels`, about 9 s to compile once its
 callees are, ``bench/loop_compile_time.py``): the floating IEA 15 MW run compiles it (one
 signature serves the baseline and the advanced controller). Nothing is written outside a
 temporary folder.
@@ -30,7 +30,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from hil.hexicon import load_scenarios, run_in_process
+from hil.hexicon.model import load_scenarios, run_in_process
 from hil.launch import RunRequest, launch
 
 # (scenario, simulated seconds): together they reach every kernel and kernel signature.

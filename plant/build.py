@@ -14,7 +14,8 @@ tip-speed ratio capped at rated speed, fine pitch below rated, the pitch that ho
 power above it, the torque that balances the aerodynamic torque; floating: the static
 platform equilibrium under that point's mean thrust (:func:`plant.modes.operating_point`).
 A controller may hold another steady state (a minimum rotor speed, a minimum-pitch schedule):
-the launcher computes it (``hil.trim``) and passes the rotor point here; the platform offset
+the launcher computes it (``hil.inprocess.trim``) and passes the rotor point here; the platform
+offset
 then follows as the static equilibrium under *that* point's thrust, solved by the plant on
 its own stiffness (hydrostatics, mooring), unless given too.
 """

@@ -5,7 +5,7 @@ demand switching from the previous command to the new one after ``switch_step`` 
 steps (so a real-time run applies a command when it arrived, at the plant step's
 resolution), and turns the state into the messages of :mod:`bus_schemas`: the noisy
 :class:`SensorFrame` a controller sees and the true :class:`PlantState` for the log. It
-holds no clock and does no I/O; the node layer (``hil.plant_node``) owns time and the bus.
+holds no clock and does no I/O; the node layer (``hil.nodes.plant_node``) owns time and the bus.
 
 Two plants
 ----------

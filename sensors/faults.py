@@ -30,7 +30,7 @@ bias step or a noise burst.
 
 Bus faults (channel ``"sensors"`` or ``"command"``)
 ---------------------------------------------------
-Pure decisions per message, applied by the plant node (:mod:`hil.plant_node`), which owns
+Pure decisions per message, applied by the plant node (:mod:`hil.nodes.plant_node`), which owns
 the bus: ``bus_delay`` adds d = ``delay_s``; ``bus_jitter`` adds an extra delay J, either
 uniform, J ~ U[0, J_max) (``distribution = "uniform"``, ``max_s`` = J_max), or half-normal,
 J = min(|σ_J n|, J_max) (``distribution = "normal"``, ``std_s`` = σ_J, ``max_s`` = J_max,

@@ -21,11 +21,11 @@ import msgspec
 from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
 from bus_schemas.registry import SENSORS, TRUTH, MessageType
-from hil.bus import free_tcp_endpoint
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.plant_node import PlantRunResult
-from hil.scenario import Scenario
+from hil.inprocess.run import run_inprocess
+from hil.nodes.bus import free_tcp_endpoint
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.plant_node import PlantRunResult
+from hil.scenario.schema import Scenario
 
 REPO = Path(__file__).resolve().parent.parent
 

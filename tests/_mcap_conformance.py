@@ -2,7 +2,7 @@
 ``jsonschema``.
 
 Imported as ``from _mcap_conformance import ...`` (``tests/`` is on ``sys.path``). The bench's
-reader (:func:`hil.mcap_log.read_run`) is not used here: these checks read the file the way
+reader (:func:`hil.runlog.mcap_io.read_run`) is not used here: these checks read the file the way
 any other MCAP tool does.
 """
 

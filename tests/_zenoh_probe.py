@@ -1,7 +1,7 @@
 """Zenoh clients for ``test_multi_host.py``, run inside a test's network namespace.
 
 ``python tests/_zenoh_probe.py open CONFIG``
-    Open a :class:`hil.bus.Bus` from ``CONFIG`` and close it again. Prints one JSON line
+    Open a :class:`hil.nodes.bus.Bus` from ``CONFIG`` and close it again. Prints one JSON line
     ``{"opened": bool, "zid": str, "routers": int, "error": str}``; exit status 0 when it
     opened, 1 when Zenoh refused (e.g. the router rejected the client certificate).
 
@@ -20,7 +20,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from hil.bus import Bus, BusConfig
+from hil.nodes.bus import Bus, BusConfig
 
 
 def probe_open(config: Path) -> int:

@@ -25,9 +25,9 @@ from scipy.signal import butter, sosfiltfilt
 
 from bus_schemas import ActuatorCommand, ControllerStatus, PlantState, SensorFrame
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.scenario import load_scenario
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 
 DURATION_S = 200.0
 SETTLE_S = 30.0

@@ -1,8 +1,8 @@
 """Authenticated bus payloads and sequence plausibility.
 
 Unit level: :mod:`bus_schemas.auth` (tag over label, key expression and payload; key
-files), the plant's :class:`~hil.plant_node.CommandInbox` refusing answers to frames it has
-not published, and the controller's :class:`~hil.controller_node.ControllerRuntime`
+files), the plant's :class:`~hil.nodes.plant_node.CommandInbox` refusing answers to frames it has
+not published, and the controller's :class:`~hil.nodes.controller_node.ControllerRuntime`
 refusing implausible seq jumps without latching on them (and resynchronising on a
 consistent run).
 
@@ -50,11 +50,11 @@ from bus_schemas.auth import (
     verify,
 )
 from bus_schemas.registry import COMMAND, SENSORS
-from hil.bus import free_tcp_endpoint
-from hil.controller_node import RESYNC_FRAMES, ControllerRuntime, seq_window
-from hil.mcap_log import read_run
-from hil.plant_node import CommandInbox
-from hil.scenario import load_scenario
+from hil.nodes.bus import free_tcp_endpoint
+from hil.nodes.controller_node import RESYNC_FRAMES, ControllerRuntime, seq_window
+from hil.nodes.plant_node import CommandInbox
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import load_scenario
 
 SCENARIO = "nrel5mw-ramp"
 DURATION_S = 20.0
@@ -154,8 +154,8 @@ def test_controller_resyncs_on_a_consistent_run_after_a_real_outage() -> None:
 
 
 def test_recorder_counts_forged_samples_and_writes_none(tmp_path: Path) -> None:
-    from hil.bus import PLANT_BATCH_SUFFIX
-    from hil.recorder import Recorder, RecorderLog
+    from hil.nodes.bus import PLANT_BATCH_SUFFIX
+    from hil.nodes.recorder import Recorder, RecorderLog
 
     key = new_key()
     log = RecorderLog(tmp_path / "r.mcap", "t1")
@@ -419,7 +419,7 @@ def test_can_instances_carry_an_authenticator_and_forgeries_are_counted(fd: bool
 def test_can_bus_with_a_key_drops_unsigned_instances() -> None:
     import uuid
 
-    from hil.can_bus import CanBus, CanBusConfig
+    from hil.nodes.can_bus import CanBus, CanBusConfig
 
     key = new_key()
     channel = f"test-auth-{uuid.uuid4()}"
@@ -461,8 +461,8 @@ def test_a_node_without_key_file_or_insecure_refuses_to_start(tmp_path: Path) ->
 
 
 def test_lockstep_command_channel_verifies_and_drains_what_came_after_the_last_wait() -> None:
-    from hil.bus import Bus, BusConfig
-    from hil.plant_node import CommandChannel
+    from hil.nodes.bus import Bus, BusConfig
+    from hil.nodes.plant_node import CommandChannel
 
     key = new_key()
     bus = Bus(BusConfig(listen=(free_tcp_endpoint(),), auth_key=key))

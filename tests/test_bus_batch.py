@@ -1,4 +1,5 @@
-"""Log batches and the lock-step command channel (hil.bus, hil.recorder, hil.plant_node).
+"""Log batches and the lock-step command channel (hil.nodes.bus, hil.nodes.recorder,
+hil.nodes.plant_node).
 
 Real Zenoh sessions on free loopback ports, a real MCAP file: a batch splits into exactly
 the messages that went in, the recorder writes each on its own channel with the same JSON
@@ -18,7 +19,7 @@ from _helpers import cycle_timing
 from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming
 from bus_schemas.codec import HeaderError, TruncatedError
 from bus_schemas.registry import COMMAND, CONTROLLER_STATUS, CYCLE_TIMING, MessageType
-from hil.bus import (
+from hil.nodes.bus import (
     CONTROLLER_BATCH_SUFFIX,
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -28,9 +29,9 @@ from hil.bus import (
     free_tcp_endpoint,
     split_batch,
 )
-from hil.mcap_log import read_run
-from hil.plant_node import CommandChannel, CommandInbox
-from hil.recorder import Recorder, RecorderLog
+from hil.nodes.plant_node import CommandChannel, CommandInbox
+from hil.nodes.recorder import Recorder, RecorderLog
+from hil.runlog.mcap_io import read_run
 
 
 def _timing(seq: int) -> CycleTiming:

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from _helpers import fowt
 
-from hil import campaign_kpi as ck
-from hil.campaign import (
+from hil.campaign import kpi as ck
+from hil.campaign.runner import (
     CampaignError,
     load_campaign,
     parse_campaign,
@@ -198,7 +198,7 @@ def test_shipped_campaign_and_expansion() -> None:
     assert ff.scenario["controller"]["feedforward"] == "max_performance"
     hashes = [r.scenario_hash for r in c.runs]
     assert len(set(hashes)) == len(hashes)
-    from hil.campaign import canonical_hash, select
+    from hil.campaign.runner import canonical_hash, select
 
     # a reduced campaign against another controller: same runs, same hashes
     sub = select(c, cases=["lc2"], controllers=["lqri_ff_bp"], seeds=1, baseline="lqri")
@@ -477,7 +477,7 @@ def chromium() -> str | None:
 def test_campaign_report_renders_in_headless_chromium(
     small: dict[str, object], tmp_path: Path
 ) -> None:
-    from hil.campaign_cli import write_campaign_report
+    from hil.cli.campaign import write_campaign_report
 
     path = write_campaign_report(small["r2"], small["campaign"])
     text = path.read_text()
@@ -518,7 +518,7 @@ def test_campaign_on_an_existing_scheduler(tmp_path: Path) -> None:
     import socket
     import time
 
-    from hil.bus import free_tcp_endpoint
+    from hil.nodes.bus import free_tcp_endpoint
 
     port = int(free_tcp_endpoint().rsplit(":", 1)[1])  # a free loopback port
     dask = str(Path(sys.executable).parent / "dask")

@@ -1,5 +1,5 @@
-"""A campaign run's in-process path taking the compiled loop's rows (hil.campaign._RunSink,
-hil.log_writer.InProcessRunLog) against the path before it (every message a Struct,
+"""A campaign run's in-process path taking the compiled loop's rows (hil.campaign.runner._RunSink,
+hil.runlog.writer.InProcessRunLog) against the path before it (every message a Struct,
 JSON-encoded by msgspec when published, ``orjson.loads`` at the end) and the recorder's
 (every Struct written by ``RunLog.write``).
 
@@ -27,18 +27,18 @@ import pytest
 from mcap.reader import make_reader
 
 from bus_schemas.registry import MessageType
-from hil._fast_loop import rows_to_structs
-from hil.campaign import _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
-from hil.controller_node import ControllerRuntime, publishing_step
-from hil.inprocess_run import run_inprocess
-from hil.log_writer import InProcessRunLog
-from hil.mcap_log import MessageList, RunData, RunLog, read_run
-from hil.review import _col, summarize
-from hil.scenario import Scenario, load_scenario
+from hil.campaign.runner import _inprocess, _RunSink, execute_run, run_kpis_of, to_toml
+from hil.inprocess.loop import rows_to_structs
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime, publishing_step
+from hil.review.core import _col, summarize
+from hil.runlog.mcap_io import MessageList, RunData, RunLog, read_run
+from hil.runlog.writer import InProcessRunLog
+from hil.scenario.schema import Scenario, load_scenario
 
 
 class _OldSink:
-    """hil.campaign._inprocess before the rows: JSON per message, orjson.loads; the file
+    """hil.campaign.runner._inprocess before the rows: JSON per message, orjson.loads; the file
     written message by message (RunLog.write, the recorder's path)."""
 
     def __init__(self, turbine: str, log: RunLog | None) -> None:
@@ -172,7 +172,7 @@ def test_row_dicts_are_the_structs_json_decoded() -> None:
     """_row_dicts against rows_to_structs + msgspec JSON + orjson.loads on extreme values:
     NaN, infinities, -0.0, a positive exponent, subnormals, int64's ends."""
     from bus_schemas.registry import CONTROLLER_STATUS, TRUTH
-    from hil.campaign import _row_dicts
+    from hil.campaign.runner import _row_dicts
 
     specials = [math.nan, math.inf, -math.inf, -0.0, 1e16, 1.5e300, 5e-324, 0.1, -2.5, 0.0]
     ints = [0, -1, 2**63 - 1, -(2**63), 40_000_000_000, 7]

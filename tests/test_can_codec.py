@@ -25,7 +25,7 @@ from bus_schemas.can_codec import (
 )
 from bus_schemas.can_db import CAN_MESSAGES, WRAP, message_signals
 from bus_schemas.registry import MessageType
-from hil.can_bus import CanBus, CanBusConfig
+from hil.nodes.can_bus import CanBus, CanBusConfig
 
 
 @pytest.fixture(scope="module")

@@ -27,10 +27,10 @@ from _helpers import can_netns_skip_reason
 from bus_schemas.can_codec import layouts
 from bus_schemas.can_db import auth_frame_id
 from bus_schemas.registry import COMMAND, SENSORS
-from hil import can_bus
-from hil.can_bus import frames_per_message
-from hil.mcap_log import RunData, read_run
-from hil.scenario import scenario_text
+from hil.nodes import can_bus
+from hil.nodes.can_bus import frames_per_message
+from hil.runlog.mcap_io import RunData, read_run
+from hil.scenario.schema import scenario_text
 
 pytestmark = pytest.mark.e2e
 

@@ -1,7 +1,7 @@
 """Closed loop over CAN: plant and controller in one process on a python-can ``virtual`` bus.
 
 The sensor frame goes plant -> CAN encode -> virtual bus -> reassemble -> decode ->
-controller, the command back the same way (each side a :class:`hil.can_bus.CanBus` with its
+controller, the command back the same way (each side a :class:`hil.nodes.can_bus.CanBus` with its
 own receive thread), in lock-step order. The KPIs must match the in-process run without CAN
 within 1 %: the only difference is the DBC quantisation of the signals.
 """
@@ -18,10 +18,10 @@ from _helpers import run_closed_loop
 
 from bus_schemas import ActuatorCommand, PlantState, SensorFrame
 from bus_schemas.registry import COMMAND, SENSORS, TRUTH, MessageType
-from hil.can_bus import CanBus, CanBusConfig, socketcan_available
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import CommandInbox, PlantLoop
-from hil.scenario import Scenario, load_scenario
+from hil.nodes.can_bus import CanBus, CanBusConfig, socketcan_available
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.plant_node import CommandInbox, PlantLoop
+from hil.scenario.schema import Scenario, load_scenario
 
 
 def run_over_can(

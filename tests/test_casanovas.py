@@ -33,9 +33,9 @@ from controller.design.casanovas import (
     steady_kernel,
     upper_bound,
 )
-from hil.mcap_log import read_run
+from hil.runlog.mcap_io import read_run
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenario" / "presets"
 
 
 def _scalar_riccati(a: float, b: float, q: float, r: float, tau: np.ndarray) -> np.ndarray:

@@ -20,11 +20,11 @@ from scipy import linalg
 from controller.casanovas import CasanovasController, load_casanovas_design, make_casanovas
 from controller.design.casanovas import PREVIEW_STEP_S, CasanovasSettings, linear_model
 from controller.design.casanovas import preview_kernel as kernel_of
-from hil.casanovas_linear import quadratic_power, run_linear
-from hil.mcap_log import read_run
-from hil.scenario import ScenarioError, load_scenario
+from hil.review.casanovas_linear import quadratic_power, run_linear
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import ScenarioError, load_scenario
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[1] / "hil" / "scenario" / "presets"
 PRESET = "nrel5mw_tlp_casanovas_u8_hs6"
 
 
@@ -137,7 +137,7 @@ def test_no_preview_gamma_is_the_steady_lqr_without_preview() -> None:
     np.testing.assert_allclose(c.k_steady, k, rtol=1e-8, atol=1e-12)
     np.testing.assert_allclose(c.k_steady, d["steady_k"], rtol=1e-8, atol=1e-12)
     # the command: pitch = -K[1] x̂ (no feed-forward) on a frame after start
-    from hil.casanovas_linear import _frame
+    from hil.review.casanovas_linear import _frame
 
     st = c.initial_state()
     st = c.accept_preview(st, 0, np.full(c.n_preview, 1e6))
@@ -179,7 +179,7 @@ def test_linear_model_metric_equals_a_hand_computation() -> None:
     excitation, integrated here by fine-step RK4 (100 steps per plant step, X held over each
     plant step as the runner does); P_q of z = (ϖ, ξ̇, 0) at the three cycle starts, averaged.
     Agreement to 1e-9 relative in the power excess over P̄."""
-    from hil.plant_node import floating_plant
+    from hil.nodes.plant_node import floating_plant
     from plant.waves import ExcitationForce
 
     sc = load_scenario(str(SCENARIOS / "casanovas-tlp-hs6-u8.toml"))

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 from _helpers import fowt
 
-from hil.scenario import load_scenario, scenario_text, shipped_scenarios
+from hil.scenario.schema import load_scenario, scenario_text, shipped_scenarios
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -469,7 +469,7 @@ COMMANDS = [
 def test_help_texts_are_clean(cmd: list[str]) -> None:
     from typer.testing import CliRunner  # in process: only the help text is under test
 
-    from hil.cli import app
+    from hil.cli.fowt import app
 
     result = CliRunner().invoke(app, [*cmd, "--help"], env={"COLUMNS": "80"})
     assert result.exit_code == 0, result.output
@@ -525,8 +525,8 @@ def test_zenoh_config_endpoints_are_kept_unless_given(
     listen: list[str],
     connect: list[str],
 ) -> None:
-    from hil.bus import BusConfig
-    from hil.cli import _bus
+    from hil.cli.fowt import _bus
+    from hil.nodes.bus import BusConfig
 
     path = tmp_path / "zenoh.json5"
     path.write_text(
@@ -544,8 +544,8 @@ def test_zenoh_config_endpoints_are_kept_unless_given(
 
 
 def test_without_zenoh_config_the_loopback_defaults_apply() -> None:
-    from hil.bus import BusConfig
-    from hil.cli import _bus
+    from hil.cli.fowt import _bus
+    from hil.nodes.bus import BusConfig
 
     bus = _bus(
         None,
@@ -562,7 +562,7 @@ def test_without_zenoh_config_the_loopback_defaults_apply() -> None:
 def test_refused_zenoh_session_is_one_line(tmp_path: Path) -> None:
     """A node whose Zenoh session cannot open (here: a client whose only endpoint, a closed
     loopback port, refuses it) ends with one ``error:`` line and exit 1, not a traceback."""
-    from hil.bus import free_tcp_endpoint
+    from hil.nodes.bus import free_tcp_endpoint
 
     closed = free_tcp_endpoint()  # nothing listens there once the probe socket is closed
     cfg = tmp_path / "client.json5"

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from hil.cli import app
+from hil.cli.fowt import app
 
 DECK = (
     Path(__file__).resolve().parents[2]

@@ -10,7 +10,7 @@ import pytest
 from _helpers import run_closed_loop
 
 from bus_schemas import PlantState
-from hil.scenario import load_scenario, parse_scenario, scenario_text
+from hil.scenario.schema import load_scenario, parse_scenario, scenario_text
 from plant.turbine import load_turbine
 
 
@@ -77,7 +77,7 @@ def test_seeded_runs_are_identical() -> None:
 
 
 @pytest.mark.parametrize(
-    "module", ["controller.baseline", "controller.registry", "hil.controller_node"]
+    "module", ["controller.baseline", "controller.registry", "hil.nodes.controller_node"]
 )
 def test_controller_runtime_never_imports_the_plant(module: str) -> None:
     code = (

@@ -52,9 +52,9 @@ from controller import _kernels
 from controller.baseline import BaselineController, load_baseline
 from controller.interface import ControlOutput
 from controller.runtime import AdvancedController, load_advanced_settings
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.scenario import load_scenario
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 
 DT = 0.025
 RTOL = 1e-12

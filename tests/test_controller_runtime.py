@@ -26,8 +26,8 @@ from bus_schemas.messages import (
 )
 from bus_schemas.registry import SENSORS
 from controller.lqri import load_lqri_design
-from hil.controller_node import ControllerRuntime
-from hil.scenario import load_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.scenario.schema import load_scenario
 
 DT_NS = 25_000_000
 ALL_VALID = sum(VALID_BITS.values())
@@ -154,7 +154,7 @@ def test_advanced_controller_never_imports_plant() -> None:
     code = (
         "import sys\n"
         "from controller.registry import make_controller\n"
-        "from hil.scenario import load_scenario\n"
+        "from hil.scenario.schema import load_scenario\n"
         "from tests.test_controller_runtime import _frames\n"
         "load_scenario('iea15mw-lqri-15')\n"
         "c = make_controller('lqri', 'iea15mw_advanced', control_period_s=0.025)\n"

@@ -1,4 +1,4 @@
-"""The controller's sensor-frame watchdog (hil.controller_node): missing, stale, silent.
+"""The controller's sensor-frame watchdog (hil.nodes.controller_node): missing, stale, silent.
 
 Frames come from a seeded in-process closed-loop run of ``nrel5mw-steady-18`` (region 3,
 T = 10 ms); a fresh :class:`ControllerRuntime` is then fed chosen subsets of them, with
@@ -24,11 +24,11 @@ import pytest
 from bus_schemas import ActuatorCommand, ControllerStatus, SensorFrame
 from bus_schemas.registry import SENSORS, MessageType
 from controller.interface import REGIME_SAFE
-from hil.controller_node import MODE_NORMAL, MODE_RESUMING, MODE_SAFE, ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.mcap_log import read_run
-from hil.outcome import ExitCode
-from hil.scenario import Scenario, load_scenario, scenario_text
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import MODE_NORMAL, MODE_RESUMING, MODE_SAFE, ControllerRuntime
+from hil.review.outcome import ExitCode
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import Scenario, load_scenario, scenario_text
 
 BASE = "nrel5mw-steady-18"
 PERIOD_NS = 10_000_000  # the base scenario's control period
@@ -295,7 +295,7 @@ def test_lockstep_sensor_loss_puts_the_controller_in_safe_mode(tmp_path: Path) -
         capture_output=True, text=True, timeout=180, check=False,
     )  # fmt: skip
     # Frames lost for 0.5 s: the plant misses those deadlines and enters its safe state, so
-    # the run is judged unhealthy (hil.outcome), with the safe-state code.
+    # the run is judged unhealthy (hil.review.outcome), with the safe-state code.
     assert proc.returncode == ExitCode.SAFE_STATE, proc.stdout + proc.stderr
     assert json.loads((out / "summary.json").read_text())["run"]["outcome"] == "safe_state"
     run = read_run(out / "run.mcap")

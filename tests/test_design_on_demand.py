@@ -27,7 +27,7 @@ from controller.lqri import (
     load_wave_ff_design,
     period_tag,
 )
-from hil.scenario import scenario_text
+from hil.scenario.schema import scenario_text
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = "iea15mw-lc2-lqri-ff"  # lqri_ff: needs the LQRI, wave-FF and observer artefacts
@@ -117,7 +117,7 @@ def test_run_at_an_unshipped_period_designs_on_first_use(
     from rich.console import Console
 
     from hil.launch import RunRequest, ensure_designs, launch
-    from hil.scenario import load_scenario
+    from hil.scenario.schema import load_scenario
 
     cache = tmp_path / "cache"
     monkeypatch.setenv(DESIGN_DIR_ENV, str(cache))
@@ -147,8 +147,8 @@ def test_run_at_an_unshipped_period_designs_on_first_use(
     code = (
         "import sys\n"
         "from controller.registry import make_controller\n"
-        "from hil.controller_node import ControllerRuntime\n"
-        "from hil.scenario import load_scenario\n"
+        "from hil.nodes.controller_node import ControllerRuntime\n"
+        "from hil.scenario.schema import load_scenario\n"
         "from tests.test_controller_runtime import _frames\n"
         f"rt = ControllerRuntime(load_scenario({str(scenario)!r}))\n"
         "assert rt.controller.lqri.design.control_period_s == 0.02\n"

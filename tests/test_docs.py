@@ -14,7 +14,7 @@ import pytest
 
 from bus_schemas.messages import SensorFrame
 from controller.interface import ActuatorLimits, ControlOutput
-from hil import scenario_reference
+from hil.scenario import reference as scenario_reference
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -87,7 +87,7 @@ def test_scenario_key_reference_is_generated_from_the_schema() -> None:
     page = (ROOT / "docs" / "guide" / "scenario-keys.md").read_text()
     assert page == scenario_reference.markdown(), (
         "docs/guide/scenario-keys.md is out of date: "
-        "python -m hil.scenario_reference > docs/guide/scenario-keys.md"
+        "python -m hil.scenario.reference > docs/guide/scenario-keys.md"
     )
     # Every section of the schema appears, with its keys.
     for key in ("control_period_s", "watchdog_misses", "settle_s", "hs_m", "mean_m_s"):

@@ -14,8 +14,8 @@ import pytest
 from _helpers import fowt
 
 from bus_schemas.messages import EST_WIND_SPEED
-from hil.mcap_log import read_run
-from hil.review import summarize
+from hil.review.core import summarize
+from hil.runlog.mcap_io import read_run
 
 pytestmark = pytest.mark.e2e
 
@@ -73,7 +73,7 @@ def test_lockstep_over_zenoh_equals_inprocess(tmp_path: Path) -> None:
 def test_recorder_killed_mid_run_leaves_a_readable_file(tmp_path: Path) -> None:
     """SIGKILL the recorder mid-run: the file reviews up to its last flushed chunk."""
     plant_ep, ctrl_ep = "tcp/127.0.0.1:0", "tcp/127.0.0.1:0"
-    from hil.bus import free_tcp_endpoint
+    from hil.nodes.bus import free_tcp_endpoint
 
     plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
     mcap = tmp_path / "run.mcap"

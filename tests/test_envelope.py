@@ -3,7 +3,7 @@
 Each load case of al-2019 table 2-2 (shipped ``iea15mw-lc1`` ... ``iea15mw-lc7``: 5.0, 7.1,
 10.3, 13.9, 17.9, 22.1, 25.0 m/s turbulent, IEC B, with their JONSWAP seas) runs in process
 for ``DURATION_S`` with the ``lqri_ff`` controller, written to MCAP by the launcher as
-``fowt run --mode inprocess`` does, and :func:`hil.envelope.check_envelope` checks the log
+``fowt run --mode inprocess`` does, and :func:`hil.campaign.envelope.check_envelope` checks the log
 read back from the file: minimum rotor speed (5 rpm, region 1.5), at most 1.2x rated speed,
 mean power within 8 % and peaks within 20 % of 15 MW, pitch and torque commands within their
 limits and rate limits, and no pitch-integrator wind-up at fine pitch below rated.
@@ -23,8 +23,13 @@ from pathlib import Path
 import pytest
 
 from controller.baseline import load_baseline
-from hil.envelope import EnvelopeLimits, check_envelope, controller_variant, run_inprocess_logged
-from hil.mcap_log import RunData
+from hil.campaign.envelope import (
+    EnvelopeLimits,
+    check_envelope,
+    controller_variant,
+    run_inprocess_logged,
+)
+from hil.runlog.mcap_io import RunData
 
 DURATION_S = 60.0
 LOAD_CASES = [f"iea15mw-lc{i}" for i in range(1, 8)]

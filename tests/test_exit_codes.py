@@ -1,6 +1,6 @@
 """Exit codes a script can trust (docs/exit-codes.md).
 
-* :func:`hil.outcome.run_outcome` on summaries: each condition alone gives its code, several
+* :func:`hil.review.outcome.run_outcome` on summaries: each condition alone gives its code, several
   give the first in precedence order and every reason, missing keys count as healthy, the
   deadline-miss tolerance comes from the scenario or the mode;
 * ``[timing] max_deadline_miss_fraction`` is validated (exit 2, one line);
@@ -29,8 +29,7 @@ from typing import Any
 import pytest
 from _helpers import fowt
 
-from hil.mcap_log import read_run
-from hil.outcome import (
+from hil.review.outcome import (
     DEFAULT_MAX_DEADLINE_MISS_FRACTION,
     ExitCode,
     deadline_miss_tolerance,
@@ -38,7 +37,8 @@ from hil.outcome import (
     record_outcome,
     run_outcome,
 )
-from hil.scenario import ScenarioError, load_scenario, parse_scenario, scenario_text
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import ScenarioError, load_scenario, parse_scenario, scenario_text
 
 #: A scenario without a [timing] table (steady wind, bottom-fixed: quick to run in process).
 BASE = """

@@ -25,11 +25,11 @@ import pytest
 from bus_schemas import ActuatorCommand, ControllerStatus, CycleTiming, PlantState, SensorFrame
 from bus_schemas.messages import VALID_BITS
 from bus_schemas.registry import CYCLE_TIMING, SENSORS, TRUTH, MessageType
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
-from hil.outcome import ExitCode
-from hil.plant_node import PlantRunResult
-from hil.scenario import Scenario, ScenarioError, parse_scenario, scenario_text
+from hil.inprocess.run import run_inprocess
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.plant_node import PlantRunResult
+from hil.review.outcome import ExitCode
+from hil.scenario.schema import Scenario, ScenarioError, parse_scenario, scenario_text
 from sensors import ChannelSpec, default_floating_suite
 from sensors.faults import BusFaultPlan, FaultSchedule, FaultSpec, counter_uniform
 
@@ -388,7 +388,7 @@ def test_lockstep_over_zenoh_with_sensor_delay_equals_inprocess(tmp_path: Path) 
             capture_output=True, text=True, timeout=180, check=False,
         )  # fmt: skip
         # Commands lost with the watchdog off: missed deadlines, none tolerated in these
-        # modes, so both runs exit with the deadline-misses code (hil.outcome).
+        # modes, so both runs exit with the deadline-misses code (hil.review.outcome).
         assert proc.returncode == ExitCode.DEADLINE_MISSES, proc.stdout + proc.stderr
         summaries.append(json.loads((out / "summary.json").read_text()))
     assert summaries[0]["run"]["outcome"] == summaries[1]["run"]["outcome"] == "deadline_misses"

@@ -10,8 +10,8 @@ from _helpers import run_closed_loop
 
 from bus_schemas import PlantState, SensorFrame
 from bus_schemas.messages import VALID_PLATFORM_SURGE, VALID_WAVE_GAUGE
-from hil.plant_node import PlantLoop
-from hil.scenario import parse_scenario
+from hil.nodes.plant_node import PlantLoop
+from hil.scenario.schema import parse_scenario
 from plant.turbine import load_turbine
 
 

@@ -1,4 +1,4 @@
-"""Wave forecasting (controller.forecast) and its analysis core (hil.analyze_forecast).
+"""Wave forecasting (controller.forecast) and its analysis core (hil.review.forecast).
 
 Seeded; tolerances stated per test. Reference figures: al-2019 sect. 3-4-4 (VAF 95 % at
 t_d = 10 s, L = 450 m, T_s = 0.1 s), casanovas-2014 sect. 7.2.2 (AR order 24, 40 training
@@ -27,7 +27,7 @@ from controller.forecast import (
     make_forecaster,
     wavenumber_rad_m,
 )
-from hil.analyze_forecast import forecast_report, vaf_percent
+from hil.review.forecast import forecast_report, vaf_percent
 
 
 def _vafs(report: dict) -> dict[str, float]:

@@ -1,9 +1,9 @@
 """Bad input: malformed payloads on the controller's and the plant's input keys.
 
-Unit level: every payload :mod:`hil.fuzz` builds is refused by the codec (or, replayed,
+Unit level: every payload :mod:`hil.nodes.fuzz` builds is refused by the codec (or, replayed,
 by the nodes' sequence checks) for the reason it reports, and the plant's
-:class:`~hil.plant_node.CommandInbox` and the controller's
-:class:`~hil.controller_node.ControllerRuntime` count each one under that reason.
+:class:`~hil.nodes.plant_node.CommandInbox` and the controller's
+:class:`~hil.nodes.controller_node.ControllerRuntime` count each one under that reason.
 
 End to end (marked ``e2e``): a seeded lock-step run of ``nrel5mw-ramp`` (150 s simulated)
 with plant, controller and recorder as real processes, and a fuzzer process on the same
@@ -31,12 +31,12 @@ from _helpers import NodeProcesses, fowt, key_file_args, lockstep_node_cmds, two
 from bus_schemas import ActuatorCommand, DecodeError
 from bus_schemas.auth import TAG_BYTES, AuthError, new_key, verify
 from bus_schemas.registry import COMMAND, SENSORS
-from hil.controller_node import ControllerRuntime
-from hil.fuzz import KINDS, REPLAY_REASON, FuzzConfig, Fuzzer, PayloadFactory
-from hil.mcap_log import read_run
-from hil.plant_node import CommandInbox
-from hil.review import review
-from hil.scenario import load_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.fuzz import KINDS, REPLAY_REASON, FuzzConfig, Fuzzer, PayloadFactory
+from hil.nodes.plant_node import CommandInbox
+from hil.review.core import review
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import load_scenario
 
 SCENARIO = "nrel5mw-ramp"
 DURATION_S = 150.0
@@ -178,7 +178,7 @@ def _run_fuzzed(out: Path) -> tuple[dict[str, int], dict[str, object]]:
         SCENARIO, DURATION_S, out, (plant_ep, ctrl_ep), key, "controller,recorder,fuzzer"
     )
     fuzzer = [
-        sys.executable, "-m", "hil.fuzz", "--connect", plant_ep, "--connect", ctrl_ep,
+        sys.executable, "-m", "hil.nodes.fuzz", "--connect", plant_ep, "--connect", ctrl_ep,
         "--total", str(FUZZ_TOTAL), "--per-cycle", str(FUZZ_PER_CYCLE),
         "--max-rate", str(FUZZ_MAX_RATE_HZ), "--stop-cycle", str(FUZZ_STOP_CYCLE),
         "--timeout", "150", "--report", str(out / "fuzz.json"), *key,

@@ -325,8 +325,8 @@ def test_closed_loop_over_zenoh_tracks_15_deg_step(controller: str, tmp_path) ->
     wind speed the controller measured); the MPC's pitch demand moves at most 2°/s."""
     from pathlib import Path
 
-    from hil.hexicon import load_scenarios, run_in_process
-    from hil.hexicon_nodes import read_platform_run, run_over_zenoh
+    from hil.hexicon.model import load_scenarios, run_in_process
+    from hil.hexicon.nodes import read_platform_run, run_over_zenoh
 
     s = run_over_zenoh("s1_step15", controller, tmp_path, duration_s=150.0, timeout_s=300.0)
     assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s

@@ -24,8 +24,8 @@ from controller.hexicon import (
     load_identified,
     make_id_mpc,
 )
-from hil.hexicon import compute_kpis, load_scenarios, run_in_process
-from hil.hexicon_nodes import read_platform_run, run_over_zenoh
+from hil.hexicon.model import compute_kpis, load_scenarios, run_in_process
+from hil.hexicon.nodes import read_platform_run, run_over_zenoh
 from plant.hexicon.sensors import HexiconSensors, load_sensor_table
 
 pytestmark = pytest.mark.e2e
@@ -112,7 +112,7 @@ def test_identify_over_bus_fits_and_saves_a_loadable_model(tmp_path: Path) -> No
     held out): order from the singular values within [1, 15], fits reported for both sets,
     the estimation fit of the yaw rate above 0 % (better than its mean), and the artefact
     loads and builds the identified-model MPC."""
-    from hil.hexicon_identify import identify_over_bus
+    from hil.hexicon.identify import identify_over_bus
 
     res = identify_over_bus(tmp_path, duration_s=400.0, block_rows=8, experiments=(1, 2))
     assert 1 <= res["order"] <= 15
@@ -164,7 +164,7 @@ def test_review_of_a_platform_run(tmp_path: Path) -> None:
     latency and compute percentiles present, no deadline miss, and the plot written."""
     from dataclasses import replace
 
-    from hil.review import review
+    from hil.review.core import review
 
     s = run_over_zenoh("s1_step15", "bang_bang", tmp_path, duration_s=40.0, timeout_s=300.0)
     assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s
@@ -200,7 +200,7 @@ def test_platform_run_over_can_matches_zenoh(tmp_path: Path) -> None:
     assert can["commands_rejected"] == 0 and can["can_rejected"] == 0
     assert can["can_frames_received"] == 31 * 16 + 30 * 12
     zen = run_over_zenoh("s1_step15", "mpc", tmp_path / "zenoh", duration_s=30.0, timeout_s=300.0)
-    from hil.hexicon_cli import kpis_of_mcap
+    from hil.cli.hexicon import kpis_of_mcap
 
     kc = kpis_of_mcap(Path(can["mcap"]), "s1_step15")
     kz = kpis_of_mcap(Path(zen["mcap"]), "s1_step15")

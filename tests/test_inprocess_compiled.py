@@ -1,4 +1,4 @@
-"""The compiled in-process loop (hil._fast_loop, hil._loop_kernels) against the Python loop.
+"""The compiled in-process loop (hil.inprocess.loop, hil.inprocess.kernels) against the Python loop.
 
 Both loops run the same seeded scenario; every message must be equal field by field, bit
 for bit, except the wall-clock stamps (publish times, the controller's compute time, the
@@ -21,16 +21,16 @@ import pytest
 from bus_schemas import jit
 from bus_schemas.registry import CONTROLLER_STATUS, TIMING_SUMMARY, MessageType
 from controller.forecast import ForecasterState
-from hil import _loop_kernels as lk
-from hil._fast_loop import CompiledLoop, compiled_unsupported
-from hil.controller_node import ControllerRuntime, publishing_step
-from hil.envelope import controller_variant
-from hil.inprocess_run import run_inprocess
+from hil.campaign.envelope import controller_variant
+from hil.inprocess import kernels as lk
+from hil.inprocess.loop import CompiledLoop, compiled_unsupported
+from hil.inprocess.run import run_inprocess
 from hil.launch import RunRequest, launch
-from hil.mcap_log import read_run
-from hil.plant_node import PlantLoop
-from hil.scenario import Scenario, load_scenario, parse_scenario, scenario_text
-from hil.timing import LatencyHistogram
+from hil.nodes.controller_node import ControllerRuntime, publishing_step
+from hil.nodes.plant_node import PlantLoop
+from hil.nodes.timing import LatencyHistogram
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import Scenario, load_scenario, parse_scenario, scenario_text
 
 #: Fields that hold wall-clock readings (equal in kind, not in value).
 WALL = frozenset(

@@ -8,7 +8,7 @@ kill in simulated seconds. Then:
 
 * the file reviews (``fowt review --json``) up to its last flushed chunk; when the recorder
   survives it is a complete, conformant MCAP file (``_mcap_conformance``), and when the
-  recorder is the victim :func:`hil.mcap_log.recover` makes one of it;
+  recorder is the victim :func:`hil.runlog.mcap_io.recover` makes one of it;
 * the data lost is, per channel, the newest sample seen on the bus at the kill minus the
   newest sample in the file [simulated s]; it must stay within :data:`MAX_LOSS_S`. The
   recorder flushes a chunk every 0.25 s wall and drains its queue every 0.02 s, so a
@@ -39,7 +39,7 @@ import pytest
 from _mcap_conformance import check_complete_mcap
 
 from bus_schemas.registry import CONTROLLER_STATUS, TRUTH, MessageType
-from hil.bus import (
+from hil.nodes.bus import (
     CONTROLLER_BATCH_SUFFIX,
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -67,7 +67,7 @@ class Monitor:
         self.latest: dict[str, int] = {"truth": -1, "controller/status": -1}
         self._lock = threading.Lock()
         self.bus = Bus(BusConfig(connect=connect, auth_key=auth_key))
-        # The nodes put these log-only messages in batches (hil.bus.LogBatcher): what a
+        # The nodes put these log-only messages in batches (hil.nodes.bus.LogBatcher): what a
         # killed node had not put yet was never on the bus, and the bound covers it.
         for mt, suffix in (
             (TRUTH, PLANT_BATCH_SUFFIX),
@@ -161,7 +161,7 @@ def _review_cli(mcap: Path) -> dict[str, Any]:
 
 @pytest.mark.parametrize("victim", ["plant", "controller", "recorder"])
 def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path: Path) -> None:
-    from hil.mcap_log import read_run, recover
+    from hil.runlog.mcap_io import read_run, recover
 
     procs, endpoints, files = _start(tmp_path)
     from bus_schemas.auth import KEY_FILE_NAME, read_key_file

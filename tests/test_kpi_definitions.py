@@ -1,7 +1,8 @@
 """One KPI definition for ``fowt review``/``report``, ``fowt compare`` and campaigns.
 
 A run's KPIs must not depend on the command that computes them: the same functions
-(:mod:`hil.kpi`, :mod:`hil.campaign_kpi`) over the same window (:func:`hil.kpi.window_start_s`
+(:mod:`hil.review.kpi`, :mod:`hil.campaign.kpi`) over the same window
+(:func:`hil.review.kpi.window_start_s`
 of ``[review] settle_s``) with the same DEL parameters. Two short in-process runs of load case
 2 are reported, compared and recomputed as a campaign task; their KPIs agree exactly. Also
 here: λ* of Ω_opt (``[review] tsr_opt``, the campaign's ``tsr_opt``), the run report's
@@ -20,14 +21,14 @@ import msgspec
 import numpy as np
 import pytest
 
-from hil import campaign_kpi as ck
-from hil import kpi
-from hil.campaign import _turbine_figures, execute_run, parse_campaign, run_kpis_of
-from hil.html_report import PLOT_TITLES, compare_runs, run_html, run_sections
+from hil.campaign import kpi as ck
+from hil.campaign.html_report import PLOT_TITLES, compare_runs, run_html, run_sections
+from hil.campaign.runner import _turbine_figures, execute_run, parse_campaign, run_kpis_of
 from hil.launch import RunRequest, launch
-from hil.mcap_log import read_run
-from hil.review import _col
-from hil.scenario import ReviewSection, Scenario
+from hil.review import kpi
+from hil.review.core import _col
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import ReviewSection, Scenario
 
 #: The default settle time: the KPI window is [SETTLE_S, DURATION_S].
 SETTLE_S = ReviewSection().settle_s

@@ -1,4 +1,4 @@
-"""Ratios of KPIs with their noise (hil.kpi_stats) and how the campaign shows them.
+"""Ratios of KPIs with their noise (hil.review.kpi_stats) and how the campaign shows them.
 
 Synthetic inputs with known answers: a near-zero denominator is ``n/m``; the paired
 standard error matches its formula by hand and, over seeded Monte-Carlo replicates, the
@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hil import campaign_kpi as ck
-from hil import kpi_stats as kst
-from hil.campaign import aggregate, parse_campaign
-from hil.html_report import campaign_html, compare_diffs, diff_text
+from hil.campaign import kpi as ck
+from hil.campaign.html_report import campaign_html, compare_diffs, diff_text
+from hil.campaign.runner import aggregate, parse_campaign
+from hil.review import kpi_stats as kst
 
 # --------------------------------------------------------------------------- the n/m rule
 

@@ -11,9 +11,9 @@ import time
 
 from bus_schemas import ActuatorCommand, TimingSummary
 from bus_schemas.registry import COMMAND, TIMING_SUMMARY
-from hil.plant_node import CommandInbox, PlantLoop
-from hil.scenario import load_scenario
-from hil.timing import LatencyHistogram
+from hil.nodes.plant_node import CommandInbox, PlantLoop
+from hil.nodes.timing import LatencyHistogram
+from hil.scenario.schema import load_scenario
 
 LATE_NS = 458_000_000  # 458 ms, far beyond the 10 ms deadline
 

@@ -1,7 +1,7 @@
-"""The run log writer: one :class:`hil.mcap_log.RunLog` for every run, CDR channels.
+"""The run log writer: one :class:`hil.runlog.mcap_io.RunLog` for every run, CDR channels.
 
-:class:`hil.log_writer.BackgroundRunLog` hands msgpack batches to a child that writes each
-batch as one chunk of :class:`hil.mcap_log.RunLog`; the recorder writes the same class
+:class:`hil.runlog.writer.BackgroundRunLog` hands msgpack batches to a child that writes each
+batch as one chunk of :class:`hil.runlog.mcap_io.RunLog`; the recorder writes the same class
 message by message. These checks read the files with readers the bench did not write: the
 mcap package's reader for the records and ``mcap-ros2-support``'s CDR decoder for the
 payloads. Every message of every registered type comes out with exactly the values of the
@@ -31,8 +31,8 @@ from mcap_ros2.decoder import DecoderFactory
 
 from bus_schemas import ros2
 from bus_schemas.registry import BY_CLASS, MESSAGES, MessageType
-from hil.log_writer import BATCH_MESSAGES, BackgroundRunLog
-from hil.mcap_log import RunLog, read_run
+from hil.runlog.mcap_io import RunLog, read_run
+from hil.runlog.writer import BATCH_MESSAGES, BackgroundRunLog
 
 FLOATS = (
     0.0,
@@ -254,7 +254,7 @@ def test_histogram_percentiles_are_the_first_bin_reaching_the_rank() -> None:
     """The running summary's percentiles (one bisection of the running sums) against the
     definition: the upper edge of the first bin whose cumulative count reaches q/100 * n
     (capped by the exact maximum)."""
-    from hil.timing import _BINS_PER_DECADE, _MIN_NS, LatencyHistogram
+    from hil.nodes.timing import _BINS_PER_DECADE, _MIN_NS, LatencyHistogram
 
     rng = random.Random(7)
     qs = (0.1, 1.0, 50.0, 99.0, 99.9, 100.0)
@@ -286,7 +286,7 @@ def test_recover_a_log_cut_inside_any_message_index(tmp_path: Path) -> None:
     """``recover`` (``fowt recover``) keeps every message before a cut, wherever the cut
     falls: here inside each MessageIndex record of a file (mcap's reader raises
     ``struct.error`` there, not an McapError)."""
-    from hil.mcap_log import MCAP_MAGIC, recover
+    from hil.runlog.mcap_io import MCAP_MAGIC, recover
 
     path = tmp_path / "run.mcap"
     log = RunLog(path, "t1", batch_messages=50, flush_interval_s=1e9)
@@ -453,7 +453,7 @@ _NO_CLOSE = """
 import sys
 from pathlib import Path
 from bus_schemas.registry import TIMING_SUMMARY
-from hil.log_writer import BackgroundRunLog
+from hil.runlog.writer import BackgroundRunLog
 if __name__ == "__main__":
     log = BackgroundRunLog(Path(sys.argv[1]), "t1", {"run": {"mode": "inprocess"}})
     log.wait_ready()
@@ -488,7 +488,7 @@ def _batch_blob(
     """A batch as the pipe carries it: ``n`` messages of every registered type in random
     order, each a row (probability ``row_share``) or a Struct; and the values of each
     message per topic in publish order."""
-    from hil.log_writer import ROW_FLAG, _encode_batch_payload
+    from hil.runlog.writer import ROW_FLAG, _encode_batch_payload
 
     ids = bytearray()
     structs: dict[int, list[msgspec.Struct]] = {}
@@ -514,11 +514,11 @@ def _batch_blob(
 def test_framer_writes_one_chunk_a_batch_rows_and_structs_in_publish_order(
     tmp_path: Path,
 ) -> None:
-    """The writer child's framing (:class:`hil.log_writer._BatchFramer`): batches of every
+    """The writer child's framing (:class:`hil.runlog.writer._BatchFramer`): batches of every
     registered type, rows and Structs of one type mixed, only rows, only Structs, one
     message and one larger than BATCH_MESSAGES, each one chunk, every message's values in
     publish order per topic; an empty batch writes nothing."""
-    from hil.log_writer import _BatchFramer, _decoders
+    from hil.runlog.writer import _BatchFramer, _decoders
 
     rng = random.Random(1313)
     plan = [(BATCH_MESSAGES, 0.9), (BATCH_MESSAGES, 1.0), (300, 0.0), (1, 1.0), (1, 0.0)]
@@ -544,7 +544,7 @@ def test_framer_refuses_bad_batches(tmp_path: Path) -> None:
     """A batch whose parts do not match (rows that do not fit their type, more or fewer
     ids than messages, an unknown message id) raises a ValueError saying so and writes
     nothing; the next good batch is written as usual."""
-    from hil.log_writer import ROW_FLAG, _BatchFramer, _decoders, _encode_batch_payload
+    from hil.runlog.writer import ROW_FLAG, _BatchFramer, _decoders, _encode_batch_payload
 
     log = RunLog(tmp_path / "bad.mcap", "t1")
     framer = _BatchFramer(log, _decoders())
@@ -578,7 +578,7 @@ def test_pipe_framing_whole_batches_end_marker_and_cut_batches() -> None:
     import os
     import threading
 
-    from hil.log_writer import _PipeReader, _write_message
+    from hil.runlog.writer import _PipeReader, _write_message
 
     rng = random.Random(5)
     big = rng.randbytes(3 << 20)  # 3 MiB: larger than the pipe and the reader's buffer
@@ -606,7 +606,7 @@ def test_a_sequence_number_past_int64_is_refused_and_counted_by_the_recorder(
     """The codec lets a ``uint64`` sequence number reach 2**64 - 1; the run log's rows are
     int64. ``RunLog.write`` refuses such a message (ValueError, nothing queued) and the
     recorder counts it as a ``range`` rejection; the messages around it are written."""
-    from hil.recorder import Recorder, RecorderLog
+    from hil.nodes.recorder import Recorder, RecorderLog
 
     mt = MESSAGES[0]
     fields = {f.name: 0.0 if f.is_float else 0 for f in mt.codec.fields}

@@ -10,7 +10,7 @@ Python by TypeScript ``@mcap/core`` (indexed and streaming readers) with ajv val
 message (``tools/mcap-conformance/check.mjs``, installed from its lock file with ``npm ci``
 into a cache folder; skipped, with the reason, where node/npm are missing or the install
 fails). A run log cut as a killed recorder leaves it is read up to the cut by both
-streaming readers and rewritten complete by :func:`hil.mcap_log.recover`
+streaming readers and rewritten complete by :func:`hil.runlog.mcap_io.recover`
 (``fowt recover``). SIGKILL of each process is in ``tests/test_kill.py``.
 """
 
@@ -33,8 +33,8 @@ from _mcap_conformance import check_complete_mcap
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader
 
-from hil.mcap_log import read_run, recover
-from hil.outcome import ExitCode
+from hil.review.outcome import ExitCode
+from hil.runlog.mcap_io import read_run, recover
 
 pytestmark = pytest.mark.e2e
 
@@ -62,7 +62,7 @@ def run_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, 
         folder = base / name
         proc = fowt("run", *args, "--duration", "3", "--out", str(folder), "--no-plots")
         # A real-time run on a loaded host may miss deadlines (and trip the plant's
-        # watchdog): judged unhealthy (hil.outcome), yet its file is what is checked here.
+        # watchdog): judged unhealthy (hil.review.outcome), yet its file is what is checked here.
         judged_on_load = (
             {ExitCode.SAFE_STATE, ExitCode.DEADLINE_MISSES} if "realtime" in args else set()
         )
@@ -239,7 +239,7 @@ import os, signal, sys, time
 from pathlib import Path
 from bus_schemas import PlantState
 from bus_schemas.registry import TRUTH
-from hil.log_writer import BackgroundRunLog
+from hil.runlog.writer import BackgroundRunLog
 
 log = BackgroundRunLog(Path(sys.argv[1]), "t1", {"run": {"mode": "inprocess"}})
 fields = {f: 0.0 for f in PlantState.__struct_fields__}
@@ -256,7 +256,7 @@ def test_inprocess_log_is_complete_after_its_run_process_is_killed(tmp_path: Pat
     """``--mode inprocess``: the log writer is a child process; SIGKILL of the run's process
     closes the pipe, and the writer finishes a complete file with every message handed over."""
     path = tmp_path / "run.mcap"
-    n = 2 * 4096  # whole batches: each goes to the writer when it fills (hil.log_writer)
+    n = 2 * 4096  # whole batches: each goes to the writer when it fills (hil.runlog.writer)
     proc = subprocess.run(
         [sys.executable, "-c", _KILLED_PARENT, str(path), str(n)],
         capture_output=True,

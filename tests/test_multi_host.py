@@ -42,8 +42,8 @@ from typing import Any
 import pytest
 from _two_hosts import ADDR_A, NamespacesUnavailableError, TwoHosts, must, run, two_hosts
 
-from hil.review import review
-from hil.scenario import load_scenario
+from hil.review.core import review
+from hil.scenario.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBE = Path(__file__).with_name("_zenoh_probe.py")

@@ -150,7 +150,7 @@ def test_missing_design_names_the_command(tmp_path: Path) -> None:
 @pytest.mark.e2e
 def test_lqr_wave_closed_loop_over_zenoh_in_lockstep(tmp_path: Path) -> None:
     """lqr_wave against the spar over real Zenoh sessions in lock-step, 40 s at 10 Hz."""
-    from hil.mcap_log import read_run
+    from hil.runlog.mcap_io import read_run
 
     out = tmp_path / "run"
     proc = subprocess.run(
@@ -237,7 +237,9 @@ def test_run_at_an_unshipped_period_designs_lqr_wave_on_first_use(tmp_path: Path
     with the preset, settings and commit recorded beside it."""
     import os
 
-    text = (Path(__file__).parents[1] / "hil/scenarios/oc3-hywind-tp10-lqr1.toml").read_text()
+    text = (
+        Path(__file__).parents[1] / "hil/scenario/presets/oc3-hywind-tp10-lqr1.toml"
+    ).read_text()
     text = text.replace("control_period_s = 0.1 ", "control_period_s = 0.05 ")
     scen = tmp_path / "s.toml"
     scen.write_text(text.replace('name = "oc3-hywind-tp10-lqr1"', 'name = "first-use"'))

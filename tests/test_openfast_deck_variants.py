@@ -229,7 +229,7 @@ def test_cli_imports_without_mooring_and_analyses_parked(tmp_path: Path) -> None
 
     from typer.testing import CliRunner
 
-    from hil.cli import app
+    from hil.cli.fowt import app
 
     fst = _deck(_sub(tmp_path, True))
     out = tmp_path / "preset"

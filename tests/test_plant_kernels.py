@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from hil.plant_node import plant_config
-from hil.scenario import load_scenario
+from hil.nodes.plant_node import plant_config
+from hil.scenario.schema import load_scenario
 from plant import _kernels as pk
 from plant import turbine as turbine_mod
 from plant.integrate import rk4_step

@@ -15,10 +15,10 @@ End to end (real time, real processes over Zenoh):
   restarted 2 s later; the plant enters its safe state at most ``watchdog_misses`` cycles
   after the last command of the killed controller, leaves it on the K-th consecutive
   on-time command of the new one, and the run completes (exit status 5, the safe-state code
-  of :mod:`hil.outcome`);
+  of :mod:`hil.review.outcome`);
 * a plant killed at 5 s: the controller and the recorder exit by themselves within a few
   seconds, the MCAP file reviews, the summary says the plant was killed (exit status 0, or
-  in real time on a loaded host the safe-state or deadline-misses code of :mod:`hil.outcome`
+  in real time on a loaded host the safe-state or deadline-misses code of :mod:`hil.review.outcome`
   when the plant's watchdog tripped before the kill).
 """
 
@@ -41,9 +41,9 @@ from rich.console import Console
 from bus_schemas.registry import CYCLE_TIMING
 from hil import launch
 from hil.launch import ProcessFaultDriver, ProcessFaultError, check_process_faults
-from hil.mcap_log import read_run
-from hil.outcome import ExitCode
-from hil.scenario import (
+from hil.review.outcome import ExitCode
+from hil.runlog.mcap_io import read_run
+from hil.scenario.schema import (
     ProcessFault,
     Scenario,
     ScenarioError,
@@ -295,7 +295,7 @@ def test_controller_killed_and_restarted(tmp_path: Path) -> None:
     out = tmp_path / "run"
     proc = _fowt("run", "faults-processes", "--duration", "20", "--out", str(out), "--no-plots")
     logs = {p.name: p.read_text() for p in (out / "logs").glob("*.log")}
-    # The plant did enter its safe state: a run that did is not a healthy one (hil.outcome).
+    # The plant did enter its safe state: a run that did is not a healthy one (hil.review.outcome).
     assert proc.returncode == ExitCode.SAFE_STATE, proc.stdout + proc.stderr + json.dumps(logs)
     assert "process fault" in proc.stdout and "restarted" in proc.stdout
     summary = json.loads((out / "summary.json").read_text())

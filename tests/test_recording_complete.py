@@ -40,7 +40,8 @@ from bus_schemas.registry import (
     TRUTH,
     MessageType,
 )
-from hil.bus import (
+from hil.launch import RunRequest, launch
+from hil.nodes.bus import (
     CONTROLLER_BATCH_SUFFIX,
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -48,11 +49,10 @@ from hil.bus import (
     batch_key,
     free_tcp_endpoint,
 )
-from hil.launch import RunRequest, launch
-from hil.mcap_log import RunLog, read_run
-from hil.plant_node import wait_for_peers
-from hil.recording import completeness
-from hil.review import review
+from hil.nodes.plant_node import wait_for_peers
+from hil.review.core import review
+from hil.runlog.completeness import completeness
+from hil.runlog.mcap_io import RunLog, read_run
 
 REPO = Path(__file__).resolve().parents[1]
 PER_CYCLE = ("sensors", "command", "truth", "controller/status", "timing/cycle")

@@ -1,6 +1,6 @@
 """A run log with a damaged chunk in the middle: recovery and review keep everything else.
 
-The log is a real :class:`hil.mcap_log.RunLog` file of a few thousand messages in small
+The log is a real :class:`hil.runlog.mcap_io.RunLog` file of a few thousand messages in small
 chunks. One chunk in the middle is damaged (its zstd data, its CRC, or a length in its header);
 ``fowt recover`` must skip exactly that chunk, say which bytes and log times it skipped,
 keep every message of every other chunk and write a file that mcap's reader opens;
@@ -24,9 +24,9 @@ from typer.testing import CliRunner
 
 from bus_schemas import ActuatorCommand
 from bus_schemas.registry import COMMAND, CYCLE_TIMING, TIMING_SUMMARY
-from hil.cli import app
-from hil.mcap_log import RunLog, SkippedRange, read_run, recover
-from hil.review import review
+from hil.cli.fowt import app
+from hil.review.core import review
+from hil.runlog.mcap_io import RunLog, SkippedRange, read_run, recover
 
 TID = "t1"
 CYCLES = 1500  # two messages each: 3000 messages

@@ -1,6 +1,6 @@
 """``fowt review`` as a user meets it: refusals, truncation, --strict, --json, KPI window, plots.
 
-The run logs are small synthetic ones written with :class:`hil.mcap_log.RunLog` (a
+The run logs are small synthetic ones written with :class:`hil.runlog.mcap_io.RunLog` (a
 bottom-fixed or floating truth channel at 20 Hz), except the ``lqri_ff`` start notice, which
 runs the shipped ``iea15mw-lc2-lqri-ff`` scenario in process for 4 s.
 """
@@ -21,8 +21,7 @@ from rich.console import Console
 
 from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame
 from bus_schemas.registry import CONTROLLER_REPORT, PLANT_REPORT, SENSORS, TIMING_SUMMARY, TRUTH
-from hil.mcap_log import NotMcapError, RunLog, read_run
-from hil.review import (
+from hil.review.core import (
     DEFAULT_SETTLE_S,
     PLOT_FILES,
     _measured,
@@ -31,6 +30,7 @@ from hil.review import (
     review,
     write_plots,
 )
+from hil.runlog.mcap_io import NotMcapError, RunLog, read_run
 
 DT_NS = 50_000_000  # 20 Hz
 N = 600  # 30 s
@@ -272,8 +272,8 @@ def test_lqri_ff_run_says_when_its_feedforward_starts(tmp_path: Path) -> None:
     """The fill time printed equals the controller's own (its forecaster's window), and a run
     shorter than it is warned about; the review shows the estimator and forecast table."""
     from controller.registry import make_controller
-    from hil.controller_node import feedforward_notice
-    from hil.scenario import load_scenario
+    from hil.nodes.controller_node import feedforward_notice
+    from hil.scenario.schema import load_scenario
 
     sc = load_scenario("iea15mw-lc2-lqri-ff")
     core = make_controller(

@@ -17,9 +17,9 @@ from mcap.writer import Writer
 from typer.testing import CliRunner
 
 from bus_schemas.registry import CYCLE_TIMING
-from hil.cli import app
-from hil.mcap_log import RunLog, read_run
-from hil.review import NotRunLogError, check_run_log, review
+from hil.cli.fowt import app
+from hil.review.core import NotRunLogError, check_run_log, review
+from hil.runlog.mcap_io import RunLog, read_run
 
 
 def _robot_log(path: Path) -> None:

@@ -1,4 +1,4 @@
-"""KPI functions of :mod:`hil.kpi` against analytic values."""
+"""KPI functions of :mod:`hil.review.kpi` against analytic values."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from hil import kpi
+from hil.review import kpi
 
 
 def test_latency_percentiles_match_numpy_on_seeded_sample() -> None:

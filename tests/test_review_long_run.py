@@ -1,6 +1,6 @@
 """The streaming review of a long run: memory that does not grow with the run's length.
 
-Synthetic run logs (written with the bench's own MCAP writer, :class:`hil.mcap_log.RunLog`,
+Synthetic run logs (written with the bench's own MCAP writer, :class:`hil.runlog.mcap_io.RunLog`,
 CDR channels) of 30 min and of 6 h at 20 Hz hold a truth channel with sinusoidal rotor speed
 and thrust and a cycle channel with latencies; each is reviewed in a child process, which
 reports its peak resident set. The 6 h file (432 000 cycles, 864 000 messages) must review
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from bus_schemas.registry import CYCLE_TIMING, TRUTH
-from hil.mcap_log import RunLog
+from hil.runlog.mcap_io import RunLog
 
 RATE_HZ = 20.0
 #: Rotor speed 0.7 + 0.05 sin(2π t / 50 s) [rad/s], thrust 1.2e6 + 2e5 sin(2π t / 10 s) [N].
@@ -70,7 +70,7 @@ def hwm():
     for line in Path("/proc/self/status").read_text().splitlines():
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
-from hil.review import review
+from hil.review.core import review
 s = review(Path(sys.argv[1]), plots=False, write_summary=False)
 peak = hwm()
 print(json.dumps({"peak_mb": peak, "kpi": s["kpi"], "window": s["kpi_window"],

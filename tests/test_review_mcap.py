@@ -1,4 +1,4 @@
-"""Review of a synthetic MCAP run written with :class:`hil.mcap_log.RunLog`."""
+"""Review of a synthetic MCAP run written with :class:`hil.runlog.mcap_io.RunLog`."""
 
 from __future__ import annotations
 
@@ -28,9 +28,9 @@ from bus_schemas.registry import (
     TIMING_SUMMARY,
     TRUTH,
 )
-from hil import kpi
-from hil.mcap_log import RunLog
-from hil.review import PLOT_FILES, render_summary, review, truncation_note
+from hil.review import kpi
+from hil.review.core import PLOT_FILES, render_summary, review, truncation_note
+from hil.runlog.mcap_io import RunLog
 
 TURBINE = "t1"
 N = 1500

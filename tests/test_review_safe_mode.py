@@ -35,9 +35,8 @@ from bus_schemas.registry import (
     PLANT_REPORT,
     TIMING_SUMMARY,
 )
-from hil.controller_node import MODE_SAFE
-from hil.mcap_log import RunLog, read_run
-from hil.review import (
+from hil.nodes.controller_node import MODE_SAFE
+from hil.review.core import (
     MODE_SAFE_COMMAND,
     render_summary,
     run_events,
@@ -45,6 +44,7 @@ from hil.review import (
     summarize,
     write_plots,
 )
+from hil.runlog.mcap_io import RunLog, read_run
 
 TID = "t1"
 PERIOD_NS = 50_000_000  # 20 Hz

@@ -2,7 +2,7 @@
 reader's two encodings (JSON and CDR) against the dict reader.
 
 Random series (seeded) are fed in uneven pieces; every figure must equal the one of
-:mod:`hil.kpi` over the whole series: means, standard deviations and maxima to 1e-12
+:mod:`hil.review.kpi` over the whole series: means, standard deviations and maxima to 1e-12
 relative (summation order), rainflow DEL and pitch travel to 1e-12, the median exactly.
 """
 
@@ -19,10 +19,10 @@ import pytest
 
 from bus_schemas import ros2
 from bus_schemas.registry import MESSAGES
-from hil import kpi
-from hil import review_stream as rs
-from hil.mcap_columns import ColumnReader
-from hil.mcap_log import RunLog, read_run
+from hil.review import kpi
+from hil.review import stream as rs
+from hil.runlog.columns import ColumnReader
+from hil.runlog.mcap_io import RunLog, read_run
 
 
 def _pieces(x: np.ndarray, rng: np.random.Generator) -> list[slice]:

@@ -21,11 +21,11 @@ from bus_schemas import ActuatorCommand, PlantState, SensorFrame
 from bus_schemas.messages import VALID_BITS
 from controller.discon import DisconError, DisconLoadError
 from controller.rosco import make_rosco_controller, read_discon_in, shipped_parameter_files
-from hil.controller_node import ControllerRuntime
-from hil.inprocess_run import run_inprocess
+from hil.inprocess.run import run_inprocess
 from hil.launch import RunFailedError, RunRequest, launch
-from hil.review import review
-from hil.scenario import parse_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.review.core import review
+from hil.scenario.schema import parse_scenario
 
 try:
     from controller.rosco import default_library
@@ -215,7 +215,7 @@ def test_missing_library_and_malformed_parameter_file(
     text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n' + lines.format(bad=bad) + "\n")
     with pytest.raises(RunFailedError, match=expected):
         launch(_run_request(tmp_path, text, mode))  # type: ignore[arg-type]
-    # The launcher's summary of the failed run says so (hil.outcome: failed, exit code 1).
+    # The launcher's summary of the failed run says so (hil.review.outcome: failed, exit code 1).
     launched = json.loads((tmp_path / "run" / "summary.json").read_text())["run"]
     assert launched["outcome"] == "failed" and launched["exit_code"] == 1
     assert expected in launched["failed"]

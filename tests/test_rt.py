@@ -1,4 +1,4 @@
-"""``hil.rt``: SCHED_FIFO for the bench's processes, or a clear reason why not.
+"""``hil.nodes.rt``: SCHED_FIFO for the bench's processes, or a clear reason why not.
 
 Each case runs in a child process so the test runner itself never changes policy.
 """
@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from hil.rt import MAX_PRIORITY, RealtimeError, set_realtime_priority
+from hil.nodes.rt import MAX_PRIORITY, RealtimeError, set_realtime_priority
 
 
 def _child(code: str) -> subprocess.CompletedProcess[str]:
@@ -34,7 +34,7 @@ def test_out_of_range_priorities_are_refused(bad: object) -> None:
 def test_fifo_is_set_or_refused_with_the_reason() -> None:
     out = _child(
         "import os\n"
-        "from hil.rt import set_realtime_priority, RealtimeError\n"
+        "from hil.nodes.rt import set_realtime_priority, RealtimeError\n"
         "try:\n"
         "    print(set_realtime_priority(10))\n"
         "    fifo = os.sched_getscheduler(0) == os.SCHED_FIFO\n"

@@ -30,8 +30,8 @@ from mcap_ros2.decoder import DecoderFactory
 
 from bus_schemas import ros2
 from bus_schemas.registry import BY_CLASS, MESSAGES
-from hil.mcap_log import read_run, recover
-from hil.review import review
+from hil.review.core import review
+from hil.runlog.mcap_io import read_run, recover
 
 DATA = Path(__file__).parent / "data"
 JSON_V1 = DATA / "runlog_json_v1.mcap"
@@ -63,8 +63,8 @@ def _decoded(path: Path) -> dict[str, list[tuple[typing.Any, ...]]]:
 def test_every_message_of_a_real_run_decodes_to_what_was_sent(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hil import log_writer
     from hil.launch import RunRequest, launch
+    from hil.runlog import writer as log_writer
 
     sent: dict[str, list[tuple[typing.Any, ...]]] = {}
     by_id = {mt.message_id: mt for mt in MESSAGES}
@@ -133,7 +133,7 @@ def test_json_v1_run_log_still_reads_and_reviews_as_recorded() -> None:
 def test_json_v1_and_cdr_files_cut_are_recovered(tmp_path: Path) -> None:
     """A cut copy of each format reads up to the cut; ``recover`` and ``fowt recover``
     rewrite it complete with its channels' encodings and every message read."""
-    from hil.mcap_log import RunLog
+    from hil.runlog.mcap_io import RunLog
 
     cdr = tmp_path / "cdr.mcap"
     log = RunLog(cdr, "t1", flush_interval_s=1e9, batch_messages=100)

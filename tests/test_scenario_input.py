@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from _helpers import run_closed_loop
 
-from hil.scenario import (
+from hil.scenario.schema import (
     MAX_DURATION_S,
     ScenarioError,
     load_scenario,

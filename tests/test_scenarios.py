@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from _helpers import STEADY_FLOATING_SCENARIO
 
-from hil.scenario import (
+from hil.scenario.schema import (
     JonswapWavesSpec,
     ScenarioError,
     StillWavesSpec,

@@ -6,7 +6,7 @@
   the process holds in ``/proc/<pid>/fd``), the plant listens on exactly its endpoint, the
   recorder on nothing, and none holds a UDP socket on the scouting port 7446 or on a
   non-loopback address.
-* :class:`hil.bus.BusConfig` refuses a non-loopback endpoint with an error that names the
+* :class:`hil.nodes.bus.BusConfig` refuses a non-loopback endpoint with an error that names the
   endpoint and ``--zenoh-config``, unless a config file is given; so does the CLI.
 * The multi-host example configs in ``config/`` parse as ``zenoh.Config`` (strictly: an
   unknown key or message type is an error) and say what ``docs/multi-host.md`` says: TLS
@@ -32,8 +32,8 @@ from typing import Any
 import pytest
 import zenoh
 
-from hil.bus import BusConfig, BusConfigError, free_tcp_endpoint
-from hil.router import RouterConfigError, RouterPlan, load_router_config
+from hil.nodes.bus import BusConfig, BusConfigError, free_tcp_endpoint
+from hil.nodes.router import RouterConfigError, RouterPlan, load_router_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = {

@@ -32,7 +32,7 @@ from typing import Any
 import pytest
 from _mcap_conformance import check_complete_mcap
 
-from hil.outcome import ExitCode
+from hil.review.outcome import ExitCode
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -22,9 +22,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = r"""
 import json, sys
 from numba.core.registry import CPUDispatcher
-from hil.controller_node import ControllerRuntime
-from hil.plant_node import PlantLoop
-from hil.scenario import load_scenario
+from hil.nodes.controller_node import ControllerRuntime
+from hil.nodes.plant_node import PlantLoop
+from hil.scenario.schema import load_scenario
 
 def signatures():
     out = {}

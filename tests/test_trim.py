@@ -1,4 +1,5 @@
-"""Trimmed starts (``[initial]``, :mod:`hil.trim`, :class:`plant.initial.InitialCondition`).
+"""Trimmed starts (``[initial]``, :mod:`hil.inprocess.trim`,
+:class:`plant.initial.InitialCondition`).
 
 Checked against analytic answers on the plant's own aerodynamics and stiffness:
 
@@ -26,11 +27,11 @@ from scipy.optimize import brentq
 
 from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
 from controller.baseline import load_baseline
-from hil.controller_node import ControllerRuntime, publishing_step
-from hil.inprocess_run import run_inprocess
-from hil.plant_node import plant_spec
-from hil.scenario import Scenario, load_scenario, parse_scenario
-from hil.trim import initial_condition, mean_wind_m_s, settling_scenario
+from hil.inprocess.run import run_inprocess
+from hil.inprocess.trim import initial_condition, mean_wind_m_s, settling_scenario
+from hil.nodes.controller_node import ControllerRuntime, publishing_step
+from hil.nodes.plant_node import plant_spec
+from hil.scenario.schema import Scenario, load_scenario, parse_scenario
 from plant.build import build_plant
 from plant.initial import InitialCondition
 from plant.platform import mooring_force, relative_wind, rotor_thrust

@@ -23,8 +23,8 @@ from typing import IO
 
 import pytest
 
-from hil.bus import LOG_BATCH_MAX_AGE_S, free_tcp_endpoint
-from hil.mcap_log import read_run
+from hil.nodes.bus import LOG_BATCH_MAX_AGE_S, free_tcp_endpoint
+from hil.runlog.mcap_io import read_run
 
 pytestmark = pytest.mark.e2e
 

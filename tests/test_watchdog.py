@@ -19,7 +19,7 @@ from _helpers import run_collecting
 
 from bus_schemas import ActuatorCommand, CycleTiming, PlantState, SensorFrame, TimingSummary
 from bus_schemas.registry import CYCLE_TIMING, TIMING_SUMMARY, TRUTH
-from hil.scenario import ScenarioError, load_scenario, parse_scenario, scenario_text
+from hil.scenario.schema import ScenarioError, load_scenario, parse_scenario, scenario_text
 from plant.turbine import load_turbine
 
 STALL_S = 5.0  # the controller stops answering here

@@ -13,8 +13,8 @@ from __future__ import annotations
 import msgspec
 
 from bus_schemas import ActuatorCommand
-from hil.plant_node import STARTUP_S, PlantLoop
-from hil.scenario import load_scenario
+from hil.nodes.plant_node import STARTUP_S, PlantLoop
+from hil.scenario.schema import load_scenario
 
 MISSES = 3  # the scenario's watchdog_misses
 

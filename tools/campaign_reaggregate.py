@@ -1,9 +1,10 @@
-"""Aggregate a campaign's results table again with the current :func:`hil.campaign.aggregate`.
+"""Aggregate a campaign's results table again with the current
+:func:`hil.campaign.runner.aggregate`.
 
 Reads a ``results.csv`` of ``fowt campaign`` (one row per run), takes the shipped or given
 campaign file for the cases, probabilities and controllers (``--baseline`` as with ``fowt
 campaign``), and writes ``aggregates.json`` (with the standard errors and n/m statuses of
-:mod:`hil.kpi_stats`) and, with ``--html``, the report without the PSDs (they need the runs'
+:mod:`hil.review.kpi_stats`) and, with ``--html``, the report without the PSDs (they need the runs'
 summaries). The runs' KPIs are used as they are in the table.
 
     python tools/campaign_reaggregate.py results.csv --campaign al2019-iea15mw \\
@@ -18,9 +19,9 @@ import json
 import math
 from pathlib import Path
 
-from hil import campaign_kpi as ck
-from hil.campaign import _json_clean, aggregate, load_campaign, select
-from hil.html_report import campaign_html
+from hil.campaign import kpi as ck
+from hil.campaign.html_report import campaign_html
+from hil.campaign.runner import _json_clean, aggregate, load_campaign, select
 
 
 def read_rows(path: Path) -> list[dict[str, object]]:

@@ -1,0 +1,1 @@
+"""The ``fowt`` command line: one module per command family."""

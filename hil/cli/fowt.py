@@ -1,0 +1,1297 @@
+"""The ``fowt`` command: run, plant, controller, record, router, review, recover, scenarios,
+presets, analyze, preset, and campaign, compare, report (:mod:`hil.cli.campaign`).
+
+Bad input on the command line (an option's value, a scenario file) ends the command with one
+line on stderr, ``error: ...`` naming the option or the scenario key and what was expected, and
+exit code 2, before anything is started or written: every number option is checked by a
+callback (:func:`number`), every output path by :func:`writable` (nothing is created by the
+check), and a usage error of the parser is turned into the same one line by :func:`main`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import sys
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+from rich.text import Text
+
+from hil.cli.common import choice, fail, number, os_error_text, stderr, text_file, writable
+from hil.cli.hexicon import app as hexicon_app
+from hil.nodes.bus import BusOpenError
+from hil.review.outcome import ExitCode
+from hil.scenario.schema import (
+    MAX_DURATION_S,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    scenario_text,
+    shipped_scenarios,
+)
+
+if TYPE_CHECKING:
+    from hil.nodes.can_bus import CanBusConfig
+
+app = typer.Typer(
+    help="fowt-hil: floating-wind controller-in-the-loop bench.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+console = Console()
+
+
+def _preset_ref(value: str) -> str:
+    """Callback of a preset argument: a shipped name, or a path to a readable text file."""
+    if value.endswith(".toml") or "/" in value:
+        text_file(Path(value))
+    return value
+
+
+def _forecasters(values: list[str] | None) -> list[str] | None:
+    """Callback of ``--forecaster``: names of :mod:`controller.forecast` forecasters."""
+    for value in values or ():
+        if value not in ("dispersion", "ar", "esprit"):
+            raise typer.BadParameter(f"expected dispersion, ar or esprit, got {value!r}")
+    return values
+
+
+#: Nodes the plant can wait for (their liveliness tokens ``fowt/<turbine>/alive/<name>``).
+_PEERS = ("controller", "recorder", "launcher", "fuzzer")  # fuzzer: python -m hil.nodes.fuzz
+
+
+def _require_list(value: str) -> str:
+    """Callback of ``--require``: comma-separated node names, or ``none``."""
+    names = [v.strip() for v in value.split(",") if v.strip()]
+    if names == ["none"]:
+        return ""
+    bad = [n for n in names if n not in _PEERS]
+    if bad:
+        raise typer.BadParameter(
+            f"expected comma-separated names from {', '.join(_PEERS)} (or none), got {bad[0]!r}"
+        )
+    return ",".join(names)
+
+
+def _json_object(value: str) -> str:
+    """Callback of ``--run-info``: a JSON object."""
+    try:
+        obj = json.loads(value)
+    except json.JSONDecodeError as exc:
+        raise typer.BadParameter(f"expected a JSON object, not valid JSON ({exc.msg})") from exc
+    if not isinstance(obj, dict):
+        raise typer.BadParameter(f"expected a JSON object, got a JSON {type(obj).__name__}")
+    return value
+
+
+# ----------------------------------------------------------------- shared options
+
+ScenarioArg = Annotated[
+    str,
+    typer.Argument(
+        help="Shipped scenario name (see 'fowt scenarios') or a scenario TOML file.",
+        show_default=True,
+    ),
+]
+DurationOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--duration",
+        help="Simulated seconds (overrides the scenario's duration_s).",
+        callback=number("s", gt=0.0, le=MAX_DURATION_S),
+    ),
+]
+SpeedOpt = Annotated[
+    float,
+    typer.Option(
+        "--speed",
+        help="Real-time factor (realtime mode).",
+        callback=number("real-time factor", gt=0, le=1000),
+    ),
+]
+ListenOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--listen",
+        help="Zenoh endpoint to listen on (repeatable; default: the node's loopback port, or"
+        " the --zenoh-config file's endpoints).",
+    ),
+]
+ConnectOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--connect",
+        help="Zenoh endpoint to connect to (repeatable; default as for --listen).",
+    ),
+]
+ZenohConfigOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--zenoh-config",
+        help="Zenoh JSON5 config for multi-host use (router, TLS, ACL); its endpoints are"
+        " kept unless --listen/--connect are given.",
+        callback=text_file,
+    ),
+]
+KeyFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--key-file",
+        help="The run's 32-byte secret (mode 0600; fowt run makes one per run as"
+        " <run folder>/run.key): every bus payload is signed and verified with it.",
+    ),
+]
+InsecureOpt = Annotated[
+    bool,
+    typer.Option(
+        "--insecure",
+        help="Run without --key-file: payloads unsigned and unchecked, so any local process"
+        " can command the turbine. For tools and tests only.",
+    ),
+]
+RealtimePriorityOpt = Annotated[
+    int,
+    typer.Option(
+        "--realtime-priority",
+        help="SCHED_FIFO priority 1..40 for the plant and controller (root or CAP_SYS_NICE);"
+        " 0 = normal scheduling.",
+        min=0,
+        max=40,
+    ),
+]
+TransportOpt = Annotated[
+    str,
+    typer.Option(
+        "--transport",
+        help="zenoh | can: with can, the sensor frame and the command travel on CAN "
+        "(python-can), everything else on the loopback Zenoh session.",
+        callback=choice("zenoh", "can"),
+    ),
+]
+CanInterfaceOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--can-interface",
+        help="udp_multicast (private network namespace) | socketcan | virtual "
+        "(default: the scenario's can.interface, else udp_multicast).",
+    ),
+]
+CanChannelOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--can-channel",
+        help="Multicast group (udp_multicast) or netdevice (socketcan); default per interface.",
+    ),
+]
+CanFdOpt = Annotated[
+    bool | None,
+    typer.Option(
+        "--can-fd/--no-can-fd",
+        help="CAN FD frames (default: the scenario's can.fd).",
+        show_default=False,
+    ),
+]
+
+
+def _can_config(
+    sc: Scenario, transport: str, interface: str | None, channel: str | None, fd: bool | None
+) -> CanBusConfig | None:
+    """The node's CAN bus for ``--transport can`` (None for zenoh); exits 2 on a bad option."""
+    if transport == "zenoh":
+        return None
+    from hil.nodes.can_bus import CanBusConfig, CanConfigError
+
+    try:
+        return CanBusConfig.for_interface(
+            interface or sc.can.interface,
+            channel if channel is not None else sc.can.channel,
+            sc.can.fd if fd is None else fd,
+            sc.turbine_id,
+        )
+    except CanConfigError as exc:
+        fail(str(exc))
+
+
+def _scenario(ref: str, duration: float | None) -> Scenario:
+    """Load and validate the scenario, and its controller preset for the controller kind."""
+    try:
+        sc = load_scenario(ref).with_duration(duration)
+    except ScenarioError as exc:
+        fail(str(exc))
+    c = sc.controller
+    try:  # parsing the preset costs milliseconds and imports no plant
+        if c.kind == "baseline":
+            from controller.baseline import load_baseline
+
+            load_baseline(c.preset)
+        elif c.kind in ("lqri", "lqri_ff"):
+            from controller.runtime import load_advanced_settings
+
+            load_advanced_settings(c.preset)
+        # other kinds check their presets when built (rosco: its DISCON.IN, at load)
+    except (ValueError, OSError) as exc:
+        fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+    return sc
+
+
+def _realtime(priority: int, who: str) -> None:
+    """Switch this node to SCHED_FIFO before it opens its bus (threads inherit the policy)."""
+    if priority == 0:
+        return
+    from hil.nodes.rt import RealtimeError, set_realtime_priority
+
+    try:
+        console.print(f"{who}: {set_realtime_priority(priority)}")
+    except RealtimeError as exc:
+        fail(str(exc))
+
+
+def _bus(
+    listen: list[str] | None,
+    connect: list[str] | None,
+    zenoh_config: Path | None,
+    default_listen: tuple[str, ...] = (),
+    default_connect: tuple[str, ...] = (),
+    key_file: Path | None = None,
+    insecure: bool = False,
+) -> object:
+    """The node's bus: the options, else the node's loopback defaults.
+
+    With ``--zenoh-config`` the defaults are not applied: the file's endpoints stay unless
+    ``--listen``/``--connect`` are given explicitly. Authentication (docs/security.md): a
+    node needs ``--key-file`` or, to run unauthenticated, an explicit ``--insecure``; it
+    never makes a secret of its own (its peers could not know it).
+    """
+    import zenoh
+
+    from bus_schemas.auth import KeyFileError, read_key_file
+    from hil.nodes.bus import BusConfig, BusConfigError
+
+    if zenoh_config is None:
+        listen = listen or list(default_listen)
+        connect = connect or list(default_connect)
+    try:
+        config = BusConfig(
+            listen=tuple(listen or ()),
+            connect=tuple(connect or ()),
+            config_file=zenoh_config,
+        )
+    except BusConfigError as exc:
+        fail(str(exc))
+    if zenoh_config is not None:
+        try:  # parse it now: a bad file is an input error, not a crash when the node starts
+            config.zenoh_config()
+        except (zenoh.ZError, ValueError, OSError) as exc:
+            fail(f"--zenoh-config {zenoh_config}: not a valid Zenoh config ({exc})")
+    auth_key: bytes | None = None
+    if key_file is not None and insecure:
+        fail("--key-file and --insecure exclude each other")
+    if key_file is not None:
+        try:
+            auth_key = read_key_file(key_file)
+        except KeyFileError as exc:
+            fail(f"--key-file: {exc}")
+    elif not insecure:
+        fail(
+            "no --key-file: the bus payloads are authenticated with the run's secret "
+            "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
+            "run unauthenticated"
+        )
+    return dataclasses.replace(config, auth_key=auth_key)
+
+
+# ----------------------------------------------------------------- commands
+
+
+@app.command(short_help="Run plant, controller and recorder as processes, then review.")
+def run(
+    scenario: ScenarioArg = "default",
+    mode: Annotated[
+        str,
+        typer.Option(
+            help="realtime | lockstep | inprocess",
+            callback=choice("realtime", "lockstep", "inprocess"),
+        ),
+    ] = "realtime",
+    speed: SpeedOpt = 1.0,
+    duration: DurationOpt = None,
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out", help="Output folder (default: runs/<scenario>).", callback=writable("folder")
+        ),
+    ] = None,
+    plots: Annotated[bool, typer.Option(help="Write PNG plots.")] = True,
+    realtime_priority: RealtimePriorityOpt = 0,
+    loop: Annotated[
+        str,
+        typer.Option(
+            help="--mode inprocess: auto | compiled | python (the cycle loop; auto: compiled "
+            "where the scenario allows it)",
+            callback=choice("auto", "compiled", "python"),
+        ),
+    ] = "auto",
+) -> None:
+    """Launch plant, controller and recorder as separate processes, then review the run.
+
+    With --transport can the sensor frame and the command travel on a CAN bus between the
+    plant and controller processes (the recorder listens too and logs the raw frames); with
+    udp_multicast the launcher runs the whole bench in a fresh network namespace (unshare -n,
+    root) unless it already is in a private one.
+
+    Ctrl-C, SIGTERM or SIGHUP stops the run: the children are stopped in order (SIGTERM;
+    SIGKILL only after a long grace, said when done), the recording is finished and
+    reviewed, and summary.json says the run was aborted.
+
+    \b
+    Exit codes (the first that applies; docs/exit-codes.md; summary.json run.outcome):
+      0  complete and healthy
+      1  the run failed (a process died, a write failed: disk full)
+      2  bad input, refused before anything started
+      3  aborted by a signal (SIGINT, SIGTERM, SIGHUP)
+      4  recording incomplete (messages lost, file truncated)
+      5  safe state: the plant's safe state or the controller's safe mode, at any time
+      6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
+         real time, 0 in lock-step and in process)
+    """
+    sc = _scenario(scenario, duration)  # validate before launching anything
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    if can is not None and mode == "inprocess":
+        fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+    if loop != "auto" and mode != "inprocess":
+        fail(f"--loop {loop}: only with --mode inprocess")
+    from hil.launch import (
+        ProcessFaultError,
+        RunAbortedError,
+        RunFailedError,
+        RunRequest,
+        default_out_dir,
+        launch,
+    )
+
+    if out is None:
+        try:
+            writable("folder")(default_out_dir(sc))
+        except typer.BadParameter as exc:
+            fail(f"default output folder: {exc.message} (give --out)")
+    req = RunRequest(
+        scenario=scenario,
+        mode=mode,  # type: ignore[arg-type]  # checked by its callback
+        speed=speed,
+        duration_s=duration,
+        transport=transport,
+        out_dir=out,
+        plots=plots,
+        can=can,
+        realtime_priority=realtime_priority,
+        inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
+    )
+    try:
+        summary = launch(req, console)
+    except RunAbortedError as exc:  # stopped before anything was recorded
+        fail(str(exc), code=ExitCode.ABORTED)
+    except ProcessFaultError as exc:  # the scenario's process faults and the mode disagree
+        fail(str(exc), code=ExitCode.USAGE)
+    except RunFailedError as exc:
+        fail(f"run failed: {exc}", code=ExitCode.FAILED)
+    except OSError as exc:  # e.g. the disk filled up while the summary or a plot was written
+        fail(os_error_text(exc), code=ExitCode.FAILED)
+    except ValueError as exc:  # a model refusing the scenario as built (e.g. its length)
+        fail(f"run failed: {exc}", code=ExitCode.FAILED)
+    raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
+
+
+@app.command(short_help="Run the plant process alone.")
+def plant(
+    scenario: ScenarioArg = "default",
+    mode: Annotated[
+        str, typer.Option(help="realtime | lockstep", callback=choice("realtime", "lockstep"))
+    ] = "realtime",
+    speed: SpeedOpt = 1.0,
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    require: Annotated[
+        str,
+        typer.Option(
+            help="Comma-separated nodes to wait for before the first cycle (controller,"
+            " recorder, launcher), or none. The default waits for the recorder too, so the run"
+            " is recorded from cycle 0.",
+            callback=_require_list,
+        ),
+    ] = "controller,recorder",
+    wait_timeout: Annotated[
+        float,
+        typer.Option(
+            "--wait-timeout",
+            help="Seconds to wait for the required nodes before giving up (exit 1); 0 waits"
+            " until they come or Ctrl-C.",
+            callback=number("s", ge=0.0, le=MAX_DURATION_S),
+        ),
+    ] = 120.0,
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
+    realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Run the plant process alone (the controller and the recorder run elsewhere).
+
+    The plant waits for the nodes of --require, then runs the scenario. Ctrl-C or SIGTERM
+    ends it at once, while it waits (exit 130 / 143, nothing ran) or runs (the run is
+    closed with its final timing summary, exit 0).
+    """
+    sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
+    )
+    from hil.inprocess.trim import initial_condition
+    from hil.nodes.plant_node import PeerWaitInterruptedError, run_plant_node
+
+    initial = initial_condition(sc)  # the trim's settling run, before any peer waits
+    _realtime(realtime_priority, "plant")
+    try:
+        result = run_plant_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            mode=mode,  # type: ignore[arg-type]
+            speed=speed,
+            require=tuple(r for r in require.split(",") if r),
+            peer_timeout_s=wait_timeout if wait_timeout > 0 else math.inf,
+            can=can,
+            initial=initial,
+        )
+    except PeerWaitInterruptedError as exc:
+        stderr.print(f"plant: {exc}", markup=False)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # Nothing is left to clean up (the session is closed, nothing was written), and the
+        # interpreter's normal teardown of the imported scipy stack takes 1-3 s on a loaded
+        # 2-core machine: end the process now, as Ctrl-C asks.
+        os._exit(128 + exc.signum)
+    except TimeoutError as exc:
+        fail(str(exc), code=1)
+    if result.aborted and result.aborted != "stopped by signal":
+        raise typer.Exit(1)
+
+
+@app.command(short_help="Run the controller process alone.")
+def controller(
+    scenario: ScenarioArg = "default",
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
+    realtime_priority: RealtimePriorityOpt = 0,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Run the controller process alone (serves until the plant finishes or Ctrl-C).
+
+    With --transport can it takes the sensor frames from and sends the commands to the CAN
+    bus; its status and the plant's timing stay on Zenoh.
+    """
+    sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_listen=("tcp/127.0.0.1:7448",),
+        default_connect=("tcp/127.0.0.1:7447",),
+        key_file=key_file,
+        insecure=insecure,
+    )
+    _realtime(realtime_priority, "controller")
+    from hil.nodes import controller_node
+
+    if can is None:
+        controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
+        return
+    from hil.nodes.can_bus import hybrid_bus_factory
+
+    # In a CAN run the node's bus is a HybridBus (same surface: the sensor and command keys
+    # on CAN, the rest on Zenoh), so its loop, validation and stale-frame handling run
+    # unchanged.
+    controller_node.run_controller_node(sc, bus, bus_factory=hybrid_bus_factory(can))  # type: ignore[arg-type]
+
+
+@app.command(short_help="Record a run to an MCAP file.")
+def record(
+    scenario: ScenarioArg = "default",
+    out: Annotated[
+        Path, typer.Option("--out", help="MCAP file to write.", callback=writable("file"))
+    ] = Path("run.mcap"),
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    run_info: Annotated[
+        str, typer.Option(help="JSON object stored as run metadata.", callback=_json_object)
+    ] = "{}",
+    transport: TransportOpt = "zenoh",
+    can_interface: CanInterfaceOpt = None,
+    can_channel: CanChannelOpt = None,
+    can_fd: CanFdOpt = None,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
+) -> None:
+    """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
+
+    With --transport can it also listens on the CAN bus: the sensor frames and commands
+    decoded from it, and every raw frame on fowt/<turbine>/can/raw.
+    """
+    sc = _scenario(scenario, duration)
+    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+    from hil.nodes.recorder import run_recorder_node
+
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+        key_file=key_file,
+        insecure=insecure,
+    )
+    text, _ = scenario_text(scenario)
+    info = {str(k): str(v) for k, v in json.loads(run_info).items()}
+    try:
+        run_recorder_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            out,
+            run_info=info,
+            scenario_toml=text,
+            can=can,
+        )
+    except OSError as exc:  # disk full, file too large: the file is readable up to it
+        fail(f"recorder: writing failed: {os_error_text(exc, out)}", code=ExitCode.FAILED)
+
+
+@app.command(short_help="Run the Zenoh router of a two-host bench.")
+def router(
+    zenoh_config: Annotated[
+        Path,
+        typer.Option(
+            "--zenoh-config",
+            help="Zenoh JSON5 config with mode router (config/zenoh-router.json5).",
+        ),
+    ],
+) -> None:
+    """Run the Zenoh router of a two-host bench (TLS, access control) until Ctrl-C.
+
+    The same router as zenohd -c FILE of the same Zenoh version; see docs/multi-host.md.
+    """
+    from hil.nodes.router import RouterConfigError, run_router, zenoh_error_text
+
+    try:
+        run_router(zenoh_config, echo=console.print)
+    except RouterConfigError as exc:
+        fail(str(exc))
+    except Exception as exc:  # zenoh.ZError: certificate file, port in use
+        fail(f"router session did not open: {zenoh_error_text(exc)}", code=1)
+
+
+#: ``summary["run"]`` keys only the launcher writes (:func:`hil.launch.launch`): a review of
+#: the run's file keeps them in the summary.json it writes over the launcher's.
+_LAUNCHER_RUN_KEYS = (
+    "aborted",
+    "abort_signal",
+    "aborted_at_s",
+    "failed",
+    "launcher_wall_s",
+    "inprocess_loop",
+    "process_faults",
+    "plant_killed",
+    "process_fault_problems",
+)
+
+
+@app.command("review", short_help="Review a recorded run: KPIs, timing and plots.")
+def review_cmd(
+    mcap: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for summary and plots.")] = None,
+    plots: Annotated[
+        bool | None,
+        typer.Option(
+            "--plots/--no-plots", help="Write PNG plots (default: yes, but no with --json)."
+        ),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            help="Exit non-zero unless the run is complete and healthy: 1 when the file is "
+            "truncated, damaged or inconsistent or lacks the plant's final timing summary, "
+            "else the code 'fowt run' gives the run (3 aborted, 4 recording incomplete, 5 "
+            "safe state, 6 deadline misses; docs/exit-codes.md).",
+        ),
+    ] = False,
+) -> None:
+    """Review a recorded run: KPIs, timing and plots.
+
+    Everything comes from the MCAP file alone.
+    """
+    from hil.review.core import (
+        NotRunLogError,
+        render_summary,
+        review,
+        review_problems,
+        truncation_note,
+    )
+    from hil.review.outcome import outcome_line, record_outcome, run_outcome
+    from hil.runlog.mcap_io import NotMcapError
+
+    if not mcap.is_file():
+        fail(f"{mcap} is not a file")
+    # What only the launcher knew (aborted, failed, process faults, its verdict) is in the
+    # run's summary.json beside the file: read it before the review writes its own there,
+    # and keep it in that one.
+    beside = mcap.parent / "summary.json"
+    launched: dict[str, Any] = {}
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        if beside.is_file():
+            launched = {
+                k: v
+                for k, v in json.loads(beside.read_text()).get("run", {}).items()
+                if k in _LAUNCHER_RUN_KEYS
+            }
+    try:
+        summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
+    except (NotMcapError, NotRunLogError) as exc:
+        fail(str(exc))
+    except OSError as exc:
+        fail(os_error_text(exc, mcap))
+    for key, value in launched.items():
+        summary["run"].setdefault(key, value)
+    if launched:
+        record_outcome(summary)
+        written = (out if out is not None else mcap.parent) / "summary.json"
+        try:
+            written.write_text(json.dumps(summary, indent=2) + "\n")
+        except OSError as exc:
+            fail(os_error_text(exc, written), code=ExitCode.FAILED)
+    note = truncation_note(summary)
+    if as_json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        if note:
+            stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
+    else:
+        render_summary(summary, console)
+    if not strict:
+        return
+    problems = review_problems(summary)
+    if note is not None or problems or summary["run"].get("statistics_ok") is False:
+        reason = "; ".join(([note] if note else []) + problems) or str(summary["run"].get("error"))
+        fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
+    code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.review.outcome)
+    if code != ExitCode.OK:
+        fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
+
+
+@app.command("recover", short_help="Make a truncated MCAP file complete.")
+def recover_cmd(
+    mcap: Annotated[Path, typer.Argument(help="A truncated MCAP file (e.g. recorder killed).")],
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Output file (default: <name>.recovered.mcap).")
+    ] = None,
+) -> None:
+    """Make a truncated or damaged MCAP file complete.
+
+    The new file holds every message that can be read, with summary and footer: a damaged
+    chunk is skipped (one line each: its bytes and log times) and the chunks after it kept.
+    Exit 0 when nothing was skipped, 4 (recording incomplete) when a range was: the new file
+    is complete as a file but lacks those messages.
+    """
+    from hil.runlog.mcap_io import NotMcapError, SkippedRange, recover
+
+    if not mcap.is_file():
+        fail(f"{mcap} is not a file")
+    target = out if out is not None else mcap.with_suffix(".recovered.mcap")
+    if target.resolve() == mcap.resolve():
+        fail("--out must differ from the input file")
+    skipped: list[SkippedRange] = []
+    try:
+        n = recover(mcap, target, skipped)
+    except NotMcapError as exc:
+        fail(str(exc))
+    except OSError as exc:
+        fail(os_error_text(exc, target))
+    for r in skipped:  # plain lines: never wrapped, one per range
+        sys.stdout.write(f"skipped {r.describe()}\n")
+    console.print(f"recovered {n} messages into {target}", markup=False)
+    if skipped:
+        stderr.print(
+            f"warning: {len(skipped)} damaged range(s) skipped; their messages are lost",
+            markup=False,
+        )
+        raise typer.Exit(int(ExitCode.RECORDING_INCOMPLETE))
+
+
+def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
+    """Name and text columns, one line each, never truncated (long lines wrap in the terminal)."""
+    width = max((len(name) for name, _ in rows), default=0)
+    for name, text in rows:
+        sys.stdout.write(f"{indent}{name:<{width}}  {text}".rstrip() + "\n")
+
+
+@app.command(short_help="List the shipped scenarios.")
+def scenarios() -> None:
+    """List the shipped scenarios: name, description, plant, controller and duration."""
+    rows = []
+    for name in shipped_scenarios():
+        sc = load_scenario(name)
+        plant_text = f"{sc.turbine} on {sc.platform}" if sc.platform else f"{sc.turbine} fixed"
+        details = (
+            f"[{plant_text}; {sc.controller.kind}/{sc.controller.preset}; {sc.duration_s:g} s]"
+        )
+        rows.append((name, f"{sc.description} {details}" if sc.description else details))
+    _write_rows(rows)
+
+
+def _preset_rows(package: str, folder: str = "") -> list[tuple[str, str]]:
+    """(name, first comment line) of every ``*.toml`` preset of ``package``/``folder``."""
+    root = resources.files(package)
+    if folder:
+        root = root / folder
+    rows = []
+    for entry in sorted(root.iterdir(), key=lambda e: e.name):
+        if not entry.name.endswith(".toml"):
+            continue
+        first = next(
+            (ln.lstrip("# ").strip() for ln in entry.read_text().splitlines() if ln.strip()), ""
+        )
+        rows.append((entry.name.removesuffix(".toml"), first if first else "-"))
+    return rows
+
+
+@app.command(short_help="List the shipped presets.")
+def presets() -> None:
+    """List the shipped presets: turbines, floating platforms and controllers.
+
+    A scenario names them with turbine = "<name>", platform = "<name>" and, in its
+    [controller] table, preset = "<name>". The text is each preset file's first line.
+    """
+    sections = (
+        ('turbine presets (turbine = "<name>")', _preset_rows("plant.presets")),
+        (
+            'floating platform presets (platform = "<name>")',
+            _preset_rows("plant.presets", "floating"),
+        ),
+        ('controller presets ([controller] preset = "<name>")', _preset_rows("controller.presets")),
+    )
+    for i, (title, rows) in enumerate(sections):
+        sys.stdout.write(("\n" if i else "") + title + "\n")
+        _write_rows(rows, indent="  ")
+
+
+analyze_app = typer.Typer(
+    help="Offline analysis: platform modes, design model, wave forecasters.",
+    short_help="Offline analysis: modes, design model, forecasters.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+preset_app = typer.Typer(
+    help="Import plant presets from other tools (list the shipped ones: fowt presets).",
+    short_help="Import plant presets from other tools.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+app.add_typer(analyze_app, name="analyze")
+app.add_typer(preset_app, name="preset")
+app.add_typer(
+    hexicon_app, name="hexicon", short_help="The Hexicon H3 multi-turbine platform family."
+)
+
+
+T = TypeVar("T")
+
+WindOpt = Annotated[
+    float,
+    typer.Option(
+        "--wind",
+        help="Steady hub-height wind of the model, m/s.",
+        callback=number("m/s", gt=0.0, le=70.0),
+    ),
+]
+
+#: ``analyze modes`` also takes 0 m/s: parked in still air, no aerodynamic damping.
+ModesWindOpt = Annotated[
+    float,
+    typer.Option(
+        "--wind",
+        help="Steady hub-height wind of the model, m/s (0: parked, no aerodynamic damping).",
+        callback=number("m/s", ge=0.0, le=70.0),
+    ),
+]
+
+
+def _analysis(fn: Callable[[str, float], T], preset: str, wind: float) -> T:
+    """Run an analysis of ``preset`` at ``wind`` (m/s); bad input exits 2 with the reason."""
+    try:
+        return fn(preset, wind)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+
+
+@analyze_app.command("modes", short_help="Natural periods and damping of the platform modes.")
+def analyze_modes(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ],
+    wind: ModesWindOpt = 5.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the modes as JSON.")] = False,
+    torque_slope: Annotated[
+        float,
+        typer.Option(
+            "--torque-slope",
+            help="Generator-torque law in the loop, dT/domega in N m s/rad (default 0: open loop).",
+            callback=number("N m s/rad", ge=0.0),
+        ),
+    ] = 0.0,
+) -> None:
+    """Damped natural periods and damping ratios of surge, heave, pitch and tower fore-aft.
+
+    Linearises the floating model about its steady operating point at --wind
+    (plant.modes.natural_modes): period T = 2 pi / omega_d [s], damping ratio
+    zeta = -Re(lambda) / |lambda| [-]. Open loop: no controller; blade pitch and generator
+    torque held at the operating point, rotor speed free (the case of OpenFAST
+    linearisations above rated).
+    """
+    from plant.modes import OPEN_LOOP_CASE, natural_modes
+
+    modes = _analysis(
+        lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
+    )
+    case = (
+        "parked in still air: rotor at rest, no aerodynamic forces and no aerodynamic "
+        "damping (hydrodynamic, mooring and structural damping only)"
+        if wind == 0.0
+        else OPEN_LOOP_CASE
+        if torque_slope == 0.0
+        else f"generator-torque law in the loop (dT/domega = {torque_slope:g} N m s/rad), "
+        "blade pitch held, rotor speed free; rotor aerodynamics quasi-steady from the Cp/Ct/Cq "
+        "table (equilibrium wake)"
+    )
+    if as_json:
+        out = {
+            "preset": preset,
+            "wind_m_s": wind,
+            "case": case,
+            "modes": [m.as_dict() for m in modes],
+        }
+        sys.stdout.write(json.dumps(out, indent=2) + "\n")
+        return
+    table = Table(title=f"Natural modes of {escape(preset)} at {wind:g} m/s")
+    table.add_column("mode")
+    table.add_column(escape("damped period [s]"), justify="right")
+    table.add_column(escape("damping ratio [-]"), justify="right")
+    for m in modes:
+        table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
+    table.caption = case
+    console.print(table)
+
+
+@app.command("design", short_help="Offline controller design: LQRI, wave FF, observer.")
+def design_cmd(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ] = "iea15mw_volturnus",
+    control_period: Annotated[
+        float,
+        typer.Option(
+            "--control-period",
+            help="Control period of the discrete gains and filters, s.",
+            callback=number("s", ge=0.001, le=1.0),
+        ),
+    ] = 0.025,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            help="Folder for the artefacts (default: the shipped designs).",
+            callback=writable("folder"),
+        ),
+    ] = None,
+    lqr_wave: Annotated[
+        str | None,
+        typer.Option(
+            "--lqr-wave",
+            help="Design the lqr_wave gain table instead: variant lqr1 or lqr2 (christiansen).",
+        ),
+    ] = None,
+    decoupled: Annotated[
+        bool,
+        typer.Option(
+            "--decoupled",
+            help="With --lqr-wave: gains on the seed's model without surge-pitch coupling "
+            "(same file name: give --out a folder of its own).",
+        ),
+    ] = False,
+    published_weights: Annotated[
+        bool,
+        typer.Option(
+            "--published-weights",
+            help="With --lqr-wave: the seed's published Bryson weights only (no rotor-speed "
+            "weight; same file name: give --out a folder of its own).",
+        ),
+    ] = False,
+) -> None:
+    """Offline controller design: LQRI gain schedule, wave-FF filters, platform observer.
+
+    Calls controller.design.design_all: <preset>_lqri_dt<T>.npz/.json,
+    <preset>_waveff_dt<T>.npz/.json (discrete at --control-period) and
+    <preset>_observer.npz/.json (continuous). 'fowt run' looks in the shipped designs, then
+    in $FOWT_DESIGN_DIR (default ~/.cache/fowt-hil/designs).
+    """
+    import time
+
+    from controller.design import BLAS_SINGLE_THREAD_ENV, design_all
+
+    if "numpy" not in sys.modules:  # one BLAS thread: see controller.design's docstring
+        for var, value in BLAS_SINGLE_THREAD_ENV.items():
+            os.environ.setdefault(var, value)
+
+    t0 = time.perf_counter()
+    if (decoupled or published_weights) and lqr_wave is None:
+        fail("--decoupled and --published-weights go with --lqr-wave")
+    if lqr_wave is not None:
+        from controller.design.lqr_wave import LqrWaveSettings, design_lqr_wave
+
+        try:
+            settings = LqrWaveSettings(
+                variant=lqr_wave,
+                decoupled=decoupled,
+                **({"rotor_speed_max_rad_s": 0.0} if published_weights else {}),
+            )
+            npz = design_lqr_wave(preset, control_period, settings, out)
+        except (ValueError, OSError) as exc:
+            fail(str(exc))
+        console.print(f"lqr_wave: {npz}", markup=False)
+        console.print(f"designed in {time.perf_counter() - t0:.1f} s")
+        return
+    try:
+        paths = design_all(preset, control_period, out)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    for key, path in paths.items():
+        console.print(f"{key}: {path}", markup=False)
+    console.print(f"designed in {time.perf_counter() - t0:.1f} s")
+
+
+@analyze_app.command("linear", short_help="Design-model poles and LQRI closed-loop poles.")
+def analyze_linear(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ],
+    wind: WindOpt = 15.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+) -> None:
+    """Design-model poles (with their modes) and the LQRI closed-loop poles at --wind."""
+    from controller.design import linear_report
+
+    report = _analysis(linear_report, preset, wind)
+    if as_json:
+        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        return
+    table = Table(title=f"Design model of {escape(preset)} at {wind:g} m/s")
+    table.add_column("mode")
+    table.add_column(escape("damped period [s]"), justify="right")
+    table.add_column(escape("damping ratio [-]"), justify="right")
+    for m in report["modes"]:  # type: ignore[attr-defined]
+        table.add_row(str(m["name"]), f"{m['period_s']:.2f}", f"{m['damping_ratio']:.4f}")
+    console.print(table)
+    console.print(
+        f"closed-loop spectral radius (z): {report['closed_loop_spectral_radius']:.5f}; "
+        f"rotor pole {report['rotor_pole_1_s']:.4f} 1/s"
+    )
+
+
+@analyze_app.command("damping-map", short_help="Open-loop platform-pitch damping over wind, waves.")
+def analyze_damping_map(
+    preset: Annotated[
+        str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
+    ] = "nrel5mw_oc3_hywind",
+    as_json: Annotated[bool, typer.Option("--json", help="Print the whole map as JSON.")] = False,
+    decoupled: Annotated[
+        bool,
+        typer.Option(
+            "--decoupled",
+            help="On the seed's model: surge-pitch coupling removed from mass, added mass, "
+            "damping and stiffness (christiansen-2013 sect. 2.1).",
+        ),
+    ] = False,
+) -> None:
+    """Open-loop damping ratio of the platform-pitch mode over wind speed (3-25 m/s) and wave
+    frequency (0.05-3 rad/s), christiansen-2013 sect. 2.9 (controller.design.lqr_wave)."""
+    from controller.design.lqr_wave import damping_map
+
+    try:
+        report = damping_map(preset, decoupled=decoupled)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    if as_json:
+        sys.stdout.write(json.dumps(report) + "\n")
+        return
+    console.print(
+        f"platform-pitch damping ratio: max {report['max_damping_ratio']:.4f} at "
+        f"{report['max_at_wind_m_s']:g} m/s, wave {report['max_at_wave_omega_rad_s']:g} rad/s "
+        f"({report['max_at_wave_hz']:.3f} Hz); {report['seed_max']}"
+    )
+
+
+@analyze_app.command("forecast", short_help="VAF of each wave forecaster on a seeded sea.")
+def analyze_forecast(
+    hs: Annotated[
+        float,
+        typer.Option(
+            "--hs", help="JONSWAP significant height, m.", callback=number("m", gt=0.0, le=30.0)
+        ),
+    ] = 2.2,
+    tp: Annotated[
+        float,
+        typer.Option("--tp", help="JONSWAP peak period, s.", callback=number("s", gt=0.0, le=40.0)),
+    ] = 8.0,
+    distance: Annotated[
+        float,
+        typer.Option(
+            "--distance",
+            help="Gauge distance up-wave, m.",
+            callback=number("m", ge=0.0, le=10_000.0),
+        ),
+    ] = 450.0,
+    horizon: Annotated[
+        float,
+        typer.Option(
+            "--horizon", help="Forecast horizon, s.", callback=number("s", gt=0.0, le=120.0)
+        ),
+    ] = 10.0,
+    duration: Annotated[
+        float,
+        typer.Option(
+            "--duration",
+            help="Evaluated seconds of the seeded sea (after the dispersion filter fills).",
+            callback=number("s", gt=0.0, le=36_000.0),
+        ),
+    ] = 600.0,
+    forecaster: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--forecaster",
+            help="dispersion | ar | esprit (repeatable; default: all three).",
+            callback=_forecasters,
+        ),
+    ] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    grid: Annotated[
+        bool,
+        typer.Option(
+            "--grid",
+            help="VAF table over Hs 1-8 m x Tp 6-14 s with 0.02 m sensor noise (--hs/--tp unused).",
+        ),
+    ] = False,
+) -> None:
+    """VAF of each wave forecaster (dispersion, AR, ESPRIT) on a seeded sea, runtime code."""
+    from hil.review.forecast import forecast_grid, forecast_report
+
+    kinds = tuple(forecaster) if forecaster else ("dispersion", "ar", "esprit")
+    try:
+        if grid:
+            report = forecast_grid(distance_m=distance, horizon_s=horizon)
+        else:
+            report = forecast_report(
+                hs_m=hs,
+                tp_s=tp,
+                distance_m=distance,
+                horizon_s=horizon,
+                duration_s=duration,
+                kinds=kinds,
+            )
+    except ValueError as exc:
+        fail(str(exc))
+    if as_json:
+        sys.stdout.write(json.dumps(report, indent=2, default=str) + "\n")
+        return
+    if grid:
+        table = Table(title=f"forecast VAF (%), gauge {distance:g} m, horizon {horizon:g} s")
+        for col in ("Hs m", "Tp s", "dispersion", "AR", "ESPRIT", "AR/ESPRIT stabilised fits"):
+            table.add_column(col, justify="right")
+        for row in report["rows"]:
+            d, a, e = row["dispersion"], row["ar"], row["esprit"]
+            table.add_row(
+                f"{row['hs_m']:g}",
+                f"{row['tp_s']:g}",
+                f"{d['vaf_percent']:.1f}",
+                f"{a['vaf_percent']:.1f}",
+                f"{e['vaf_percent']:.1f}",
+                f"{a['unstable_fits']}/{a['trainings']}, {e['unstable_fits']}/{e['trainings']}",
+            )
+        console.print(table)
+        return
+    sea = report["sea_state"]
+    table = Table(
+        title=escape(
+            f"Wave forecast VAF, JONSWAP Hs {sea['hs_m']:g} m, Tp {sea['tp_s']:g} s, "
+            f"gauge {sea['distance_m']:g} m up-wave, seed {sea['seed']}, "
+            f"{sea['duration_s']:g} s evaluated"
+        )
+    )
+    table.add_column("forecaster")
+    table.add_column("input")
+    table.add_column(escape("horizon [s]"), justify="right")
+    table.add_column(escape("VAF [%]"), justify="right")
+    table.add_column(escape("model period [s]"), justify="right")
+    table.add_column(escape("mean step [us]"), justify="right")
+    for kind, entry in report["forecasters"].items():
+        vaf = entry["vaf_percent"]
+        table.add_row(
+            kind,
+            escape(str(entry["input"])),
+            f"{entry['horizon_s']:g}",
+            "-" if not math.isfinite(vaf) else f"{vaf:.1f}",
+            f"{entry['sample_period_s']:g}",
+            f"{entry['mean_step_us']:.1f}",
+        )
+    console.print(table)
+
+
+@preset_app.command("import-openfast", short_help="Import a floating OpenFAST deck as a preset.")
+def preset_import_openfast(
+    fst_file: Annotated[
+        Path, typer.Argument(help="The OpenFAST deck's .fst file.", callback=text_file)
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", help="Folder for the preset files.", callback=writable("folder")),
+    ] = Path("presets"),
+    name: Annotated[
+        str | None, typer.Option("--name", help="File stem / preset name (default: deck title).")
+    ] = None,
+    turbine: Annotated[
+        str, typer.Option("--turbine", help="Turbine preset the platform carries.")
+    ] = "iea15mw",
+    no_mooring: Annotated[
+        bool,
+        typer.Option(
+            "--no-mooring",
+            help="Import without the mooring (no MoorDyn file needed): the preset then has "
+            "zero mooring force and stiffness, so surge has no restoring stiffness.",
+        ),
+    ] = False,
+    radiation_omega_max: Annotated[
+        float,
+        typer.Option(
+            "--radiation-omega-max",
+            help="Upper end of the radiation fit band, rad/s (0: the whole band of the data).",
+            callback=number("rad/s", ge=0.0, le=100.0),
+        ),
+    ] = 2.0,
+) -> None:
+    """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data).
+
+    Prints the mass budget (platform structure, filled-member ballast, tower, rotor-nacelle
+    assembly) and the derived figures; see docs/openfast-import.md.
+    """
+    from plant.openfast_import import import_openfast, write_preset
+
+    try:
+        deck = import_openfast(
+            fst_file,
+            turbine=turbine,
+            name=name,
+            mooring=not no_mooring,
+            radiation_omega_max_rad_s=radiation_omega_max,
+        )
+        path = write_preset(deck, out, stem=name)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    for item, kg in deck.mass_budget:
+        console.print(f"mass {item}: {kg:.6g} kg", markup=False)
+    if no_mooring:
+        console.print(
+            "imported without mooring: the preset has zero mooring force and stiffness "
+            "(surge has no restoring stiffness; add a mooring before running it)",
+            markup=False,
+        )
+    console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
+
+
+def _register_campaign_commands() -> None:
+    from hil.cli.campaign import register
+
+    register(app, console)
+
+
+_register_campaign_commands()
+
+
+def _click_base(name: str) -> type[Exception]:
+    """The parser's exception class ``name`` (typer's own copy of click, or click)."""
+    return next(c for c in typer.BadParameter.__mro__ if c.__name__ == name)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of ``fowt`` and ``python -m hil``.
+
+    Runs the app with the parser's own error printing off, so that a usage error (a bad
+    option value, an unknown option, a missing argument) is one line, ``error: ...``, on
+    stderr with exit code 2, like every other bad input; no arguments print the help.
+    """
+    args = sys.argv[1:] if argv is None else list(argv)
+    usage_error = _click_base("UsageError")
+    click_error = _click_base("ClickException")
+    try:
+        rv: Any = app(args=args, prog_name="fowt", standalone_mode=False)
+    except usage_error as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # "fowt analyze": show that group's help
+            app(args=[*args, "--help"], prog_name="fowt")
+        text = exc.format_message()  # type: ignore[attr-defined]
+        ctx = getattr(exc, "ctx", None)
+        where = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+        stderr.print(Text.assemble(("error: ", "bold red"), f"{text}{where}"))
+        sys.exit(2)
+    except click_error as exc:
+        stderr.print(Text.assemble(("error: ", "bold red"), exc.format_message()))  # type: ignore[attr-defined]
+        sys.exit(getattr(exc, "exit_code", 1))
+    except typer.Abort:
+        sys.exit(130)
+    except BusOpenError as exc:  # a node whose session was refused: one line, not a traceback
+        stderr.print(Text.assemble(("error: ", "bold red"), str(exc)))
+        sys.exit(1)
+    except OSError as exc:  # disk full, a folder gone read-only: the system's reason, one line
+        stderr.print(Text.assemble(("error: ", "bold red"), os_error_text(exc)))
+        sys.exit(1)
+    except KeyboardInterrupt:  # Ctrl-C in a command that does not handle it itself
+        stderr.print(Text.assemble(("error: ", "bold red"), "interrupted (SIGINT)"))
+        sys.exit(130)
+    sys.exit(rv if isinstance(rv, int) else 0)

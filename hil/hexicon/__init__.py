@@ -1,0 +1,1 @@
+"""The Hexicon twin-turbine platform family: model, nodes, review and identification."""

@@ -1,0 +1,1632 @@
+"""Review of one run from its MCAP log alone: summary JSON, KPI tables and plots.
+
+Summary keys (all numbers, ``null`` where a channel was missing)
+----------------------------------------------------------------
+``timing``
+    ``latency_us.{p50,p99,p999,max}`` sensor-to-command latency [us], linear percentiles
+    over every ``timing/cycle``: a missed cycle at the latency of its late command, one
+    that got no command before the next tick as infinite (``null`` where a percentile
+    falls among those; :func:`hil.review.kpi.latency_percentiles_us`); ``latency_cycles`` [1]
+    cycles in them, ``unanswered_cycles`` [1] those without a command, ``deadline_us``
+    [us] the control period over the speed factor;
+    ``latency_source`` says which channel they came from (``"timing/cycle"``, or
+    ``"timing/summary"`` when no cycle was logged); ``latency_us_plant`` the plant's own
+    histogram percentiles (about 2 % bin width) from the last ``timing/summary``;
+    ``cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``,
+    ``commands_late`` [1] and ``safe_state`` (0/1) from the final summary (``final`` = 1),
+    else derived from ``timing/cycle``; ``cycles_logged`` [1] cycle messages in the file;
+    ``sim_seconds_per_wall_second`` [1]; ``controller_compute_us.{p50,p99,max}`` [us] of
+    ``controller/status`` ``compute_time_ns``; ``complete`` False when the run has no
+    final summary (crash), counts then come from the logged cycles.
+``kpi``
+    ``mean_power_w`` [W], ``rotor_speed_mean_rad_s``, ``rotor_speed_std_rad_s`` [rad/s],
+    ``pitch_travel_deg_s`` [deg/s] (truth ``blade_pitch_rad`` vs ``sample_time_ns``),
+    ``generator_torque_mean_nm`` [N m, HSS], ``thrust_mean_n``, ``thrust_max_n`` [N],
+    ``shaft_del_nm`` [N m] damage-equivalent range of the low-speed-shaft torque
+    ``shaft_torque_nm`` (truth), ``tower_base_del_nm`` [N m] the same for the tower-base
+    fore-aft bending moment ``tower_base_moment_nm``, both by rainflow counting with Wöhler
+    exponent m = ``shaft_del_wohler_m`` = 4 at f_eq = ``del_n_eq_hz`` = 1 Hz over the record:
+    DEL = (Σ n_i S_i^m / (f_eq T))^(1/m), T the record length ("1 Hz equivalent,
+    600 s" is this with T = 600 s for a 600 s load case; shorter records give the same
+    damage rate, so DELs of runs of different lengths compare),
+    ``thrust_del_n`` [N] the same for rotor thrust (m = 4),
+    ``platform_pitch_mean_deg``, ``platform_pitch_std_deg`` [deg], ``surge_mean_m``,
+    ``surge_std_m`` [m] of the true platform motion (truth; ``null`` for a bottom-fixed
+    plant). Every KPI (and the estimator and forecast figures) covers only the samples from
+    ``kpi_window.from_s`` on (:func:`kpi_window`).
+``kpi_window``
+    ``settle_s`` requested start-up settling time (scenario ``[review] settle_s``),
+    ``from_s``/``to_s`` the window used [s], ``shortened`` when the run was too short.
+``run``
+    the ``"run"`` metadata record (strings) plus ``turbine``, ``duration_s`` [s] (span of
+    ``sample_time_ns`` over all topics), ``messages`` (count per topic suffix),
+    ``truncated`` (no footer and closing magic), ``truncated_at_s`` [s] the last sample
+    time in a truncated file, ``statistics_ok`` (the summary's message counts equal the
+    messages read; ``null`` without a summary) and ``error`` (what the reader stopped on).
+``scenario``
+    ``name`` and ``config`` (the record's ``json`` parsed), ``null`` fields when absent.
+``estimator``
+    Advanced controllers (``controller/status`` estimates against ``truth`` at the same
+    sample time): ``wind_speed_error_mean_pct`` [%] 100 mean(Û − U)/mean(U),
+    ``wind_speed_error_rms_m_s`` [m/s], ``platform_pitch_rate_error_rms_rad_s`` [rad/s],
+    ``platform_surge_velocity_error_rms_m_s`` [m/s], ``degraded_fraction`` [-] of cycles with
+    ``estimator_degraded``; ``null`` when no estimate was published.
+``forecast``
+    ``vaf_pct`` [%] of the published wave forecast against the true platform elevation at the
+    time each forecast is for, 100 (1 − var(η − η̂)/var(η)); ``samples`` [1] distinct forecasts.
+``controller``
+    ``compute_us.{p50,p99,max}`` [us] of the status ``compute_time_ns`` (as in ``timing``);
+    the controller's safe mode and rejected frames: ``source`` (``"controller/report"``, the
+    controller's final :class:`~bus_schemas.messages.ControllerReport`, else ``"commands"``:
+    derived from the ``command`` channel's ``mode`` flags), ``safe_mode_entered``,
+    ``safe_mode_entries`` [1], ``safe_mode_first_entry_s`` [s], ``safe_mode_commands`` [1],
+    ``safe_mode_at_end``, ``safe_mode_s`` [s] (commands sent with ``mode`` = safe times
+    ``control_period_s``), ``commands`` [1] published, ``frames_missing``, ``frames_stale``
+    [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
+    commands) and ``frames_rejected_total`` [1].
+``plant``
+    ``source`` (``"timing/report"``, the plant's final
+    :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
+    ``commands_applied`` [1], ``commands_rejected`` ``{reason: count}`` (``null`` without
+    the report) and ``commands_rejected_total`` [1].
+``recording``
+    Whether the file holds every message the nodes published (:func:`hil.runlog.completeness.
+    completeness`): ``complete`` (bool), ``topics`` (per topic suffix ``recorded`` and
+    ``expected`` [1], the latter from the plant's ``timing/report`` and the controller's
+    ``controller/report``, ``null`` where no report covers the topic), ``problems`` (one
+    sentence per gap; a missing final summary or report is one), ``plant_report`` and
+    ``controller_report`` (bool: present).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+from rich.markup import escape
+from rich.table import Table
+
+from bus_schemas.messages import (
+    CONTROLLER_REJECT_REASONS,
+    EST_FEEDFORWARD,
+    EST_PLATFORM_PITCH_RATE,
+    EST_PLATFORM_SURGE_VELOCITY,
+    EST_WAVE_FORECAST,
+    EST_WIND_SPEED,
+    PLANT_REJECT_REASONS,
+    VALID_BITS,
+)
+from hil.review import kpi
+from hil.review import stream as rs
+from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
+from hil.runlog.completeness import completeness, describe
+from hil.runlog.mcap_io import PROFILE, MessageList, RunData, read_run
+from hil.scenario.schema import ReviewSection
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Wöhler exponent used for the shaft (and thrust) DEL in the summary (the bench's one value).
+SHAFT_WOHLER_M = kpi.DEL_WOHLER_M
+#: Equivalent-load frequency of the DELs in the summary [Hz] (the bench's one value).
+DEL_N_EQ_HZ = kpi.DEL_N_EQ_HZ
+
+PLOT_FILES = ("timeseries.png", "timing.png", "psd.png")
+
+#: Start-up settling time left out of the KPIs when the log's scenario has no ``[review]
+#: settle_s`` [s] (see :func:`kpi_window`); the default of ``hil.scenario.schema.ReviewSection``.
+DEFAULT_SETTLE_S = ReviewSection().settle_s
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _col(msgs: Sequence[dict[str, Any]], name: str) -> FloatArray:
+    """One field of a message list as a float array (missing values as nan; a
+    :class:`hil.runlog.mcap_io.MessageList` gives it from its rows)."""
+    if isinstance(msgs, MessageList):
+        return msgs.column(name)
+    return np.array([m.get(name, math.nan) for m in msgs], dtype=np.float64)
+
+
+def _t_s(msgs: Sequence[dict[str, Any]]) -> FloatArray:
+    """Simulated time of each message [s]."""
+    return _col(msgs, "sample_time_ns") / 1e9
+
+
+def _clean(obj: Any) -> Any:
+    """Recursively replace non-finite floats by None and numpy scalars by Python ones."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.floating):
+        obj = float(obj)
+    return kpi.finite_or_none(obj)
+
+
+def _suffix(topic: str) -> str:
+    """``fowt/<turbine>/controller/status`` -> ``controller/status``."""
+    parts = topic.split("/", 2)
+    return parts[2] if len(parts) == 3 else topic
+
+
+def _turbine(topics: Iterable[str]) -> str | None:
+    for topic in topics:
+        parts = topic.split("/", 2)
+        if len(parts) == 3 and parts[0] == "fowt":
+            return parts[1]
+    return None
+
+
+class NotRunLogError(ValueError):
+    """The file is an MCAP file, but not a run log of this bench (nothing to review)."""
+
+
+def check_run_log(run: RunData | RunInfo, source: Path | str = "") -> None:
+    """Raise :class:`NotRunLogError` unless ``run`` is a run log of this bench.
+
+    A run log of this bench has the ``fowt-hil`` profile in its MCAP Header
+    (:data:`hil.runlog.mcap_io.PROFILE`; every node and campaign log) or at least one channel
+    under ``fowt/`` (a multi-turbine platform's log has an empty profile). Anything else (a
+    robot's ``/robot/pose``, an empty MCAP file) has none of the channels the review reads:
+    its summary would be all ``null`` and its plots empty, so it is refused before anything
+    is written.
+
+    Parameters
+    ----------
+    run : RunData or RunInfo
+        What :func:`hil.runlog.mcap_io.read_run` (or :class:`hil.runlog.columns.ColumnReader`) read.
+    source : Path or str
+        The file, for the message.
+    """
+    names = list(run.messages) if isinstance(run, RunData) else run.topics
+    if run.profile == PROFILE or any(t.startswith("fowt/") for t in names):
+        return
+    topics = sorted(names)
+    shown = ", ".join(topics[:5]) + (f" and {len(topics) - 5} more" if len(topics) > 5 else "")
+    where = f"{source}: " if str(source) else ""
+    raise NotRunLogError(
+        f"not a fowt-hil run log: {where}profile {run.profile or ''!r}, no fowt/ channel "
+        f"(channels: {shown or 'none'})"
+    )
+
+
+def review_problems(summary: dict[str, Any]) -> list[str]:
+    """What keeps a reviewed run log from being a complete record (``--strict`` fails on any).
+
+    A truncated or damaged file (:func:`truncation_note`), summary statistics that differ
+    from the messages read, and a bench run without the plant's final timing summary (the
+    plant did not finish: its counts come from the logged cycles). Empty when complete.
+    """
+    out: list[str] = []
+    run = summary.get("run", {})
+    note = truncation_note(summary)
+    if note:
+        out.append(note)
+    elif run.get("statistics_ok") is False:
+        out.append(str(run.get("error")))
+    if summary.get("kind") != "hexicon" and summary.get("timing", {}).get("complete") is False:
+        out.append("no final timing summary: the plant did not finish the run")
+    return out
+
+
+def _int_or_none(v: Any) -> int | None:
+    return None if v is None else int(v)
+
+
+# --------------------------------------------------------------------------- summary
+
+
+def _cycle_latency_ns(cycles: Sequence[dict[str, Any]]) -> tuple[FloatArray, int]:
+    """Every cycle's sensor-to-command latency [ns] and the count of unanswered cycles.
+
+    A cycle that met its deadline logs its latency; a missed one logs the latency of the
+    command that came after the deadline (``hil.nodes.plant_node``, real-time mode), or 0 when
+    none came before the next tick: that cycle counts as unanswered, latency ``inf``.
+    """
+    lat = _col(cycles, "latency_ns")
+    missed = _col(cycles, "deadline_missed") > 0
+    keep = np.isfinite(lat) & ((lat > 0) | missed)
+    lat, missed = lat[keep], missed[keep]
+    none = missed & (lat <= 0)
+    lat = np.where(none, np.inf, lat)
+    return lat, int(none.sum())
+
+
+def _deadline_us(run: RunData | RunInfo) -> float:
+    """The command deadline in wall time [us]: the control period / the speed factor."""
+    cfg = _scenario(run).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    if not isinstance(period, int | float):
+        return math.nan
+    try:
+        speed = float(run.metadata.get("run", {}).get("speed", "1"))
+    except ValueError:
+        speed = 1.0
+    return float(period) * 1e6 / (speed if speed > 0 else 1.0)
+
+
+def _since(msgs: list[dict[str, Any]], t0_s: float) -> list[dict[str, Any]]:
+    """The messages whose sample time is at or after ``t0_s`` [s]."""
+    t0_ns = t0_s * 1e9
+    if isinstance(msgs, MessageList):
+        return msgs.since("sample_time_ns", t0_ns)
+    return [m for m in msgs if m.get("sample_time_ns", -1) >= t0_ns]
+
+
+def kpi_window(run: RunData) -> dict[str, Any]:
+    """The part of the run the KPIs are computed over (the start-up transient left out).
+
+    The scenario's ``[review] settle_s`` (:data:`DEFAULT_SETTLE_S` = 40 s when absent, e.g. in
+    a log written before the key existed) is the requested settling time T_s. The KPIs use the
+    truth samples with t >= t_0, t_0 = min(T_s, t_end / 2): a run shorter than 2 T_s keeps
+    its second half (``shortened`` True), so short test and CI runs still review.
+
+    Returns
+    -------
+    dict
+        ``settle_s`` (requested T_s), ``from_s`` (t_0), ``to_s`` (last truth sample, None
+        without one) [s] and ``shortened``.
+    """
+    cfg = _scenario(run).get("config") or {}
+    rv = cfg.get("review") if isinstance(cfg, dict) else None
+    settle = DEFAULT_SETTLE_S
+    if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
+        settle = float(rv["settle_s"])
+    t = _t_s(run.topic("truth"))
+    t = t[np.isfinite(t)]
+    end = float(t.max()) if t.size else math.nan
+    start = kpi.window_start_s(end, settle)
+    return {
+        "settle_s": settle,
+        "from_s": start,
+        "to_s": end,
+        "shortened": bool(start < settle),
+    }
+
+
+#: ``ActuatorCommand.mode`` of a command sent in the controller's safe mode
+#: (:data:`hil.nodes.controller_node.MODE_SAFE`; not imported: that module loads the bus).
+MODE_SAFE_COMMAND = 2
+
+
+def _control_period_s(run: RunData, commands: Sequence[dict[str, Any]]) -> float:
+    """The scenario's control period [s], else the median spacing of the commands' times."""
+    period = _scenario_period_s(run)
+    if math.isfinite(period):
+        return period
+    t = _t_s(commands)
+    t = t[np.isfinite(t)]
+    return float(np.median(np.diff(t))) if t.size >= 2 else math.nan
+
+
+def _final_record(msgs: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+    """The last message with ``final`` = 1, else the last one (None: no message)."""
+    final = next((m for m in reversed(msgs) if int(m.get("final", 0)) == 1), None)
+    return final if final is not None else (msgs[-1] if msgs else None)
+
+
+def _reasons(record: dict[str, Any], prefix: str, reasons: tuple[str, ...]) -> dict[str, int]:
+    """``{reason: count}`` of a report's ``<prefix>_<reason>`` fields."""
+    return {r: int(record.get(f"{prefix}_{r}", 0)) for r in reasons}
+
+
+def _scenario(run: RunData | RunInfo) -> dict[str, Any]:
+    rec = run.metadata.get("scenario", {})
+    out: dict[str, Any] = {"name": rec.get("name"), "config": None}
+    raw = rec.get("json")
+    if raw:
+        try:
+            out["config"] = json.loads(raw)
+        except ValueError as exc:
+            out["config_error"] = f"{type(exc).__name__}: {exc}"
+    return out
+
+
+class _Summary:
+    """The review's figures accumulated over batches of columns (:mod:`hil.review.stream`).
+
+    Feed every :class:`hil.runlog.columns.ColumnBatch` of the run to :meth:`add` in file
+    order, then :meth:`result` with the run's :class:`hil.runlog.columns.RunInfo` gives
+    :func:`summarize`'s dict. The figures are those of the module docstring, computed as
+    over whole series (see :mod:`hil.review.stream` for how each is kept).
+    """
+
+    def __init__(self, info: RunInfo) -> None:
+        self.info = info
+        self.t_min, self.t_max = math.inf, -math.inf
+        # timing/cycle
+        self.latency = rs.Store()
+        self.unanswered = 0
+        self.cycles = 0
+        self.cycle_sums = {"deadline_missed": 0, "command_held": 0}
+        self.cycle_safe = 0
+        self.cycle_first: tuple[float, float] | None = None
+        self.cycle_last: tuple[float, float] = (math.nan, math.nan)
+        # timing/summary
+        self.last_summary: dict[str, Any] | None = None
+        self.final_summary: dict[str, Any] | None = None
+        # controller/status
+        self.compute = rs.Store()
+        self.status_count = 0
+        self.last_rejected = math.nan
+        # command
+        self.commands = 0
+        self.safe_prev = False
+        self.safe_entries = 0
+        self.safe_first_s: float | None = None
+        self.safe_count = 0
+        self.safe_last: bool | None = None
+        self.cmd_last_t = math.nan
+        self.cmd_diffs: Counter[float] = Counter()
+        self.rows: dict[str, list[dict[str, Any]]] = {t: [] for t in rs.ROW_TOPICS}
+        # windowed (KPI window): truth, sensors, joined status
+        self.window: rs.Window | None = None
+        self.truth_any = False
+        self.k = {
+            n: rs.Moments()
+            for n in (
+                "electrical_power_w",
+                "rotor_speed_rad_s",
+                "generator_torque_nm",
+                "rotor_thrust_n",
+                "platform_pitch_rad",
+                "platform_surge_m",
+                "tower_base_moment_nm",
+                "platform_pitch_measured_rad",
+            )
+        }
+        self.floating_sum = 0.0
+        self.window_truth = 0
+        self.pitch_finite = True
+        self.travel = rs.Travel()
+        self.dels = {
+            n: rs.Reversals() for n in ("shaft_torque_nm", "tower_base_moment_nm", "rotor_thrust_n")
+        }
+        self.join = rs.TruthJoin(lambda cols: self._window().feed("status", cols))
+        self.w_status = 0
+        self.w_mask_finite = True
+        self.w_degraded = 0
+        self.wind = [0, 0.0, 0.0, 0.0]  # n, Σe, Σu, Σe²
+        self.rms = {"pr": [0, 0.0], "sv": [0, 0.0]}
+        self.f_prev = math.nan
+        self.f_started = False
+        self.f_ok = 0
+        self.f_eta = rs.Moments()
+        self.f_err = rs.Moments()
+        self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
+
+    def _window(self) -> rs.Window:
+        if self.window is None:  # the scenario's metadata comes before the messages
+            self.window = rs.Window(_settle_s(self.info), self._windowed)
+        return self.window
+
+    def add(self, b: ColumnBatch) -> None:
+        c = b.columns
+        t = c["sample_time_ns"]
+        fin = t[np.isfinite(t)]
+        if fin.size:
+            self.t_min = min(self.t_min, float(fin.min()))
+            self.t_max = max(self.t_max, float(fin.max()))
+        if not b.first:
+            return
+        s = b.suffix
+        if s == "truth":
+            self.truth_any = True
+            self._window().truth_times(t / 1e9)
+            self._window().feed("truth", {"t_ns": t, **c})
+            self.join.add_truth(c)
+        elif s == "sensors":
+            self._window().feed("sensors", {"t_ns": t, **c})
+        elif s == "controller/status":
+            self.compute.add(c["compute_time_ns"])
+            self.status_count += b.size
+            self.last_rejected = float(c["rejected_frames"][-1])
+            self.join.add_status(c)
+        elif s == "timing/cycle":
+            self._cycles(c, b.size)
+        elif s == "timing/summary":
+            self.last_summary = b.row(b.size - 1)
+            final = np.flatnonzero(c["final"] == 1)
+            if final.size:
+                self.final_summary = b.row(int(final[-1]))
+        elif s == "command":
+            self._commands(c, b.size)
+        elif s in self.rows:
+            self.rows[s].extend(b.row(i) for i in range(b.size))
+
+    def _cycles(self, c: dict[str, np.ndarray], n: int) -> None:
+        lat = c["latency_ns"]
+        missed = c["deadline_missed"] > 0
+        keep = np.isfinite(lat) & ((lat > 0) | missed)
+        none = missed & (lat <= 0) & keep
+        self.latency.add(np.where(none, np.inf, lat)[keep])
+        self.unanswered += int(none.sum())
+        self.cycles += n
+        for name in self.cycle_sums:
+            self.cycle_sums[name] += int(np.nansum(c[name]))
+        self.cycle_safe = max(self.cycle_safe, int(np.nanmax(np.nan_to_num(c["safe_state"]))))
+        t, w = c["sample_time_ns"], c["publish_time_ns"]
+        if self.cycle_first is None:
+            self.cycle_first = (float(t[0]), float(w[0]))
+        self.cycle_last = (float(t[-1]), float(w[-1]))
+
+    def _commands(self, c: dict[str, np.ndarray], n: int) -> None:
+        t = c["sample_time_ns"] / 1e9
+        safe = c["mode"] == MODE_SAFE_COMMAND
+        before = np.concatenate(([self.safe_prev], safe[:-1]))
+        entries = np.flatnonzero(safe & ~before)
+        if entries.size and self.safe_first_s is None:
+            self.safe_first_s = float(t[entries[0]])
+        self.safe_entries += int(entries.size)
+        self.safe_count += int(safe.sum())
+        self.safe_prev = bool(safe[-1])
+        self.safe_last = bool(safe[-1])
+        self.commands += n
+        tf = t[np.isfinite(t)]
+        if tf.size:
+            self.cmd_diffs.update(np.diff(np.concatenate(([self.cmd_last_t], tf))).tolist())
+            if math.isnan(self.cmd_last_t):
+                del self.cmd_diffs[next(k for k in self.cmd_diffs if math.isnan(k))]
+            self.cmd_last_t = float(tf[-1])
+
+    def _windowed(self, kind: str, c: dict[str, np.ndarray]) -> None:
+        """A batch inside the KPI window (t >= t_0)."""
+        if kind == "truth":
+            self.window_truth += c["t_ns"].size
+            t = c["sample_time_ns"] / 1e9
+            for name in (
+                "electrical_power_w",
+                "rotor_speed_rad_s",
+                "generator_torque_nm",
+                "rotor_thrust_n",
+                "platform_pitch_rad",
+                "platform_surge_m",
+                "tower_base_moment_nm",
+            ):
+                self.k[name].add(c[name])
+            self.pitch_finite = self.pitch_finite and bool(
+                np.isfinite(c["platform_pitch_rad"]).all()
+            )
+            self.floating_sum += float(np.nansum(np.abs(c["floating"])))
+            self.travel.add(c["blade_pitch_rad"], t)
+            for name, acc in self.dels.items():
+                acc.add(c[name], t)
+        elif kind == "sensors":
+            self.k["platform_pitch_measured_rad"].add(c["platform_pitch_measured_rad"])
+        else:
+            self._window_status(c)
+
+    def _window_status(self, c: dict[str, np.ndarray]) -> None:
+        n = c["t_ns"].size
+        self.w_status += n
+        mask = c["estimates_valid_mask"]
+        self.w_mask_finite = self.w_mask_finite and bool(np.isfinite(mask).all())
+        m = np.where(np.isfinite(mask), mask, 0).astype(np.int64)
+        self.w_degraded += int(np.count_nonzero(c["estimator_degraded"] > 0))
+        inside = c["inside"]
+        sel = inside & ((m & EST_WIND_SPEED) != 0)
+        if sel.any():
+            u = c["truth_wind_speed_m_s"][sel]
+            e = c["wind_speed_estimated_m_s"][sel] - u
+            self.wind[0] += int(sel.sum())
+            self.wind[1] += float(np.sum(e))
+            self.wind[2] += float(np.sum(u))
+            self.wind[3] += float(np.sum(e * e))
+        for key, bit, est, tru in (
+            (
+                "pr",
+                EST_PLATFORM_PITCH_RATE,
+                "platform_pitch_rate_estimated_rad_s",
+                "truth_platform_pitch_rate_rad_s",
+            ),
+            (
+                "sv",
+                EST_PLATFORM_SURGE_VELOCITY,
+                "platform_surge_velocity_estimated_m_s",
+                "truth_platform_surge_velocity_m_s",
+            ),
+        ):
+            sel = inside & ((m & bit) != 0)
+            if sel.any():
+                e = c[est][sel] - c[tru][sel]
+                self.rms[key][0] += int(sel.sum())
+                self.rms[key][1] += float(np.sum(e * e))
+        f_sel = (m & EST_WAVE_FORECAST) != 0
+        if f_sel.any():
+            f_t = c["wave_forecast_time_ns"][f_sel]
+            keep = np.empty(f_t.size, bool)
+            keep[0] = not self.f_started or f_t[0] != self.f_prev
+            keep[1:] = f_t[1:] != f_t[:-1]  # a forecast is held between forecaster calls
+            self.f_started, self.f_prev = True, float(f_t[-1])
+            ok = c["f_ok"][f_sel] & keep
+            if ok.any():
+                eta = c["truth_eta_at_forecast"][f_sel][ok]
+                self.f_ok += int(ok.sum())
+                self.f_eta.add(eta)
+                self.f_err.add(eta - c["wave_elevation_forecast_m"][f_sel][ok])
+        for name in self.f_max:
+            col = c[name]
+            if np.isfinite(col).any():
+                self.f_max[name] = max(self.f_max[name], float(np.nanmax(col)))
+
+    def result(self) -> dict[str, Any]:
+        """:func:`summarize`'s dict (call once, after the last batch)."""
+        self.join.finish()
+        window = self._window().finish()
+        summary = {
+            "timing": self._timing(),
+            "kpi": self._kpis(),
+            "kpi_window": window,
+            "run": self._run_info(),
+            "scenario": _scenario(self.info),
+            **self._estimates(),
+            "recording": self._recording(),
+            "plant": self._plant_account(),
+        }
+        summary["controller"].update(self._controller_account())
+        return summary
+
+    def _timing(self) -> dict[str, Any]:
+        final, last_summary = self.final_summary, self.final_summary or self.last_summary
+        lat_ns = self.latency.array()
+        plant_lat = (
+            {
+                "p50": last_summary.get("latency_p50_us"),
+                "p99": last_summary.get("latency_p99_us"),
+                "p999": last_summary.get("latency_p999_us"),
+                "max": last_summary.get("latency_max_us"),
+            }
+            if last_summary is not None
+            else {"p50": None, "p99": None, "p999": None, "max": None}
+        )
+        if lat_ns.size or last_summary is None:
+            latency: dict[str, Any] = dict(kpi.latency_percentiles_us(lat_ns))
+            latency_source = "timing/cycle"
+        else:
+            latency = dict(plant_lat)
+            latency_source = "timing/summary"
+        out: dict[str, Any] = {
+            "complete": final is not None,
+            "latency_us": latency,
+            "latency_cycles": int(lat_ns.size),
+            "unanswered_cycles": self.unanswered,
+            "deadline_us": _deadline_us(self.info),
+            "latency_source": latency_source,
+            "latency_us_plant": plant_lat,
+            "cycles_logged": self.cycles,
+        }
+        if final is not None:
+            out.update(
+                cycles=int(final["cycles"]),
+                deadline_misses=int(final["deadline_misses"]),
+                commands_held=int(final["commands_held"]),
+                commands_rejected=int(final["commands_rejected"]),
+                commands_late=int(final["commands_late"]),
+                safe_state=int(final["safe_state"]),
+                safe_state_cycles=int(final.get("safe_state_cycles", 0)),
+                faults_injected=int(final.get("faults_injected", 0)),
+                sim_seconds_per_wall_second=float(final["sim_seconds_per_wall_second"]),
+            )
+        else:
+            # Crashed run: count what the logged cycles show. Rejected and late commands are
+            # not in the cycle record; the last running summary (if any) gives a lower bound.
+            speed = math.nan
+            if self.cycles >= 2 and self.cycle_first is not None:
+                (s0, w0), (s1, w1) = self.cycle_first, self.cycle_last
+                if w1 > w0:
+                    speed = float((s1 - s0) / (w1 - w0))
+            out.update(
+                cycles=self.cycles,
+                deadline_misses=self.cycle_sums["deadline_missed"],
+                commands_held=self.cycle_sums["command_held"],
+                commands_rejected=_int_or_none(
+                    last_summary.get("commands_rejected") if last_summary else None
+                ),
+                commands_late=_int_or_none(
+                    last_summary.get("commands_late") if last_summary else None
+                ),
+                safe_state=self.cycle_safe,
+                sim_seconds_per_wall_second=speed,
+            )
+        out["controller_compute_us"] = self._compute_us()
+        return out
+
+    def _compute_us(self) -> dict[str, float]:
+        return kpi.percentiles(self.compute.array() / 1e3, [50.0, 99.0], ["p50", "p99", "max"])
+
+    def _kpis(self) -> dict[str, Any]:
+        k = self.k
+        pitch, surge = k["platform_pitch_rad"], k["platform_surge_m"]
+        if self.window_truth and not self.pitch_finite:  # a log of PlantState version 1
+            pitch = k["platform_pitch_measured_rad"]
+        floating = bool(self.window_truth) and self.floating_sum > 0
+        pitch_mean = math.degrees(pitch.mean()) if floating else math.nan
+        pitch_std = math.degrees(pitch.std()) if floating else math.nan
+        dels = {
+            n: acc.damage_equivalent_load(SHAFT_WOHLER_M, DEL_N_EQ_HZ)
+            for n, acc in self.dels.items()
+        }
+        return {
+            "mean_power_w": k["electrical_power_w"].mean(),
+            "rotor_speed_mean_rad_s": k["rotor_speed_rad_s"].mean(),
+            "rotor_speed_std_rad_s": k["rotor_speed_rad_s"].std(),
+            "pitch_travel_deg_s": self.travel.per_second(),
+            "generator_torque_mean_nm": k["generator_torque_nm"].mean(),
+            "thrust_mean_n": k["rotor_thrust_n"].mean(),
+            "thrust_max_n": k["rotor_thrust_n"].max(),
+            "shaft_del_nm": dels["shaft_torque_nm"],
+            "tower_base_del_nm": dels["tower_base_moment_nm"],
+            "thrust_del_n": dels["rotor_thrust_n"],
+            "shaft_del_wohler_m": SHAFT_WOHLER_M,
+            "del_n_eq_hz": DEL_N_EQ_HZ,
+            "platform_pitch_mean_deg": pitch_mean,
+            "platform_pitch_std_deg": pitch_std,
+            "surge_mean_m": surge.mean() if floating else math.nan,
+            "surge_std_m": surge.std() if floating else math.nan,
+            "tower_base_moment_mean_nm": k["tower_base_moment_nm"].mean(),
+        }
+
+    def _estimates(self) -> dict[str, Any]:
+        nan = math.nan
+        est: dict[str, Any] = {
+            "wind_speed_error_mean_pct": nan,
+            "wind_speed_error_rms_m_s": nan,
+            "platform_pitch_rate_error_rms_rad_s": nan,
+            "platform_surge_velocity_error_rms_m_s": nan,
+            "degraded_fraction": nan,
+        }
+        fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
+        out = {"estimator": est, "forecast": fc, "controller": {"compute_us": self._compute_us()}}
+        if not self.w_status or not self.truth_any or not self.w_mask_finite:
+            return out  # no estimate, or a log of ControllerStatus version 1
+        est["degraded_fraction"] = self.w_degraded / self.w_status
+        n, se, su, see = self.wind
+        if n:
+            est["wind_speed_error_mean_pct"] = float(100.0 * (se / n) / (su / n))
+            est["wind_speed_error_rms_m_s"] = math.sqrt(see / n)
+        for key, name in (
+            ("pr", "platform_pitch_rate_error_rms_rad_s"),
+            ("sv", "platform_surge_velocity_error_rms_m_s"),
+        ):
+            k, s2 = self.rms[key]
+            if k:
+                est[name] = math.sqrt(s2 / k)
+        if self.f_ok >= 2:
+            fc["samples"] = self.f_ok
+            var = self.f_eta.m2 / self.f_eta.n
+            if var > 0.0:
+                fc["vaf_pct"] = float(100.0 * (1.0 - (self.f_err.m2 / self.f_err.n) / var))
+        for key, name in (
+            ("unstable_fits", "forecast_unstable_fits"),
+            ("guarded", "forecast_guarded"),
+        ):
+            v = self.f_max[name]
+            fc[key] = int(v) if math.isfinite(v) else 0
+        return out
+
+    def _run_info(self) -> dict[str, Any]:
+        info = self.info
+        t_min, t_max = self.t_min, self.t_max
+        duration = (t_max - t_min) / 1e9 if t_max >= t_min else math.nan
+        out: dict[str, Any] = dict(info.metadata.get("run", {}))
+        out.update(
+            turbine=_turbine(info.topics),
+            duration_s=duration,
+            messages={_suffix(k): info.counts[k] for k in info.topics},
+            truncated=info.truncated,
+            truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if info.truncated else None,
+            statistics_ok=info.statistics_ok,
+            error=info.error,
+            skipped_ranges=[r.as_dict() for r in info.skipped],
+        )
+        return out
+
+    def _recording(self) -> dict[str, Any]:
+        info = self.info
+        recorded = {_suffix(k): info.counts[k] for k in info.topics}
+        plant = self.rows["timing/report"]
+        return completeness(
+            recorded,
+            plant[-1] if plant else None,
+            self.rows["controller/report"],
+            self.final_summary is not None,
+        )
+
+    def _plant_account(self) -> dict[str, Any]:
+        report = _final_record(self.rows["timing/report"])
+        if report is not None:
+            rejected = _reasons(report, "commands_rejected", PLANT_REJECT_REASONS)
+            return {
+                "source": "timing/report",
+                "report_final": bool(int(report.get("final", 0))),
+                "commands_applied": int(report.get("commands_applied", 0)),
+                "commands_rejected": rejected,
+                "commands_rejected_total": sum(rejected.values()),
+            }
+        summary = self.final_summary or self.last_summary
+        if summary is None:
+            return {
+                "source": None,
+                "commands_applied": None,
+                "commands_rejected": None,
+                "commands_rejected_total": None,
+            }
+        return {
+            "source": "timing/summary",
+            "commands_applied": int(summary.get("cycles", 0))
+            - int(summary.get("commands_held", 0)),
+            "commands_rejected": None,
+            "commands_rejected_total": int(summary.get("commands_rejected", 0)),
+        }
+
+    def _controller_account(self) -> dict[str, Any]:
+        report = _final_record(self.rows["controller/report"])
+        period = _scenario_period_s(self.info)
+        if not math.isfinite(period):
+            period = rs.median_of_counts(self.cmd_diffs)
+        out: dict[str, Any] = {
+            "source": "commands",
+            "commands": self.commands,
+            "safe_mode_entries": self.safe_entries,
+            "safe_mode_first_entry_s": self.safe_first_s,
+            "safe_mode_commands": self.safe_count,
+            "safe_mode_at_end": self.safe_last,
+            "frames_missing": None,
+            "frames_stale": None,
+            "frames_rejected": None,
+            "frames_rejected_total": None,
+        }
+        if self.status_count:
+            last = self.last_rejected
+            out["frames_rejected_total"] = int(last) if math.isfinite(last) else None
+        if report is not None:
+            rejected = _reasons(report, "frames_rejected", CONTROLLER_REJECT_REASONS)
+            first_ns = int(report.get("safe_mode_first_entry_ns", 0))
+            out.update(
+                source="controller/report",
+                report_final=bool(int(report.get("final", 0))),
+                commands=int(report.get("commands_published", self.commands)),
+                safe_mode_entries=int(report.get("safe_mode_entries", 0)),
+                safe_mode_first_entry_s=first_ns / 1e9
+                if int(report.get("safe_mode_entries", 0))
+                else None,
+                safe_mode_commands=int(report.get("safe_mode_commands", 0)),
+                safe_mode_at_end=bool(int(report.get("safe_mode", 0))),
+                frames_missing=int(report.get("frames_missing", 0)),
+                frames_stale=int(report.get("frames_stale", 0)),
+                frames_rejected=rejected,
+                frames_rejected_total=sum(rejected.values()),
+            )
+        n_safe = self.safe_count if self.commands else int(out["safe_mode_commands"])
+        out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
+        out["safe_mode_entered"] = bool(out["safe_mode_entries"])
+        out["control_period_s"] = period
+        return out
+
+
+def _settle_s(info: RunInfo) -> float:
+    """The scenario's ``[review] settle_s`` [s] (:data:`DEFAULT_SETTLE_S` when absent)."""
+    cfg = _scenario(info).get("config") or {}
+    rv = cfg.get("review") if isinstance(cfg, dict) else None
+    if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
+        return float(rv["settle_s"])
+    return DEFAULT_SETTLE_S
+
+
+def _scenario_period_s(info: RunInfo | RunData) -> float:
+    """The scenario's control period [s] (nan when absent)."""
+    cfg = _scenario(info).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    return float(period) if isinstance(period, int | float) and period > 0 else math.nan
+
+
+def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str, Any]:
+    """The summary of a run given as batches of columns (filled into ``info`` meanwhile).
+
+    Parameters
+    ----------
+    batches : iterable of ColumnBatch
+        :meth:`hil.runlog.columns.ColumnReader.batches` (a file, chunk by chunk) or
+        :func:`hil.runlog.columns.run_batches` (a run in memory).
+    info : RunInfo
+        The run's counts, metadata and reading state; complete once ``batches`` is.
+    """
+    acc = _Summary(info)
+    for b in batches:
+        acc.add(b)
+    cleaned: dict[str, Any] = _clean(acc.result())
+    return cleaned
+
+
+def summarize(run: RunData) -> dict[str, Any]:
+    """Summary of one run from the MCAP contents alone (JSON-ready, nan as None).
+
+    Parameters
+    ----------
+    run : RunData
+        Output of :func:`hil.runlog.mcap_io.read_run` (possibly truncated), or a run in memory.
+
+    Returns
+    -------
+    dict
+        ``{"timing", "kpi", "run", "scenario", ...}``; keys and units in the module
+        docstring. The same figures as :func:`review` computes from the file by streaming.
+    """
+    # The status before the truth of the same cycles: the join keeps the truth from the
+    # last status it resolved on (hil.review.stream.TruthJoin).
+    batches = run_batches(run, rs.FIELDS, lead=("controller/status",))
+    return summarize_batches(batches, run_info(run))
+
+
+# --------------------------------------------------------------------------- plots
+
+
+def _no_data(ax: Any, text: str = "no data") -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+#: Wall-clock resolution wanted of the PSD: 0.004 Hz puts two bins below the surge mode of
+#: a semi-submersible (about 0.008 Hz) and resolves its pitch mode (about 0.037 Hz).
+PSD_TARGET_SEGMENT_S = 250.0
+
+RPM_PER_RAD_S = 30.0 / math.pi
+
+
+def _measured(sensors: Sequence[dict[str, Any]], name: str) -> FloatArray:
+    """A measured field with the samples whose valid bit is clear as nan (gaps, not zeros)."""
+    x = _col(sensors, name)
+    bit = VALID_BITS.get(name)
+    if bit is not None and sensors:
+        valid = (_col(sensors, "valid_mask").astype(np.int64) & bit) > 0
+        x = np.where(valid, x, np.nan)
+    return x
+
+
+def _invalid_spans(t: FloatArray, invalid: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:
+    """Time spans [s] of consecutive invalid samples (each to the next sample's time)."""
+    if not invalid.any():
+        return []
+    edges = np.diff(np.concatenate(([0], invalid.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return [(float(t[a]), float(t[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+
+
+def _is_floating(truth: Sequence[dict[str, Any]]) -> bool:
+    return bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
+
+
+def psd_segment(n: int, fs_hz: float) -> int:
+    """Welch segment length [samples] for a record of ``n`` samples at ``fs_hz``.
+
+    min(:data:`PSD_TARGET_SEGMENT_S` fs, n / 2): at most what resolves the platform modes, and
+    at least three half-overlapping segments to average; never fewer than 8 samples (or n).
+    The frequency resolution is fs / nperseg.
+    """
+    return int(max(min(n, 8), min(round(PSD_TARGET_SEGMENT_S * fs_hz), n // 2)))
+
+
+def write_plots(run: RunData, out_dir: Path) -> list[Path]:
+    """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
+
+    Uses the Agg backend (selected here, not at import). Panels with no data say so.
+
+    * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
+      transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
+      valid bit is clear (dropout) is a gap; the platform panels say "bottom-fixed" for a
+      plant without one. The KPI window's start is a dotted line. The plant's safe-state
+      windows are shaded, the controller's safe-mode windows hatched, and each start of the
+      feedforward is a dash-dotted vertical line (:func:`run_events`), each with one legend
+      entry on the top panel.
+    * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
+      cycle with missed cycles marked (late command at its latency, or no command at all).
+    * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
+      :func:`psd_segment`, its resolution in each title) of the rotor speed [rpm²/Hz], blade
+      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz].
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order above.
+    """
+    # Lazy: selecting a backend at import would be a global side effect for importers.
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    truth = run.topic("truth")
+    cycles = run.topic("timing/cycle")
+    window = kpi_window(run)
+    name = _scenario(run).get("name") or "run"
+    mode = run.metadata.get("run", {}).get("mode", "")
+    label = f"{name}" + (f" ({mode})" if mode else "")
+    written: list[Path] = []
+    path = out_dir / "timeseries.png"
+    _timeseries_plot(run, window, label, path, plt)
+    written.append(path)
+    path = out_dir / "timing.png"
+    _timing_plot(run, cycles, label, path, plt)
+    written.append(path)
+    path = out_dir / "psd.png"
+    _psd_plot(truth, window, label, path, plt)
+    written.append(path)
+    return written
+
+
+def _timeseries_plot(
+    run: RunData, window: dict[str, Any], label: str, path: Path, plt: Any
+) -> None:
+    truth = run.topic("truth")
+    sensors = run.topic("sensors")
+    command = run.topic("command")
+    tt, ts, tc = _t_s(truth), _t_s(sensors), _t_s(command)
+    floating = _is_floating(truth)
+    behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
+    front = {"lw": 1.3, "zorder": 3}
+    cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
+    fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True, layout="constrained")
+
+    def meas(ax: Any, field: str, scale: float = 1.0, text: str = "measured") -> None:
+        if not sensors:
+            return
+        x = _measured(sensors, field)
+        ax.plot(ts, x * scale, label=text, **behind)
+        gaps = _invalid_spans(ts, np.isnan(x) & np.isfinite(_col(sensors, field)))
+        for i, (a, b) in enumerate(gaps):
+            ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if i else "invalid")
+
+    ax = axes[0]
+    meas(ax, "wind_speed_measured_m_s", text="nacelle anemometer")
+    if truth:
+        ax.plot(tt, _col(truth, "wind_speed_m_s"), label="hub wind (truth)", **front)
+    ax.set_ylabel("wind speed [m/s]")
+    ax = axes[1]
+    meas(ax, "rotor_speed_measured_rad_s", RPM_PER_RAD_S)
+    if truth:
+        ax.plot(tt, _col(truth, "rotor_speed_rad_s") * RPM_PER_RAD_S, label="truth", **front)
+    ax.set_ylabel("rotor speed [rpm]")
+    ax = axes[2]
+    meas(ax, "blade_pitch_measured_rad", 180.0 / math.pi)
+    if truth:
+        ax.plot(tt, np.degrees(_col(truth, "blade_pitch_rad")), label="truth", **front)
+    if command:
+        ax.step(
+            tc, np.degrees(_col(command, "blade_pitch_commanded_rad")), label="command", **cmd_style
+        )
+    ax.set_ylabel("blade pitch [deg]")
+    ax = axes[3]
+    meas(ax, "generator_torque_measured_nm", 1e-3)
+    if truth:
+        ax.plot(tt, _col(truth, "generator_torque_nm") / 1e3, label="truth", **front)
+    if command:
+        ax.step(
+            tc, _col(command, "generator_torque_commanded_nm") / 1e3, label="command", **cmd_style
+        )
+    ax.set_ylabel("generator torque [kN m]")
+    ax = axes[4]
+    meas(ax, "electrical_power_measured_w", 1e-6)
+    if truth:
+        ax.plot(tt, _col(truth, "electrical_power_w") / 1e6, label="truth", **front)
+    ax.set_ylabel("electrical power [MW]")
+    ax = axes[5]
+    if floating:
+        meas(ax, "platform_pitch_measured_rad", 180.0 / math.pi)
+        ax.plot(tt, np.degrees(_col(truth, "platform_pitch_rad")), label="truth", **front)
+    ax.set_ylabel("platform pitch [deg]")
+    ax = axes[6]
+    if floating:
+        meas(ax, "platform_surge_measured_m")
+        ax.plot(tt, _col(truth, "platform_surge_m"), label="truth", **front)
+    ax.set_ylabel("platform surge [m]")
+    ax = axes[7]
+    if floating:
+        meas(ax, "wave_elevation_gauge_measured_m", text="gauge (measured)")
+        ax.plot(
+            tt,
+            _col(truth, "wave_elevation_gauge_m"),
+            label="at the gauge (truth)",
+            lw=0.9,
+            ls="--",
+            zorder=2,
+        )
+        ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform", **front)
+    ax.set_ylabel("wave elevation [m]")
+    ax.set_xlabel("simulated time [s]")
+    # A minimum visible span per panel (its unit), so that sensor quantisation and noise
+    # around a flat truth (pitch at 0 below rated) stay a thin band, not the whole panel.
+    for a, span in zip(axes, (1.0, 0.5, 1.0, 100.0, 0.1, 0.5, 1.0, 0.5), strict=True):
+        if a.lines:
+            lo, hi = a.get_ylim()
+            if hi - lo < span:
+                mid = 0.5 * (lo + hi)
+                a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
+    start = window.get("from_s")
+    has_data = [bool(a.lines) for a in axes]
+    _mark_run_events(run, [a for a, d in zip(axes, has_data, strict=True) if d])
+    for a, data in zip(axes, has_data, strict=True):
+        if data:
+            if isinstance(start, float) and start > 0:
+                a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
+            a.legend(loc="upper right", fontsize="small", ncols=3)
+        elif truth and not floating and a in axes[5:]:
+            _no_data(a, "bottom-fixed plant: no platform")
+        else:
+            _no_data(a)
+        a.grid(True, alpha=0.3)
+    note = ""
+    if isinstance(start, float) and start > 0:
+        note = f"; KPIs from t = {start:.1f} s (dotted line)"
+    fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def safe_windows(
+    t_s: FloatArray, flags: npt.NDArray[np.bool_], period_s: float = math.nan
+) -> list[tuple[float, float]]:
+    """Time windows [s] of consecutive flagged samples, each to its last sample + a period.
+
+    ``period_s`` is the spacing of the samples (nan: their median spacing), so that one
+    flagged sample is a window of one period.
+    """
+    if not flags.any():
+        return []
+    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = period_s
+    if not math.isfinite(dt):
+        dt = float(np.median(np.diff(t_s))) if t_s.size > 1 else 0.0
+    return [(float(t_s[a]), float(t_s[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+
+
+def run_events(run: RunData) -> dict[str, Any]:
+    """What the time-series plot marks: the plant's safe-state and the controller's
+    safe-mode windows [s] and the times the feedforward started acting [s].
+
+    The plant's windows come from ``timing/cycle`` ``safe_state``, the controller's from the
+    ``command`` channel's ``mode`` (= :data:`MODE_SAFE_COMMAND`). The feedforward acts from
+    the first ``controller/status`` whose ``estimates_valid_mask`` has ``EST_FEEDFORWARD``
+    and ``EST_WAVE_FORECAST``: the advanced controller sets ``EST_FEEDFORWARD`` from its
+    first cycle (its feedforward fields hold a value, 0 until the forecast is valid), so the
+    bit alone would put the start at t = 0. It starts again after each gap (a forecaster
+    restarted after the safe mode): ``feedforward_starts_s`` lists every start,
+    ``feedforward_start_s`` is the first (None: it never acted).
+    """
+    cycles = run.topic("timing/cycle")
+    commands = run.topic("command")
+    status = run.topic("controller/status")
+    period = _control_period_s(run, commands)
+    plant = safe_windows(_t_s(cycles), _col(cycles, "safe_state") > 0, period)
+    ctrl = safe_windows(_t_s(commands), _col(commands, "mode") == MODE_SAFE_COMMAND, period)
+    mask = _col(status, "estimates_valid_mask")
+    ok = np.isfinite(mask)
+    bits = EST_FEEDFORWARD | EST_WAVE_FORECAST
+    acting = np.zeros(mask.size, dtype=bool)
+    acting[ok] = (mask[ok].astype(np.int64) & bits) == bits
+    starts = [a for a, _b in safe_windows(_t_s(status), acting, period)]
+    return {
+        "plant_safe_state": plant,
+        "controller_safe_mode": ctrl,
+        "feedforward_starts_s": starts,
+        "feedforward_start_s": starts[0] if starts else None,
+    }
+
+
+def _mark_run_events(run: RunData, axes: Sequence[Any]) -> None:
+    """Shade the safe-state and safe-mode windows and draw the feedforward's start on
+    ``axes``; the legend entries go on the first (top) panel only."""
+    ev = run_events(run)
+    for i, a in enumerate(axes):
+        first = i == 0
+        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
+            a.axvspan(
+                lo,
+                hi,
+                color="tab:purple",
+                alpha=0.18,
+                lw=0,
+                zorder=0,
+                label="plant safe state" if first and k == 0 else None,
+            )
+        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
+            a.axvspan(
+                lo,
+                hi,
+                facecolor="none",
+                edgecolor="tab:orange",
+                hatch="//",
+                lw=0,
+                zorder=0,
+                label="controller safe mode" if first and k == 0 else None,
+            )
+        for k, ff in enumerate(ev["feedforward_starts_s"]):
+            a.axvline(
+                ff,
+                color="tab:green",
+                ls="-.",
+                lw=1.2,
+                zorder=2,
+                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
+            )
+
+
+def _timing_plot(
+    run: RunData, cycles: Sequence[dict[str, Any]], label: str, path: Path, plt: Any
+) -> None:
+    lat_ns, unanswered = _cycle_latency_ns(cycles)
+    deadline = _deadline_us(run)
+    seq = _col(cycles, "seq")
+    missed_all = _col(cycles, "deadline_missed") > 0
+    lat_all = _col(cycles, "latency_ns")
+    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
+    finite = lat_ns[np.isfinite(lat_ns)] / 1e3
+    mode = run.metadata.get("run", {}).get("mode", "")
+    enforced = mode not in ("lockstep", "inprocess")
+    dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
+    if lat_ns.size:
+        pct = kpi.latency_percentiles_us(lat_ns)
+        # Log-spaced bins on a log axis: the latency spans decades (tens of us to a stall).
+        lo = float(finite[finite > 0].min()) if (finite > 0).any() else 1.0
+        hi = float(max(finite.max() if finite.size else 1.0, deadline if deadline > 0 else 0.0))
+        bins = np.logspace(np.log10(lo * 0.95), np.log10(max(hi, lo) * 1.05), 101)
+        a0.hist(finite, bins=bins, color="tab:blue", label=f"{finite.size} cycles with a command")
+        a0.set_xscale("log")
+        for q, color in (("p50", "tab:green"), ("p99", "tab:orange")):
+            v = pct[q]
+            if math.isfinite(v):
+                a0.axvline(v, color=color, ls="--", label=f"{q} = {v:.0f} us")
+            else:
+                share = 100.0 * unanswered / lat_ns.size
+                a0.plot([], [], " ", label=f"{q} = inf ({share:.2g} % of cycles had no command)")
+        if deadline > 0:
+            a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
+        a0.set_yscale("log")
+        a0.legend(fontsize="small")
+        ok = ~missed_all & (lat_all > 0)
+        a1.plot(seq[ok], lat_all[ok] / 1e3, ".", ms=2, color="tab:blue", label="command in time")
+        a1.set_yscale("log")
+        late = missed_all & (lat_all > 0)
+        if late.any():
+            a1.plot(
+                seq[late],
+                lat_all[late] / 1e3,
+                "x",
+                color="tab:red",
+                ms=6,
+                label=f"missed: command late ({int(late.sum())})",
+            )
+        none = missed_all & ~(lat_all > 0)
+        if none.any():
+            top = max(float(finite.max()) if finite.size else 0.0, deadline) * 1.05
+            a1.plot(
+                seq[none],
+                np.full(int(none.sum()), top),
+                "v",
+                color="darkred",
+                ms=6,
+                label=f"missed: no command by the next tick ({int(none.sum())})",
+            )
+        if deadline > 0:
+            a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
+        a1.legend(fontsize="small", loc="best", framealpha=0.9)
+    else:
+        _no_data(a0)
+        _no_data(a1)
+    n_missed = int(missed_all.sum())
+    a0.set_title(
+        f"{label}: sensor-to-command latency of all {lat_ns.size} cycles "
+        f"({n_missed} missed, {unanswered} without a command)"
+    )
+    a0.set_xlabel("sensor-to-command latency [us]")
+    a0.set_ylabel("cycles [1]")
+    a1.set_title("latency per cycle")
+    a1.set_xlabel("cycle [1]")
+    a1.set_ylabel("latency [us]")
+    a1.grid(True, alpha=0.3)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _psd_plot(
+    truth: Sequence[dict[str, Any]], window: dict[str, Any], label: str, path: Path, plt: Any
+) -> None:
+    start = window.get("from_s") or 0.0
+    msgs = _since(list(truth), float(start))
+    t = _t_s(msgs)
+    floating = _is_floating(truth)
+    series: list[tuple[str, FloatArray | None, str]] = [
+        ("rotor speed", _col(msgs, "rotor_speed_rad_s") * RPM_PER_RAD_S, "rpm$^2$/Hz"),
+        ("blade pitch", np.degrees(_col(msgs, "blade_pitch_rad")), "deg$^2$/Hz"),
+        (
+            "platform pitch",
+            np.degrees(_col(msgs, "platform_pitch_rad")) if floating else None,
+            "deg$^2$/Hz",
+        ),
+        ("tower-base fore-aft moment", _col(msgs, "tower_base_moment_nm") / 1e6, "(MN m)$^2$/Hz"),
+    ]
+    fig, axes = plt.subplots(len(series), 1, figsize=(10, 12), sharex=True, layout="constrained")
+    title = f"{label}: power spectral densities"
+    if len(msgs) >= 8:
+        dt = float(np.median(np.diff(t)))
+        fs = 1.0 / dt if dt > 0 else 1.0
+        nper = psd_segment(len(msgs), fs)
+        df = fs / nper
+        n_seg = max(1, (len(msgs) - nper) // (nper // 2) + 1)
+        title += (
+            f", t = {t[0]:.4g}-{t[-1]:.4g} s (KPI window)\nWelch, Hann window, segment "
+            f"{nper / fs:.4g} s, resolution {df:.3g} Hz, {n_seg} segments with 50 % overlap"
+        )
+        for ax, (name, x, unit) in zip(axes, series, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            if x is None:
+                _no_data(ax, "bottom-fixed plant: no platform")
+                continue
+            if not np.isfinite(x).all():
+                _no_data(ax, "not logged")
+                continue
+            from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+
+            f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
+            pos = pxx[1:] > 0
+            if not pos.any():
+                _no_data(ax, f"{name} constant over the window: no spectrum")
+                continue
+            ax.loglog(f[1:][pos], pxx[1:][pos], lw=1.0)
+            ax.grid(True, which="both", alpha=0.3)
+    else:
+        for ax, (name, _x, unit) in zip(axes, series, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            _no_data(ax)
+    axes[-1].set_xlabel("frequency [Hz]")
+    fig.suptitle(title, fontsize="medium")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- entry points
+
+
+def review(
+    mcap_path: Path, out_dir: Path | None = None, plots: bool = True, write_summary: bool = True
+) -> dict[str, Any]:
+    """Read a run log, write ``summary.json`` (and plots) and return the summary.
+
+    The file is read first: a file that is not an MCAP file raises
+    :class:`hil.runlog.mcap_io.NotMcapError`, and an MCAP file that is not a run log of this bench
+    :class:`NotRunLogError` (:func:`check_run_log`), before anything is written.
+
+    Parameters
+    ----------
+    mcap_path : Path
+        The run's MCAP file (may be truncated).
+    out_dir : Path, optional
+        Output folder; defaults to the MCAP file's folder.
+    plots : bool
+        Also write the PNG plots (:func:`write_plots`).
+    write_summary : bool
+        Write ``summary.json`` (False: only return the summary).
+    """
+    mcap_path = Path(mcap_path)
+    out = Path(out_dir) if out_dir is not None else mcap_path.parent
+    # One pass over the file chunk by chunk (hil.runlog.columns); memory does not grow with
+    # the run. A platform recording (small) and the plots read the messages whole.
+    reader = ColumnReader(mcap_path, rs.FIELDS)
+    summary = summarize_batches(reader.batches(), reader.info)
+    check_run_log(reader.info, mcap_path)
+    platform = _is_platform(reader.info)
+    run = read_run(mcap_path) if platform or plots else None
+    if platform and run is not None:
+        from hil.hexicon import review as hexicon_review  # noqa: PLC0415 - platform recordings only
+
+        summary = hexicon_review.summarize(run)
+    summary["run"]["source"] = str(mcap_path)
+    if write_summary or plots:
+        out.mkdir(parents=True, exist_ok=True)
+    if write_summary:
+        (out / "summary.json").write_text(
+            json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
+        )
+    if plots and run is not None:
+        if platform:
+            from hil.hexicon import review as hexicon_review  # noqa: PLC0415
+
+            hexicon_review.write_plots(run, out)
+        else:
+            write_plots(run, out)
+    return summary
+
+
+def _is_platform(info: RunInfo) -> bool:
+    """Whether the log is a multi-turbine platform's (:func:`hil.hexicon.review.platform_of`)."""
+    meta = info.metadata.get("hexicon_run")
+    if meta and meta.get("platform"):
+        return True
+    return any(len(p) == 3 and p[2] == "platform" for p in (t.split("/") for t in info.topics))
+
+
+def truncation_note(summary: dict[str, Any]) -> str | None:
+    """``"truncated at t = 3.27 s (...)"`` for a truncated run log, None for a complete one."""
+    run = summary.get("run", {})
+    if not run.get("truncated"):
+        return None
+    damaged = [r for r in run.get("skipped_ranges") or [] if not r.get("to_end")]
+    if damaged:
+        return _damage_note(damaged, run)
+    at = run.get("truncated_at_s")
+    where = f"t = {at:.2f} s" if isinstance(at, int | float) else "t = - (no message)"
+    why = f" ({run['error']})" if run.get("error") else ""
+    return f"truncated at {where}{why}"
+
+
+def _damage_note(skipped: list[dict[str, Any]], run: dict[str, Any]) -> str:
+    """``"damaged: 1 range skipped (bytes 1200-5400, t = 3.10-4.20 s: ...)"``."""
+    parts = []
+    for r in skipped:
+        text = f"bytes {r.get('start')}-{r.get('end')}"
+        a, b = r.get("log_start_s"), r.get("log_end_s")
+        if isinstance(a, int | float) and isinstance(b, int | float):
+            text += f", t = {a:.2f}-{b:.2f} s"
+        parts.append(f"{text}: {r.get('reason')}")
+    at = run.get("truncated_at_s")
+    last = f"; last message at t = {at:.2f} s" if isinstance(at, int | float) else ""
+    return f"damaged: {len(skipped)} range(s) skipped ({'; '.join(parts)}){last}"
+
+
+def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return str(v)
+    if isinstance(v, int):
+        return f"{v}"
+    if isinstance(v, float):
+        return f"{v * scale:.{digits}g}" if abs(v * scale) < 1e-3 else f"{v * scale:,.{digits}f}"
+    return str(v)
+
+
+def render_summary(summary: dict[str, Any], console: Console) -> None:
+    """Print the summary as rich tables: run, KPIs with units, timing."""
+    if summary.get("kind") == "hexicon":
+        from hil.hexicon.review import render  # noqa: PLC0415
+
+        render(summary, console)
+        return
+    run = summary.get("run", {})
+    scen = summary.get("scenario", {})
+    head = Table(title="Run", show_header=False)
+    head.add_column("item")
+    head.add_column("value")
+    head.add_row("scenario", str(scen.get("name") or "-"))
+    for k in ("mode", "transport", "turbine"):
+        if k in run:
+            head.add_row(k, str(run[k]))
+    head.add_row("duration", f"{_fmt(run.get('duration_s'), digits=2)} s")
+    note = truncation_note(summary)
+    head.add_row("truncated", f"[red]yes: {escape(note)}[/red]" if note else "no")
+    if run.get("error") and not note:
+        head.add_row("reader", f"[yellow]{run['error']}[/yellow]")
+    msgs = run.get("messages", {})
+    head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
+    console.print(head)
+    rec = summary.get("recording")
+    if isinstance(rec, dict):
+        line = escape(f"recording: {describe(rec)}")
+        console.print(line if rec.get("complete") else f"[bold red]{line}[/bold red]")
+
+    k = summary.get("kpi", {})
+    win = summary.get("kpi_window") or {}
+    caption = None
+    if isinstance(win.get("from_s"), int | float):
+        caption = (
+            f"KPIs over t = {_fmt(win['from_s'], digits=1)}-{_fmt(win.get('to_s'), digits=1)} s: "
+            f"the first {_fmt(win['from_s'], digits=1)} s (start-up settling, review.settle_s "
+            f"= {_fmt(win.get('settle_s'), digits=1)} s"
+            + (", shortened to half the run" if win.get("shortened") else "")
+            + ") left out; '-': not available (e.g. no platform)"
+        )
+    t = Table(title="KPIs")
+    t.add_column("KPI")
+    t.add_column("value", justify="right")
+    t.add_column("unit")
+    rows: list[tuple[str, Any, float, str]] = [
+        ("mean electrical power", k.get("mean_power_w"), 1e-6, "MW"),
+        ("rotor speed mean", k.get("rotor_speed_mean_rad_s"), 30.0 / math.pi, "rpm"),
+        ("rotor speed std", k.get("rotor_speed_std_rad_s"), 30.0 / math.pi, "rpm"),
+        ("pitch travel |dθ/dt|", k.get("pitch_travel_deg_s"), 1.0, "deg/s"),
+        ("generator torque mean", k.get("generator_torque_mean_nm"), 1e-3, "kN m"),
+        ("thrust mean", k.get("thrust_mean_n"), 1e-3, "kN"),
+        ("thrust max", k.get("thrust_max_n"), 1e-3, "kN"),
+        (
+            f"shaft DEL (m={_fmt(k.get('shaft_del_wohler_m'), digits=0)})",
+            k.get("shaft_del_nm"),
+            1e-3,
+            "kN m",
+        ),
+        ("thrust DEL (m=4)", k.get("thrust_del_n"), 1e-3, "kN"),
+        ("tower-base moment mean", k.get("tower_base_moment_mean_nm"), 1e-6, "MN m"),
+        ("tower-base DEL (m=4)", k.get("tower_base_del_nm"), 1e-6, "MN m"),
+        ("platform pitch mean", k.get("platform_pitch_mean_deg"), 1.0, "deg"),
+        ("platform pitch std", k.get("platform_pitch_std_deg"), 1.0, "deg"),
+        ("surge mean", k.get("surge_mean_m"), 1.0, "m"),
+        ("surge std", k.get("surge_std_m"), 1.0, "m"),
+    ]
+    for name, v, scale, unit in rows:
+        t.add_row(name, _fmt(v, scale), unit)
+    console.print(t)
+    if caption:
+        console.print(caption)
+
+    _render_estimates(summary, console)
+
+    tm = summary.get("timing", {})
+    tt = Table(title="Timing" + ("" if tm.get("complete", True) else " (incomplete run)"))
+    tt.add_column("quantity")
+    tt.add_column("p50", justify="right")
+    tt.add_column("p99", justify="right")
+    tt.add_column("p99.9", justify="right")
+    tt.add_column("max", justify="right")
+    tt.add_column("unit")
+    lat = tm.get("latency_us", {})
+    tt.add_row(
+        f"latency ({tm.get('latency_source', '-')})",
+        *(_fmt(lat.get(q), digits=1) for q in ("p50", "p99", "p999", "max")),
+        "us",
+    )
+    plat = tm.get("latency_us_plant", {})
+    if any(v is not None for v in plat.values()):
+        tt.add_row(
+            "latency (plant histogram)",
+            *(_fmt(plat.get(q), digits=1) for q in ("p50", "p99", "p999", "max")),
+            "us",
+        )
+    cc = tm.get("controller_compute_us", {})
+    tt.add_row(
+        "controller compute",
+        _fmt(cc.get("p50"), digits=1),
+        _fmt(cc.get("p99"), digits=1),
+        "-",
+        _fmt(cc.get("max"), digits=1),
+        "us",
+    )
+    console.print(tt)
+
+    ct = Table(title="Cycle counts")
+    ct.add_column("counter")
+    ct.add_column("value", justify="right")
+    misses = tm.get("deadline_misses")
+    ct.add_row("cycles", _fmt(tm.get("cycles")))
+    ct.add_row(
+        "deadline misses",
+        f"[bold red]{misses}[/bold red]" if misses else _fmt(misses),
+    )
+    for name in (
+        "commands_held",
+        "commands_rejected",
+        "commands_late",
+        "safe_state_cycles",
+        "faults_injected",
+    ):
+        v = tm.get(name)
+        ct.add_row(name.replace("_", " "), f"[yellow]{v}[/yellow]" if v else _fmt(v))
+    safe = safe_state_text(summary)
+    ct.add_row("safe state", f"[bold red]{safe}[/bold red]" if safe != "no" else safe)
+    ct.add_row("sim s / wall s", _fmt(tm.get("sim_seconds_per_wall_second"), digits=3))
+    console.print(ct)
+    _render_accounts(summary, console)
+
+
+def safe_state_text(summary: dict[str, Any]) -> str:
+    """``"no"``, or ``"yes: ..."`` naming who entered it: the plant's safe state (its
+    watchdog) and/or the controller's safe mode (with its time and first entry)."""
+    tm = summary.get("timing") or {}
+    ctrl = summary.get("controller") or {}
+    parts = []
+    if tm.get("safe_state") or tm.get("safe_state_cycles"):
+        parts.append(f"plant safe state ({_fmt(tm.get('safe_state_cycles'))} cycles)")
+    if ctrl.get("safe_mode_entered"):
+        first = ctrl.get("safe_mode_first_entry_s")
+        text = f"controller safe mode {_fmt(ctrl.get('safe_mode_s'), digits=2)} s"
+        if isinstance(first, int | float):
+            text += f" from t = {first:.2f} s"
+        if ctrl.get("safe_mode_at_end"):
+            text += ", still at the end"
+        parts.append(text)
+    return "yes: " + "; ".join(parts) if parts else "no"
+
+
+def _render_accounts(summary: dict[str, Any], console: Console) -> None:
+    """The controller's safe mode and rejections, and the plant's commands (nonzero reasons)."""
+    ctrl = summary.get("controller") or {}
+    plant = summary.get("plant") or {}
+    if "source" not in ctrl and "source" not in plant:
+        return
+    t = Table(title="Controller and plant accounts")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_column("source")
+    src = str(ctrl.get("source") or "-")
+    rows: list[tuple[str, Any, str]] = [
+        ("controller commands", ctrl.get("commands"), src),
+        ("safe mode entries", ctrl.get("safe_mode_entries"), src),
+        ("safe mode first entry [s]", ctrl.get("safe_mode_first_entry_s"), src),
+        ("safe mode commands", ctrl.get("safe_mode_commands"), src),
+        ("time in safe mode [s]", ctrl.get("safe_mode_s"), "commands"),
+        ("in safe mode at the end", ctrl.get("safe_mode_at_end"), src),
+        ("frames missing", ctrl.get("frames_missing"), src),
+        ("frames stale", ctrl.get("frames_stale"), src),
+        ("frames rejected", ctrl.get("frames_rejected_total"), src),
+    ]
+    for reason, n in (ctrl.get("frames_rejected") or {}).items():
+        if n:
+            rows.append((f"  frames rejected: {reason}", n, src))
+    psrc = str(plant.get("source") or "-")
+    rows += [
+        ("plant commands applied", plant.get("commands_applied"), psrc),
+        ("plant commands rejected", plant.get("commands_rejected_total"), psrc),
+    ]
+    for reason, n in (plant.get("commands_rejected") or {}).items():
+        if n:
+            rows.append((f"  commands rejected: {reason}", n, psrc))
+    for name, v, where in rows:
+        text = _fmt(v, digits=2)
+        if v and ("safe mode" in name or "rejected" in name):
+            text = f"[yellow]{text}[/yellow]"
+        t.add_row(escape(name), text, where)
+    console.print(t)
+
+
+def _render_estimates(summary: dict[str, Any], console: Console) -> None:
+    """The estimator and forecast tables (advanced controllers; nothing for the baseline)."""
+    est = summary.get("estimator") or {}
+    fc = summary.get("forecast") or {}
+    errors = [v for k, v in est.items() if k != "degraded_fraction"]
+    if all(v is None for v in errors) and not fc.get("samples"):
+        return  # no estimate published (the baseline controller)
+    t = Table(title="Estimator and wave forecast (against the truth, KPI window)")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_column("unit")
+    for name, key, unit in (
+        ("wind speed error, mean", "wind_speed_error_mean_pct", "%"),
+        ("wind speed error, RMS", "wind_speed_error_rms_m_s", "m/s"),
+        ("platform pitch rate error, RMS", "platform_pitch_rate_error_rms_rad_s", "rad/s"),
+        ("platform surge velocity error, RMS", "platform_surge_velocity_error_rms_m_s", "m/s"),
+        ("estimator degraded", "degraded_fraction", "fraction of cycles"),
+    ):
+        t.add_row(name, _fmt(est.get(key)), unit)
+    vaf = fc.get("vaf_pct")
+    t.add_row(
+        "wave forecast VAF",
+        _fmt(vaf, digits=1) if fc.get("samples") else "- (no valid forecast)",
+        "%",
+    )
+    t.add_row("wave forecasts compared", _fmt(fc.get("samples")), "[1]")
+    console.print(t)
+
+
+__all__ = [
+    "PLOT_FILES",
+    "NotRunLogError",
+    "check_run_log",
+    "render_summary",
+    "review",
+    "review_problems",
+    "summarize",
+    "write_plots",
+]
