@@ -706,9 +706,9 @@ class _Summary:
                 est[name] = math.sqrt(s2 / k)
         if self.f_ok >= 2:
             fc["samples"] = self.f_ok
-            var = self.f_eta.m2 / self.f_eta.n
+            var = self.f_eta.var()
             if var > 0.0:
-                fc["vaf_pct"] = float(100.0 * (1.0 - (self.f_err.m2 / self.f_err.n) / var))
+                fc["vaf_pct"] = float(100.0 * (1.0 - self.f_err.var() / var))
         for key, name in (
             ("unstable_fits", "forecast_unstable_fits"),
             ("guarded", "forecast_guarded"),

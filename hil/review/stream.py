@@ -86,24 +86,66 @@ FIELDS: dict[str, tuple[str, ...]] = {
 ROW_TOPICS = ("timing/report", "controller/report")
 
 
-class Moments:
+#: Samples per block of the running sums. A series is summed in blocks of this many samples
+#: counted from its first sample, whatever the chunks of the file that hold it: the same
+#: samples give the same floating-point figures bit for bit, whether a recorder or the
+#: in-process writer cut them into chunks (lock-step and in-process runs compare equal).
+BLOCK = 4096
+
+
+class _Blocked:
+    """Samples fed in pieces, handed on in blocks of :data:`BLOCK` (the last one shorter)."""
+
+    def __init__(self) -> None:
+        self._pending: list[np.ndarray] = []
+        self._npend = 0
+
+    def _feed(self, *cols: np.ndarray) -> None:
+        if not cols[0].size:
+            return
+        self._pending.append(np.stack([np.asarray(c, np.float64) for c in cols]))
+        self._npend += cols[0].size
+        if self._npend >= BLOCK:
+            buf = np.concatenate(self._pending, axis=1)
+            whole = (buf.shape[1] // BLOCK) * BLOCK
+            for i in range(0, whole, BLOCK):
+                self._block(*buf[:, i : i + BLOCK])
+            rest = buf[:, whole:]
+            self._pending = [rest] if rest.shape[1] else []
+            self._npend = rest.shape[1]
+
+    def _settle(self) -> None:
+        """Hand on what is pending (the series' last, shorter block)."""
+        if self._npend:
+            buf = np.concatenate(self._pending, axis=1)
+            self._pending, self._npend = [], 0
+            self._block(*buf)
+
+    def _block(self, *cols: np.ndarray) -> None:
+        raise NotImplementedError
+
+
+class Moments(_Blocked):
     """Count, mean, population variance and maximum of a series fed in pieces.
 
     The mean is the sum over the count; the centred second moment M2 = Σ (x - x̄)² is
-    combined per piece as Chan et al. do: M2 = M2_a + M2_b + δ² n_a n_b / (n_a + n_b),
-    δ = x̄_b - x̄_a. A nan anywhere makes every figure nan (as numpy's).
+    combined per block (:data:`BLOCK`) as Chan et al. do: M2 = M2_a + M2_b + δ² n_a n_b /
+    (n_a + n_b), δ = x̄_b - x̄_a. A nan anywhere makes every figure nan (as numpy's).
     """
 
     def __init__(self) -> None:
+        super().__init__()
         self.n = 0
         self.total = 0.0
         self.m2 = 0.0
         self.peak = -math.inf
 
     def add(self, x: np.ndarray) -> None:
+        self._feed(x)
+
+    def _block(self, *cols: np.ndarray) -> None:
+        x = cols[0]
         k = x.size
-        if not k:
-            return
         s = float(np.sum(x))
         mb = s / k
         m2b = float(np.sum((x - mb) ** 2))
@@ -118,12 +160,19 @@ class Moments:
         self.peak = float(np.maximum(self.peak, np.max(x)))
 
     def mean(self) -> float:
+        self._settle()
         return self.total / self.n if self.n else NAN
 
+    def var(self) -> float:
+        """Population variance M2 / n."""
+        self._settle()
+        return self.m2 / self.n if self.n else NAN
+
     def std(self) -> float:
-        return math.sqrt(self.m2 / self.n) if self.n else NAN
+        return math.sqrt(self.var()) if self.n or self._npend else NAN
 
     def max(self) -> float:
+        self._settle()
         return self.peak if self.n else NAN
 
 
@@ -217,10 +266,12 @@ class Reversals:
         return float((damage / (n_eq_hz * duration)) ** (1.0 / wohler_m))
 
 
-class Travel:
-    """Σ |θ_{k+1} - θ_k| and the first and last time of a series fed in pieces."""
+class Travel(_Blocked):
+    """Σ |θ_{k+1} - θ_k| and the first and last time of a series fed in pieces (summed in
+    blocks of :data:`BLOCK` samples, as :class:`Moments`)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.n = 0
         self.total = 0.0
         self.t_first = NAN
@@ -228,8 +279,10 @@ class Travel:
         self._last = NAN
 
     def add(self, x: np.ndarray, t: np.ndarray) -> None:
-        if not x.size:
-            return
+        self._feed(x, t)
+
+    def _block(self, *cols: np.ndarray) -> None:
+        x, t = cols
         if self.n:
             self.total += abs(float(x[0]) - self._last)
         else:
@@ -241,6 +294,7 @@ class Travel:
 
     def per_second(self) -> float:
         """Mean |dθ/dt| [deg/s] (:func:`hil.review.kpi.pitch_travel_deg_s`)."""
+        self._settle()
         if self.n < 2:
             return NAN
         duration = self.t_last - self.t_first
