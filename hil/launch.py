@@ -871,7 +871,7 @@ def _run_processes(
             driver.wait_for_others(procs, console)
         else:
             if rc != 0:
-                raise RunFailedError(f"plant exited with {rc}; see {logs / 'plant.log'}")
+                raise RunFailedError(f"plant exited with {rc}{_last_error(logs, 'plant')}")
             _wait_for_recorder(procs["recorder"], mcap_path, console)
             _stop(procs["controller"], 5.0)
             if procs["recorder"].returncode != 0:

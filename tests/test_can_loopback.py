@@ -18,6 +18,7 @@ from _helpers import run_closed_loop
 
 from bus_schemas import ActuatorCommand, PlantState, SensorFrame
 from bus_schemas.registry import COMMAND, SENSORS, TRUTH, MessageType
+from hil.inprocess.trim import initial_condition
 from hil.nodes.can_bus import CanBus, CanBusConfig, socketcan_available
 from hil.nodes.controller_node import ControllerRuntime
 from hil.nodes.plant_node import CommandInbox, PlantLoop
@@ -56,7 +57,8 @@ def run_over_can(
                 assert isinstance(msg, PlantState)
                 truth.append(msg)
 
-        loop = PlantLoop(scenario, publish)
+        # the start the in-process run takes (the trim is the caller's: hil.inprocess.trim)
+        loop = PlantLoop(scenario, publish, initial=initial_condition(scenario))
         for _ in range(scenario.cycles):
             frame = loop.sample()
             got = inbox.wait_for(frame.seq, 5.0)

@@ -470,10 +470,14 @@ def plant(
         key_file=key_file,
         insecure=insecure,
     )
+    from controller.discon import DisconError
     from hil.inprocess.trim import initial_condition
     from hil.nodes.plant_node import PeerWaitInterruptedError, run_plant_node
 
-    initial = initial_condition(sc)  # the trim's settling run, before any peer waits
+    try:  # the trim's settling run, before any peer waits
+        initial = initial_condition(sc)
+    except (ValueError, DisconError) as exc:  # e.g. a DISCON library or DISCON.IN
+        fail(f"controller {sc.controller.kind!r}: {exc}", code=1)
     _realtime(realtime_priority, "plant")
     try:
         result = run_plant_node(
