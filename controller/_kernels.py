@@ -1025,6 +1025,28 @@ def baseline_gains(
 
 
 @_jit
+def lowpass2_step(
+    u: float, w_c: float, zeta: float, dt_s: float, z1: float, z2: float, first_call: bool
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """:func:`controller.baseline.lowpass2_step`, compiled (the same statements)."""
+    c = 2.0 / dt_s
+    c2 = c * c
+    wc2 = w_c * w_c
+    cz = 2.0 * zeta * w_c * c
+    inv_a0 = 1.0 / (c2 + cz + wc2)
+    b0 = wc2 * inv_a0
+    a1 = 2.0 * (wc2 - c2) * inv_a0
+    a2 = (c2 - cz + wc2) * inv_a0
+    if first_call:
+        z1 = (1.0 - b0) * u
+        z2 = (b0 - a2) * u
+    y = b0 * u + z1
+    z1 = 2.0 * b0 * u - a1 * y + z2
+    z2 = b0 * u - a2 * y
+    return y, z1, z2
+
+
+@_jit
 def baseline_step(
     bl: np.ndarray,
     gs: np.ndarray,
@@ -1069,23 +1091,7 @@ def baseline_step(
     w_pmax = bl[30]
     # generator-speed low-pass filter
     if order2:
-        c = 2.0 / dt_s
-        c2 = c * c
-        wc2 = w_c * w_c
-        cz = 2.0 * zeta * w_c * c
-        inv_a0 = 1.0 / (c2 + cz + wc2)
-        b0 = wc2 * inv_a0
-        a1 = 2.0 * (wc2 - c2) * inv_a0
-        a2 = (c2 - cz + wc2) * inv_a0
-        if first_call:
-            z1 = (1.0 - b0) * w
-            z2 = (b0 - a2) * w
-        else:
-            z1 = st[0]
-            z2 = st[1]
-        w_f = b0 * w + z1
-        z1 = 2.0 * b0 * w - a1 * w_f + z2
-        z2 = b0 * w - a2 * w_f
+        w_f, z1, z2 = lowpass2_step(w, w_c, zeta, dt_s, st[0], st[1], first_call)
     else:
         alpha = math.exp(-dt_s * w_c)
         prev = w if first_call else st[0]
@@ -1263,23 +1269,7 @@ def baseline_step(
         a_h = math.exp(-dt_s * w_hp)
         hp_lp = q if first_call else (1.0 - a_h) * q + a_h * st[19]
         u_f = q - hp_lp
-        c = 2.0 / dt_s
-        c2 = c * c
-        wc2 = w_fl * w_fl
-        cz = 2.0 * zeta_fl * w_fl * c
-        inv_a0 = 1.0 / (c2 + cz + wc2)
-        b0 = wc2 * inv_a0
-        a1 = 2.0 * (wc2 - c2) * inv_a0
-        a2 = (c2 - cz + wc2) * inv_a0
-        if first_call:
-            f1 = (1.0 - b0) * u_f
-            f2 = (b0 - a2) * u_f
-        else:
-            f1 = st[20]
-            f2 = st[21]
-        q_f = b0 * u_f + f1
-        f1 = 2.0 * b0 * u_f - a1 * q_f + f2
-        f2 = b0 * u_f - a2 * q_f
+        q_f, f1, f2 = lowpass2_step(u_f, w_fl, zeta_fl, dt_s, st[20], st[21], first_call)
         th = th + k_fl * q_f
         if th < th_lo:
             th = th_lo

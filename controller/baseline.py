@@ -688,6 +688,33 @@ class BaselineState(msgspec.Struct, frozen=True, gc=False):
 _INITIAL_STATE = BaselineState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
+def lowpass2_step(
+    u: float, w_c: float, zeta: float, dt_s: float, z1: float, z2: float, first_call: bool
+) -> tuple[float, float, float]:
+    """One step of a second-order low pass, (y, z1, z2).
+
+    Tustin discretisation of :math:`\\omega_c^2 / (s^2 + 2\\zeta\\omega_c s + \\omega_c^2)`
+    [rad/s, -, s], direct form II transposed; on the first call the states start at the
+    steady state of ``u`` (no start transient). The numba twin is
+    :func:`controller._kernels.lowpass2_step`.
+    """
+    c = 2.0 / dt_s
+    c2 = c * c
+    wc2 = w_c * w_c
+    cz = 2.0 * zeta * w_c * c
+    inv_a0 = 1.0 / (c2 + cz + wc2)
+    b0 = wc2 * inv_a0
+    a1 = 2.0 * (wc2 - c2) * inv_a0
+    a2 = (c2 - cz + wc2) * inv_a0
+    if first_call:
+        z1 = (1.0 - b0) * u
+        z2 = (b0 - a2) * u
+    y = b0 * u + z1
+    z1 = 2.0 * b0 * u - a1 * y + z2
+    z2 = b0 * u - a2 * y
+    return y, z1, z2
+
+
 class BaselineController:
     """NREL-style baseline torque + gain-scheduled collective-pitch PI controller.
 
@@ -945,24 +972,9 @@ class BaselineController:
 
         # --- generator-speed low-pass filter --------------------------------------------
         if order2:
-            # Tustin discretisation of w_c^2 / (s^2 + 2 zeta w_c s + w_c^2), DF-II transposed.
-            c = 2.0 / dt_s
-            c2 = c * c
-            wc2 = w_c * w_c
-            cz = 2.0 * zeta * w_c * c
-            inv_a0 = 1.0 / (c2 + cz + wc2)
-            b0 = wc2 * inv_a0
-            a1 = 2.0 * (wc2 - c2) * inv_a0
-            a2 = (c2 - cz + wc2) * inv_a0
-            if state.first_call:
-                z1 = (1.0 - b0) * w
-                z2 = (b0 - a2) * w
-            else:
-                z1 = state.lpf_z1
-                z2 = state.lpf_z2
-            w_f = b0 * w + z1
-            z1 = 2.0 * b0 * w - a1 * w_f + z2
-            z2 = b0 * w - a2 * w_f
+            w_f, z1, z2 = lowpass2_step(
+                w, w_c, zeta, dt_s, state.lpf_z1, state.lpf_z2, state.first_call
+            )
         else:
             alpha = math.exp(-dt_s * w_c)
             prev = w if state.first_call else state.lpf_z1
@@ -1140,23 +1152,9 @@ class BaselineController:
             a_h = math.exp(-dt_s * w_hp)
             hp_lp = q if state.first_call else (1.0 - a_h) * q + a_h * state.fl_hpf_lp
             u_f = q - hp_lp
-            c = 2.0 / dt_s
-            c2 = c * c
-            wc2 = w_fl * w_fl
-            cz = 2.0 * zeta_fl * w_fl * c
-            inv_a0 = 1.0 / (c2 + cz + wc2)
-            b0 = wc2 * inv_a0
-            a1 = 2.0 * (wc2 - c2) * inv_a0
-            a2 = (c2 - cz + wc2) * inv_a0
-            if state.first_call:
-                f1 = (1.0 - b0) * u_f
-                f2 = (b0 - a2) * u_f
-            else:
-                f1 = state.fl_lpf_z1
-                f2 = state.fl_lpf_z2
-            q_f = b0 * u_f + f1
-            f1 = 2.0 * b0 * u_f - a1 * q_f + f2
-            f2 = b0 * u_f - a2 * q_f
+            q_f, f1, f2 = lowpass2_step(
+                u_f, w_fl, zeta_fl, dt_s, state.fl_lpf_z1, state.fl_lpf_z2, state.first_call
+            )
             th = th + k_fl * q_f
             if th < th_lo:
                 th = th_lo

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -27,29 +26,11 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "data" / "golden_inprocess_lc2.json"
 SCENARIOS = ("iea15mw-lc2-lqri-ff", "iea15mw-lc2")
+sys.path.insert(0, str(ROOT / "bench"))
+from _common import commit  # noqa: E402 - the benchmarks' commit stamp, one definition
+
 SECTIONS = ("kpi", "estimator", "forecast")
 DURATION_S = 600.0
-
-
-def _commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "--short=7", "HEAD"],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    dirty = subprocess.run(
-        ["git", "status", "--porcelain", "--untracked-files=no"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=False,
-    ).stdout.strip()
-    return out + ("+dirty" if dirty else "")
 
 
 def _flatten(prefix: str, value: Any) -> dict[str, Any]:
@@ -110,7 +91,7 @@ def main() -> int:
     data = {
         "source": (
             f"python tools/golden_inprocess.py (fowt run <scenario> --mode inprocess --duration "
-            f"{DURATION_S:g}) at {_commit()}"
+            f"{DURATION_S:g}) at {commit()}"
         ),
         "duration_s": DURATION_S,
         "runs": runs,

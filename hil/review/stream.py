@@ -27,6 +27,7 @@ times increase through the file, as every writer of this bench writes them.
 
 from __future__ import annotations
 
+import abc
 import math
 from array import array
 from collections import Counter, deque
@@ -93,7 +94,7 @@ ROW_TOPICS = ("timing/report", "controller/report")
 BLOCK = 4096
 
 
-class _Blocked:
+class _Blocked(abc.ABC):
     """Samples fed in pieces, handed on in blocks of :data:`BLOCK` (the last one shorter)."""
 
     def __init__(self) -> None:
@@ -121,8 +122,9 @@ class _Blocked:
             self._pending, self._npend = [], 0
             self._block(*buf)
 
+    @abc.abstractmethod
     def _block(self, *cols: np.ndarray) -> None:
-        raise NotImplementedError
+        """Take one block of the series (its columns, in the order fed)."""
 
 
 class Moments(_Blocked):

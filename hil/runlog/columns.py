@@ -46,6 +46,7 @@ from hil.runlog.mcap_io import (
     _summary_of,
     _why,
     check_magic,
+    finish_read,
 )
 
 #: Field every channel is read for (the run's duration and the KPI window).
@@ -283,30 +284,9 @@ class ColumnReader:
         self, scan: RecordScan, stats: Statistics | None, channels: dict[int, tuple[str, str, str]]
     ) -> None:
         """Truncation, damage and summary statistics, as :func:`hil.runlog.mcap_io.read_run`
-        says."""
-        info = self.info
-        info.skipped = list(scan.skipped)
-        info.first_log_ns = scan.first_log_ns
-        if scan.error and not info.error:
-            info.error = scan.error
-        if info.skipped:
-            lost = "; ".join(r.describe() for r in info.skipped)
-            info.error = f"skipped {len(info.skipped)} damaged range(s): {lost}" + (
-                f" (reader: {info.error})" if info.error else ""
-            )
-        info.complete = info.complete and not info.error
-        info.truncated = not info.complete
-        if stats is not None:
-            info.statistics = {
-                channels[cid][0] if cid in channels else str(cid): int(n)
-                for cid, n in stats.channel_message_counts.items()
-            }
-            read = {t: n for t, n in info.counts.items() if n}
-            info.statistics_ok = read == {t: n for t, n in info.statistics.items() if n}
-            if not info.statistics_ok and not info.error:
-                info.error = (
-                    f"summary statistics {info.statistics} differ from the messages read {read}"
-                )
+        says (:func:`hil.runlog.mcap_io.finish_read`)."""
+        topics = {cid: ch[0] for cid, ch in channels.items()}
+        finish_read(self.info, scan, stats, topics, self.info.counts)
 
 
 def _cdr_records(sfx: str, schema_name: str, payloads: list[bytes]) -> np.ndarray:

@@ -58,7 +58,7 @@ import os
 import struct
 import time
 import zlib
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator, Iterator, Mapping
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -1134,26 +1134,45 @@ def read_run(path: Path) -> RunData:
         run.error = _why(exc)
     for cid, (dtype, data) in cdr.items():
         run.messages[channels[cid]] = _cdr_messages(dtype, data)
-    run.skipped = list(scan.skipped)
-    run.first_log_ns = scan.first_log_ns
-    if scan.error and not run.error:
-        run.error = scan.error
-    if run.skipped:
-        lost = "; ".join(r.describe() for r in run.skipped)
-        run.error = f"skipped {len(run.skipped)} damaged range(s): {lost}" + (
-            f" (reader: {run.error})" if run.error else ""
-        )
-    run.complete = run.complete and not run.error
-    run.truncated = not run.complete
-    if stats is not None:
-        run.statistics = {
-            channels.get(cid, str(cid)): int(n) for cid, n in stats.channel_message_counts.items()
-        }
-        read = {t: len(m) for t, m in run.messages.items() if m}
-        run.statistics_ok = read == {t: n for t, n in run.statistics.items() if n}
-        if not run.statistics_ok and not run.error:
-            run.error = f"summary statistics {run.statistics} differ from the messages read {read}"
+    finish_read(run, scan, stats, channels, {t: len(m) for t, m in run.messages.items()})
     return run
+
+
+def finish_read(
+    target: Any,
+    scan: RecordScan,
+    stats: Statistics | None,
+    topics: Mapping[int, str],
+    counts: Mapping[str, int],
+) -> None:
+    """The end of a read (:func:`read_run`, :class:`hil.runlog.columns.ColumnReader`).
+
+    Sets on ``target`` (a :class:`RunData` or a column reader's info) the skipped ranges,
+    the first log time, the error (the scan's, and the damage), ``complete`` and
+    ``truncated``, and checks the messages read (``counts`` per topic) against the summary
+    ``stats`` (``topics``: channel id to topic).
+    """
+    target.skipped = list(scan.skipped)
+    target.first_log_ns = scan.first_log_ns
+    if scan.error and not target.error:
+        target.error = scan.error
+    if target.skipped:
+        lost = "; ".join(r.describe() for r in target.skipped)
+        target.error = f"skipped {len(target.skipped)} damaged range(s): {lost}" + (
+            f" (reader: {target.error})" if target.error else ""
+        )
+    target.complete = target.complete and not target.error
+    target.truncated = not target.complete
+    if stats is not None:
+        target.statistics = {
+            topics.get(cid, str(cid)): int(n) for cid, n in stats.channel_message_counts.items()
+        }
+        read = {t: n for t, n in counts.items() if n}
+        target.statistics_ok = read == {t: n for t, n in target.statistics.items() if n}
+        if not target.statistics_ok and not target.error:
+            target.error = (
+                f"summary statistics {target.statistics} differ from the messages read {read}"
+            )
 
 
 def _cdr_messages(dtype: np.dtype[np.void], data: bytearray) -> MessageList:
