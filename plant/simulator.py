@@ -52,7 +52,7 @@ from __future__ import annotations
 import copy
 import math
 import operator
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -73,7 +73,7 @@ from plant.initial import InitialCondition
 from plant.platform import FloatingParams, FloatingPreset, step_blocks, tower_modal
 from plant.turbine import TurbineParams, outputs
 from plant.waves import WaveField
-from plant.wind import TurbulentWind, WindSpec, make_wind_function, wind_speed
+from plant.wind import SteadyWind, TurbulentWind, WindSpec, make_wind_function, wind_speed
 from sensors import ChannelSpec, ChannelSuite, NoiseSpec, SensorSuite
 from sensors.faults import FaultSchedule, FaultSpec
 
@@ -366,12 +366,18 @@ class PlantSimulator:
         tp = self.params
         self._efficiency = tp.generator_efficiency
         self._gearbox = tp.gearbox_ratio
-        # A turbulent wind record is looked up inside the kernels (plant._kernels.turbulent_speed).
+        # A turbulent wind record is looked up inside the kernels (plant._kernels.turbulent_speed);
+        # so is a steady wind, as a one-sample record (U + (U - U) frac = U exactly), so that
+        # the compiled in-process loop, which needs a record, runs steady scenarios too (the
+        # trim's settling runs among them).
         wind = config.wind
-        wind_dt = wind.dt_s if isinstance(wind, TurbulentWind) else 0.0
-        self._wind_table = np.array(
-            wind.samples_m_s if isinstance(wind, TurbulentWind) else (), dtype=np.float64
-        )
+        samples: Sequence[float] | np.ndarray = ()
+        wind_dt = 0.0
+        if isinstance(wind, TurbulentWind):
+            wind_dt, samples = wind.dt_s, wind.samples_m_s
+        elif isinstance(wind, SteadyWind):
+            wind_dt, samples = 1.0, (wind.speed_m_s,)
+        self._wind_table = np.array(samples, dtype=np.float64)
         if self.floating is None:
             self._w0 = 5
             self._s = np.zeros(self._w0 + self.n)
@@ -590,7 +596,11 @@ class PlantSimulator:
         applied : tuple of float
             (pitch rad, torque N m) demand.
         """
-        twin = copy.deepcopy(self)
+        # Frozen models and configs are shared with the twin (nothing can change them):
+        # copying their tables element by element was most of the warm-up's cost.
+        shared = [*vars(self).values(), getattr(self._wind, "__self__", None)]
+        memo: dict[int, object] = {id(v): v for v in shared if _frozen(v)}
+        twin = copy.deepcopy(self, memo)
         truth = twin.truth(0, 0, x, applied, 0)
         twin.sensor_frame(0, truth, 0)
         twin.advance(0.0, x, applied, applied, 0)
@@ -824,3 +834,9 @@ class PlantSimulator:
             platform_surge_measured_m=0.0,
             wave_elevation_gauge_measured_m=0.0,
         )
+
+
+def _frozen(value: object) -> bool:
+    """True for an instance of a frozen dataclass (immutable: safe to share, not copy)."""
+    params = getattr(type(value), "__dataclass_params__", None)
+    return params is not None and bool(params.frozen)

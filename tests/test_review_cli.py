@@ -21,15 +21,16 @@ from rich.console import Console
 
 from bus_schemas.messages import VALID_WAVE_GAUGE, PlantState, SensorFrame
 from bus_schemas.registry import CONTROLLER_REPORT, PLANT_REPORT, SENSORS, TIMING_SUMMARY, TRUTH
+from hil.review import plots
 from hil.review.core import (
     DEFAULT_SETTLE_S,
     PLOT_FILES,
-    _measured,
-    psd_segment,
     render_summary,
     review,
     write_plots,
 )
+from hil.review.plots import psd_segment
+from hil.runlog.columns import run_batches, run_info
 from hil.runlog.mcap_io import NotMcapError, RunLog, read_run
 
 DT_NS = 50_000_000  # 20 Hz
@@ -234,12 +235,19 @@ def test_bottom_fixed_plant_has_no_platform_kpis(tmp_path: Path) -> None:
 
 
 def test_dropouts_are_gaps_not_zeros(floating_log: Path) -> None:
-    sensors = read_run(floating_log).topic("sensors")
-    gauge = _measured(sensors, "wave_elevation_gauge_measured_m")
-    t = np.array([m["sample_time_ns"] for m in sensors]) / 1e9
+    run = read_run(floating_log)
+    data = plots.collect(
+        run_batches(run, plots.PLOT_FIELDS), run_info(run).counts, {}, run.metadata
+    )
+    sensors = data.series["sensors"]
+    gauge = sensors.get("wave_elevation_gauge_measured_m")
+    t = sensors.get("t")
     dropout = (t >= 5.0) & (t < 6.0)
     assert np.isnan(gauge[dropout]).all() and dropout.sum() == 20
     assert (gauge[~dropout] == 0.5).all()
+    # the dropout is one shaded span, to its last sample plus a sample spacing
+    (span,) = data.invalid["wave_elevation_gauge_measured_m"].finish()
+    assert span[0] == pytest.approx(5.0) and span[1] == pytest.approx(6.0, abs=0.051)
 
 
 def test_psd_segment_resolves_the_platform_modes_when_the_run_allows() -> None:

@@ -71,27 +71,38 @@ def hwm():
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
 from hil.review.core import review
-s = review(Path(sys.argv[1]), plots=False, write_summary=False)
+plots = len(sys.argv) > 2
+out = Path(sys.argv[2]) if plots else None
+s = review(Path(sys.argv[1]), out, plots=plots, write_summary=False)
 peak = hwm()
 print(json.dumps({"peak_mb": peak, "kpi": s["kpi"], "window": s["kpi_window"],
                   "cycles": s["timing"]["latency_cycles"]}))
 """
 
 
-def _review_child(path: Path) -> dict:
+def _review_child(path: Path, plots_dir: Path | None = None) -> dict:
     root = Path(__file__).resolve().parents[1]
+    extra = [str(plots_dir)] if plots_dir is not None else []
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(path)], capture_output=True, text=True, check=True,
-        cwd=root,
+        [sys.executable, "-c", CHILD, str(path), *extra], capture_output=True, text=True,
+        check=True, cwd=root,
     )  # fmt: skip
     out: dict = json.loads(proc.stdout.strip().splitlines()[-1])
     return out
 
 
-def test_six_hour_review_memory_does_not_grow(tmp_path: Path) -> None:
-    short, long = tmp_path / "short.mcap", tmp_path / "long.mcap"
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A 30 min and a 6 h run log (written once for the module's tests)."""
+    d = tmp_path_factory.mktemp("long_run")
+    short, long = d / "short.mcap", d / "long.mcap"
     write_log(short, 1800.0)
     write_log(long, 6 * 3600.0)
+    return short, long
+
+
+def test_six_hour_review_memory_does_not_grow(logs: tuple[Path, Path]) -> None:
+    short, long = logs
     a, b = _review_child(short), _review_child(long)
     assert b["cycles"] == 6 * 3600 * RATE_HZ
     assert b["peak_mb"] < 300.0, b["peak_mb"]
@@ -107,3 +118,17 @@ def test_six_hour_review_memory_does_not_grow(tmp_path: Path) -> None:
     assert k["thrust_max_n"] == pytest.approx(F0 + F1, rel=1e-6)
     # DEL of a sine of range 2 F1, one cycle per T_F, at 1 Hz and m = 4: 2 F1 (1/T_F)^(1/4)
     assert k["thrust_del_n"] == pytest.approx(2 * F1 * (1 / T_F) ** 0.25, rel=1e-3)
+
+
+def test_six_hour_plots_memory_does_not_grow(logs: tuple[Path, Path], tmp_path: Path) -> None:
+    """The plots are drawn from a second pass, in min/max buckets past MAX_POINTS samples:
+    the 6 h file's peak (matplotlib included) under 300 MB and at most 40 MB above the
+    30 min file's (the dict reader needed about 5 GB)."""
+    short, long = logs
+    a = _review_child(short, tmp_path / "short")
+    b = _review_child(long, tmp_path / "long")
+    assert b["peak_mb"] < 300.0, b["peak_mb"]
+    assert b["peak_mb"] - a["peak_mb"] < 40.0, (a["peak_mb"], b["peak_mb"])
+    for name in ("timeseries.png", "timing.png", "psd.png"):
+        png = tmp_path / "long" / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000

@@ -589,7 +589,7 @@ def run_html(mcap_path: Path, out_dir: Path | None = None) -> tuple[str, dict[st
         parts.append(f'<p class="note">{_esc(reason)}.</p>')
     with tempfile.TemporaryDirectory(prefix="fowt-report-") as tmp:
         d = Path(out_dir) if out_dir is not None else Path(tmp)
-        for png in write_plots(run, d):
+        for png in write_plots(run, d, summary):
             title = PLOT_TITLES.get(png.name, png.stem)
             parts.append(f"<h2>{_esc(title)}</h2>")
             parts.append(file_img(png, title))

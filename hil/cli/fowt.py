@@ -10,8 +10,10 @@ check), and a usage error of the parser is turned into the same one line by :fun
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import dataclasses
+import gc
 import json
 import math
 import os
@@ -1272,6 +1274,11 @@ def main(argv: list[str] | None = None) -> None:
     stderr with exit code 2, like every other bad input; no arguments print the help.
     """
     args = sys.argv[1:] if argv is None else list(argv)
+    # The interpreter's last full collection walks every object the imports and numba's
+    # kernels made (millions) only to free memory the OS takes back anyway: 0.3-0.8 s of
+    # every command's exit, measured. Frozen objects are skipped (files are closed by the
+    # commands themselves, not by finalizers).
+    atexit.register(gc.freeze)
     usage_error = _click_base("UsageError")
     click_error = _click_base("ClickException")
     try:

@@ -83,7 +83,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -94,13 +94,11 @@ from rich.table import Table
 
 from bus_schemas.messages import (
     CONTROLLER_REJECT_REASONS,
-    EST_FEEDFORWARD,
     EST_PLATFORM_PITCH_RATE,
     EST_PLATFORM_SURGE_VELOCITY,
     EST_WAVE_FORECAST,
     EST_WIND_SPEED,
     PLANT_REJECT_REASONS,
-    VALID_BITS,
 )
 from hil.review import kpi
 from hil.review import stream as rs
@@ -324,7 +322,12 @@ def _reasons(record: dict[str, Any], prefix: str, reasons: tuple[str, ...]) -> d
 
 
 def _scenario(run: RunData | RunInfo) -> dict[str, Any]:
-    rec = run.metadata.get("scenario", {})
+    return _scenario_of(run.metadata)
+
+
+def _scenario_of(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, Any]:
+    """The scenario recorded in a log's metadata: its name and its config (parsed JSON)."""
+    rec = metadata.get("scenario", {})
     out: dict[str, Any] = {"name": rec.get("name"), "config": None}
     raw = rec.get("json")
     if raw:
@@ -828,10 +831,7 @@ def _settle_s(info: RunInfo) -> float:
 
 def _scenario_period_s(info: RunInfo | RunData) -> float:
     """The scenario's control period [s] (nan when absent)."""
-    cfg = _scenario(info).get("config") or {}
-    timing = cfg.get("timing") if isinstance(cfg, dict) else None
-    period = timing.get("control_period_s") if isinstance(timing, dict) else None
-    return float(period) if isinstance(period, int | float) and period > 0 else math.nan
+    return scenario_period_s(info.metadata)
 
 
 def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str, Any]:
@@ -875,224 +875,12 @@ def summarize(run: RunData) -> dict[str, Any]:
 # --------------------------------------------------------------------------- plots
 
 
-def _no_data(ax: Any, text: str = "no data") -> None:
-    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
-
-
-#: Wall-clock resolution wanted of the PSD: 0.004 Hz puts two bins below the surge mode of
-#: a semi-submersible (about 0.008 Hz) and resolves its pitch mode (about 0.037 Hz).
-PSD_TARGET_SEGMENT_S = 250.0
-
-RPM_PER_RAD_S = 30.0 / math.pi
-
-
-def _measured(sensors: Sequence[dict[str, Any]], name: str) -> FloatArray:
-    """A measured field with the samples whose valid bit is clear as nan (gaps, not zeros)."""
-    x = _col(sensors, name)
-    bit = VALID_BITS.get(name)
-    if bit is not None and sensors:
-        valid = (_col(sensors, "valid_mask").astype(np.int64) & bit) > 0
-        x = np.where(valid, x, np.nan)
-    return x
-
-
-def _invalid_spans(t: FloatArray, invalid: npt.NDArray[np.bool_]) -> list[tuple[float, float]]:
-    """Time spans [s] of consecutive invalid samples (each to the next sample's time)."""
-    if not invalid.any():
-        return []
-    edges = np.diff(np.concatenate(([0], invalid.astype(np.int8), [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
-    return [(float(t[a]), float(t[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
-
-
-def _is_floating(truth: Sequence[dict[str, Any]]) -> bool:
-    return bool(truth) and bool(np.nansum(np.abs(_col(truth, "floating"))) > 0)
-
-
-def psd_segment(n: int, fs_hz: float) -> int:
-    """Welch segment length [samples] for a record of ``n`` samples at ``fs_hz``.
-
-    min(:data:`PSD_TARGET_SEGMENT_S` fs, n / 2): at most what resolves the platform modes, and
-    at least three half-overlapping segments to average; never fewer than 8 samples (or n).
-    The frequency resolution is fs / nperseg.
-    """
-    return int(max(min(n, 8), min(round(PSD_TARGET_SEGMENT_S * fs_hz), n // 2)))
-
-
-def write_plots(run: RunData, out_dir: Path) -> list[Path]:
-    """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
-
-    Uses the Agg backend (selected here, not at import). Panels with no data say so.
-
-    * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
-      transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
-      valid bit is clear (dropout) is a gap; the platform panels say "bottom-fixed" for a
-      plant without one. The KPI window's start is a dotted line. The plant's safe-state
-      windows are shaded, the controller's safe-mode windows hatched, and each start of the
-      feedforward is a dash-dotted vertical line (:func:`run_events`), each with one legend
-      entry on the top panel.
-    * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
-      cycle with missed cycles marked (late command at its latency, or no command at all).
-    * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
-      :func:`psd_segment`, its resolution in each title) of the rotor speed [rpm²/Hz], blade
-      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz].
-
-    Returns
-    -------
-    list of Path
-        The files written, in the order above.
-    """
-    # Lazy: selecting a backend at import would be a global side effect for importers.
-    import matplotlib  # noqa: PLC0415
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    truth = run.topic("truth")
-    cycles = run.topic("timing/cycle")
-    window = kpi_window(run)
-    name = _scenario(run).get("name") or "run"
-    mode = run.metadata.get("run", {}).get("mode", "")
-    label = f"{name}" + (f" ({mode})" if mode else "")
-    written: list[Path] = []
-    path = out_dir / "timeseries.png"
-    _timeseries_plot(run, window, label, path, plt)
-    written.append(path)
-    path = out_dir / "timing.png"
-    _timing_plot(run, cycles, label, path, plt)
-    written.append(path)
-    path = out_dir / "psd.png"
-    _psd_plot(truth, window, label, path, plt)
-    written.append(path)
-    return written
-
-
-def _timeseries_plot(
-    run: RunData, window: dict[str, Any], label: str, path: Path, plt: Any
-) -> None:
-    truth = run.topic("truth")
-    sensors = run.topic("sensors")
-    command = run.topic("command")
-    tt, ts, tc = _t_s(truth), _t_s(sensors), _t_s(command)
-    floating = _is_floating(truth)
-    behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
-    front = {"lw": 1.3, "zorder": 3}
-    cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
-    fig, axes = plt.subplots(8, 1, figsize=(11, 18), sharex=True, layout="constrained")
-
-    def meas(ax: Any, field: str, scale: float = 1.0, text: str = "measured") -> None:
-        if not sensors:
-            return
-        x = _measured(sensors, field)
-        ax.plot(ts, x * scale, label=text, **behind)
-        gaps = _invalid_spans(ts, np.isnan(x) & np.isfinite(_col(sensors, field)))
-        for i, (a, b) in enumerate(gaps):
-            ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if i else "invalid")
-
-    ax = axes[0]
-    meas(ax, "wind_speed_measured_m_s", text="nacelle anemometer")
-    if truth:
-        ax.plot(tt, _col(truth, "wind_speed_m_s"), label="hub wind (truth)", **front)
-    ax.set_ylabel("wind speed [m/s]")
-    ax = axes[1]
-    meas(ax, "rotor_speed_measured_rad_s", RPM_PER_RAD_S)
-    if truth:
-        ax.plot(tt, _col(truth, "rotor_speed_rad_s") * RPM_PER_RAD_S, label="truth", **front)
-    ax.set_ylabel("rotor speed [rpm]")
-    ax = axes[2]
-    meas(ax, "blade_pitch_measured_rad", 180.0 / math.pi)
-    if truth:
-        ax.plot(tt, np.degrees(_col(truth, "blade_pitch_rad")), label="truth", **front)
-    if command:
-        ax.step(
-            tc, np.degrees(_col(command, "blade_pitch_commanded_rad")), label="command", **cmd_style
-        )
-    ax.set_ylabel("blade pitch [deg]")
-    ax = axes[3]
-    meas(ax, "generator_torque_measured_nm", 1e-3)
-    if truth:
-        ax.plot(tt, _col(truth, "generator_torque_nm") / 1e3, label="truth", **front)
-    if command:
-        ax.step(
-            tc, _col(command, "generator_torque_commanded_nm") / 1e3, label="command", **cmd_style
-        )
-    ax.set_ylabel("generator torque [kN m]")
-    ax = axes[4]
-    meas(ax, "electrical_power_measured_w", 1e-6)
-    if truth:
-        ax.plot(tt, _col(truth, "electrical_power_w") / 1e6, label="truth", **front)
-    ax.set_ylabel("electrical power [MW]")
-    ax = axes[5]
-    if floating:
-        meas(ax, "platform_pitch_measured_rad", 180.0 / math.pi)
-        ax.plot(tt, np.degrees(_col(truth, "platform_pitch_rad")), label="truth", **front)
-    ax.set_ylabel("platform pitch [deg]")
-    ax = axes[6]
-    if floating:
-        meas(ax, "platform_surge_measured_m")
-        ax.plot(tt, _col(truth, "platform_surge_m"), label="truth", **front)
-    ax.set_ylabel("platform surge [m]")
-    ax = axes[7]
-    if floating:
-        meas(ax, "wave_elevation_gauge_measured_m", text="gauge (measured)")
-        ax.plot(
-            tt,
-            _col(truth, "wave_elevation_gauge_m"),
-            label="at the gauge (truth)",
-            lw=0.9,
-            ls="--",
-            zorder=2,
-        )
-        ax.plot(tt, _col(truth, "wave_elevation_platform_m"), label="at the platform", **front)
-    ax.set_ylabel("wave elevation [m]")
-    ax.set_xlabel("simulated time [s]")
-    # A minimum visible span per panel (its unit), so that sensor quantisation and noise
-    # around a flat truth (pitch at 0 below rated) stay a thin band, not the whole panel.
-    for a, span in zip(axes, (1.0, 0.5, 1.0, 100.0, 0.1, 0.5, 1.0, 0.5), strict=True):
-        if a.lines:
-            lo, hi = a.get_ylim()
-            if hi - lo < span:
-                mid = 0.5 * (lo + hi)
-                a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
-    start = window.get("from_s")
-    has_data = [bool(a.lines) for a in axes]
-    _mark_run_events(run, [a for a, d in zip(axes, has_data, strict=True) if d])
-    for a, data in zip(axes, has_data, strict=True):
-        if data:
-            if isinstance(start, float) and start > 0:
-                a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
-            a.legend(loc="upper right", fontsize="small", ncols=3)
-        elif truth and not floating and a in axes[5:]:
-            _no_data(a, "bottom-fixed plant: no platform")
-        else:
-            _no_data(a)
-        a.grid(True, alpha=0.3)
-    note = ""
-    if isinstance(start, float) and start > 0:
-        note = f"; KPIs from t = {start:.1f} s (dotted line)"
-    fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-
-
-def safe_windows(
-    t_s: FloatArray, flags: npt.NDArray[np.bool_], period_s: float = math.nan
-) -> list[tuple[float, float]]:
-    """Time windows [s] of consecutive flagged samples, each to its last sample + a period.
-
-    ``period_s`` is the spacing of the samples (nan: their median spacing), so that one
-    flagged sample is a window of one period.
-    """
-    if not flags.any():
-        return []
-    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    dt = period_s
-    if not math.isfinite(dt):
-        dt = float(np.median(np.diff(t_s))) if t_s.size > 1 else 0.0
-    return [(float(t_s[a]), float(t_s[b - 1]) + dt) for a, b in zip(starts, ends, strict=True)]
+def scenario_period_s(metadata: Mapping[str, Mapping[str, str]]) -> float:
+    """The control period [s] of the scenario recorded in a log's metadata (nan when absent)."""
+    cfg = _scenario_of(metadata).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    return float(period) if isinstance(period, int | float) and period > 0 else math.nan
 
 
 def run_events(run: RunData) -> dict[str, Any]:
@@ -1106,197 +894,44 @@ def run_events(run: RunData) -> dict[str, Any]:
     first cycle (its feedforward fields hold a value, 0 until the forecast is valid), so the
     bit alone would put the start at t = 0. It starts again after each gap (a forecaster
     restarted after the safe mode): ``feedforward_starts_s`` lists every start,
-    ``feedforward_start_s`` is the first (None: it never acted).
+    ``feedforward_start_s`` is the first (None: it never acted). Each window runs to its
+    last sample plus the control period (:class:`hil.review.plots.Spans`).
     """
-    cycles = run.topic("timing/cycle")
-    commands = run.topic("command")
-    status = run.topic("controller/status")
-    period = _control_period_s(run, commands)
-    plant = safe_windows(_t_s(cycles), _col(cycles, "safe_state") > 0, period)
-    ctrl = safe_windows(_t_s(commands), _col(commands, "mode") == MODE_SAFE_COMMAND, period)
-    mask = _col(status, "estimates_valid_mask")
-    ok = np.isfinite(mask)
-    bits = EST_FEEDFORWARD | EST_WAVE_FORECAST
-    acting = np.zeros(mask.size, dtype=bool)
-    acting[ok] = (mask[ok].astype(np.int64) & bits) == bits
-    starts = [a for a, _b in safe_windows(_t_s(status), acting, period)]
-    return {
-        "plant_safe_state": plant,
-        "controller_safe_mode": ctrl,
-        "feedforward_starts_s": starts,
-        "feedforward_start_s": starts[0] if starts else None,
-    }
+    from hil.review import plots  # noqa: PLC0415 - plots import this module
+
+    info = run_info(run)
+    return plots.collect(
+        run_batches(run, plots.PLOT_FIELDS), info.counts, {}, run.metadata
+    ).events()
 
 
-def _mark_run_events(run: RunData, axes: Sequence[Any]) -> None:
-    """Shade the safe-state and safe-mode windows and draw the feedforward's start on
-    ``axes``; the legend entries go on the first (top) panel only."""
-    ev = run_events(run)
-    for i, a in enumerate(axes):
-        first = i == 0
-        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
-            a.axvspan(
-                lo,
-                hi,
-                color="tab:purple",
-                alpha=0.18,
-                lw=0,
-                zorder=0,
-                label="plant safe state" if first and k == 0 else None,
-            )
-        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
-            a.axvspan(
-                lo,
-                hi,
-                facecolor="none",
-                edgecolor="tab:orange",
-                hatch="//",
-                lw=0,
-                zorder=0,
-                label="controller safe mode" if first and k == 0 else None,
-            )
-        for k, ff in enumerate(ev["feedforward_starts_s"]):
-            a.axvline(
-                ff,
-                color="tab:green",
-                ls="-.",
-                lw=1.2,
-                zorder=2,
-                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
-            )
+def write_plots(
+    run: RunData, out_dir: Path, summary: Mapping[str, Any] | None = None
+) -> list[Path]:
+    """The plots of a run in memory (:func:`hil.review.plots.write_plots`); ``summary``
+    (None: :func:`summarize`) gives the KPI window and the latency percentiles."""
+    from hil.review import plots  # noqa: PLC0415 - plots import this module
 
-
-def _timing_plot(
-    run: RunData, cycles: Sequence[dict[str, Any]], label: str, path: Path, plt: Any
-) -> None:
-    lat_ns, unanswered = _cycle_latency_ns(cycles)
-    deadline = _deadline_us(run)
-    seq = _col(cycles, "seq")
-    missed_all = _col(cycles, "deadline_missed") > 0
-    lat_all = _col(cycles, "latency_ns")
-    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
-    finite = lat_ns[np.isfinite(lat_ns)] / 1e3
-    mode = run.metadata.get("run", {}).get("mode", "")
-    enforced = mode not in ("lockstep", "inprocess")
-    dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
-    if lat_ns.size:
-        pct = kpi.latency_percentiles_us(lat_ns)
-        # Log-spaced bins on a log axis: the latency spans decades (tens of us to a stall).
-        lo = float(finite[finite > 0].min()) if (finite > 0).any() else 1.0
-        hi = float(max(finite.max() if finite.size else 1.0, deadline if deadline > 0 else 0.0))
-        bins = np.logspace(np.log10(lo * 0.95), np.log10(max(hi, lo) * 1.05), 101)
-        a0.hist(finite, bins=bins, color="tab:blue", label=f"{finite.size} cycles with a command")
-        a0.set_xscale("log")
-        for q, color in (("p50", "tab:green"), ("p99", "tab:orange")):
-            v = pct[q]
-            if math.isfinite(v):
-                a0.axvline(v, color=color, ls="--", label=f"{q} = {v:.0f} us")
-            else:
-                share = 100.0 * unanswered / lat_ns.size
-                a0.plot([], [], " ", label=f"{q} = inf ({share:.2g} % of cycles had no command)")
-        if deadline > 0:
-            a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
-        a0.set_yscale("log")
-        a0.legend(fontsize="small")
-        ok = ~missed_all & (lat_all > 0)
-        a1.plot(seq[ok], lat_all[ok] / 1e3, ".", ms=2, color="tab:blue", label="command in time")
-        a1.set_yscale("log")
-        late = missed_all & (lat_all > 0)
-        if late.any():
-            a1.plot(
-                seq[late],
-                lat_all[late] / 1e3,
-                "x",
-                color="tab:red",
-                ms=6,
-                label=f"missed: command late ({int(late.sum())})",
-            )
-        none = missed_all & ~(lat_all > 0)
-        if none.any():
-            top = max(float(finite.max()) if finite.size else 0.0, deadline) * 1.05
-            a1.plot(
-                seq[none],
-                np.full(int(none.sum()), top),
-                "v",
-                color="darkred",
-                ms=6,
-                label=f"missed: no command by the next tick ({int(none.sum())})",
-            )
-        if deadline > 0:
-            a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
-        a1.legend(fontsize="small", loc="best", framealpha=0.9)
-    else:
-        _no_data(a0)
-        _no_data(a1)
-    n_missed = int(missed_all.sum())
-    a0.set_title(
-        f"{label}: sensor-to-command latency of all {lat_ns.size} cycles "
-        f"({n_missed} missed, {unanswered} without a command)"
+    info = run_info(run)
+    data = plots.collect(
+        run_batches(run, plots.PLOT_FIELDS),
+        info.counts,
+        summary if summary is not None else summarize(run),
+        run.metadata,
     )
-    a0.set_xlabel("sensor-to-command latency [us]")
-    a0.set_ylabel("cycles [1]")
-    a1.set_title("latency per cycle")
-    a1.set_xlabel("cycle [1]")
-    a1.set_ylabel("latency [us]")
-    a1.grid(True, alpha=0.3)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return plots.write_plots(data, out_dir)
 
 
-def _psd_plot(
-    truth: Sequence[dict[str, Any]], window: dict[str, Any], label: str, path: Path, plt: Any
-) -> None:
-    start = window.get("from_s") or 0.0
-    msgs = _since(list(truth), float(start))
-    t = _t_s(msgs)
-    floating = _is_floating(truth)
-    series: list[tuple[str, FloatArray | None, str]] = [
-        ("rotor speed", _col(msgs, "rotor_speed_rad_s") * RPM_PER_RAD_S, "rpm$^2$/Hz"),
-        ("blade pitch", np.degrees(_col(msgs, "blade_pitch_rad")), "deg$^2$/Hz"),
-        (
-            "platform pitch",
-            np.degrees(_col(msgs, "platform_pitch_rad")) if floating else None,
-            "deg$^2$/Hz",
-        ),
-        ("tower-base fore-aft moment", _col(msgs, "tower_base_moment_nm") / 1e6, "(MN m)$^2$/Hz"),
-    ]
-    fig, axes = plt.subplots(len(series), 1, figsize=(10, 12), sharex=True, layout="constrained")
-    title = f"{label}: power spectral densities"
-    if len(msgs) >= 8:
-        dt = float(np.median(np.diff(t)))
-        fs = 1.0 / dt if dt > 0 else 1.0
-        nper = psd_segment(len(msgs), fs)
-        df = fs / nper
-        n_seg = max(1, (len(msgs) - nper) // (nper // 2) + 1)
-        title += (
-            f", t = {t[0]:.4g}-{t[-1]:.4g} s (KPI window)\nWelch, Hann window, segment "
-            f"{nper / fs:.4g} s, resolution {df:.3g} Hz, {n_seg} segments with 50 % overlap"
-        )
-        for ax, (name, x, unit) in zip(axes, series, strict=True):
-            ax.set_ylabel(f"{name}\n[{unit}]")
-            if x is None:
-                _no_data(ax, "bottom-fixed plant: no platform")
-                continue
-            if not np.isfinite(x).all():
-                _no_data(ax, "not logged")
-                continue
-            from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+def write_plots_of_file(
+    mcap_path: Path, info: RunInfo, summary: Mapping[str, Any], out_dir: Path
+) -> list[Path]:
+    """The plots of a run log read again chunk by chunk (memory bounded: plots module);
+    ``info`` and ``summary`` are those of the review's own pass over the file."""
+    from hil.review import plots  # noqa: PLC0415 - plots import this module
 
-            f, pxx = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
-            pos = pxx[1:] > 0
-            if not pos.any():
-                _no_data(ax, f"{name} constant over the window: no spectrum")
-                continue
-            ax.loglog(f[1:][pos], pxx[1:][pos], lw=1.0)
-            ax.grid(True, which="both", alpha=0.3)
-    else:
-        for ax, (name, _x, unit) in zip(axes, series, strict=True):
-            ax.set_ylabel(f"{name}\n[{unit}]")
-            _no_data(ax)
-    axes[-1].set_xlabel("frequency [Hz]")
-    fig.suptitle(title, fontsize="medium")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    reader = ColumnReader(mcap_path, plots.PLOT_FIELDS)
+    data = plots.collect(reader.batches(), info.counts, summary, info.metadata)
+    return plots.write_plots(data, out_dir)
 
 
 # --------------------------------------------------------------------------- entry points
@@ -1324,14 +959,14 @@ def review(
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
-    # One pass over the file chunk by chunk (hil.runlog.columns); memory does not grow with
-    # the run. A platform recording (small) and the plots read the messages whole.
+    # One pass over the file chunk by chunk (hil.runlog.columns), and one more for the plots;
+    # memory does not grow with the run. A platform recording (small) is read whole.
     reader = ColumnReader(mcap_path, rs.FIELDS)
     summary = summarize_batches(reader.batches(), reader.info)
     check_run_log(reader.info, mcap_path)
     platform = _is_platform(reader.info)
-    run = read_run(mcap_path) if platform or plots else None
-    if platform and run is not None:
+    run = read_run(mcap_path) if platform else None
+    if run is not None:
         from hil.hexicon import review as hexicon_review  # noqa: PLC0415 - platform recordings only
 
         summary = hexicon_review.summarize(run)
@@ -1342,13 +977,13 @@ def review(
         (out / "summary.json").write_text(
             json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
         )
-    if plots and run is not None:
-        if platform:
+    if plots:
+        if run is not None:
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
             hexicon_review.write_plots(run, out)
-        else:
-            write_plots(run, out)
+        else:  # a second pass over the file, chunk by chunk, knowing the summary
+            write_plots_of_file(mcap_path, reader.info, summary, out)
     return summary
 
 

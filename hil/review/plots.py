@@ -1,0 +1,711 @@
+"""The run's plots, drawn from one pass over its columns: memory bounded whatever its length.
+
+:func:`write_plots` writes ``timeseries.png``, ``timing.png`` and ``psd.png`` from a
+:class:`PlotData`, which takes the run's messages as batches of columns
+(:class:`hil.runlog.columns.ColumnBatch`: a file read chunk by chunk by
+:class:`hil.runlog.columns.ColumnReader`, or a run in memory through
+:func:`hil.runlog.columns.run_batches`) and keeps only what is drawn:
+
+* **time series**: every sample of a run up to :data:`MAX_POINTS` samples per channel (a
+  600 s run at 40 Hz, 24 000 samples, is drawn sample by sample); a longer run in buckets of
+  B = ceil(n / (MAX_POINTS / 2)) consecutive samples, each drawn as its minimum at the
+  bucket's first time and its maximum at its last, so the line covers the envelope of what
+  it replaces (a spike is not lost, as it would be by taking every B-th sample);
+* **event windows** (the plant's safe state, the controller's safe mode, the feedforward's
+  starts, a sensor's invalid samples) at full rate, span by span (:class:`Spans`);
+* **latency**: a histogram on fixed log-spaced bins (:data:`LATENCY_BINS_PER_DECADE` a
+  decade, regrouped into about 100 bins over the measured range when drawn), the in-time
+  cycles as a time series as above, the missed ones each;
+* **spectra**: Welch's average over the KPI window (Hann, 50 % overlap, segment
+  :func:`psd_segment`), taken segment by segment as the samples come (:class:`StreamingWelch`):
+  the same estimate as ``scipy.signal.welch`` over the whole record, holding at most two
+  segments.
+
+The counts per channel (for B), the KPI window and the latency percentiles come from the
+run's summary (:func:`hil.review.core.summarize_batches`), which a review computes in its own
+pass first.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST, VALID_BITS
+from hil.review.core import scenario_period_s
+from hil.runlog.columns import ColumnBatch, suffix_of
+
+FloatArray = npt.NDArray[np.float64]
+
+__all__ = [
+    "MAX_POINTS",
+    "PLOT_FIELDS",
+    "PLOT_FILES",
+    "PSD_TARGET_SEGMENT_S",
+    "PlotData",
+    "Spans",
+    "StreamingWelch",
+    "psd_segment",
+    "write_plots",
+]
+
+PLOT_FILES = ("timeseries.png", "timing.png", "psd.png")
+#: Samples per channel drawn as they are; longer runs are drawn as min/max buckets.
+MAX_POINTS = 32768
+#: Fixed bins of the latency histogram per decade (from 1 ns to 1000 s).
+LATENCY_BINS_PER_DECADE = 200
+_LAT_EDGES_US = np.logspace(-3.0, 9.0, 12 * LATENCY_BINS_PER_DECADE + 1)
+#: Wall-clock resolution wanted of the PSD: 0.004 Hz puts two bins below the surge mode of
+#: a semi-submersible (about 0.008 Hz) and resolves its pitch mode (about 0.037 Hz).
+PSD_TARGET_SEGMENT_S = 250.0
+RPM_PER_RAD_S = 30.0 / math.pi
+#: ``command`` ``mode`` of a safe-mode command (:data:`hil.review.core.MODE_SAFE_COMMAND`).
+MODE_SAFE_COMMAND = 2
+
+#: (panel, truth field, measured field, scale to the panel's unit, measured label).
+_PANELS: tuple[tuple[str, str, str, float, str], ...] = (
+    ("wind speed [m/s]", "wind_speed_m_s", "wind_speed_measured_m_s", 1.0, "nacelle anemometer"),
+    ("rotor speed [rpm]", "rotor_speed_rad_s", "rotor_speed_measured_rad_s", RPM_PER_RAD_S, ""),
+    ("blade pitch [deg]", "blade_pitch_rad", "blade_pitch_measured_rad", 180.0 / math.pi, ""),
+    ("generator torque [kN m]", "generator_torque_nm", "generator_torque_measured_nm", 1e-3, ""),
+    ("electrical power [MW]", "electrical_power_w", "electrical_power_measured_w", 1e-6, ""),
+    (
+        "platform pitch [deg]",
+        "platform_pitch_rad",
+        "platform_pitch_measured_rad",
+        180 / math.pi,
+        "",
+    ),
+    ("platform surge [m]", "platform_surge_m", "platform_surge_measured_m", 1.0, ""),
+    (
+        "wave elevation [m]",
+        "wave_elevation_platform_m",
+        "wave_elevation_gauge_measured_m",
+        1.0,
+        "gauge (measured)",
+    ),
+)
+#: (name, truth field, scale, unit of the density) of the spectra.
+_SPECTRA: tuple[tuple[str, str, float, str], ...] = (
+    ("rotor speed", "rotor_speed_rad_s", RPM_PER_RAD_S, "rpm$^2$/Hz"),
+    ("blade pitch", "blade_pitch_rad", 180.0 / math.pi, "deg$^2$/Hz"),
+    ("platform pitch", "platform_pitch_rad", 180.0 / math.pi, "deg$^2$/Hz"),
+    ("tower-base fore-aft moment", "tower_base_moment_nm", 1e-6, "(MN m)$^2$/Hz"),
+)
+_TRUTH_FIELDS = (
+    *(p[1] for p in _PANELS),
+    "wave_elevation_gauge_m",
+    "tower_base_moment_nm",
+    "floating",
+)
+#: The fields each topic is read for (besides ``sample_time_ns``).
+PLOT_FIELDS: dict[str, tuple[str, ...]] = {
+    "truth": tuple(dict.fromkeys(_TRUTH_FIELDS)),
+    "sensors": ("valid_mask", *(p[2] for p in _PANELS)),
+    "command": ("blade_pitch_commanded_rad", "generator_torque_commanded_nm", "mode"),
+    "timing/cycle": ("seq", "latency_ns", "deadline_missed", "safe_state"),
+    "controller/status": ("estimates_valid_mask",),
+}
+
+
+def psd_segment(n: int, fs_hz: float) -> int:
+    """Welch segment length [samples] for a record of ``n`` samples at ``fs_hz``.
+
+    min(:data:`PSD_TARGET_SEGMENT_S` fs, n / 2): at most what resolves the platform modes, and
+    at least three half-overlapping segments to average; never fewer than 8 samples (or n).
+    The frequency resolution is fs / nperseg.
+    """
+    return int(max(min(n, 8), min(round(PSD_TARGET_SEGMENT_S * fs_hz), n // 2)))
+
+
+class Envelope:
+    """A channel group's samples, every one up to :data:`MAX_POINTS`, else min/max buckets.
+
+    Parameters
+    ----------
+    count : int
+        Samples the group will get (the run's message count of the topic); sets the bucket:
+        B = 1 up to :data:`MAX_POINTS`, else ceil(count / (MAX_POINTS / 2)) (two points a
+        bucket).
+    """
+
+    def __init__(self, count: int) -> None:
+        n = int(count)
+        self.bucket = 1 if n <= MAX_POINTS else -(-n // (MAX_POINTS // 2))
+        self._parts: dict[str, list[np.ndarray]] = {}
+        self._carry: dict[str, np.ndarray] = {}
+
+    def add(self, cols: Mapping[str, np.ndarray]) -> None:
+        """Append consecutive samples (``t`` and the channels, equal lengths)."""
+        b = self.bucket
+        for name, col in cols.items():
+            x = np.asarray(col, np.float64)
+            if b == 1:
+                self._parts.setdefault(name, []).append(x)
+                continue
+            carry = self._carry.get(name)
+            if carry is not None and carry.size:
+                x = np.concatenate((carry, x))
+            full = (x.size // b) * b
+            self._carry[name] = x[full:]
+            if full:
+                self._parts.setdefault(name, []).append(_buckets(name, x[:full].reshape(-1, b)))
+
+    def get(self, name: str) -> FloatArray:
+        """The drawn samples of ``name`` (``t``: their times), the last partial bucket too."""
+        parts = list(self._parts.get(name, []))
+        carry = self._carry.get(name)
+        if carry is not None and carry.size:
+            parts.append(_buckets(name, carry.reshape(1, -1)))
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _buckets(name: str, rows: np.ndarray) -> np.ndarray:
+    """Each row (a bucket) as two samples: (first, last) time, or (min, max) value; the
+    NaN-ignoring reductions leave a bucket with no finite value a gap (no warning)."""
+    if name == "t":
+        lo, hi = rows[:, 0], rows[:, -1]
+    else:
+        lo, hi = np.fmin.reduce(rows, axis=1), np.fmax.reduce(rows, axis=1)
+    return np.column_stack((lo, hi)).ravel()
+
+
+class Spans:
+    """Windows of consecutive flagged samples, fed in order (chunk boundaries do not matter).
+
+    A window runs from its first flagged sample to its last plus ``period_s`` (the samples'
+    spacing): a single flagged sample is a window of one period.
+    """
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self.windows: list[tuple[float, float]] = []
+        self._open: float | None = None
+        self._last = math.nan
+
+    def add(self, t: np.ndarray, flags: np.ndarray) -> None:
+        """Feed samples at times ``t`` [s] and their flags."""
+        f = np.asarray(flags, dtype=bool)
+        if not f.size:
+            return
+        continuing = self._open is not None and bool(f[0])
+        if self._open is not None and not f[0]:
+            self._close(self._last)  # the window left open ended with the previous batch
+        edges = np.diff(np.concatenate(([0], f.astype(np.int8), [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
+            start = self._open if (continuing and a == 0) else float(t[a])
+            self._open, self._last = start, float(t[b - 1])
+            if b < f.size:
+                self._close(self._last)
+
+    def _close(self, last: float) -> None:
+        if self._open is not None:
+            self.windows.append((self._open, last + self.period_s))
+        self._open = None
+
+    def finish(self) -> list[tuple[float, float]]:
+        """The windows, the one still open at the end closed."""
+        if self._open is not None:
+            self._close(self._last)
+        return self.windows
+
+
+class StreamingWelch:
+    """Welch's PSD estimate of a record fed in pieces, holding at most two segments.
+
+    The record's length is not known in advance: up to 2 L samples are kept (L =
+    :data:`PSD_TARGET_SEGMENT_S` fs); a record that ends there is estimated whole with
+    :func:`psd_segment`'s shorter segment, as ``scipy.signal.welch`` would. Past 2 L the
+    segment is L (psd_segment's value for every longer record) and each segment's
+    periodogram (Hann window, mean removed, density scaling) is added to a running sum as
+    soon as its samples are in, segments starting every L - L // 2 samples (scipy's default
+    overlap): the mean of those periodograms is Welch's estimate.
+    """
+
+    def __init__(self, fs_hz: float) -> None:
+        self.fs = fs_hz
+        self.target = max(8, round(PSD_TARGET_SEGMENT_S * fs_hz))
+        self._buf = np.zeros(0)
+        self._sum: np.ndarray | None = None
+        self.segments = 0
+        self.n = 0
+        self.finite = True
+
+    def add(self, x: np.ndarray) -> None:
+        """Append samples (equally spaced at ``fs_hz``)."""
+        x = np.asarray(x, np.float64)
+        self.n += x.size
+        self.finite = self.finite and bool(np.isfinite(x).all())
+        self._buf = np.concatenate((self._buf, x))
+        if self.n < 2 * self.target:
+            return
+        length = self.target
+        step = length - length // 2
+        while self._buf.size >= length:
+            _f, p = _welch(self._buf[:length], self.fs, length)
+            self._sum = p if self._sum is None else self._sum + p
+            self.segments += 1
+            self._buf = self._buf[step:]
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """(f [Hz], PSD, segment length, segments) of the whole record."""
+        if self._sum is not None:
+            f = np.fft.rfftfreq(self.target, 1.0 / self.fs)
+            return f, self._sum / self.segments, self.target, self.segments
+        nper = psd_segment(self.n, self.fs)
+        f, p = _welch(self._buf, self.fs, nper)
+        return f, p, nper, max(1, (self.n - nper) // (nper // 2) + 1)
+
+
+def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+
+    f, p = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
+    return np.asarray(f), np.asarray(p)
+
+
+class PlotData:
+    """What the three plots draw, gathered from one pass over the run's columns.
+
+    Parameters
+    ----------
+    counts : mapping of str to int
+        Messages per topic suffix (the first topic of each; sets the buckets).
+    summary : dict
+        The run's review summary: ``kpi_window``, ``timing`` (latency percentiles, deadline,
+        unanswered cycles) and ``run`` (mode) are read.
+    metadata : dict
+        The log's metadata records (scenario name and control period).
+    """
+
+    def __init__(
+        self,
+        counts: Mapping[str, int],
+        summary: Mapping[str, Any],
+        metadata: Mapping[str, Mapping[str, str]],
+    ) -> None:
+        self.summary = summary
+        self.metadata = metadata
+        self.period_s = scenario_period_s(metadata)
+        self.window = dict(summary.get("kpi_window") or {})
+        self.series = {sfx: Envelope(counts.get(sfx, 0)) for sfx in PLOT_FIELDS}
+        self.floating = False
+        self.seen: set[str] = set()
+        p = self.period_s
+        self.plant_safe = Spans(p)
+        self.ctrl_safe = Spans(p)
+        self.acting = Spans(p)
+        self.invalid = {p_[2]: Spans(p) for p_ in _PANELS}
+        self.lat_counts = np.zeros(_LAT_EDGES_US.size - 1, np.int64)
+        self.lat_n = 0
+        self.late: list[np.ndarray] = []
+        self.unanswered: list[np.ndarray] = []
+        self.welch: dict[str, StreamingWelch] = {}
+        self.psd_t = [math.nan, math.nan]
+
+    # ------------------------------------------------------------------ feeding
+    def feed(self, batch: ColumnBatch) -> None:
+        """Take a batch of the first topic of its suffix (other turbines are not drawn)."""
+        if not batch.first or batch.suffix not in PLOT_FIELDS:
+            return
+        cols = batch.columns
+        t = cols["sample_time_ns"] / 1e9
+        sfx = batch.suffix
+        self.seen.add(sfx)
+        if sfx == "truth":
+            self._truth(t, cols)
+        elif sfx == "sensors":
+            self._sensors(t, cols)
+        elif sfx == "command":
+            self.series[sfx].add({"t": t, **{k: cols[k] for k in PLOT_FIELDS[sfx][:2]}})
+            self.ctrl_safe.add(t, cols["mode"] == MODE_SAFE_COMMAND)
+        elif sfx == "timing/cycle":
+            self._cycles(t, cols)
+        else:
+            mask = cols["estimates_valid_mask"]
+            ok = np.isfinite(mask)
+            bits = EST_FEEDFORWARD | EST_WAVE_FORECAST
+            acting = np.zeros(mask.size, dtype=bool)
+            acting[ok] = (mask[ok].astype(np.int64) & bits) == bits
+            self.acting.add(t, acting)
+
+    def _truth(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
+        self.floating = self.floating or bool(np.nansum(np.abs(cols["floating"])) > 0)
+        self.series["truth"].add({"t": t, **{k: cols[k] for k in _TRUTH_FIELDS}})
+        start = self.window.get("from_s")
+        keep = t >= (float(start) if isinstance(start, int | float) else 0.0)
+        if not keep.any():
+            return
+        tk = t[keep]
+        if not self.welch:
+            dt = float(np.median(np.diff(tk))) if tk.size > 1 else 0.0
+            if dt <= 0:
+                # one sample in this batch: the control period, else 1 Hz
+                dt = self.period_s if math.isfinite(self.period_s) else 1.0
+            self.welch = {f: StreamingWelch(1.0 / dt) for _n, f, _s, _u in _SPECTRA}
+            self.psd_t[0] = float(tk[0])
+        self.psd_t[1] = float(tk[-1])
+        for _name, field, scale, _unit in _SPECTRA:
+            self.welch[field].add(cols[field][keep] * scale)
+
+    def _sensors(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
+        mask = cols["valid_mask"]
+        drawn: dict[str, np.ndarray] = {"t": t}
+        for _panel, _truth, field, _scale, _label in _PANELS:
+            x = cols[field]
+            bit = VALID_BITS.get(field)
+            if bit is not None:
+                valid = (np.nan_to_num(mask).astype(np.int64) & bit) > 0
+                x = np.where(valid, x, np.nan)
+            drawn[field] = x
+            self.invalid[field].add(t, np.isnan(x) & np.isfinite(cols[field]))
+        self.series["sensors"].add(drawn)
+
+    def _cycles(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
+        lat, missed, seq = cols["latency_ns"], cols["deadline_missed"] > 0, cols["seq"]
+        self.plant_safe.add(t, cols["safe_state"] > 0)
+        answered = np.isfinite(lat) & (lat > 0)
+        self.lat_counts += np.histogram(lat[answered] / 1e3, bins=_LAT_EDGES_US)[0]
+        self.lat_n += int(answered.sum())
+        ok = ~missed & (lat > 0)
+        self.series["timing/cycle"].add({"t": seq[ok], "latency_us": lat[ok] / 1e3})
+        late = missed & (lat > 0)
+        if late.any():
+            self.late.append(np.column_stack((seq[late], lat[late] / 1e3)))
+        none = missed & ~(lat > 0)
+        if none.any():
+            self.unanswered.append(seq[none])
+
+    # ------------------------------------------------------------------ results
+    def events(self) -> dict[str, Any]:
+        """The windows and feedforward starts (:func:`hil.review.core.run_events`)."""
+        starts = [a for a, _b in self.acting.finish()]
+        return {
+            "plant_safe_state": self.plant_safe.finish(),
+            "controller_safe_mode": self.ctrl_safe.finish(),
+            "feedforward_starts_s": starts,
+            "feedforward_start_s": starts[0] if starts else None,
+        }
+
+    def label(self) -> str:
+        name = self.metadata.get("scenario", {}).get("name") or "run"
+        mode = self.metadata.get("run", {}).get("mode", "")
+        return f"{name}" + (f" ({mode})" if mode else "")
+
+
+def collect(
+    batches: Iterable[ColumnBatch],
+    counts: Mapping[str, int],
+    summary: Mapping[str, Any],
+    metadata: Mapping[str, Mapping[str, str]],
+) -> PlotData:
+    """A :class:`PlotData` fed every batch; ``counts`` per topic (any turbine's name)."""
+    by_suffix: dict[str, int] = {}
+    for topic, n in counts.items():
+        by_suffix.setdefault(suffix_of(topic), n)
+    data = PlotData(by_suffix, summary, metadata)
+    for batch in batches:
+        data.feed(batch)
+    return data
+
+
+# --------------------------------------------------------------------------- drawing
+
+
+def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
+    """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
+
+    Uses the Agg backend (selected here, not at import). Panels with no data say so.
+
+    * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
+      transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
+      valid bit is clear (dropout) is a gap and shaded; the platform panels say
+      "bottom-fixed" for a plant without one. The KPI window's start is a dotted line. The
+      plant's safe-state windows are shaded, the controller's safe-mode windows hatched,
+      and each start of the feedforward is a dash-dotted vertical line, each with one
+      legend entry on the top panel. A run longer than :data:`MAX_POINTS` samples is drawn
+      as min/max buckets (module docstring; the title says so).
+    * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
+      cycle with missed cycles marked (late command at its latency, or no command at all).
+    * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
+      :func:`psd_segment`, its resolution in each title) of the rotor speed [rpm²/Hz], blade
+      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz].
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order above.
+    """
+    # Lazy: selecting a backend at import would be a global side effect for importers.
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    label = data.label()
+    written = [out_dir / name for name in PLOT_FILES]
+    _timeseries_plot(data, label, written[0], plt)
+    _timing_plot(data, label, written[1], plt)
+    _psd_plot(data, label, written[2], plt)
+    return written
+
+
+def _no_data(ax: Any, text: str = "no data") -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+def _timeseries_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
+    truth, sensors, command = (data.series[k] for k in ("truth", "sensors", "command"))
+    has = {k: k in data.seen for k in ("truth", "sensors", "command")}
+    tt, ts, tc = truth.get("t"), sensors.get("t"), command.get("t")
+    floating = data.floating
+    behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
+    front = {"lw": 1.3, "zorder": 3}
+    cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
+    fig, axes = plt.subplots(len(_PANELS), 1, figsize=(11, 18), sharex=True, layout="constrained")
+    commanded = {
+        "blade_pitch_rad": ("blade_pitch_commanded_rad", 180.0 / math.pi),
+        "generator_torque_nm": ("generator_torque_commanded_nm", 1e-3),
+    }
+    for i, (ax, (panel, tfield, mfield, scale, mlabel)) in enumerate(
+        zip(axes, _PANELS, strict=True)
+    ):
+        platform = i >= 5
+        if platform and not floating:
+            ax.set_ylabel(panel)
+            continue
+        if has["sensors"]:
+            ax.plot(ts, sensors.get(mfield) * scale, label=mlabel or "measured", **behind)
+            for k, (a, b) in enumerate(data.invalid[mfield].finish()):
+                ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if k else "invalid")
+        if has["truth"]:
+            if tfield == "wave_elevation_platform_m":
+                ax.plot(
+                    tt,
+                    truth.get("wave_elevation_gauge_m"),
+                    label="at the gauge (truth)",
+                    lw=0.9,
+                    ls="--",
+                    zorder=2,
+                )
+                ax.plot(tt, truth.get(tfield), label="at the platform", **front)
+            else:
+                text = "hub wind (truth)" if i == 0 else "truth"
+                ax.plot(tt, truth.get(tfield) * scale, label=text, **front)
+        if has["command"] and tfield in commanded:
+            cfield, cscale = commanded[tfield]
+            ax.step(tc, command.get(cfield) * cscale, label="command", **cmd_style)
+        ax.set_ylabel(panel)
+    axes[-1].set_xlabel("simulated time [s]")
+    # A minimum visible span per panel (its unit), so that sensor quantisation and noise
+    # around a flat truth (pitch at 0 below rated) stay a thin band, not the whole panel.
+    for a, span in zip(axes, (1.0, 0.5, 1.0, 100.0, 0.1, 0.5, 1.0, 0.5), strict=True):
+        if a.lines:
+            lo, hi = a.get_ylim()
+            if hi - lo < span:
+                mid = 0.5 * (lo + hi)
+                a.set_ylim(mid - 0.5 * span, mid + 0.5 * span)
+    start = data.window.get("from_s")
+    has_data = [bool(a.lines) for a in axes]
+    _mark_run_events(data.events(), [a for a, d in zip(axes, has_data, strict=True) if d])
+    for i, (a, drawn) in enumerate(zip(axes, has_data, strict=True)):
+        if drawn:
+            if isinstance(start, float) and start > 0:
+                a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
+            a.legend(loc="upper right", fontsize="small", ncols=3)
+        elif has["truth"] and not floating and i >= 5:
+            _no_data(a, "bottom-fixed plant: no platform")
+        else:
+            _no_data(a)
+        a.grid(True, alpha=0.3)
+    note = ""
+    if isinstance(start, float) and start > 0:
+        note = f"; KPIs from t = {start:.1f} s (dotted line)"
+    if truth.bucket > 1:
+        note += f"; min/max of every {truth.bucket} samples"
+    fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
+    """Shade the safe-state and safe-mode windows and draw the feedforward's start on
+    ``axes``; the legend entries go on the first (top) panel only."""
+    for i, a in enumerate(axes):
+        first = i == 0
+        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
+            a.axvspan(
+                lo,
+                hi,
+                color="tab:purple",
+                alpha=0.18,
+                lw=0,
+                zorder=0,
+                label="plant safe state" if first and k == 0 else None,
+            )
+        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
+            a.axvspan(
+                lo,
+                hi,
+                facecolor="none",
+                edgecolor="tab:orange",
+                hatch="//",
+                lw=0,
+                zorder=0,
+                label="controller safe mode" if first and k == 0 else None,
+            )
+        for k, ff in enumerate(ev["feedforward_starts_s"]):
+            a.axvline(
+                ff,
+                color="tab:green",
+                ls="-.",
+                lw=1.2,
+                zorder=2,
+                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
+            )
+
+
+def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
+    timing = data.summary.get("timing") or {}
+    pct = timing.get("latency_us") or {}
+    deadline = timing.get("deadline_us")
+    deadline = float(deadline) if isinstance(deadline, int | float) else math.nan
+    unanswered = sum(int(u.size) for u in data.unanswered)
+    late = np.concatenate(data.late) if data.late else np.zeros((0, 2))
+    n_cycles = data.lat_n + unanswered
+    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
+    mode = data.metadata.get("run", {}).get("mode", "")
+    enforced = mode not in ("lockstep", "inprocess")
+    dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
+    if n_cycles:
+        counts = data.lat_counts
+        nz = np.flatnonzero(counts)
+        if nz.size:
+            # display bins of whole fixed bins (about 100 over the range seen, the deadline
+            # included): regrouping parts of bins would alias into a comb
+            centers = np.sqrt(_LAT_EDGES_US[:-1] * _LAT_EDGES_US[1:])
+            i0, i1 = int(nz[0]), int(nz[-1]) + 1
+            if deadline > 0:
+                i1 = max(i1, int(np.searchsorted(_LAT_EDGES_US, deadline)) + 1)
+            i1 = min(i1, _LAT_EDGES_US.size - 1)
+            step = max(1, -(-(i1 - i0) // 100))
+            edges = np.unique(np.minimum(np.arange(i0, i1 + step, step), _LAT_EDGES_US.size - 1))
+            bins = _LAT_EDGES_US[edges]
+            a0.hist(
+                centers[nz],
+                bins=bins,
+                weights=counts[nz],
+                color="tab:blue",
+                label=f"{data.lat_n} cycles with a command",
+            )
+            a0.set_xscale("log")
+        for q, color in (("p50", "tab:green"), ("p99", "tab:orange")):
+            v = pct.get(q)
+            if isinstance(v, int | float) and math.isfinite(v):
+                a0.axvline(v, color=color, ls="--", label=f"{q} = {v:.0f} us")
+            else:
+                share = 100.0 * unanswered / n_cycles
+                a0.plot([], [], " ", label=f"{q} = inf ({share:.2g} % of cycles had no command)")
+        if deadline > 0:
+            a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
+        a0.set_yscale("log")
+        a0.legend(fontsize="small")
+        ok = data.series["timing/cycle"]
+        a1.plot(
+            ok.get("t"), ok.get("latency_us"), ".", ms=2, color="tab:blue", label="command in time"
+        )
+        a1.set_yscale("log")
+        if late.size:
+            a1.plot(
+                late[:, 0],
+                late[:, 1],
+                "x",
+                color="tab:red",
+                ms=6,
+                label=f"missed: command late ({late.shape[0]})",
+            )
+        if unanswered:
+            seen = [float(_LAT_EDGES_US[nz[-1] + 1])] if nz.size else [0.0]
+            top = max(*seen, deadline if deadline > 0 else 0.0) * 1.05
+            seqs = np.concatenate(data.unanswered)
+            a1.plot(
+                seqs,
+                np.full(seqs.size, top),
+                "v",
+                color="darkred",
+                ms=6,
+                label=f"missed: no command by the next tick ({unanswered})",
+            )
+        if deadline > 0:
+            a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
+        a1.legend(fontsize="small", loc="best", framealpha=0.9)
+    else:
+        _no_data(a0)
+        _no_data(a1)
+    n_missed = int(late.shape[0]) + unanswered
+    a0.set_title(
+        f"{label}: sensor-to-command latency of all {n_cycles} cycles "
+        f"({n_missed} missed, {unanswered} without a command)"
+    )
+    a0.set_xlabel("sensor-to-command latency [us]")
+    a0.set_ylabel("cycles [1]")
+    a1.set_title(
+        "latency per cycle"
+        + (
+            f" (min/max of every {data.series['timing/cycle'].bucket} cycles in time)"
+            if data.series["timing/cycle"].bucket > 1
+            else ""
+        )
+    )
+    a1.set_xlabel("cycle [1]")
+    a1.set_ylabel("latency [us]")
+    a1.grid(True, alpha=0.3)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _psd_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
+    fig, axes = plt.subplots(len(_SPECTRA), 1, figsize=(10, 12), sharex=True, layout="constrained")
+    title = f"{label}: power spectral densities"
+    n = next(iter(data.welch.values())).n if data.welch else 0
+    if n >= 8:
+        shown = False
+        for ax, (name, field, _scale, unit) in zip(axes, _SPECTRA, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            if field == "platform_pitch_rad" and not data.floating:
+                _no_data(ax, "bottom-fixed plant: no platform")
+                continue
+            w = data.welch[field]
+            if not w.finite:
+                _no_data(ax, "not logged")
+                continue
+            f, pxx, nper, n_seg = w.finish()
+            if not shown:
+                t0, t1 = data.psd_t
+                title += (
+                    f", t = {t0:.4g}-{t1:.4g} s (KPI window)\nWelch, Hann window, segment "
+                    f"{nper / w.fs:.4g} s, resolution {w.fs / nper:.3g} Hz, {n_seg} segments "
+                    "with 50 % overlap"
+                )
+                shown = True
+            pos = pxx[1:] > 0
+            if not pos.any():
+                _no_data(ax, f"{name} constant over the window: no spectrum")
+                continue
+            ax.loglog(f[1:][pos], pxx[1:][pos], lw=1.0)
+            ax.grid(True, which="both", alpha=0.3)
+    else:
+        for ax, (name, _field, _scale, unit) in zip(axes, _SPECTRA, strict=True):
+            ax.set_ylabel(f"{name}\n[{unit}]")
+            _no_data(ax)
+    axes[-1].set_xlabel("frequency [Hz]")
+    fig.suptitle(title, fontsize="medium")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
