@@ -57,6 +57,27 @@ def test_streamed_figures_equal_whole_series(seed: int) -> None:
     assert rs.median_of_counts(Counter(d[:100].tolist())) == float(np.median(d[:100]))
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_blocked_sums_do_not_depend_on_the_pieces(seed: int) -> None:
+    """The estimator's error sums: the same bits however the series is cut (a file's
+    chunks differ between a lock-step and an in-process run of the same cycles)."""
+    rng = np.random.default_rng(seed)
+    e, u = rng.normal(size=20_000), 8.0 + rng.normal(size=20_000)
+    totals = []
+    for cuts in (7, 31, 0):
+        sums = rs.Sums(3)
+        edges = [0, *np.sort(rng.choice(np.arange(1, e.size), cuts, replace=False)), e.size]
+        for a, b in itertools.pairwise(edges):
+            sums.add(e[a:b], u[a:b], e[a:b] ** 2)
+        totals.append(sums.totals())
+    assert totals[0] == totals[1] == totals[2]
+    n, (se, su, see) = totals[0]
+    assert n == e.size
+    assert math.isclose(se, float(np.sum(e)), rel_tol=1e-12, abs_tol=1e-9)
+    assert math.isclose(su, float(np.sum(u)), rel_tol=1e-12)
+    assert math.isclose(see, float(np.sum(e * e)), rel_tol=1e-12)
+
+
 def test_reversals_of_short_series_follow_rainflow() -> None:
     """Two samples: rainflow counts no cycle (only the first point is a reversal)."""
     for x in ([1.0, 2.0], [1.0, 2.0, 2.0, 2.0], [1.0, 1.0, 2.0, 1.0], [5.0, 5.0, 5.0]):

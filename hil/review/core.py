@@ -402,8 +402,8 @@ class _Summary:
         self.w_status = 0
         self.w_mask_finite = True
         self.w_degraded = 0
-        self.wind = [0, 0.0, 0.0, 0.0]  # n, Σe, Σu, Σe²
-        self.rms = {"pr": [0, 0.0], "sv": [0, 0.0]}
+        self.wind = rs.Sums(3)  # Σe, Σu, Σe²
+        self.rms = {"pr": rs.Sums(1), "sv": rs.Sums(1)}  # Σe²
         self.f_prev = math.nan
         self.f_started = False
         self.f_ok = 0
@@ -524,10 +524,7 @@ class _Summary:
         if sel.any():
             u = c["truth_wind_speed_m_s"][sel]
             e = c["wind_speed_estimated_m_s"][sel] - u
-            self.wind[0] += int(sel.sum())
-            self.wind[1] += float(np.sum(e))
-            self.wind[2] += float(np.sum(u))
-            self.wind[3] += float(np.sum(e * e))
+            self.wind.add(e, u, e * e)
         for key, bit, est, tru in (
             (
                 "pr",
@@ -545,8 +542,7 @@ class _Summary:
             sel = inside & ((m & bit) != 0)
             if sel.any():
                 e = c[est][sel] - c[tru][sel]
-                self.rms[key][0] += int(sel.sum())
-                self.rms[key][1] += float(np.sum(e * e))
+                self.rms[key].add(e * e)
         f_sel = (m & EST_WAVE_FORECAST) != 0
         if f_sel.any():
             f_t = c["wave_forecast_time_ns"][f_sel]
@@ -696,7 +692,7 @@ class _Summary:
         if not self.w_status or not self.truth_any or not self.w_mask_finite:
             return out  # no estimate, or a log of ControllerStatus version 1
         est["degraded_fraction"] = self.w_degraded / self.w_status
-        n, se, su, see = self.wind
+        n, (se, su, see) = self.wind.totals()
         if n:
             est["wind_speed_error_mean_pct"] = float(100.0 * (se / n) / (su / n))
             est["wind_speed_error_rms_m_s"] = math.sqrt(see / n)
@@ -704,7 +700,7 @@ class _Summary:
             ("pr", "platform_pitch_rate_error_rms_rad_s"),
             ("sv", "platform_surge_velocity_error_rms_m_s"),
         ):
-            k, s2 = self.rms[key]
+            k, (s2,) = self.rms[key].totals()
             if k:
                 est[name] = math.sqrt(s2 / k)
         if self.f_ok >= 2:

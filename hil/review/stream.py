@@ -127,6 +127,29 @@ class _Blocked(abc.ABC):
         """Take one block of the series (its columns, in the order fed)."""
 
 
+class Sums(_Blocked):
+    """Count and column sums of samples fed in pieces, summed per block (:data:`BLOCK`), so
+    the totals do not depend on how the pieces were cut (a file's chunks)."""
+
+    def __init__(self, columns: int) -> None:
+        super().__init__()
+        self.n = 0
+        self._totals = [0.0] * columns
+
+    def add(self, *cols: np.ndarray) -> None:
+        self._feed(*cols)
+
+    def _block(self, *cols: np.ndarray) -> None:
+        self.n += cols[0].size
+        for i, c in enumerate(cols):
+            self._totals[i] += float(np.sum(c))
+
+    def totals(self) -> tuple[int, list[float]]:
+        """(count, the sum of each column)."""
+        self._settle()
+        return self.n, list(self._totals)
+
+
 class Moments(_Blocked):
     """Count, mean, population variance and maximum of a series fed in pieces.
 
