@@ -84,16 +84,6 @@ def run(
     )  # fmt: skip
 
 
-def kpis_of_mcap(path: Path, scenario: str) -> dict[str, float]:
-    """The review KPIs (:func:`hil.hexicon.model.compute_kpis`) of a recorded platform run."""
-    from hil.hexicon.model import compute_kpis, load_scenarios  # noqa: PLC0415
-    from hil.hexicon.nodes import read_platform_run  # noqa: PLC0415
-    from hil.hexicon.review import run_log  # noqa: PLC0415
-
-    log = run_log(read_platform_run(path))
-    return compute_kpis(log, load_scenarios()[scenario])
-
-
 @app.command("campaign", short_help="MPC vs bang-bang on every scenario (in process).")
 def campaign(
     out: Annotated[Path, typer.Option(help="JSON file of the KPIs")] = Path(

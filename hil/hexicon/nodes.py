@@ -1,14 +1,18 @@
-"""Plant and controller processes of the Hexicon H3 family over Zenoh, and their recorder.
+"""Plant, controller and recorder processes of the Hexicon H3 family over Zenoh.
 
-Three OS processes: the plant (``python -m hil.hexicon.nodes plant``) listens on its endpoint,
-the controller (``... controller``) listens on its own and connects to the plant, and the
-recorder (the launching process, :func:`run_over_zenoh`) connects to both and writes every
-message to an MCAP file. Keys::
+Three OS processes, started, followed and stopped by the bench's one launcher
+(``fowt run hexicon-<name>``: :mod:`hil.launch`, :mod:`hil.families`, which takes their
+command lines from :func:`node_commands`): the plant (``python -m hil.hexicon.nodes plant``)
+listens on its endpoint, the controller (``... controller``) listens on its own and connects
+to the plant, and the recorder (``... record``) connects to both and writes every message to
+an MCAP file (:func:`run_recorder_node`). With the run's key (``--key-file``) every payload
+is signed and checked (docs/security.md). Keys::
 
     fowt/<platform>/platform              PlatformFrame (heading, yaw rate, met wind)
     fowt/<platform>/<turbine>/rotor       TurbineFrame (t1, t2, t3)
     fowt/<platform>/<turbine>/rotor/command  TurbineCommand (one controller commands all three)
     fowt/<platform>/platform/status       PlatformControllerStatus
+    fowt/<platform>/platform/summary      the plant's account at its end (JSON)
     fowt/<platform>/alive/<node>          liveliness tokens
 
     fowt/<platform>/platform/truth        PlatformFrame of the true state (recorder only)
@@ -27,8 +31,12 @@ travel as CAN frames (``bus_schemas/fowt.dbc``: TurbineFrame 0x140, PlatformFram
 TurbineCommand 0x110, the turbine index in the payload) on a python-can bus
 (:class:`hil.nodes.can_bus.CanBus`); truth, status and liveliness stay on the loopback Zenoh
 session. ``udp_multicast`` between processes runs in a private network namespace (the
-launcher re-runs itself under ``unshare --net``, as ``fowt run --transport can`` does);
-``virtual`` connects nodes of one process only (:func:`run_in_threads`, tests).
+launcher re-runs itself under ``unshare --net``, for either family).
+
+Ending: the plant's final frame (``final`` = 1) ends the controller; the plant's account
+(:func:`summary_key`) ends the recorder once the last status is in. SIGTERM (the launcher
+stopping a run) ends the plant's loop at the next cycle with its account as usual, and
+makes the recorder finish its file.
 
 Identification (``--controller prbs``): the plant's wind is the PRBS wind of a table-5
 experiment (:func:`controller.design.hexicon_identify.experiment_wind`) and the controller
