@@ -201,6 +201,10 @@ class PlantFamily:
         The ``fowt run`` options that apply (:func:`check_request`).
     inprocess : bool
         Whether ``--mode inprocess`` runs it (:mod:`hil.inprocess`).
+    plan : callable or None
+        ``(address, duration_s or None, options) -> FamilyRun``: a scenario resolved for a
+        run. None for the single turbine, whose launcher path reads its full
+        :class:`hil.scenario.schema.Scenario` (designs, process faults, in-process runner).
     """
 
     name: str
@@ -212,6 +216,7 @@ class PlantFamily:
     progress: Callable[[bytes], tuple[float, float] | None]
     run_options: frozenset[str]
     inprocess: bool
+    plan: Callable[[str, float | None, Any], FamilyRun] | None = None
 
 
 # ------------------------------------------------------------------ single turbine
@@ -380,6 +385,9 @@ HEXICON = PlantFamily(
     progress=_platform_frame,
     run_options=frozenset({"hexicon", "can_channel", "can_fd"}),
     inprocess=False,
+    plan=lambda ref, duration_s, options: hexicon_run(
+        ref, duration_s, options if options is not None else HexiconOptions()
+    ),
 )
 
 #: Every family, by name.

@@ -95,14 +95,12 @@ from bus_schemas.registry import (
 from controller.discon import DisconError
 from controller.rosco import RUN_DIR_ENV
 from hil.families import (
-    HEXICON,
     TURBINE,
     HexiconOptions,
     NodeContext,
     PlantFamily,
     RunRequestError,
     check_request,
-    hexicon_run,
     resolve,
 )
 from hil.inprocess.run import run_inprocess
@@ -530,10 +528,10 @@ def _launch_family(
     """:func:`launch` of another family than the single turbine (:mod:`hil.families`): its
     nodes go through the same process start, supervision, stop, abort handling, review,
     ``summary.json`` and exit codes as a turbine run's; what differs comes from ``family``."""
-    if family is not HEXICON:  # the one other family so far
+    if family.plan is None:
         raise RunRequestError(f"family {family.name!r}: no launcher plan")
-    options = req.hexicon or HexiconOptions()
-    plan = hexicon_run(req.scenario, req.duration_s, options)
+    options = req.hexicon
+    plan = family.plan(req.scenario, req.duration_s, options)
     out = req.out_dir or Path("runs") / (
         f"{datetime.now(UTC).strftime('%Y%m%dT%H%M%SZ')}-{plan.name}"
     )
