@@ -24,6 +24,7 @@ A family says only what differs:
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from collections.abc import Callable, Mapping
@@ -247,8 +248,6 @@ def _turbine_node(sub: str, ctx: NodeContext, *args: str) -> list[str]:
 
 def _turbine_nodes(ctx: NodeContext) -> dict[str, list[str]]:
     """``fowt record``, ``fowt controller`` and ``fowt plant`` (:mod:`hil.cli.fowt`)."""
-    import json  # noqa: PLC0415
-
     plant_ep, ctrl_ep = ctx.endpoints
     key_args = ["--key-file", str(ctx.key_file)]
     # CAN run: the three nodes join the same CAN bus (sensor frame and command on CAN).

@@ -286,7 +286,7 @@ def run_plant_node(
 
     bus.subscribe(TURBINE_COMMAND, tuple(f"{platform}/{t}" for t in TURBINES), on_cmd)
     try:
-        _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S)
+        _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S, stop)
         time.sleep(0.2)  # let the subscribers' declarations propagate
         x = initial_state(p, wind.speed_m_s(0.0))
         q0 = [torque_law_nm(p.turbine, w) for w in (x[2], x[5], x[8])]
