@@ -17,6 +17,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import machine, save
+from hil.cli.hexicon import record_experiment
 from hil.hexicon.identify import identify_over_bus
 
 
@@ -28,7 +29,9 @@ def main() -> None:
     ap.add_argument("--write-preset", action="store_true")
     a = ap.parse_args()
     t0 = time.perf_counter()
-    res = identify_over_bus(a.out, a.duration, reuse=a.reuse, write_preset=a.write_preset)
+    res = identify_over_bus(
+        a.out, a.duration, reuse=a.reuse, write_preset=a.write_preset, record=record_experiment
+    )
     res["wall_s"] = time.perf_counter() - t0
     res["machine"] = machine()
     print({k: res[k] for k in ("order", "fit_estimation_percent", "fit_validation_percent")})

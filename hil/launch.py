@@ -90,12 +90,20 @@ from bus_schemas.registry import (
     CONTROLLER_REPORT,
     CONTROLLER_STATUS,
     CYCLE_TIMING,
-    TIMING_SUMMARY,
     WAVE_PREVIEW_PERFECT,
     MessageType,
 )
 from controller.discon import DisconError
 from controller.rosco import RUN_DIR_ENV
+from hil.families import (
+    TURBINE,
+    HexiconOptions,
+    NodeContext,
+    PlantFamily,
+    RunRequestError,
+    check_request,
+    resolve,
+)
 from hil.inprocess.run import run_inprocess
 from hil.nodes.bus import (
     PLANT_BATCH_SUFFIX,
@@ -141,6 +149,17 @@ class RunRequest:
     can: CanBusConfig | None = None
     realtime_priority: int = 0  # SCHED_FIFO for the plant and controller (0: normal)
     inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # see run_inprocess
+    hexicon: HexiconOptions | None = None  # a Hexicon scenario's options (hil.families)
+
+    def given(self) -> dict[str, bool]:
+        """The options set to other than their defaults that only some families take
+        (:func:`hil.families.check_request`)."""
+        given = {
+            "speed": self.speed != 1.0,
+            "loop": self.inprocess_loop != "auto",
+            "hexicon": self.hexicon is not None,
+        }
+        return {k: v for k, v in given.items() if v}
 
 
 class RunFailedError(RuntimeError):
@@ -270,6 +289,7 @@ def default_out_dir(scenario: Scenario) -> Path:
 def run_info(req: RunRequest, scenario: Scenario) -> dict[str, str]:
     """The ``run`` metadata record of the MCAP file."""
     info = {
+        "family": TURBINE.name,
         "mode": req.mode,
         "speed": f"{req.speed:g}",
         "transport": req.transport if req.mode != "inprocess" else "none",
@@ -371,7 +391,11 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     console = console or Console()
     if req.transport not in ("zenoh", "can"):
         raise ValueError(f"transport {req.transport!r}: expected zenoh or can")
+    family = resolve(req.scenario)
+    check_request(family, req.given(), req.mode)
     with AbortSignals() as abort:
+        if family is not TURBINE:
+            return _launch_family(req, family, console, abort)
         return _launch(req, console, abort)
 
 
@@ -464,11 +488,29 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         summary["run"]["plant_killed"] = driver.plant_killed
         if driver.problems:
             summary["run"]["process_fault_problems"] = list(driver.problems)
+    _conclude(
+        summary, out, mcap_path, console, driver.render if driver is not None else None, speed
+    )
+    if driver is not None and driver.problems:
+        raise RunFailedError("; ".join(driver.problems))
+    return summary
+
+
+def _conclude(
+    summary: dict[str, Any],
+    out: Path,
+    mcap_path: Path,
+    console: Console,
+    more: Callable[[Console], None] | None = None,
+    speed: str | None = None,
+) -> None:
+    """The end of every run: the verdict (exit code), ``summary.json``, the report, where
+    the files are, the outcome line. ``more`` prints what the run adds to the report."""
     code = record_outcome(summary)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     render_summary(summary, console)
-    if driver is not None:
-        driver.render(console)
+    if more is not None:
+        more(console)
     # Paths and messages are the user's text: escaped, so brackets in them are printed.
     console.print(f"run log: [bold]{escape(str(mcap_path))}[/]")
     console.print(f"summary: {escape(str(out / 'summary.json'))}")
@@ -479,8 +521,91 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     console.print(
         outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
     )
-    if driver is not None and driver.problems:
-        raise RunFailedError("; ".join(driver.problems))
+
+
+def _launch_family(
+    req: RunRequest, family: PlantFamily, console: Console, abort: AbortSignals
+) -> dict[str, Any]:
+    """:func:`launch` of another family than the single turbine (:mod:`hil.families`): its
+    nodes go through the same process start, supervision, stop, abort handling, review,
+    ``summary.json`` and exit codes as a turbine run's; what differs comes from ``family``."""
+    if family.plan is None:
+        raise RunRequestError(f"family {family.name!r}: no launcher plan")
+    options = req.hexicon
+    plan = family.plan(req.scenario, req.duration_s, options)
+    out = req.out_dir or Path("runs") / (
+        f"{datetime.now(UTC).strftime('%Y%m%dT%H%M%SZ')}-{plan.name}"
+    )
+    can: CanBusConfig | None = None
+    if req.transport == "can":
+        from hil.nodes.can_bus import (  # noqa: PLC0415 - python-can: CAN runs only
+            CanBusConfig,
+            in_private_netns,
+            transport_unavailable_reason,
+        )
+
+        can = req.can or CanBusConfig.for_interface("udp_multicast", None, False, plan.ident)
+        reason = transport_unavailable_reason(can)
+        if reason is not None:
+            raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
+        if can.interface == "udp_multicast" and not in_private_netns():
+            if os.environ.get(_NETNS_ENV):  # never re-exec twice
+                raise RunFailedError(
+                    "re-executed under unshare --net, yet not in a private network namespace"
+                )
+            return _launch_in_netns(req, can, out, abort)
+    out.mkdir(parents=True, exist_ok=True)
+    mcap_path = out / "run.mcap"
+    info = {
+        **plan.metadata,
+        "mode": req.mode,
+        "transport": req.transport,
+        "duration_s": f"{plan.duration_s:g}",
+        "started_utc": datetime.now(UTC).isoformat(),
+        "python": sys.version.split()[0],
+        "command": " ".join(sys.argv),
+    }
+    if can is not None:
+        info.update(can_interface=can.interface, can_channel=can.effective_channel)
+    t0 = time.monotonic()
+    aborted: RunAbortedError | None = None
+    endpoints = _endpoints()
+    key_path, auth_key = _run_key(out)
+    ctx = NodeContext(
+        scenario=plan.scenario,
+        duration_s=plan.duration_s,
+        mode=req.mode,
+        speed=req.speed,
+        endpoints=endpoints,
+        mcap_path=mcap_path,
+        run_info=info,
+        key_file=key_path,
+        can=can,
+        realtime_priority=req.realtime_priority,
+        options=options,
+    )
+    feed = _Feed(plan.name, plan.duration_s, plan.ident, family)
+    try:
+        _supervise(
+            family.node_commands(ctx), _node_env(out), out, mcap_path, feed, endpoints[0],
+            console, nice_recorder=can is None, abort=abort, auth_key=auth_key,
+        )  # fmt: skip
+    except RunAbortedError as exc:
+        if not mcap_path.is_file():
+            raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
+        aborted = exc
+        console.print(f"[yellow]{exc.signal_name}:[/] run stopped; reviewing what was recorded")
+    except RunFailedError as exc:
+        _failed_summary(mcap_path, out, exc)
+        raise
+    wall = time.monotonic() - t0
+    summary = review(mcap_path, out, plots=req.plots)
+    summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
+    summary["run"]["aborted"] = aborted is not None
+    if aborted is not None:
+        summary["run"]["abort_signal"] = aborted.signal_name
+        summary["run"]["aborted_at_s"] = aborted.sim_s
+    _conclude(summary, out, mcap_path, console)
     return summary
 
 
@@ -656,6 +781,16 @@ def _scenario_ref(ref: str) -> str:
     return str(Path(ref).resolve()) if Path(ref).suffix == ".toml" else ref
 
 
+def _hexicon_args(o: HexiconOptions) -> list[str]:
+    """The ``fowt run`` options of a Hexicon run's :class:`HexiconOptions`."""
+    args = ["--controller", o.controller, "--noise" if o.noise else "--no-noise"]
+    if o.identified is not None:
+        args += ["--identified", str(o.identified.resolve())]
+    if o.experiment:
+        args += ["--experiment", str(o.experiment), "--seed", str(o.seed)]
+    return args
+
+
 def _launch_in_netns(
     req: RunRequest, can: CanBusConfig, out: Path, abort: AbortSignals | None = None
 ) -> dict[str, Any]:
@@ -695,6 +830,8 @@ def _launch_in_netns(
         cmd.append("--no-plots")
     if req.realtime_priority:  # the child's plant and controller need it as much
         cmd += ["--realtime-priority", str(req.realtime_priority)]
+    if req.hexicon is not None:
+        cmd += _hexicon_args(req.hexicon)
     env = {**os.environ, _NETNS_ENV: "1"}
     from hil.nodes.can_bus import netns_command  # noqa: PLC0415
 
@@ -726,21 +863,41 @@ def _launch_in_netns(
     return summary
 
 
-def _node_cmd(sub: str, scenario_ref: str, scenario: Scenario, *args: str) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "hil",
-        sub,
-        scenario_ref,
-        "--duration",
-        repr(scenario.duration_s),
-        *args,
-    ]
-
-
 # How long a failed run's launcher waits for a starting recorder to open its MCAP (s).
 _RECORDER_OPEN_S = 30.0
+
+
+@dataclass(frozen=True)
+class _Feed:
+    """What the launcher follows a run by: its name and length (progress bar), the id in
+    the bus keys, and the family whose progress messages it reads."""
+
+    name: str
+    duration_s: float
+    ident: str
+    family: PlantFamily
+
+
+def _endpoints() -> tuple[str, str]:
+    """Two distinct free loopback endpoints: the plant's and the controller's."""
+    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
+    while ctrl_ep == plant_ep:
+        ctrl_ep = free_tcp_endpoint()
+    return plant_ep, ctrl_ep
+
+
+def _run_key(out: Path) -> tuple[Path, bytes]:
+    """The run's secret (docs/security.md): fresh for every run, readable by this user only,
+    handed to each node by path (never on a command line, which other users can read)."""
+    key_path = out / KEY_FILE_NAME
+    key_path.unlink(missing_ok=True)  # a folder reused from an earlier run: never reuse a key
+    return key_path, create_key_file(key_path)
+
+
+def _node_env(out: Path) -> dict[str, str]:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    env[RUN_DIR_ENV] = str(out.resolve())  # a DISCON library's files go to the run's folder
+    return env
 
 
 def _run_processes(
@@ -754,7 +911,59 @@ def _run_processes(
     driver: ProcessFaultDriver | None = None,
     abort: AbortSignals | None = None,
 ) -> None:
-    """Start recorder, controller and plant, follow the run, and always stop them.
+    """A single-turbine run's nodes (:data:`hil.families.TURBINE`), through :func:`_supervise`."""
+    endpoints = _endpoints()
+    env = _node_env(out)
+    if design_dir is not None:  # the controller process finds the designs there
+        from controller.lqri import DESIGN_DIR_ENV  # noqa: PLC0415
+
+        env[DESIGN_DIR_ENV] = str(design_dir)
+    key_path, auth_key = _run_key(out)
+    ctx = NodeContext(
+        scenario=_scenario_ref(req.scenario),
+        duration_s=scenario.duration_s,
+        mode=req.mode,
+        speed=req.speed,
+        endpoints=endpoints,
+        mcap_path=mcap_path,
+        run_info=info,
+        key_file=key_path,
+        can=can_config(req, scenario) if req.transport == "can" else None,
+        realtime_priority=req.realtime_priority,
+        launcher_token=driver is not None,
+    )
+    feed = _Feed(scenario.name, scenario.duration_s, scenario.turbine_id, TURBINE)
+    _supervise(
+        TURBINE.node_commands(ctx),
+        env,
+        out,
+        mcap_path,
+        feed,
+        endpoints[0],
+        console,
+        nice_recorder=req.transport != "can",
+        driver=driver,
+        abort=abort,
+        auth_key=auth_key,
+    )
+
+
+def _supervise(
+    cmds: dict[str, list[str]],
+    env: dict[str, str],
+    out: Path,
+    mcap_path: Path,
+    feed: _Feed,
+    plant_ep: str,
+    console: Console,
+    *,
+    nice_recorder: bool = True,
+    driver: ProcessFaultDriver | None = None,
+    abort: AbortSignals | None = None,
+    auth_key: bytes | None = None,
+) -> None:
+    """Start recorder, controller and plant (``cmds``, any family), follow the run, and
+    always stop them; each process's output goes to ``out/logs/<name>.log``.
 
     Each child runs in a session of its own (a terminal's Ctrl-C reaches the launcher
     only, which decides how the run ends) and gets SIGTERM if the launcher dies
@@ -768,76 +977,8 @@ def _run_processes(
     RunFailedError
         A process failed.
     """
-    plant_ep, ctrl_ep = free_tcp_endpoint(), free_tcp_endpoint()
-    while ctrl_ep == plant_ep:
-        ctrl_ep = free_tcp_endpoint()
     logs = out / "logs"
     logs.mkdir(exist_ok=True)
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    if design_dir is not None:  # the controller process finds the designs there
-        from controller.lqri import DESIGN_DIR_ENV  # noqa: PLC0415
-
-        env[DESIGN_DIR_ENV] = str(design_dir)
-    env[RUN_DIR_ENV] = str(out.resolve())  # a DISCON library's files go to the run's folder
-    ref = _scenario_ref(req.scenario)
-    # The run's secret (docs/security.md): fresh for every run, readable by this user only,
-    # handed to each node by path (never on a command line, which other users can read).
-    key_path = out / KEY_FILE_NAME
-    key_path.unlink(missing_ok=True)  # a folder reused from an earlier run: never reuse a key
-    auth_key = create_key_file(key_path)
-    key_args = ["--key-file", str(key_path)]
-    # CAN run: the three nodes join the same CAN bus (sensor frame and command on CAN).
-    can_args = can_config(req, scenario).cli_args() if req.transport == "can" else []
-    # Real-time scheduling for the two processes on the control loop; the recorder stays
-    # under the normal policy so it only takes the CPU they leave.
-    rt_args = ["--realtime-priority", str(req.realtime_priority)] if req.realtime_priority else []
-    cmds = {
-        "recorder": _node_cmd(
-            "record",
-            ref,
-            scenario,
-            "--out",
-            str(mcap_path),
-            "--connect",
-            plant_ep,
-            "--connect",
-            ctrl_ep,
-            "--run-info",
-            json.dumps(info),
-            *key_args,
-            *can_args,
-        ),
-        "controller": _node_cmd(
-            "controller",
-            ref,
-            scenario,
-            "--listen",
-            ctrl_ep,
-            "--connect",
-            plant_ep,
-            *key_args,
-            *can_args,
-            *rt_args,
-        ),
-        "plant": _node_cmd(
-            "plant",
-            ref,
-            scenario,
-            "--listen",
-            plant_ep,
-            "--mode",
-            req.mode,
-            "--speed",
-            repr(req.speed),
-            "--require",
-            # With process faults the plant also waits for the launcher's token: the
-            # launcher then follows the simulated time from the first cycle on.
-            "controller,recorder" + (",launcher" if driver is not None else ""),
-            *key_args,
-            *can_args,
-            *rt_args,
-        ),
-    }
     procs: dict[str, subprocess.Popen[bytes]] = {}
     files: list[IO[bytes]] = []
 
@@ -852,7 +993,7 @@ def _run_processes(
         # The recorder only logs: it runs niced (RECORDER_NICE) so the plant and controller,
         # whose exchange paces the run, get the CPU first when it is scarce. Not on CAN:
         # its udp_multicast frames have no flow control, a starved recorder would lose some.
-        nice = RECORDER_NICE if name == "recorder" and req.transport != "can" else 0
+        nice = RECORDER_NICE if name == "recorder" and nice_recorder else 0
         proc = subprocess.Popen(
             cmds[name],
             stdout=fh,
@@ -869,7 +1010,7 @@ def _run_processes(
             start(name)
         if driver is not None:
             driver.start_clock()
-        _follow(procs, scenario, plant_ep, console, driver, start, logs, abort, auth_key)
+        _follow(procs, feed, plant_ep, console, driver, start, logs, abort, auth_key)
         rc = procs["plant"].wait()
         if driver is not None and driver.expected(procs["plant"]):
             driver.wait_for_others(procs, console)
@@ -1041,7 +1182,7 @@ def _stop_children(procs: dict[str, subprocess.Popen[bytes]], console: Console) 
 
 def _follow(
     procs: dict[str, subprocess.Popen[bytes]],
-    scenario: Scenario,
+    feed: _Feed,
     plant_ep: str,
     console: Console,
     driver: ProcessFaultDriver | None = None,
@@ -1050,7 +1191,8 @@ def _follow(
     abort: AbortSignals | None = None,
     auth_key: bytes | None = None,
 ) -> None:
-    """Show progress (simulated time from the plant's timing summaries) until the plant exits.
+    """Show progress (simulated time from the family's progress messages: a turbine plant's
+    timing summaries, a platform's frames) until the plant exits.
 
     With a ``driver`` the plant's ``timing/cycle`` records are followed too (the launcher
     announces itself with the liveliness token ``fowt/<turbine>/alive/launcher``, which the
@@ -1070,20 +1212,17 @@ def _follow(
     """
     latest: dict[str, float] = {"sim_s": 0.0, "misses": 0.0}
 
-    def on_summary(_key: str, payload: bytes) -> None:
-        try:
-            s = TIMING_SUMMARY.codec.decode(payload)
-        except Exception:
-            return
-        latest["sim_s"] = s.sample_time_ns / 1e9
-        latest["misses"] = float(s.deadline_misses)
+    def on_progress(_key: str, payload: bytes) -> None:
+        got = feed.family.progress(payload)
+        if got is not None:
+            latest["sim_s"], latest["misses"] = got
 
     bus = Bus(BusConfig(connect=(plant_ep,), auth_key=auth_key))
     token: Any = None  # kept referenced: a dropped liveliness token is undeclared
     try:
-        bus.subscribe(TIMING_SUMMARY.key(scenario.turbine_id), on_summary)
+        bus.subscribe(feed.family.progress_key(feed.ident), on_progress)
         if driver is not None:
-            tid = scenario.turbine_id
+            tid = feed.ident
             bus.subscribe(CYCLE_TIMING.key(tid), driver.on_cycle)
             # The plant's node puts its cycle records in log batches (hil.nodes.bus.LogBatcher).
             batches = unbatching(CYCLE_TIMING, driver.on_cycle, tid)
@@ -1100,7 +1239,7 @@ def _follow(
             console=console,
             transient=False,
         ) as progress:
-            task = progress.add_task(scenario.name, total=scenario.duration_s, misses=0)
+            task = progress.add_task(feed.name, total=feed.duration_s, misses=0)
             while procs["plant"].poll() is None:
                 if abort is not None and abort.signum is not None:
                     name = signal.Signals(abort.signum).name
@@ -1108,13 +1247,13 @@ def _follow(
                         task,
                         completed=latest["sim_s"],
                         misses=latest["misses"],
-                        description=f"{scenario.name} ({name}: stopping)",
+                        description=f"{feed.name} ({name}: stopping)",
                     )
                     _stop_children(procs, console)
                     progress.update(
                         task,
                         completed=latest["sim_s"],
-                        description=f"{scenario.name} (aborted by {name})",
+                        description=f"{feed.name} (aborted by {name})",
                     )
                     abort.check(latest["sim_s"])
                 for name in ("controller", "recorder"):
@@ -1136,7 +1275,7 @@ def _follow(
             # The plant's last running summary may precede its end by up to a second: a
             # plant that ended well ran the whole duration; any other end shows how far it got.
             whole = procs["plant"].returncode == 0 and not (driver and driver.plant_killed)
-            done = max(latest["sim_s"], scenario.duration_s) if whole else latest["sim_s"]
+            done = max(latest["sim_s"], feed.duration_s) if whole else latest["sim_s"]
             progress.update(task, completed=done)
     finally:
         if token is not None:

@@ -374,15 +374,21 @@ def test_cases_cover_every_command() -> None:
 
 
 def test_scenarios_lists_every_name_whole_with_a_description(tmp_path: Path) -> None:
+    from hil.hexicon.model import load_scenarios as load_hexicon_scenarios
+
     proc = _fowt(["scenarios"], tmp_path, columns=40)
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     names = shipped_scenarios()
-    assert len(lines) == len(names)  # one line each, whatever the terminal width
-    for name, line in zip(names, lines, strict=True):
+    # the single-turbine scenarios, then the Hexicon H3 ones (hexicon-<name>, hil.families)
+    platform = [f"hexicon-{n}" for n in load_hexicon_scenarios()]
+    assert len(lines) == len(names) + len(platform)  # one line each, whatever the width
+    for name, line in zip(names, lines, strict=False):
         assert line.split()[0] == name  # never truncated
         assert load_scenario(name).description.strip(), f"{name} has no description"
         assert load_scenario(name).description in line
+    for name, line in zip(platform, lines[len(names) :], strict=True):
+        assert line.split()[0] == name and "Hexicon H3" in line
     assert "nrel5mw-tlp" in names
 
 

@@ -323,15 +323,27 @@ def test_closed_loop_over_zenoh_tracks_15_deg_step(controller: str, tmp_path) ->
     same seeded sensor channels to 1e-9 rad (same arithmetic, the bus only carries it); the
     heading error ends within 1.5°; no commanded pitch leaves [θ_r(V_m), 25°] (V_m the met
     wind speed the controller measured); the MPC's pitch demand moves at most 2°/s."""
-    from pathlib import Path
 
+    from rich.console import Console
+
+    from hil.families import HexiconOptions
     from hil.hexicon.model import load_scenarios, run_in_process
-    from hil.hexicon.nodes import read_platform_run, run_over_zenoh
+    from hil.hexicon.nodes import read_platform_run
+    from hil.launch import RunRequest, launch
 
-    s = run_over_zenoh("s1_step15", controller, tmp_path, duration_s=150.0, timeout_s=300.0)
-    assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s
-    assert s["plant_cycles"] == 150 and s["commands_rejected"] == 0 and s["final_seen"]
-    run = read_platform_run(Path(s["mcap"]))
+    req = RunRequest(
+        scenario="hexicon-s1_step15",
+        mode="lockstep",
+        duration_s=150.0,
+        out_dir=tmp_path,
+        plots=False,
+        hexicon=HexiconOptions(controller=controller),
+    )
+    s = launch(req, Console(quiet=True))
+    assert s["run"]["exit_code"] == 0, s["run"]
+    assert s["timing"]["cycles"] == 150 and s["timing"]["commands_rejected"] == 0
+    assert s["run"]["final_seen"] == "True"
+    run = read_platform_run(tmp_path / "run.mcap")
     frames = run["fowt/h3/platform/truth"]
     measured = run["fowt/h3/platform"]
     assert len(frames) == 151 and len(measured) == 151

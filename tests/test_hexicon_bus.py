@@ -11,10 +11,12 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from _helpers import can_netns_skip_reason
+from rich.console import Console
 
 from controller.design.hexicon_identify import TABLE5, experiment_wind
 from controller.hexicon import (
@@ -24,11 +26,31 @@ from controller.hexicon import (
     load_identified,
     make_id_mpc,
 )
+from hil.cli.hexicon import record_experiment
+from hil.families import HexiconOptions
 from hil.hexicon.model import compute_kpis, load_scenarios, run_in_process
-from hil.hexicon.nodes import read_platform_run, run_over_zenoh
+from hil.hexicon.nodes import read_platform_run
+from hil.launch import RunRequest, launch
 from plant.hexicon.sensors import HexiconSensors, load_sensor_table
 
 pytestmark = pytest.mark.e2e
+
+
+def run_platform(
+    out: Path, controller: str, duration_s: float, transport: str = "zenoh", plots: bool = False
+) -> dict[str, Any]:
+    """A lock-step run of scenario 1 through the launcher (``fowt run hexicon-s1_step15``);
+    its summary."""
+    req = RunRequest(
+        scenario="hexicon-s1_step15",
+        mode="lockstep",
+        duration_s=duration_s,
+        transport=transport,
+        out_dir=out,
+        plots=plots,
+        hexicon=HexiconOptions(controller=controller),
+    )
+    return launch(req, Console(quiet=True))
 
 
 # ----------------------------------------------------------------------------- sensors
@@ -66,19 +88,11 @@ def test_identification_experiment_over_the_bus(tmp_path: Path) -> None:
     rated pitch of the measured wind (to 1e-9 rad); the measured frames differ from the truth
     (noise) and the excitation never saw the truth (its floor follows the measured speed)."""
     n = 200
-    s = run_over_zenoh(
-        "s1_step15",
-        "prbs",
-        tmp_path,
-        duration_s=float(n),
-        experiment=3,
-        seed=5,
-        mcap_name="exp3.mcap",
-        timeout_s=300.0,
-    )
-    assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s
-    assert s["plant_cycles"] == n and s["commands_rejected"] == 0
-    run = read_platform_run(tmp_path / "exp3.mcap")
+    s = record_experiment(3, tmp_path, duration_s=float(n), seed=5)
+    assert s["run"]["exit_code"] == 0, s["run"]
+    assert s["run"]["kind"] == "identification" and s["run"]["controller"] == "prbs"
+    assert s["timing"]["cycles"] == n and s["timing"]["commands_rejected"] == 0
+    run = read_platform_run(tmp_path / "run.mcap")
     truth = [f for f in run["fowt/h3/platform/truth"] if not f["final"]]
     meas = [f for f in run["fowt/h3/platform"] if not f["final"]]
     speeds, dirs = experiment_wind(2, n, 5)
@@ -114,7 +128,10 @@ def test_identify_over_bus_fits_and_saves_a_loadable_model(tmp_path: Path) -> No
     loads and builds the identified-model MPC."""
     from hil.hexicon.identify import identify_over_bus
 
-    res = identify_over_bus(tmp_path, duration_s=400.0, block_rows=8, experiments=(1, 2))
+    res = identify_over_bus(
+        tmp_path, duration_s=400.0, block_rows=8, experiments=(1, 2), record=record_experiment
+    )
+    assert res["runs"]["exp1"]["plant_cycles"] == 400
     assert 1 <= res["order"] <= 15
     assert res["fit_estimation_percent"]["yaw_rate_deg_s"] > 0.0
     assert set(res["fit_validation_percent"]) == {"yaw_rate_deg_s", "power_mw"}
@@ -166,9 +183,9 @@ def test_review_of_a_platform_run(tmp_path: Path) -> None:
 
     from hil.review.core import review
 
-    s = run_over_zenoh("s1_step15", "bang_bang", tmp_path, duration_s=40.0, timeout_s=300.0)
-    assert s["plant_rc"] == 0 and s["controller_rc"] == 0, s
-    summ = review(Path(s["mcap"]), tmp_path / "review")
+    s = run_platform(tmp_path, "bang_bang", 40.0)
+    assert s["run"]["exit_code"] == 0, s["run"]
+    summ = review(tmp_path / "run.mcap", tmp_path / "review")
     assert summ["kind"] == "hexicon" and summ["run"]["kind"] == "run"
     scn = replace(load_scenarios()["s1_step15"], duration_s=40.0)
     ref = compute_kpis(run_in_process(scn, "bang_bang"), scn)
@@ -193,17 +210,14 @@ def test_platform_run_over_can_matches_zenoh(tmp_path: Path) -> None:
     (3 x 4 TurbineFrame + 4 PlatformFrame parts per cycle, 3 x 4 command parts per
     answered cycle), and the KPIs are within 1 % (0.05° on the RMS) of the Zenoh run's:
     only the DBC quantisation differs."""
-    can = run_over_zenoh(
-        "s1_step15", "mpc", tmp_path / "can", duration_s=30.0, transport="can", timeout_s=300.0
-    )
-    assert can.get("plant_rc") == 0 and can.get("controller_rc") == 0, can
-    assert can["commands_rejected"] == 0 and can["can_rejected"] == 0
-    assert can["can_frames_received"] == 31 * 16 + 30 * 12
-    zen = run_over_zenoh("s1_step15", "mpc", tmp_path / "zenoh", duration_s=30.0, timeout_s=300.0)
-    from hil.cli.hexicon import kpis_of_mcap
-
-    kc = kpis_of_mcap(Path(can["mcap"]), "s1_step15")
-    kz = kpis_of_mcap(Path(zen["mcap"]), "s1_step15")
+    can = run_platform(tmp_path / "can", "mpc", 30.0, transport="can")
+    assert can["run"]["exit_code"] == 0, can["run"]
+    assert can["run"]["transport"] == "can" and can["run"]["can_interface"] == "udp_multicast"
+    assert can["timing"]["commands_rejected"] == 0 and can["run"]["can_rejected"] == "0"
+    assert can["run"]["can_frames_received"] == str(31 * 16 + 30 * 12)
+    zen = run_platform(tmp_path / "zenoh", "mpc", 30.0)
+    assert zen["run"]["exit_code"] == 0, zen["run"]
+    kc, kz = can["kpi"], zen["kpi"]
     assert kc["heading_rms_deg"] == pytest.approx(kz["heading_rms_deg"], abs=0.05)
     assert kc["energy_ratio"] == pytest.approx(kz["energy_ratio"], rel=0.01)
     assert kc["constraint_violations"] == 0

@@ -39,7 +39,6 @@ from hil.scenario.schema import (
     ScenarioError,
     load_scenario,
     scenario_text,
-    shipped_scenarios,
 )
 
 if TYPE_CHECKING:
@@ -349,8 +348,48 @@ def run(
             callback=choice("auto", "compiled", "python"),
         ),
     ] = "auto",
+    controller: Annotated[
+        str | None,
+        typer.Option(
+            help="Hexicon scenarios: bang_bang | mpc (physical model; default) | mpc_id "
+            "(identified model) | prbs (with --experiment). A turbine scenario names its "
+            "controller in its TOML."
+        ),
+    ] = None,
+    noise: Annotated[
+        bool | None,
+        typer.Option(
+            "--noise/--no-noise",
+            help="Hexicon scenarios: the preset's sensor channels (default) or exact sensors.",
+            show_default=False,
+        ),
+    ] = None,
+    identified: Annotated[
+        Path | None,
+        typer.Option(help="Hexicon scenarios, --controller mpc_id: identified-model artefact."),
+    ] = None,
+    experiment: Annotated[
+        int,
+        typer.Option(
+            help="Hexicon scenarios, --controller prbs: table-5 identification experiment "
+            "(1-6) whose PRBS wind the plant runs; --duration is then its number of samples.",
+            min=0,
+            max=6,
+        ),
+    ] = 0,
+    seed: Annotated[
+        int,
+        typer.Option(
+            help="Hexicon scenarios, --experiment: seed of the PRBS signals.",
+            min=0,
+        ),
+    ] = 0,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
+
+    The scenario is a single-turbine one (a shipped name or a TOML file) or a Hexicon H3
+    one (hexicon-<name>; 'fowt scenarios' lists both); options of the other family are
+    refused (exit 2). The run, its review and its exit code are the same for both.
 
     With --transport can the sensor frame and the command travel on a CAN bus between the
     plant and controller processes (the recorder listens too and logs the raw frames); with
@@ -372,20 +411,46 @@ def run(
       6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
          real time, 0 in lock-step and in process)
     """
+    from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
+
+    hexicon_given = (
+        controller is not None or noise is not None or identified is not None or experiment > 0
+    )
+    try:
+        family = resolve(scenario)
+        if family is not TURBINE:
+            options = HexiconOptions(
+                controller=controller or ("prbs" if experiment else "mpc"),
+                noise=True if noise is None else noise,
+                identified=identified,
+                experiment=experiment,
+                seed=seed,
+            )
+            if identified is not None:
+                text_file(identified)
+        elif hexicon_given or seed:
+            raise RunRequestError(
+                "--controller/--no-noise/--identified/--experiment/--seed: only for a Hexicon "
+                "scenario (hexicon-<name>, 'fowt scenarios'); a turbine scenario names its "
+                "controller and sensors in its TOML"
+            )
+    except RunRequestError as exc:
+        fail(str(exc))
+    except typer.BadParameter as exc:
+        fail(f"--identified: {exc.message}")
+    if family is not TURBINE:
+        _run_family(
+            scenario, options, mode, speed, duration, transport, can_interface, can_channel,
+            can_fd, out, plots, realtime_priority, loop,
+        )  # fmt: skip
+        return
     sc = _scenario(scenario, duration)  # validate before launching anything
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
     if can is not None and mode == "inprocess":
         fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
     if loop != "auto" and mode != "inprocess":
         fail(f"--loop {loop}: only with --mode inprocess")
-    from hil.launch import (
-        ProcessFaultError,
-        RunAbortedError,
-        RunFailedError,
-        RunRequest,
-        default_out_dir,
-        launch,
-    )
+    from hil.launch import RunRequest, default_out_dir
 
     if out is None:
         try:
@@ -404,8 +469,18 @@ def run(
         realtime_priority=realtime_priority,
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
     )
+    _launch_and_exit(req)
+
+
+def _launch_and_exit(req: Any) -> None:
+    """``fowt run``'s launch (:func:`hil.launch.launch`) and exit code, any family."""
+    from hil.families import RunRequestError
+    from hil.launch import ProcessFaultError, RunAbortedError, RunFailedError, launch
+
     try:
         summary = launch(req, console)
+    except RunRequestError as exc:  # an option the scenario's family does not take
+        fail(str(exc), code=ExitCode.USAGE)
     except RunAbortedError as exc:  # stopped before anything was recorded
         fail(str(exc), code=ExitCode.ABORTED)
     except ProcessFaultError as exc:  # the scenario's process faults and the mode disagree
@@ -417,6 +492,51 @@ def run(
     except ValueError as exc:  # a model refusing the scenario as built (e.g. its length)
         fail(f"run failed: {exc}", code=ExitCode.FAILED)
     raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
+
+
+def _run_family(
+    scenario: str,
+    options: Any,
+    mode: str,
+    speed: float,
+    duration: float | None,
+    transport: str,
+    can_interface: str | None,
+    can_channel: str | None,
+    can_fd: bool | None,
+    out: Path | None,
+    plots: bool,
+    realtime_priority: int,
+    loop: str,
+) -> None:
+    """``fowt run`` of a scenario of another family than the single turbine (a Hexicon H3
+    one): the same launcher, review and exit codes; its options checked by the family."""
+    from hil.launch import RunRequest
+
+    can = None
+    if transport == "can":
+        from hil.nodes.can_bus import CanBusConfig, CanConfigError
+
+        try:
+            can = CanBusConfig.for_interface(
+                can_interface or "udp_multicast", can_channel, bool(can_fd), options.platform
+            )
+        except CanConfigError as exc:
+            fail(str(exc))
+    req = RunRequest(
+        scenario=scenario,
+        mode=mode,  # type: ignore[arg-type]  # checked by its callback
+        speed=speed,
+        duration_s=duration,
+        transport=transport,
+        out_dir=out,
+        plots=plots,
+        can=can,
+        realtime_priority=realtime_priority,
+        inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
+        hexicon=options,
+    )
+    _launch_and_exit(req)
 
 
 @app.command(short_help="Run the plant process alone.")
@@ -771,17 +891,13 @@ def _write_rows(rows: list[tuple[str, str]], indent: str = "") -> None:
         sys.stdout.write(f"{indent}{name:<{width}}  {text}".rstrip() + "\n")
 
 
-@app.command(short_help="List the shipped scenarios.")
+@app.command(short_help="List the shipped scenarios (every plant family).")
 def scenarios() -> None:
-    """List the shipped scenarios: name, description, plant, controller and duration."""
-    rows = []
-    for name in shipped_scenarios():
-        sc = load_scenario(name)
-        plant_text = f"{sc.turbine} on {sc.platform}" if sc.platform else f"{sc.turbine} fixed"
-        details = (
-            f"[{plant_text}; {sc.controller.kind}/{sc.controller.preset}; {sc.duration_s:g} s]"
-        )
-        rows.append((name, f"{sc.description} {details}" if sc.description else details))
+    """List the shipped scenarios that 'fowt run' takes: single turbine (name, description,
+    plant, controller, duration), then Hexicon H3 (hexicon-<name>)."""
+    from hil.families import list_scenarios
+
+    rows = [row for names in list_scenarios().values() for row in names.items()]
     _write_rows(rows)
 
 

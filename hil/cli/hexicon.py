@@ -1,4 +1,9 @@
-"""``fowt hexicon ...``: the Hexicon H3 multi-turbine platform family on the bench."""
+"""``fowt hexicon ...``: the Hexicon H3 multi-turbine platform family's own commands.
+
+A Hexicon run is ``fowt run hexicon-<name>`` (:mod:`hil.families`: the same launcher,
+review and exit codes as a single turbine's); ``fowt hexicon run`` is its alias. The
+in-process campaign and the identification over the bus are this family's alone.
+"""
 
 from __future__ import annotations
 
@@ -19,33 +24,26 @@ app = typer.Typer(
 )
 
 
-def _check(scenario: str, controller: str) -> None:
-    from hil.hexicon.model import load_scenarios  # noqa: PLC0415 - deferred (module comment)
-
-    names = load_scenarios()
-    if scenario not in names:
-        raise typer.BadParameter(f"unknown scenario {scenario!r}; shipped: {', '.join(names)}")
-    if controller not in CONTROLLERS:
-        raise typer.BadParameter(f"unknown controller {controller!r}; expected {CONTROLLERS}")
-
-
 @app.command("scenarios", short_help="List the platform scenarios (table 6, sensitivity).")
 def scenarios() -> None:
-    from hil.hexicon.model import load_scenarios  # noqa: PLC0415 - deferred (module comment)
+    """The Hexicon H3 scenarios by the name 'fowt run' takes (hexicon-<name>)."""
+    from hil.families import HEXICON  # noqa: PLC0415 - deferred (module comment)
 
-    for name, scn in load_scenarios().items():
-        typer.echo(f"{name:28s} {scn.duration_s:5.0f} s  {scn.comment}")
+    for name, text in HEXICON.scenarios().items():
+        typer.echo(f"{name:36s} {text}")
 
 
-@app.command("run", short_help="Plant and controller processes over Zenoh, recorded to MCAP.")
+@app.command(
+    "run", short_help="Alias of 'fowt run hexicon-<scenario> --mode lockstep --controller ...'."
+)
 def run(
-    scenario: str,
+    scenario: Annotated[str, typer.Argument(help="table-6 name (s1_step15) or hexicon-<name>")],
     controller: Annotated[
         str, typer.Option(help="bang_bang, mpc (physical model) or mpc_id (identified model)")
     ] = "mpc",
-    out: Annotated[Path, typer.Option(help="output directory (run.mcap, summary.json)")] = Path(
-        "runs/hexicon"
-    ),
+    out: Annotated[
+        Path | None, typer.Option(help="output directory (default: runs/<stamp>-hexicon-<name>)")
+    ] = None,
     mode: Annotated[str, typer.Option(help="lockstep or realtime")] = "lockstep",
     duration: Annotated[float | None, typer.Option(help="override the length (s)")] = None,
     realtime_priority: Annotated[
@@ -61,56 +59,29 @@ def run(
     identified: Annotated[
         Path | None, typer.Option(help="identified-model artefact of mpc_id")
     ] = None,
+    plots: Annotated[bool, typer.Option(help="write the review's PNG plot")] = True,
 ) -> None:
-    from hil.hexicon.nodes import run_over_zenoh  # noqa: PLC0415 - deferred (module comment)
+    """The same run as 'fowt run hexicon-<scenario>' (one launcher, review, summary.json and
+    exit codes: docs/exit-codes.md), with this command's defaults (lock-step, MPC)."""
+    from hil.cli.common import fail  # noqa: PLC0415
+    from hil.cli.fowt import _run_family  # noqa: PLC0415 - the one path of 'fowt run'
+    from hil.families import HEXICON_PREFIX, HexiconOptions, RunRequestError  # noqa: PLC0415
 
-    _check(scenario, controller)
+    if controller not in CONTROLLERS:
+        fail(f"--controller {controller!r}: expected one of {', '.join(CONTROLLERS)}")
     if mode not in ("lockstep", "realtime"):
-        raise typer.BadParameter(f"--mode {mode!r}: expected lockstep or realtime")
+        fail(f"--mode {mode!r}: expected lockstep or realtime")
     if transport not in ("zenoh", "can"):
-        raise typer.BadParameter(f"--transport {transport!r}: expected zenoh or can")
+        fail(f"--transport {transport!r}: expected zenoh or can")
+    ref = scenario if scenario.startswith(HEXICON_PREFIX) else f"{HEXICON_PREFIX}{scenario}"
     try:
-        s = run_over_zenoh(
-            scenario,
-            controller,
-            out,
-            mode=mode,
-            duration_s=duration,
-            realtime_priority=realtime_priority,
-            noise=noise,
-            transport=transport,
-            can_interface=can_interface,
-            can_channel=can_channel,
-            can_fd=can_fd,
-            identified=str(identified) if identified else None,
-        )
-    except (RuntimeError, ValueError) as exc:
-        typer.echo(f"error: {' '.join(str(exc).split())}", err=True)
-        raise typer.Exit(2) from exc
-    if s.get("plant_rc") != 0 or s.get("controller_rc") != 0:
-        # One line on stderr; the nodes' own output goes to the summary file for the details.
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "summary.json").write_text(json.dumps(s, indent=1) + "\n", encoding="utf-8")
-        typer.echo(
-            f"error: run failed: plant exited with {s.get('plant_rc')}, controller with "
-            f"{s.get('controller_rc')}; their output: {out / 'summary.json'}",
-            err=True,
-        )
-        raise typer.Exit(1)
-    kpis = kpis_of_mcap(Path(s["mcap"]), scenario)
-    s["kpis"] = kpis
-    (out / "summary.json").write_text(json.dumps(s, indent=1) + "\n", encoding="utf-8")
-    typer.echo(json.dumps({k: v for k, v in s.items() if "stderr" not in k}, indent=1))
-
-
-def kpis_of_mcap(path: Path, scenario: str) -> dict[str, float]:
-    """The review KPIs (:func:`hil.hexicon.model.compute_kpis`) of a recorded platform run."""
-    from hil.hexicon.model import compute_kpis, load_scenarios  # noqa: PLC0415
-    from hil.hexicon.nodes import read_platform_run  # noqa: PLC0415
-    from hil.hexicon.review import run_log  # noqa: PLC0415
-
-    log = run_log(read_platform_run(path))
-    return compute_kpis(log, load_scenarios()[scenario])
+        options = HexiconOptions(controller=controller, noise=noise, identified=identified)
+    except RunRequestError as exc:
+        fail(str(exc))
+    _run_family(
+        ref, options, mode, 1.0, duration, transport, can_interface, can_channel or None,
+        can_fd, out, plots, realtime_priority, "auto",
+    )  # fmt: skip
 
 
 @app.command("campaign", short_help="MPC vs bang-bang on every scenario (in process).")
@@ -139,7 +110,7 @@ def campaign(
 def identify(
     duration: Annotated[float, typer.Option(help="samples (s) per experiment")] = 3000.0,
     block_rows: Annotated[int, typer.Option(help="N4SID block rows")] = 10,
-    out: Annotated[Path, typer.Option(help="folder of exp<k>.mcap, identified.json")] = Path(
+    out: Annotated[Path, typer.Option(help="folder of exp<k>/run.mcap, identified.json")] = Path(
         "runs/hexicon_identify"
     ),
     seed: Annotated[int, typer.Option(help="PRBS seed")] = 0,
@@ -163,5 +134,35 @@ def identify(
         write_preset=write_preset,
         transport=transport,
         reuse=reuse,
+        record=record_experiment,
     )
     typer.echo(json.dumps(res, indent=1))
+
+
+def record_experiment(
+    experiment: int,
+    out: Path,
+    *,
+    duration_s: float,
+    seed: int = 0,
+    transport: str = "zenoh",
+    scenario: str = "s1_step15",
+) -> dict[str, Any]:
+    """One table-5 identification experiment through the launcher (lock-step, PRBS
+    excitation): ``fowt run hexicon-<scenario> --controller prbs --experiment <k> --mode
+    lockstep --no-plots --out <out>``; returns the run's summary."""
+    from rich.console import Console  # noqa: PLC0415
+
+    from hil.families import HEXICON_PREFIX, HexiconOptions  # noqa: PLC0415
+    from hil.launch import RunRequest, launch  # noqa: PLC0415
+
+    req = RunRequest(
+        scenario=f"{HEXICON_PREFIX}{scenario}",
+        mode="lockstep",
+        duration_s=duration_s,
+        transport=transport,
+        out_dir=out,
+        plots=False,
+        hexicon=HexiconOptions(controller="prbs", experiment=experiment, seed=seed),
+    )
+    return launch(req, Console(stderr=True))

@@ -1,10 +1,12 @@
 """``fowt hexicon identify``: the seed's PRBS experiments over the bus, merged from MCAP, N4SID.
 
 ayotte-2015 sections 3.4, 4.2 and 5.2 (table 5). Each experiment is a run of the bench's
-processes (:func:`hil.hexicon.nodes.run_over_zenoh` with ``controller="prbs"``): the plant
-process with the PRBS wind of the experiment publishing its (noisy) frames, the excitation
-process commanding PRBS pitches floored at the rated pitch of the measured wind, the
-recorder writing ``exp<k>.mcap``. The identification then reads only those MCAP files
+processes through the launcher (``fowt run hexicon-s1_step15 --controller prbs --experiment
+k``; the ``record`` callable :func:`identify_over_bus` is given, e.g.
+:func:`hil.cli.hexicon.record_experiment`): the plant process with the PRBS wind of the
+experiment publishing its (noisy) frames, the excitation process commanding PRBS pitches
+floored at the rated pitch of the measured wind, the recorder writing ``exp<k>/run.mcap``.
+The identification then reads only those MCAP files
 (:func:`experiment_data`): per control period k the inputs u_k = (met wind speed m/s, met
 wind direction deg, commanded pitches θ_1..θ_3 deg answering frame k) and the outputs
 y_k = (measured yaw rate deg/s, Σ measured turbine power MW). Experiments 1-5 are merged
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +46,7 @@ from controller.design.hexicon_identify import (
     predictor_gain,
     simulate,
 )
-from hil.hexicon.nodes import read_platform_run, run_over_zenoh
+from hil.hexicon.nodes import read_platform_run
 
 __all__ = ["experiment_data", "identify_over_bus", "kalman_gain", "model_artefact"]
 
@@ -137,11 +140,15 @@ def identify_over_bus(
     write_preset: bool = False,
     transport: str = "zenoh",
     reuse: bool = False,
+    *,
+    record: Callable[..., dict[str, Any]],
 ) -> dict[str, Any]:
     """Record the experiments over the bus, merge, fit, save (module docstring).
 
     The last experiment of ``experiments`` is the held-out one. ``reuse``: fit existing
-    ``exp<k>.mcap`` files of ``out`` instead of running them again.
+    ``exp<k>/run.mcap`` files of ``out`` instead of running them again. ``record(experiment,
+    out_dir, duration_s=, seed=, transport=)`` runs one experiment into ``out_dir/run.mcap``
+    and returns the run's summary (``run.exit_code``, ``timing``).
     """
     if len(experiments) < 2:
         raise ValueError("identification: expected >= 2 experiments (estimation + held-out)")
@@ -151,23 +158,16 @@ def identify_over_bus(
     for k in experiments:
         if not 1 <= k <= len(TABLE5):
             raise ValueError(f"experiment {k}: expected 1..{len(TABLE5)}")
-        path = out / f"exp{k}.mcap"
+        path = out / f"exp{k}" / "run.mcap"
         if not (reuse and path.is_file()):
-            s = run_over_zenoh(
-                "s1_step15",
-                "prbs",
-                out,
-                duration_s=duration_s,
-                experiment=k,
-                seed=seed,
-                transport=transport,
-                mcap_name=path.name,
-            )
-            if s.get("plant_rc") != 0 or s.get("controller_rc") != 0:
-                raise RuntimeError(f"experiment {k} failed: {json.dumps(s)[-2000:]}")
+            s = record(k, path.parent, duration_s=duration_s, seed=seed, transport=transport)
+            if s.get("run", {}).get("exit_code") != 0:
+                raise RuntimeError(f"experiment {k} failed: {json.dumps(s['run'])[-2000:]}")
             runs[f"exp{k}"] = {
-                key: s.get(key)
-                for key in ("plant_cycles", "records", "commands_rejected", "deadline_misses")
+                "plant_cycles": s["timing"]["cycles"],
+                "records": int(s["run"]["records"]),
+                "commands_rejected": s["timing"]["commands_rejected"],
+                "deadline_misses": s["timing"]["deadline_misses"],
             }
         frames.append(experiment_data(path))
     est = pd.concat(frames[:-1], ignore_index=True)

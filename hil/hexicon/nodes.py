@@ -1,14 +1,18 @@
-"""Plant and controller processes of the Hexicon H3 family over Zenoh, and their recorder.
+"""Plant, controller and recorder processes of the Hexicon H3 family over Zenoh.
 
-Three OS processes: the plant (``python -m hil.hexicon.nodes plant``) listens on its endpoint,
-the controller (``... controller``) listens on its own and connects to the plant, and the
-recorder (the launching process, :func:`run_over_zenoh`) connects to both and writes every
-message to an MCAP file. Keys::
+Three OS processes, started, followed and stopped by the bench's one launcher
+(``fowt run hexicon-<name>``: :mod:`hil.launch`, :mod:`hil.families`, which takes their
+command lines from :func:`node_commands`): the plant (``python -m hil.hexicon.nodes plant``)
+listens on its endpoint, the controller (``... controller``) listens on its own and connects
+to the plant, and the recorder (``... record``) connects to both and writes every message to
+an MCAP file (:func:`run_recorder_node`). With the run's key (``--key-file``) every payload
+is signed and checked (docs/security.md). Keys::
 
     fowt/<platform>/platform              PlatformFrame (heading, yaw rate, met wind)
     fowt/<platform>/<turbine>/rotor       TurbineFrame (t1, t2, t3)
     fowt/<platform>/<turbine>/rotor/command  TurbineCommand (one controller commands all three)
     fowt/<platform>/platform/status       PlatformControllerStatus
+    fowt/<platform>/platform/summary      the plant's account at its end (JSON)
     fowt/<platform>/alive/<node>          liveliness tokens
 
     fowt/<platform>/platform/truth        PlatformFrame of the true state (recorder only)
@@ -27,8 +31,12 @@ travel as CAN frames (``bus_schemas/fowt.dbc``: TurbineFrame 0x140, PlatformFram
 TurbineCommand 0x110, the turbine index in the payload) on a python-can bus
 (:class:`hil.nodes.can_bus.CanBus`); truth, status and liveliness stay on the loopback Zenoh
 session. ``udp_multicast`` between processes runs in a private network namespace (the
-launcher re-runs itself under ``unshare --net``, as ``fowt run --transport can`` does);
-``virtual`` connects nodes of one process only (:func:`run_in_threads`, tests).
+launcher re-runs itself under ``unshare --net``, for either family).
+
+Ending: the plant's final frame (``final`` = 1) ends the controller; the plant's account
+(:func:`summary_key`) ends the recorder once the last status is in. SIGTERM (the launcher
+stopping a run) ends the plant's loop at the next cycle with its account as usual, and
+makes the recorder finish its file.
 
 Identification (``--controller prbs``): the plant's wind is the PRBS wind of a table-5
 experiment (:func:`controller.design.hexicon_identify.experiment_wind`) and the controller
@@ -40,10 +48,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import queue
-import subprocess
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -84,7 +92,7 @@ from hil.hexicon.model import (
     plant_input,
     truth_sample,
 )
-from hil.nodes.bus import Bus, BusConfig, free_tcp_endpoint
+from hil.nodes.bus import Bus, BusConfig
 from hil.nodes.rt import set_realtime_priority
 from hil.runlog.mcap_io import RunLog, read_run
 from plant.hexicon.environment import SampledWind
@@ -100,7 +108,8 @@ CONTROLLER_CODES = {"bang_bang": 0, "mpc": 1, "mpc_id": 2, "prbs": 3}
 #: Controllers a node runs (``prbs``: the identification excitation).
 NODE_CONTROLLERS = tuple(CONTROLLER_CODES)
 TRUTH = "truth"
-_NETNS_ENV = "FOWT_HEXICON_IN_NETNS"
+#: The MCAP metadata record of a platform run (the launcher's ``family`` key among them).
+RUN_METADATA = "hexicon_run"
 _CAN_TYPES = (TURBINE_FRAME, PLATFORM_FRAME, TURBINE_COMMAND)
 
 
@@ -177,7 +186,13 @@ class PlatformLink:
                     return
                 cb(key, msg)
 
-            self.zenoh.subscribe(mt.key(ident), on_payload)
+            # a payload failing the run's authentication counts as a rejected one
+            key = mt.key(ident)
+
+            def on_reject(_exc: Exception, key: str = key) -> None:
+                cb(key, None)
+
+            self.zenoh.subscribe(key, on_payload, on_reject)
 
     def can_rejected(self) -> int:
         return int(sum(self.can.rejected.values())) if self.can is not None else 0
@@ -190,9 +205,15 @@ class PlatformLink:
                 self.can.close()
 
 
-def _wait_for_peers(bus: Any, platform: str, names: tuple[str, ...], timeout_s: float) -> None:
+def _wait_for_peers(
+    bus: Any,
+    platform: str,
+    names: tuple[str, ...],
+    timeout_s: float,
+    stop: threading.Event | None = None,
+) -> None:
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
+    while time.monotonic() < deadline and not (stop is not None and stop.is_set()):
         seen = set()
         for reply in bus.session.liveliness().get(f"{KEY_PREFIX}/{platform}/alive/*"):
             ok = getattr(reply, "ok", None)
@@ -201,6 +222,8 @@ def _wait_for_peers(bus: Any, platform: str, names: tuple[str, ...], timeout_s: 
         if all(n in seen for n in names):
             return
         time.sleep(0.05)
+    if stop is not None and stop.is_set():
+        return
     raise TimeoutError(f"peers {names} did not appear within {timeout_s} s")
 
 
@@ -228,10 +251,14 @@ def run_plant_node(
     experiment: int = 0,
     seed: int = 0,
     can: dict[str, Any] | None = None,
+    auth_key: bytes | None = None,
 ) -> int:
     """The plant process: publish frames each period, integrate with the answering commands.
 
     ``experiment`` > 0: the PRBS wind of that table-5 experiment (``duration_s`` samples).
+    SIGTERM ends the loop at the next cycle; the plant's account (cycles, deadline misses,
+    held and rejected commands, ``stopped``) then goes out on :func:`summary_key` as at a
+    normal end, which ends the controller and the recorder.
     """
 
     if experiment:
@@ -244,7 +271,8 @@ def run_plant_node(
         wind = scn.wind
     p = scn.params()
     sensors = make_sensors(scn, noise)
-    bus = PlatformLink(BusConfig(listen=(listen,)), can, platform)
+    bus = PlatformLink(BusConfig(listen=(listen,), auth_key=auth_key), can, platform)
+    stop = _stop_on_sigterm()
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/plant")
     commands: queue.SimpleQueue[TurbineCommand] = queue.SimpleQueue()
     rejected = 0
@@ -258,7 +286,7 @@ def run_plant_node(
 
     bus.subscribe(TURBINE_COMMAND, tuple(f"{platform}/{t}" for t in TURBINES), on_cmd)
     try:
-        _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S)
+        _wait_for_peers(bus, platform, ("controller", "recorder"), _STARTUP_TIMEOUT_S, stop)
         time.sleep(0.2)  # let the subscribers' declarations propagate
         x = initial_state(p, wind.speed_m_s(0.0))
         q0 = [torque_law_nm(p.turbine, w) for w in (x[2], x[5], x[8])]
@@ -266,8 +294,12 @@ def run_plant_node(
         n = round((duration_s or scn.duration_s) / scn.control_period_s)
         period_ns = round(scn.control_period_s * 1e9)
         misses = held = 0
+        stopped = False
         t0 = time.monotonic_ns()
         for k in range(n + 1):
+            if stop.is_set():
+                stopped = True
+                break
             t = k * scn.control_period_s
             v, b = wind.speed_m_s(t), wind.direction_rad(t)
             out = outputs(t, x, plant_input(cmd, v, b), p)
@@ -340,18 +372,19 @@ def run_plant_node(
                 sleep_ns = t0 + (k + 1) * period_ns - time.monotonic_ns()
                 if sleep_ns > 0:
                     time.sleep(sleep_ns / 1e9)
-        print(
-            json.dumps(
-                {
-                    "plant_cycles": n,
-                    "deadline_misses": misses,
-                    "commands_held": held,
-                    "commands_rejected": rejected + bus.can_rejected(),
-                    "sensor_seed": sensors.seed,
-                    "sensor_noise": sensors.enabled,
-                }
-            )
+        account = json.dumps(
+            {
+                "plant_cycles": k if stopped else n,
+                "deadline_misses": misses,
+                "commands_held": held,
+                "commands_rejected": rejected + bus.can_rejected(),
+                "sensor_seed": sensors.seed,
+                "sensor_noise": sensors.enabled,
+                "stopped": stopped,
+            }
         )
+        print(account, flush=True)
+        bus.zenoh.put(summary_key(platform), account.encode())
         time.sleep(0.3)
         return 0
     finally:
@@ -372,10 +405,12 @@ def run_controller_node(
     seed: int = 0,
     can: dict[str, Any] | None = None,
     identified: str | None = None,
+    auth_key: bytes | None = None,
 ) -> int:
     """The controller process: one core commanding the three turbines each cycle.
 
-    It subscribes to the measured keys only (never ``.../truth``). ``prbs``: the pitch
+    It ends on the plant's final frame or its account (:func:`summary_key`: a plant stopped
+    early). It subscribes to the measured keys only (never ``.../truth``). ``prbs``: the pitch
     excitation of table-5 experiment ``experiment`` (1-based) over ``samples`` cycles.
     ``identified``: the identified-model artefact of ``mpc_id`` (default: the shipped one).
     """
@@ -397,7 +432,9 @@ def run_controller_node(
 
             model = load_identified(identified)
         core = ControllerCore(controller, design, period_s, model)
-    bus = PlatformLink(BusConfig(listen=(listen,), connect=(connect,)), can, platform)
+    bus = PlatformLink(
+        BusConfig(listen=(listen,), connect=(connect,), auth_key=auth_key), can, platform
+    )
     inbox: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
 
     def on_platform(_key: str, msg: Any) -> None:
@@ -408,6 +445,7 @@ def run_controller_node(
 
     bus.subscribe(PLATFORM_FRAME, (platform,), on_platform)
     bus.subscribe(TURBINE_FRAME, tuple(f"{platform}/{t}" for t in TURBINES), on_turbine)
+    bus.zenoh.subscribe(summary_key(platform), lambda _k, _p: inbox.put(("end", None)))
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/controller")
     frames: dict[int, dict[str, Any]] = {}
     try:
@@ -418,6 +456,8 @@ def run_controller_node(
             except queue.Empty:
                 print("controller: no frames for 60 s", file=sys.stderr)
                 return 2
+            if kind == "end":
+                return 0
             if kind == "rejected":
                 continue
             slot = frames.setdefault(msg.seq, {})
@@ -512,178 +552,64 @@ class PlatformMcap:
 
     def close(self, metadata: dict[str, str]) -> None:
         """Add the run's metadata, finish the file."""
-        self._log.add_metadata("hexicon_run", metadata)
+        self._log.add_metadata(RUN_METADATA, metadata)
         self._log.close()
 
 
-def _netns_rerun(argv: list[str], out: Path) -> dict[str, Any]:
-    """Re-run ``python -m hil.hexicon.nodes run ...`` in a private network namespace."""
-    from hil.nodes.can_bus import netns_command  # noqa: PLC0415
-
-    env = {**os.environ, _NETNS_ENV: "1"}
-    proc = subprocess.run(
-        netns_command([sys.executable, "-m", "hil.hexicon.nodes", "run", *argv]),
-        env=env,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    path = out / "launch.json"
-    if proc.returncode != 0 or not path.is_file():
-        return {
-            "plant_rc": None,
-            "controller_rc": None,
-            "launch_rc": proc.returncode,
-            "launch_stderr": proc.stderr[-3000:],
-        }
-    result: dict[str, Any] = json.loads(path.read_text())
-    return result
+def summary_key(platform: str) -> str:
+    """``fowt/<platform>/platform/summary``: the plant's end-of-run account (JSON object:
+    ``plant_cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``,
+    ``sensor_seed``, ``sensor_noise``, ``stopped``); the recorder stores it in the file's
+    metadata, the controller ends on it."""
+    return f"{KEY_PREFIX}/{platform}/platform/summary"
 
 
-def run_over_zenoh(
-    scenario: str,
-    controller: str,
+def _stop_on_sigterm() -> threading.Event:
+    """An event set by SIGTERM (the launcher stopping the run), in the main thread only."""
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    return stop
+
+
+#: After the plant's account, how long the recorder waits for the last statuses (s of quiet).
+_END_QUIET_S = 2.0
+
+
+def run_recorder_node(
     out: Path,
+    platform: str,
+    connect: tuple[str, ...],
+    metadata: dict[str, str],
     *,
-    mode: str = "lockstep",
-    duration_s: float | None = None,
-    platform: str = "h3",
-    timeout_s: float = 3600.0,
-    realtime_priority: int = 0,
-    noise: bool = True,
-    experiment: int = 0,
-    seed: int = 0,
-    transport: str = "zenoh",
-    can_interface: str = "udp_multicast",
-    can_channel: str = "",
-    can_fd: bool = False,
-    identified: str | None = None,
-    mcap_name: str = "run.mcap",
-) -> dict[str, Any]:
-    """Run plant and controller as two processes, record to ``out/<mcap_name>``.
+    can: dict[str, Any] | None = None,
+    auth_key: bytes | None = None,
+) -> int:
+    """The recorder process: every message of the platform into ``out`` (:class:`PlatformMcap`).
 
-    ``experiment`` > 0 with ``controller="prbs"``: table-5 identification experiment
-    (``duration_s`` = samples). ``transport="can"``: frames and commands on CAN (module
-    docs); ``udp_multicast`` re-runs this in a private network namespace when needed.
-
-    Returns the plant's summary (cycles, deadline misses, held/rejected commands), the
-    record count and the MCAP path.
+    It connects to the plant and the controller, announces itself once the controller is seen
+    on its session (the commands reach it only over that link), and records until the plant's
+    account (:func:`summary_key`) is in and the controller's status answering the last cycle
+    (or :data:`_END_QUIET_S` without a message), or until SIGTERM. The file's
+    ``hexicon_run`` metadata: ``metadata`` (the launcher's: family, scenario, controller,
+    mode, ...), the plant's account, ``records``, ``recorder_rejected``, ``final_seen``
+    (the plant's final measured frame was recorded) and, on CAN, ``can_frames_received`` and
+    ``can_rejected``.
     """
-    if transport not in ("zenoh", "can"):
-        raise ValueError(f"transport {transport!r}: expected zenoh or can")
-    if controller not in NODE_CONTROLLERS:
-        raise ValueError(f"controller {controller!r}: expected one of {NODE_CONTROLLERS}")
-    if (controller == "prbs") != (experiment > 0):
-        raise ValueError("controller prbs goes with an identification experiment (>= 1)")
-    can: dict[str, Any] | None = None
-    if transport == "can":
-        from hil.nodes.can_bus import (  # noqa: PLC0415
-            CanBusConfig,
-            in_private_netns,
-            transport_unavailable_reason,
-        )
-
-        cfg = CanBusConfig.for_interface(can_interface, can_channel or None, can_fd, platform)
-        if can_interface == "udp_multicast" and not in_private_netns():
-            from hil.nodes.can_bus import netns_unavailable_reason  # noqa: PLC0415
-
-            why = netns_unavailable_reason()
-            if why:
-                raise RuntimeError(why)
-            out.mkdir(parents=True, exist_ok=True)
-            argv = _cli_argv(
-                scenario,
-                controller,
-                out,
-                mode,
-                duration_s,
-                platform,
-                realtime_priority,
-                noise,
-                experiment,
-                seed,
-                can_interface,
-                can_channel,
-                can_fd,
-                identified,
-                mcap_name,
-            )
-            return _netns_rerun(argv, out)
-        why = transport_unavailable_reason(cfg)
-        if why:
-            raise RuntimeError(why)
-        can = {"interface": can_interface, "channel": cfg.effective_channel, "fd": can_fd}
-    scn = load_scenarios()[scenario]
-    out.mkdir(parents=True, exist_ok=True)
-    plant_ep = free_tcp_endpoint()
-    ctrl_ep = free_tcp_endpoint()
-    while ctrl_ep == plant_ep:
-        ctrl_ep = free_tcp_endpoint()
-    py = sys.executable
-    dur = [] if duration_s is None else ["--duration", repr(duration_s)]
-    rt = ["--realtime-priority", str(realtime_priority)] if realtime_priority else []
-    can_args: list[str] = []
-    if can is not None:
-        can_args = ["--can-interface", can["interface"], "--can-channel", can["channel"]]
-        can_args += ["--can-fd"] if can_fd else []
-    idf = ["--experiment", str(experiment), "--seed", str(seed)]
-    plant = subprocess.Popen(
-        [
-            py,
-            "-m",
-            "hil.hexicon.nodes",
-            "plant",
-            "--scenario",
-            scenario,
-            "--platform",
-            platform,
-            "--listen",
-            plant_ep,
-            "--mode",
-            mode,
-            *dur,
-            *rt,
-            *can_args,
-            *idf,
-            *([] if noise else ["--no-noise"]),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
-    samples = round(duration_s or scn.duration_s) if experiment else 0
-    ctrl = subprocess.Popen(
-        [
-            py,
-            "-m",
-            "hil.hexicon.nodes",
-            "controller",
-            "--controller",
-            controller,
-            "--platform",
-            platform,
-            "--listen",
-            ctrl_ep,
-            "--connect",
-            plant_ep,
-            "--period",
-            repr(scn.control_period_s),
-            *rt,
-            *can_args,
-            *idf,
-            "--samples",
-            str(samples),
-            *(["--identified", identified] if identified else []),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
-    mcap_path = out / mcap_name
-    log = PlatformMcap(mcap_path, platform)
+    log = PlatformMcap(out, platform)
     q: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
+    skey = summary_key(platform)
     rejected = 0
+    stop = _stop_on_sigterm()
 
     def on_sample(key: str, payload: bytes) -> None:
         nonlocal rejected
+        if key == skey:
+            try:
+                q.put((key, json.loads(payload)))
+            except ValueError:
+                rejected += 1
+            return
         parts = key.split("/")
         if "alive" in parts:
             return
@@ -698,155 +624,168 @@ def run_over_zenoh(
         except DecodeError:
             rejected += 1
 
-    can_bus_rec = None
-    if can is not None:
-        from hil.nodes.can_bus import CanBus, CanBusConfig  # noqa: PLC0415
+    def on_reject(_exc: Exception) -> None:
+        nonlocal rejected
+        rejected += 1
 
-        can_bus_rec = CanBus(
-            CanBusConfig.for_interface(can["interface"], can["channel"], can_fd, platform)
-        )
-        for mt in _CAN_TYPES:
-
-            def deliver(msg: Any, mt: MessageType = mt) -> None:
-                ident = (
-                    f"{platform}/t{msg.turbine_index}"
-                    if hasattr(msg, "turbine_index")
-                    else platform
-                )
-                q.put((mt.key(ident), msg))
-
-            can_bus_rec.subscribe_message(mt, deliver)
-    bus = Bus(BusConfig(connect=(plant_ep, ctrl_ep)))
-    bus.subscribe(f"{KEY_PREFIX}/{platform}/**", on_sample)
-    deadline = time.monotonic() + timeout_s
-    final = False
-    p_out = p_err = c_err = b""
+    can_bus = None
+    bus = None
     token = None
+    account: dict[str, Any] = {}
+    final = False
     try:
-        # The plant starts when it sees the recorder's token, but the commands reach this
+        if can is not None:
+            from hil.nodes.can_bus import CanBus, CanBusConfig  # noqa: PLC0415 - CAN runs only
+
+            can_bus = CanBus(
+                CanBusConfig.for_interface(
+                    can["interface"], can.get("channel") or None, bool(can.get("fd")), platform
+                )
+            )
+            for mt in _CAN_TYPES:
+
+                def deliver(msg: Any, mt: MessageType = mt) -> None:
+                    ident = (
+                        f"{platform}/t{msg.turbine_index}"
+                        if hasattr(msg, "turbine_index")
+                        else platform
+                    )
+                    q.put((mt.key(ident), msg))
+
+                can_bus.subscribe_message(mt, deliver)
+        bus = Bus(BusConfig(connect=connect, auth_key=auth_key))
+        bus.subscribe(f"{KEY_PREFIX}/{platform}/**", on_sample, on_reject)
+        # The plant starts when it sees this recorder's token, but the commands reach the
         # recorder only over its own link to the controller, which listens only once its
         # core is built: a first connect attempt before that fails and Zenoh retries it
         # seconds later, after a short lock-step run has ended (its commands unrecorded).
         # So the token is declared once the controller is seen on this session.
-        _wait_for_peers(bus, platform, ("controller",), _STARTUP_TIMEOUT_S)
+        _wait_for_peers(bus, platform, ("controller",), _STARTUP_TIMEOUT_S, stop)
         token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/recorder")
-        while (time.monotonic() < deadline and plant.poll() is None) or not q.empty():
+        last_status = -1
+        quiet_since = time.monotonic()
+        while True:
             try:
                 key, msg = q.get(timeout=0.1)
             except queue.Empty:
-                if final and plant.poll() is not None:
+                quiet = time.monotonic() - quiet_since
+                cycles = int(account.get("plant_cycles", -1))
+                if account and (last_status >= cycles - 1 or quiet > _END_QUIET_S):
                     break
+                if stop.is_set() and quiet > 0.5:  # stopped: what was in flight is in
+                    break
+                continue
+            quiet_since = time.monotonic()
+            if key == skey:
+                account = msg
                 continue
             log.write(key, msg)
             if isinstance(msg, PlatformFrame) and msg.final and not key.endswith(TRUTH):
                 final = True
-        p_out, p_err = plant.communicate(timeout=30)
-        _c_out, c_err = ctrl.communicate(timeout=30)
+            elif isinstance(msg, PlatformControllerStatus):
+                last_status = max(last_status, msg.answered_seq)
     finally:
         if token is not None:
             token.undeclare()
-        bus.close()
-        for proc in (plant, ctrl):
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-        can_frames = can_rej = 0
-        if can_bus_rec is not None:
-            can_frames = can_bus_rec.frames_received
-            can_rej = int(sum(can_bus_rec.rejected.values()))
-            can_bus_rec.close()
-    summary: dict[str, Any] = {}
-    lines = [ln for ln in p_out.decode().splitlines() if ln.startswith("{")]
-    if lines:
-        summary = json.loads(lines[-1])
-    summary.update(
-        {
-            "plant_rc": plant.returncode,
-            "controller_rc": ctrl.returncode,
-            "records": log.count,
-            "recorder_rejected": rejected,
-            "final_seen": final,
-            "mcap": str(mcap_path),
-            "transport": transport,
-            "plant_stderr": p_err.decode()[-2000:],
-            "controller_stderr": c_err.decode()[-2000:],
-        }
-    )
-    if can is not None:
-        summary.update(
-            {
-                "can_interface": can["interface"],
-                "can_frames_received": can_frames,
-                "can_rejected": can_rej,
-            }
-        )
-    kind = "identification" if experiment else "run"
-    log.close(
-        {k: str(v) for k, v in summary.items() if k not in ("plant_stderr", "controller_stderr")}
-        | {
-            "kind": kind,
-            "scenario": scenario,
-            "controller": controller,
-            "mode": mode,
-            "platform": platform,
-            "experiment": str(experiment),
-            "seed": str(seed),
-            "control_period_s": repr(scn.control_period_s),
-        }
-    )
-    return summary
+        if bus is not None:
+            bus.close()
+        meta = dict(metadata)
+        meta.update({k: str(v) for k, v in account.items()})
+        meta.update(records=str(log.count), recorder_rejected=str(rejected), final_seen=str(final))
+        if can_bus is not None:
+            meta.update(
+                can_frames_received=str(can_bus.frames_received),
+                can_rejected=str(int(sum(can_bus.rejected.values()))),
+            )
+            can_bus.close()
+        log.close(meta)
+    return 0
 
 
-def _cli_argv(
+# ------------------------------------------------------------------------------ launcher's view
+def node_commands(
     scenario: str,
     controller: str,
-    out: Path,
-    mode: str,
-    duration_s: float | None,
     platform: str,
-    realtime_priority: int,
-    noise: bool,
-    experiment: int,
-    seed: int,
-    can_interface: str,
-    can_channel: str,
-    can_fd: bool,
-    identified: str | None,
-    mcap_name: str,
-) -> list[str]:
-    argv = [
-        "--scenario",
-        scenario,
-        "--controller",
-        controller,
-        "--out",
-        str(out.resolve()),
-        "--mode",
-        mode,
-        "--platform",
-        platform,
-        "--experiment",
-        str(experiment),
-        "--seed",
-        str(seed),
-        "--can-interface",
-        can_interface,
-        "--mcap-name",
-        mcap_name,
-    ]
-    if duration_s is not None:
-        argv += ["--duration", repr(duration_s)]
-    if realtime_priority:
-        argv += ["--realtime-priority", str(realtime_priority)]
-    if not noise:
-        argv.append("--no-noise")
-    if can_channel:
-        argv += ["--can-channel", can_channel]
-    if can_fd:
-        argv.append("--can-fd")
-    if identified:
-        argv += ["--identified", str(Path(identified).resolve())]
-    return argv
+    mode: str,
+    duration_s: float,
+    control_period_s: float,
+    endpoints: tuple[str, str],
+    mcap_path: Path,
+    metadata: dict[str, str],
+    *,
+    key_file: Path | None = None,
+    noise: bool = True,
+    experiment: int = 0,
+    seed: int = 0,
+    identified: str | None = None,
+    can: dict[str, Any] | None = None,
+    realtime_priority: int = 0,
+) -> dict[str, list[str]]:
+    """The command lines of the recorder, controller and plant processes of a platform run
+    (:func:`main`), for the launcher (:mod:`hil.launch`) to start in that order.
+
+    ``endpoints``: the plant's and the controller's listening endpoints.
+    """
+    plant_ep, ctrl_ep = endpoints
+    base = [sys.executable, "-m", "hil.hexicon.nodes"]
+    common = ["--platform", platform]
+    if key_file is not None:
+        common += ["--key-file", str(key_file)]
+    if can is not None:
+        common += ["--can-interface", can["interface"], "--can-channel", can.get("channel") or ""]
+        common += ["--can-fd"] if can.get("fd") else []
+    rt = ["--realtime-priority", str(realtime_priority)] if realtime_priority else []
+    idf = ["--experiment", str(experiment), "--seed", str(seed)]
+    return {
+        "recorder": [
+            *base,
+            "record",
+            *common,
+            "--out",
+            str(mcap_path),
+            "--connect",
+            plant_ep,
+            "--connect",
+            ctrl_ep,
+            "--metadata",
+            json.dumps(metadata),
+        ],
+        "controller": [
+            *base,
+            "controller",
+            *common,
+            "--controller",
+            controller,
+            "--listen",
+            ctrl_ep,
+            "--connect",
+            plant_ep,
+            "--period",
+            repr(control_period_s),
+            "--samples",
+            str(round(duration_s) if experiment else 0),
+            *idf,
+            *rt,
+            *(["--identified", identified] if identified else []),
+        ],
+        "plant": [
+            *base,
+            "plant",
+            *common,
+            "--scenario",
+            scenario,
+            "--listen",
+            plant_ep,
+            "--mode",
+            mode,
+            "--duration",
+            repr(duration_s),
+            *idf,
+            *rt,
+            *([] if noise else ["--no-noise"]),
+        ],
+    }
 
 
 def read_platform_run(path: Path) -> dict[str, list[Any]]:
@@ -866,14 +805,16 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hil.hexicon.nodes")
     sub = ap.add_subparsers(dest="node", required=True)
 
-    def can_opts(sp: argparse.ArgumentParser) -> None:
+    def common(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument("--platform", default="h3")
+        sp.add_argument("--key-file", default=None, help="the run's secret (docs/security.md)")
         sp.add_argument("--can-interface", default=None)
         sp.add_argument("--can-channel", default="")
         sp.add_argument("--can-fd", action="store_true")
 
     pp = sub.add_parser("plant")
+    common(pp)
     pp.add_argument("--scenario", required=True)
-    pp.add_argument("--platform", default="h3")
     pp.add_argument("--listen", required=True)
     pp.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep")
     pp.add_argument("--duration", type=float, default=None)
@@ -881,10 +822,9 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("--experiment", type=int, default=0)
     pp.add_argument("--seed", type=int, default=0)
     pp.add_argument("--no-noise", action="store_true")
-    can_opts(pp)
     cp = sub.add_parser("controller")
+    common(cp)
     cp.add_argument("--controller", choices=NODE_CONTROLLERS, required=True)
-    cp.add_argument("--platform", default="h3")
     cp.add_argument("--listen", required=True)
     cp.add_argument("--connect", required=True)
     cp.add_argument("--period", type=float, default=1.0)
@@ -893,49 +833,33 @@ def main(argv: list[str] | None = None) -> int:
     cp.add_argument("--samples", type=int, default=0)
     cp.add_argument("--seed", type=int, default=0)
     cp.add_argument("--identified", default=None)
-    can_opts(cp)
-    rp = sub.add_parser("run")  # the launcher, re-run inside a network namespace
-    rp.add_argument("--scenario", required=True)
-    rp.add_argument("--controller", required=True)
+    rp = sub.add_parser("record")
+    common(rp)
     rp.add_argument("--out", required=True)
-    rp.add_argument("--mode", default="lockstep")
-    rp.add_argument("--platform", default="h3")
-    rp.add_argument("--duration", type=float, default=None)
-    rp.add_argument("--realtime-priority", type=int, default=0)
-    rp.add_argument("--experiment", type=int, default=0)
-    rp.add_argument("--seed", type=int, default=0)
-    rp.add_argument("--no-noise", action="store_true")
-    rp.add_argument("--identified", default=None)
-    rp.add_argument("--mcap-name", default="run.mcap")
-    can_opts(rp)
+    rp.add_argument("--connect", action="append", required=True)
+    rp.add_argument("--metadata", default="{}", help="JSON object of strings for the file")
     a = ap.parse_args(argv)
-    if a.node == "run":
-        res = run_over_zenoh(
-            a.scenario,
-            a.controller,
-            Path(a.out),
-            mode=a.mode,
-            duration_s=a.duration,
-            platform=a.platform,
-            realtime_priority=a.realtime_priority,
-            noise=not a.no_noise,
-            experiment=a.experiment,
-            seed=a.seed,
-            transport="can",
-            can_interface=a.can_interface or "udp_multicast",
-            can_channel=a.can_channel,
-            can_fd=a.can_fd,
-            identified=a.identified,
-            mcap_name=a.mcap_name,
-        )
-        (Path(a.out) / "launch.json").write_text(json.dumps(res, indent=1) + "\n")
-        return 0 if res.get("plant_rc") == 0 and res.get("controller_rc") == 0 else 1
-    if a.realtime_priority:
+    auth_key = None
+    if a.key_file:
+        from bus_schemas.auth import read_key_file  # noqa: PLC0415
+
+        auth_key = read_key_file(Path(a.key_file))
+    if getattr(a, "realtime_priority", 0):
         # before the Zenoh session opens, so its threads inherit the policy (hil/nodes/rt.py)
         print(set_realtime_priority(a.realtime_priority), file=sys.stderr)
     can = None
     if a.can_interface:
         can = {"interface": a.can_interface, "channel": a.can_channel, "fd": a.can_fd}
+    if a.node == "record":
+        meta = json.loads(a.metadata)
+        return run_recorder_node(
+            Path(a.out),
+            a.platform,
+            tuple(a.connect),
+            {str(k): str(v) for k, v in meta.items()},
+            can=can,
+            auth_key=auth_key,
+        )
     if a.node == "plant":
         return run_plant_node(
             a.scenario,
@@ -947,6 +871,7 @@ def main(argv: list[str] | None = None) -> int:
             experiment=a.experiment,
             seed=a.seed,
             can=can,
+            auth_key=auth_key,
         )
     return run_controller_node(
         a.controller,
@@ -959,6 +884,7 @@ def main(argv: list[str] | None = None) -> int:
         seed=a.seed,
         can=can,
         identified=a.identified,
+        auth_key=auth_key,
     )
 
 

@@ -1,8 +1,9 @@
-"""Review of a Hexicon H3 recording (``fowt review runs/hexicon/run.mcap``).
+"""Review of a Hexicon H3 recording (``fowt review runs/<run>/run.mcap``).
 
-:func:`hil.review.core.review` hands a file to :func:`summarize` when it recognises a platform
-recording (:func:`is_platform_run`: the recorder's ``hexicon_run`` metadata, or a
-``fowt/<platform>/platform`` channel). Everything comes from the MCAP file alone, through
+:func:`hil.review.core.review` hands a file to :func:`summarize` when the file's plant family
+is ``hexicon`` (:func:`hil.review.core.run_family`: the ``family`` the launcher recorded in
+the ``hexicon_run`` metadata; for older files that record or a ``fowt/<platform>/platform``
+channel). Everything comes from the MCAP file alone, through
 the same reader (:func:`hil.runlog.mcap_io.read_run`, truncated files included) as a turbine run.
 
 Summary keys (``kind`` = ``"hexicon"``; ``null`` where a channel was missing)
@@ -19,6 +20,8 @@ time to the last of the three commands answering it (one clock: CLOCK_MONOTONIC 
 system-wide), ``cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``
 (plant summary), ``controller_compute_us.{p50,p99,max}`` (status ``compute_time_ns``),
 ``deadline_us`` (the control period).
+``recording``: ``complete`` and ``problems`` (:func:`recording_check`), which the run's
+exit code is judged on (:func:`hil.review.outcome.run_outcome`, docs/exit-codes.md).
 Plots (``hexicon.png``): heading and wind direction, heading error, per-turbine pitch
 (commanded and true) with the pitch floor, platform power against the wake-free power.
 """
@@ -152,6 +155,7 @@ def summarize(run: RunData) -> dict[str, Any]:
         "deadline_us": period * 1e6,
         "controller_compute_us": _pct([s["compute_time_ns"] / 1e3 for s in status]),
     }
+    recording = recording_check(meta, len(log.t))
     times = [m["sample_time_ns"] for msgs in run.messages.values() for m in msgs if m]
     info: dict[str, Any] = dict(meta)
     info.update(
@@ -173,7 +177,36 @@ def summarize(run: RunData) -> dict[str, Any]:
             for k, v in kpi.items()
         },
         "timing": timing,
+        "recording": recording,
     }
+
+
+def recording_check(meta: dict[str, str], cycles_recorded: int) -> dict[str, Any]:
+    """Whether the recording holds the whole run (``recording`` of the summary).
+
+    ``complete`` is false, with one sentence per problem in ``problems``, when the plant's
+    final frame was not recorded (``final_seen``), the plant's account is missing (it did
+    not finish: killed or stopped), fewer cycles have their frames and three commands than
+    the plant ran (``plant_cycles``), or the recorder rejected messages. A file from before
+    these keys were recorded is judged on those it has.
+    """
+    problems: list[str] = []
+    if meta.get("final_seen", "True") != "True":
+        problems.append("no final platform frame: the plant did not finish the run")
+    if "plant_cycles" not in meta:
+        problems.append("no plant account: the plant did not finish the run")
+    else:
+        cycles = _num(meta, "plant_cycles") or 0
+        if cycles_recorded < cycles:
+            problems.append(
+                f"{cycles - cycles_recorded} of {cycles} cycles lack a frame or a command"
+            )
+    if meta.get("stopped") == "True":
+        problems.append("the plant was stopped before the run's end")
+    rejected = _num(meta, "recorder_rejected") or 0
+    if rejected:
+        problems.append(f"the recorder rejected {rejected} messages")
+    return {"complete": not problems, "problems": problems}
 
 
 def write_plots(run: RunData, out_dir: Path) -> list[Path]:
@@ -254,11 +287,24 @@ def render(summary: dict[str, Any], console: Any) -> None:
     head = Table(title="Platform run", show_header=False)
     head.add_column("item")
     head.add_column("value")
-    for k in ("kind", "scenario", "controller", "mode", "transport", "experiment", "sensor_seed"):
+    for k in (
+        "family",
+        "kind",
+        "scenario",
+        "controller",
+        "mode",
+        "transport",
+        "experiment",
+        "sensor_seed",
+    ):
         if k in run:
             head.add_row(k, str(run[k]))
     head.add_row("duration", f"{run.get('duration_s')} s")
     head.add_row("truncated", "yes" if run.get("truncated") else "no")
+    rec = summary.get("recording", {})
+    head.add_row(
+        "recording", "complete" if rec.get("complete", True) else "; ".join(rec["problems"])
+    )
     console.print(head)
     t = Table(title="KPIs")
     t.add_column("KPI")

@@ -960,7 +960,13 @@ def review(
     reader = ColumnReader(mcap_path, rs.FIELDS)
     summary = summarize_batches(reader.batches(), reader.info)
     check_run_log(reader.info, mcap_path)
-    platform = _is_platform(reader.info)
+    family = run_family(reader.info)
+    if family not in ("turbine", "hexicon"):
+        raise NotRunLogError(
+            f"{mcap_path}: a run of plant family {family!r}; this bench reviews the turbine "
+            "and hexicon families"
+        )
+    platform = family == "hexicon"
     run = read_run(mcap_path) if platform else None
     if run is not None:
         from hil.hexicon import review as hexicon_review  # noqa: PLC0415 - platform recordings only
@@ -983,12 +989,24 @@ def review(
     return summary
 
 
-def _is_platform(info: RunInfo) -> bool:
-    """Whether the log is a multi-turbine platform's (:func:`hil.hexicon.review.platform_of`)."""
+def run_family(info: RunInfo) -> str:
+    """The plant family of a run log (:mod:`hil.families`), which picks its review.
+
+    The ``family`` its launcher recorded in the ``run`` (single turbine) or ``hexicon_run``
+    (Hexicon H3) metadata record; for a file from before that key, ``hexicon`` when it has
+    a ``hexicon_run`` record naming a platform or a ``fowt/<platform>/platform`` channel
+    (:func:`hil.hexicon.review.platform_of`), else ``turbine``.
+    """
+    for record in ("run", "hexicon_run"):
+        family = info.metadata.get(record, {}).get("family")
+        if family:
+            return str(family)
     meta = info.metadata.get("hexicon_run")
     if meta and meta.get("platform"):
-        return True
-    return any(len(p) == 3 and p[2] == "platform" for p in (t.split("/") for t in info.topics))
+        return "hexicon"
+    if any(len(p) == 3 and p[2] == "platform" for p in (t.split("/") for t in info.topics)):
+        return "hexicon"
+    return "turbine"
 
 
 def truncation_note(summary: dict[str, Any]) -> str | None:
