@@ -408,22 +408,14 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if req.transport == "can":
         if req.mode == "inprocess":
             raise RunFailedError("--transport can: an in-process run has no bus (use lockstep)")
-        from hil.nodes.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
-
         can = can_config(req, scenario)
         if can.turbine_id != scenario.turbine_id:
             raise RunFailedError(
                 f"CAN bus of turbine {can.turbine_id!r}, scenario turbine {scenario.turbine_id!r}"
             )
-        reason = transport_unavailable_reason(can)
-        if reason is not None:
-            raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
-        if can.interface == "udp_multicast" and not in_private_netns():
-            if os.environ.get(_NETNS_ENV):  # never re-exec twice
-                raise RunFailedError(
-                    "re-executed under unshare --net, yet not in a private network namespace"
-                )
-            return _launch_in_netns(req, can, out, abort)
+        in_netns = _can_ready(req, can, out, abort)
+        if in_netns is not None:
+            return in_netns
     out.mkdir(parents=True, exist_ok=True)
     mcap_path = out / "run.mcap"
     info = run_info(req, scenario)
@@ -538,22 +530,12 @@ def _launch_family(
     )
     can: CanBusConfig | None = None
     if req.transport == "can":
-        from hil.nodes.can_bus import (  # noqa: PLC0415 - python-can: CAN runs only
-            CanBusConfig,
-            in_private_netns,
-            transport_unavailable_reason,
-        )
+        from hil.nodes.can_bus import CanBusConfig  # noqa: PLC0415 - python-can: CAN runs only
 
         can = req.can or CanBusConfig.for_interface("udp_multicast", None, False, plan.ident)
-        reason = transport_unavailable_reason(can)
-        if reason is not None:
-            raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
-        if can.interface == "udp_multicast" and not in_private_netns():
-            if os.environ.get(_NETNS_ENV):  # never re-exec twice
-                raise RunFailedError(
-                    "re-executed under unshare --net, yet not in a private network namespace"
-                )
-            return _launch_in_netns(req, can, out, abort)
+        in_netns = _can_ready(req, can, out, abort)
+        if in_netns is not None:
+            return in_netns
     out.mkdir(parents=True, exist_ok=True)
     mcap_path = out / "run.mcap"
     info = {
@@ -789,6 +771,25 @@ def _hexicon_args(o: HexiconOptions) -> list[str]:
     if o.experiment:
         args += ["--experiment", str(o.experiment), "--seed", str(o.seed)]
     return args
+
+
+def _can_ready(
+    req: RunRequest, can: CanBusConfig, out: Path, abort: AbortSignals
+) -> dict[str, Any] | None:
+    """Check that ``can`` can run here; a virtual bus outside a private network namespace
+    re-runs this launch inside one (its summary returned), else None: go on here."""
+    from hil.nodes.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
+
+    reason = transport_unavailable_reason(can)
+    if reason is not None:
+        raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
+    if can.interface == "udp_multicast" and not in_private_netns():
+        if os.environ.get(_NETNS_ENV):  # never re-exec twice
+            raise RunFailedError(
+                "re-executed under unshare --net, yet not in a private network namespace"
+            )
+        return _launch_in_netns(req, can, out, abort)
+    return None
 
 
 def _launch_in_netns(

@@ -416,6 +416,7 @@ def run(
     hexicon_given = (
         controller is not None or noise is not None or identified is not None or experiment > 0
     )
+    options: HexiconOptions | None = None  # a turbine scenario takes no family options
     try:
         family = resolve(scenario)
         if family is not TURBINE:
@@ -438,25 +439,24 @@ def run(
         fail(str(exc))
     except typer.BadParameter as exc:
         fail(f"--identified: {exc.message}")
-    if family is not TURBINE:
-        _run_family(
-            scenario, options, mode, speed, duration, transport, can_interface, can_channel,
-            can_fd, out, plots, realtime_priority, loop,
-        )  # fmt: skip
-        return
-    sc = _scenario(scenario, duration)  # validate before launching anything
-    can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-    if can is not None and mode == "inprocess":
-        fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
-    if loop != "auto" and mode != "inprocess":
-        fail(f"--loop {loop}: only with --mode inprocess")
     from hil.launch import RunRequest, default_out_dir
 
-    if out is None:
-        try:
-            writable("folder")(default_out_dir(sc))
-        except typer.BadParameter as exc:
-            fail(f"default output folder: {exc.message} (give --out)")
+    if options is not None:
+        can = _family_can(transport, can_interface, can_channel, can_fd, options.platform)
+    else:
+        sc = _scenario(scenario, duration)  # validate before launching anything
+        can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+        if can is not None and mode == "inprocess":
+            fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+        if loop != "auto" and mode != "inprocess":
+            fail(f"--loop {loop}: only with --mode inprocess")
+        if out is None:
+            try:
+                writable("folder")(default_out_dir(sc))
+            except typer.BadParameter as exc:
+                fail(f"default output folder: {exc.message} (give --out)")
+    # The same launcher, review and exit codes for every family; the family checks the
+    # options that are its own (hil.families).
     req = RunRequest(
         scenario=scenario,
         mode=mode,  # type: ignore[arg-type]  # checked by its callback
@@ -468,6 +468,7 @@ def run(
         can=can,
         realtime_priority=realtime_priority,
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
+        hexicon=options,
     )
     _launch_and_exit(req)
 
@@ -494,49 +495,24 @@ def _launch_and_exit(req: Any) -> None:
     raise typer.Exit(int(summary.get("run", {}).get("exit_code", ExitCode.OK)))
 
 
-def _run_family(
-    scenario: str,
-    options: Any,
-    mode: str,
-    speed: float,
-    duration: float | None,
+def _family_can(
     transport: str,
     can_interface: str | None,
     can_channel: str | None,
     can_fd: bool | None,
-    out: Path | None,
-    plots: bool,
-    realtime_priority: int,
-    loop: str,
-) -> None:
-    """``fowt run`` of a scenario of another family than the single turbine (a Hexicon H3
-    one): the same launcher, review and exit codes; its options checked by the family."""
-    from hil.launch import RunRequest
+    ident: str,
+) -> Any:
+    """The CAN bus of a run of another family than the single turbine (None: Zenoh)."""
+    if transport != "can":
+        return None
+    from hil.nodes.can_bus import CanBusConfig, CanConfigError
 
-    can = None
-    if transport == "can":
-        from hil.nodes.can_bus import CanBusConfig, CanConfigError
-
-        try:
-            can = CanBusConfig.for_interface(
-                can_interface or "udp_multicast", can_channel, bool(can_fd), options.platform
-            )
-        except CanConfigError as exc:
-            fail(str(exc))
-    req = RunRequest(
-        scenario=scenario,
-        mode=mode,  # type: ignore[arg-type]  # checked by its callback
-        speed=speed,
-        duration_s=duration,
-        transport=transport,
-        out_dir=out,
-        plots=plots,
-        can=can,
-        realtime_priority=realtime_priority,
-        inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
-        hexicon=options,
-    )
-    _launch_and_exit(req)
+    try:
+        return CanBusConfig.for_interface(
+            can_interface or "udp_multicast", can_channel, bool(can_fd), ident
+        )
+    except CanConfigError as exc:
+        fail(str(exc))
 
 
 @app.command(short_help="Run the plant process alone.")

@@ -64,8 +64,8 @@ def run(
     """The same run as 'fowt run hexicon-<scenario>' (one launcher, review, summary.json and
     exit codes: docs/exit-codes.md), with this command's defaults (lock-step, MPC)."""
     from hil.cli.common import fail  # noqa: PLC0415
-    from hil.cli.fowt import _run_family  # noqa: PLC0415 - the one path of 'fowt run'
-    from hil.families import HEXICON_PREFIX, HexiconOptions, RunRequestError  # noqa: PLC0415
+    from hil.cli.fowt import run as fowt_run  # noqa: PLC0415 - the one path of 'fowt run'
+    from hil.families import HEXICON_PREFIX  # noqa: PLC0415
 
     if controller not in CONTROLLERS:
         fail(f"--controller {controller!r}: expected one of {', '.join(CONTROLLERS)}")
@@ -74,13 +74,11 @@ def run(
     if transport not in ("zenoh", "can"):
         fail(f"--transport {transport!r}: expected zenoh or can")
     ref = scenario if scenario.startswith(HEXICON_PREFIX) else f"{HEXICON_PREFIX}{scenario}"
-    try:
-        options = HexiconOptions(controller=controller, noise=noise, identified=identified)
-    except RunRequestError as exc:
-        fail(str(exc))
-    _run_family(
-        ref, options, mode, 1.0, duration, transport, can_interface, can_channel or None,
-        can_fd, out, plots, realtime_priority, "auto",
+    fowt_run(
+        scenario=ref, mode=mode, speed=1.0, duration=duration, transport=transport,
+        can_interface=can_interface, can_channel=can_channel or None, can_fd=can_fd, out=out,
+        plots=plots, realtime_priority=realtime_priority, loop="auto", controller=controller,
+        noise=noise, identified=identified, experiment=0, seed=0,
     )  # fmt: skip
 
 
