@@ -33,12 +33,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import save
@@ -69,6 +72,45 @@ def _fowt(*args: str) -> str:
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(args[:2])} failed:\n{done.stdout}\n{done.stderr}")
     return done.stdout
+
+
+def _surge_budget(toml: Path, hydro: Any, period_s: float, published_s: float) -> dict[str, float]:
+    """Uncoupled surge estimate T = 2π √((m + A₁₁(ω) + A_m)/k₁₁) from the imported preset.
+
+    m: the whole turbine's mass (platform, ballast, tower, RNA); A₁₁(ω): the WAMIT data's
+    surge added mass at the computed surge frequency (interpolated); A_m: the strip-theory
+    members' surge added mass; k₁₁: the mooring's surge stiffness at zero offset. Also the
+    A₁₁ that the published period implies with the same m, A_m and k₁₁.
+    """
+    from plant.hydro.wamit import load_hydro_preset
+    from plant.platform import load_floating, read_floating_preset
+
+    preset, _, _ = read_floating_preset(toml)
+    fp = load_floating(toml, radiation=False)
+    data = hydro if hydro is not None else load_hydro_preset("nrel5mw_oc3_hywind")
+    rad = data.radiation
+    i = data.dofs.index(0)
+    a_inf = float(rad.added_mass_inf[i, i])
+    a_members = float(preset.member_added_mass[0][0]) if preset.member_added_mass else 0.0
+    mass = float(fp.mass_matrix[0, 0]) - a_inf - a_members
+    w = 2.0 * math.pi / period_s
+    a_w = float(np.interp(w, rad.omega_rad_s, rad.added_mass[:, i, i]))
+    x = fp.mooring.surge_m
+    j = int(np.argmin(np.abs(x)))
+    k11 = -float(
+        (fp.mooring.force_surge_n[j + 1] - fp.mooring.force_surge_n[j - 1]) / (x[j + 1] - x[j - 1])
+    )
+    return {
+        "mass_kg": round(mass, 1),
+        "added_mass_at_surge_frequency_kg": round(a_w, 1),
+        "added_mass_infinite_frequency_kg": round(a_inf, 1),
+        "members_added_mass_kg": round(a_members, 1),
+        "mooring_stiffness_n_m": round(k11, 1),
+        "uncoupled_period_s": round(2.0 * math.pi * math.sqrt((mass + a_w + a_members) / k11), 2),
+        "added_mass_implied_by_published_kg": round(
+            (published_s / (2.0 * math.pi)) ** 2 * k11 - mass - a_members, 1
+        ),
+    }
 
 
 def run(panel_m: float, n_theta: int, n_omega: int) -> dict[str, Any]:
@@ -120,6 +162,9 @@ def run(panel_m: float, n_theta: int, n_omega: int) -> dict[str, Any]:
                 }
                 decks[name] = {
                     "periods": table,
+                    "surge_budget": _surge_budget(
+                        toml, oc4 if platform == "oc4" else None, periods["surge"], pub["surge"]
+                    ),
                     "tower_fore_aft_period_s": round(periods["tower_fore_aft"], 3),
                     "platform": {
                         k: {

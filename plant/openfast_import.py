@@ -21,6 +21,21 @@ header names, never by column position; HydroDyn's filled member groups add thei
 the platform (:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the
 mass comes from. See docs/openfast-import.md.
 
+Strip-theory members (HydroDyn ``PropPot = FALSE``, :func:`read_morison_members`): members
+outside the WAMIT model add their submerged volume's buoyancy ρ g V_m (and its moment), their
+hydrostatic restoring (waterplane area and second moment where they pierce the still-water
+line, V_m z_B in roll and pitch) and their transverse Morison added mass Ca ρ π r² per length
+(:func:`morison_member`); the preset carries them as ``member_force_n``,
+``member_stiffness`` and ``member_added_mass``. Their **structural mass is not added**: in
+OpenFAST the whole platform structure (steel of every member, and permanent ballast) is
+ElastoDyn's ``PtfmMass``/``PtfmCM*``/``Ptfm*Iner``; HydroDyn adds only hydrodynamic loads
+(buoyancy, added mass, drag, wave loads), the water of filled members (fill groups) and marine
+growth (HydroDyn documentation; since OpenFAST 2.6 HydroDyn computes the strip-theory
+members' hydrostatics itself, so ``AddCLin`` no longer carries them). Not modelled, and said
+so in the notes: the members' drag and wave excitation, the axial (end-plate) added mass of
+``AxCa`` and marine growth; refused by file and line: rectangular strip-theory members and
+depth-based coefficients (``MCoefMod = 2``).
+
 What is hand-written here and why: OpenFAST input files are "value  Key  - description" lines
 plus tables; no maintained lightweight reader exists outside the heavy ``openfast_toolbox`` /
 ``weis`` stacks, so the few keys needed are read by a small tolerant parser that names the file
