@@ -142,3 +142,33 @@ def test_oc4_columns_bem_coarse() -> None:
     a = hydro.radiation.added_mass_inf
     np.testing.assert_allclose(a, a.T)
     assert a[1, 1] == pytest.approx(13.6e6, rel=0.10)
+
+
+def test_oc3_deck_periods_through_the_command_line(tmp_path: Path) -> None:
+    """The OC3 deck (FAST v8 layout) imported unedited with ``fowt preset import-openfast``
+    prints the platform's totals, and ``fowt analyze modes --wind 0`` gives the published
+    full-system periods of Jonkman (2010): surge 1/0.0080 Hz and heave 1/0.0324 Hz within 1 %,
+    pitch 1/0.0343 Hz within 5 % (bench/openfast_import_periods.py: +3.6 %)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+
+    fst = write_deck(tmp_path / "deck", "oc3", "fast8")
+    runner = CliRunner()
+    out = tmp_path / "preset"
+    args = ["preset", "import-openfast", str(fst), "--out", str(out), "--name", "oc3"]
+    result = runner.invoke(app, [*args, "--turbine", "nrel5mw"])
+    assert result.exit_code == 0, result.output
+    printed = " ".join(result.output.split())  # the console wraps long lines
+    assert "platform (structure and ballast): mass 7.46633e+06 kg" in printed
+    assert "z -89.9155 m, pitch inertia about its CM 4.22923e+09 kg m^2" in printed
+    result = runner.invoke(
+        app, ["analyze", "modes", str(out / "oc3.toml"), "--wind", "0", "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    periods = {m["name"]: m["period_s"] for m in json.loads(result.output)["modes"]}
+    assert periods["surge"] == pytest.approx(1 / 0.0080, rel=0.01)
+    assert periods["heave"] == pytest.approx(1 / 0.0324, rel=0.01)
+    assert periods["pitch"] == pytest.approx(1 / 0.0343, rel=0.05)
