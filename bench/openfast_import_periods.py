@@ -13,8 +13,10 @@ strip-theory members). Each deck is then imported unedited with the command line
 parked periods computed with ``fowt analyze modes DIR/STEM.toml --wind 0 --json`` (both run
 as child processes, as a user would). Saved: the damped surge, heave and pitch periods beside
 the published ones with the deviation in per cent, and the imported platform's mass, CM and
-pitch inertia beside the deck's own totals. Needs the ``[hydro]`` extra (capytaine) for the OC4
-hydrodynamics; prints a message and exits 2 without it.
+pitch inertia beside the deck's own totals; as diagnostics, the periods with the
+infinite-frequency added mass and no radiation memory, and an uncoupled surge budget.
+Needs the ``[hydro]`` extra (capytaine) for the OC4 hydrodynamics; prints a message and
+exits 2 without it.
 
 Published periods:
 
@@ -72,6 +74,17 @@ def _fowt(*args: str) -> str:
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(args[:2])} failed:\n{done.stdout}\n{done.stderr}")
     return done.stdout
+
+
+def _periods_without_memory(toml: Path) -> dict[str, float]:
+    """Diagnostic: the periods with the added mass at infinite frequency A_∞ and no radiation
+    memory (``load_floating(..., radiation=False)``), i.e. without the frequency dependence
+    of the added mass and damping."""
+    from plant.modes import natural_modes
+    from plant.platform import load_floating
+
+    modes = natural_modes(load_floating(toml, radiation=False), 0.0)
+    return {m.name: round(m.period_s, 3) for m in modes if m.name != "tower_fore_aft"}
 
 
 def _surge_budget(toml: Path, hydro: Any, period_s: float, published_s: float) -> dict[str, float]:
@@ -162,6 +175,7 @@ def run(panel_m: float, n_theta: int, n_omega: int) -> dict[str, Any]:
                 }
                 decks[name] = {
                     "periods": table,
+                    "periods_without_radiation_memory_s": _periods_without_memory(toml),
                     "surge_budget": _surge_budget(
                         toml, oc4 if platform == "oc4" else None, periods["surge"], pub["surge"]
                     ),
