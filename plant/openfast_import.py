@@ -838,7 +838,9 @@ def read_morison_members(
         xyz = _row_floats(
             [tok[jc["JOINTXI"]], tok[jc["JOINTYI"]], tok[jc["JOINTZI"]]], hd_path, number, "joint"
         )
-        ax = int(float(tok[jc["JOINTAXID"]])) if "JOINTAXID" in jc else 0
+        ax = 0
+        if "JOINTAXID" in jc and len(tok) > jc["JOINTAXID"]:
+            ax = int(_row_floats([tok[jc["JOINTAXID"]]], hd_path, number, "JointAxID")[0])
         joints[int(float(tok[jc["JOINTID"]]))] = ((xyz[0], xyz[1], xyz[2]), ax)
     pc, prows, _ = _header_table(hd_lines, ("PropSetID", "PropD"), hd_path, "member properties")
     props = {
@@ -864,10 +866,11 @@ def read_morison_members(
     added = np.zeros((6, 6))
     for number, tok in strip:
         mid = int(float(tok[mc["MEMBERID"]]))
-        if "MSECGEOM" in mc and len(tok) > mc["MSECGEOM"] and tok[mc["MSECGEOM"]] not in ("1",):
+        geom = tok[mc["MSECGEOM"]] if "MSECGEOM" in mc and len(tok) > mc["MSECGEOM"] else "1"
+        if _NUMBER.match(geom) is None or float(geom) != 1.0:
             raise ValueError(
                 f"{hd_path}:{number}: member {mid} (PropPot = FALSE) is rectangular "
-                f"(MSecGeom = {tok[mc['MSECGEOM']]}); only cylindrical strip-theory members "
+                f"(MSecGeom = {geom}); only cylindrical strip-theory members "
                 "are modelled"
             )
         ids = [
@@ -887,7 +890,9 @@ def read_morison_members(
                 raise ValueError(
                     f"{hd_path}:{number}: member {mid}: property set {pid} not defined"
                 )
-        model = int(float(tok[mc["MCOEFMOD"]])) if "MCOEFMOD" in mc else 1
+        model = 1
+        if "MCOEFMOD" in mc and len(tok) > mc["MCOEFMOD"]:
+            model = int(_row_floats([tok[mc["MCOEFMOD"]]], hd_path, number, "MCoefMod")[0])
         if model == 1:
             if simple_ca is None:
                 sc, srows, _ = _header_table(

@@ -178,3 +178,18 @@ def test_all_potential_flow_members_give_none(tmp_path: Path) -> None:
         "    1   1   2   1   1   1.0   1   TRUE\n    2   3   4   1   1   1.0   1   TRUE",
     )
     assert _read(path) is None
+
+
+def test_rectangular_strip_theory_member_refused_by_name(tmp_path: Path) -> None:
+    path = _hydrodyn(
+        tmp_path,
+        "    1  -5.0  0.0  -10.0  1  0\n    2   5.0  0.0  -10.0  1  0\n"
+        "    3   0.0  0.0  -30.0  1  0\n    4   0.0  0.0  -29.0  1  0",
+        "    1   1   2   1   1   2   1.0   1   FALSE\n    2   3   4   1   1   1   1.0   1   TRUE",
+    )
+    text = path.read_text(encoding="utf-8").replace(
+        "MPropSetID2  MDivSize", "MPropSetID2  MSecGeom  MDivSize"
+    )
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=r"hydrodyn\.dat:\d+: member 1 .*rectangular"):
+        _read(path)
