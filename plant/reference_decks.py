@@ -437,7 +437,6 @@ def _write_blade(path: Path, generation: str) -> None:
 
 
 def _write_elastodyn(path: Path, fig: DeckFigures, generation: str) -> None:
-    bld_key = "BldFile(1)" if generation == "fast8" else "BldFile1"
     text = "------- ELASTODYN INPUT FILE -------------------------------------------\n"
     text += f"{fig.title}; written by plant.reference_decks ({generation} layout)\n"
     text += "---------------------- SIMULATION CONTROL --------------------------------------\n"
@@ -488,7 +487,6 @@ def _write_elastodyn(path: Path, fig: DeckFigures, generation: str) -> None:
     text += "---------------------- TOWER ---------------------------------------------------\n"
     text += _line(20, "TwrNodes", "Number of tower nodes used for analysis (-)")
     text += _line("tower.dat", "TwrFile", "Name of file containing tower properties")
-    del bld_key
     path.write_text(text, encoding="utf-8")
 
 
