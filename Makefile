@@ -97,6 +97,9 @@ bench-studies: setup
 	$(BIN)/python bench/settling.py
 	$(BIN)/python bench/rosco_peer.py
 	$(BIN)/python bench/modes_vs_openfast.py
+	# the OC4 deck's hydrodynamics are computed with capytaine (the optional [hydro] extra)
+	$(BIN)/python -m pip install --quiet -e '.[hydro]'
+	$(BIN)/python bench/openfast_import_periods.py
 	$(BIN)/python bench/christiansen_case.py
 	$(BIN)/python bench/hexicon.py
 	$(BIN)/python bench/hexicon_identify.py

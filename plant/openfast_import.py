@@ -21,6 +21,21 @@ header names, never by column position; HydroDyn's filled member groups add thei
 the platform (:func:`read_fill_groups`) and :attr:`ImportedDeck.mass_budget` says where the
 mass comes from. See docs/openfast-import.md.
 
+Strip-theory members (HydroDyn ``PropPot = FALSE``, :func:`read_morison_members`): members
+outside the WAMIT model add their submerged volume's buoyancy ρ g V_m (and its moment), their
+hydrostatic restoring (waterplane area and second moment where they pierce the still-water
+line, V_m z_B in roll and pitch) and their transverse Morison added mass Ca ρ π r² per length
+(:func:`morison_member`); the preset carries them as ``member_force_n``,
+``member_stiffness`` and ``member_added_mass``. Their **structural mass is not added**: in
+OpenFAST the whole platform structure (steel of every member, and permanent ballast) is
+ElastoDyn's ``PtfmMass``/``PtfmCM*``/``Ptfm*Iner``; HydroDyn adds only hydrodynamic loads
+(buoyancy, added mass, drag, wave loads), the water of filled members (fill groups) and marine
+growth (HydroDyn documentation; since OpenFAST 2.6 HydroDyn computes the strip-theory
+members' hydrostatics itself, so ``AddCLin`` no longer carries them). Not modelled, and said
+so in the notes: the members' drag and wave excitation, the axial (end-plate) added mass of
+``AxCa`` and marine growth; refused by file and line: rectangular strip-theory members and
+depth-based coefficients (``MCoefMod = 2``).
+
 What is hand-written here and why: OpenFAST input files are "value  Key  - description" lines
 plus tables; no maintained lightweight reader exists outside the heavy ``openfast_toolbox`` /
 ``weis`` stacks, so the few keys needed are read by a small tolerant parser that names the file
@@ -47,13 +62,16 @@ __all__ = [
     "ImportedDeck",
     "KeyedValues",
     "MooringLine",
+    "MorisonMembers",
     "blade_properties",
     "compute_mooring",
     "flooded_member",
     "import_openfast",
+    "morison_member",
     "read_fill_groups",
     "read_keyed_file",
     "read_moordyn",
+    "read_morison_members",
     "write_preset",
     "write_radiation",
 ]
@@ -653,6 +671,314 @@ def read_fill_groups(
 
 
 @dataclass(frozen=True)
+class MorisonMembers:
+    """Buoyancy, hydrostatic restoring and added mass of HydroDyn's strip-theory members.
+
+    The members with ``PropPot = FALSE`` (not in the WAMIT model), submerged part only
+    (clipped at the still-water line z = 0), about the platform reference point, 6x6 in WAMIT
+    DOF order (surge, sway, heave, roll, pitch, yaw).
+
+    Attributes
+    ----------
+    count : int
+        Members with ``PropPot = FALSE``.
+    volume_m3 : float
+        Submerged volume V_m (m³); buoyancy ρ g V_m.
+    cb_x_m, cb_z_m : float
+        Centre of buoyancy of V_m (m).
+    waterplane_area_m2 : float
+        Waterplane area of the members piercing the still-water line (m²).
+    force_n : list of 6 float
+        Static load at rest: (0, 0, ρ g V_m, ρ g V_m y_B, −ρ g V_m x_B, 0) (N, N m).
+    stiffness : 6x6 list
+        Hydrostatic restoring (WAMIT ``.hst`` convention, no weight): C_33 = ρ g A_wp,
+        C_35 = C_53 = −ρ g ∫x dA, C_55 = ρ g (∫x² dA + V_m z_B), and the roll terms alike.
+    added_mass : 6x6 list
+        Transverse Morison added mass ∫ Jᵀ Ca ρ π r² (I − ê êᵀ) J ds, J = [I, −[r]×].
+    notes : tuple of str
+        What of these members is not modelled (axial added mass, marine growth, ...).
+    """
+
+    count: int
+    volume_m3: float
+    cb_x_m: float
+    cb_z_m: float
+    waterplane_area_m2: float
+    force_n: list[float]
+    stiffness: list[list[float]]
+    added_mass: list[list[float]]
+    notes: tuple[str, ...] = ()
+
+
+def _skew(r: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def morison_member(
+    end1_m: tuple[float, float, float],
+    end2_m: tuple[float, float, float],
+    radius1_m: float,
+    radius2_m: float,
+    ca: tuple[float, float],
+) -> tuple[float, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    """Submerged volume, its first moments, waterplane figures and added mass of one member.
+
+    A (possibly tapered) circular member between ``end1_m`` and ``end2_m`` (outer radius
+    linear along the axis), clipped where its axis crosses the still-water line z = 0 (a
+    horizontal member counts wholly when its axis is below the SWL, not at all otherwise).
+    Volume V = ∫ π r² ds and first moments ∫ (x, y, z) dV by 16-point Gauss-Legendre
+    (exact for tapered members); a member piercing the SWL with axis ê cuts an ellipse of area
+    A = π r₀²/|ê_z| and semi-axes r₀/|ê_z| (along the horizontal projection of ê) and r₀,
+    centred at the piercing point p (r₀ the radius there): ∫x dA = A p_x,
+    ∫x² dA = A p_x² + A/4 (a² u_x² + b² w_x²) for semi-axes a along u and b along w.
+    Transverse added mass per length m_a = Ca(s) ρ π r² (Ca linear between ``ca``),
+    generalised over the six rigid-body DOFs with the point's Jacobian J = [I, −[r]×].
+
+    Returns
+    -------
+    tuple
+        (V m³, ∫ r dV (3,) m⁴, (∫ x dA, ∫ y dA, ∫ x² dA, ∫ y² dA) m³ / m⁴ as (4,) array,
+        A_wp m², added mass (6, 6) for ρ = 1 (multiply by ρ), unit axis ê (3,)).
+    """
+    p1 = np.asarray(end1_m, dtype=float)
+    p2 = np.asarray(end2_m, dtype=float)
+    length = float(np.linalg.norm(p2 - p1))
+    zero6 = np.zeros((6, 6))
+    if length == 0.0:
+        return 0.0, np.zeros(3), np.zeros(4), 0.0, zero6, np.zeros(3)
+    e = (p2 - p1) / length
+    z1, z2 = p1[2], p2[2]
+    wp = np.zeros(4)
+    awp = 0.0
+    if z1 == z2:
+        lo, hi = (0.0, length) if z1 < 0.0 else (0.0, 0.0)
+    else:
+        cut = min(max((0.0 - z1) / (z2 - z1) * length, 0.0), length)
+        lo, hi = (0.0, cut) if z1 < z2 else (cut, length)
+        if 0.0 < cut < length:  # pierces the still-water line
+            r0 = radius1_m + (radius2_m - radius1_m) * cut / length
+            p = p1 + cut * e
+            ez = abs(e[2])
+            awp = math.pi * r0 * r0 / ez
+            h = math.hypot(e[0], e[1])
+            u = np.array([e[0], e[1]]) / h if h > 1e-12 else np.array([1.0, 0.0])
+            w = np.array([-u[1], u[0]])
+            a, b = r0 / ez, r0
+            wp = np.array(
+                [
+                    awp * p[0],
+                    awp * p[1],
+                    awp * p[0] ** 2 + awp / 4.0 * (a * a * u[0] ** 2 + b * b * w[0] ** 2),
+                    awp * p[1] ** 2 + awp / 4.0 * (a * a * u[1] ** 2 + b * b * w[1] ** 2),
+                ]
+            )
+    if hi <= lo:
+        return 0.0, np.zeros(3), wp, awp, zero6, e
+    s = 0.5 * (hi - lo) * _GAUSS_S + 0.5 * (hi + lo)
+    wts = 0.5 * (hi - lo) * _GAUSS_W
+    r = radius1_m + (radius2_m - radius1_m) * s / length
+    area = math.pi * r**2
+    pos = p1[None, :] + s[:, None] * e[None, :]
+    dv = wts * area
+    vol = float(np.sum(dv))
+    first = np.sum(dv[:, None] * pos, axis=0)
+    ca_s = ca[0] + (ca[1] - ca[0]) * s / length
+    transverse = np.eye(3) - np.outer(e, e)
+    added = np.zeros((6, 6))
+    for k in range(s.size):
+        jac = np.hstack([np.eye(3), -_skew(pos[k])])
+        added += ca_s[k] * dv[k] * (jac.T @ transverse @ jac)
+    return vol, first, wp, awp, added, e
+
+
+def read_morison_members(
+    hd_path: Path,
+    hd_lines: list[str],
+    hd: dict[str, str],
+    rho_kg_m3: float,
+    g_m_s2: float,
+) -> MorisonMembers | None:
+    """The strip-theory members of a HydroDyn file (``PropPot = FALSE``), None if none.
+
+    Reads the joints, the cylindrical property sets (``PropD``), the members (``PropPot``,
+    ``MCoefMod``, [``MSecGeom``]) and the transverse added-mass coefficients of the
+    coefficient model each member names: 1 simple (``SimplCa``), 3 member-based
+    (``MemberCa1``, ``MemberCa2``); each table by its header names. Sums
+    :func:`morison_member` over the members (see :class:`MorisonMembers`).
+
+    Raises
+    ------
+    ValueError
+        A strip-theory member that is rectangular, names an unknown joint or property set,
+        or uses depth-based coefficients (``MCoefMod = 2``), by file and line.
+    """
+    try:
+        mc, mrows, _ = _header_table(
+            hd_lines,
+            ("MemberID", "MJointID1", "MJointID2", "MPropSetID1", "MPropSetID2", "PropPot"),
+            hd_path,
+            "members",
+        )
+    except ValueError as exc:
+        if "no table header" in str(exc):
+            return None  # no member table: nothing to model
+        raise
+    strip = [
+        (n, t)
+        for n, t in mrows
+        if len(t) > mc["PROPPOT"] and t[mc["PROPPOT"]].strip('"').upper() in ("FALSE", "F", "0")
+    ]
+    if not strip:
+        return None
+    jc, jrows, _ = _header_table(
+        hd_lines, ("JointID", "Jointxi", "Jointyi", "Jointzi"), hd_path, "member joints"
+    )
+    joints: dict[int, tuple[tuple[float, float, float], int]] = {}
+    for number, tok in jrows:
+        xyz = _row_floats(
+            [tok[jc["JOINTXI"]], tok[jc["JOINTYI"]], tok[jc["JOINTZI"]]], hd_path, number, "joint"
+        )
+        ax = 0
+        if "JOINTAXID" in jc and len(tok) > jc["JOINTAXID"]:
+            ax = int(_row_floats([tok[jc["JOINTAXID"]]], hd_path, number, "JointAxID")[0])
+        joints[int(float(tok[jc["JOINTID"]]))] = ((xyz[0], xyz[1], xyz[2]), ax)
+    pc, prows, _ = _header_table(hd_lines, ("PropSetID", "PropD"), hd_path, "member properties")
+    props = {
+        int(float(tok[pc["PROPSETID"]])): _row_floats(
+            [tok[pc["PROPD"]]], hd_path, number, "property"
+        )[0]
+        for number, tok in prows
+    }
+    simple_ca: float | None = None
+    member_ca: dict[int, tuple[float, float]] = {}
+    axial_ca: dict[int, float] = {}
+    notes: list[str] = []
+    mg = int(_num(hd, "NMGDepths", hd_path, 0.0))
+    if mg > 0:
+        notes.append(
+            f"{hd_path}: {mg} marine-growth depths ignored (their mass, buoyancy and added "
+            "mass are not modelled)"
+        )
+    vol = 0.0
+    first = np.zeros(3)
+    wp = np.zeros(4)
+    awp = 0.0
+    added = np.zeros((6, 6))
+    for number, tok in strip:
+        mid = int(float(tok[mc["MEMBERID"]]))
+        geom = tok[mc["MSECGEOM"]] if "MSECGEOM" in mc and len(tok) > mc["MSECGEOM"] else "1"
+        if _NUMBER.match(geom) is None or float(geom) != 1.0:
+            raise ValueError(
+                f"{hd_path}:{number}: member {mid} (PropPot = FALSE) is rectangular "
+                f"(MSecGeom = {geom}); only cylindrical strip-theory members "
+                "are modelled"
+            )
+        ids = [
+            int(v)
+            for v in _row_floats(
+                [tok[mc[k]] for k in ("MJOINTID1", "MJOINTID2", "MPROPSETID1", "MPROPSETID2")],
+                hd_path,
+                number,
+                "member",
+            )
+        ]
+        for jid in ids[:2]:
+            if jid not in joints:
+                raise ValueError(f"{hd_path}:{number}: member {mid}: joint {jid} not defined")
+        for pid in ids[2:]:
+            if pid not in props:
+                raise ValueError(
+                    f"{hd_path}:{number}: member {mid}: property set {pid} not defined"
+                )
+        model = 1
+        if "MCOEFMOD" in mc and len(tok) > mc["MCOEFMOD"]:
+            model = int(_row_floats([tok[mc["MCOEFMOD"]]], hd_path, number, "MCoefMod")[0])
+        if model == 1:
+            if simple_ca is None:
+                sc, srows, _ = _header_table(
+                    hd_lines, ("SimplCa",), hd_path, "simple hydrodynamic coefficients"
+                )
+                if not srows:
+                    raise ValueError(f"{hd_path}: simple hydrodynamic coefficients: no row")
+                n0, t0 = srows[0]
+                simple_ca = _row_floats([t0[sc["SIMPLCA"]]], hd_path, n0, "SimplCa")[0]
+            ca = (simple_ca, simple_ca)
+        elif model == 3:
+            if not member_ca:
+                cc, crows, _ = _header_table(
+                    hd_lines,
+                    ("MemberID", "MemberCa1", "MemberCa2"),
+                    hd_path,
+                    "member-based hydrodynamic coefficients",
+                )
+                for n0, t0 in crows:
+                    a1, a2 = _row_floats(
+                        [t0[cc["MEMBERCA1"]], t0[cc["MEMBERCA2"]]], hd_path, n0, "MemberCa"
+                    )
+                    member_ca[int(float(t0[cc["MEMBERID"]]))] = (a1, a2)
+            if mid not in member_ca:
+                raise ValueError(
+                    f"{hd_path}:{number}: member {mid} uses member-based coefficients "
+                    "(MCoefMod = 3) but the coefficient table has no row for it"
+                )
+            ca = member_ca[mid]
+        else:
+            raise ValueError(
+                f"{hd_path}:{number}: member {mid} (PropPot = FALSE) uses MCoefMod = {model}; "
+                "only simple (1) and member-based (3) coefficients are read (depth-based "
+                "coefficients are not supported)"
+            )
+        (e1, ax1), (e2, ax2) = joints[ids[0]], joints[ids[1]]
+        v, f1, w1, a1, m1, _ = morison_member(e1, e2, 0.5 * props[ids[2]], 0.5 * props[ids[3]], ca)
+        vol, first, wp, awp, added = vol + v, first + f1, wp + w1, awp + a1, added + m1
+        for ax in (ax1, ax2):
+            if ax and ax not in axial_ca:
+                axial_ca[ax] = _axial_ca(hd_path, hd_lines, ax)
+    nonzero = sorted(k for k, v in axial_ca.items() if v != 0.0)
+    if nonzero:
+        notes.append(
+            f"{hd_path}: axial added-mass coefficients AxCa of joints' AxCoefID "
+            f"{', '.join(map(str, nonzero))} not modelled (end-plate added mass ignored)"
+        )
+    notes.append(
+        f"{hd_path}: {len(strip)} strip-theory members (PropPot = FALSE): buoyancy, "
+        "hydrostatic restoring and transverse added mass modelled; their drag and wave "
+        "excitation are not (only AddBQuad drag is used)"
+    )
+    rg = rho_kg_m3 * g_m_s2
+    xb, _, zb = (first / vol) if vol > 0.0 else (0.0, 0.0, 0.0)
+    c = np.zeros((6, 6))
+    c[2, 2] = rg * awp
+    c[2, 3] = c[3, 2] = rg * wp[1]
+    c[2, 4] = c[4, 2] = -rg * wp[0]
+    c[3, 3] = rg * (wp[3] + first[2])
+    c[4, 4] = rg * (wp[2] + first[2])
+    c[3, 5] = -rg * first[0]
+    c[4, 5] = -rg * first[1]
+    force = [0.0, 0.0, rg * vol, rg * first[1], -rg * first[0], 0.0]
+    return MorisonMembers(
+        count=len(strip),
+        volume_m3=vol,
+        cb_x_m=float(xb),
+        cb_z_m=float(zb),
+        waterplane_area_m2=awp,
+        force_n=[float(v) for v in force],
+        stiffness=c.tolist(),
+        added_mass=(rho_kg_m3 * 0.5 * (added + added.T)).tolist(),
+        notes=tuple(notes),
+    )
+
+
+def _axial_ca(hd_path: Path, hd_lines: list[str], ax_id: int) -> float:
+    """``AxCa`` of the axial-coefficient set ``ax_id`` (HydroDyn ``AxCoefID`` table)."""
+    ac, arows, _ = _header_table(hd_lines, ("AxCoefID", "AxCa"), hd_path, "axial coefficients")
+    for number, tok in arows:
+        if int(float(tok[ac["AXCOEFID"]])) == ax_id:
+            return _row_floats([tok[ac["AXCA"]]], hd_path, number, "AxCa")[0]
+    raise ValueError(f"{hd_path}: axial coefficient set {ax_id} (JointAxID) not defined")
+
+
+@dataclass(frozen=True)
 class ImportedDeck:
     """What :func:`import_openfast` read: the preset figures, WAMIT data and mooring tables.
 
@@ -668,6 +994,8 @@ class ImportedDeck:
     mass_budget: tuple[tuple[str, float], ...] = ()
     #: The filled-member ballast added to the platform (None: the deck has none).
     ballast: Ballast | None = None
+    #: The strip-theory members' buoyancy, restoring and added mass (None: the deck has none).
+    members: MorisonMembers | None = None
 
 
 def _distributed_table(
@@ -901,6 +1229,7 @@ def import_openfast(
     z_s = _num(ed, "PtfmCMzt", ed_path)
     i_s = _num(ed, "PtfmPIner", ed_path)
     ballast = read_fill_groups(hd_path, hd_lines, hd, rho)
+    members = read_morison_members(hd_path, hd_lines, hd, rho, g)
     m_p, x_p, z_p, i_p = m_s, x_s, z_s, i_s
     if ballast is not None and ballast.mass_kg > 0.0:
         m_b = ballast.mass_kg
@@ -956,6 +1285,9 @@ def import_openfast(
         additional_linear_damping=add_b,
         additional_quadratic_damping=add_bq,
         # Radiation fit (write_radiation): orders up to 12 over 0..ω_max.
+        member_force_n=members.force_n if members else [],
+        member_stiffness=members.stiffness if members else [],
+        member_added_mass=members.added_mass if members else [],
         radiation_max_order=12,
         radiation_omega_max_rad_s=radiation_omega_max_rad_s,
     )
@@ -979,15 +1311,31 @@ def import_openfast(
     budget += [("tower", tm.tower_mass_kg), ("rotor-nacelle assembly", tm.rna_mass_kg)]
     total = sum(v for _, v in budget)
     budget.append(("total", total))
-    buoyancy = rho * volume
+    v_members = members.volume_m3 if members else 0.0
+    buoyancy = rho * (volume + v_members)
     notes.append(
         "mass budget: "
         + ", ".join(f"{k} {v:.6g} kg" for k, v in budget)
-        + f"; displaced water rho V0 = {buoyancy:.6g} kg, so the mooring and AddF0 must pull "
-        f"down {(buoyancy - total) * g:.6g} N at rest"
+        + f"; displaced water rho (V0 + V_members) = {rho * volume:.6g} + "
+        f"{rho * v_members:.6g} kg, so the mooring and AddF0 must pull down "
+        f"{(buoyancy - total) * g:.6g} N at rest"
     )
-    if n_members:
-        notes.append(f"{hd_path}: {n_members} Morison members ignored (only AddBQuad drag used)")
+    if members is not None:
+        a = np.array(members.added_mass)
+        notes.append(
+            f"strip-theory members: {members.count}, submerged volume {members.volume_m3:.6g} "
+            f"m^3 at x {members.cb_x_m:.4g} m, z {members.cb_z_m:.4g} m, waterplane "
+            f"{members.waterplane_area_m2:.6g} m^2; restoring C33 "
+            f"{members.stiffness[2][2]:.6g} N/m, C55 {members.stiffness[4][4]:.6g} N m/rad; "
+            f"added mass surge {a[0, 0]:.6g} kg, heave {a[2, 2]:.6g} kg, pitch "
+            f"{a[4, 4]:.6g} kg m^2"
+        )
+        notes += members.notes
+    elif n_members:
+        notes.append(
+            f"{hd_path}: {n_members} members, all in the potential-flow model (PropPot = TRUE) "
+            "or filled; their drag is not modelled (only AddBQuad drag is used)"
+        )
     if mooring:
         moor = compute_mooring(
             read_moordyn(md_path), depth, rho, g, source=f"MoorPy from {md_path.name}"
@@ -1016,6 +1364,7 @@ def import_openfast(
         notes=tuple(notes),
         mass_budget=tuple(budget),
         ballast=ballast,
+        members=members,
     )
 
 

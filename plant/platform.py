@@ -917,6 +917,13 @@ class FloatingPreset(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     additional_linear_stiffness: list[list[float]]
     additional_linear_damping: list[list[float]]
     additional_quadratic_damping: list[list[float]]
+    #: HydroDyn strip-theory members (``PropPot = FALSE``, not in the WAMIT data), 6-vector and
+    #: 6x6 in WAMIT DOF order about the reference point: static buoyancy load (N, N m),
+    #: hydrostatic restoring (``.hst`` convention) and transverse Morison added mass
+    #: (:func:`plant.openfast_import.read_morison_members`); empty: none.
+    member_force_n: list[float] = []
+    member_stiffness: list[list[float]] = []
+    member_added_mass: list[list[float]] = []
     radiation_max_order: int = 8
     radiation_tolerance: float = 0.02
     radiation_omega_max_rad_s: float = 0.0
@@ -1236,7 +1243,8 @@ def build_floating_params(
 ) -> FloatingParams:
     """Assemble :class:`FloatingParams` from a preset, its hydro data, mooring and radiation fit.
 
-    M = M_s + A_∞[surge, heave, pitch]; K = K_s + C_hst + C_add; F_0 = F_s + ρ g V₀ e_z + F_add;
+    M = M_s + A_∞[surge, heave, pitch] + A_members; K = K_s + C_hst + C_add + C_members;
+    F_0 = F_s + ρ g V₀ e_z + F_add + F_members (strip-theory members' buoyancy);
     D = B_add (platform block) + tower modal damping; B_q = AddBQuad (platform block).
     With ``preset.locked_dofs``, the hydrodynamic data and the radiation model may lack the
     locked platform DOFs (their A_∞, C_hst and memory are then zero).
@@ -1255,14 +1263,28 @@ def build_floating_params(
     have = [k for k, wamit in enumerate(idx) if wamit in hydro.dofs]
     pos = [hydro.dofs.index(idx[k]) for k in have]
     rad = hydro.radiation
+    for key, shape in (
+        ("member_force_n", (6,)),
+        ("member_stiffness", (6, 6)),
+        ("member_added_mass", (6, 6)),
+    ):
+        value = getattr(preset, key)
+        if value and np.shape(value) != shape:
+            raise ValueError(f"{key}: expected shape {shape} (or empty), got {np.shape(value)}")
     M = s.mass.copy()
     M[np.ix_(have, have)] += rad.added_mass_inf[np.ix_(pos, pos)]
+    if preset.member_added_mass:
+        M[:3, :3] += np.array(preset.member_added_mass)[np.ix_(idx, idx)]
     K = s.stiffness.copy()
     K[np.ix_(have, have)] += hydro.hydrostatic_stiffness[np.ix_(pos, pos)]
     K[:3, :3] += np.array(preset.additional_linear_stiffness)[np.ix_(idx, idx)]
+    if preset.member_stiffness:
+        K[:3, :3] += np.array(preset.member_stiffness)[np.ix_(idx, idx)]
     F = s.static_force.copy()
     F[1] += preset.water_density_kg_m3 * preset.gravity_m_s2 * preset.displaced_volume_m3
     F[:3] += np.array(preset.additional_force_n)[idx]
+    if preset.member_force_n:
+        F[:3] += np.array(preset.member_force_n)[idx]
     D = np.zeros((4, 4))
     D[:3, :3] = np.array(preset.additional_linear_damping)[np.ix_(idx, idx)]
     D[3, 3] = s.tower_damping_n_s_m

@@ -1335,6 +1335,22 @@ def preset_import_openfast(
         fail(str(exc))
     for item, kg in deck.mass_budget:
         console.print(f"mass {item}: {kg:.6g} kg", markup=False)
+    p = deck.preset
+    console.print(
+        f"platform (structure and ballast): mass {p.platform_mass_kg:.6g} kg, CM x "
+        f"{p.platform_cm_x_m:.6g} m, z {p.platform_cm_z_m:.6g} m, pitch inertia about its CM "
+        f"{p.platform_pitch_inertia_kg_m2:.6g} kg m^2",
+        markup=False,
+    )
+    if deck.members is not None:
+        m = deck.members
+        console.print(
+            f"strip-theory members (PropPot = FALSE): {m.count}, submerged volume "
+            f"{m.volume_m3:.6g} m^3, buoyancy {m.force_n[2]:.6g} N, waterplane area "
+            f"{m.waterplane_area_m2:.6g} m^2 (added to the WAMIT body's PtfmVol0 "
+            f"{p.displaced_volume_m3:.6g} m^3)",
+            markup=False,
+        )
     if no_mooring:
         console.print(
             "imported without mooring: the preset has zero mooring force and stiffness "

@@ -558,3 +558,67 @@ def import_wamit(
         rho_kg_m3=float(rho),
         g_m_s2=float(g),
     )
+
+
+def write_wamit(hydro: HydroData, prefix: str | Path, ulen: float = 1.0) -> None:
+    """Write ``<prefix>.1``, ``<prefix>.3`` and ``<prefix>.hst`` from SI data (WAMIT layouts).
+
+    The inverse of :func:`import_wamit` with the data's own ρ and g: every figure is made
+    non-dimensional by the scales of the module docstring (``Ā = A / (ρ L^k)``,
+    ``B̄ = B / (ρ ω L^k)``, ``X̄ = X / (ρ g L^m)``, ``C̄ = C / (ρ g L^m)``); the ``.1`` file gets
+    the ``PER = 0`` rows of ``added_mass_inf`` (and ``PER = -1`` rows of ``added_mass_zero`` when
+    present), then one block per period, longest period first; the ``.3`` file the excitation
+    per heading, in WAMIT's ``exp(+iωt)`` convention (as stored). Only the data's DOFs are
+    written; WAMIT mode indices are 1-based.
+    """
+    base = str(prefix)
+    rho, g = hydro.rho_kg_m3, hydro.g_m_s2
+    _check_scales(rho, g, ulen)
+    dofs = hydro.dofs
+    rad = hydro.radiation
+
+    def rscale(i: int, j: int) -> float:
+        return float(rho * ulen ** (3 + _n_rot(i, j)))
+
+    lines: list[str] = []
+    if rad.added_mass_zero is not None:
+        for a, i in enumerate(dofs):
+            for b, j in enumerate(dofs):
+                lines.append(
+                    f"{-1.0: .6E} {i + 1:5d} {j + 1:5d} "
+                    f"{rad.added_mass_zero[a, b] / rscale(i, j): .6E}"
+                )
+    for a, i in enumerate(dofs):
+        for b, j in enumerate(dofs):
+            lines.append(
+                f"{0.0: .6E} {i + 1:5d} {j + 1:5d} {rad.added_mass_inf[a, b] / rscale(i, j): .6E}"
+            )
+    for k in range(rad.omega_rad_s.size):
+        w = float(rad.omega_rad_s[k])
+        per = 2.0 * np.pi / w
+        for a, i in enumerate(dofs):
+            for b, j in enumerate(dofs):
+                s = rscale(i, j)
+                lines.append(
+                    f"{per: .6E} {i + 1:5d} {j + 1:5d} {rad.added_mass[k, a, b] / s: .6E} "
+                    f"{rad.damping[k, a, b] / (s * w): .6E}"
+                )
+    Path(base + ".1").write_text("\n".join(lines) + "\n", encoding="ascii")
+    exc = hydro.excitation
+    lines = []
+    for k in range(exc.omega_rad_s.size):
+        per = 2.0 * np.pi / float(exc.omega_rad_s[k])
+        for h, beta in enumerate(exc.heading_deg):
+            for a, i in enumerate(dofs):
+                x = complex(exc.force[k, h, a]) / (rho * g * ulen ** (2 + _n_rot(i)))
+                lines.append(
+                    f"{per: .6E} {float(beta): .6E} {i + 1:5d} {abs(x): .6E} "
+                    f"{np.degrees(np.angle(x)): .6E} {x.real: .6E} {x.imag: .6E}"
+                )
+    Path(base + ".3").write_text("\n".join(lines) + "\n", encoding="ascii")
+    lines = []
+    for a, i in enumerate(dofs):
+        for b, j in enumerate(dofs):
+            c = hydro.hydrostatic_stiffness[a, b] / (rho * g * ulen ** (2 + _n_rot(i, j)))
+            lines.append(f"{i + 1:5d} {j + 1:5d} {c: .6E}")
+    Path(base + ".hst").write_text("\n".join(lines) + "\n", encoding="ascii")
