@@ -495,7 +495,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
         (pn.PlantLoop, "sample", "python_cycles"),
         (pn.PlantLoop, "finish_cycle", "python_cycles"),
         (LatencyHistogram, "record", "hist_record"),
-        (SensorSuite, "_refill", "refill"),
+        (SensorSuite, "refill", "refill"),
     ]
     for owner, name, part in parts:
         t.wrap(owner, name, part)

@@ -46,6 +46,7 @@ pure.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -1605,3 +1606,136 @@ def advanced_cycle(
         ff_th,
         ff_tq,
     )
+
+
+# ---------------------------------------------------------------- bundles of a compiled loop
+#: ``CoreBundle.ci`` (int64): the core's kind (0 baseline, 1 advanced), the advanced core's
+#: KF predict steps per period, the baseline's first-call flag, the baseline gain table's length.
+CI_KIND, CI_STEPS, CI_FIRST, CI_N_GS, CI_SIZE = range(5)
+
+
+class CoreBundle(NamedTuple):
+    """A controller core's constants and state as a compiled loop takes them (one argument).
+
+    Built by the core (``BaselineController.kernel_bundle``, ``AdvancedController.
+    kernel_bundle``), which alone knows its layout, and read back by it
+    (``state_from_bundle``). The kernel steps the state from ``v``/``f`` into ``v2``/``f2``,
+    swaps them, and leaves the last state in ``v``/``f``.
+
+    Attributes
+    ----------
+    ci : ndarray of int64
+        ``CI_*`` above.
+    cc, lay : ndarray
+        Advanced: the packed constants and layout of :func:`advanced_cycle`. Baseline with
+        the TSR-tracking law: the wind EKF's constants and Cp table, and in ``lay`` the
+        status's estimate bit, the four lengths (constants, TSR, pitch, cells) and the
+        platform pitch rate's valid bit (else empty, and zeros).
+    bl, gs : ndarray
+        Baseline: :data:`BL_CONSTANTS`, the gain table and minimum-pitch schedule (empty
+        for the advanced core).
+    v, v2 : ndarray of float64
+        The float state (advanced ``values``; baseline :data:`BL_STATE_SIZE` entries) and
+        its scratch twin.
+    f, f2 : ndarray of int64
+        The int state (advanced ``flags``; baseline empty) and its scratch twin.
+    """
+
+    ci: np.ndarray
+    cc: np.ndarray
+    lay: np.ndarray
+    bl: np.ndarray
+    gs: np.ndarray
+    v: np.ndarray
+    v2: np.ndarray
+    f: np.ndarray
+    f2: np.ndarray
+
+
+#: ``ForecastBundle.fi`` (int64): 1 when the dispersion forecaster runs in the kernel; the
+#: core state's next call time, the status's forecast time and estimator mask, the
+#: forecaster's unstable fits and guarded forecasts; its ring's head, count, calls, dropped
+#: and dropped-in-window counts; the call period and horizon (ns); the core state's
+#: forecast time; the estimator masks with and without a forecast.
+(
+    FI_KIND,
+    FI_NEXT_NS,
+    FI_STATUS_NS,
+    FI_EST_MASK,
+    FI_UNSTABLE,
+    FI_GUARDED,
+    FI_HEAD,
+    FI_COUNT,
+    FI_CALLS,
+    FI_DROPPED,
+    FI_DROPPED_WIN,
+    FI_PERIOD_NS,
+    FI_HORIZON_NS,
+    FI_TIME_NS,
+    FI_MASK_FC,
+    FI_MASK_NO_FC,
+    FI_SIZE,
+) = range(17)
+#: ``ForecastBundle.ff`` (float64): the forecast handed to :func:`advanced_cycle` (NaN: none),
+#: the status's forecast, the forecaster's held sample, the FIR's last output (valid or not).
+FF_ETA, FF_STATUS_M, FF_HELD, FF_RAW, FF_SIZE = range(5)
+
+
+class ForecastBundle(NamedTuple):
+    """The advanced core's wave-forecast part as a compiled loop takes it (one argument).
+
+    Built by ``AdvancedController.forecast_bundle``; ``buf`` and ``drop`` are the
+    dispersion forecaster's own ring buffer and drop flags (its storage, written in place
+    by :func:`dispersion_forecast`), empty for the other forecasters and kinds.
+    """
+
+    buf: np.ndarray
+    drop: np.ndarray
+    fir: np.ndarray
+    fi: np.ndarray
+    ff: np.ndarray
+
+
+@_jit
+def dispersion_forecast(fb: ForecastBundle, t_ns: int, sample_m: float, valid: bool) -> None:
+    r"""The wave forecast of ``AdvancedController.step`` with a ``DispersionPredictor``.
+
+    :meth:`controller.forecast.DispersionPredictor.step` on ``fb`` in place (the hold rule,
+    the ring buffer, then :math:`\hat\eta_B = \sum_j h_j\,w_j` as ``np.dot(fir, window)``,
+    which numba also computes with BLAS ``ddot`` on the contiguous window), the core
+    state's next call time :math:`(\lfloor t/T_f \rfloor + 1)\,T_f` and forecast time
+    :math:`t + t_d` (ns), then the forecast handed to the core (NaN until the window has
+    filled or when not finite), the status's forecast fields and the estimator mask.
+    """
+    fi, ff, buf, drop = fb.fi, fb.ff, fb.buf, fb.drop
+    fi[FI_CALLS] += 1
+    ok = valid and math.isfinite(sample_m)
+    if ok:
+        ff[FF_HELD] = sample_m
+    else:
+        fi[FI_DROPPED] += 1
+    n = drop.size
+    i = fi[FI_HEAD]
+    held = ff[FF_HELD]
+    buf[i] = held
+    buf[i + n] = held
+    fi[FI_DROPPED_WIN] += (0 if ok else 1) - (1 if drop[i] else 0)
+    drop[i] = not ok
+    head = i + 1 if i + 1 < n else 0
+    fi[FI_HEAD] = head
+    fi[FI_COUNT] += 1
+    forecast_m = np.dot(fb.fir, buf[head : head + n])
+    ff[FF_RAW] = forecast_m
+    fi[FI_TIME_NS] = t_ns + fi[FI_HORIZON_NS]
+    period = fi[FI_PERIOD_NS]
+    fi[FI_NEXT_NS] = (t_ns // period + 1) * period
+    if fi[FI_COUNT] >= n and math.isfinite(forecast_m):
+        ff[FF_ETA] = forecast_m
+        fi[FI_EST_MASK] = fi[FI_MASK_FC]
+        ff[FF_STATUS_M] = forecast_m
+        fi[FI_STATUS_NS] = fi[FI_TIME_NS]
+    else:
+        ff[FF_ETA] = math.nan
+        fi[FI_EST_MASK] = fi[FI_MASK_NO_FC]
+        ff[FF_STATUS_M] = 0.0
+        fi[FI_STATUS_NS] = 0

@@ -115,6 +115,7 @@ import msgspec
 import numpy as np
 
 from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
+from controller import _kernels
 from controller.estimators import (
     CpTable,
     WindEKFConfig,
@@ -855,6 +856,91 @@ class BaselineController:
         bl = np.array([float(v) for v in (*k[:29], *k[32:50])])
         gs = np.array([*k[29], *k[30], *k[31], *k[50], *k[51]], dtype=np.float64)
         return bl, gs, len(k[29])
+
+    def kernel_bundle(self, state: BaselineState) -> _kernels.CoreBundle:
+        """This core's constants and ``state`` as a compiled loop takes them.
+
+        ``v`` holds ``state`` as :func:`controller._kernels.baseline_step`'s ``st``
+        (:data:`controller._kernels.BL_STATE_SIZE` entries, field order of
+        :class:`BaselineState`), ``ci[CI_FIRST]`` its first-call flag; the TSR-tracking
+        law's wind EKF tables travel in ``cc`` with their layout in ``lay``
+        (:class:`controller._kernels.CoreBundle`). A compiled loop's cycles then
+        :meth:`state_from_bundle`.
+        """
+        bl, gs, n_gs = self.kernel_arrays()
+        ci = np.zeros(_kernels.CI_SIZE, dtype=np.int64)
+        ci[_kernels.CI_KIND] = 0
+        ci[_kernels.CI_N_GS] = n_gs
+        if self.ekf is not None:
+            prm, tsr, pitch, cells = self.ekf.kernel_tables
+            cc = np.concatenate([prm, tsr, pitch, cells.ravel()])
+            lay = np.array(
+                [
+                    EST_WIND_SPEED,
+                    prm.size,
+                    tsr.size,
+                    pitch.size,
+                    cells.shape[0],
+                    VALID_PLATFORM_PITCH_RATE,
+                ],
+                dtype=np.int64,
+            )
+        else:
+            cc, lay = np.zeros(0), np.zeros(6, dtype=np.int64)
+        v = np.zeros(_kernels.BL_STATE_SIZE)
+        no_flags = np.zeros(0, dtype=np.int64)
+        bundle = _kernels.CoreBundle(ci, cc, lay, bl, gs, v, np.zeros_like(v), no_flags, no_flags)
+        self.load_bundle(bundle, state)
+        return bundle
+
+    @staticmethod
+    def load_bundle(bundle: _kernels.CoreBundle, state: BaselineState) -> None:
+        """Write ``state`` into ``bundle`` (of :meth:`kernel_bundle`): its floats into
+        ``v`` (field order, without ``first_call``), the first-call flag into ``ci``."""
+        s = state
+        bundle.ci[_kernels.CI_FIRST] = 1 if s.first_call else 0
+        bundle.v[:] = (
+            s.lpf_z1,
+            s.lpf_z2,
+            s.generator_speed_filtered_rad_s,
+            s.pitch_speed_error_integral_rad,
+            s.torque_speed_error_integral_rad,
+            s.blade_pitch_commanded_rad,
+            s.generator_torque_commanded_nm,
+            s.wind_filtered_m_s,
+            s.setpoint_shift_rad_s,
+            s.min_pitch_rad,
+            *s.wind_ekf_x,
+            *s.wind_ekf_p,
+            s.fl_hpf_lp,
+            s.fl_lpf_z1,
+            s.fl_lpf_z2,
+            s.platform_pitch_rate_rad_s,
+        )
+
+    @staticmethod
+    def state_from_bundle(bundle: _kernels.CoreBundle) -> BaselineState:
+        """The state a compiled loop left in ``bundle`` (:meth:`kernel_bundle`)."""
+        b = bundle.v.tolist()
+        return BaselineState(
+            bool(bundle.ci[_kernels.CI_FIRST]),
+            b[0],
+            b[1],
+            b[2],
+            b[3],
+            b[4],
+            b[5],
+            b[6],
+            b[7],
+            b[8],
+            b[9],
+            (b[10], b[11], b[12]),
+            (b[13], b[14], b[15], b[16], b[17], b[18]),
+            b[19],
+            b[20],
+            b[21],
+            b[22],
+        )
 
     def initial_state(self) -> BaselineState:
         """State before the first call; the first :meth:`step` initialises it from data."""
