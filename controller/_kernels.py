@@ -35,12 +35,16 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
   :math:`z \\leftarrow A_d z + b \\hat\\eta` for every filter (A_d stored transposed so that the
   inner loop runs over contiguous memory).
 
-* Baseline law (:func:`baseline_step`, :func:`baseline_gains`): ``BaselineController.step``
-  and ``pitch_gains`` of :mod:`controller.baseline`, statement by statement (its module
-  docstring has the equations), for the advanced controller's below-rated laws.
+* Baseline law (:func:`baseline_step`, :func:`baseline_gains`): the law of
+  :mod:`controller.baseline` (its module docstring has the equations), the implementation
+  of ``BaselineController.step`` and of the advanced controller's below-rated laws
+  (``pitch_gains`` is its Python twin of :func:`baseline_gains`); the tests hold a
+  plain-Python oracle of the step.
+* The compiled loop's bundles (:class:`CoreBundle`, :class:`ForecastBundle`) and the
+  dispersion forecaster's step on its bundle (:func:`dispersion_forecast`).
 
 Every kernel writes only its outputs (no input argument is modified), so the callers stay
-pure.
+pure; :func:`dispersion_forecast` is the exception: it steps its bundle in place.
 """
 
 from __future__ import annotations
