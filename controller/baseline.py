@@ -884,8 +884,9 @@ class BaselineController:
         gs = np.array([*k[29], *k[30], *k[31], *k[50], *k[51]], dtype=np.float64)
         return bl, gs, len(k[29])
 
-    def kernel_bundle(self, state: BaselineState) -> _kernels.CoreBundle:
-        """This core's constants and ``state`` as a compiled loop takes them.
+    def kernel_bundle(self, state: BaselineState, dt_s: float | None = None) -> _kernels.CoreBundle:
+        """This core's constants and ``state`` as a compiled loop takes them (the period
+        ``dt_s`` is the loop's argument of every step: unused here).
 
         ``v`` holds ``state`` as :func:`controller._kernels.baseline_step`'s ``st``
         (:data:`controller._kernels.BL_STATE_SIZE` entries, field order of

@@ -899,19 +899,27 @@ class AdvancedController:
         return v, f
 
     # -------------------------------------------------------------- compiled loop
-    def kernel_bundle(self, state: AdvancedState) -> _kernels.CoreBundle:
+    def predict_steps(self, dt_s: float) -> int:
+        """The platform KF's predict steps in a cycle of ``dt_s`` [s]: the period over the
+        KF design's step, rounded, at least 1, at most its ``max_predict_steps``."""
+        if dt_s == self.dt_s:
+            return self._steps_at_dt
+        kf = self.kfs[0].config
+        return int(min(max(round(dt_s / kf.dt_s), 1), kf.max_predict_steps))
+
+    def kernel_bundle(self, state: AdvancedState, dt_s: float | None = None) -> _kernels.CoreBundle:
         """This core's constants and a copy of ``state``'s vectors for a compiled loop.
 
         ``cc``/``lay`` are the packed constants of :func:`controller._kernels.advanced_cycle`
         (this controller's, read only), ``v``/``f`` copies of ``state.values``/``flags``
         (:meth:`step` never modifies a state's vectors; the kernel steps the copies; a
-        new state gets copies of them back), and
-        ``ci`` the KF predict steps at the design period :attr:`dt_s`. The cycles' end
-        state: :meth:`state_from_bundles`.
+        new state gets copies of them back), and ``ci`` the KF predict steps of a cycle of
+        ``dt_s`` [s] (None: the design period :attr:`dt_s`; :meth:`predict_steps`). The
+        cycles' end state: :meth:`state_from_bundles`.
         """
         ci = np.zeros(_kernels.CI_SIZE, dtype=np.int64)
         ci[_kernels.CI_KIND] = 1
-        ci[_kernels.CI_STEPS] = self._steps_at_dt
+        ci[_kernels.CI_STEPS] = self.predict_steps(self.dt_s if dt_s is None else dt_s)
         v, f = state.values.copy(), state.flags.copy()
         empty = np.zeros(0)
         return _kernels.CoreBundle(
@@ -1077,11 +1085,7 @@ class AdvancedController:
         """
         if not 0.0 < dt_s < math.inf:
             raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
-        if dt_s == self.dt_s:
-            steps = self._steps_at_dt
-        else:
-            kf = self.kfs[0].config
-            steps = min(max(round(dt_s / kf.dt_s), 1), kf.max_predict_steps)
+        steps = self.predict_steps(dt_s)
         values, flags = state.values, state.flags
         if not flags[0]:  # first frame: start both filters from the measurements
             values, flags = self._start(values, flags, frame)

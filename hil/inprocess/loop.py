@@ -25,14 +25,17 @@ What runs in Python instead (:func:`compiled_unsupported`, each for its reason):
   per-message schedule in Python objects) and the perfect wave preview (a bench oracle
   published before each frame, for the casanovas-2014 cores, themselves Python);
 * the bottom-fixed plant (the kernel composes the floating plant's truth and period only),
-  sensor faults (:class:`plant.faults.FaultSchedule`, Python per channel), channels
+  sensor faults (:class:`sensors.faults.FaultSchedule`, Python per channel), channels
   without a true value in the truth record, an analytic wind (a Python function per step);
 * a controller runtime with an injected clock, or with the wall-clock watchdog checks on
   (frame age, silence: a paced or cross-host run, real time, where speed is not the point);
-* the controller kinds other than ``baseline`` and the advanced ``lqri``/``lqri_ff``:
-  ``rosco`` (a DISCON shared library called through ctypes), the casanovas-2014 cores and
-  ``hexicon`` (Python cores without a compiled twin), and an advanced core at another period
-  than its design (its KF steps per period are fixed at the design's).
+* the controller kinds other than ``baseline``, ``lqri`` and ``lqri_ff``: ``rosco`` (the
+  DISCON shared library, called through ctypes with its own files: no kernel can call it),
+  ``lqr_wave`` (christiansen-2013) and the casanovas-2014 kinds (``no_control``,
+  ``base_torque``, ``lqr_*``; they take the perfect preview): Python cores whose steps are
+  not numba kernels. Compiling a core's step (as for the baseline and the advanced cores)
+  and giving it a ``kernel_bundle`` is the way to bring it in; until then those runs take
+  the Python loop (about 4x the CPU per cycle, still hundreds of times real time).
 
 Inside a compiled run, Python still takes single cycles the kernel stops for
 (:data:`hil.inprocess.kernels.STOP_REASONS`): the first frame of an advanced core (it starts
@@ -143,11 +146,7 @@ def compiled_unsupported(loop: PlantLoop, runtime: ControllerRuntime | None) -> 
     if runtime.paced is True or not runtime.same_host_clock:
         return "wall-clock watchdog checks on"
     ctrl = runtime.controller
-    if isinstance(ctrl, AdvancedController):
-        if runtime.dt_s != ctrl.dt_s:
-            return "advanced controller at another period than its design"
-        return None
-    if isinstance(ctrl, BaselineController):
+    if isinstance(ctrl, AdvancedController | BaselineController):
         return None
     return f"controller {type(ctrl).__name__}"
 
@@ -247,7 +246,7 @@ class CompiledLoop:
         assert isinstance(ctrl, AdvancedController | BaselineController)
         self.ctrl = ctrl
         self.advanced = isinstance(ctrl, AdvancedController)
-        self.core = ctrl.kernel_bundle(runtime.state)
+        self.core = ctrl.kernel_bundle(runtime.state, runtime.dt_s)
         self.forecast = (
             ctrl.forecast_bundle(runtime.state)
             if isinstance(ctrl, AdvancedController)
