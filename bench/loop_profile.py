@@ -477,6 +477,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
     import hil.launch as launch_mod
     import hil.nodes.plant_node as pn
     import hil.runlog.writer as lw
+    from controller.runtime import AdvancedController
     from hil.launch import RunRequest, ensure_designs, run_info
     from hil.nodes.timing import LatencyHistogram
     from hil.scenario.schema import load_scenario, scenario_text
@@ -489,6 +490,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
         (fl.CompiledLoop, "_ready", "ready"),
         (fl.CompiledLoop, "_pull", "pull"),
         (fl.CompiledLoop, "_set_forecast", "pull"),
+        (AdvancedController, "forecast_bundle", "pull"),
         (fl.CompiledLoop, "_check_kernel_types", "check_kernel_types"),
         (fl.CompiledLoop, "_args", "args"),
         (fl.CompiledLoop, "_call", "call"),
