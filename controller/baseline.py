@@ -996,7 +996,7 @@ class BaselineController:
         if not 0.0 < dt_s < math.inf:
             raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
         m = measurement
-        values = np.empty(_kernels.BL_STATE_SIZE)
+        values = np.zeros(_kernels.BL_STATE_SIZE)  # (the K omega^2 law writes 7 entries)
         prm, tsr_grid, pitch_grid, cells = self._tables
         # float() and bool(): a frame built in Python may hold an int where a float belongs,
         # and numba would compile another signature for it
