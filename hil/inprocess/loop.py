@@ -276,21 +276,6 @@ class CompiledLoop:
         self.batches = 0
         self._stops = {}
 
-    @property
-    def order(self) -> np.ndarray:
-        """The message ids of the last batch's rows in publish order (``ist[I_N_ORDER]``)."""
-        return self.rows.order
-
-    @property
-    def ist(self) -> np.ndarray:
-        """The loop's int state (:class:`hil.inprocess.kernels.LoopBundle`)."""
-        return self.bundle.ist
-
-    @property
-    def fst(self) -> np.ndarray:
-        """The loop's float state (:class:`hil.inprocess.kernels.LoopBundle`)."""
-        return self.bundle.fst
-
     # ------------------------------------------------------------------ state in / out
     def _ready(self) -> bool:
         """True when the next cycle may start in the kernel (else Python runs it)."""
