@@ -478,14 +478,16 @@ def test_kernel_entry_point_kept_while_the_types_hold() -> None:
 
 def test_compiled_loop_reads_no_private_attribute_of_another_object() -> None:
     """The compiled loop uses the components' public API (their bundles, counters and
-    adopt methods): no ``obj._name`` attribute in hil/inprocess/loop.py and kernels.py
-    except on ``self``."""
+    adopt methods): no ``obj._name`` attribute in hil/inprocess except on ``self``."""
     import ast
 
     root = Path(__file__).resolve().parents[1] / "hil" / "inprocess"
     bad = []
-    for name in ("loop.py", "kernels.py"):
-        for node in ast.walk(ast.parse((root / name).read_text())):
+    files = sorted(root.glob("*.py"))
+    assert {"loop.py", "kernels.py"} <= {f.name for f in files}
+    for path in files:
+        name = path.name
+        for node in ast.walk(ast.parse(path.read_text())):
             if not isinstance(node, ast.Attribute):
                 continue
             attr = node.attr
