@@ -37,9 +37,8 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
 
 * Baseline law (:func:`baseline_step`, :func:`baseline_gains`): the law of
   :mod:`controller.baseline` (its module docstring has the equations), the implementation
-  of ``BaselineController.step`` and of the advanced controller's below-rated laws
-  (``pitch_gains`` is its Python twin of :func:`baseline_gains`); the tests hold a
-  plain-Python oracle of the step.
+  of ``BaselineController.step`` and ``pitch_gains`` and of the advanced controller's
+  below-rated laws; the tests hold a plain-Python oracle of both.
 * The compiled loop's bundles (:class:`CoreBundle`, :class:`ForecastBundle`) and the
   dispersion forecaster's step on its bundle (:func:`dispersion_forecast`).
 
@@ -1011,7 +1010,8 @@ def _pmin(a: float, b: float) -> float:
 def baseline_gains(
     bl: np.ndarray, gs: np.ndarray, n_gs: int, theta: float
 ) -> tuple[float, float, float]:
-    """``BaselineController.pitch_gains``: (G_K K_P, G_K K_I, G_K) at pitch θ [rad]."""
+    """The pitch gains of ``BaselineController.pitch_gains``: (G_K K_P, G_K K_I, G_K) at
+    pitch θ [rad]."""
     if bl[25] != 0.0:  # table: linear interpolation of (K_P, K_I), ends held
         n = n_gs
         if theta <= gs[0]:
@@ -1071,7 +1071,8 @@ def baseline_step(
     prate: float,
     prate_valid: bool,
 ) -> tuple[float, float, int, float, float, float, float]:
-    """``BaselineController.step`` (:mod:`controller.baseline`, same operations in order).
+    """The law of ``BaselineController.step`` (:mod:`controller.baseline`; its plain-Python
+    oracle: tests/_baseline_oracle.py).
 
     ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev) and, for the
     TSR-tracking law only (``bl[tsr]`` = 1; the array then has :data:`BL_STATE_SIZE`

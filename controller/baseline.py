@@ -949,7 +949,7 @@ class BaselineController:
         )
 
     def pitch_gains(self, pitch_rad: float) -> tuple[float, float, float]:
-        """Scheduled pitch gains at ``pitch_rad`` [rad].
+        """Scheduled pitch gains at ``pitch_rad`` [rad] (kernel ``baseline_gains``).
 
         Returns
         -------
@@ -957,11 +957,8 @@ class BaselineController:
             Effective :math:`G_K K_P` [s], :math:`G_K K_I` [-] and the schedule factor
             :math:`G_K` [-] (table mode: :math:`K_I(\\theta)/K_I(\\theta_0)`).
         """
-        k = self._k
-        if k[25]:
-            return _table_gains(k[29], k[30], k[31], pitch_rad, k[32])
-        gk = 1.0 / (1.0 + pitch_rad / k[28])
-        return gk * k[26], gk * k[27], gk
+        kp, ki, gk = _kernels.baseline_gains(self._bl, self._gs, self._n_gs, float(pitch_rad))
+        return kp, ki, gk
 
     def step(
         self, state: BaselineState, measurement: SensorFrame, dt_s: float
@@ -1031,28 +1028,6 @@ def _min_pitch(
         w0 = winds[j - 1]
         th = pitches[j - 1] + (wind_m_s - w0) / (winds[j] - w0) * (pitches[j] - pitches[j - 1])
     return th if th > floor else floor
-
-
-def _table_gains(
-    angles: tuple[float, ...],
-    kps: tuple[float, ...],
-    kis: tuple[float, ...],
-    theta: float,
-    inv_ki_ref: float,
-) -> tuple[float, float, float]:
-    """Linear interpolation of (K_P, K_I) in a pitch table, end values held."""
-    n = len(angles)
-    if theta <= angles[0]:
-        kp, ki = kps[0], kis[0]
-    elif theta >= angles[n - 1]:
-        kp, ki = kps[n - 1], kis[n - 1]
-    else:
-        j = bisect_right(angles, theta)
-        a0 = angles[j - 1]
-        f = (theta - a0) / (angles[j] - a0)
-        kp = kps[j - 1] + f * (kps[j] - kps[j - 1])
-        ki = kis[j - 1] + f * (kis[j] - kis[j - 1])
-    return kp, ki, ki * inv_ki_ref
 
 
 # --- presets ------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ import math
 from typing import Any
 
 import msgspec
-from _baseline_oracle import ORACLE_INITIAL, OracleState, oracle_step
+from _baseline_oracle import ORACLE_INITIAL, OracleState, oracle_pitch_gains, oracle_step
 
 from bus_schemas.messages import (
     EST_FEEDFORWARD,
@@ -192,7 +192,7 @@ class ComposedAdvanced:
         lqri_state, out = c.lqri.step(state.lqri, meas, dt_s)
         integrator_rad = out.pitch_integrator_rad
         if lqri_state.above_rated:
-            ki_eff = c.baseline.pitch_gains(out.blade_pitch_commanded_rad)[1]
+            ki_eff = oracle_pitch_gains(c.baseline, out.blade_pitch_commanded_rad)[1]
             bst = msgspec.structs.replace(
                 bst, pitch_speed_error_integral_rad=out.blade_pitch_commanded_rad / ki_eff
             )

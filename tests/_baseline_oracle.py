@@ -10,12 +10,13 @@ kernel (and everything built on it) against an independent implementation.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 
 import msgspec
 import numpy as np
 
 from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
-from controller.baseline import BaselineController, BaselineState, _min_pitch, _table_gains
+from controller.baseline import BaselineController, BaselineState, _min_pitch
 from controller.estimators import WindEKFMeasurement, WindEKFState
 from controller.interface import (
     REGIME_REGION_1,
@@ -143,6 +144,37 @@ def lowpass2_step(
     z1 = 2.0 * b0 * u - a1 * y + z2
     z2 = b0 * u - a2 * y
     return y, z1, z2
+
+
+def _table_gains(
+    angles: tuple[float, ...],
+    kps: tuple[float, ...],
+    kis: tuple[float, ...],
+    theta: float,
+    inv_ki_ref: float,
+) -> tuple[float, float, float]:
+    """Linear interpolation of (K_P, K_I) in a pitch table, end values held."""
+    n = len(angles)
+    if theta <= angles[0]:
+        kp, ki = kps[0], kis[0]
+    elif theta >= angles[n - 1]:
+        kp, ki = kps[n - 1], kis[n - 1]
+    else:
+        j = bisect_right(angles, theta)
+        a0 = angles[j - 1]
+        f = (theta - a0) / (angles[j] - a0)
+        kp = kps[j - 1] + f * (kps[j] - kps[j - 1])
+        ki = kis[j - 1] + f * (kis[j] - kis[j - 1])
+    return kp, ki, ki * inv_ki_ref
+
+
+def oracle_pitch_gains(ctrl: BaselineController, pitch_rad: float) -> tuple[float, float, float]:
+    """:meth:`BaselineController.pitch_gains` in Python: (G_K K_P, G_K K_I, G_K)."""
+    k = ctrl._k
+    if k[25]:
+        return _table_gains(k[29], k[30], k[31], pitch_rad, k[32])
+    gk = 1.0 / (1.0 + pitch_rad / k[28])
+    return gk * k[26], gk * k[27], gk
 
 
 def oracle_step(
