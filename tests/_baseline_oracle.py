@@ -13,10 +13,9 @@ import math
 from bisect import bisect_right
 
 import msgspec
-import numpy as np
 
 from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
-from controller.baseline import BaselineController, BaselineState, _min_pitch
+from controller.baseline import BaselineController, _min_pitch
 from controller.estimators import WindEKFMeasurement, WindEKFState
 from controller.interface import (
     REGIME_REGION_1,
@@ -83,40 +82,6 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
 
 
 ORACLE_INITIAL = OracleState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-
-def oracle_of(state: BaselineState) -> OracleState:
-    """The named state of a :class:`BaselineState` (its array in field order)."""
-    v = state.values.tolist()
-    return OracleState(
-        bool(state.first_call), *v[:10], (v[10], v[11], v[12]), tuple(v[13:19]), *v[19:23]
-    )
-
-
-def state_of(o: OracleState) -> BaselineState:
-    """The :class:`BaselineState` of a named state."""
-    v = np.array(
-        [
-            o.lpf_z1,
-            o.lpf_z2,
-            o.generator_speed_filtered_rad_s,
-            o.pitch_speed_error_integral_rad,
-            o.torque_speed_error_integral_rad,
-            o.blade_pitch_commanded_rad,
-            o.generator_torque_commanded_nm,
-            o.wind_filtered_m_s,
-            o.setpoint_shift_rad_s,
-            o.min_pitch_rad,
-            *o.wind_ekf_x,
-            *o.wind_ekf_p,
-            o.fl_hpf_lp,
-            o.fl_lpf_z1,
-            o.fl_lpf_z2,
-            o.platform_pitch_rate_rad_s,
-        ],
-        dtype=np.float64,
-    )
-    return BaselineState(v, o.first_call)
 
 
 def lowpass2_step(
