@@ -229,7 +229,7 @@ def _kernel_one(scenario_name: str, duration_s: float) -> dict[str, float]:
     import numba
 
     import hil.inprocess.kernels as lk
-    from controller._kernels import advanced_cycle, baseline_step
+    from controller._kernels import CI_N_GS, CI_STEPS, FF_ETA, advanced_cycle, baseline_step
     from hil.inprocess.loop import CompiledLoop
     from hil.nodes.controller_node import ControllerRuntime, publishing_step
     from hil.nodes.plant_node import PlantLoop
@@ -257,10 +257,17 @@ def _kernel_one(scenario_name: str, duration_s: float) -> dict[str, float]:
         return c
 
     @numba.njit
-    def h_baseline(n: int, bl: Any, gs: Any, n_gs: int, b: Any, b2: Any, dt: float) -> float:
+    def h_baseline(n: int, bl: Any, gs: Any, n_gs: int, b: Any, b2: Any, dt: float, cc: Any,
+                   lay: Any) -> float:  # fmt: skip
+        o1 = lay[1]
+        o2 = o1 + lay[2]
+        o3 = o2 + lay[3]
         out = 0.0
         for _ in range(n):
-            out += baseline_step(bl, gs, n_gs, False, b, 700.0, 0.1, 1e7, dt, b2)[0]
+            out += baseline_step(
+                bl, gs, n_gs, False, b, 700.0, 0.1, 1e7, dt, b2, 10.0, cc[0:o1], cc[o1:o2],
+                cc[o2:o3], cc[o3:].reshape((lay[4], 8)), 0.0, True,
+            )[0]  # fmt: skip
         return out
 
     @numba.njit
@@ -298,10 +305,12 @@ def _kernel_one(scenario_name: str, duration_s: float) -> dict[str, float]:
     fast.run(9000)
     fast._pull(scn.cycles)
     a = fast._args(0, 0)
-    ist, fst = a[2], a[3]
-    xa, s, wc, pc, po, wt, rec, cf = a[6:14]
-    sf, si, sok, ht, hv, rn, slots, record = a[14:22]
-    cc, lay, cv, cfl, cv2, cf2, bl, gs, n_gs, bst, bst2 = a[22:33]
+    lb, pb, sb, cb, fb = a[2:7]
+    ist, fst = lb.ist, lb.fst
+    xa, s, wc, pc, po, wt, rec, cf = pb
+    sf, si, sok, ht, hv, rn, slots, record = sb
+    cc, lay, cv, cfl, cv2, cf2 = cb.cc, cb.lay, cb.v, cb.f, cb.v2, cb.f2
+    bl, gs, n_gs, bst, bst2 = cb.bl, cb.gs, int(cb.ci[CI_N_GS]), cb.v, cb.v2
     t_ns = int(ist[lk.I_K] * ist[lk.I_PERIOD_NS])
     out = {
         "truth": cpu_us(
@@ -316,10 +325,10 @@ def _kernel_one(scenario_name: str, duration_s: float) -> dict[str, float]:
     if fast.advanced:
         row = fast.buf[lk.MID_SENSORS][0].copy()  # (a frame of the last batch)
         mask = int(fast.ibuf[lk.MID_SENSORS][0, 3])
-        out["core"] = cpu_us(h_advanced, cc, lay, cv, cfl, row, mask, fst[lk.F_ETA],
-                             fst[lk.F_DT], int(ist[lk.I_STEPS]), cv2, cf2)  # fmt: skip
+        out["core"] = cpu_us(h_advanced, cc, lay, cv, cfl, row, mask, fb.ff[FF_ETA],
+                             fst[lk.F_DT], int(cb.ci[CI_STEPS]), cv2, cf2)  # fmt: skip
     else:
-        out["core"] = cpu_us(h_baseline, bl, gs, n_gs, bst, bst2, fst[lk.F_DT])
+        out["core"] = cpu_us(h_baseline, bl, gs, n_gs, bst, bst2, fst[lk.F_DT], cc, lay)
     out["period"] = cpu_us(h_period, xa.copy(), s.copy(), wc.copy(), pc, po,
                            int(ist[lk.I_N_STEPS]), wt, t_ns * 1e-9, fst[lk.F_H])  # fmt: skip
     n = 100_000
@@ -468,6 +477,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
     import hil.launch as launch_mod
     import hil.nodes.plant_node as pn
     import hil.runlog.writer as lw
+    from controller.runtime import AdvancedController
     from hil.launch import RunRequest, ensure_designs, run_info
     from hil.nodes.timing import LatencyHistogram
     from hil.scenario.schema import load_scenario, scenario_text
@@ -480,6 +490,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
         (fl.CompiledLoop, "_ready", "ready"),
         (fl.CompiledLoop, "_pull", "pull"),
         (fl.CompiledLoop, "_set_forecast", "pull"),
+        (AdvancedController, "forecast_bundle", "pull"),
         (fl.CompiledLoop, "_check_kernel_types", "check_kernel_types"),
         (fl.CompiledLoop, "_args", "args"),
         (fl.CompiledLoop, "_call", "call"),
@@ -495,7 +506,7 @@ def _profile_one(scenario_name: str, duration_s: float) -> dict[str, Any]:
         (pn.PlantLoop, "sample", "python_cycles"),
         (pn.PlantLoop, "finish_cycle", "python_cycles"),
         (LatencyHistogram, "record", "hist_record"),
-        (SensorSuite, "_refill", "refill"),
+        (SensorSuite, "refill", "refill"),
     ]
     for owner, name, part in parts:
         t.wrap(owner, name, part)

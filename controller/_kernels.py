@@ -35,17 +35,21 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
   :math:`z \\leftarrow A_d z + b \\hat\\eta` for every filter (A_d stored transposed so that the
   inner loop runs over contiguous memory).
 
-* Baseline law (:func:`baseline_step`, :func:`baseline_gains`): ``BaselineController.step``
-  and ``pitch_gains`` of :mod:`controller.baseline`, statement by statement (its module
-  docstring has the equations), for the advanced controller's below-rated laws.
+* Baseline law (:func:`baseline_step`, :func:`baseline_gains`): the law of
+  :mod:`controller.baseline` (its module docstring has the equations), the implementation
+  of ``BaselineController.step`` and ``pitch_gains`` and of the advanced controller's
+  below-rated laws; the tests hold a plain-Python oracle of both.
+* The compiled loop's bundles (:class:`CoreBundle`, :class:`ForecastBundle`) and the
+  dispersion forecaster's step on its bundle (:func:`dispersion_forecast`).
 
 Every kernel writes only its outputs (no input argument is modified), so the callers stay
-pure.
+pure; :func:`dispersion_forecast` is the exception: it steps its bundle in place.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -1006,7 +1010,8 @@ def _pmin(a: float, b: float) -> float:
 def baseline_gains(
     bl: np.ndarray, gs: np.ndarray, n_gs: int, theta: float
 ) -> tuple[float, float, float]:
-    """``BaselineController.pitch_gains``: (G_K K_P, G_K K_I, G_K) at pitch θ [rad]."""
+    """The pitch gains of ``BaselineController.pitch_gains``: (G_K K_P, G_K K_I, G_K) at
+    pitch θ [rad]."""
     if bl[25] != 0.0:  # table: linear interpolation of (K_P, K_I), ends held
         n = n_gs
         if theta <= gs[0]:
@@ -1066,7 +1071,8 @@ def baseline_step(
     prate: float,
     prate_valid: bool,
 ) -> tuple[float, float, int, float, float, float, float]:
-    """``BaselineController.step`` (:mod:`controller.baseline`, same operations in order).
+    """The law of ``BaselineController.step`` (:mod:`controller.baseline`; its plain-Python
+    oracle: tests/_baseline_oracle.py).
 
     ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev) and, for the
     TSR-tracking law only (``bl[tsr]`` = 1; the array then has :data:`BL_STATE_SIZE`
@@ -1605,3 +1611,136 @@ def advanced_cycle(
         ff_th,
         ff_tq,
     )
+
+
+# ---------------------------------------------------------------- bundles of a compiled loop
+#: ``CoreBundle.ci`` (int64): the core's kind (0 baseline, 1 advanced), the advanced core's
+#: KF predict steps per period, the baseline's first-call flag, the baseline gain table's length.
+CI_KIND, CI_STEPS, CI_FIRST, CI_N_GS, CI_SIZE = range(5)
+
+
+class CoreBundle(NamedTuple):
+    """A controller core's constants and state as a compiled loop takes them (one argument).
+
+    Built by the core (``BaselineController.kernel_bundle``, ``AdvancedController.
+    kernel_bundle``), which alone knows its layout, and read back by it
+    (``state_from_bundle``). The kernel steps the state from ``v``/``f`` into ``v2``/``f2``,
+    swaps them, and leaves the last state in ``v``/``f``.
+
+    Attributes
+    ----------
+    ci : ndarray of int64
+        ``CI_*`` above.
+    cc, lay : ndarray
+        Advanced: the packed constants and layout of :func:`advanced_cycle`. Baseline with
+        the TSR-tracking law: the wind EKF's constants and Cp table, and in ``lay`` the
+        status's estimate bit, the four lengths (constants, TSR, pitch, cells) and the
+        platform pitch rate's valid bit (else empty, and zeros).
+    bl, gs : ndarray
+        Baseline: :data:`BL_CONSTANTS`, the gain table and minimum-pitch schedule (empty
+        for the advanced core).
+    v, v2 : ndarray of float64
+        The float state (advanced ``values``; baseline :data:`BL_STATE_SIZE` entries) and
+        its scratch twin.
+    f, f2 : ndarray of int64
+        The int state (advanced ``flags``; baseline empty) and its scratch twin.
+    """
+
+    ci: np.ndarray
+    cc: np.ndarray
+    lay: np.ndarray
+    bl: np.ndarray
+    gs: np.ndarray
+    v: np.ndarray
+    v2: np.ndarray
+    f: np.ndarray
+    f2: np.ndarray
+
+
+#: ``ForecastBundle.fi`` (int64): 1 when the dispersion forecaster runs in the kernel; the
+#: core state's next call time, the status's forecast time and estimator mask, the
+#: forecaster's unstable fits and guarded forecasts; its ring's head, count, calls, dropped
+#: and dropped-in-window counts; the call period and horizon (ns); the core state's
+#: forecast time; the estimator masks with and without a forecast.
+(
+    FI_KIND,
+    FI_NEXT_NS,
+    FI_STATUS_NS,
+    FI_EST_MASK,
+    FI_UNSTABLE,
+    FI_GUARDED,
+    FI_HEAD,
+    FI_COUNT,
+    FI_CALLS,
+    FI_DROPPED,
+    FI_DROPPED_WIN,
+    FI_PERIOD_NS,
+    FI_HORIZON_NS,
+    FI_TIME_NS,
+    FI_MASK_FC,
+    FI_MASK_NO_FC,
+    FI_SIZE,
+) = range(17)
+#: ``ForecastBundle.ff`` (float64): the forecast handed to :func:`advanced_cycle` (NaN: none),
+#: the status's forecast, the forecaster's held sample, the FIR's last output (valid or not).
+FF_ETA, FF_STATUS_M, FF_HELD, FF_RAW, FF_SIZE = range(5)
+
+
+class ForecastBundle(NamedTuple):
+    """The advanced core's wave-forecast part as a compiled loop takes it (one argument).
+
+    Built by ``AdvancedController.forecast_bundle``; ``buf`` and ``drop`` are the
+    dispersion forecaster's own ring buffer and drop flags (its storage, written in place
+    by :func:`dispersion_forecast`), empty for the other forecasters and kinds.
+    """
+
+    buf: np.ndarray
+    drop: np.ndarray
+    fir: np.ndarray
+    fi: np.ndarray
+    ff: np.ndarray
+
+
+@_jit
+def dispersion_forecast(fb: ForecastBundle, t_ns: int, sample_m: float, valid: bool) -> None:
+    r"""The wave forecast of ``AdvancedController.step`` with a ``DispersionPredictor``.
+
+    :meth:`controller.forecast.DispersionPredictor.step` on ``fb`` in place (the hold rule,
+    the ring buffer, then :math:`\hat\eta_B = \sum_j h_j\,w_j` as ``np.dot(fir, window)``,
+    which numba also computes with BLAS ``ddot`` on the contiguous window), the core
+    state's next call time :math:`(\lfloor t/T_f \rfloor + 1)\,T_f` and forecast time
+    :math:`t + t_d` (ns), then the forecast handed to the core (NaN until the window has
+    filled or when not finite), the status's forecast fields and the estimator mask.
+    """
+    fi, ff, buf, drop = fb.fi, fb.ff, fb.buf, fb.drop
+    fi[FI_CALLS] += 1
+    ok = valid and math.isfinite(sample_m)
+    if ok:
+        ff[FF_HELD] = sample_m
+    else:
+        fi[FI_DROPPED] += 1
+    n = drop.size
+    i = fi[FI_HEAD]
+    held = ff[FF_HELD]
+    buf[i] = held
+    buf[i + n] = held
+    fi[FI_DROPPED_WIN] += (0 if ok else 1) - (1 if drop[i] else 0)
+    drop[i] = not ok
+    head = i + 1 if i + 1 < n else 0
+    fi[FI_HEAD] = head
+    fi[FI_COUNT] += 1
+    forecast_m = np.dot(fb.fir, buf[head : head + n])
+    ff[FF_RAW] = forecast_m
+    fi[FI_TIME_NS] = t_ns + fi[FI_HORIZON_NS]
+    period = fi[FI_PERIOD_NS]
+    fi[FI_NEXT_NS] = (t_ns // period + 1) * period
+    if fi[FI_COUNT] >= n and math.isfinite(forecast_m):
+        ff[FF_ETA] = forecast_m
+        fi[FI_EST_MASK] = fi[FI_MASK_FC]
+        ff[FF_STATUS_M] = forecast_m
+        fi[FI_STATUS_NS] = fi[FI_TIME_NS]
+    else:
+        ff[FF_ETA] = math.nan
+        fi[FI_EST_MASK] = fi[FI_MASK_NO_FC]
+        ff[FF_STATUS_M] = 0.0
+        fi[FI_STATUS_NS] = 0

@@ -97,8 +97,13 @@ Deviations from the original DISCON, each deliberate:
   of dividing by zero; for :math:`0 < \\omega_f \\le P_{rt}/T_{max}` it gives :math:`T_{max}`
   (same as DISCON's saturation).
 
-The hot path uses plain Python floats (no numpy; the ``"tsr_tracking"`` EKF step is a
-compiled kernel) and allocates two small frozen structs per call.
+One implementation: :meth:`BaselineController.step` is one call of the compiled
+:func:`controller._kernels.baseline_step` on the state's array (:class:`BaselineState`),
+which the in-process compiled loop and the advanced controller's cycle call too; the tests
+check it against a plain-Python, statement-by-statement oracle of the law above
+(``tests/_baseline_oracle.py``). From Python a step costs about 2 us (1.9 us with the
+K omega^2 law, 2.2 us with TSR tracking; the law in Python floats took 1.0 and 6.0 us: best
+of 7 x 20 000 calls on the 2-core machine).
 """
 
 from __future__ import annotations
@@ -109,26 +114,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import msgspec
 import numpy as np
+import numpy.typing as npt
 
 from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
+from controller import _kernels
 from controller.estimators import (
     CpTable,
     WindEKFConfig,
-    WindEKFMeasurement,
-    WindEKFState,
     WindSpeedEKF,
     cp_table_from_rosco_text,
 )
 from controller.interface import (
-    REGIME_REGION_1,
-    REGIME_REGION_1_5,
-    REGIME_REGION_2,
-    REGIME_REGION_2_5,
-    REGIME_REGION_3,
     ActuatorLimits,
     ControlOutput,
 )
@@ -631,88 +631,105 @@ class BaselineParams:
         return self._region25_line()[2]
 
 
-class BaselineState(msgspec.Struct, frozen=True, gc=False):
-    """Immutable state of :class:`BaselineController` between two steps.
+class BaselineState(NamedTuple):
+    """State of :class:`BaselineController` between two steps: one float array and a flag.
 
-    Attributes
-    ----------
-    first_call : bool
-        True before the first step; the first step initialises from the measurement.
-    lpf_z1, lpf_z2 : float
-        Generator-speed filter states [rad/s] (order 1: ``lpf_z1`` is the last output).
-    generator_speed_filtered_rad_s : float
-        Last filtered generator speed [rad/s].
-    pitch_speed_error_integral_rad : float
-        :math:`I = \\int (\\omega_f-\\omega_{ref})\\,dt` of the pitch PI [rad].
-    torque_speed_error_integral_rad : float
-        :math:`\\int (\\omega_f-\\omega_{rt})\\,dt` of the torque PI [rad] (``"pi"`` mode).
-    blade_pitch_commanded_rad : float
-        Last pitch command [rad].
-    generator_torque_commanded_nm : float
-        Last torque command [N m].
-    wind_filtered_m_s : float
-        ``"tsr_tracking"``: low-pass filtered wind estimate :math:`\\hat v_f` [m/s].
-    setpoint_shift_rad_s : float
-        ``"tsr_tracking"``: filtered setpoint-smoother shift :math:`\\Delta\\omega_f` [rad/s].
-    min_pitch_rad : float
-        ``"tsr_tracking"``: the last minimum pitch :math:`\\theta_{lo}` [rad].
-    wind_ekf_x, wind_ekf_p : tuple of float
-        ``"tsr_tracking"``: the wind EKF's state and covariance
-        (:class:`controller.estimators.WindEKFState`).
-    fl_hpf_lp, fl_lpf_z1, fl_lpf_z2 : float
-        ``"tsr_tracking"``: states of the platform-pitch-rate filters [rad/s] (the high
-        pass's low-pass part, the second-order low pass).
-    platform_pitch_rate_rad_s : float
-        ``"tsr_tracking"``: the last valid platform pitch rate [rad/s] (held on dropout).
+    ``values`` (float64, :data:`controller._kernels.BL_STATE_SIZE` entries) is the storage
+    :func:`controller._kernels.baseline_step` reads; :meth:`BaselineController.step` never
+    modifies it (it returns a new state with a new array), so a state may be kept. Its
+    entries, also readable by name (the properties below, floats):
+
+    * ``lpf_z1``, ``lpf_z2``: generator-speed filter states [rad/s] (order 1: ``lpf_z1`` is
+      the last output);
+    * ``generator_speed_filtered_rad_s``: last filtered generator speed [rad/s];
+    * ``pitch_speed_error_integral_rad``: :math:`I = \\int (\\omega_f-\\omega_{ref})\\,dt`
+      of the pitch PI [rad];
+    * ``torque_speed_error_integral_rad``: :math:`\\int (\\omega_f-\\omega_{rt})\\,dt` of the
+      torque PI [rad] (``"pi"`` mode and ``"tsr_tracking"``);
+    * ``blade_pitch_commanded_rad``, ``generator_torque_commanded_nm``: last commands
+      [rad, N m];
+    * ``"tsr_tracking"`` only: ``wind_filtered_m_s`` (:math:`\\hat v_f` [m/s]),
+      ``setpoint_shift_rad_s`` (:math:`\\Delta\\omega_f` [rad/s]), ``min_pitch_rad`` (the last
+      :math:`\\theta_{lo}` [rad]), ``wind_ekf_x`` (3) and ``wind_ekf_p`` (6: the wind EKF's
+      state and covariance, :class:`controller.estimators.WindEKFState`), ``fl_hpf_lp``,
+      ``fl_lpf_z1``, ``fl_lpf_z2`` (the platform-pitch-rate filters [rad/s]: the high
+      pass's low-pass part, the second-order low pass), ``platform_pitch_rate_rad_s`` (the
+      last valid rate [rad/s], held on dropout).
+
+    ``first_call`` is True before the first step, which initialises from the measurement.
     """
 
-    first_call: bool
-    lpf_z1: float
-    lpf_z2: float
-    generator_speed_filtered_rad_s: float
-    pitch_speed_error_integral_rad: float
-    torque_speed_error_integral_rad: float
-    blade_pitch_commanded_rad: float
-    generator_torque_commanded_nm: float
-    wind_filtered_m_s: float = 0.0
-    setpoint_shift_rad_s: float = 0.0
-    min_pitch_rad: float = 0.0
-    wind_ekf_x: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    wind_ekf_p: tuple[float, float, float, float, float, float] = (0.0,) * 6
-    fl_hpf_lp: float = 0.0
-    fl_lpf_z1: float = 0.0
-    fl_lpf_z2: float = 0.0
-    platform_pitch_rate_rad_s: float = 0.0
+    values: npt.NDArray[np.float64]
+    first_call: bool = True
+
+    @property
+    def lpf_z1(self) -> float:
+        return float(self.values[0])
+
+    @property
+    def lpf_z2(self) -> float:
+        return float(self.values[1])
+
+    @property
+    def generator_speed_filtered_rad_s(self) -> float:
+        return float(self.values[2])
+
+    @property
+    def pitch_speed_error_integral_rad(self) -> float:
+        return float(self.values[3])
+
+    @property
+    def torque_speed_error_integral_rad(self) -> float:
+        return float(self.values[4])
+
+    @property
+    def blade_pitch_commanded_rad(self) -> float:
+        return float(self.values[5])
+
+    @property
+    def generator_torque_commanded_nm(self) -> float:
+        return float(self.values[6])
+
+    @property
+    def wind_filtered_m_s(self) -> float:
+        return float(self.values[7])
+
+    @property
+    def setpoint_shift_rad_s(self) -> float:
+        return float(self.values[8])
+
+    @property
+    def min_pitch_rad(self) -> float:
+        return float(self.values[9])
+
+    @property
+    def wind_ekf_x(self) -> tuple[float, float, float]:
+        v = self.values
+        return float(v[10]), float(v[11]), float(v[12])
+
+    @property
+    def wind_ekf_p(self) -> tuple[float, ...]:
+        return tuple(self.values[13:19].tolist())
+
+    @property
+    def fl_hpf_lp(self) -> float:
+        return float(self.values[19])
+
+    @property
+    def fl_lpf_z1(self) -> float:
+        return float(self.values[20])
+
+    @property
+    def fl_lpf_z2(self) -> float:
+        return float(self.values[21])
+
+    @property
+    def platform_pitch_rate_rad_s(self) -> float:
+        return float(self.values[22])
 
 
-_INITIAL_STATE = BaselineState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-
-def lowpass2_step(
-    u: float, w_c: float, zeta: float, dt_s: float, z1: float, z2: float, first_call: bool
-) -> tuple[float, float, float]:
-    """One step of a second-order low pass, (y, z1, z2).
-
-    Tustin discretisation of :math:`\\omega_c^2 / (s^2 + 2\\zeta\\omega_c s + \\omega_c^2)`
-    [rad/s, -, s], direct form II transposed; on the first call the states start at the
-    steady state of ``u`` (no start transient). The numba twin is
-    :func:`controller._kernels.lowpass2_step`.
-    """
-    c = 2.0 / dt_s
-    c2 = c * c
-    wc2 = w_c * w_c
-    cz = 2.0 * zeta * w_c * c
-    inv_a0 = 1.0 / (c2 + cz + wc2)
-    b0 = wc2 * inv_a0
-    a1 = 2.0 * (wc2 - c2) * inv_a0
-    a2 = (c2 - cz + wc2) * inv_a0
-    if first_call:
-        z1 = (1.0 - b0) * u
-        z2 = (b0 - a2) * u
-    y = b0 * u + z1
-    z1 = 2.0 * b0 * u - a1 * y + z2
-    z2 = b0 * u - a2 * y
-    return y, z1, z2
+#: A frame for the warm-up step at construction (any finite values).
+_WARM_FRAME = SensorFrame(0, 0, 0, 0, *(0.0,) * len(SensorFrame.__struct_fields__[4:]))
 
 
 class BaselineController:
@@ -727,11 +744,15 @@ class BaselineController:
         Validated controller parameters.
     """
 
-    __slots__ = ("_k", "ekf", "params")
+    __slots__ = ("_bl", "_gs", "_k", "_n_gs", "_tables", "ekf", "params")
 
     params: BaselineParams
     ekf: WindSpeedEKF | None
     _k: tuple[Any, ...]
+    _bl: npt.NDArray[np.float64]
+    _gs: npt.NDArray[np.float64]
+    _n_gs: int
+    _tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     def __init__(self, params: BaselineParams) -> None:
         p = params
@@ -824,12 +845,20 @@ class BaselineController:
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "ekf", ekf)
         object.__setattr__(self, "_k", k)
-        if ekf is not None:  # load the EKF's kernel now, not in the first (paced) cycle
-            ekf.step(
-                ekf.initial_state(0.5, 0.0, 0.0, 8.0),
-                WindEKFMeasurement(0.5, 0.0, 0.0, True),
-                0.025,
-            )
+        # the kernel's constants (kernel_arrays) and the wind EKF's tables (empty for the
+        # K omega^2 law), once
+        bl, gs, n_gs = self.kernel_arrays()
+        object.__setattr__(self, "_bl", bl)
+        object.__setattr__(self, "_gs", gs)
+        object.__setattr__(self, "_n_gs", n_gs)
+        tables = (
+            ekf.kernel_tables
+            if ekf is not None
+            else (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 8)))
+        )
+        object.__setattr__(self, "_tables", tables)
+        # load the step's kernel now (numba's disk cache), not in the first (paced) cycle
+        self.step(self.initial_state(), _WARM_FRAME, 0.025)
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
@@ -856,9 +885,58 @@ class BaselineController:
         gs = np.array([*k[29], *k[30], *k[31], *k[50], *k[51]], dtype=np.float64)
         return bl, gs, len(k[29])
 
+    def kernel_bundle(self, state: BaselineState, dt_s: float | None = None) -> _kernels.CoreBundle:
+        """This core's constants and ``state`` as a compiled loop takes them (the period
+        ``dt_s`` is the loop's argument of every step: unused here).
+
+        ``v`` holds ``state`` as :func:`controller._kernels.baseline_step`'s ``st``
+        (:data:`controller._kernels.BL_STATE_SIZE` entries, field order of
+        :class:`BaselineState`), ``ci[CI_FIRST]`` its first-call flag; the TSR-tracking
+        law's wind EKF tables travel in ``cc`` with their layout in ``lay``
+        (:class:`controller._kernels.CoreBundle`). A compiled loop's cycles then
+        :meth:`state_from_bundle`.
+        """
+        bl, gs, n_gs = self._bl.copy(), self._gs.copy(), self._n_gs
+        ci = np.zeros(_kernels.CI_SIZE, dtype=np.int64)
+        ci[_kernels.CI_KIND] = 0
+        ci[_kernels.CI_N_GS] = n_gs
+        if self.ekf is not None:
+            prm, tsr, pitch, cells = self.ekf.kernel_tables
+            cc = np.concatenate([prm, tsr, pitch, cells.ravel()])
+            lay = np.array(
+                [
+                    EST_WIND_SPEED,
+                    prm.size,
+                    tsr.size,
+                    pitch.size,
+                    cells.shape[0],
+                    VALID_PLATFORM_PITCH_RATE,
+                ],
+                dtype=np.int64,
+            )
+        else:
+            cc, lay = np.zeros(0), np.zeros(6, dtype=np.int64)
+        v = np.zeros(_kernels.BL_STATE_SIZE)
+        no_flags = np.zeros(0, dtype=np.int64)
+        bundle = _kernels.CoreBundle(ci, cc, lay, bl, gs, v, np.zeros_like(v), no_flags, no_flags)
+        self.load_bundle(bundle, state)
+        return bundle
+
+    @staticmethod
+    def load_bundle(bundle: _kernels.CoreBundle, state: BaselineState) -> None:
+        """Copy ``state`` into ``bundle`` (of :meth:`kernel_bundle`): its array into ``v``,
+        the first-call flag into ``ci``."""
+        bundle.ci[_kernels.CI_FIRST] = 1 if state.first_call else 0
+        bundle.v[:] = state.values
+
+    @staticmethod
+    def state_from_bundle(bundle: _kernels.CoreBundle) -> BaselineState:
+        """The state a compiled loop left in ``bundle`` (:meth:`kernel_bundle`; a copy)."""
+        return BaselineState(bundle.v.copy(), bool(bundle.ci[_kernels.CI_FIRST]))
+
     def initial_state(self) -> BaselineState:
         """State before the first call; the first :meth:`step` initialises it from data."""
-        return _INITIAL_STATE
+        return BaselineState(np.zeros(_kernels.BL_STATE_SIZE), True)
 
     def actuator_limits(self) -> ActuatorLimits:
         """The preset's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
@@ -871,7 +949,7 @@ class BaselineController:
         )
 
     def pitch_gains(self, pitch_rad: float) -> tuple[float, float, float]:
-        """Scheduled pitch gains at ``pitch_rad`` [rad].
+        """Scheduled pitch gains at ``pitch_rad`` [rad] (kernel ``baseline_gains``).
 
         Returns
         -------
@@ -879,16 +957,17 @@ class BaselineController:
             Effective :math:`G_K K_P` [s], :math:`G_K K_I` [-] and the schedule factor
             :math:`G_K` [-] (table mode: :math:`K_I(\\theta)/K_I(\\theta_0)`).
         """
-        k = self._k
-        if k[25]:
-            return _table_gains(k[29], k[30], k[31], pitch_rad, k[32])
-        gk = 1.0 / (1.0 + pitch_rad / k[28])
-        return gk * k[26], gk * k[27], gk
+        kp, ki, gk = _kernels.baseline_gains(self._bl, self._gs, self._n_gs, float(pitch_rad))
+        return kp, ki, gk
 
     def step(
         self, state: BaselineState, measurement: SensorFrame, dt_s: float
     ) -> tuple[BaselineState, ControlOutput]:
-        """Advance the controller by one sample.
+        """Advance the controller by one sample (:func:`controller._kernels.baseline_step`).
+
+        One compiled call on ``state.values`` into a new array (``state`` is not modified);
+        the law is the module docstring's (tests check the kernel against a plain-Python
+        statement-by-statement oracle of it). A step costs about 2 us from Python.
 
         Parameters
         ----------
@@ -914,286 +993,23 @@ class BaselineController:
         """
         if not 0.0 < dt_s < math.inf:
             raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
-        (
-            order2,
-            w_c,
-            zeta,
-            w_ci,
-            w_2,
-            K,
-            slope15,
-            w_rt,
-            w_tr,
-            slope25,
-            w_sy,
-            pi_mode,
-            w_tq_ref,
-            kp_t,
-            ki_t,
-            const_torque,
-            power_rated,
-            tq_rated,
-            theta_3,
-            tq_max,
-            tq_rate,
-            w_ref,
-            th_min,
-            th_max,
-            th_rate,
-            table,
-            kp0,
-            ki0,
-            theta_k,
-            gs_ang,
-            gs_kp,
-            gs_ki,
-            inv_ki_ref,
-            w_pmax,
-            tsr,
-            tsr_gain,
-            w_we,
-            ss_vs,
-            ss_pc,
-            w_ss,
-            eta,
-            p_rt_e,
-            th_switch,
-            gear,
-            _p22_0,
-            _n_ps,
-            k_fl,
-            w_fl,
-            zeta_fl,
-            w_hp,
-            ps_wind,
-            ps_pitch,
-        ) = self._k
-        w = measurement.generator_speed_measured_rad_s
-
-        # --- generator-speed low-pass filter --------------------------------------------
-        if order2:
-            w_f, z1, z2 = lowpass2_step(
-                w, w_c, zeta, dt_s, state.lpf_z1, state.lpf_z2, state.first_call
-            )
-        else:
-            alpha = math.exp(-dt_s * w_c)
-            prev = w if state.first_call else state.lpf_z1
-            w_f = (1.0 - alpha) * w + alpha * prev
-            z1 = w_f
-            z2 = 0.0
-
-        # --- previous commands (first call: from the actuator measurements) ----------------
-        if state.first_call:
-            th_prev = min(max(measurement.blade_pitch_measured_rad, th_min), th_max)
-            tq_prev = min(max(measurement.generator_torque_measured_nm, 0.0), tq_max)
-        else:
-            th_prev = state.blade_pitch_commanded_rad
-            tq_prev = state.generator_torque_commanded_nm
-
-        # --- pitch gain schedule (from the previous pitch command) ------------------------
-        if table:
-            kp_eff, ki_eff, gk = _table_gains(gs_ang, gs_kp, gs_ki, th_prev, inv_ki_ref)
-        else:
-            gk = 1.0 / (1.0 + th_prev / theta_k)
-            kp_eff = gk * kp0
-            ki_eff = gk * ki0
-
-        # --- wind estimate, minimum pitch, setpoint smoother, TSR-tracking torque -----------
-        th_lo = th_min
-        w_pc = w_ref
-        i_t = state.torque_speed_error_integral_rad
-        if tsr:
-            ekf = self.ekf
-            assert ekf is not None
-            omega_r = w / gear
-            if state.first_call:  # ROSCO: the anemometer, at least 3 m/s
-                est0 = ekf.initial_state(
-                    omega_r,
-                    measurement.blade_pitch_measured_rad,
-                    measurement.generator_torque_measured_nm,
-                    max(measurement.wind_speed_measured_m_s, 3.0),
-                )
-                x_e, p_e = est0.x, est0.p
-            else:
-                x_e, p_e = state.wind_ekf_x, state.wind_ekf_p
-            ekf_state, _ = ekf.step(
-                WindEKFState(x_e, p_e),
-                WindEKFMeasurement(
-                    omega_r,
-                    measurement.blade_pitch_measured_rad,
-                    measurement.generator_torque_measured_nm,
-                    True,
-                ),
-                dt_s,
-            )
-            x_e, p_e = ekf_state.x, ekf_state.p
-            v = x_e[1] + x_e[2]
-            if state.first_call:
-                v_f = v
-            else:
-                a_w = math.exp(-dt_s * w_we)
-                v_f = (1.0 - a_w) * v + a_w * state.wind_filtered_m_s
-            th_lo = _min_pitch(ps_wind, ps_pitch, v_f, th_min)
-            # setpoint smoother: the shift from the previous pitch over the last minimum
-            # pitch and from the power deficit (electrical power eta * T * w_f)
-            th_lo_prev = th_lo if state.first_call else state.min_pitch_rad
-            p_el = eta * tq_prev * w_f
-            d_om = (
-                (th_prev - th_lo_prev) / 0.524 * ss_vs - (p_rt_e - p_el) / p_rt_e * ss_pc
-            ) * w_ref
-            if state.first_call:
-                ss = d_om
-            else:
-                a_s = math.exp(-dt_s * w_ss)
-                ss = (1.0 - a_s) * d_om + a_s * state.setpoint_shift_rad_s
-            if ss < 0.0:
-                w_pc = w_ref - ss
-            w_vs = min(max(tsr_gain * v_f, w_ci), w_tq_ref)
-            if ss > 0.0:
-                w_vs = w_vs - ss
-            w_vs = max(w_vs, w_ci)
-            e_t = w_f - w_vs
-            if state.first_call:
-                i_t = tq_prev / ki_t
-            i_t += e_t * dt_s
-            if i_t < 0.0:
-                i_t = 0.0
-            elif i_t > tq_rated / ki_t:
-                i_t = tq_rated / ki_t
-            tq = kp_t * e_t + ki_t * i_t
-            if tq < 0.0:
-                tq = 0.0
-            elif tq > tq_rated:
-                tq = tq_rated
-            if th_prev >= th_lo + th_switch:
-                regime = REGIME_REGION_3
-            elif tq >= tq_rated:
-                regime = REGIME_REGION_2_5
-            elif w_vs <= w_ci:
-                regime = REGIME_REGION_1_5
-            else:
-                regime = REGIME_REGION_2
-        # --- generator torque (K omega^2 law) -----------------------------------------------
-        elif w_f >= w_rt or th_prev >= theta_3:
-            if const_torque:
-                tq = tq_rated
-                regime = REGIME_REGION_3
-            elif w_f > w_pmax:
-                tq = power_rated / w_f
-                regime = REGIME_REGION_3
-            elif w_f > 0.0:
-                tq = tq_max
-                regime = REGIME_REGION_3
-            else:
-                tq = 0.0
-                regime = REGIME_REGION_1
-            if pi_mode:  # keep the torque PI bumpless for the way back
-                i_t = (tq - kp_t * (w_f - w_tq_ref)) / ki_t
-        else:
-            if w_f <= w_ci:
-                tq = 0.0
-                regime = REGIME_REGION_1
-            elif w_f < w_2:
-                tq = slope15 * (w_f - w_ci)
-                regime = REGIME_REGION_1_5
-            elif w_f < w_tr:
-                tq = K * w_f * w_f
-                regime = REGIME_REGION_2
-            else:
-                tq = slope25 * (w_f - w_sy)
-                regime = REGIME_REGION_2_5
-            if pi_mode:
-                if tq > tq_rated:  # the region-2 law never exceeds the rated torque here
-                    tq = tq_rated
-                    regime = REGIME_REGION_2_5
-                e_t = w_f - w_tq_ref
-                if state.first_call:
-                    i_t = tq_prev / ki_t
-                i_t += e_t * dt_s
-                u = kp_t * e_t + ki_t * i_t
-                if u <= tq:  # floor: region 1 / 1.5 / 2 law
-                    i_t = (tq - kp_t * e_t) / ki_t
-                elif u >= tq_rated:
-                    tq = tq_rated
-                    regime = REGIME_REGION_2_5
-                    i_t = (tq_rated - kp_t * e_t) / ki_t
-                else:
-                    tq = u
-                    regime = REGIME_REGION_2_5
-        tq = min(tq, tq_max)
-        d_tq = tq - tq_prev
-        lim = tq_rate * dt_s
-        if d_tq > lim:
-            tq = tq_prev + lim
-        elif d_tq < -lim:
-            tq = tq_prev - lim
-
-        # --- blade pitch --------------------------------------------------------------------
-        err = w_f - w_pc
-        integ = th_prev / ki_eff if state.first_call else state.pitch_speed_error_integral_rad
-        integ += err * dt_s
-        lo = th_lo / ki_eff
-        hi = th_max / ki_eff
-        if integ < lo:
-            integ = lo
-        elif integ > hi:
-            integ = hi
-        i_term = ki_eff * integ
-        th = kp_eff * err + i_term
-        if th < th_lo:
-            th = th_lo
-        elif th > th_max:
-            th = th_max
-        if tsr:  # platform-pitch-rate feedback (ROSCO Fl_Mode = 2), outside the PI
-            if measurement.valid_mask & VALID_PLATFORM_PITCH_RATE:
-                q = measurement.platform_pitch_rate_measured_rad_s
-            else:  # held (0 before any valid sample)
-                q = 0.0 if state.first_call else state.platform_pitch_rate_rad_s
-            a_h = math.exp(-dt_s * w_hp)
-            hp_lp = q if state.first_call else (1.0 - a_h) * q + a_h * state.fl_hpf_lp
-            u_f = q - hp_lp
-            q_f, f1, f2 = lowpass2_step(
-                u_f, w_fl, zeta_fl, dt_s, state.fl_lpf_z1, state.fl_lpf_z2, state.first_call
-            )
-            th = th + k_fl * q_f
-            if th < th_lo:
-                th = th_lo
-            elif th > th_max:
-                th = th_max
-        dth = th - th_prev
-        lim = th_rate * dt_s
-        if dth > lim:
-            th = th_prev + lim
-        elif dth < -lim:
-            th = th_prev - lim
-
-        if tsr:
-            return (
-                BaselineState(
-                    False,
-                    z1,
-                    z2,
-                    w_f,
-                    integ,
-                    i_t,
-                    th,
-                    tq,
-                    v_f,
-                    ss,
-                    th_lo,
-                    x_e,
-                    p_e,
-                    hp_lp,
-                    f1,
-                    f2,
-                    q,
-                ),
-                ControlOutput(th, tq, regime, w_f, i_term, gk, EST_WIND_SPEED, 0, v),
-            )
-        return (
-            BaselineState(False, z1, z2, w_f, integ, i_t, th, tq),
-            ControlOutput(th, tq, regime, w_f, i_term, gk),
-        )
+        m = measurement
+        values = np.zeros(_kernels.BL_STATE_SIZE)  # (the K omega^2 law writes 7 entries)
+        prm, tsr_grid, pitch_grid, cells = self._tables
+        # float() and bool(): a frame built in Python may hold an int where a float belongs,
+        # and numba would compile another signature for it
+        r = _kernels.baseline_step(
+            self._bl, self._gs, self._n_gs, bool(state.first_call), state.values,
+            float(m.generator_speed_measured_rad_s), float(m.blade_pitch_measured_rad),
+            float(m.generator_torque_measured_nm), float(dt_s), values,
+            float(m.wind_speed_measured_m_s), prm, tsr_grid, pitch_grid, cells,
+            float(m.platform_pitch_rate_measured_rad_s),
+            bool(m.valid_mask & VALID_PLATFORM_PITCH_RATE),
+        )  # fmt: skip
+        new = BaselineState(values, False)
+        if self.ekf is not None:
+            return new, ControlOutput(r[0], r[1], r[2], r[3], r[4], r[5], EST_WIND_SPEED, 0, r[6])
+        return new, ControlOutput(r[0], r[1], r[2], r[3], r[4], r[5])
 
 
 def _min_pitch(
@@ -1212,28 +1028,6 @@ def _min_pitch(
         w0 = winds[j - 1]
         th = pitches[j - 1] + (wind_m_s - w0) / (winds[j] - w0) * (pitches[j] - pitches[j - 1])
     return th if th > floor else floor
-
-
-def _table_gains(
-    angles: tuple[float, ...],
-    kps: tuple[float, ...],
-    kis: tuple[float, ...],
-    theta: float,
-    inv_ki_ref: float,
-) -> tuple[float, float, float]:
-    """Linear interpolation of (K_P, K_I) in a pitch table, end values held."""
-    n = len(angles)
-    if theta <= angles[0]:
-        kp, ki = kps[0], kis[0]
-    elif theta >= angles[n - 1]:
-        kp, ki = kps[n - 1], kis[n - 1]
-    else:
-        j = bisect_right(angles, theta)
-        a0 = angles[j - 1]
-        f = (theta - a0) / (angles[j] - a0)
-        kp = kps[j - 1] + f * (kps[j] - kps[j - 1])
-        ki = kis[j - 1] + f * (kis[j] - kis[j - 1])
-    return kp, ki, ki * inv_ki_ref
 
 
 # --- presets ------------------------------------------------------------------------------

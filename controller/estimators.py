@@ -526,6 +526,12 @@ class WindSpeedEKF:
         # private writable copies: numba dispatches read-only arrays several times slower
         self._tables = (prm, t.tsr.copy(), t.pitch_rad.copy(), t._cells.copy())
 
+    @property
+    def kernel_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The kernels' constants (:data:`controller._kernels.EKF_PARAMS`), the Cp table's
+        TSR and pitch grids and its cells (n, 8): the EKF's own arrays, not to be modified."""
+        return self._tables
+
     # -------------------------------------------------------------- model
     def aero_torque(
         self, rotor_speed_rad_s: float, wind_m_s: float, pitch_rad: float

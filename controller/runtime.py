@@ -128,6 +128,7 @@ from controller.estimators import (
 from controller.forecast import (
     ArConfig,
     DispersionConfig,
+    DispersionPredictor,
     EspritConfig,
     ForecasterState,
     make_forecaster,
@@ -897,6 +898,119 @@ class AdvancedController:
         f[ii["started"]] = 1
         return v, f
 
+    # -------------------------------------------------------------- compiled loop
+    def predict_steps(self, dt_s: float) -> int:
+        """The platform KF's predict steps in a cycle of ``dt_s`` [s]: the period over the
+        KF design's step, rounded, at least 1, at most its ``max_predict_steps``."""
+        if dt_s == self.dt_s:
+            return self._steps_at_dt
+        kf = self.kfs[0].config
+        return int(min(max(round(dt_s / kf.dt_s), 1), kf.max_predict_steps))
+
+    def kernel_bundle(self, state: AdvancedState, dt_s: float | None = None) -> _kernels.CoreBundle:
+        """This core's constants and a copy of ``state``'s vectors for a compiled loop.
+
+        ``cc``/``lay`` are the packed constants of :func:`controller._kernels.advanced_cycle`
+        (this controller's, read only), ``v``/``f`` copies of ``state.values``/``flags``
+        (:meth:`step` never modifies a state's vectors; the kernel steps the copies; a
+        new state gets copies of them back), and ``ci`` the KF predict steps of a cycle of
+        ``dt_s`` [s] (None: the design period :attr:`dt_s`; :meth:`predict_steps`). The
+        cycles' end state: :meth:`state_from_bundles`.
+        """
+        ci = np.zeros(_kernels.CI_SIZE, dtype=np.int64)
+        ci[_kernels.CI_KIND] = 1
+        ci[_kernels.CI_STEPS] = self.predict_steps(self.dt_s if dt_s is None else dt_s)
+        v, f = state.values.copy(), state.flags.copy()
+        empty = np.zeros(0)
+        return _kernels.CoreBundle(
+            ci, self._c, self._lay, empty, empty, v, np.empty_like(v), f, np.empty_like(f)
+        )
+
+    @staticmethod
+    def load_bundle(bundle: _kernels.CoreBundle, state: AdvancedState) -> None:
+        """Copy ``state``'s vectors into ``bundle`` (of :meth:`kernel_bundle`)."""
+        bundle.v[:] = state.values
+        bundle.f[:] = state.flags
+
+    @property
+    def forecast_in_kernel(self) -> bool:
+        """True when a compiled loop runs this core's forecaster
+        (:func:`controller._kernels.dispersion_forecast`: the dispersion forecaster); the
+        AR and ESPRIT forecasters run in Python (:meth:`forecast_update`)."""
+        return type(self.forecaster) is DispersionPredictor
+
+    def forecast_bundle(self, state: AdvancedState) -> _kernels.ForecastBundle:
+        """The forecast part of ``state`` as :meth:`step` hands it to the cycle.
+
+        ``fi``/``ff`` (layouts ``FI_*``, ``FF_*`` of :mod:`controller._kernels`): the
+        forecast given to the core (NaN until the window has filled or when not finite),
+        the status's forecast fields and estimator mask, the next call and forecast times;
+        with :attr:`forecast_in_kernel`, also the forecaster's own ring buffer and drop
+        flags (its storage, written in place), its counters and FIR taps oldest first.
+        """
+        fi = np.zeros(_kernels.FI_SIZE, dtype=np.int64)
+        ff = np.zeros(_kernels.FF_SIZE)
+        fstate = state.forecaster
+        ok = fstate.filled and math.isfinite(state.forecast_m)
+        fi[_kernels.FI_NEXT_NS] = state.next_forecast_ns
+        fi[_kernels.FI_PERIOD_NS] = self._forecast_period_ns
+        fi[_kernels.FI_HORIZON_NS] = self._horizon_ns
+        fi[_kernels.FI_MASK_FC] = self._mask_forecast
+        fi[_kernels.FI_MASK_NO_FC] = self._mask_no_forecast
+        ff[_kernels.FF_ETA] = float(state.forecast_m) if ok else math.nan
+        if ok:
+            fi[_kernels.FI_EST_MASK] = self._mask_forecast
+            ff[_kernels.FF_STATUS_M] = state.forecast_m
+            fi[_kernels.FI_STATUS_NS] = state.forecast_time_ns
+        else:
+            fi[_kernels.FI_EST_MASK] = self._mask_no_forecast
+        fi[_kernels.FI_UNSTABLE] = fstate.unstable_fits
+        fi[_kernels.FI_GUARDED] = fstate.guarded
+        fc = self.forecaster
+        if isinstance(fc, DispersionPredictor) and self.forecast_in_kernel:
+            fi[_kernels.FI_KIND] = 1
+            fi[_kernels.FI_HEAD] = fstate.head
+            fi[_kernels.FI_COUNT] = fstate.count
+            fi[_kernels.FI_CALLS] = fstate.calls
+            fi[_kernels.FI_DROPPED] = fstate.dropped
+            fi[_kernels.FI_DROPPED_WIN] = fstate.dropped_in_window
+            fi[_kernels.FI_TIME_NS] = state.forecast_time_ns
+            ff[_kernels.FF_HELD] = fstate.held_m
+            ff[_kernels.FF_RAW] = state.forecast_m
+            # the taps oldest first, as step dots them; a writeable copy (the kernel's
+            # argument types then do not depend on the forecaster)
+            fir = np.array(fc.fir[::-1], dtype=np.float64, order="C")
+            return _kernels.ForecastBundle(fstate.buffer, fstate.drop_flags, fir, fi, ff)
+        return _kernels.ForecastBundle(
+            np.zeros(0), np.zeros(0, dtype=np.bool_), np.zeros(0), fi, ff
+        )
+
+    @staticmethod
+    def state_from_bundles(
+        state: AdvancedState, core: _kernels.CoreBundle, forecast: _kernels.ForecastBundle
+    ) -> AdvancedState:
+        """The state a compiled loop's cycles left in ``core`` and ``forecast`` (the bundles
+        of :meth:`kernel_bundle` and :meth:`forecast_bundle` for ``state``); ``state``'s
+        forecaster state takes the kernel forecaster's counters."""
+        fi, ff = forecast.fi, forecast.ff
+        fstate = state.forecaster
+        if fi[_kernels.FI_KIND] and int(fi[_kernels.FI_CALLS]) != fstate.calls:
+            # the kernel's forecaster calls (buffer and drop flags changed in place)
+            fstate.head = int(fi[_kernels.FI_HEAD])
+            fstate.count = int(fi[_kernels.FI_COUNT])
+            fstate.calls = int(fi[_kernels.FI_CALLS])
+            fstate.held_m = float(ff[_kernels.FF_HELD])
+            fstate.dropped = int(fi[_kernels.FI_DROPPED])
+            fstate.dropped_in_window = int(fi[_kernels.FI_DROPPED_WIN])
+            return state._replace(
+                values=core.v.copy(),
+                flags=core.f.copy(),
+                next_forecast_ns=int(fi[_kernels.FI_NEXT_NS]),
+                forecast_m=float(ff[_kernels.FF_RAW]),
+                forecast_time_ns=int(fi[_kernels.FI_TIME_NS]),
+            )
+        return state._replace(values=core.v.copy(), flags=core.f.copy())
+
     def forecast_update(
         self, state: AdvancedState, t_ns: int, gauge_m: float, gauge_valid: bool
     ) -> tuple[ForecasterState, int, float, int]:
@@ -922,6 +1036,21 @@ class AdvancedController:
         fstate, forecast_m = self.forecaster.step(state.forecaster, gauge_m, gauge_valid)
         period = self._forecast_period_ns
         return fstate, (t_ns // period + 1) * period, forecast_m, t_ns + self._horizon_ns
+
+    def with_forecast(
+        self, state: AdvancedState, t_ns: int, gauge_m: float, gauge_valid: bool
+    ) -> AdvancedState:
+        """``state`` with :meth:`forecast_update`'s result (the forecaster's part of a cycle
+        run on its own, before the rest of the cycle: a compiled loop's forecast stop)."""
+        fstate, next_ns, forecast_m, forecast_ns = self.forecast_update(
+            state, t_ns, gauge_m, gauge_valid
+        )
+        return state._replace(
+            forecaster=fstate,
+            next_forecast_ns=next_ns,
+            forecast_m=forecast_m,
+            forecast_time_ns=forecast_ns,
+        )
 
     def step(
         self, state: AdvancedState, frame: SensorFrame, dt_s: float
@@ -956,11 +1085,7 @@ class AdvancedController:
         """
         if not 0.0 < dt_s < math.inf:
             raise ValueError(f"dt_s must be finite and > 0 s, got {dt_s!r}")
-        if dt_s == self.dt_s:
-            steps = self._steps_at_dt
-        else:
-            kf = self.kfs[0].config
-            steps = min(max(round(dt_s / kf.dt_s), 1), kf.max_predict_steps)
+        steps = self.predict_steps(dt_s)
         values, flags = state.values, state.flags
         if not flags[0]:  # first frame: start both filters from the measurements
             values, flags = self._start(values, flags, frame)

@@ -39,12 +39,50 @@ the offsets below.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from bus_schemas.jit import njit
 
 WIND_MIN_M_S = 1.0e-3  # = plant.turbine.WIND_MIN_M_S (kept equal by tests/test_plant_kernels.py)
+
+
+class PlantBundle(NamedTuple):
+    """The floating plant's arrays as the compiled loop takes them (one argument).
+
+    Owned by :class:`plant.simulator.PlantSimulator` (:meth:`~plant.simulator.PlantSimulator.
+    state_bundle`): these are its storage, not copies; a kernel that advances ``x`` in
+    place hands the periods back with :meth:`~plant.simulator.PlantSimulator.adopt_periods`.
+
+    Attributes
+    ----------
+    x : ndarray
+        The plant state of :func:`plant.platform.f` (float64, advanced in place).
+    s : ndarray
+        The kernels' running state (layout ``S_*``: demands, step winds, wave clock and
+        values, radiation accelerations).
+    wc : ndarray
+        The wave stepper's arrays (rows ``W_*``).
+    c, o : ndarray
+        The packed constants and their block offsets (:func:`pack`).
+    wind_table : ndarray
+        The sampled wind record (m/s).
+    truth_rec : ndarray
+        The truth message's record, then the sensor channels' true values
+        (:func:`floating_truth_into`).
+    channel_fields : ndarray
+        Per sensor channel, its field's index in ``TRUTH_FIELDS`` (int64).
+    """
+
+    x: np.ndarray
+    s: np.ndarray
+    wc: np.ndarray
+    c: np.ndarray
+    o: np.ndarray
+    wind_table: np.ndarray
+    truth_rec: np.ndarray
+    channel_fields: np.ndarray
 
 
 def pack(blocks: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -490,6 +490,57 @@ class PlantSimulator:
         self._x_arr = xa
         return xa
 
+    # ------------------------------------------------------------------ compiled loop
+    def compiled_unsupported(self) -> str | None:
+        """Why a whole-cycle kernel cannot run this plant (None: it can).
+
+        The compiled loop (:mod:`hil.inprocess.kernels`) composes the floating plant's
+        truth record, the channel suite's step and the floating period; the bottom-fixed
+        plant, fault injection, channels whose true values are not in the truth record
+        and an analytic wind (a Python function per step) stay in Python.
+        """
+        if self.floating is None:
+            return "bottom-fixed plant"
+        if self._faulty:
+            return "sensor faults"
+        if self.channels is None or self._channel_values is None:
+            return "sensor channels without a true value in the truth record"
+        if not self._wind_table.size:
+            return "wind without a sampled record"
+        return None
+
+    def state_bundle(self, x: State) -> _k.PlantBundle:
+        """The simulator's own arrays for a kernel, the state array holding ``x``.
+
+        Not copies: a kernel advances ``bundle.x`` and ``bundle.s`` in place, then
+        :meth:`adopt_periods` makes the result this simulator's state.
+        """
+        return _k.PlantBundle(
+            self._state_array(x), self._s, self._wc, self._c, self._o, self._wind_table,
+            self._truth_rec, self._channel_fields,
+        )  # fmt: skip
+
+    def adopt_periods(self, periods: int) -> State:
+        """The state after a kernel ran ``periods`` floating periods on :meth:`state_bundle`.
+
+        The wave clock moves on by 2 ``periods`` ``steps_per_cycle`` half steps, and the
+        truth of the last record is stale. Returns the new state as a tuple (what
+        :meth:`advance` would have returned).
+        """
+        y = tuple(self._x_arr.tolist())
+        self._x_tuple = y
+        self._truth_of_rec = None
+        self._wave_n += 2 * self.n * periods
+        return y
+
+    def waves_in_step(self, t_s: float) -> bool:
+        """True when the wave stepper stands at ``t_s`` (within h/4): no resynchronisation
+        before a period from ``t_s`` (:meth:`advance`)."""
+        h = self.h
+        return not (
+            self._has_waves and abs(self._wave_t0 + self._wave_n * (0.5 * h) - t_s) > 0.25 * h
+        )
+
     # ------------------------------------------------------------------ initial state
     def initial_state(self) -> State:
         """Operating point at t = 0 (``PlantConfig.initial``; fields left None: defaults).

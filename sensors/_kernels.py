@@ -31,6 +31,7 @@ Layouts (rows are channels)
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,6 +40,25 @@ from bus_schemas.jit import njit
 DELAY, PERIOD, LAST_T, HAS_LAST, SAMPLE_K, HAS_SAMPLE, HEAD, COUNT = range(8)
 NORMAL_I, UNIFORM_I, SAMPLES, DROPPED = range(8, 12)
 STD, BIAS, RES, P_DROP, Y_MIN, Y_MAX, HELD, READING = range(8)
+
+
+class SuiteBundle(NamedTuple):
+    """A channel suite's arrays (layouts above): its storage, one kernel argument.
+
+    :class:`sensors.channel.SensorSuite` keeps its state here (``state_bundle``), and
+    :func:`suite_step` reads and writes it in place; ``slots`` and ``record`` are where
+    the readings are scattered (``SensorSuite.bind_record``).
+    """
+
+    f: np.ndarray
+    st: np.ndarray
+    ok: np.ndarray
+    hist_t: np.ndarray
+    hist_v: np.ndarray
+    rn: np.ndarray
+    slots: np.ndarray
+    record: np.ndarray
+
 
 #: Return codes of :func:`suite_step` besides 0 (done) and 1 (done, a block to refill):
 #: -1 - c: channel c's time does not increase; -1 - n - c: channel c's ring buffer is full.

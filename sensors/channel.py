@@ -439,12 +439,13 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         self._index = {key: i for i, key in enumerate(self._keys)}
         n = len(named)
         spec_list = list(named.values())
-        # Array state of sensors._kernels.suite_step (layouts in its module docstring).
-        self._f = np.zeros((n, 8))
-        self._f[:, _kern.HELD] = _NAN
-        self._i = np.zeros((n, 12), dtype=np.int64)
+        # Array state of sensors._kernels.suite_step (layouts in its module docstring): the
+        # bundle is the storage, for the Python methods and the compiled loop alike.
+        f = np.zeros((n, 8))
+        f[:, _kern.HELD] = _NAN
+        st = np.zeros((n, 12), dtype=np.int64)
         for c, sp in enumerate(spec_list):
-            self._f[c, :6] = (
+            f[c, :6] = (
                 sp.std,
                 sp.bias,
                 sp.resolution,
@@ -452,20 +453,24 @@ class SensorSuite(Mapping[str, ChannelSpec]):
                 sp.range_min,
                 sp.range_max,
             )
-            self._i[c, _kern.DELAY] = sp.delay_ns
-            self._i[c, _kern.PERIOD] = sp.sample_period_ns
-        self._ok = np.zeros((n, 2), dtype=np.bool_)
-        self._hist_t = np.zeros((n, 16), dtype=np.int64)
-        self._hist_v = np.zeros((n, 16))
+            st[c, _kern.DELAY] = sp.delay_ns
+            st[c, _kern.PERIOD] = sp.sample_period_ns
         self._rngs = [channel_init(sp, seed) for sp in spec_list]
-        self._slots = _NO_SLOTS
-        self._record = _NO_RECORD
-        self._rn = np.zeros((n, 2, BLOCK_SIZE))
+        self._b = _kern.SuiteBundle(
+            f,
+            st,
+            np.zeros((n, 2), dtype=np.bool_),
+            np.zeros((n, 16), dtype=np.int64),
+            np.zeros((n, 16)),
+            np.zeros((n, 2, BLOCK_SIZE)),
+            _NO_SLOTS,
+            _NO_RECORD,
+        )
         for c, sp in enumerate(spec_list):  # first blocks of the streams each channel uses
             if sp.std > 0.0:
-                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+                self._b.rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
             if sp.dropout_probability > 0.0:
-                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+                self._b.rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
 
     def _run(
         self,
@@ -477,10 +482,10 @@ class SensorSuite(Mapping[str, ChannelSpec]):
     ) -> int:
         """One :func:`sensors._kernels.suite_step` call; errors, growth and refills here."""
         while True:
+            b = self._b
             code, mask = _kern.suite_step(
-                which, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
-                self._rn, slots, record,
-            )  # fmt: skip
+                which, t_ns, truths, b.f, b.st, b.ok, b.hist_t, b.hist_v, b.rn, slots, record
+            )
             if code >= 0:
                 break
             n = len(self._keys)
@@ -488,35 +493,46 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             if c < n:
                 raise ValueError(
                     f"channel {self._keys[c]!r}: t_ns expected to increase, got {t_ns} "
-                    f"after {int(self._i[c, _kern.LAST_T])}"
+                    f"after {int(self._b.st[c, _kern.LAST_T])}"
                 )
             self._grow()
         if code:
-            self._refill()
+            self.refill()
         return mask
 
     def _grow(self) -> None:
         """Double the ring buffers (unrolled so that every ring starts at 0)."""
-        cap = self._hist_t.shape[1]
-        st = self._i
+        cap = self._b.hist_t.shape[1]
+        st = self._b.st
         order = (st[:, _kern.HEAD, None] + np.arange(cap)[None, :]) % cap
-        self._hist_t = np.concatenate(
-            [np.take_along_axis(self._hist_t, order, 1), np.zeros_like(self._hist_t)], axis=1
-        )
-        self._hist_v = np.concatenate(
-            [np.take_along_axis(self._hist_v, order, 1), np.zeros_like(self._hist_v)], axis=1
+        b = self._b
+        self._b = b._replace(
+            hist_t=np.concatenate(
+                [np.take_along_axis(b.hist_t, order, 1), np.zeros_like(b.hist_t)], axis=1
+            ),
+            hist_v=np.concatenate(
+                [np.take_along_axis(b.hist_v, order, 1), np.zeros_like(b.hist_v)], axis=1
+            ),
         )
         st[:, _kern.HEAD] = 0
 
-    def _refill(self) -> None:
-        """Next blocks of the streams used up by the last call (as channel_step draws them)."""
-        st = self._i
+    @property
+    def state_bundle(self) -> _kern.SuiteBundle:
+        """The suite's state (:class:`sensors._kernels.SuiteBundle`): its storage, which a
+        kernel calling :func:`sensors._kernels.suite_step` reads and writes in place (the
+        ring buffers are replaced when they grow: take the bundle again after a step here)."""
+        return self._b
+
+    def refill(self) -> None:
+        """Next blocks of the streams used up by the last call (as channel_step draws them);
+        after a kernel's :func:`sensors._kernels.suite_step` reported a block used up."""
+        st = self._b.st
         for c in range(len(self._keys)):
             if st[c, _kern.NORMAL_I] >= BLOCK_SIZE:
-                self._rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
+                self._b.rn[c, 0] = self._rngs[c].noise_rng.standard_normal(BLOCK_SIZE)
                 st[c, _kern.NORMAL_I] = 0
             if st[c, _kern.UNIFORM_I] >= BLOCK_SIZE:
-                self._rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
+                self._b.rn[c, 1] = self._rngs[c].dropout_rng.random(BLOCK_SIZE)
                 st[c, _kern.UNIFORM_I] = 0
 
     @classmethod
@@ -588,7 +604,7 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             missing = [k for k in self._specs if k not in truths]
             raise KeyError(f"no true value for channel(s) {missing}") from None
         self._run(-1, t_ns, tv)
-        values = zip(self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist(), strict=True)
+        values = zip(self._b.f[:, _kern.READING].tolist(), self._b.ok[:, 1].tolist(), strict=True)
         return dict(zip(self._keys, values, strict=True))
 
     def step_values(self, t_ns: int, truths: tuple[float, ...]) -> tuple[list[float], list[bool]]:
@@ -609,7 +625,7 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         if len(truths) != len(self._keys):
             raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
         self._run(-1, t_ns, truths)
-        return self._f[:, _kern.READING].tolist(), self._ok[:, 1].tolist()
+        return self._b.f[:, _kern.READING].tolist(), self._b.ok[:, 1].tolist()
 
     def bind_record(self, slots: np.ndarray, record: np.ndarray) -> None:
         """Set where :meth:`step_into` scatters the readings (checked once, here).
@@ -625,8 +641,7 @@ class SensorSuite(Mapping[str, ChannelSpec]):
             raise ValueError(f"slots: expected int64 of shape ({len(self._keys)}, 2)")
         if record.dtype != np.float64 or record.ndim != 1:
             raise ValueError("record: expected a float64 vector (slots beyond it are skipped)")
-        self._slots = slots
-        self._record = record
+        self._b = self._b._replace(slots=slots, record=record)
 
     def step_into(self, t_ns: int, truths: tuple[float, ...]) -> int:
         """:meth:`step_values`, the readings scattered into the record of :meth:`bind_record`.
@@ -645,16 +660,16 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         """
         if len(truths) != len(self._keys):
             raise ValueError(f"expected {len(self._keys)} true values, got {len(truths)}")
+        b = self._b
         code, mask = _kern.suite_step(
-            -1, t_ns, truths, self._f, self._i, self._ok, self._hist_t, self._hist_v,
-            self._rn, self._slots, self._record,
-        )  # fmt: skip
+            -1, t_ns, truths, b.f, b.st, b.ok, b.hist_t, b.hist_v, b.rn, b.slots, b.record
+        )
         if code == 0:
             return mask
         if code > 0:
-            self._refill()
+            self.refill()
             return mask
-        return self._run(-1, t_ns, truths, self._slots, self._record)  # nothing was changed
+        return self._run(-1, t_ns, truths, self._b.slots, self._b.record)  # nothing was changed
 
     def step_channel(self, name: str, t_ns: int, true_value: float) -> tuple[float, bool]:
         """Measure one channel at ``t_ns`` (same model as :meth:`step`)."""
@@ -662,12 +677,12 @@ class SensorSuite(Mapping[str, ChannelSpec]):
         tv = [0.0] * len(self._keys)
         tv[c] = float(true_value)
         self._run(c, t_ns, tuple(tv))
-        return float(self._f[c, _kern.READING]), bool(self._ok[c, 1])
+        return float(self._b.f[c, _kern.READING]), bool(self._b.ok[c, 1])
 
     def counts(self, name: str) -> tuple[int, int]:
         """(samples taken, samples lost) of channel ``name`` so far."""
         c = self._index[name]
-        return int(self._i[c, _kern.SAMPLES]), int(self._i[c, _kern.DROPPED])
+        return int(self._b.st[c, _kern.SAMPLES]), int(self._b.st[c, _kern.DROPPED])
 
 
 #: Counts per revolution of the generator-speed encoder: a 1024-line quadrature encoder

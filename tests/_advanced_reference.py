@@ -15,6 +15,7 @@ import math
 from typing import Any
 
 import msgspec
+from _baseline_oracle import ORACLE_INITIAL, OracleState, oracle_pitch_gains, oracle_step
 
 from bus_schemas.messages import (
     EST_FEEDFORWARD,
@@ -35,7 +36,6 @@ from bus_schemas.messages import (
     VALID_WAVE_GAUGE,
     SensorFrame,
 )
-from controller.baseline import BaselineState
 from controller.estimators import PlatformKFState, WindEKFMeasurement, WindEKFState
 from controller.interface import ControlOutput
 from controller.lqri import LqriMeasurement, LqriState
@@ -57,7 +57,7 @@ class ComposedState(msgspec.Struct, gc=False):
     last_pitch_cmd_rad: float = 0.0
     last_torque_cmd_nm: float = 0.0
     speed_misses: int = 0
-    baseline: BaselineState | None = None
+    baseline: OracleState | None = None
 
 
 class ComposedAdvanced:
@@ -164,7 +164,7 @@ class ComposedAdvanced:
                 - state.lqri.feedforward_torque_nm,
             )
         else:
-            bst = c.baseline.initial_state()
+            bst = ORACLE_INITIAL
         bframe = (
             frame
             if speed_ok
@@ -172,7 +172,7 @@ class ComposedAdvanced:
                 frame, generator_speed_measured_rad_s=omega * s.gearbox_ratio
             )
         )
-        bst, bout = c.baseline.step(bst, bframe, dt_s)
+        bst, bout = oracle_step(c.baseline, bst, bframe, dt_s)
         # 6. regime logic + LQRI
         meas = LqriMeasurement(
             wind_speed_estimate_m_s=west.mean_wind_m_s,
@@ -192,7 +192,7 @@ class ComposedAdvanced:
         lqri_state, out = c.lqri.step(state.lqri, meas, dt_s)
         integrator_rad = out.pitch_integrator_rad
         if lqri_state.above_rated:
-            ki_eff = c.baseline.pitch_gains(out.blade_pitch_commanded_rad)[1]
+            ki_eff = oracle_pitch_gains(c.baseline, out.blade_pitch_commanded_rad)[1]
             bst = msgspec.structs.replace(
                 bst, pitch_speed_error_integral_rad=out.blade_pitch_commanded_rad / ki_eff
             )

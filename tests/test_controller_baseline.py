@@ -494,6 +494,24 @@ def test_controller_and_state_are_immutable(nrel: BaselineParams) -> None:
         s.first_call = False  # type: ignore[misc]
 
 
+@pytest.mark.parametrize("preset", ["nrel5mw_baseline", "iea15mw_baseline"])
+def test_step_never_modifies_its_state(preset: str) -> None:
+    """The state is the kernel's array: a step returns a new one and leaves the old one
+    (and the initial state) as it was; the same state and frame give the same result."""
+    ctrl = BaselineController(load_baseline(preset))
+    s0 = ctrl.initial_state()
+    s1, _ = ctrl.step(s0, sensor_frame(800.0 * RPM, 0.05, 1.0e6), 0.01)
+    assert s0.first_call and not s0.values.any()
+    kept = s1.values.copy()
+    s2, o2 = ctrl.step(s1, sensor_frame(1300.0 * RPM, 0.05, 1.0e6), 0.01)
+    assert (s1.values == kept).all() and not s1.first_call
+    assert s2.values is not s1.values
+    s2b, o2b = ctrl.step(s1, sensor_frame(1300.0 * RPM, 0.05, 1.0e6), 0.01)
+    assert (s2b.values == s2.values).all() and o2b == o2
+    assert s2.generator_speed_filtered_rad_s == float(s2.values[2])
+    assert s2.blade_pitch_commanded_rad == o2.blade_pitch_commanded_rad
+
+
 def test_make_controller_registry() -> None:
     ctrl = make_controller("baseline", "nrel5mw_baseline")
     _, out = ctrl.step(ctrl.initial_state(), sensor_frame(100.0), 0.01)

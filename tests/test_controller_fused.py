@@ -33,6 +33,7 @@ import msgspec
 import numpy as np
 import pytest
 from _advanced_reference import ComposedAdvanced, ComposedState
+from _baseline_oracle import ORACLE_INITIAL, oracle_pitch_gains, oracle_step
 from _helpers import sensor_frame
 
 from bus_schemas import SensorFrame
@@ -314,7 +315,8 @@ def test_fused_cycle_equals_the_composed_classes(
 
 @pytest.mark.parametrize("preset", ["iea15mw_baseline", "nrel5mw_baseline"])
 def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
-    """``baseline_step`` against ``BaselineController.step`` on a seeded speed sequence that
+    """``baseline_step`` (and ``BaselineController.step``, which calls it) against the
+    plain-Python oracle (tests/_baseline_oracle.py) on a seeded speed sequence that
     crosses every torque region and drives the pitch from fine to feathered and back (the
     IEA 15 MW preset: TSR tracking on the wind EKF, minimum-pitch schedule, smoother)."""
     params = load_baseline(preset)
@@ -324,7 +326,7 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
     tsr = params.torque_law == "tsr_tracking"
     assert tsr == (preset == "iea15mw_baseline")
     if ctrl.ekf is not None:
-        prm, tsr_grid, pitch_grid, cells = ctrl.ekf._tables
+        prm, tsr_grid, pitch_grid, cells = ctrl.ekf.kernel_tables
     else:
         prm, tsr_grid, pitch_grid, cells = np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 8))
     rng = np.random.default_rng(3)
@@ -334,7 +336,8 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
     # generator speed from below cut-in to 1.3 x rated and back, with noise
     speed = w_rt * (0.3 + 1.0 * np.sin(np.pi * t / t[-1])) + 0.01 * w_rt * rng.normal(size=n)
     # measured torque following the speed (the wind estimate then sweeps the schedule)
-    state = ctrl.initial_state()
+    state = ORACLE_INITIAL
+    bstate = ctrl.initial_state()
     st = np.zeros(_kernels.BL_STATE_SIZE)
     first = True
     regimes = set()
@@ -352,7 +355,9 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
             platform_pitch_rate_measured_rad_s=rate,
             valid_mask=VALID_PLATFORM_PITCH_RATE if rate_ok else 0,
         )
-        state, want = ctrl.step(state, frame, dt)
+        state, want = oracle_step(ctrl, state, frame, dt)
+        bstate, via_step = ctrl.step(bstate, frame, dt)
+        _same_outputs(k, via_step, want)
         st_out = np.empty(_kernels.BL_STATE_SIZE)
         got = _kernels.baseline_step(
             bl, gs, n_gs, first, st, float(speed[k]), frame_pitch, frame_torque, dt, st_out,
@@ -393,9 +398,13 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
                 state.platform_pitch_rate_rad_s,
             ]
         _same_arrays(k, "baseline state", st[: len(want_st)], want_st)
+        _same_arrays(k, "BaselineController state", bstate.values[: len(want_st)], want_st)
         for theta in (-0.01, 0.0, 0.07, 0.2, 0.5):
             g = _kernels.baseline_gains(bl, gs, n_gs, theta)
-            assert all(_close(a, b) for a, b in zip(g, ctrl.pitch_gains(theta), strict=True))
+            assert ctrl.pitch_gains(theta) == g
+            assert all(
+                _close(a, b) for a, b in zip(g, oracle_pitch_gains(ctrl, theta), strict=True)
+            )
         regimes.add(want.regime)
         winds.append(want.wind_speed_estimated_m_s)
     if tsr:

@@ -23,7 +23,8 @@ row_dtype`) for :meth:`hil.runlog.writer.BackgroundRunLog.publish_block`:
    publish order (:func:`_summary_row`, ``PlantLoop.publish_summary``).
 
 The wave forecaster's update (every ``sample_period_s``, after the runtime's checks) runs
-here for the dispersion forecaster (:func:`_dispersion_forecast`, ``ist[I_FC_KIND]`` = 1).
+here for the dispersion forecaster (:func:`controller._kernels.dispersion_forecast`,
+``fb.fi[FI_KIND]`` = 1).
 It returns before anything that needs Python (:data:`STOP_REASONS`): the update of another
 forecaster (AR, ESPRIT: the caller runs it and resumes the same cycle with ``resume`` = 1),
 a non-finite frame, a sensor suite that needs
@@ -31,7 +32,13 @@ Python, a random block to refill, the caller's limit. Wall
 clock stamps are real: :func:`monotonic_ns` reads ``CLOCK_MONOTONIC`` through
 ``clock_gettime``, the clock of ``time.monotonic_ns``.
 
-State layout: ``ist`` (int64) and ``fst`` (float64), indices ``I_*`` and ``F_*`` below.
+State: :func:`run_cycles` takes six bundles (named tuples of arrays, attribute access in
+compiled code), each built and owned by its component: the loop's own counters
+(:class:`LoopBundle`: ``ist`` int64 and ``fst`` float64, indices ``I_*`` and ``F_*``
+below), the plant's (:class:`plant._kernels.PlantBundle`), the sensor suite's
+(:class:`sensors._kernels.SuiteBundle`), the controller core's and its forecast's
+(:class:`controller._kernels.CoreBundle`, :class:`~controller._kernels.ForecastBundle`)
+and the rows (:class:`RowsBundle`).
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ import ctypes.util
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import llvmlite.binding as llvm  # type: ignore[import-untyped]
 import numpy as np
@@ -51,9 +58,33 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from bus_schemas.jit import key_cache_by, njit
-from controller._kernels import advanced_cycle, baseline_step
-from plant._kernels import TRUTH_FIELDS, TRUTH_FLOATING, advance_floating, floating_truth_into
-from sensors._kernels import suite_step
+from controller._kernels import (
+    CI_FIRST,
+    CI_KIND,
+    CI_N_GS,
+    CI_STEPS,
+    FF_ETA,
+    FF_STATUS_M,
+    FI_EST_MASK,
+    FI_GUARDED,
+    FI_KIND,
+    FI_NEXT_NS,
+    FI_STATUS_NS,
+    FI_UNSTABLE,
+    CoreBundle,
+    ForecastBundle,
+    advanced_cycle,
+    baseline_step,
+    dispersion_forecast,
+)
+from plant._kernels import (
+    TRUTH_FIELDS,
+    TRUTH_FLOATING,
+    PlantBundle,
+    advance_floating,
+    floating_truth_into,
+)
+from sensors._kernels import SuiteBundle, suite_step
 
 #: The kernels' sources composed by :func:`run_cycles` (its cache key includes them, so a
 #: change there recompiles it: numba alone keys a cache by the function's own file).
@@ -116,7 +147,6 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_K_END,  # stop before this cycle (run end, fault event)
     I_SUMMARY_EVERY,
     I_N_STEPS,
-    I_KIND,  # 0 baseline, 1 advanced
     I_LAST_SEQ,
     I_LAST_SAMPLE_NS,
     I_ACCEPTED,
@@ -130,13 +160,6 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_P_ON_TIME_RUN,  # plant watchdog
     I_FRAME_SENT_NS,
     I_PENDING,  # a timing row of the previous cycle waits (row in pending)
-    I_NEXT_FC_NS,
-    I_FC_NS,  # status wave_forecast_time_ns
-    I_EST_MASK,
-    I_UNSTABLE,
-    I_GUARDED,
-    I_STEPS,  # the advanced core's KF predict steps per period
-    I_BL_FIRST,  # baseline first call
     I_LAST_CMD_NS,  # the runtime's last command's sample time (-1: none)
     I_N_ORDER,  # rows written so far (order), and per message id below
     I_N_SENSORS,
@@ -148,17 +171,6 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_T0_CTRL,  # runtime's clock at its checks (idem)
     I_GEN_MASK_ROTOR,  # VALID_GENERATOR_SPEED
     I_ROTOR_BIT,  # VALID_ROTOR_SPEED
-    I_FC_KIND,  # 1: the dispersion forecaster runs here; 0: the caller runs it (STOP_FORECAST)
-    I_FC_HEAD,  # its ForecasterState: head, count, calls, dropped, dropped_in_window
-    I_FC_COUNT,
-    I_FC_CALLS,
-    I_FC_DROPPED,
-    I_FC_DROPPED_WIN,
-    I_FC_PERIOD_NS,  # AdvancedController._forecast_period_ns
-    I_FC_HORIZON_NS,  # AdvancedController._horizon_ns
-    I_FC_TIME_NS,  # the core state's forecast_time_ns
-    I_MASK_FC,  # AdvancedController._mask_forecast
-    I_MASK_NO_FC,  # AdvancedController._mask_no_forecast
     I_GAUGE_BIT,  # VALID_WAVE_GAUGE
     I_H_N,  # the latency histogram (LatencyHistogram): samples, max_ns, lowest, highest bin
     I_H_MAX,
@@ -174,8 +186,8 @@ MID_SENSORS, MID_COMMAND, MID_TRUTH, MID_STATUS, MID_TIMING, MID_SUMMARY = 1, 2,
     I_R_FAULTS,
     I_N_SUMMARY,  # summary rows written
     I_SIZE,
-) = range(63)
-_I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
+) = range(44)
+I_COUNTS = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 1..5
 
 (
     F_APPLIED_PITCH,
@@ -184,16 +196,48 @@ _I_COUNT = (I_N_SENSORS, I_N_COMMAND, I_N_TRUTH, I_N_STATUS, I_N_TIMING)  # mid 
     F_EFF,
     F_GEAR,  # plant gearbox ratio (truth, frame's rotor speed)
     F_DT,
-    F_ETA,  # forecast handed to advanced_cycle (NaN: none)
-    F_FC_M,  # status wave_elevation_forecast_m
     F_LAST_CMD_PITCH,
     F_LAST_CMD_TORQUE,
-    F_FC_HELD,  # the forecaster's held_m
-    F_FC_RAW,  # the core state's forecast_m (the FIR's output, valid or not)
     F_WALL_S,  # the last running summary's PlantRunResult.wall_s and sim_s
     F_SIM_S,
     F_SIZE,
-) = range(15)
+) = range(11)
+
+
+class LoopBundle(NamedTuple):
+    """The compiled loop's own state (:class:`hil.inprocess.loop.CompiledLoop` owns it).
+
+    ``ist`` (int64, ``I_*``) and ``fst`` (float64, ``F_*``): the plant loop's and the
+    controller runtime's counters, the run's constants; ``pending`` (9 int64): the timing
+    row of the previous cycle while ``ist[I_PENDING]``; ``hist``: the latency histogram's
+    counts (with ``ist[I_H_*]``).
+    """
+
+    ist: np.ndarray
+    fst: np.ndarray
+    pending: np.ndarray
+    hist: np.ndarray
+
+
+class RowsBundle(NamedTuple):
+    """A batch's messages as rows (:attr:`bus_schemas.registry.MessageType.row_dtype`, as
+    float64 with an int64 view of the same memory, ``*_i``), and ``order``, their message
+    ids in publish order."""
+
+    order: np.ndarray
+    sen: np.ndarray
+    sen_i: np.ndarray
+    cmd: np.ndarray
+    cmd_i: np.ndarray
+    tru: np.ndarray
+    tru_i: np.ndarray
+    sta: np.ndarray
+    sta_i: np.ndarray
+    tim: np.ndarray
+    tim_i: np.ndarray
+    summ: np.ndarray
+    summ_i: np.ndarray
+
 
 #: Reasons :func:`run_cycles` returns (bits may combine for END_OF_CYCLE ones).
 STOP_LIMIT = 1  # the caller's limit of cycles (or I_K_END) reached: before cycle k
@@ -322,146 +366,60 @@ def _summary_row(
 
 
 @njit
-def _dispersion_forecast(
-    ist: np.ndarray,
-    fst: np.ndarray,
-    fc_buf: np.ndarray,
-    fc_drop: np.ndarray,
-    fir: np.ndarray,
-    t_ns: int,
-    sample_m: float,
-    valid: bool,
-) -> None:
-    r"""The wave forecast of AdvancedController.step with a DispersionPredictor, in place.
-
-    :meth:`controller.forecast.DispersionPredictor.step` (the hold rule
-    ``ForecasterState._take``, the ring buffer ``ForecasterState._push``, then
-    :math:`\hat\eta_B = \sum_j h_j\,w_j` as ``np.dot(fir, window)``, which numba also
-    computes with BLAS ``ddot`` on the contiguous window), the core state's next call time
-    :math:`(\lfloor t/T_f \rfloor + 1)\,T_f` and forecast time :math:`t + t_d` (ns), then
-    what ``hil.inprocess.loop.CompiledLoop._set_forecast`` sets for the core: the forecast
-    (m) handed to it (NaN until the window has filled or when not finite), the status'
-    forecast fields and the estimator mask.
-    """
-    ist[I_FC_CALLS] += 1
-    ok = valid and math.isfinite(sample_m)
-    if ok:
-        fst[F_FC_HELD] = sample_m
-    else:
-        ist[I_FC_DROPPED] += 1
-    n = fc_drop.size
-    i = ist[I_FC_HEAD]
-    held = fst[F_FC_HELD]
-    fc_buf[i] = held
-    fc_buf[i + n] = held
-    ist[I_FC_DROPPED_WIN] += (0 if ok else 1) - (1 if fc_drop[i] else 0)
-    fc_drop[i] = not ok
-    head = i + 1 if i + 1 < n else 0
-    ist[I_FC_HEAD] = head
-    ist[I_FC_COUNT] += 1
-    forecast_m = np.dot(fir, fc_buf[head : head + n])
-    fst[F_FC_RAW] = forecast_m
-    ist[I_FC_TIME_NS] = t_ns + ist[I_FC_HORIZON_NS]
-    period = ist[I_FC_PERIOD_NS]
-    ist[I_NEXT_FC_NS] = (t_ns // period + 1) * period
-    if ist[I_FC_COUNT] >= n and math.isfinite(forecast_m):
-        fst[F_ETA] = forecast_m
-        ist[I_EST_MASK] = ist[I_MASK_FC]
-        fst[F_FC_M] = forecast_m
-        ist[I_FC_NS] = ist[I_FC_TIME_NS]
-    else:
-        fst[F_ETA] = math.nan
-        ist[I_EST_MASK] = ist[I_MASK_NO_FC]
-        fst[F_FC_M] = 0.0
-        ist[I_FC_NS] = 0
-
-
-@njit
 def run_cycles(
     limit: int,
     resume: int,
-    ist: np.ndarray,
-    fst: np.ndarray,
-    pending: np.ndarray,
-    hist: np.ndarray,
-    # plant
-    xa: np.ndarray,
-    s: np.ndarray,
-    wc: np.ndarray,
-    pc: np.ndarray,
-    po: np.ndarray,
-    wind_table: np.ndarray,
-    truth_rec: np.ndarray,
-    channel_fields: np.ndarray,
-    # sensor suite
-    sf: np.ndarray,
-    si: np.ndarray,
-    sok: np.ndarray,
-    hist_t: np.ndarray,
-    hist_v: np.ndarray,
-    rn: np.ndarray,
-    slots: np.ndarray,
-    record: np.ndarray,
-    # controller core
-    cc: np.ndarray,
-    lay: np.ndarray,
-    cv: np.ndarray,
-    cf: np.ndarray,
-    cv2: np.ndarray,
-    cf2: np.ndarray,
-    bl: np.ndarray,
-    gs: np.ndarray,
-    n_gs: int,
-    bst: np.ndarray,
-    bst2: np.ndarray,
-    # rows
-    order: np.ndarray,
-    r_sen: np.ndarray,
-    r_sen_i: np.ndarray,
-    r_cmd: np.ndarray,
-    r_cmd_i: np.ndarray,
-    r_tru: np.ndarray,
-    r_tru_i: np.ndarray,
-    r_sta: np.ndarray,
-    r_sta_i: np.ndarray,
-    r_tim: np.ndarray,
-    r_tim_i: np.ndarray,
-    # the dispersion forecaster (I_FC_KIND = 1; else empty)
-    fc_buf: np.ndarray,
-    fc_drop: np.ndarray,
-    fir: np.ndarray,
-    # the running summaries (TimingSummary rows)
-    r_sum: np.ndarray,
-    r_sum_i: np.ndarray,
+    lb: LoopBundle,
+    pb: PlantBundle,
+    sb: SuiteBundle,
+    cb: CoreBundle,
+    fb: ForecastBundle,
+    rb: RowsBundle,
 ) -> int:
     """Run cycles from ``ist[I_K]`` until a stop (module docstring); return its bits.
 
+    The bundles: the loop's own (``lb``, :class:`LoopBundle`), the plant's
+    (:class:`plant._kernels.PlantBundle`), the sensor suite's
+    (:class:`sensors._kernels.SuiteBundle`), the controller core's
+    (:class:`controller._kernels.CoreBundle`) and its wave forecast's
+    (:class:`controller._kernels.ForecastBundle`), the batch's rows (:class:`RowsBundle`).
     ``resume`` = 1 continues cycle k after :data:`STOP_FORECAST` (the caller has set the
-    forecast in ``fst``/``ist``). ``cv``/``cf`` (advanced) and ``bst`` (baseline) hold the
-    core's state on return (the kernel swaps with ``cv2``/``cf2``/``bst2`` and copies back).
-    ``pending`` (9 int64) is the timing row of the previous cycle while ``ist[I_PENDING]``;
-    ``hist`` (the latency histogram's counts, with ``ist[I_H_*]``) gets each finished
-    cycle's latency, and after a cycle k - 1 with k % ``ist[I_SUMMARY_EVERY]`` == 0 the
-    running summary is written as a row (:func:`_summary_row`) without stopping.
-    Rows are appended from ``ist[I_N_*]`` on; ``order`` gets their message ids.
+    forecast in ``fb``). ``cb.v``/``cb.f`` hold the core's state on return (the kernel
+    swaps with ``cb.v2``/``cb.f2`` and copies back). ``lb.pending`` (9 int64) is the
+    timing row of the previous cycle while ``ist[I_PENDING]``; ``lb.hist`` (the latency
+    histogram's counts, with ``ist[I_H_*]``) gets each finished cycle's latency, and after
+    a cycle k - 1 with k % ``ist[I_SUMMARY_EVERY]`` == 0 the running summary is written as
+    a row (:func:`_summary_row`) without stopping. Rows are appended from ``ist[I_N_*]``
+    on; ``rb.order`` gets their message ids.
     """
+    ist, fst, pending, hist = lb.ist, lb.fst, lb.pending, lb.hist
+    xa, s, wc, pc, po = pb.x, pb.s, pb.wc, pb.c, pb.o
+    wind_table, truth_rec, channel_fields = pb.wind_table, pb.truth_rec, pb.channel_fields
+    sf, si, sok, hist_t, hist_v = sb.f, sb.st, sb.ok, sb.hist_t, sb.hist_v
+    rn, slots, record = sb.rn, sb.slots, sb.record
+    cc, lay, bl, gs = cb.cc, cb.lay, cb.bl, cb.gs
+    ci = cb.ci
+    n_gs = ci[CI_N_GS]
+    fi, ff = fb.fi, fb.ff
+    order = rb.order
+    r_sen, r_sen_i, r_cmd, r_cmd_i = rb.sen, rb.sen_i, rb.cmd, rb.cmd_i
+    r_tru, r_tru_i, r_sta, r_sta_i = rb.tru, rb.tru_i, rb.sta, rb.sta_i
+    r_tim_i, r_sum, r_sum_i = rb.tim_i, rb.summ, rb.summ_i  # (timing rows: all int)
     period = ist[I_PERIOD_NS]
     n_steps = ist[I_N_STEPS]
     h = fst[F_H]
     dt = fst[F_DT]
     gear = fst[F_GEAR]
     eff = fst[F_EFF]
-    advanced = ist[I_KIND] == 1
+    advanced = ci[CI_KIND] == 1
     done = 0
     phase = resume
     k = ist[I_K]
     no = ist[I_N_ORDER]
-    v = cv
-    f = cf
-    v2 = cv2
-    f2 = cf2
-    b = bst
-    b2 = bst2
+    v = cb.v
+    f = cb.f
+    v2 = cb.v2
+    f2 = cb.f2
     reason = 0
     swaps = 0
     gen = 0.0
@@ -579,12 +537,11 @@ def run_cycles(
             ist[I_LAST_PUBLISH_NS] = publish_ns
             ist[I_LAST_RECEIVE_NS] = t0_ctrl
             ist[I_HEALTHY_RUN] += 1
-            if advanced and t_ns >= ist[I_NEXT_FC_NS] and ist[I_FC_KIND] == 1:
-                _dispersion_forecast(
-                    ist, fst, fc_buf, fc_drop, fir, t_ns,
-                    r_sen[ist[I_N_SENSORS] - 1, 14], (mask & ist[I_GAUGE_BIT]) != 0,
-                )  # fmt: skip
-            elif advanced and t_ns >= ist[I_NEXT_FC_NS]:
+            if advanced and t_ns >= fi[FI_NEXT_NS] and fi[FI_KIND] == 1:
+                dispersion_forecast(
+                    fb, t_ns, r_sen[ist[I_N_SENSORS] - 1, 14], (mask & ist[I_GAUGE_BIT]) != 0
+                )
+            elif advanced and t_ns >= fi[FI_NEXT_NS]:
                 ist[I_T0_RUN] = t0_run
                 ist[I_T0_CTRL] = t0_ctrl
                 reason = STOP_FORECAST | (STOP_REFILL if refill else 0)
@@ -598,7 +555,7 @@ def run_cycles(
         if advanced:
             r = advanced_cycle(
                 cc, lay, v, f, gen, pitch_m, torque_m, acc, prate, ppitch, surge, mask,
-                fst[F_ETA], dt, ist[I_STEPS], v2, f2,
+                ff[FF_ETA], dt, ci[CI_STEPS], v2, f2,
             )  # fmt: skip
             v, v2 = v2, v
             f, f2 = f2, f
@@ -609,7 +566,7 @@ def run_cycles(
             r_sta[js, 7] = r[3]
             r_sta[js, 8] = r[4]
             r_sta[js, 9] = r[5]
-            r_sta_i[js, 10] = ist[I_EST_MASK]
+            r_sta_i[js, 10] = fi[FI_EST_MASK]
             r_sta_i[js, 11] = r[6]
             r_sta[js, 12] = r[7]
             r_sta[js, 13] = r[8]
@@ -617,35 +574,35 @@ def run_cycles(
             r_sta[js, 15] = r[10]
             r_sta[js, 16] = r[11]
             r_sta[js, 17] = r[12]
-            r_sta[js, 18] = fst[F_FC_M]
-            r_sta_i[js, 19] = ist[I_FC_NS]
+            r_sta[js, 18] = ff[FF_STATUS_M]
+            r_sta_i[js, 19] = fi[FI_STATUS_NS]
             r_sta[js, 20] = r[13]
             r_sta[js, 21] = r[14]
-            r_sta_i[js, 22] = ist[I_UNSTABLE]
-            r_sta_i[js, 23] = ist[I_GUARDED]
+            r_sta_i[js, 22] = fi[FI_UNSTABLE]
+            r_sta_i[js, 23] = fi[FI_GUARDED]
         else:
-            # the TSR-tracking law's wind EKF tables travel in cc (layout in lay; module
-            # docstring of hil.inprocess.loop), empty for the K omega^2 law
+            # the TSR-tracking law's wind EKF tables travel in cc (layout in lay:
+            # controller._kernels.CoreBundle), empty for the K omega^2 law
             o1 = lay[1]
             o2 = o1 + lay[2]
             o3 = o2 + lay[3]
-            rb = baseline_step(
-                bl, gs, n_gs, ist[I_BL_FIRST] != 0, b, gen, pitch_m, torque_m, dt, b2,
+            rs = baseline_step(
+                bl, gs, n_gs, ci[CI_FIRST] != 0, v, gen, pitch_m, torque_m, dt, v2,
                 wind_m, cc[0:o1], cc[o1:o2], cc[o2:o3], cc[o3:].reshape((lay[4], 8)),
                 prate, (mask & lay[5]) != 0,
             )  # fmt: skip
-            ist[I_BL_FIRST] = 0
-            b, b2 = b2, b
+            ci[CI_FIRST] = 0
+            v, v2 = v2, v
             swaps += 1
-            th = rb[0]
-            tq = rb[1]
-            r_sta_i[js, 5] = rb[2]
-            r_sta[js, 7] = rb[3]
-            r_sta[js, 8] = rb[4]
-            r_sta[js, 9] = rb[5]
+            th = rs[0]
+            tq = rs[1]
+            r_sta_i[js, 5] = rs[2]
+            r_sta[js, 7] = rs[3]
+            r_sta[js, 8] = rs[4]
+            r_sta[js, 9] = rs[5]
             r_sta_i[js, 10] = lay[0]  # EST_WIND_SPEED for the TSR-tracking law, else 0
             r_sta_i[js, 11] = 0
-            r_sta[js, 12] = rb[6]
+            r_sta[js, 12] = rs[6]
             for q in range(13, 19):
                 r_sta[js, q] = 0.0
             r_sta_i[js, 19] = 0
@@ -717,12 +674,11 @@ def run_cycles(
     ist[I_N_ORDER] = no
     # the core's state back in the caller's arrays
     if swaps % 2 == 1:
+        cv = cb.v
+        for q in range(cv.size):
+            cv[q] = v[q]
         if advanced:
-            for q in range(cv.size):
-                cv[q] = v[q]
+            cf = cb.f
             for q in range(cf.size):
                 cf[q] = f[q]
-        else:
-            for q in range(bst.size):
-                bst[q] = b[q]
     return reason

@@ -1,18 +1,50 @@
-"""The compiled in-process loop's Python side: when it may run, its state in and out.
+"""The compiled in-process loop's Python side: when it may run, its bundles in and out.
 
 :func:`hil.inprocess.run.run_inprocess` with ``loop="compiled"`` (or ``"auto"`` when
 :func:`compiled_unsupported` finds nothing against it) runs :class:`CompiledLoop`: batches
 of cycles in :func:`hil.inprocess.kernels.run_cycles`, and every cycle the kernel hands back
 through today's path (:meth:`PlantLoop.sample`, the runtime's ``handle_frame``,
-:meth:`PlantLoop.finish_cycle`). Before a batch the state the kernel needs is read from the
-plant loop, its simulator and sensor suite, the controller runtime and its core; after it
-everything the kernel changed is written back, so the Python path (and the run's end)
-finds exactly what the Python loop would have left after the same cycles.
+:meth:`PlantLoop.finish_cycle`).
+
+The kernel takes six bundles (named tuples of arrays), each built by its owner through its
+public API: the plant simulator's (:meth:`plant.simulator.PlantSimulator.state_bundle`) and
+the sensor suite's (:attr:`sensors.channel.SensorSuite.state_bundle`) are their storage,
+advanced in place; the controller core's (``kernel_bundle``) and its wave forecast's
+(``AdvancedController.forecast_bundle``, the dispersion forecaster's ring buffer in place)
+are built by the core, which reads the cycles' end state back (``state_from_bundle(s)``);
+the loop's own counters (:class:`hil.inprocess.kernels.LoopBundle`) take the plant loop's
+and controller runtime's bookkeeping before a batch (:meth:`ControllerRuntime.counters`,
+:meth:`PlantLoop.summary_counters`) and give it back after
+(:meth:`ControllerRuntime.adopt_counters`, :meth:`PlantLoop.adopt_cycles`), so the Python
+path (and the run's end) finds exactly what the Python loop would have left after the same
+cycles.
+
+What runs in Python instead (:func:`compiled_unsupported`, each for its reason):
+
+* bus faults (the sensor link's and command channel's delays, drops and reorders: a
+  per-message schedule in Python objects) and the perfect wave preview (a bench oracle
+  published before each frame, for the casanovas-2014 cores, themselves Python);
+* the bottom-fixed plant (the kernel composes the floating plant's truth and period only),
+  sensor faults (:class:`sensors.faults.FaultSchedule`, Python per channel), channels
+  without a true value in the truth record, an analytic wind (a Python function per step);
+* a controller runtime with an injected clock, or with the wall-clock watchdog checks on
+  (frame age, silence: a paced or cross-host run, real time, where speed is not the point);
+* the controller kinds other than ``baseline``, ``lqri`` and ``lqri_ff``: ``rosco`` (the
+  DISCON shared library, called through ctypes with its own files: no kernel can call it),
+  ``lqr_wave`` (christiansen-2013) and the casanovas-2014 kinds (``no_control``,
+  ``base_torque``, ``lqr_*``; they take the perfect preview): Python cores whose steps are
+  not numba kernels. Compiling a core's step (as for the baseline and the advanced cores)
+  and giving it a ``kernel_bundle`` is the way to bring it in; until then those runs take
+  the Python loop (about 4x the CPU per cycle, still hundreds of times real time).
+
+Inside a compiled run, Python still takes single cycles the kernel stops for
+(:data:`hil.inprocess.kernels.STOP_REASONS`): the first frame of an advanced core (it starts
+its filters), a gap, the safe mode, a pacing decision, a fault event, a non-finite frame, the
+AR and ESPRIT forecasters' updates (:meth:`AdvancedController.forecast_update`).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -23,9 +55,7 @@ import numpy as np
 
 from bus_schemas import CycleTiming, SensorFrame
 from bus_schemas.messages import (
-    EST_WIND_SPEED,
     VALID_GENERATOR_SPEED,
-    VALID_PLATFORM_PITCH_RATE,
     VALID_ROTOR_SPEED,
     VALID_WAVE_GAUGE,
 )
@@ -38,12 +68,12 @@ from bus_schemas.registry import (
     TRUTH,
     MessageType,
 )
-from controller._kernels import BL_STATE_SIZE
-from controller.baseline import BaselineController, BaselineState
-from controller.forecast import DispersionPredictor
+from controller._kernels import FF_SIZE, FI_SIZE, ForecastBundle
+from controller.baseline import BaselineController
 from controller.runtime import AdvancedController
 from hil.inprocess import kernels as lk
-from hil.nodes import timing as _timing
+from hil.nodes import timing
+from hil.nodes.controller_node import RuntimeCounters
 
 if TYPE_CHECKING:
     from hil.nodes.controller_node import ControllerRuntime
@@ -51,9 +81,6 @@ if TYPE_CHECKING:
 
 #: ``publish_block(order, rows)`` of :class:`hil.runlog.writer.BackgroundRunLog`.
 PublishBlock = Callable[[np.ndarray, dict[int, np.ndarray]], None]
-#: Positions in the kernel's arguments (CompiledLoop._args) of arrays a run may replace:
-#: the plant state, wave table, ring buffers, the core's state copies, the forecaster's buffers.
-_REPLACEABLE = (6, 8, 17, 18, 24, 25, 26, 27, 45, 46)
 #: Cycles per kernel call at most (the running summaries are written inside a batch).
 BATCH = 1024
 _TYPES: tuple[MessageType, ...] = (
@@ -75,46 +102,51 @@ if [mt.message_id for mt in _TYPES] != [
 ]:
     raise ImportError("hil.inprocess.kernels.MID_* must be the registry's message ids")
 if (lk.H_BINS_PER_DECADE, lk.H_MIN_NS, lk.H_N_BINS) != (
-    _timing._BINS_PER_DECADE,
-    _timing._MIN_NS,
-    _timing._N_BINS,
+    timing.BINS_PER_DECADE,
+    timing.MIN_NS,
+    timing.N_BINS,
 ):
     raise ImportError("hil.inprocess.kernels.H_* must be hil.nodes.timing's histogram constants")
 #: (message id, its row count in ist) of the kernel's rows.
 _ROW_COUNTS = (*zip(
     (lk.MID_SENSORS, lk.MID_COMMAND, lk.MID_TRUTH, lk.MID_STATUS, lk.MID_TIMING),
-    lk._I_COUNT,
+    lk.I_COUNTS,
     strict=True,
 ), (lk.MID_SUMMARY, lk.I_N_SUMMARY))  # fmt: skip
+#: Positions in the kernel's arguments (CompiledLoop._args) of the bundles whose arrays a
+#: run may replace (the plant state and wave table, the suite's ring buffers, the forecast's).
+_REPLACEABLE = (3, 4, 5, 6)
+
+
+def _no_forecast() -> ForecastBundle:
+    """The forecast bundle of a core without a forecaster (the baseline)."""
+    return ForecastBundle(
+        np.zeros(0),
+        np.zeros(0, dtype=np.bool_),
+        np.zeros(0),
+        np.zeros(FI_SIZE, dtype=np.int64),
+        np.zeros(FF_SIZE),
+    )
 
 
 def compiled_unsupported(loop: PlantLoop, runtime: ControllerRuntime | None) -> str | None:
-    """Why the compiled loop cannot run this scenario (None: it can)."""
+    """Why the compiled loop cannot run this scenario (None: it can; the module docstring
+    says why each case stays in Python)."""
     if runtime is None:
         return "no controller runtime given"
-    sim = loop.sim
     if loop.bus_faults:
         return "bus faults"
-    if loop._preview is not None or runtime.takes_preview:
+    if loop.has_preview or runtime.takes_preview:
         return "perfect wave preview"
-    if sim.floating is None:
-        return "bottom-fixed plant"
-    if sim._faulty:
-        return "sensor faults"
-    if sim.channels is None or sim._channel_values is None:
-        return "sensor channels without a true value in the truth record"
-    if not sim._wind_table.size:
-        return "wind without a sampled record"
+    reason = loop.sim.compiled_unsupported()
+    if reason is not None:
+        return reason
     if runtime.clock is not time.monotonic_ns:
         return "controller runtime with an injected clock"
     if runtime.paced is True or not runtime.same_host_clock:
         return "wall-clock watchdog checks on"
     ctrl = runtime.controller
-    if isinstance(ctrl, AdvancedController):
-        if runtime.dt_s != ctrl.dt_s:
-            return "advanced controller at another period than its design"
-        return None
-    if isinstance(ctrl, BaselineController):
+    if isinstance(ctrl, AdvancedController | BaselineController):
         return None
     return f"controller {type(ctrl).__name__}"
 
@@ -144,6 +176,12 @@ def _array_key(a: Any) -> tuple[Any, ...] | None:
         return None
     flags = a.flags
     return (a.dtype, a.ndim, flags.c_contiguous, flags.f_contiguous, flags.writeable)
+
+
+def _bundle_key(b: tuple[Any, ...]) -> tuple[Any, ...] | None:
+    """:func:`_array_key` of every array of a bundle (None if one is not a plain ndarray)."""
+    keys = tuple(_array_key(a) for a in b)
+    return None if None in keys else keys
 
 
 class CompiledLoop:
@@ -182,81 +220,50 @@ class CompiledLoop:
         self._sig: tuple[Any, ...] = ()
         self._keys: dict[int, tuple[Any, ...] | None] = {}
         sim = loop.sim
-        self.ist = np.zeros(lk.I_SIZE, dtype=np.int64)
-        self.fst = np.zeros(lk.F_SIZE)
-        self.pending = np.zeros(9, dtype=np.int64)
-        ist, fst = self.ist, self.fst
+        suite = sim.channels
+        assert suite is not None
+        self.suite = suite
+        self.bundle = lk.LoopBundle(
+            np.zeros(lk.I_SIZE, dtype=np.int64),
+            np.zeros(lk.F_SIZE),
+            np.zeros(9, dtype=np.int64),
+            # The latency histogram's counts while the kernel records into them
+            # (hist_in_kernel; PlantLoop.hist gets them back before Python needs it).
+            np.zeros(lk.H_N_BINS, dtype=np.int64),
+        )
+        ist, fst = self.bundle.ist, self.bundle.fst
         ist[lk.I_PERIOD_NS] = loop.period_ns
-        ist[lk.I_SUMMARY_EVERY] = loop._summary_every
+        ist[lk.I_SUMMARY_EVERY] = loop.summary_every
         ist[lk.I_N_STEPS] = sim.n
         ist[lk.I_GEN_MASK_ROTOR] = VALID_GENERATOR_SPEED
         ist[lk.I_ROTOR_BIT] = VALID_ROTOR_SPEED
+        ist[lk.I_GAUGE_BIT] = VALID_WAVE_GAUGE
         fst[lk.F_H] = sim.h
-        fst[lk.F_EFF] = sim._efficiency
-        fst[lk.F_GEAR] = sim._gearbox
+        fst[lk.F_EFF] = sim.params.generator_efficiency
+        fst[lk.F_GEAR] = sim.params.gearbox_ratio
         fst[lk.F_DT] = runtime.dt_s
         ctrl = runtime.controller
+        assert isinstance(ctrl, AdvancedController | BaselineController)
+        self.ctrl = ctrl
         self.advanced = isinstance(ctrl, AdvancedController)
-        ist[lk.I_KIND] = 1 if self.advanced else 0
-        empty = np.zeros(0)
-        if self.advanced:
-            assert isinstance(ctrl, AdvancedController)
-            self.cc, self.lay = ctrl._c, ctrl._lay
-            ist[lk.I_STEPS] = ctrl._steps_at_dt
-            self.bl, self.gs, self.n_gs = empty, empty, 0
-            # the dispersion forecaster runs in the kernel; AR and ESPRIT stop it (Python)
-            fc = ctrl.forecaster
-            self.fc_kernel = type(fc) is DispersionPredictor
-            if isinstance(fc, DispersionPredictor):
-                # its taps oldest first, as step dots them; a writeable copy (the same
-                # kernel signature as the empty array of the other kinds)
-                self.fir = np.array(fc.fir[::-1], dtype=np.float64, order="C")
-            ist[lk.I_FC_KIND] = 1 if self.fc_kernel else 0
-            ist[lk.I_FC_PERIOD_NS] = ctrl._forecast_period_ns
-            ist[lk.I_FC_HORIZON_NS] = ctrl._horizon_ns
-            ist[lk.I_MASK_FC] = ctrl._mask_forecast
-            ist[lk.I_MASK_NO_FC] = ctrl._mask_no_forecast
-            ist[lk.I_GAUGE_BIT] = VALID_WAVE_GAUGE
-        else:
-            assert isinstance(ctrl, BaselineController)
-            self.bl, self.gs, self.n_gs = ctrl.kernel_arrays()
-            # the TSR-tracking law's wind EKF: its constants and Cp table in cc, and in lay
-            # the status's estimate bit, the four lengths (prm, TSR, pitch, cells) and the
-            # valid bit of the platform pitch rate
-            if ctrl.ekf is not None:
-                prm, tsr, pitch, cells = ctrl.ekf._tables
-                self.cc = np.concatenate([prm, tsr, pitch, cells.ravel()])
-                self.lay = np.array(
-                    [
-                        EST_WIND_SPEED,
-                        prm.size,
-                        tsr.size,
-                        pitch.size,
-                        cells.shape[0],
-                        VALID_PLATFORM_PITCH_RATE,
-                    ],
-                    dtype=np.int64,
-                )
-            else:
-                self.cc, self.lay = empty, np.zeros(6, dtype=np.int64)
-            self.fc_kernel = False
-        if not self.fc_kernel:
-            self.fir = np.zeros(0)
-        self.fc_buf = np.zeros(0)
-        self.fc_drop = np.zeros(0, dtype=np.bool_)
-        self.bst = np.zeros(BL_STATE_SIZE)
-        self.bst2 = np.zeros(BL_STATE_SIZE)
-        # The latency histogram's counts while the kernel records into them (hist_in_kernel;
-        # PlantLoop.hist gets them back before Python needs it: _hist_to_python).
-        self.hist = np.zeros(lk.H_N_BINS, dtype=np.int64)
+        self.core = ctrl.kernel_bundle(runtime.state, runtime.dt_s)
+        self.forecast = (
+            ctrl.forecast_bundle(runtime.state)
+            if isinstance(ctrl, AdvancedController)
+            else _no_forecast()
+        )
         self.hist_in_kernel = False
         cap = 6 * BATCH + 1
-        self.order = np.zeros(cap, dtype=np.uint8)
+        order = np.zeros(cap, dtype=np.uint8)
         self.buf = {
             mt.message_id: np.zeros((BATCH + 1, len(mt.row_dtype.names or ()))) for mt in _TYPES
         }
         self.ibuf = {mid: b.view(np.int64) for mid, b in self.buf.items()}
         self.dtypes = {mt.message_id: mt.row_dtype for mt in _TYPES}
+        b, ib = self.buf, self.ibuf
+        self.rows = lk.RowsBundle(
+            order, b[1], ib[1], b[2], ib[2], b[3], ib[3], b[4], ib[4], b[5], ib[5], b[6], ib[6]
+        )
         # Load the kernels (numba's on-disk cache, ~0.05-0.3 s) now, before the run's clock
         # starts: the plant's for the cycles Python runs (on a copy of the simulator:
         # PlantSimulator.warm_up), and this loop's (a call that stops before its first
@@ -273,107 +280,69 @@ class CompiledLoop:
     def _ready(self) -> bool:
         """True when the next cycle may start in the kernel (else Python runs it)."""
         loop, rt = self.loop, self.runtime
-        if loop.safe_state or rt.safe_mode or rt.resuming or rt._restart_core:
+        if loop.safe_state or not rt.usual_path(loop.k):
             return False
-        if rt.last_seq >= 0 and rt.last_seq != loop.k - 1:
-            return False  # a gap: the watchdog counts misses (Python)
-        if loop.t_ns >= loop._next_fault_event_ns:
+        if loop.t_ns >= loop.next_fault_event_ns:
             return False
         if self.advanced and not rt.state.flags[0]:
             return False  # the first frame starts the filters (Python)
-        if rt.paced is None and rt._paced_run + 1 >= lk.PACED_FRAMES:
-            return False
-        sim = loop.sim
-        t_s = loop.t_ns * 1e-9
-        return not (
-            sim._has_waves and abs(sim._wave_t0 + sim._wave_n * (0.5 * sim.h) - t_s) > 0.25 * sim.h
-        )
+        return loop.sim.waves_in_step(loop.t_ns * 1e-9)
 
     def _pull(self, cycles: int) -> None:
-        loop, rt, sim = self.loop, self.runtime, self.loop.sim
-        ist, fst = self.ist, self.fst
+        loop, rt = self.loop, self.runtime
+        ist, fst = self.bundle.ist, self.bundle.fst
         ist[lk.I_K] = loop.k
-        ev = loop._next_fault_event_ns
+        ev = loop.next_fault_event_ns
         k_event = -(-ev // loop.period_ns) if ev < 2**62 else cycles
         ist[lk.I_K_END] = min(cycles, k_event)
-        ist[lk.I_LAST_SEQ] = rt.last_seq
-        ist[lk.I_LAST_SAMPLE_NS] = rt.last_sample_time_ns
-        ist[lk.I_ACCEPTED] = rt.accepted
-        ist[lk.I_COMMAND_SEQ] = rt.command_seq
-        ist[lk.I_REJECTED_TOTAL] = rt.rejected_total
-        ist[lk.I_PACED_RUN] = rt._paced_run
-        ist[lk.I_PACED] = -1 if rt.paced is None else 0
-        ist[lk.I_LAST_PUBLISH_NS] = rt._last_publish_ns
-        ist[lk.I_LAST_RECEIVE_NS] = rt._last_receive_ns
-        ist[lk.I_HEALTHY_RUN] = rt.healthy_run
+        c = rt.counters()
+        ist[lk.I_LAST_SEQ] = c.last_seq
+        ist[lk.I_LAST_SAMPLE_NS] = c.last_sample_time_ns
+        ist[lk.I_ACCEPTED] = c.accepted
+        ist[lk.I_COMMAND_SEQ] = c.command_seq
+        ist[lk.I_REJECTED_TOTAL] = c.rejected_total
+        ist[lk.I_PACED_RUN] = c.paced_run
+        ist[lk.I_PACED] = -1 if c.detect_pacing else 0
+        ist[lk.I_LAST_PUBLISH_NS] = c.last_publish_ns
+        ist[lk.I_LAST_RECEIVE_NS] = c.last_receive_ns
+        ist[lk.I_HEALTHY_RUN] = c.healthy_run
         ist[lk.I_P_ON_TIME_RUN] = loop.on_time_run
         ist[lk.I_FRAME_SENT_NS] = loop.frame_sent_ns
-        pt = loop._pending_timing
+        pt = loop.pending_timing
         ist[lk.I_PENDING] = 0
         if pt is not None:
-            self.pending[:] = msgspec.structs.astuple(pt)
+            self.bundle.pending[:] = msgspec.structs.astuple(pt)
             ist[lk.I_PENDING] = 1
         fst[lk.F_APPLIED_PITCH], fst[lk.F_APPLIED_TORQUE] = loop.applied
         if not self.hist_in_kernel:
             self._hist_to_kernel()
         # what a running summary reads besides the histogram (PlantLoop.publish_summary)
-        r = loop.result
         ist[lk.I_SUMMARY_SEQ] = loop.summary_seq
         ist[lk.I_START_WALL_NS] = loop.start_wall_ns
-        ist[lk.I_R_MISSES] = r.deadline_misses
-        ist[lk.I_R_HELD] = r.commands_held
-        inbox = loop._inbox
-        ist[lk.I_R_REJECTED] = (
-            sum(inbox.rejected.values()) if inbox is not None else r.commands_rejected
-        )
-        ist[lk.I_R_LATE] = r.commands_late
-        ist[lk.I_R_SAFE_CYCLES] = r.safe_state_cycles
-        ist[lk.I_R_FAULTS] = sum(loop.count_faults(inbox).values())
-        self.xa = sim._state_array(loop.x)
-        if self.advanced:
-            st = rt.state
-            self.cv = st.values.copy()
-            self.cf = st.flags.copy()
-            self.cv2 = np.empty_like(self.cv)
-            self.cf2 = np.empty_like(self.cf)
-            self._set_forecast(st)
-        else:
-            bs = rt.state
-            ist[lk.I_BL_FIRST] = 1 if bs.first_call else 0
-            self.bst[:] = (
-                bs.lpf_z1,
-                bs.lpf_z2,
-                bs.generator_speed_filtered_rad_s,
-                bs.pitch_speed_error_integral_rad,
-                bs.torque_speed_error_integral_rad,
-                bs.blade_pitch_commanded_rad,
-                bs.generator_torque_commanded_nm,
-                bs.wind_filtered_m_s,
-                bs.setpoint_shift_rad_s,
-                bs.min_pitch_rad,
-                *bs.wind_ekf_x,
-                *bs.wind_ekf_p,
-                bs.fl_hpf_lp,
-                bs.fl_lpf_z1,
-                bs.fl_lpf_z2,
-                bs.platform_pitch_rate_rad_s,
-            )
-            self.cv, self.cv2 = np.zeros(0), np.zeros(0)
-            self.cf, self.cf2 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        (
+            ist[lk.I_R_MISSES],
+            ist[lk.I_R_HELD],
+            ist[lk.I_R_REJECTED],
+            ist[lk.I_R_LATE],
+            ist[lk.I_R_SAFE_CYCLES],
+            ist[lk.I_R_FAULTS],
+        ) = loop.summary_counters()
+        ctrl = self.ctrl
+        ctrl.load_bundle(self.core, rt.state)
+        if isinstance(ctrl, AdvancedController):
+            self.forecast = ctrl.forecast_bundle(rt.state)
         ist[lk.I_N_ORDER] = 0
-        for i in lk._I_COUNT:
+        for i in lk.I_COUNTS:
             ist[i] = 0
         ist[lk.I_N_SUMMARY] = 0
         self._check_kernel_types()
 
     def _hist_to_kernel(self) -> None:
         """The plant loop's latency histogram into the kernel's copy (Python recorded last)."""
-        h, ist = self.loop.hist, self.ist
-        self.hist[:] = h.counts
-        ist[lk.I_H_N] = h.n
-        ist[lk.I_H_MAX] = h.max_ns
-        ist[lk.I_H_LO] = h._lo
-        ist[lk.I_H_HI] = h._hi
+        counts, n, max_ns, lo, hi = self.loop.hist.bins()
+        ist = self.bundle.ist
+        self.bundle.hist[:] = counts
+        ist[lk.I_H_N], ist[lk.I_H_MAX], ist[lk.I_H_LO], ist[lk.I_H_HI] = n, max_ns, lo, hi
         self.hist_in_kernel = True
 
     def _hist_to_python(self) -> None:
@@ -381,136 +350,66 @@ class CompiledLoop:
         or reads it: a cycle Python runs, the run's end)."""
         if not self.hist_in_kernel:
             return
-        h, ist = self.loop.hist, self.ist
-        h.counts = self.hist.tolist()
-        h.n = int(ist[lk.I_H_N])
-        h.max_ns = int(ist[lk.I_H_MAX])
-        h._lo = int(ist[lk.I_H_LO])
-        h._hi = int(ist[lk.I_H_HI])
+        ist = self.bundle.ist
+        self.loop.hist.set_bins(
+            self.bundle.hist.tolist(),
+            int(ist[lk.I_H_N]),
+            int(ist[lk.I_H_MAX]),
+            int(ist[lk.I_H_LO]),
+            int(ist[lk.I_H_HI]),
+        )
         self.hist_in_kernel = False
 
-    def _set_forecast(self, st: Any) -> None:
-        """The forecast part of the advanced core's state as AdvancedController.step reads it."""
-        ctrl = self.runtime.controller
-        assert isinstance(ctrl, AdvancedController)
-        ist, fst = self.ist, self.fst
-        fstate = st.forecaster
-        ok = fstate.filled and math.isfinite(st.forecast_m)
-        ist[lk.I_NEXT_FC_NS] = st.next_forecast_ns
-        fst[lk.F_ETA] = float(st.forecast_m) if ok else math.nan
-        if ok:
-            ist[lk.I_EST_MASK] = ctrl._mask_forecast
-            fst[lk.F_FC_M] = st.forecast_m
-            ist[lk.I_FC_NS] = st.forecast_time_ns
-        else:
-            ist[lk.I_EST_MASK] = ctrl._mask_no_forecast
-            fst[lk.F_FC_M] = 0.0
-            ist[lk.I_FC_NS] = 0
-        ist[lk.I_UNSTABLE] = fstate.unstable_fits
-        ist[lk.I_GUARDED] = fstate.guarded
-        if self.fc_kernel:  # the kernel's forecaster works on this state (arrays in place)
-            self.fc_buf = fstate.buffer
-            self.fc_drop = fstate.drop_flags
-            ist[lk.I_FC_HEAD] = fstate.head
-            ist[lk.I_FC_COUNT] = fstate.count
-            ist[lk.I_FC_CALLS] = fstate.calls
-            ist[lk.I_FC_DROPPED] = fstate.dropped
-            ist[lk.I_FC_DROPPED_WIN] = fstate.dropped_in_window
-            ist[lk.I_FC_TIME_NS] = st.forecast_time_ns
-            fst[lk.F_FC_HELD] = fstate.held_m
-            fst[lk.F_FC_RAW] = st.forecast_m
-
     def _push(self, k0: int) -> None:
-        loop, rt, sim = self.loop, self.runtime, self.loop.sim
-        ist, fst = self.ist, self.fst
+        loop, rt = self.loop, self.runtime
+        ist, fst = self.bundle.ist, self.bundle.fst
         k = int(ist[lk.I_K])
         done = k - k0
         loop.frame_sent_ns = int(ist[lk.I_FRAME_SENT_NS])
-        rt._paced_run = int(ist[lk.I_PACED_RUN])
-        rt._last_publish_ns = int(ist[lk.I_LAST_PUBLISH_NS])
-        rt._last_receive_ns = int(ist[lk.I_LAST_RECEIVE_NS])
-        rt.healthy_run = int(ist[lk.I_HEALTHY_RUN])
-        loop._pending_timing = CycleTiming(*self.pending.tolist()) if ist[lk.I_PENDING] else None
-        if done == 0:
-            return
-        self.kernel_cycles += done
-        rt._silence_counted = 0
-        rt.consecutive_misses = 0
-        loop.k = k
-        loop.result.cycles = k
-        loop.consecutive_misses = 0
-        loop.on_time_run = int(ist[lk.I_P_ON_TIME_RUN])
-        loop.applied = (float(fst[lk.F_APPLIED_PITCH]), float(fst[lk.F_APPLIED_TORQUE]))
-        y = tuple(self.xa.tolist())
-        sim._x_tuple = y
-        sim._truth_of_rec = None
-        loop.x = y
-        sim._wave_n += 2 * sim.n * done
-        rt.last_seq = int(ist[lk.I_LAST_SEQ])
-        rt.last_sample_time_ns = int(ist[lk.I_LAST_SAMPLE_NS])
-        rt.accepted = int(ist[lk.I_ACCEPTED])
-        rt.command_seq = int(ist[lk.I_COMMAND_SEQ])
-        rt._last_command = (
+        counters = RuntimeCounters(
+            int(ist[lk.I_LAST_SEQ]),
+            int(ist[lk.I_LAST_SAMPLE_NS]),
+            int(ist[lk.I_ACCEPTED]),
+            int(ist[lk.I_COMMAND_SEQ]),
+            int(ist[lk.I_REJECTED_TOTAL]),
+            int(ist[lk.I_PACED_RUN]),
+            bool(ist[lk.I_PACED] < 0),
+            int(ist[lk.I_LAST_PUBLISH_NS]),
+            int(ist[lk.I_LAST_RECEIVE_NS]),
+            int(ist[lk.I_HEALTHY_RUN]),
+        )
+        last_command = (
             float(fst[lk.F_LAST_CMD_PITCH]),
             float(fst[lk.F_LAST_CMD_TORQUE]),
             int(ist[lk.I_LAST_CMD_NS]),
         )
-        if self.advanced:
-            st = rt.state
-            fstate = st.forecaster
-            if self.fc_kernel and int(ist[lk.I_FC_CALLS]) != fstate.calls:
-                # the kernel's forecaster calls (buffer and drop flags changed in place)
-                fstate.head = int(ist[lk.I_FC_HEAD])
-                fstate.count = int(ist[lk.I_FC_COUNT])
-                fstate.calls = int(ist[lk.I_FC_CALLS])
-                fstate.held_m = float(fst[lk.F_FC_HELD])
-                fstate.dropped = int(ist[lk.I_FC_DROPPED])
-                fstate.dropped_in_window = int(ist[lk.I_FC_DROPPED_WIN])
-                rt.state = st._replace(
-                    values=self.cv,
-                    flags=self.cf,
-                    next_forecast_ns=int(ist[lk.I_NEXT_FC_NS]),
-                    forecast_m=float(fst[lk.F_FC_RAW]),
-                    forecast_time_ns=int(ist[lk.I_FC_TIME_NS]),
-                )
-            else:
-                rt.state = st._replace(values=self.cv, flags=self.cf)
+        rt.adopt_counters(counters, done, last_command)
+        pending = self.bundle.pending
+        loop.pending_timing = CycleTiming(*pending.tolist()) if ist[lk.I_PENDING] else None
+        if done == 0:
+            return
+        self.kernel_cycles += done
+        applied = (float(fst[lk.F_APPLIED_PITCH]), float(fst[lk.F_APPLIED_TORQUE]))
+        loop.adopt_cycles(k, int(ist[lk.I_P_ON_TIME_RUN]), applied)
+        ctrl = self.ctrl
+        if isinstance(ctrl, AdvancedController):
+            rt.state = ctrl.state_from_bundles(rt.state, self.core, self.forecast)
         else:
-            b = self.bst.tolist()
-            rt.state = BaselineState(
-                False,
-                b[0],
-                b[1],
-                b[2],
-                b[3],
-                b[4],
-                b[5],
-                b[6],
-                b[7],
-                b[8],
-                b[9],
-                (b[10], b[11], b[12]),
-                (b[13], b[14], b[15], b[16], b[17], b[18]),
-                b[19],
-                b[20],
-                b[21],
-                b[22],
-            )
+            rt.state = ctrl.state_from_bundle(self.core)
         n_summary = int(ist[lk.I_N_SUMMARY])
         if n_summary:  # what publish_summary leaves besides the message
             self.summaries += n_summary
-            loop.summary_seq = int(ist[lk.I_SUMMARY_SEQ])
-            r = loop.result
-            r.wall_s, r.sim_s = float(fst[lk.F_WALL_S]), float(fst[lk.F_SIM_S])
-            loop.count_faults(loop._inbox)
+            loop.adopt_summaries(
+                int(ist[lk.I_SUMMARY_SEQ]), float(fst[lk.F_WALL_S]), float(fst[lk.F_SIM_S])
+            )
 
     # ------------------------------------------------------------------ rows out
     def _publish_rows(self) -> None:
-        ist = self.ist
+        ist = self.bundle.ist
         n = int(ist[lk.I_N_ORDER])
         if n == 0:
             return
-        order = self.order[:n]
+        order = self.rows.order[:n]
         rows = {}
         for mid, idx in _ROW_COUNTS:
             c = int(ist[idx])
@@ -525,29 +424,27 @@ class CompiledLoop:
 
     # ------------------------------------------------------------------ the run
     def _args(self, resume: int, limit: int) -> tuple[Any, ...]:
-        sim = self.loop.sim
-        ch = sim.channels
-        assert ch is not None
+        """The kernel's arguments: the caller's two ints and the six bundles (the plant's
+        and the suite's taken from them now: their arrays are their storage)."""
         return (
-            limit, resume, self.ist, self.fst, self.pending, self.hist,
-            self.xa, sim._s, sim._wc, sim._c, sim._o, sim._wind_table, sim._truth_rec,
-            sim._channel_fields,
-            ch._f, ch._i, ch._ok, ch._hist_t, ch._hist_v, ch._rn, sim._slots, sim._record,
-            self.cc, self.lay, self.cv, self.cf, self.cv2, self.cf2,
-            self.bl, self.gs, self.n_gs, self.bst, self.bst2,
-            self.order,
-            self.buf[1], self.ibuf[1], self.buf[2], self.ibuf[2], self.buf[3], self.ibuf[3],
-            self.buf[4], self.ibuf[4], self.buf[5], self.ibuf[5],
-            self.fc_buf, self.fc_drop, self.fir, self.buf[6], self.ibuf[6],
-        )  # fmt: skip
+            limit,
+            resume,
+            self.bundle,
+            self.loop.sim.state_bundle(self.loop.x),
+            self.suite.state_bundle,
+            self.core,
+            self.forecast,
+            self.rows,
+        )
 
     def _bind_kernel(self) -> None:
         """Call the kernel's compiled entry point for this run's argument types directly.
 
-        numba's dispatcher types every argument on every call (about 9 us for these 48;
-        the entry point of the matching compiled signature about 5 us). The types are those
-        of the limit-0 call just made through the dispatcher, and stay so for the run (the
-        arrays are the run's own, and the per-batch copies keep dtype and layout).
+        numba's dispatcher types every argument on every call (about 9 us for the arrays of
+        these bundles; the entry point of the matching compiled signature about 5 us). The
+        types are those of the limit-0 call just made through the dispatcher, and stay so
+        for the run (the bundles are the run's own, and the arrays a run may replace keep
+        dtype and layout).
         """
         kernel = lk.run_cycles
         overloads = getattr(kernel, "overloads", None)  # (a wrapped kernel: benchmarks)
@@ -559,28 +456,28 @@ class CompiledLoop:
         if cres is not None:
             self._kernel = cres.entry_point
             self._sig = sig
-            self._keys = {i: _array_key(args[i]) for i in _REPLACEABLE}
+            self._keys = {i: _bundle_key(args[i]) for i in _REPLACEABLE}
 
     def _check_kernel_types(self) -> None:
-        """Before a batch: the arrays that may be replaced during a run (the state, the
-        core's copies, the wave table, the ring buffers) still have the bound types, else
-        the dispatcher takes over (an entry point does not check its arguments' types).
+        """Before a batch: the bundles whose arrays may be replaced during a run (the plant
+        state and wave table, the suite's ring buffers, the forecast's) still have the
+        bound types, else the dispatcher takes over (an entry point does not check its
+        arguments' types).
 
         An array's numba type is a function of what :func:`_array_key` reads (numba's
-        ``typeof`` of an ndarray: dtype, dimensions, layout, writeable); where that differs
-        from the bound one's, or for anything but a plain ndarray, ``numba.typeof``
-        decides (about 10 us an array, against 0.3 us for the key).
+        ``typeof`` of an ndarray: dtype, dimensions, layout, writeable); where a bundle's
+        keys differ from the bound ones, ``numba.typeof`` decides (about 10 us an array,
+        against 0.3 us for the key).
         """
         if self._kernel is None:
             return
         args = self._args(0, 0)
         keys = self._keys
         for i in _REPLACEABLE:
-            a = args[i]
-            key = _array_key(a)
+            key = _bundle_key(args[i])
             if key is not None and key == keys[i]:
                 continue
-            if numba.typeof(a) != self._sig[i]:
+            if numba.typeof(args[i]) != self._sig[i]:
                 self._kernel = None
                 return
 
@@ -605,30 +502,21 @@ class CompiledLoop:
         return reason
 
     def _last_frame(self) -> SensorFrame:
-        j = int(self.ist[lk.I_N_SENSORS]) - 1
+        j = int(self.bundle.ist[lk.I_N_SENSORS]) - 1
         row = self.buf[lk.MID_SENSORS][j : j + 1].view(self.dtypes[lk.MID_SENSORS])
         return SensorFrame(*row.ravel().tolist()[0])
 
     def _forecast(self) -> None:
         """The forecaster's update of AdvancedController.step on cycle k's frame."""
         rt = self.runtime
-        ctrl = rt.controller
+        ctrl = self.ctrl
         assert isinstance(ctrl, AdvancedController)
-        j = int(self.ist[lk.I_N_SENSORS]) - 1
+        j = int(self.bundle.ist[lk.I_N_SENSORS]) - 1
         row = self.buf[lk.MID_SENSORS][j]
         mask = int(self.ibuf[lk.MID_SENSORS][j, 3])
         t_ns = int(self.ibuf[lk.MID_SENSORS][j, 1])
-        st = rt.state
-        fstate, next_ns, forecast_m, forecast_ns = ctrl.forecast_update(
-            st, t_ns, float(row[14]), bool(mask & VALID_WAVE_GAUGE)
-        )
-        rt.state = st._replace(
-            forecaster=fstate,
-            next_forecast_ns=next_ns,
-            forecast_m=forecast_m,
-            forecast_time_ns=forecast_ns,
-        )
-        self._set_forecast(rt.state)
+        rt.state = ctrl.with_forecast(rt.state, t_ns, float(row[14]), bool(mask & VALID_WAVE_GAUGE))
+        self.forecast = ctrl.forecast_bundle(rt.state)
 
     def _python_cycle(self) -> None:
         self._hist_to_python()
@@ -644,9 +532,7 @@ class CompiledLoop:
         """Run the plant loop's cycles up to ``cycles`` (the run's end), or until
         ``stopped()`` is true when a batch is to start (a signal asked the run to end)."""
         loop = self.loop
-        sim = loop.sim
-        ch = sim.channels
-        assert ch is not None
+        suite = self.suite
         clock = time.monotonic_ns
         while loop.k < cycles:
             if stopped is not None and stopped():
@@ -659,14 +545,14 @@ class CompiledLoop:
             reason = self._call(0)
             while reason & lk.STOP_FORECAST:
                 if reason & lk.STOP_REFILL:
-                    ch._refill()
+                    suite.refill()
                 self._forecast()
                 # the same batch's rows go on: at most BATCH cycles in all, cycle k included
-                reason = self._call(1, BATCH - (int(self.ist[lk.I_K]) - k0))
+                reason = self._call(1, BATCH - (int(self.bundle.ist[lk.I_K]) - k0))
             self._push(k0)
             self._publish_rows()
             if reason & lk.STOP_REFILL:
-                ch._refill()
+                suite.refill()
             if reason & lk.STOP_FRAME:  # Python's handle_frame decides on this frame
                 self._hist_to_python()
                 frame = self._last_frame()

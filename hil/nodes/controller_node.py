@@ -92,7 +92,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgspec
 import numpy as np
@@ -178,6 +178,24 @@ def seq_window(control_period_s: float, watchdog_misses: int) -> int:
     miss limit N: a gap the watchdog acts on is always plausible.
     """
     return max(math.ceil(PLAUSIBLE_GAP_S / control_period_s - 1e-9), 2 * watchdog_misses)
+
+
+class RuntimeCounters(NamedTuple):
+    """The controller runtime's bookkeeping on :meth:`ControllerRuntime.handle_frame`'s usual
+    path (:meth:`ControllerRuntime.counters`): sequence, sample time (ns), frames accepted,
+    next command seq, frames rejected, the pacing detector's run, whether it still detects,
+    the last frame's publish and receive times (ns), the healthy run."""
+
+    last_seq: int
+    last_sample_time_ns: int
+    accepted: int
+    command_seq: int
+    rejected_total: int
+    paced_run: int
+    detect_pacing: bool
+    last_publish_ns: int
+    last_receive_ns: int
+    healthy_run: int
 
 
 class ControllerRuntime:
@@ -287,6 +305,52 @@ class ControllerRuntime:
         # The last published command: (pitch rad, torque N m, its frame's sample time ns).
         self._last_command: tuple[float, float, int] | None = None
         self._restart_core = False
+
+    # ------------------------------------------------------------ compiled loop
+    def usual_path(self, seq: int) -> bool:
+        """True when frame ``seq`` would take :meth:`handle_frame`'s usual path: not in or
+        leaving the safe mode, no gap in the sequence, no pacing decision due (a compiled
+        twin of the path may then run it; wall-clock checks are the caller's to rule out)."""
+        if self.safe_mode or self.resuming or self._restart_core:
+            return False
+        if self.last_seq >= 0 and self.last_seq != seq - 1:
+            return False  # a gap: the watchdog counts misses
+        return not (self.paced is None and self._paced_run + 1 >= PACED_FRAMES)
+
+    def counters(self) -> RuntimeCounters:
+        """What :meth:`handle_frame`'s usual path reads and writes besides the core."""
+        return RuntimeCounters(
+            self.last_seq,
+            self.last_sample_time_ns,
+            self.accepted,
+            self.command_seq,
+            self.rejected_total,
+            self._paced_run,
+            self.paced is None,
+            self._last_publish_ns,
+            self._last_receive_ns,
+            self.healthy_run,
+        )
+
+    def adopt_counters(
+        self, c: RuntimeCounters, frames: int, last_command: tuple[float, float, int]
+    ) -> None:
+        """Take back :meth:`counters` after a compiled twin of the usual path handled
+        ``frames`` frames (0: only the watchdog's pacing figures may have moved), the last
+        of them answered with ``last_command`` (pitch rad, torque N m, sample time ns)."""
+        self._paced_run = c.paced_run
+        self._last_publish_ns = c.last_publish_ns
+        self._last_receive_ns = c.last_receive_ns
+        self.healthy_run = c.healthy_run
+        if frames == 0:
+            return
+        self._silence_counted = 0
+        self.consecutive_misses = 0
+        self.last_seq = c.last_seq
+        self.last_sample_time_ns = c.last_sample_time_ns
+        self.accepted = c.accepted
+        self.command_seq = c.command_seq
+        self._last_command = last_command
 
     @property
     def rejected_total(self) -> int:

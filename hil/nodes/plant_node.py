@@ -491,6 +491,67 @@ class PlantLoop:
             **dict(zip(WAVE_PREVIEW_FIELDS, force.tolist(), strict=True)),
         )
 
+    # ------------------------------------------------------------ compiled loop
+    @property
+    def has_preview(self) -> bool:
+        """True when the loop publishes the perfect wave preview before each frame."""
+        return self._preview is not None
+
+    @property
+    def summary_every(self) -> int:
+        """Cycles per running timing summary (one simulated second)."""
+        return self._summary_every
+
+    @property
+    def next_fault_event_ns(self) -> int:
+        """Simulated time of the next fault switching on or off (ns; far future: none)."""
+        return self._next_fault_event_ns
+
+    @property
+    def pending_timing(self) -> CycleTiming | None:
+        """The previous cycle's timing record, published with the next frame."""
+        return self._pending_timing
+
+    @pending_timing.setter
+    def pending_timing(self, value: CycleTiming | None) -> None:
+        self._pending_timing = value
+
+    def summary_counters(self) -> tuple[int, int, int, int, int, int]:
+        """What a running summary counts besides the latencies: deadline misses, commands
+        held, rejected (so far, the bus inbox's count), late, safe-state cycles, faults."""
+        r = self.result
+        inbox = self._inbox
+        rejected = sum(inbox.rejected.values()) if inbox is not None else r.commands_rejected
+        faults = sum(self.count_faults(inbox).values())
+        return (
+            r.deadline_misses,
+            r.commands_held,
+            rejected,
+            r.commands_late,
+            r.safe_state_cycles,
+            faults,
+        )
+
+    def adopt_cycles(self, k: int, on_time_run: int, applied: tuple[float, float]) -> None:
+        """Take over cycles up to ``k`` that a compiled twin of :meth:`sample` and
+        :meth:`finish_cycle` ran on time, not in the safe state, on this loop's simulator
+        (:meth:`plant.simulator.PlantSimulator.adopt_periods`)."""
+        self.x = self.sim.adopt_periods(k - self.k)
+        self.k = k
+        self.result.cycles = k
+        self.consecutive_misses = 0
+        self.on_time_run = on_time_run
+        self.applied = applied
+
+    def adopt_summaries(self, summary_seq: int, wall_s: float, sim_s: float) -> None:
+        """After a compiled twin published running summaries: the next summary's seq and
+        what :meth:`publish_summary` leaves in the result (wall and simulated seconds,
+        the fault counters)."""
+        self.summary_seq = summary_seq
+        r = self.result
+        r.wall_s, r.sim_s = wall_s, sim_s
+        self.count_faults(self._inbox)
+
     @property
     def bus_faults(self) -> bool:
         """True when the scenario has bus faults (the loops take the faulted path)."""

@@ -22,6 +22,8 @@ _BINS_PER_DECADE = 120
 _MIN_NS = 1_000  # 1 us
 _DECADES = 8  # up to 100 s
 _N_BINS = _BINS_PER_DECADE * _DECADES + 2  # below 1 us, the log bins, the top (overflow) bin
+#: The bins' layout, for a compiled twin of :meth:`LatencyHistogram.record`.
+BINS_PER_DECADE, MIN_NS, N_BINS = _BINS_PER_DECADE, _MIN_NS, _N_BINS
 _log10 = math.log10
 
 
@@ -54,6 +56,18 @@ class LatencyHistogram:
             self._lo = idx
         if latency_ns > self.max_ns:  # noqa: PLR1730 - (max() is a call per cycle)
             self.max_ns = latency_ns
+
+    def bins(self) -> tuple[list[int], int, int, int, int]:
+        """(counts, samples, maximum ns, lowest and highest occupied bin: N_BINS and -1
+        when empty): everything :meth:`record` changes, for a compiled twin of it."""
+        return self.counts, self.n, self.max_ns, self._lo, self._hi
+
+    def set_bins(self, counts: list[int], n: int, max_ns: int, lo: int, hi: int) -> None:
+        """Take the state of :meth:`bins` back (after a compiled twin recorded into it)."""
+        if len(counts) != _N_BINS:
+            raise ValueError(f"expected {_N_BINS} bins, got {len(counts)}")
+        self.counts = counts
+        self.n, self.max_ns, self._lo, self._hi = n, max_ns, lo, hi
 
     def observe_max(self, latency_ns: int) -> None:
         """Raise the exact maximum to ``latency_ns`` without adding a sample to the bins.
