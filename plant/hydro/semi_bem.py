@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -36,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from plant.hydro.bem import _import_capytaine
-from plant.hydro.spar_bem import profile_hydrostatics
+from plant.hydro.spar_bem import profile_hydrostatics, solve_three_dofs
 from plant.hydro.wamit import ExcitationData, HydroData, RadiationData
 
 FloatArray = NDArray[np.float64]
@@ -158,42 +157,9 @@ def semi_bem(
     parts = [_column_mesh(cpt, col, panel_m, n_theta) for col in columns]
     hull = cpt.Mesh.join_meshes(*[h for h, _ in parts])
     lid = cpt.Mesh.join_meshes(*[lid for _, lid in parts])
-    dofs = cpt.rigid_body_dofs(only=list(_DOFS), rotation_center=(0.0, 0.0, 0.0))
-    body = cpt.FloatingBody(mesh=hull, dofs=dofs, lid_mesh=lid, name="semi")
-    depth = None if math.isinf(depth_m) else float(depth_m)
-    common = {"body": body, "water_depth": depth, "rho": rho_kg_m3, "g": g_m_s2}
-    problems = [
-        cpt.RadiationProblem(omega=float(x), radiating_dof=d, **common) for x in w for d in _DOFS
-    ]
-    problems += [cpt.DiffractionProblem(omega=float(x), wave_direction=0.0, **common) for x in w]
-    inf_problems = [cpt.RadiationProblem(omega=np.inf, radiating_dof=d, **common) for d in _DOFS]
-    solver = cpt.BEMSolver()
-    t0 = time.perf_counter()
-    results = solver.solve_all(problems + inf_problems, progress_bar=False)
-    elapsed = time.perf_counter() - t0
-    finite = results[: len(problems)]
-    inf_results = results[len(problems) :]
-    ds = cpt.assemble_dataset(finite, hydrostatics=False)
-    omega_ds = np.asarray(ds["omega"].values, dtype=np.float64)
-    order = np.argsort(omega_ds)
-    n = omega_ds.size
-    added = np.zeros((n, 3, 3))
-    damp = np.zeros((n, 3, 3))
-    exc = np.zeros((n, 1, 3), dtype=np.complex128)
-    for i, di in enumerate(_DOFS):
-        for j, dj in enumerate(_DOFS):
-            sel = {"radiating_dof": dj, "influenced_dof": di}
-            added[:, i, j] = np.asarray(ds["added_mass"].sel(**sel).values)[order]
-            damp[:, i, j] = np.asarray(ds["radiation_damping"].sel(**sel).values)[order]
-        x = ds["excitation_force"].sel(influenced_dof=di, wave_direction=0.0)
-        exc[:, 0, i] = np.conj(np.asarray(x.values, dtype=np.complex128).reshape(-1)[order])
-    a_inf = np.zeros((3, 3))
-    for j, res in enumerate(inf_results):
-        for i, di in enumerate(_DOFS):
-            a_inf[i, j] = float(res.added_mass[di])
-    a_inf = 0.5 * (a_inf + a_inf.T)
-    added = 0.5 * (added + added.transpose(0, 2, 1))
-    damp = 0.5 * (damp + damp.transpose(0, 2, 1))
+    omega_ds, order, added, damp, exc, a_inf, elapsed = solve_three_dofs(
+        cpt, hull, lid, "semi", w, depth_m, rho_kg_m3, g_m_s2
+    )
     vol, _, _, c_hst = columns_hydrostatics(columns, rho_kg_m3, g_m_s2)
     hydro = HydroData(
         radiation=RadiationData(
@@ -216,7 +182,8 @@ def semi_bem(
     desc = (
         f"{len(columns)} columns, {vol:.1f} m^3, depth {depth_m:g} m; "
         f"{int(getattr(hull, 'nb_faces', 0))} hull panels (panel {panel_m:g} m, {n_theta} "
-        f"around) + lids; {n} frequencies {omega_ds.min():g}..{omega_ds.max():g} rad/s; "
+        f"around) + lids; {omega_ds.size} frequencies "
+        f"{omega_ds.min():g}..{omega_ds.max():g} rad/s; "
         f"capytaine {getattr(cpt, '__version__', '?')}; {elapsed:.1f} s"
     )
     return hydro, desc

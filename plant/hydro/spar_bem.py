@@ -37,6 +37,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -120,6 +121,67 @@ def _hull_mesh(cpt: object, profile: Sequence[tuple[float, float]], panel_m: flo
     return hull, lid
 
 
+def solve_three_dofs(
+    cpt: Any,
+    hull: Any,
+    lid: Any,
+    name: str,
+    w: NDArray[np.float64],
+    depth_m: float,
+    rho_kg_m3: float,
+    g_m_s2: float,
+) -> tuple[
+    NDArray[np.float64],
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.complex128],
+    NDArray[np.float64],
+    float,
+]:
+    """Radiation (finite and infinite frequency) and diffraction of a hull in surge, heave
+    and pitch (module docstring): (ω sorted, their order in the solver's dataset, A(ω),
+    B(ω), X(ω) for waves along +x conjugated to exp(+iωt), A_∞, the solver's wall time s),
+    the matrices symmetrised."""
+    dofs = cpt.rigid_body_dofs(only=list(_DOFS), rotation_center=(0.0, 0.0, 0.0))
+    body = cpt.FloatingBody(mesh=hull, dofs=dofs, lid_mesh=lid, name=name)
+    depth = None if math.isinf(depth_m) else float(depth_m)
+    common = {"body": body, "water_depth": depth, "rho": rho_kg_m3, "g": g_m_s2}
+    problems = [
+        cpt.RadiationProblem(omega=float(x), radiating_dof=d, **common) for x in w for d in _DOFS
+    ]
+    problems += [cpt.DiffractionProblem(omega=float(x), wave_direction=0.0, **common) for x in w]
+    inf_problems = [cpt.RadiationProblem(omega=np.inf, radiating_dof=d, **common) for d in _DOFS]
+    solver = cpt.BEMSolver()
+    t0 = time.perf_counter()
+    results = solver.solve_all(problems + inf_problems, progress_bar=False)
+    elapsed = time.perf_counter() - t0
+    finite = results[: len(problems)]
+    inf_results = results[len(problems) :]
+    ds = cpt.assemble_dataset(finite, hydrostatics=False)
+    omega_ds = np.asarray(ds["omega"].values, dtype=np.float64)
+    order = np.argsort(omega_ds)
+    n = omega_ds.size
+    added = np.zeros((n, 3, 3))
+    damp = np.zeros((n, 3, 3))
+    exc = np.zeros((n, 1, 3), dtype=np.complex128)
+    for i, di in enumerate(_DOFS):
+        for j, dj in enumerate(_DOFS):
+            sel = {"radiating_dof": dj, "influenced_dof": di}
+            added[:, i, j] = np.asarray(ds["added_mass"].sel(**sel).values)[order]
+            damp[:, i, j] = np.asarray(ds["radiation_damping"].sel(**sel).values)[order]
+        x = ds["excitation_force"].sel(influenced_dof=di, wave_direction=0.0)
+        exc[:, 0, i] = np.conj(np.asarray(x.values, dtype=np.complex128).reshape(-1)[order])
+    a_inf = np.zeros((3, 3))
+    for j, res in enumerate(inf_results):
+        for i, di in enumerate(_DOFS):
+            a_inf[i, j] = float(res.added_mass[di])
+    a_inf = 0.5 * (a_inf + a_inf.T)
+    added = 0.5 * (added + added.transpose(0, 2, 1))
+    damp = 0.5 * (damp + damp.transpose(0, 2, 1))
+    return omega_ds, order, added, damp, exc, a_inf, elapsed
+
+
 def spar_bem(
     omega_rad_s: Sequence[float] | FloatArray,
     profile: Sequence[tuple[float, float]] = OC3_HYWIND_PROFILE,
@@ -160,42 +222,9 @@ def spar_bem(
         raise ValueError("spar_bem: the depth must exceed the draft")
     cpt = _import_capytaine()
     hull, lid = _hull_mesh(cpt, profile, panel_m, n_theta)
-    dofs = cpt.rigid_body_dofs(only=list(_DOFS), rotation_center=(0.0, 0.0, 0.0))
-    body = cpt.FloatingBody(mesh=hull, dofs=dofs, lid_mesh=lid, name="spar")
-    depth = None if math.isinf(depth_m) else float(depth_m)
-    common = {"body": body, "water_depth": depth, "rho": rho_kg_m3, "g": g_m_s2}
-    problems = [
-        cpt.RadiationProblem(omega=float(x), radiating_dof=d, **common) for x in w for d in _DOFS
-    ]
-    problems += [cpt.DiffractionProblem(omega=float(x), wave_direction=0.0, **common) for x in w]
-    inf_problems = [cpt.RadiationProblem(omega=np.inf, radiating_dof=d, **common) for d in _DOFS]
-    solver = cpt.BEMSolver()
-    t0 = time.perf_counter()
-    results = solver.solve_all(problems + inf_problems, progress_bar=False)
-    elapsed = time.perf_counter() - t0
-    finite = results[: len(problems)]
-    inf_results = results[len(problems) :]
-    ds = cpt.assemble_dataset(finite, hydrostatics=False)
-    omega_ds = np.asarray(ds["omega"].values, dtype=np.float64)
-    order = np.argsort(omega_ds)
-    n = omega_ds.size
-    added = np.zeros((n, 3, 3))
-    damp = np.zeros((n, 3, 3))
-    exc = np.zeros((n, 1, 3), dtype=np.complex128)
-    for i, di in enumerate(_DOFS):
-        for j, dj in enumerate(_DOFS):
-            sel = {"radiating_dof": dj, "influenced_dof": di}
-            added[:, i, j] = np.asarray(ds["added_mass"].sel(**sel).values)[order]
-            damp[:, i, j] = np.asarray(ds["radiation_damping"].sel(**sel).values)[order]
-        x = ds["excitation_force"].sel(influenced_dof=di, wave_direction=0.0)
-        exc[:, 0, i] = np.conj(np.asarray(x.values, dtype=np.complex128).reshape(-1)[order])
-    a_inf = np.zeros((3, 3))
-    for j, res in enumerate(inf_results):
-        for i, di in enumerate(_DOFS):
-            a_inf[i, j] = float(res.added_mass[di])
-    a_inf = 0.5 * (a_inf + a_inf.T)
-    added = 0.5 * (added + added.transpose(0, 2, 1))
-    damp = 0.5 * (damp + damp.transpose(0, 2, 1))
+    omega_ds, order, added, damp, exc, a_inf, elapsed = solve_three_dofs(
+        cpt, hull, lid, "spar", w, depth_m, rho_kg_m3, g_m_s2
+    )
     _, _, c_hst = profile_hydrostatics(profile, rho_kg_m3, g_m_s2)
     hydro = HydroData(
         radiation=RadiationData(
@@ -218,7 +247,7 @@ def spar_bem(
     panels = int(getattr(hull, "nb_faces", 0))
     desc = (
         f"spar profile {list(profile)}, depth {depth_m:g} m; {panels} hull panels "
-        f"(panel {panel_m:g} m, {n_theta} around) + lid; {n} frequencies "
+        f"(panel {panel_m:g} m, {n_theta} around) + lid; {omega_ds.size} frequencies "
         f"{omega_ds.min():g}..{omega_ds.max():g} rad/s; capytaine "
         f"{getattr(cpt, '__version__', '?')}; {elapsed:.1f} s"
     )
