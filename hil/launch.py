@@ -657,7 +657,8 @@ def _run_inprocess(
     def before_loop() -> None:
         log.wait_ready()
         # What start-up built (imports, kernels, tables) stays for the run: out of the
-        # collector's reach, full collections in the run and at exit walk only what is new.
+        # collector's reach, full collections in the run walk only what is new (given back
+        # after the run: a process that launches again must be able to free this run).
         gc.freeze()
         marks["loop_start"] = time.monotonic()
 
@@ -698,6 +699,7 @@ def _run_inprocess(
             # The writer that failed has said why (LogWriteError); a second account of the
             # same failure from close() would only hide the first.
             failing = sys.exc_info()[1]
+            gc.unfreeze()
             try:
                 log.close()
             except LogWriteError:
