@@ -14,12 +14,18 @@ less than the wall time. Medians of
 each figure: the machine is shared.
 
     python bench/whole_command_speed.py [--repeat 5] [--hogs 2]
+
+With ``--compare-python PY --compare-root DIR`` (another checkout and its interpreter, e.g.
+an older commit's worktree) the runs of the two alternate (ABBA, :func:`_common.alternate`)
+and each side's medians and the ratio this / other of each median are saved: a ratio from one
+run on the same machine, whatever its load did meanwhile.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import subprocess
@@ -30,20 +36,21 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, save
+from _common import THIS, Code, add_compare_args, alternate, codes, load, save
 
 SCENARIOS = ("iea15mw-lc2-lqri-ff", "iea15mw-lc2")
 HOG = "while True:\n    pass\n"
 
 
-def _one(scenario: str, duration: float) -> dict[str, Any]:
+def _one(scenario: str, duration: float, code: Code = THIS) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="fowt-whole-") as tmp:
         out = Path(tmp) / "run"
-        cmd = [sys.executable, "-m", "hil", "run", scenario, "--mode", "inprocess",
+        cmd = [code.python, "-m", "hil", "run", scenario, "--mode", "inprocess",
                "--duration", str(duration), "--out", str(out), "--no-plots"]  # fmt: skip
+        env = {**os.environ, "PYTHONPATH": str(code.root)}
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.monotonic()
-        subprocess.run(cmd, capture_output=True, check=True)
+        subprocess.run(cmd, capture_output=True, check=True, cwd=code.root, env=env)
         wall = time.monotonic() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -74,24 +81,42 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--hogs", type=int, default=2)
     ap.add_argument("--duration", type=float, default=600.0)
+    add_compare_args(ap)
     args = ap.parse_args()
+    sides = codes(args)
     result: dict[str, Any] = {"duration_s": args.duration, "repeat": args.repeat}
+    if len(sides) > 1:
+        result["code"] = {name: code.info() for name, code in sides.items()}
     for label, hogs in (("as_is", 0), (f"with_{args.hogs}_hogs", args.hogs)):
         procs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(hogs)]
         try:
             time.sleep(1.0 if hogs else 0.0)
             cond: dict[str, Any] = {"load_before": load()}
             for scenario in SCENARIOS:
-                _one(scenario, 10.0)  # warm the page cache and the compiled kernels' cache
-                runs = [_one(scenario, args.duration) for _ in range(args.repeat)]
-                cond[scenario] = {"median": _median(runs), "runs": runs}
+                runs: dict[str, list[dict[str, Any]]] = {name: [] for name in sides}
+                for code in sides.values():
+                    _one(scenario, 10.0, code)  # warm the page cache and the kernels' cache
+                for _k, name in alternate(list(sides), args.repeat):
+                    runs[name].append(_one(scenario, args.duration, sides[name]))
+                if len(sides) == 1:
+                    cond[scenario] = {"median": _median(runs["this"]), "runs": runs["this"]}
+                    continue
+                med = {name: _median(r) for name, r in runs.items()}
+                cond[scenario] = {
+                    **{name: {"median": med[name], "runs": runs[name]} for name in sides},
+                    "ratio_this_over_compare": {
+                        k: med["this"][k] / med["compare"][k]
+                        for k in ("loop_x", "whole_x", "wall_s", "cpu_s")
+                    },
+                }
             cond["load_after"] = load()
         finally:
             for p in procs:
                 p.kill()
                 p.wait()
         result[label] = cond
-    save("whole_command_speed", result)
+    name = "whole_command_speed" + ("_compare" if len(sides) > 1 else "")
+    save(name, result)
 
 
 if __name__ == "__main__":
