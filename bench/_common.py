@@ -20,9 +20,10 @@ from typing import Any
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
-def commit() -> str:
-    """The checkout's commit (``<hash>`` or ``<hash>+dirty``), or "unknown" outside git."""
-    root = Path(__file__).resolve().parent.parent
+def commit(root: Path | None = None) -> str:
+    """The commit of the checkout at ``root`` (None: this one): ``<hash>`` or
+    ``<hash>+dirty``, or "unknown" outside git."""
+    root = root if root is not None else Path(__file__).resolve().parent.parent
     try:
         head = subprocess.run(
             ["git", "rev-parse", "--short=10", "HEAD"],
@@ -195,8 +196,8 @@ class Code:
     root: Path
 
     def info(self) -> dict[str, str]:
-        """What the result records of it (paths are scrubbed by :func:`save`)."""
-        return {"python": self.python, "root": str(self.root)}
+        """What the result records of it: its commit (paths are scrubbed by :func:`save`)."""
+        return {"python": self.python, "root": str(self.root), "commit": commit(self.root)}
 
 
 #: This checkout, run by this interpreter.
