@@ -87,6 +87,19 @@ def _periods_without_memory(toml: Path) -> dict[str, float]:
     return {m.name: round(m.period_s, 3) for m in modes if m.name != "tower_fore_aft"}
 
 
+def _truncated_memory_added_mass(rad: Any, i: int, w: float, t_max_s: float) -> float:
+    """The surge added mass a time-domain model sees at ω when its radiation memory stops
+    at ``t_max_s`` (OpenFAST's ``RdtnTMax``): A_∞ − (1/ω) ∫₀^T K(t) sin(ωt) dt, with the
+    kernel K(t) = (2/π) ∫ B(ω') cos(ω't) dω' over the data's frequencies (trapezoids, B = 0
+    outside them). With T → ∞ it is A(ω) (Kramers-Kronig)."""
+    omega = np.asarray(rad.omega_rad_s, dtype=np.float64)
+    damping = np.asarray(rad.damping[:, i, i], dtype=np.float64)
+    t = np.arange(0.0, t_max_s + 1e-9, 0.05)
+    kernel = 2.0 / math.pi * np.trapezoid(damping * np.cos(np.outer(t, omega)), omega, axis=1)
+    memory = float(np.trapezoid(kernel * np.sin(w * t), t))
+    return float(rad.added_mass_inf[i, i]) - memory / w
+
+
 def _surge_budget(toml: Path, hydro: Any, period_s: float, published_s: float) -> dict[str, float]:
     """Uncoupled surge estimate T = 2π √((m + A₁₁(ω) + A_m)/k₁₁) from the imported preset.
 
@@ -116,6 +129,10 @@ def _surge_budget(toml: Path, hydro: Any, period_s: float, published_s: float) -
     return {
         "mass_kg": round(mass, 1),
         "added_mass_at_surge_frequency_kg": round(a_w, 1),
+        "added_mass_truncated_memory_kg": {
+            f"{t_max:g} s": round(_truncated_memory_added_mass(rad, i, w, t_max), 1)
+            for t_max in (30.0, 60.0)
+        },
         "added_mass_infinite_frequency_kg": round(a_inf, 1),
         "members_added_mass_kg": round(a_members, 1),
         "mooring_stiffness_n_m": round(k11, 1),
