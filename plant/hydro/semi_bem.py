@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 
 from plant.hydro.bem import _import_capytaine
 from plant.hydro.spar_bem import profile_hydrostatics, solve_three_dofs
-from plant.hydro.wamit import ExcitationData, HydroData, RadiationData
+from plant.hydro.wamit import HydroData
 
 FloatArray = NDArray[np.float64]
 
@@ -157,33 +157,14 @@ def semi_bem(
     parts = [_column_mesh(cpt, col, panel_m, n_theta) for col in columns]
     hull = cpt.Mesh.join_meshes(*[h for h, _ in parts])
     lid = cpt.Mesh.join_meshes(*[lid for _, lid in parts])
-    omega_ds, order, added, damp, exc, a_inf, elapsed = solve_three_dofs(
-        cpt, hull, lid, "semi", w, depth_m, rho_kg_m3, g_m_s2
-    )
     vol, _, _, c_hst = columns_hydrostatics(columns, rho_kg_m3, g_m_s2)
-    hydro = HydroData(
-        radiation=RadiationData(
-            omega_rad_s=omega_ds[order].copy(),
-            added_mass=added,
-            damping=damp,
-            added_mass_inf=a_inf,
-            dofs=(0, 2, 4),
-        ),
-        excitation=ExcitationData(
-            omega_rad_s=omega_ds[order].copy(),
-            heading_deg=np.array([0.0]),
-            force=exc,
-            dofs=(0, 2, 4),
-        ),
-        hydrostatic_stiffness=c_hst,
-        rho_kg_m3=rho_kg_m3,
-        g_m_s2=g_m_s2,
-    )
+    hydro, elapsed = solve_three_dofs(cpt, hull, lid, "semi", w, depth_m, rho_kg_m3, g_m_s2, c_hst)
+    omega = hydro.radiation.omega_rad_s
     desc = (
         f"{len(columns)} columns, {vol:.1f} m^3, depth {depth_m:g} m; "
         f"{int(getattr(hull, 'nb_faces', 0))} hull panels (panel {panel_m:g} m, {n_theta} "
-        f"around) + lids; {omega_ds.size} frequencies "
-        f"{omega_ds.min():g}..{omega_ds.max():g} rad/s; "
+        f"around) + lids; {omega.size} frequencies "
+        f"{omega.min():g}..{omega.max():g} rad/s; "
         f"capytaine {getattr(cpt, '__version__', '?')}; {elapsed:.1f} s"
     )
     return hydro, desc

@@ -130,19 +130,12 @@ def solve_three_dofs(
     depth_m: float,
     rho_kg_m3: float,
     g_m_s2: float,
-) -> tuple[
-    NDArray[np.float64],
-    NDArray[np.intp],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    NDArray[np.complex128],
-    NDArray[np.float64],
-    float,
-]:
+    hydrostatic_stiffness: NDArray[np.float64],
+) -> tuple[HydroData, float]:
     """Radiation (finite and infinite frequency) and diffraction of a hull in surge, heave
-    and pitch (module docstring): (ω sorted, their order in the solver's dataset, A(ω),
-    B(ω), X(ω) for waves along +x conjugated to exp(+iωt), A_∞, the solver's wall time s),
-    the matrices symmetrised."""
+    and pitch (module docstring) as :class:`HydroData` with the given ``.hst`` stiffness:
+    A(ω), B(ω) and A_∞ symmetrised, X(ω) for waves along +x conjugated to exp(+iωt),
+    frequencies ascending; and the solver's wall time [s]."""
     dofs = cpt.rigid_body_dofs(only=list(_DOFS), rotation_center=(0.0, 0.0, 0.0))
     body = cpt.FloatingBody(mesh=hull, dofs=dofs, lid_mesh=lid, name=name)
     depth = None if math.isinf(depth_m) else float(depth_m)
@@ -179,7 +172,26 @@ def solve_three_dofs(
     a_inf = 0.5 * (a_inf + a_inf.T)
     added = 0.5 * (added + added.transpose(0, 2, 1))
     damp = 0.5 * (damp + damp.transpose(0, 2, 1))
-    return omega_ds, order, added, damp, exc, a_inf, elapsed
+    omega = omega_ds[order]
+    hydro = HydroData(
+        radiation=RadiationData(
+            omega_rad_s=omega.copy(),
+            added_mass=added,
+            damping=damp,
+            added_mass_inf=a_inf,
+            dofs=(0, 2, 4),
+        ),
+        excitation=ExcitationData(
+            omega_rad_s=omega.copy(),
+            heading_deg=np.array([0.0]),
+            force=exc,
+            dofs=(0, 2, 4),
+        ),
+        hydrostatic_stiffness=hydrostatic_stiffness,
+        rho_kg_m3=rho_kg_m3,
+        g_m_s2=g_m_s2,
+    )
+    return hydro, elapsed
 
 
 def spar_bem(
@@ -222,33 +234,14 @@ def spar_bem(
         raise ValueError("spar_bem: the depth must exceed the draft")
     cpt = _import_capytaine()
     hull, lid = _hull_mesh(cpt, profile, panel_m, n_theta)
-    omega_ds, order, added, damp, exc, a_inf, elapsed = solve_three_dofs(
-        cpt, hull, lid, "spar", w, depth_m, rho_kg_m3, g_m_s2
-    )
     _, _, c_hst = profile_hydrostatics(profile, rho_kg_m3, g_m_s2)
-    hydro = HydroData(
-        radiation=RadiationData(
-            omega_rad_s=omega_ds[order].copy(),
-            added_mass=added,
-            damping=damp,
-            added_mass_inf=a_inf,
-            dofs=(0, 2, 4),
-        ),
-        excitation=ExcitationData(
-            omega_rad_s=omega_ds[order].copy(),
-            heading_deg=np.array([0.0]),
-            force=exc,
-            dofs=(0, 2, 4),
-        ),
-        hydrostatic_stiffness=c_hst,
-        rho_kg_m3=rho_kg_m3,
-        g_m_s2=g_m_s2,
-    )
+    hydro, elapsed = solve_three_dofs(cpt, hull, lid, "spar", w, depth_m, rho_kg_m3, g_m_s2, c_hst)
+    omega = hydro.radiation.omega_rad_s
     panels = int(getattr(hull, "nb_faces", 0))
     desc = (
         f"spar profile {list(profile)}, depth {depth_m:g} m; {panels} hull panels "
-        f"(panel {panel_m:g} m, {n_theta} around) + lid; {omega_ds.size} frequencies "
-        f"{omega_ds.min():g}..{omega_ds.max():g} rad/s; capytaine "
+        f"(panel {panel_m:g} m, {n_theta} around) + lid; {omega.size} frequencies "
+        f"{omega.min():g}..{omega.max():g} rad/s; capytaine "
         f"{getattr(cpt, '__version__', '?')}; {elapsed:.1f} s"
     )
     return hydro, desc
