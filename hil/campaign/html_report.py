@@ -122,6 +122,18 @@ def _pyplot() -> Any:
     return plt
 
 
+def _bar_series(
+    figures: dict[str, Any], kpis: Sequence[str], cases: Sequence[str]
+) -> tuple[dict[str, list[Any]], dict[str, list[Any]]]:
+    """A bar chart's values and their statistics (:func:`figure_stat`) per case and for the
+    Weibull-weighted KPI, for ``figures[kpi]`` of the aggregates (``per_case``, ``weibull``)."""
+    series = {c: [figures[k]["per_case"].get(c) for k in kpis] for c in cases}
+    series["Weibull"] = [figures[k]["weibull"] for k in kpis]
+    stats = {c: [figure_stat(figures[k], c) for k in kpis] for c in cases}
+    stats["Weibull"] = [figure_stat(figures[k], "weibull") for k in kpis]
+    return series, stats
+
+
 def _bars(
     groups: Sequence[str],
     series: dict[str, list[Any]],
@@ -320,10 +332,7 @@ def campaign_html(
                 ],
             )
         )
-        series = {c: [inc[k]["per_case"].get(c) for k in kpis] for c in cases}
-        series["Weibull"] = [inc[k]["weibull"] for k in kpis]
-        stats = {c: [figure_stat(inc[k], c) for k in kpis] for c in cases}
-        stats["Weibull"] = [figure_stat(inc[k], "weibull") for k in kpis]
+        series, stats = _bar_series(inc, kpis, cases)
         parts.append(
             img(
                 _bars(
@@ -370,10 +379,7 @@ def campaign_html(
         )
         parts.append(table(head, body))
         parts.append(_per_case_table(kpis, labels, cases, rel, norm))
-        series = {c: [rel[k]["per_case"].get(c) for k in kpis] for c in cases}
-        series["Weibull"] = [rel[k]["weibull"] for k in kpis]
-        stats = {c: [figure_stat(rel[k], c) for k in kpis] for c in cases}
-        stats["Weibull"] = [figure_stat(rel[k], "weibull") for k in kpis]
+        series, stats = _bar_series(rel, kpis, cases)
         parts.append(
             img(
                 _bars(
@@ -390,10 +396,7 @@ def campaign_html(
             )
         )
         if norm:
-            series = {c: [norm[k]["per_case"].get(c) for k in kpis] for c in cases}
-            series["Weibull"] = [norm[k]["weibull"] for k in kpis]
-            stats = {c: [figure_stat(norm[k], c) for k in kpis] for c in cases}
-            stats["Weibull"] = [figure_stat(norm[k], "weibull") for k in kpis]
+            series, stats = _bar_series(norm, kpis, cases)
             parts.append(
                 img(
                     _bars(
