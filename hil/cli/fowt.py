@@ -913,6 +913,34 @@ def presets() -> None:
         _write_rows(rows, indent="  ")
 
 
+@app.command("cache", short_help="Show or clear the stored trims.")
+def cache_cmd(
+    clear: Annotated[bool, typer.Option("--clear", help="Remove every stored trim.")] = False,
+) -> None:
+    """Show where the settled rotor points of trimmed starts are stored, and how many.
+
+    A trimmed run reads its steady rotor point from there when an earlier process settled
+    the same scenario with the same code, instead of a settling run (FOWT_CACHE_DIR sets
+    the directory, FOWT_CACHE_DIR=off turns the store off).
+    """
+    from hil.inprocess import trim_store
+
+    root = trim_store.cache_root()
+    if root is None:
+        sys.stdout.write("trim store: off (FOWT_CACHE_DIR=off)\n")
+        return
+    if clear:
+        try:
+            removed = trim_store.clear()
+        except OSError as exc:
+            fail(f"trim store: {os_error_text(exc)}")
+        sys.stdout.write(f"trim store: {root / 'trim'}: {removed} entries removed\n")
+        return
+    found = trim_store.entries()
+    size = sum(p.stat().st_size for p in found if p.exists())
+    sys.stdout.write(f"trim store: {root / 'trim'}: {len(found)} entries, {size} B\n")
+
+
 analyze_app = typer.Typer(
     help="Offline analysis: platform modes, design model, wave forecasters.",
     short_help="Offline analysis: modes, design model, forecasters.",

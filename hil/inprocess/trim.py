@@ -34,9 +34,11 @@ seconds; ``tests/test_trim.py`` bounds them).
 It runs where the plant is built, before the first cycle (:class:`hil.nodes.plant_node.PlantLoop`:
 the plant process of a bus run, the launcher's process of an in-process run): 2.1 s of wall
 time for iea15mw-lc2 (the compiled loop), 20.5 s for iea15mw-lc2-rosco (a DISCON library
-runs the Python loop), measured on the 2-core machine at load average 30; results
-are cached per process (a campaign's seeds share one mean wind and controller). A settling
-run that fails (a controller that cannot be built or raises) fails the run with its reason.
+runs the Python loop), measured on the 2-core machine at load average 30. Results are kept
+per process and on disk (:mod:`hil.inprocess.trim_store`): a campaign's seeds share one mean
+wind and controller, and a later process (the next run, a bus run's plant process) reads
+the settled point instead of settling again. A settling run that fails (a controller that
+cannot be built or raises) fails the run with its reason.
 """
 
 from __future__ import annotations
@@ -183,10 +185,22 @@ def _settled(encoded: bytes) -> tuple[float, float]:
     return sums[0] / n, sums[1] / n
 
 
+@functools.lru_cache(maxsize=64)
+def _settled_stored(encoded: bytes, name: str) -> tuple[float, float]:
+    """:func:`_settled` through the on-disk store (:mod:`hil.inprocess.trim_store`)."""
+    from hil.inprocess.trim_store import settled_cached  # noqa: PLC0415
+
+    return settled_cached(encoded, name, _settled)
+
+
 def settle_rotor(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[float, float]:
-    """The controller's steady (ω rad/s, θ rad) at the scenario's mean wind (steps 1-2)."""
+    """The controller's steady (ω rad/s, θ rad) at the scenario's mean wind (steps 1-2).
+
+    Read from the on-disk store when an earlier process settled the same scenario with the
+    same code (:mod:`hil.inprocess.trim_store`), else settled here and stored.
+    """
     sc = settling_scenario(scenario, duration_s)
-    return _settled(msgspec.json.encode(sc))
+    return _settled_stored(msgspec.json.encode(sc), scenario.name)
 
 
 def initial_condition(scenario: Scenario) -> InitialCondition:

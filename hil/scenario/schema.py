@@ -670,14 +670,14 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 _check_preset(
                     "controller.preset",
                     self.controller.preset,
-                    _package_presets("controller", "presets", "rosco", suffix="_DISCON.IN"),
+                    package_presets("controller", "presets", "rosco", suffix="_DISCON.IN"),
                     "a shipped DISCON.IN",
                 )
         elif self.controller.kind in ("baseline", "lqri", "lqri_ff", "lqr_wave"):
             _check_preset(
                 "controller.preset",
                 self.controller.preset,
-                _package_presets("controller", "presets"),
+                package_presets("controller", "presets"),
                 "a controller preset",
             )
         # casanovas-2014 kinds name a design artefact, designed on first use when missing:
@@ -954,7 +954,7 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
         raise ScenarioError(f"{source}: {key_at_text(msg, kinds)}") from exc
 
 
-def _package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[str]:
+def package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[str]:
     """Names of the ``*<suffix>`` presets in ``package``/``folder``, without importing it.
 
     The folder is found with ``importlib.util.find_spec`` on the top-level package, which
@@ -984,13 +984,13 @@ def _check_preset(key: str, ref: str, shipped: list[str], what: str) -> None:
 
 def shipped_turbines() -> list[str]:
     """Names of the turbine presets shipped with the plant (found without importing it)."""
-    return _package_presets("plant", "presets")
+    return package_presets("plant", "presets")
 
 
 def shipped_platforms() -> list[str]:
     """Names of the floating platform presets shipped with the plant (found without
-    importing it: :func:`_package_presets`)."""
-    return _package_presets("plant", "presets", "floating")
+    importing it: :func:`package_presets`)."""
+    return package_presets("plant", "presets", "floating")
 
 
 def shipped_scenarios() -> list[str]:
