@@ -99,6 +99,20 @@ def test_a_campaigns_seeds_share_one_key_and_the_wind_does_not() -> None:
     assert trim_store.store_key(_encoded(other_controller)) not in (None, key)
 
 
+def test_a_users_design_artefact_changes_the_key(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A controller loads a design from ``$FOWT_DESIGN_DIR`` when none is shipped for its
+    period: a design made or replaced there is a new key."""
+    monkeypatch.setenv("FOWT_DESIGN_DIR", str(tmp_path / "designs"))
+    encoded = _encoded(load_scenario("iea15mw-lc2-lqri-ff"))
+    without = trim_store.store_key(encoded)
+    (tmp_path / "designs").mkdir()
+    (tmp_path / "designs" / "iea15mw_volturnus_dt0p05.json").write_text("{}")
+    with_design = trim_store.store_key(encoded)
+    assert None not in (without, with_design) and with_design != without
+
+
 def test_a_file_changed_in_a_package_changes_the_fingerprint(tmp_path: Path) -> None:
     (tmp_path / "pkg" / "__pycache__").mkdir(parents=True)
     source = tmp_path / "pkg" / "model.py"

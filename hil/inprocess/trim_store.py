@@ -18,7 +18,9 @@ Key: SHA-256 of
   stat: an edited file is a new key;
 - the versions of Python, numpy and numba and the host CPU (the compiled kernels are
   compiled for it, and may round differently elsewhere);
-- for a DISCON controller, the stat of its library.
+- for a DISCON controller, the stat of its library;
+- the stat of the user's design artefacts (``$FOWT_DESIGN_DIR``), which a controller loads
+  when the shipped designs lack its control period.
 
 A scenario that names a turbine, platform or controller preset by path, or a DISCON
 parameter file, is not stored: such a file may name further files, whose contents are not
@@ -77,9 +79,10 @@ def cache_root() -> Path | None:
     """The bench's cache directory (module docstring), or None when turned off."""
     env = os.environ.get("FOWT_CACHE_DIR")
     if env is not None:
-        return None if env.strip().lower() in ("", "off", "0", "none") else Path(env)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".cache"
+        off = env.strip().lower() in ("", "off", "0", "none")
+        return None if off else Path(env.strip()).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME", "").strip()
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
     return base / "fowt-hil"
 
 
@@ -159,6 +162,15 @@ def _library_stat(scenario: Scenario) -> tuple[str, int, int] | None:
     return (str(path.resolve()), st.st_size, st.st_mtime_ns)
 
 
+def _designs() -> list[tuple[str, int, int]]:
+    """The stat of the user's design artefacts (a controller loads one from there when the
+    shipped designs lack its control period; :func:`controller.lqri.user_design_dir`)."""
+    from controller.lqri import user_design_dir  # noqa: PLC0415
+
+    folder = user_design_dir()
+    return tree_fingerprint(folder) if folder.is_dir() else []
+
+
 def store_key(encoded: bytes) -> str | None:
     """The store's key of a settling scenario's JSON (hex), or None when not storable."""
     scenario = msgspec.json.decode(encoded, type=Scenario)
@@ -166,12 +178,13 @@ def store_key(encoded: bytes) -> str | None:
         return None
     try:
         library = _library_stat(scenario)
+        designs = _designs()
     except (OSError, ValueError):  # no library: the settling run says why
         return None
     h = hashlib.sha256()
     h.update(f"fowt-hil trim store {FORMAT}\n".encode())
     h.update(code_fingerprint().encode())
-    h.update(repr(library).encode())
+    h.update(repr((library, designs)).encode())
     h.update(encoded)
     return h.hexdigest()
 
