@@ -113,7 +113,10 @@ def lockstep_node_cmds(
     mcap = str(out / "run.mcap")
     return {
         "recorder": node("record", "--out", mcap, "--connect", plant_ep, "--connect", ctrl_ep),
-        "controller": node("controller", "--listen", ctrl_ep, "--connect", plant_ep),
+        # announced once the recorder reaches it, as fowt run starts it (--await-recorder)
+        "controller": node(
+            "controller", "--listen", ctrl_ep, "--connect", plant_ep, "--await-recorder", "30"
+        ),
         "plant": node("plant", "--listen", plant_ep, "--mode", "lockstep", "--require", require),
     }
 

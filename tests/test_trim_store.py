@@ -210,14 +210,23 @@ def test_an_unwritable_store_costs_the_recomputation_not_the_run(
 
 
 def test_fowt_cache_shows_and_clears(tmp_path: Path) -> None:
-    env = {**os.environ, "FOWT_CACHE_DIR": str(tmp_path / "c"), "PYTHONPATH": str(ROOT)}
+    env = {
+        **os.environ,
+        "FOWT_CACHE_DIR": str(tmp_path / "c"),
+        "FOWT_DESIGN_DIR": str(tmp_path / "d"),
+        "PYTHONPATH": str(ROOT),
+    }
     folder = tmp_path / "c" / "trim"
     folder.mkdir(parents=True)
     for name in ("a", "b"):
         (folder / f"{name}.json").write_text("{}")
     fowt = [sys.executable, "-m", "hil"]
     shown = subprocess.run([*fowt, "cache"], env=env, capture_output=True, text=True, check=True)
-    assert shown.stdout == f"trim store: {folder}: 2 entries, 4 B\n"
+    assert shown.stdout.splitlines() == [
+        f"trim store: {folder}: 2 entries, 4 B",
+        f"design artefacts made on first use: {tmp_path / 'd'}: 0 (FOWT_DESIGN_DIR; not "
+        "cleared by --clear)",
+    ]
     cleared = subprocess.run(
         [*fowt, "cache", "--clear"], env=env, capture_output=True, text=True, check=True
     )

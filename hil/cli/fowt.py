@@ -616,11 +616,23 @@ def controller(
     realtime_priority: RealtimePriorityOpt = 0,
     key_file: KeyFileOpt = None,
     insecure: InsecureOpt = False,
+    await_recorder: Annotated[
+        float,
+        typer.Option(
+            "--await-recorder",
+            min=0.0,
+            help="Announce this controller (the liveliness token a plant waits for) only "
+            "once a recorder's subscription reaches its status, waiting at most this many "
+            "seconds (0: at once). fowt run sets it.",
+        ),
+    ] = 0.0,
 ) -> None:
     """Run the controller process alone (serves until the plant finishes or Ctrl-C).
 
     With --transport can it takes the sensor frames from and sends the commands to the CAN
-    bus; its status and the plant's timing stay on Zenoh.
+    bus; its status and the plant's timing stay on Zenoh. With a recorder on the bus,
+    --await-recorder keeps a plant from starting before the recorder can get this
+    controller's messages.
     """
     sc = _scenario(scenario, duration)
     can = _can_config(sc, transport, can_interface, can_channel, can_fd)
@@ -637,14 +649,19 @@ def controller(
     from hil.nodes import controller_node
 
     if can is None:
-        controller_node.run_controller_node(sc, bus)  # type: ignore[arg-type]
+        controller_node.run_controller_node(sc, bus, await_recorder_s=await_recorder)  # type: ignore[arg-type]
         return
     from hil.nodes.can_bus import hybrid_bus_factory
 
     # In a CAN run the node's bus is a HybridBus (same surface: the sensor and command keys
     # on CAN, the rest on Zenoh), so its loop, validation and stale-frame handling run
     # unchanged.
-    controller_node.run_controller_node(sc, bus, bus_factory=hybrid_bus_factory(can))  # type: ignore[arg-type]
+    controller_node.run_controller_node(
+        sc,
+        bus,  # type: ignore[arg-type]
+        bus_factory=hybrid_bus_factory(can),
+        await_recorder_s=await_recorder,
+    )
 
 
 @app.command(short_help="Record a run to an MCAP file.")
@@ -917,7 +934,8 @@ def presets() -> None:
 def cache_cmd(
     clear: Annotated[bool, typer.Option("--clear", help="Remove every stored trim.")] = False,
 ) -> None:
-    """Show where the settled rotor points of trimmed starts are stored, and how many.
+    """Show where the settled rotor points of trimmed starts are stored, and how many (and
+    where the controller design artefacts made on first use are).
 
     A trimmed run reads its steady rotor point from there when an earlier process settled
     the same scenario with the same code, instead of a settling run (FOWT_CACHE_DIR sets
@@ -939,6 +957,14 @@ def cache_cmd(
     found = trim_store.entries()
     size = sum(p.stat().st_size for p in found if p.exists())
     sys.stdout.write(f"trim store: {root / 'trim'}: {len(found)} entries, {size} B\n")
+    from controller.lqri import user_design_dir
+
+    designs = user_design_dir()
+    made = sorted(designs.glob("*.json")) if designs.is_dir() else []
+    sys.stdout.write(
+        f"design artefacts made on first use: {designs}: {len(made)} "
+        "(FOWT_DESIGN_DIR; not cleared by --clear)\n"
+    )
 
 
 analyze_app = typer.Typer(

@@ -92,7 +92,7 @@ from hil.hexicon.model import (
     plant_input,
     truth_sample,
 )
-from hil.nodes.bus import Bus, BusConfig
+from hil.nodes.bus import Bus, BusConfig, wait_matched
 from hil.nodes.rt import set_realtime_priority
 from hil.runlog.mcap_io import RunLog, read_run
 from plant.hexicon.environment import SampledWind
@@ -406,6 +406,7 @@ def run_controller_node(
     can: dict[str, Any] | None = None,
     identified: str | None = None,
     auth_key: bytes | None = None,
+    await_recorder_s: float = 0.0,
 ) -> int:
     """The controller process: one core commanding the three turbines each cycle.
 
@@ -413,6 +414,9 @@ def run_controller_node(
     early). It subscribes to the measured keys only (never ``.../truth``). ``prbs``: the pitch
     excitation of table-5 experiment ``experiment`` (1-based) over ``samples`` cycles.
     ``identified``: the identified-model artefact of ``mpc_id`` (default: the shipped one).
+    ``await_recorder_s`` > 0: its liveliness token (which the plant waits for) is declared
+    once a recorder's subscription reaches its status key, or after that many seconds
+    (:func:`hil.nodes.bus.wait_matched`; the launcher sets it).
     """
 
     design = load_design()
@@ -446,6 +450,13 @@ def run_controller_node(
     bus.subscribe(PLATFORM_FRAME, (platform,), on_platform)
     bus.subscribe(TURBINE_FRAME, tuple(f"{platform}/{t}" for t in TURBINES), on_turbine)
     bus.zenoh.subscribe(summary_key(platform), lambda _k, _p: inbox.put(("end", None)))
+    status_pub = bus.zenoh.publisher(PLATFORM_STATUS.key(platform))
+    if await_recorder_s > 0 and not wait_matched(status_pub, await_recorder_s):
+        print(
+            f"controller: no recorder reached its status key within {await_recorder_s:g} s; "
+            "announcing itself anyway",
+            file=sys.stderr,
+        )
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/controller")
     frames: dict[int, dict[str, Any]] = {}
     try:
@@ -763,6 +774,9 @@ def node_commands(
             plant_ep,
             "--period",
             repr(control_period_s),
+            # announced once the recorder's link reaches it: the plant waits for that
+            "--await-recorder",
+            "30.0",
             "--samples",
             str(round(duration_s) if experiment else 0),
             *idf,
@@ -833,6 +847,7 @@ def main(argv: list[str] | None = None) -> int:
     cp.add_argument("--samples", type=int, default=0)
     cp.add_argument("--seed", type=int, default=0)
     cp.add_argument("--identified", default=None)
+    cp.add_argument("--await-recorder", type=float, default=0.0)
     rp = sub.add_parser("record")
     common(rp)
     rp.add_argument("--out", required=True)
@@ -885,6 +900,7 @@ def main(argv: list[str] | None = None) -> int:
         can=can,
         identified=a.identified,
         auth_key=auth_key,
+        await_recorder_s=a.await_recorder,
     )
 
 

@@ -420,6 +420,25 @@ class LogBatcher:
         self.messages += len(parts)
 
 
+def wait_matched(publisher: Any, timeout_s: float) -> bool:
+    """Block until ``publisher``'s session knows a subscriber for its key; False on timeout.
+
+    A put on a key no subscriber is known for is dropped, and a liveliness token seen by a
+    third process says nothing about the route between two others: the recorder connects
+    to the plant and the controller, and while its link to the controller is not up (its
+    connect retried after the controller started listening) the controller's samples have
+    no way to it. Zenoh's matching status of the publisher says when one has (polled every
+    5 ms; a :class:`SigningPublisher` is looked through).
+    """
+    inner = getattr(publisher, "publisher", publisher)
+    deadline = time.monotonic() + timeout_s
+    while not inner.matching_status.matching:
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
 #: Wall seconds a plant or controller waits, after its report, for the recorder to say it
 #: holds everything the node published (:func:`wait_for_recorder`) [s].
 RECORDER_ACK_TIMEOUT_S = 120.0

@@ -125,6 +125,7 @@ from hil.nodes.bus import (
     LogBatcher,
     batch_key,
     wait_for_recorder,
+    wait_matched,
 )
 from hil.nodes.rt import freeze_heap
 from hil.scenario.schema import Scenario
@@ -763,8 +764,16 @@ def run_controller_node(
     timeout_s: float | None = None,
     log: Callable[[str], None] = print,
     bus_factory: Callable[[BusConfig], Any] = Bus,
+    await_recorder_s: float = 0.0,
 ) -> ControllerNodeResult:
     """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
+
+    ``await_recorder_s`` > 0: the controller announces itself (its liveliness token, which
+    the plant waits for) only once a recorder's subscription reaches its status key
+    (:func:`hil.nodes.bus.wait_matched`), waiting at most that many seconds (then it says
+    so and announces itself anyway). ``fowt run`` asks for it: without it a plant may start
+    while the recorder's link to the controller is still being made, and the first
+    cycles' statuses would be lost.
 
     The design artefacts are looked up in the shipped designs and in ``$FOWT_DESIGN_DIR``
     (the launcher sets it to the cache it designed into). When one is missing for the
@@ -878,6 +887,13 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame, on_frame_rejected)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
+    if await_recorder_s > 0 and not wait_matched(statuses.publisher, await_recorder_s):
+        log(
+            f"controller: no recorder reached its status key within {await_recorder_s:g} s; "
+            "announcing itself anyway (what it publishes before one does is not recorded)"
+        )
+    # Declared after the subscriptions (and, with a recorder, once it can be reached): a
+    # plant that waits for this token finds the controller's whole path in place.
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/controller")
 
     def on_plant_liveliness(sample: zenoh.Sample) -> None:
