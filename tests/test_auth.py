@@ -50,7 +50,7 @@ from bus_schemas.auth import (
     verify,
 )
 from bus_schemas.registry import COMMAND, SENSORS
-from hil.nodes.bus import free_tcp_endpoint
+from hil.nodes.bus import free_tcp_endpoint, wait_matched
 from hil.nodes.controller_node import RESYNC_FRAMES, ControllerRuntime, seq_window
 from hil.nodes.plant_node import CommandInbox
 from hil.runlog.mcap_io import read_run
@@ -234,6 +234,10 @@ class Attacker:
             self.session.declare_subscriber("fowt/t1/sensors", self._on_frame),
         ]
         # The plant waits for this token (``--require ...,fuzzer``): no cycle goes unattacked.
+        # Declared once both links are up (the controller reaches the sensors key, the plant
+        # the command key); a connection to an endpoint not yet listening is retried later.
+        for pub in self.pubs.values():
+            assert wait_matched(pub, 30.0), "the attacker's links did not come up"
         self.token = self.session.liveliness().declare_token("fowt/t1/alive/fuzzer")
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()

@@ -88,7 +88,7 @@ import zenoh
 from bus_schemas.auth import TAG_BYTES, KeyFileError, read_key_file, sign
 from bus_schemas.codec import MAGIC, DecodeError
 from bus_schemas.registry import COMMAND, SENSORS, TIMING_SUMMARY, MessageType
-from hil.nodes.bus import Bus, BusConfig
+from hil.nodes.bus import Bus, BusConfig, wait_matched
 
 #: Kinds of malformed payload, in the order the fuzzer cycles through them.
 KINDS: tuple[str, ...] = (
@@ -107,6 +107,9 @@ KINDS: tuple[str, ...] = (
 
 #: Counter key of a replayed or reordered frame, in the plant and in the controller.
 REPLAY_REASON = "duplicate_or_reordered"
+#: Wall seconds the fuzzer waits for its links to the plant and the controller before it
+#: announces itself [s].
+LINK_TIMEOUT_S = 30.0
 
 _WIRE = {"u64": "Q", "i64": "q", "u32": "I", "u8": "B", "f64": "d"}
 #: Non-finite values written into float fields (the last is a quiet NaN with payload bits).
@@ -495,6 +498,13 @@ def run_fuzzer(
     bus.subscribe(SENSORS.key(tid), fuzzer.on_sensors)
     bus.subscribe(COMMAND.key(tid), fuzzer.on_command)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
+    # Announced once both links are up: the controller's subscription reaches the sensors
+    # key, the plant's the command key (hil.nodes.bus.wait_matched). A plant that saw the
+    # token before would run cycles the fuzzer cannot reach yet (its connection to an
+    # endpoint not yet listening is retried every 1-4 s).
+    for key, pub in pubs.items():
+        if not wait_matched(pub, LINK_TIMEOUT_S):
+            log(f"fuzzer: nobody reached {key} within {LINK_TIMEOUT_S:g} s; starting anyway")
     token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/fuzzer")
     log(
         f"fuzzer ready on {list(pubs)} (connect {list(bus_config.connect)}): "
