@@ -128,7 +128,17 @@ def _lockstep_speed(duration_s: float, secure: bool) -> dict[str, float]:
                 "--connect",
                 ctrl_ep,
             ],
-            [*node, "controller", *common, "--listen", ctrl_ep, "--connect", plant_ep],
+            [
+                *node,
+                "controller",
+                *common,
+                "--listen",
+                ctrl_ep,
+                "--connect",
+                plant_ep,
+                "--await-recorder",
+                "30",
+            ],
             [*node, "plant", *common, "--listen", plant_ep, "--mode", "lockstep"],
         ]
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}

@@ -81,7 +81,7 @@ def one_round(tmp: Path, kill_at_s: float, duration_s: float) -> dict[str, Any]:
         "recorder": [*base, "record", SCENARIO, *dur, "--out", str(mcap),
                      "--connect", plant_ep, "--connect", ctrl_ep],
         "controller": [*base, "controller", SCENARIO, *dur, "--listen", ctrl_ep,
-                       "--connect", plant_ep],
+                       "--connect", plant_ep, "--await-recorder", "30"],
         "plant": [*base, "plant", SCENARIO, *dur, "--listen", plant_ep, "--mode", "realtime",
                   "--require", "controller,recorder"],
     }  # fmt: skip

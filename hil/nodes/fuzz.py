@@ -475,9 +475,15 @@ def run_fuzzer(
     """
     bus = Bus(bus_config)
     tid = config.turbine_id
+    # Remote destinations only: its own session subscribes to the same keys (it captures
+    # the run's frames and commands), which would take its payloads and would make the
+    # publishers' matching status (below) true before any node is reached.
     pubs = {
         key: bus.session.declare_publisher(
-            key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            key,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            express=True,
+            allowed_destination=zenoh.Locality.REMOTE,
         )
         for key in (SENSORS.key(tid), COMMAND.key(tid))
     }
