@@ -1,11 +1,12 @@
 """Settled rotor points kept on disk between processes: a trim's settling run, once.
 
 A trim (:mod:`hil.inprocess.trim`) is a 300 s settling run of the real plant and controller
-core: 0.1-0.3 s in the compiled loop, about 20 s with a DISCON library (the Python loop),
-paid by every process that starts a trimmed run: each run of a campaign, the plant process
-of every bus run (which then also has to load the controller core). Its result, the rotor
-speed and blade pitch, is a function of the settling scenario and of the code and data that
-compute it, so it is kept here and read back by any later process.
+core: 0.1-0.3 s in the compiled loop, 1.5 s with ROSCO's DISCON library (the Python loop;
+20 s at load average 30), paid by every process that starts a trimmed run: each run of a
+campaign, the plant process of every bus run (which then also has to load the controller
+core). Its result, the rotor speed and blade pitch, is a function of the settling scenario
+and of the code and data that compute it, so it is kept here and read back by any later
+process.
 
 Key: SHA-256 of
 
