@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import ROOT, load, save
+from _common import ROOT, load, run_fowt, save
 
 TARGETS = {"iea15mw-lc2-lqri-ff": 400.0, "iea15mw-lc2": 600.0}
 DURATION_S = 600.0
@@ -50,21 +50,17 @@ def _wall(cmd: list[str], cwd: Path, env: dict[str, str]) -> float:
     return time.monotonic() - t0
 
 
-def _run(scenario: str, env: dict[str, str]) -> dict[str, Any]:
-    with tempfile.TemporaryDirectory(prefix="fowt-floor-") as tmp:
-        out = Path(tmp) / "run"
-        cmd = [sys.executable, "-m", "hil", "run", scenario, "--mode", "inprocess",
-               "--duration", str(DURATION_S), "--out", str(out), "--no-plots"]  # fmt: skip
-        wall = _wall(cmd, ROOT, env)
-        phases = json.loads((out / "summary.json").read_text())["run"]["wall_phases_s"]
-    return {"wall_s": wall, **{k: float(v) for k, v in phases.items() if k != "whole"}}
+def _run(scenario: str) -> dict[str, Any]:
+    summary = run_fowt(scenario, "inprocess", DURATION_S, cwd=ROOT)
+    phases = summary["run"]["wall_phases_s"]
+    wall = {"wall_s": summary["bench_command_wall_s"]}
+    return wall | {k: float(v) for k, v in phases.items() if k != "whole"}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeat", type=int, default=10)
     args = ap.parse_args()
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     with tempfile.TemporaryDirectory(prefix="fowt-floor-kernel-") as tmp:
         kdir = Path(tmp)
         (kdir / "floor_kernel.py").write_text(KERNEL)
@@ -78,10 +74,10 @@ def main() -> None:
                 "from floor_kernel import one_more; one_more(1)",
             ],
         }
-        kenv = {**env, "PYTHONPATH": f"{kdir}{os.pathsep}{ROOT}"}
+        kenv = {**os.environ, "PYTHONPATH": f"{kdir}{os.pathsep}{ROOT}"}
         _wall(steps["numba first call"], kdir, kenv)  # compile it into numba's cache once
         for scenario in TARGETS:
-            _run(scenario, env)  # warm the page cache, the kernels' cache and the trim store
+            _run(scenario)  # warm the page cache, the kernels' cache and the trim store
         result: dict[str, Any] = {"repeat": args.repeat, "load_before": load()}
         walls: dict[str, list[float]] = {name: [] for name in steps}
         runs: dict[str, list[dict[str, Any]]] = {s: [] for s in TARGETS}
@@ -89,7 +85,7 @@ def main() -> None:
             for name, cmd in steps.items():
                 walls[name].append(_wall(cmd, kdir, kenv))
             for scenario in TARGETS:
-                runs[scenario].append(_run(scenario, env))
+                runs[scenario].append(_run(scenario))
         result["load_after"] = load()
     result["steps_s"] = {name: statistics.median(w) for name, w in walls.items()}
     floor = result["steps_s"]["numba first call"]

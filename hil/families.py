@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from bus_schemas.registry import PLATFORM_FRAME, TIMING_SUMMARY
+from hil.nodes.bus import LINK_TIMEOUT_S
 
 if TYPE_CHECKING:
     from hil.nodes.can_bus import CanBusConfig
@@ -55,10 +56,6 @@ __all__ = [
 
 #: Address prefix of the Hexicon H3 scenarios (``fowt run hexicon-s1_step15``).
 HEXICON_PREFIX = "hexicon-"
-#: Wall seconds a launched controller waits for the recorder's subscription to reach it
-#: before announcing itself (``fowt controller --await-recorder``; the recorder retries
-#: its connection to the controller's endpoint, at most every 4 s by Zenoh's defaults).
-RECORDER_REACH_TIMEOUT_S = 30.0
 #: Controllers of a Hexicon run (``prbs``: the identification excitation, with an experiment).
 HEXICON_CONTROLLERS = ("bang_bang", "mpc", "mpc_id", "prbs")
 
@@ -283,7 +280,7 @@ def _turbine_nodes(ctx: NodeContext) -> dict[str, list[str]]:
             plant_ep,
             # announced once the recorder's link reaches it: the plant waits for that
             "--await-recorder",
-            repr(RECORDER_REACH_TIMEOUT_S),
+            repr(LINK_TIMEOUT_S),
             *key_args,
             *can_args,
             *rt_args,

@@ -551,26 +551,11 @@ def _launch_family(
         info.update(can_interface=can.interface, can_channel=can.effective_channel)
     t0 = time.monotonic()
     aborted: RunAbortedError | None = None
-    endpoints = _endpoints()
-    key_path, auth_key = _run_key(out)
-    ctx = NodeContext(
-        scenario=plan.scenario,
-        duration_s=plan.duration_s,
-        mode=req.mode,
-        speed=req.speed,
-        endpoints=endpoints,
-        mcap_path=mcap_path,
-        run_info=info,
-        key_file=key_path,
-        can=can,
-        realtime_priority=req.realtime_priority,
-        options=options,
-    )
-    feed = _Feed(plan.name, plan.duration_s, plan.ident, family)
     try:
-        _supervise(
-            family.node_commands(ctx), _node_env(out), out, mcap_path, feed, endpoints[0],
-            console, nice_recorder=can is None, abort=abort, auth_key=auth_key,
+        _start_nodes(
+            family, req, out, mcap_path, info, console, scenario=plan.scenario,
+            duration_s=plan.duration_s, name=plan.name, ident=plan.ident, can=can,
+            env=_node_env(out), options=options, abort=abort,
         )  # fmt: skip
     except RunAbortedError as exc:
         if not mcap_path.is_file():
@@ -915,40 +900,64 @@ def _run_processes(
     abort: AbortSignals | None = None,
 ) -> None:
     """A single-turbine run's nodes (:data:`hil.families.TURBINE`), through :func:`_supervise`."""
-    endpoints = _endpoints()
     env = _node_env(out)
     if design_dir is not None:  # the controller process finds the designs there
         from controller.lqri import DESIGN_DIR_ENV  # noqa: PLC0415
 
         env[DESIGN_DIR_ENV] = str(design_dir)
+    _start_nodes(
+        TURBINE, req, out, mcap_path, info, console, scenario=_scenario_ref(req.scenario),
+        duration_s=scenario.duration_s, name=scenario.name, ident=scenario.turbine_id,
+        can=can_config(req, scenario) if req.transport == "can" else None, env=env,
+        driver=driver, abort=abort,
+    )  # fmt: skip
+
+
+def _start_nodes(
+    family: PlantFamily,
+    req: RunRequest,
+    out: Path,
+    mcap_path: Path,
+    info: dict[str, str],
+    console: Console,
+    *,
+    scenario: str,
+    duration_s: float,
+    name: str,
+    ident: str,
+    can: CanBusConfig | None,
+    env: dict[str, str],
+    options: HexiconOptions | None = None,
+    driver: ProcessFaultDriver | None = None,
+    abort: AbortSignals | None = None,
+) -> None:
+    """Start ``family``'s nodes on fresh endpoints with the run's key and supervise them.
+
+    ``scenario``: the reference the nodes are given; ``name``, ``ident``: the progress
+    line's scenario and the key ident it follows. The recorder is niced unless the run is
+    on CAN.
+    """
+    endpoints = _endpoints()
     key_path, auth_key = _run_key(out)
     ctx = NodeContext(
-        scenario=_scenario_ref(req.scenario),
-        duration_s=scenario.duration_s,
+        scenario=scenario,
+        duration_s=duration_s,
         mode=req.mode,
         speed=req.speed,
         endpoints=endpoints,
         mcap_path=mcap_path,
         run_info=info,
         key_file=key_path,
-        can=can_config(req, scenario) if req.transport == "can" else None,
+        can=can,
         realtime_priority=req.realtime_priority,
         launcher_token=driver is not None,
+        options=options,
     )
-    feed = _Feed(scenario.name, scenario.duration_s, scenario.turbine_id, TURBINE)
+    feed = _Feed(name, duration_s, ident, family)
     _supervise(
-        TURBINE.node_commands(ctx),
-        env,
-        out,
-        mcap_path,
-        feed,
-        endpoints[0],
-        console,
-        nice_recorder=req.transport != "can",
-        driver=driver,
-        abort=abort,
-        auth_key=auth_key,
-    )
+        family.node_commands(ctx), env, out, mcap_path, feed, endpoints[0], console,
+        nice_recorder=can is None, driver=driver, abort=abort, auth_key=auth_key,
+    )  # fmt: skip
 
 
 def _supervise(

@@ -92,7 +92,7 @@ from hil.hexicon.model import (
     plant_input,
     truth_sample,
 )
-from hil.nodes.bus import Bus, BusConfig, wait_matched
+from hil.nodes.bus import LINK_TIMEOUT_S, Bus, BusConfig, wait_matched
 from hil.nodes.rt import set_realtime_priority
 from hil.runlog.mcap_io import RunLog, read_run
 from plant.hexicon.environment import SampledWind
@@ -776,7 +776,7 @@ def node_commands(
             repr(control_period_s),
             # announced once the recorder's link reaches it: the plant waits for that
             "--await-recorder",
-            "30.0",
+            repr(LINK_TIMEOUT_S),
             "--samples",
             str(round(duration_s) if experiment else 0),
             *idf,

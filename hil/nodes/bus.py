@@ -420,6 +420,12 @@ class LogBatcher:
         self.messages += len(parts)
 
 
+#: Wall seconds a node waits for its links to the others (:func:`wait_matched`) before it
+#: announces itself anyway [s]: a connection to an endpoint not yet listening is retried at
+#: most every 4 s by Zenoh's defaults.
+LINK_TIMEOUT_S = 30.0
+
+
 def wait_matched(publisher: Any, timeout_s: float) -> bool:
     """Block until ``publisher``'s session knows a subscriber for its key; False on timeout.
 

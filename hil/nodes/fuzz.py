@@ -88,7 +88,7 @@ import zenoh
 from bus_schemas.auth import TAG_BYTES, KeyFileError, read_key_file, sign
 from bus_schemas.codec import MAGIC, DecodeError
 from bus_schemas.registry import COMMAND, SENSORS, TIMING_SUMMARY, MessageType
-from hil.nodes.bus import Bus, BusConfig, wait_matched
+from hil.nodes.bus import LINK_TIMEOUT_S, Bus, BusConfig, wait_matched
 
 #: Kinds of malformed payload, in the order the fuzzer cycles through them.
 KINDS: tuple[str, ...] = (
@@ -107,9 +107,6 @@ KINDS: tuple[str, ...] = (
 
 #: Counter key of a replayed or reordered frame, in the plant and in the controller.
 REPLAY_REASON = "duplicate_or_reordered"
-#: Wall seconds the fuzzer waits for its links to the plant and the controller before it
-#: announces itself [s].
-LINK_TIMEOUT_S = 30.0
 
 _WIRE = {"u64": "Q", "i64": "q", "u32": "I", "u8": "B", "f64": "d"}
 #: Non-finite values written into float fields (the last is a quiet NaN with payload bits).
