@@ -364,6 +364,9 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         wind_speed_m_s=getattr(scenario.wind, "speed_m_s", None),
         hs_m=getattr(scenario.waves, "hs_m", None),
         t1_s=getattr(scenario.waves, "t1_s", None),
+        core=c.core,
+        settings=c.settings,
+        base_dir=c.base_dir,
     )
     try:
         return ensure_design(request, (console or Console()).print)

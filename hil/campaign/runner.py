@@ -73,6 +73,7 @@ from hil.scenario.schema import (
     _known_fields,
     key_at_text,
     scenario_text,
+    settings_base_dir,
     unknown_key_text,
 )
 
@@ -106,23 +107,25 @@ class CaseSpec(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     overrides: dict[str, Any] = msgspec.field(default_factory=dict)
 
 
-class ControllerVariant(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """One controller variant: a name and the scenario's ``[controller]`` keys."""
+class ControllerVariant(ControllerSection, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One controller variant: a ``name`` and every key of a scenario's ``[controller]``.
+
+    Any controller kind the bench finds (shipped, an installed plug-in, ``kind = "python"``
+    with ``core``), with its keys (``preset``, ``forecaster``, ``feedforward``, ``library``,
+    ``parameter_file``, the casanovas-2014 keys, ``settings`` as an inline table or a
+    ``[controllers.settings]`` table, ...), validated when the campaign is read. The
+    variant's section replaces the case scenario's ``[controller]`` in each of its runs.
+    ``preset`` defaults to ``iea15mw_baseline`` (the campaigns' turbine); a variant's
+    ``settings`` resolve their relative paths against the campaign file's folder.
+    """
 
     name: Name
-    kind: Literal["baseline", "lqri", "lqri_ff"] = "baseline"
     preset: str = "iea15mw_baseline"
-    forecaster: Literal["dispersion", "ar", "esprit"] | None = None
-    feedforward: Literal["balanced", "max_performance"] = "balanced"
 
     def section(self) -> ControllerSection:
         """The scenario's ``[controller]`` section of this variant."""
-        return ControllerSection(
-            kind=self.kind,
-            preset=self.preset,
-            forecaster=self.forecaster,
-            feedforward=self.feedforward,
-        )
+        fields = {f: getattr(self, f) for f in ControllerSection.__struct_fields__}
+        return ControllerSection(**fields)
 
 
 class CampaignFile(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -312,6 +315,8 @@ def _scenario_base(ref: str, base_dir: Path, where: str) -> dict[str, Any]:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise CampaignError(f"{where}: {source}: not valid TOML: {exc}") from exc
+    shipped = path.suffix != ".toml" and source.startswith("hil/scenario/presets/")
+    settings_base_dir(raw, Path.cwd() if shipped else Path(source).parent)
     # Validate the scenario as shipped first, so its own errors name its file.
     _convert(raw, f"{where} ({source})")
     return raw
@@ -355,7 +360,9 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
                     d = _seeded(merged, seed * spec.seed_stride)
                     if waves == "still":
                         d = _still(d)
-                    d["controller"] = msgspec.to_builtins(variant.section())
+                    holder = {"controller": msgspec.to_builtins(variant.section())}
+                    settings_base_dir(holder, base_dir)  # a variant's settings: the file's
+                    d["controller"] = holder["controller"]
                     label = f"{spec.name}-{case.name}-{variant.name}-{waves}-s{seed}"
                     d["name"] = label
                     sc = _convert(d, f"{where}, controller {variant.name!r}, seed {seed}")
@@ -1336,24 +1343,42 @@ def run_campaign(
 
 
 def _designs(todo: Sequence[RunSpec], console: Console) -> str | None:
-    """Design missing controller artefacts once, in the client, before any task starts."""
+    """Design missing controller artefacts once, in the client, before any task starts.
+
+    Every kind with a design hook (:attr:`controller.registry.ControllerKind.design`,
+    shipped or plug-in) is asked once per distinct design request: its controller section,
+    control period, platform, wind and sea (what a design may start from).
+    """
+    from controller.registry import find_kind  # noqa: PLC0415
     from hil.launch import ensure_designs  # noqa: PLC0415
 
-    seen: set[tuple[str, str, str, float]] = set()
+    seen: set[str] = set()
     found: str | None = None
     for spec in todo:
-        c = spec.scenario["controller"]
-        key = (
-            c["kind"],
-            c["preset"],
-            c.get("feedforward", ""),
-            spec.scenario["timing"]["control_period_s"],
+        sc = spec.scenario
+        c = sc["controller"]
+        try:
+            if find_kind(c["kind"], c.get("core")).kind.design is None:
+                continue
+        except ValueError:  # validated when the campaign was read; the run says why
+            continue
+        waves = sc.get("waves") or {}
+        key = json.dumps(
+            [
+                c,
+                sc["timing"]["control_period_s"],
+                sc.get("platform"),
+                (sc.get("wind") or {}).get("speed_m_s"),
+                waves.get("hs_m"),
+                waves.get("t1_s"),
+            ],
+            sort_keys=True,
         )
-        if c["kind"] == "baseline" or key in seen:
+        if key in seen:
             continue
         seen.add(key)
         try:
-            d = ensure_designs(msgspec.convert(spec.scenario, Scenario), console)
+            d = ensure_designs(msgspec.convert(sc, Scenario), console)
         except Exception as exc:  # the runs of this controller will fail, saying why
             console.print(f"[red]design for {spec.controller} failed: {exc}[/]")
             continue

@@ -25,7 +25,7 @@ Key: SHA-256 of
 
 A scenario that names a turbine, platform or controller preset by path, or a DISCON
 parameter file, is not stored: such a file may name further files, whose contents are not
-all known here. It is trimmed once per process, as every scenario is without the store.
+all known here; nor is one whose controller kind is a plug-in (its code is the user's). It is trimmed once per process, as every scenario is without the store.
 
 Entries are JSON, one file per key; floats are written as their shortest repr, which reads
 back to the same bits, so a run from a stored trim is the run from a computed one. A write
@@ -144,8 +144,11 @@ def _shipped(scenario: Scenario) -> bool:
         shipped = package_presets("controller", "presets", "rosco", suffix="_DISCON.IN")
     elif c.kind in ("baseline", "lqri", "lqri_ff", "lqr_wave"):
         shipped = package_presets("controller", "presets")
-    else:  # the casanovas kinds name a design artefact, a bare name
+    elif c.kind in ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid"):
+        # the casanovas kinds name a design artefact, a bare name
         return "/" not in c.preset and "." not in c.preset
+    else:  # a plug-in's kind: its code is not in the store's key (code_fingerprint)
+        return False
     return c.preset in shipped
 
 

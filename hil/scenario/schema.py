@@ -19,10 +19,12 @@ import importlib.util
 import math
 import re
 import tomllib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Literal, get_args
+from typing import TYPE_CHECKING, Annotated, Any, Literal, get_args
 
 import msgspec
 
@@ -47,6 +49,26 @@ WaveFrequency = Annotated[float, msgspec.Meta(gt=0.0, le=20.0)]
 
 class ScenarioError(ValueError):
     """A scenario file that cannot be used, with the key at fault in the message."""
+
+
+#: Whether a scenario's controller kind is looked up (and its plug-in imported, its settings
+#: validated) when the scenario is read: on, except in :func:`recorded_scenarios`.
+_CHECK_CONTROLLER: ContextVar[bool] = ContextVar("check_controller", default=True)
+
+
+@contextmanager
+def recorded_scenarios() -> Iterator[None]:
+    """Read scenarios without looking up their controller kind (a run's log, reviewed).
+
+    The scenario recorded in a run log describes a run that happened: its review (KPIs,
+    reports, comparisons) needs the turbine, wind and review keys, not the controller, whose
+    plug-in may not be installed where the log is read.
+    """
+    token = _CHECK_CONTROLLER.set(False)
+    try:
+        yield
+    finally:
+        _CHECK_CONTROLLER.reset(token)
 
 
 class _Section(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -482,20 +504,18 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
     gives one; ``library`` a user's build (default: the ``rosco`` wheel's ``libdiscon``).
     Relative paths are taken from the working directory of ``fowt run``.
+
+    A kind of your own (docs/guide/own-controller.md): the name an installed distribution
+    registers in the entry-point group ``fowt_hil.controllers``, or ``kind = "python"`` with
+    ``core = "package.module:attribute"`` (a :class:`controller.registry.ControllerKind` on
+    the Python path). ``[controller.settings]``: the kind's own table, validated against the
+    settings schema the kind declares when the scenario is read. ``base_dir``: the folder
+    relative paths in the settings resolve against (default: the scenario file's folder; the
+    working directory for a shipped scenario). Every kind found is accepted
+    (``fowt controllers`` lists them); an unknown one is refused with the closest names.
     """
 
-    kind: Literal[
-        "baseline",
-        "lqri",
-        "lqri_ff",
-        "rosco",
-        "lqr_wave",
-        "no_control",
-        "base_torque",
-        "lqr_steady",
-        "lqr_finite",
-        "lqr_overlaid",
-    ] = "baseline"
+    kind: Annotated[str, msgspec.Meta(min_length=1, max_length=128)] = "baseline"
     preset: str = "nrel5mw_baseline"
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"
@@ -508,8 +528,23 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     symmetric_pitch_limit_deg: Annotated[float, msgspec.Meta(gt=0.0, le=90.0)] | None = None
     torque_weight_factor: Annotated[float, msgspec.Meta(gt=0.0)] | None = None
     gamma_1_s: float | Literal["no_preview"] | None = None
+    # a plug-in's core (controller.registry.find_kind) and its settings
+    core: str | None = None
+    settings: dict[str, Any] = msgspec.field(default_factory=dict)
+    base_dir: str | None = None
 
     def __post_init__(self) -> None:
+        if _CHECK_CONTROLLER.get():
+            from controller.registry import (  # noqa: PLC0415
+                ControllerKindError,
+                find_kind,
+                validate_settings,
+            )
+
+            try:
+                validate_settings(find_kind(self.kind, self.core), self.settings)
+            except ControllerKindError as exc:
+                raise ValueError(str(exc)) from exc
         if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
             raise ValueError(
                 "controller.library and controller.parameter_file are used only by "
@@ -838,7 +873,10 @@ def key_at_text(msg: str, suffix: str = "") -> str:
     at = _AT_PATH.search(msg)
     if at is None:
         return msg
-    return f"key {at.group(1)!r}: {msg[: at.start()]}{suffix}"
+    text = msg[: at.start()]
+    if text.startswith(f"{at.group(1)}."):  # the message names its key already
+        return f"{text}{suffix}"
+    return f"key {at.group(1)!r}: {text}{suffix}"
 
 
 def _hint_for_unknown(key: str, known: list[str]) -> str:
@@ -925,8 +963,31 @@ def non_finite_key(raw: object, path: str = "") -> tuple[str, float] | None:
     return None
 
 
-def parse_scenario(text: str, source: str = "<string>") -> Scenario:
+def settings_base_dir(raw: dict[str, Any], base_dir: str | Path | None) -> None:
+    """Fill ``[controller] base_dir`` of a parsed scenario that has settings (in place).
+
+    Unset: ``base_dir`` (the scenario file's folder, or the working directory); relative:
+    taken from ``base_dir``. Absolute, so every process of a run (and every campaign worker)
+    resolves the settings' relative paths alike. A scenario without settings is left as it
+    is (its controller has no path to resolve).
+    """
+    c = raw.get("controller")
+    if base_dir is None or not isinstance(c, dict) or not c.get("settings"):
+        return
+    given = c.get("base_dir")
+    if given is None:
+        c["base_dir"] = str(Path(base_dir).resolve())
+    elif isinstance(given, str) and not Path(given).expanduser().is_absolute():
+        c["base_dir"] = str((Path(base_dir) / given).resolve())
+
+
+def parse_scenario(
+    text: str, source: str = "<string>", base_dir: str | Path | None = None
+) -> Scenario:
     """Parse and validate scenario TOML text.
+
+    ``base_dir``: the folder the controller settings' relative paths resolve against
+    (:func:`settings_base_dir`; None: left unset, the working directory when built).
 
     Raises
     ------
@@ -940,6 +1001,7 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
     bad = non_finite_key(raw)
     if bad is not None:
         raise ScenarioError(f"{source}: key {bad[0]!r}: expected a finite number, got {bad[1]}")
+    settings_base_dir(raw, base_dir)
     try:
         return msgspec.convert(raw, Scenario)
     except msgspec.ValidationError as exc:
@@ -1044,4 +1106,7 @@ def scenario_text(name_or_path: str) -> tuple[str, str]:
 def load_scenario(name_or_path: str = "default") -> Scenario:
     """Load a shipped scenario by name or a scenario file by path."""
     text, source = scenario_text(name_or_path)
-    return parse_scenario(text, source)
+    res = importlib.resources.files("hil.scenario") / "presets" / f"{name_or_path}.toml"
+    shipped = "/" not in name_or_path and not name_or_path.endswith(".toml") and res.is_file()
+    base_dir = Path.cwd() if shipped else Path(source).parent
+    return parse_scenario(text, source, base_dir)
