@@ -1416,8 +1416,10 @@ def preset_import_openfast(
 
 def _register_campaign_commands() -> None:
     from hil.cli.campaign import register
+    from hil.cli.controllers import register as register_controllers
 
     register(app, console)
+    register_controllers(app, console)
 
 
 _register_campaign_commands()
