@@ -36,7 +36,7 @@ import pytest
 from _helpers import fowt
 
 from controller import registry
-from controller.registry import ControllerKindError, find_kind, list_kinds
+from controller.registry import find_kind, list_kinds
 from hil.scenario.schema import ScenarioError, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -297,7 +297,8 @@ def test_campaign_takes_every_kind_and_key_and_asks_design_hooks(plugin_path: Pa
     import userplug  # type: ignore[import-not-found]
 
     userplug.DESIGNED.clear()
-    _designs([r for r in c.runs if r.controller == "mine"], Console(file=open(os.devnull, "w")))
+    with open(os.devnull, "w") as devnull:
+        _designs([r for r in c.runs if r.controller == "mine"], Console(file=devnull))
     assert [k for k, _ in userplug.DESIGNED] == ["python"]  # once, with its settings
     bad = text.replace("pitch_ki = 0.01", "pitch_ki = 'x'")
     with pytest.raises(ValueError, match=r"controller.settings.pitch_ki: Expected `float`"):
@@ -378,7 +379,11 @@ def scratch_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     shutil.copytree(EXAMPLE, src)
     pip = [str(python), "-m", "pip", "install", "--no-deps", "--no-build-isolation"]
     proc = subprocess.run(
-        [*pip, "--no-index", "-q", str(src)], capture_output=True, text=True, env=_env()
+        [*pip, "--no-index", "-q", str(src)],
+        capture_output=True,
+        text=True,
+        env=_env(),
+        check=False,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return python
@@ -496,9 +501,9 @@ def test_python_core_on_pythonpath_runs_lockstep(tmp_path: Path) -> None:
     scenario = _e2e_scenario(tmp_path, 'kind = "python"\ncore = "user_core:KIND"')
     path = os.pathsep.join([str(REPO), str(pkg), str(EXAMPLE / "src")])
     out = tmp_path / "run"
+    args = ["--duration", "10", "--out", str(out), "--no-plots"]
     proc = subprocess.run(
-        [sys.executable, "-m", "hil", "run", str(scenario), "--mode", "lockstep"]
-        + ["--duration", "10", "--out", str(out), "--no-plots"],
+        [*[sys.executable, "-m", "hil", "run", str(scenario), "--mode", "lockstep"], *args],
         capture_output=True,
         text=True,
         cwd=tmp_path,

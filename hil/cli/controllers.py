@@ -41,13 +41,13 @@ def register(app: typer.Typer, console: Console) -> None:
         if core is not None and rows[-1].error:
             cli_common.fail(rows[-1].error)
         t = Table(title=Text("controller kinds: [controller] kind"))
-        for col in ("kind", "source", "settings schema", "design hook", "description"):
+        for col in ("kind", "source", "settings", "design", "description"):
             t.add_column(col)
         for r in rows:
             t.add_row(
                 Text(r.name),
                 Text(r.source),
-                Text(r.settings or "-"),
+                Text(r.settings.rsplit(".", 1)[-1] or "-"),
                 "yes" if r.design else "-",
                 Text(r.description) if not r.error else Text(f"cannot be used: {r.error}", "red"),
             )

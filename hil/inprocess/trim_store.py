@@ -25,7 +25,8 @@ Key: SHA-256 of
 
 A scenario that names a turbine, platform or controller preset by path, or a DISCON
 parameter file, is not stored: such a file may name further files, whose contents are not
-all known here; nor is one whose controller kind is a plug-in (its code is the user's). It is trimmed once per process, as every scenario is without the store.
+all known here; nor is one whose controller kind is a plug-in (its code is the user's).
+It is trimmed once per process, as every scenario is without the store.
 
 Entries are JSON, one file per key; floats are written as their shortest repr, which reads
 back to the same bits, so a run from a stored trim is the run from a computed one. A write

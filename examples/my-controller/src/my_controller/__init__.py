@@ -10,6 +10,7 @@ same object on ``PYTHONPATH``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from controller.registry import ControllerKind, ControllerOptions, DesignRequest
@@ -19,12 +20,12 @@ __all__ = ["KIND", "MyPiController", "MyPiSettings", "MyPiState", "build", "desi
 
 
 def build(options: ControllerOptions) -> MyPiController:
-    """The core of a run: ``options.settings`` is the validated :class:`MyPiSettings`."""
+    """options.settings is the validated MyPiSettings."""
     settings = options.settings if options.settings is not None else MyPiSettings()
     return MyPiController(settings, options.control_period_s)
 
 
-def design(request: DesignRequest, say: object) -> Path | None:
+def design(request: DesignRequest, say: Callable[[str], None]) -> Path | None:
     """The design hook: runs in the launcher before the run (once per campaign).
 
     A model-based controller would make its missing artefacts here (gains for the scenario's
@@ -32,15 +33,14 @@ def design(request: DesignRequest, say: object) -> Path | None:
     gains from the settings, so it only checks that its speed filter suits the control
     period and says so.
     """
-    s = request.settings
+    s = request.settings  # the validated MyPiSettings
     assert isinstance(s, MyPiSettings)
     nyquist_hz = 0.5 / request.control_period_s
-    if callable(say):
-        say(
-            f"my_pi: speed filter {s.speed_filter_corner_hz:g} Hz at "
-            f"{1.0 / request.control_period_s:g} Hz control rate (Nyquist {nyquist_hz:g} Hz); "
-            "nothing to design"
-        )
+    say(
+        f"my_pi: speed filter {s.speed_filter_corner_hz:g} Hz at "
+        f"{1.0 / request.control_period_s:g} Hz control rate (Nyquist {nyquist_hz:g} Hz); "
+        "nothing to design"
+    )
     return None
 
 
