@@ -554,9 +554,11 @@ class KindInfo:
     error: str = ""  # why the kind cannot be used ("" when it can)
 
 
-def _info(name: str, load: Callable[[], FoundKind], source: str) -> KindInfo:
+def _info(name: str, core: str | None, source: str) -> KindInfo:
     try:
-        found = load()
+        # an entry point named "python" is refused (find_kind never looks it up)
+        ep = _entry_point(name) if name == PYTHON_KIND and core is None else None
+        found = ep or find_kind(name, core)
     except ControllerKindError as exc:
         return KindInfo(name, source, error=str(exc))
     k = found.kind
@@ -567,12 +569,11 @@ def _info(name: str, load: Callable[[], FoundKind], source: str) -> KindInfo:
 def list_kinds(core: str | None = None) -> list[KindInfo]:
     """Every kind found, shipped then installed (loaded, so a broken one says why), and
     the ``python`` kind of ``core`` when given."""
-    rows = [_info(n, lambda n=n: find_kind(n), "shipped") for n in CONTROLLER_KINDS]
+    rows = [_info(n, None, "shipped") for n in CONTROLLER_KINDS]
     for name, eps in _entry_points().items():
-        source = "entry point " + ", ".join(e.dist for e in eps)
-        rows.append(_info(name, lambda n=name: find_kind(n), source))
+        rows.append(_info(name, None, "entry point " + ", ".join(e.dist for e in eps)))
     if core is not None:
-        rows.append(_info(PYTHON_KIND, lambda: find_kind(PYTHON_KIND, core), "python"))
+        rows.append(_info(PYTHON_KIND, core, "python"))
     return rows
 
 

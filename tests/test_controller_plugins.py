@@ -221,7 +221,11 @@ def test_python_kind_needs_core_and_core_needs_python(plugin_path: Path) -> None
 def test_entry_points_are_found_and_clashes_refused(plugin_path: Path) -> None:
     (plugin_path / "userplug_ep.py").write_text("from userplug import KIND\n")
     _dist(plugin_path, "good_plugin", {"my_ep_kind": "userplug_ep:KIND"})
-    _dist(plugin_path, "bad_plugin", {"baseline": "userplug:KIND", "twice": "userplug:KIND"})
+    _dist(
+        plugin_path,
+        "bad_plugin",
+        {"baseline": "userplug:KIND", "twice": "userplug:KIND", "python": "userplug:KIND"},
+    )
     _dist(plugin_path, "other_plugin", {"twice": "userplug:KIND"})
     _clear()
     found = find_kind("my_ep_kind")
@@ -237,6 +241,8 @@ def test_entry_points_are_found_and_clashes_refused(plugin_path: Path) -> None:
     rows = {r.name: r for r in list_kinds()}
     assert rows["my_ep_kind"].design and rows["my_ep_kind"].settings.endswith("MyPiSettings")
     assert rows["baseline"].error and not rows["lqri"].error
+    assert "has the name of a shipped kind" in rows["python"].error
+    assert find_kind("python", "userplug:KIND").source == "python"  # the kind itself works
 
 
 def test_design_hook_gets_validated_settings(plugin_path: Path) -> None:

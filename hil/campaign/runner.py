@@ -52,6 +52,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import time
 import tomllib
 import traceback
@@ -401,7 +402,12 @@ def parse_campaign(text: str, source: str = "<string>", base_dir: Path | None = 
         unknown = unknown_key_text(msg, _known)
         if unknown is not None:
             raise CampaignError(f"{source}: unknown key {unknown}") from exc
-        raise CampaignError(f"{source}: {key_at_text(msg)}") from exc
+        text = key_at_text(msg)
+        # a variant's [controller] error names its key as a scenario's: say which variant
+        variant = re.match(r"key '(controllers\[\d+\])': controller\.(.*)$", text)
+        if variant is not None:
+            text = f"{variant.group(1)}.{variant.group(2)}"
+        raise CampaignError(f"{source}: {text}") from exc
     try:
         runs = expand(spec, base_dir or Path.cwd())
     except CampaignError as exc:
