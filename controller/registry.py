@@ -455,7 +455,7 @@ def _unknown(kind: str) -> ControllerKindError:
             "`fowt controllers` lists the kinds found; your own core: kind = 'python' with "
             "core = 'package.module:attribute', or an installed plug-in"
         )
-    return ControllerKindError(f"controller.kind = {kind!r}: unknown kind; {hint}")
+    return ControllerKindError(f"controller.kind = {kind!r}: unknown controller kind; {hint}")
 
 
 def find_kind(kind: str, core: str | None = None) -> FoundKind:

@@ -134,7 +134,8 @@ def _error(text: str) -> str:
 
 def test_unknown_kind_names_the_closest_few_never_all() -> None:
     msg = _error(_scenario('kind = "lqri_f"'))
-    assert msg.startswith("s.toml: controller.kind = 'lqri_f': unknown kind; did you mean")
+    start = "s.toml: controller.kind = 'lqri_f': unknown controller kind; did you mean"
+    assert msg.startswith(start)
     assert "'lqri_ff'" in msg and "'lqri'" in msg
     assert "casanovas" not in msg and "lqr_overlaid" not in msg  # not the whole list
     far = _error(_scenario('kind = "zzzzzz"'))
@@ -307,7 +308,7 @@ def test_campaign_takes_every_kind_and_key_and_asks_design_hooks(plugin_path: Pa
         _designs([r for r in c.runs if r.controller == "mine"], Console(file=devnull))
     assert [k for k, _ in userplug.DESIGNED] == ["python"]  # once, with its settings
     bad = text.replace("pitch_ki = 0.01", "pitch_ki = 'x'")
-    with pytest.raises(ValueError, match=r"controller.settings.pitch_ki: Expected `float`"):
+    with pytest.raises(ValueError, match=r"controllers\[2\]\.settings\.pitch_ki: Expected `float`"):
         parse_campaign(bad, "c.toml", plugin_path)
     typo = text.replace('kind = "baseline"', 'kind = "baselne"')
     with pytest.raises(ValueError, match="did you mean 'baseline'"):
