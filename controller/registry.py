@@ -355,7 +355,9 @@ def _entry_points() -> dict[str, tuple[_EntryPoint, ...]]:
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
         dist = getattr(ep, "dist", None)
         label = f"{dist.name}=={dist.version}" if dist is not None else "unknown distribution"
-        out.setdefault(ep.name, []).append(_EntryPoint(ep.name, ep.value, label, ep))
+        # module:attribute without extras ("mod:obj [extra]" names the same object)
+        value = f"{ep.module}:{ep.attr}" if ep.attr else ep.value
+        out.setdefault(ep.name, []).append(_EntryPoint(ep.name, value, label, ep))
     # one distribution found twice on the path (an editable install beside a copy) is one
     return {name: tuple({(e.value, e.dist): e for e in eps}.values()) for name, eps in out.items()}
 
@@ -379,6 +381,16 @@ def _one_line(exc: BaseException) -> str:
 def _as_kind(obj: Any, where: str) -> ControllerKind:
     """A loaded plug-in object as a :class:`ControllerKind` (a function: its ``build``)."""
     if isinstance(obj, ControllerKind):
+        schema = obj.settings
+        if schema is not None and not (
+            isinstance(schema, type) and issubclass(schema, msgspec.Struct)
+        ):
+            raise ControllerKindError(
+                f"{where}: ControllerKind.settings must be a msgspec.Struct class (the settings "
+                f"schema), got {type(schema).__name__}"
+            )
+        if not callable(obj.build) or (obj.design is not None and not callable(obj.design)):
+            raise ControllerKindError(f"{where}: ControllerKind.build and design must be callable")
         return obj
     if callable(obj) and not isinstance(obj, type):
         doc = (getattr(obj, "__doc__", None) or "").strip().splitlines()

@@ -85,6 +85,7 @@ def bare(options):
 
 
 NOT_A_KIND = 42
+BAD_SCHEMA = ControllerKind(build=bare, settings=dict)
 """
 
 
@@ -187,6 +188,7 @@ def test_python_core_with_settings_is_validated_on_read(plugin_path: Path) -> No
         ("userplug:NOT_A_KIND", "expected a controller.registry.ControllerKind"),
         ("userplug_raises:KIND", "importing 'userplug_raises' raised RuntimeError: no licence"),
         ("not a reference", "expected 'package.module:attribute'"),
+        ("userplug:BAD_SCHEMA", "ControllerKind.settings must be a msgspec.Struct class"),
     ],
 )
 def test_loading_errors_are_one_line(plugin_path: Path, core: str, words: str) -> None:
