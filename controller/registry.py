@@ -579,13 +579,16 @@ def _info(name: str, core: str | None, source: str) -> KindInfo:
 
 
 def list_kinds(core: str | None = None) -> list[KindInfo]:
-    """Every kind found, shipped then installed (loaded, so a broken one says why), and
-    the ``python`` kind of ``core`` when given."""
+    """Every kind found, shipped then installed (loaded, so a broken one says why), then
+    ``python``: the core ``core`` names when given (loaded), else the kind's one line."""
     rows = [_info(n, None, "shipped") for n in CONTROLLER_KINDS]
     for name, eps in _entry_points().items():
         rows.append(_info(name, None, "entry point " + ", ".join(e.dist for e in eps)))
     if core is not None:
         rows.append(_info(PYTHON_KIND, core, "python"))
+    else:
+        what = "your core by its import path: core = 'package.module:attribute'"
+        rows.append(KindInfo(PYTHON_KIND, "python", what))
     return rows
 
 
