@@ -21,6 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
+from controller.fmu import FmuSettings
 from controller.interface import ActuatorLimits, Controller
 
 __all__ = [
@@ -32,6 +35,7 @@ __all__ = [
     "available_controllers",
     "ensure_design",
     "make_controller",
+    "settings_for",
 ]
 
 
@@ -60,6 +64,12 @@ class ControllerOptions:
         (None: the shipped one named by ``preset``) and the folder for its files.
     preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
+    settings : msgspec.Struct or None
+        The kind's validated ``[controller.settings]`` (an instance of its
+        :attr:`ControllerKind.settings` schema; None for a kind without one).
+    base_dir : str or None
+        Folder that relative paths in ``settings`` are taken from (the scenario file's
+        folder; None: the working directory).
     """
 
     kind: str
@@ -78,6 +88,8 @@ class ControllerOptions:
     symmetric_pitch_limit_deg: float | None = None
     torque_weight_factor: float | None = None
     gamma_1_s: float | None = None
+    settings: Any = None
+    base_dir: str | None = None
 
 
 @dataclass(frozen=True)
@@ -142,6 +154,14 @@ def _rosco(o: ControllerOptions) -> Controller[Any]:
     )
 
 
+def _fmu(o: ControllerOptions) -> Controller[Any]:
+    from controller.fmu import make_fmu_controller  # noqa: PLC0415
+
+    if o.settings is None:
+        raise ValueError("kind 'fmu' needs [controller.settings] (fmu, inputs, outputs)")
+    return make_fmu_controller(o.settings, o.control_period_s, o.base_dir)
+
+
 def _lqr_wave(o: ControllerOptions) -> Controller[Any]:
     from controller.lqr_wave import LqrWaveController, load_lqr_wave_preset  # noqa: PLC0415
 
@@ -203,10 +223,17 @@ class ControllerKind:
         for a :class:`DesignRequest` before the run (progress messages through ``say``) and
         returns the folder designed into, or None when nothing was missing or nothing can be
         designed; None for a kind that loads no design artefact.
+    settings : type or None
+        The msgspec Struct that ``[controller.settings]`` of this kind is validated as
+        (None: the kind takes no settings).
+    description : str
+        One line saying what the kind runs.
     """
 
     build: Callable[[ControllerOptions], Controller[Any]]
     design: Callable[[DesignRequest, Say], Path | None] | None = None
+    settings: type[msgspec.Struct] | None = None
+    description: str = ""
 
 
 _CASANOVAS = ControllerKind(
@@ -218,6 +245,11 @@ CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "lqri": ControllerKind(_advanced, _design_advanced),
     "lqri_ff": ControllerKind(_advanced, _design_advanced),
     "rosco": ControllerKind(_rosco),
+    "fmu": ControllerKind(
+        _fmu,
+        settings=FmuSettings,
+        description="an FMI 2.0 co-simulation FMU run through fmpy (controller/fmu.py)",
+    ),
     "lqr_wave": ControllerKind(_lqr_wave, _design_lqr_wave),  # christiansen-2013
     "no_control": _CASANOVAS,
     "base_torque": _CASANOVAS,
@@ -288,6 +320,8 @@ def make_controller(
     symmetric_pitch_limit_deg: float | None = None,
     torque_weight_factor: float | None = None,
     gamma_1_s: float | None = None,
+    settings: Any = None,
+    base_dir: str | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -317,6 +351,11 @@ def make_controller(
         (:func:`controller.rosco.make_rosco_controller`).
     preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
+    settings : msgspec.Struct, dict or None
+        The kind's ``[controller.settings]`` (``"fmu"``: :class:`controller.fmu.FmuSettings`);
+        a dict is validated against the kind's schema.
+    base_dir : str or None
+        Folder that relative paths in ``settings`` are taken from.
 
     Returns
     -------
@@ -348,8 +387,35 @@ def make_controller(
             symmetric_pitch_limit_deg=symmetric_pitch_limit_deg,
             torque_weight_factor=torque_weight_factor,
             gamma_1_s=gamma_1_s,
+            settings=settings_for(kind, settings),
+            base_dir=base_dir,
         )
     )
+
+
+def settings_for(kind: str, settings: Any) -> Any:
+    """``settings`` validated as the schema of ``kind`` (:attr:`ControllerKind.settings`).
+
+    None and an empty dict are None for a kind without a schema; an instance of the schema
+    passes as it is; a dict is converted with ``msgspec.convert``.
+
+    Raises
+    ------
+    ValueError
+        If the kind takes no settings but some are given, or they do not validate (the
+        message names the key).
+    """
+    schema = _kind(kind).settings
+    if schema is None:
+        if settings:
+            raise ValueError(f"controller.settings: kind {kind!r} takes no settings")
+        return None
+    if settings is None or isinstance(settings, schema):
+        return settings
+    try:
+        return msgspec.convert(settings, schema)
+    except msgspec.ValidationError as exc:
+        raise ValueError(f"controller.settings: {exc}") from exc
 
 
 def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:

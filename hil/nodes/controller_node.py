@@ -264,6 +264,8 @@ class ControllerRuntime:
             symmetric_pitch_limit_deg=c.symmetric_pitch_limit_deg,
             torque_weight_factor=c.torque_weight_factor,
             gamma_1_s=c.gamma_value,
+            settings=c.settings or None,
+            base_dir=c.base_dir,
         )
         self.state: Any = self.controller.initial_state()
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
