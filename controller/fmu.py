@@ -59,6 +59,7 @@ This module imports ``fmpy`` only when a core is checked or built, and never imp
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import os
@@ -67,10 +68,10 @@ import tempfile
 import typing
 import weakref
 import zipfile
-from xml.etree import ElementTree
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
+from xml.etree import ElementTree
 
 import msgspec
 
@@ -321,9 +322,7 @@ def _factor(what: str, var: Any, bench_unit: str, stated: str | None) -> float:
     return factor
 
 
-def check_fmu(
-    settings: FmuSettings, base_dir: str | os.PathLike[str] | None = None
-) -> FmuModel:
+def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = None) -> FmuModel:
     """Check an FMU and its mapping without loading its binary; return the resolved model.
 
     Parameters
@@ -382,7 +381,7 @@ def check_fmu(
         )
     try:
         md = read_model_description(str(path), validate=True)
-    except Exception as exc:  # noqa: BLE001  # lxml, schema and fmpy's own checks
+    except Exception as exc:  # lxml, schema and fmpy's own checks
         text = " ".join(str(exc).split())
         raise FmuError(f"{name}: malformed modelDescription.xml: {text[:300]}") from exc
     if md.coSimulation is None:
@@ -393,7 +392,9 @@ def check_fmu(
     ident = md.coSimulation.modelIdentifier
     binary = f"binaries/{fmpy.platform}/{ident}{fmpy.sharedLibraryExtension}"
     if binary not in names:
-        shipped = sorted({n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") >= 2})
+        shipped = sorted(
+            {n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") >= 2}
+        )
         raise FmuError(
             f"{name}: no binary for this platform: expected {binary} "
             f"(platforms in the FMU: {', '.join(shipped) or 'none'})"
@@ -417,16 +418,19 @@ def check_fmu(
         var = variable(what, vname)
         if var.causality != "input":
             raise FmuError(
-                f"{what}: FMU variable {vname!r} has causality {var.causality!r}, "
-                "expected 'input'"
+                f"{what}: FMU variable {vname!r} has causality {var.causality!r}, expected 'input'"
             )
         integer = fld in _INT_INPUTS
         want = "Integer" if integer else "Real"
         if var.type != want:
             raise FmuError(f"{what}: FMU variable {vname!r} is {var.type}, expected {want}")
-        factor = 1.0 if integer else _factor(what, var, sensor_units[fld], settings.units.get(vname))
+        factor = (
+            1.0 if integer else _factor(what, var, sensor_units[fld], settings.units.get(vname))
+        )
         # FMU value = bench value / factor (the factor is FMU -> bench).
-        inputs.append(_Binding(fld, vname, var.valueReference, factor, integer, VALID_BITS.get(fld, 0)))
+        inputs.append(
+            _Binding(fld, vname, var.valueReference, factor, integer, VALID_BITS.get(fld, 0))
+        )
     outputs: list[_Binding] = []
     optional = {k: v[0] for k, v in STATUS_OUTPUTS.items()}
     for fld, vname in settings.outputs.items():
@@ -439,8 +443,7 @@ def check_fmu(
         var = variable(what, vname)
         if var.causality != "output":
             raise FmuError(
-                f"{what}: FMU variable {vname!r} has causality {var.causality!r}, "
-                "expected 'output'"
+                f"{what}: FMU variable {vname!r} has causality {var.causality!r}, expected 'output'"
             )
         integer = fld == "regime"
         want = "Integer" if integer else "Real"
@@ -591,7 +594,7 @@ class FmuController:
                 instanceName="fowt_controller",
             )
             slave.instantiate(loggingOn=False)
-        except Exception as exc:  # noqa: BLE001  # fmpy raises bare Exceptions here
+        except Exception as exc:  # fmpy raises bare Exceptions here
             raise self._fail("loading and instantiating", exc, None) from exc
         self._slave = slave
 
@@ -610,7 +613,7 @@ class FmuController:
         else:
             try:
                 self._slave.reset()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise self._fail("fmi2Reset", exc, None) from exc
         self._generation += 1
         return FmuState(generation=self._generation)
@@ -619,10 +622,8 @@ class FmuController:
         """Terminate and free the instance, and delete the extracted archive."""
         if self._slave is not None:
             slave, self._slave = self._slave, None
-            try:
+            with contextlib.suppress(Exception):  # already failed: freeing is what is left
                 slave.terminate()
-            except Exception:  # noqa: BLE001, S110  # already failed: freeing is what is left
-                pass
             slave.freeInstance()
         if self._cleanup is not None:
             self._cleanup()
@@ -686,22 +687,22 @@ class FmuController:
             state.start_ns = measurement.sample_time_ns
             try:
                 self._initialise(state, measurement)
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise self._fail("initialisation", exc, state.start_ns * 1e-9) from exc
         t_ns = state.start_ns + state.steps * self.period_ns
         t = t_ns * 1e-9
         try:
             degraded = self._set_inputs(state, measurement)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise self._fail("setting the inputs", exc, t) from exc
         try:
             slave.doStep(currentCommunicationPoint=t, communicationStepSize=dt_s)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise self._fail("fmi2DoStep", exc, t) from exc
         try:
             reals = slave.getReal(self._vr_out_real) if self._vr_out_real else []
             ints = slave.getInteger(self._vr_out_int) if self._vr_out_int else []
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise self._fail("reading the outputs", exc, t) from exc
         state.steps += 1
         out: dict[str, float] = {}

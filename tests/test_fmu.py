@@ -18,8 +18,8 @@ from pathlib import Path
 import msgspec
 import numpy as np
 import pytest
-
 from _helpers import REPO, fowt, sensor_frame
+
 from bus_schemas import SensorFrame
 from bus_schemas.messages import VALID_BITS
 from controller.fmu import FmuController, FmuError, FmuSettings, FmuStepError, check_fmu
@@ -45,8 +45,17 @@ def fmu_binary(tmp_path_factory: pytest.TempPathFactory) -> Path:
     headers = Path(fmpy.__file__).parent / "c-code"
     out = tmp_path_factory.mktemp("fmu-build") / "pi_controller.so"
     subprocess.run(
-        ["gcc", "-O2", "-shared", "-fPIC", f"-I{headers}", str(SRC / "pi_controller.c"),
-         "-o", str(out), "-lm"],
+        [
+            "gcc",
+            "-O2",
+            "-shared",
+            "-fPIC",
+            f"-I{headers}",
+            str(SRC / "pi_controller.c"),
+            "-o",
+            str(out),
+            "-lm",
+        ],
         check=True,
         capture_output=True,
     )
@@ -252,7 +261,9 @@ def _broken(kind: str, binary: Path, d: Path) -> Path:
         ("fmi3", "is not supported"),
     ],
 )
-def test_unusable_fmu_is_one_line(kind: str, expected: str, fmu_binary: Path, tmp_path: Path) -> None:
+def test_unusable_fmu_is_one_line(
+    kind: str, expected: str, fmu_binary: Path, tmp_path: Path
+) -> None:
     path = _broken(kind, fmu_binary, tmp_path)
     with pytest.raises(FmuError) as err:
         check_fmu(settings(path))
@@ -267,9 +278,15 @@ def test_unusable_fmu_is_one_line(kind: str, expected: str, fmu_binary: Path, tm
         ({"inputs": {"generator_speed_measured_rad_s": "PitchCmd"}}, "expected 'input'"),
         ({"inputs": {"wind_speed_measured_m_s": "GenSpeed"}}, "unit 'rpm'"),
         ({"inputs": {"wind_speed_measured_m_s": "Wind"}, "units": {}}, "declares no unit"),
-        ({"outputs": {"blade_pitch_commanded_rad": "PitchCmd"}}, "generator_torque_commanded_nm missing"),
+        (
+            {"outputs": {"blade_pitch_commanded_rad": "PitchCmd"}},
+            "generator_torque_commanded_nm missing",
+        ),
         ({"outputs": {**SETTINGS["outputs"], "regime": "PitchInt"}}, "expected Integer"),  # type: ignore[dict-item]
-        ({"outputs": {**SETTINGS["outputs"], "pitch_integrator_rad": "GenSpeed"}}, "expected 'output'"),  # type: ignore[dict-item]
+        (
+            {"outputs": {**SETTINGS["outputs"], "pitch_integrator_rad": "GenSpeed"}},
+            "expected 'output'",
+        ),  # type: ignore[dict-item]
         ({"start_values": {"Kp": "fast"}}, "is Real, expected a value"),
         ({"start_values": {"PitchCmd": 1.0}}, "cannot be set"),
     ],
@@ -315,11 +332,17 @@ def test_scenario_settings_validate_and_paths_resolve(pi_fmu: Path, tmp_path: Pa
     path.write_text(_scenario_text("pi.fmu"))
     sc = load_scenario(str(path))
     assert sc.controller.base_dir == str(tmp_path / "sub")
-    with pytest.raises(ScenarioError, match="controller.settings"):
-        parse_scenario(_scenario_text("pi.fmu").replace("[controller.settings.inputs]", "[controller.settings.bogus]"))
+    with pytest.raises(ScenarioError, match=r"controller\.settings"):
+        parse_scenario(
+            _scenario_text("pi.fmu").replace(
+                "[controller.settings.inputs]", "[controller.settings.bogus]"
+            )
+        )
     with pytest.raises(ScenarioError, match="takes no settings"):
-        parse_scenario('name = "x"\nturbine = "nrel5mw"\n[wind]\nkind = "steady"\nspeed_m_s = 8.0\n'
-                       '[controller.settings]\nfmu = "a.fmu"\n')
+        parse_scenario(
+            'name = "x"\nturbine = "nrel5mw"\n[wind]\nkind = "steady"\nspeed_m_s = 8.0\n'
+            '[controller.settings]\nfmu = "a.fmu"\n'
+        )
 
 
 # ----------------------------------------------------------------------------- runs
@@ -336,8 +359,19 @@ def test_lockstep_run_equals_python_law_replayed(pi_fmu: Path, tmp_path: Path) -
     scenario = tmp_path / "fmu-pi.toml"
     scenario.write_text(_scenario_text("pi.fmu"))
     out = tmp_path / "run"
-    r = fowt("run", str(scenario), "--mode", "lockstep", "--duration", "20", "--out", str(out),
-             "--no-plots", cwd=REPO, timeout=600)
+    r = fowt(
+        "run",
+        str(scenario),
+        "--mode",
+        "lockstep",
+        "--duration",
+        "20",
+        "--out",
+        str(out),
+        "--no-plots",
+        cwd=REPO,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     run = read_run(out / "run.mcap")
     sensors = _sensors_rows(run.topic("sensors"))
@@ -355,7 +389,9 @@ def test_lockstep_run_equals_python_law_replayed(pi_fmu: Path, tmp_path: Path) -
 
 
 @pytest.mark.e2e
-def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(fmu_binary: Path, tmp_path: Path) -> None:
+def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(
+    fmu_binary: Path, tmp_path: Path
+) -> None:
     """A malformed FMU and a wrong mapping: one line on stderr, exit 2, no run folder."""
     _broken("no_model_description", fmu_binary, tmp_path)
     make_fmu(tmp_path / "good.fmu", fmu_binary)
@@ -384,8 +420,17 @@ def test_fowt_run_ends_when_dostep_fails(fmu_binary: Path, tmp_path: Path) -> No
     scenario = tmp_path / "fail.toml"
     extra = "[controller.settings.start_values]\nFailTime = 2.0\n"
     scenario.write_text(_scenario_text("pi.fmu", extra, duration=10.0))
-    r = fowt("run", str(scenario), "--mode", "lockstep", "--out", str(tmp_path / "run"),
-             "--no-plots", cwd=REPO, timeout=600)
+    r = fowt(
+        "run",
+        str(scenario),
+        "--mode",
+        "lockstep",
+        "--out",
+        str(tmp_path / "run"),
+        "--no-plots",
+        cwd=REPO,
+        timeout=600,
+    )
     assert r.returncode != 0
     text = r.stdout + r.stderr
     assert "FMU pi.fmu: fmi2DoStep failed at t = 2.000 s: status 3 (error)" in text, text[-3000:]
