@@ -351,37 +351,28 @@ def _sensors_rows(sensors: list[dict]) -> list[SensorFrame]:
 
 
 @pytest.mark.e2e
-def test_lockstep_run_equals_python_law_replayed(pi_fmu: Path, tmp_path: Path) -> None:
-    """(b) A 20 s lock-step run (plant, FMU controller and recorder processes over Zenoh,
-    trimmed start): every recorded command equals the Python law replayed on the recorded
-    sensor frames to 1e-9."""
+@pytest.mark.parametrize("mode", ["lockstep", "inprocess"])
+def test_run_equals_python_law_replayed(mode: str, pi_fmu: Path, tmp_path: Path) -> None:
+    """(b) A 20 s run with a trimmed start (lock-step: plant, FMU controller and recorder
+    processes over Zenoh; in-process: the settling run and the run in one process): every
+    recorded command equals the Python law replayed on the recorded sensor frames to 1e-9."""
     shutil.copy(pi_fmu, tmp_path / "pi.fmu")
     scenario = tmp_path / "fmu-pi.toml"
     scenario.write_text(_scenario_text("pi.fmu"))
     out = tmp_path / "run"
-    r = fowt(
-        "run",
-        str(scenario),
-        "--mode",
-        "lockstep",
-        "--duration",
-        "20",
-        "--out",
-        str(out),
-        "--no-plots",
-        cwd=REPO,
-        timeout=600,
-    )
+    args = ["--mode", mode, "--duration", "20", "--out", str(out), "--no-plots"]
+    r = fowt("run", str(scenario), *args, cwd=REPO, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     run = read_run(out / "run.mcap")
     sensors = _sensors_rows(run.topic("sensors"))
     commands = run.topic("command")
-    assert len(sensors) == len(commands) == round(20 / DT)
+    dt = load_scenario(str(scenario)).timing.control_period_s
+    assert len(sensors) == len(commands) == round(20 / dt)
     law = PiLaw()
     state = law.initial_state()
     for f, c in zip(sensors, commands, strict=True):
         assert c["answered_seq"] == f.seq
-        state, o = law.step(state, f, DT)
+        state, o = law.step(state, f, dt)
         assert abs(c["blade_pitch_commanded_rad"] - o.blade_pitch_commanded_rad) < TOL
         assert abs(c["generator_torque_commanded_nm"] - o.generator_torque_commanded_nm) < TOL
     pitch = [c["blade_pitch_commanded_rad"] for c in commands]
@@ -415,10 +406,11 @@ def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(
 @pytest.mark.e2e
 def test_fowt_run_ends_when_dostep_fails(fmu_binary: Path, tmp_path: Path) -> None:
     """An FMU whose doStep returns fmi2Error at t >= 2 s ends a lock-step run: not exit 0,
-    and the message names the FMU, the time and the status."""
+    and the message names the FMU, the time and the status. (Untrimmed start: the failure
+    comes in the controller process's run, not in the plant's settling run.)"""
     make_fmu(tmp_path / "pi.fmu", fmu_binary)
     scenario = tmp_path / "fail.toml"
-    extra = "[controller.settings.start_values]\nFailTime = 2.0\n"
+    extra = "[controller.settings.start_values]\nFailTime = 2.0\n[initial]\ntrim = false\n"
     scenario.write_text(_scenario_text("pi.fmu", extra, duration=10.0))
     r = fowt(
         "run",
