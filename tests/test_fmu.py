@@ -297,30 +297,11 @@ def test_wrong_mapping_is_one_line(change: dict, expected: str, pi_fmu: Path) ->
     assert expected in str(err.value) and "\n" not in str(err.value)
 
 
-def _scenario_text(fmu: str, extra: str = "", duration: float = 20.0) -> str:
-    return textwrap.dedent(
-        f"""
-        name = "fmu-pi"
-        turbine = "nrel5mw"
-        duration_s = {duration}
-        [wind]
-        kind = "steady"
-        speed_m_s = 16.0
-        [controller]
-        kind = "fmu"
-        [controller.settings]
-        fmu = "{fmu}"
-        [controller.settings.inputs]
-        generator_speed_measured_rad_s = "GenSpeed"
-        [controller.settings.outputs]
-        blade_pitch_commanded_rad = "PitchCmd"
-        generator_torque_commanded_nm = "TorqueCmd"
-        generator_speed_filtered_rad_s = "SpeedFilt"
-        pitch_integrator_rad = "PitchInt"
-        regime = "Regime"
-        {extra}
-        """
-    )
+def _scenario_text(fmu: str, extra: str = "") -> str:
+    """The example scenario (tests/fmu_src/fmu-pi.toml) with another FMU path and more
+    ``[controller.settings]`` tables after its last one."""
+    text = (SRC / "fmu-pi.toml").read_text()
+    return text.replace('fmu = "pi_controller.fmu"', f'fmu = "{fmu}"') + "\n" + extra
 
 
 def test_scenario_settings_validate_and_paths_resolve(pi_fmu: Path, tmp_path: Path) -> None:
@@ -411,12 +392,14 @@ def test_fowt_run_ends_when_dostep_fails(fmu_binary: Path, tmp_path: Path) -> No
     make_fmu(tmp_path / "pi.fmu", fmu_binary)
     scenario = tmp_path / "fail.toml"
     extra = "[controller.settings.start_values]\nFailTime = 2.0\n[initial]\ntrim = false\n"
-    scenario.write_text(_scenario_text("pi.fmu", extra, duration=10.0))
+    scenario.write_text(_scenario_text("pi.fmu", extra))
     r = fowt(
         "run",
         str(scenario),
         "--mode",
         "lockstep",
+        "--duration",
+        "10",
         "--out",
         str(tmp_path / "run"),
         "--no-plots",
