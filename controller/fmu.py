@@ -214,6 +214,29 @@ _STATUS_NAMES = ("FMI_OK", "warning", "discard", "error", "fatal", "pending")
 _REGION_3_MARGIN_RAD = math.radians(1.0)
 
 
+#: FMI version -> {variable type: how the bench sets it}: the scalar types it maps (FMI 3.0:
+#: 64-bit floats and 32-bit integers, as FMI 2.0's Real and Integer).
+_TYPES: dict[str, dict[str, str]] = {
+    "2.0": {
+        "Real": "real",
+        "Integer": "integer",
+        "Enumeration": "integer",
+        "Boolean": "boolean",
+        "String": "string",
+    },
+    "3.0": {"Float64": "real", "Int32": "integer", "Boolean": "boolean", "String": "string"},
+}
+
+
+def _check_type(what: str, var: Any, types: dict[str, str], integer: bool) -> None:
+    """FmuError unless ``var`` is a scalar of the bench's float (or integer) type."""
+    want = next(t for t, k in types.items() if k == ("integer" if integer else "real"))
+    if var.type != want:
+        raise FmuError(f"{what}: FMU variable {var.name!r} is {var.type}, expected {want}")
+    if list(getattr(var, "dimensions", None) or []):
+        raise FmuError(f"{what}: FMU variable {var.name!r} is an array, expected a scalar")
+
+
 def _sensor_units() -> dict[str, str]:
     """SensorFrame float field -> its unit (from the message's declarations)."""
     out: dict[str, str] = {}
@@ -250,7 +273,7 @@ class _Binding:
 class _Start:
     variable: str
     vr: int
-    kind: str  # "Real", "Integer", "Boolean", "String"
+    kind: str  # "real", "integer", "boolean", "string"
     value: StartValue
 
 
@@ -270,6 +293,8 @@ class FmuModel:
         Mapped inputs and outputs with their value references and unit factors.
     starts : tuple of _Start
         Start values to set before initialisation.
+    fmi_version : str
+        ``"2.0"`` or ``"3.0"``.
     """
 
     path: Path
@@ -278,6 +303,7 @@ class FmuModel:
     inputs: tuple[_Binding, ...]
     outputs: tuple[_Binding, ...]
     starts: tuple[_Start, ...]
+    fmi_version: str = "2.0"
 
 
 def resolve_fmu_path(settings: FmuSettings, base_dir: str | os.PathLike[str] | None) -> Path:
@@ -341,7 +367,7 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
     ------
     FmuError
         One line naming what was expected: the file missing or not a zip archive,
-        modelDescription.xml missing or malformed, an FMI version other than 2.0, no
+        modelDescription.xml missing or malformed, an FMI version other than 2.0 and 3.0, no
         co-simulation interface, no binary for this platform, a mapped field or variable
         that does not exist or has the wrong causality or type, a missing command output,
         a start value of the wrong type, a unit that does not match.
@@ -352,7 +378,7 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
     path = resolve_fmu_path(settings, base_dir)
     name = f"FMU {path.name}"
     if not path.is_file():
-        raise FmuError(f"FMU file not found: {path} (expected an FMI 2.0 co-simulation .fmu)")
+        raise FmuError(f"FMU file not found: {path} (expected an FMI co-simulation .fmu)")
     if not zipfile.is_zipfile(path):
         raise FmuError(f"{name}: not a zip archive (an .fmu is a zip with modelDescription.xml)")
     try:
@@ -374,9 +400,9 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
             f"{name}: malformed modelDescription.xml: expected an fmiModelDescription element "
             "with an fmiVersion attribute"
         )
-    if version != "2.0":
+    if version not in _TYPES:
         raise FmuError(
-            f"{name}: FMI version {version!r} is not supported (expected an FMI 2.0 "
+            f"{name}: FMI version {version!r} is not supported (expected an FMI 2.0 or 3.0 "
             "co-simulation FMU)"
         )
     try:
@@ -386,11 +412,12 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
         raise FmuError(f"{name}: malformed modelDescription.xml: {text[:300]}") from exc
     if md.coSimulation is None:
         raise FmuError(
-            f"{name}: no co-simulation interface (model exchange only); expected an FMI 2.0 "
-            "co-simulation FMU"
+            f"{name}: no co-simulation interface (model exchange only); expected an FMI "
+            f"{version} co-simulation FMU"
         )
     ident = md.coSimulation.modelIdentifier
-    binary = f"binaries/{fmpy.platform}/{ident}{fmpy.sharedLibraryExtension}"
+    folder = fmpy.platform if version == "2.0" else fmpy.platform_tuple
+    binary = f"binaries/{folder}/{ident}{fmpy.sharedLibraryExtension}"
     if binary not in names:
         shipped = sorted(
             {n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") >= 2}
@@ -399,6 +426,7 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
             f"{name}: no binary for this platform: expected {binary} "
             f"(platforms in the FMU: {', '.join(shipped) or 'none'})"
         )
+    types = _TYPES[version]
     variables = {v.name: v for v in md.modelVariables}
     known = sorted(variables)
 
@@ -421,9 +449,7 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
                 f"{what}: FMU variable {vname!r} has causality {var.causality!r}, expected 'input'"
             )
         integer = fld in _INT_INPUTS
-        want = "Integer" if integer else "Real"
-        if var.type != want:
-            raise FmuError(f"{what}: FMU variable {vname!r} is {var.type}, expected {want}")
+        _check_type(what, var, types, integer)
         factor = (
             1.0 if integer else _factor(what, var, sensor_units[fld], settings.units.get(vname))
         )
@@ -446,9 +472,7 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
                 f"{what}: FMU variable {vname!r} has causality {var.causality!r}, expected 'output'"
             )
         integer = fld == "regime"
-        want = "Integer" if integer else "Real"
-        if var.type != want:
-            raise FmuError(f"{what}: FMU variable {vname!r} is {var.type}, expected {want}")
+        _check_type(what, var, types, integer)
         unit = COMMAND_OUTPUTS.get(fld) or optional.get(fld, "1")
         factor = 1.0 if integer else _factor(what, var, unit, settings.units.get(vname))
         outputs.append(_Binding(fld, vname, var.valueReference, factor, integer))
@@ -475,21 +499,26 @@ def check_fmu(settings: FmuSettings, base_dir: str | os.PathLike[str] | None = N
                 f"{var.variability!r}) cannot be set; expected a parameter, an input or a "
                 "local variable with an exact or approximate start value"
             )
+        kind = types.get(var.type)
+        if kind is None or list(getattr(var, "dimensions", None) or []):
+            raise FmuError(
+                f"{what}: FMU variable {vname!r} is {'an array of ' if kind else ''}"
+                f"{var.type}; start values are taken for scalar "
+                f"{', '.join(sorted(types))} variables"
+            )
         ok = {
-            "Real": isinstance(value, int | float) and not isinstance(value, bool),
-            "Integer": isinstance(value, int) and not isinstance(value, bool),
-            "Enumeration": isinstance(value, int) and not isinstance(value, bool),
-            "Boolean": isinstance(value, bool),
-            "String": isinstance(value, str),
-        }.get(var.type, False)
+            "real": isinstance(value, int | float) and not isinstance(value, bool),
+            "integer": isinstance(value, int) and not isinstance(value, bool),
+            "boolean": isinstance(value, bool),
+            "string": isinstance(value, str),
+        }[kind]
         if not ok:
             raise FmuError(
                 f"{what} = {value!r}: FMU variable {vname!r} is {var.type}, expected a value "
                 "of that type"
             )
-        kind = "Integer" if var.type == "Enumeration" else var.type
         starts.append(_Start(vname, var.valueReference, kind, value))
-    return FmuModel(path, md, ident, tuple(inputs), tuple(outputs), tuple(starts))
+    return FmuModel(path, md, ident, tuple(inputs), tuple(outputs), tuple(starts), version)
 
 
 # --------------------------------------------------------------------------- the core
@@ -544,7 +573,11 @@ class FmuController:
         self.control_period_s = control_period_s
         self.period_ns = round(control_period_s * 1e9)
         self.name = f"FMU {self.model.path.name}"
+        self._fmi = "fmi3" if self.model.fmi_version == "3.0" else "fmi2"
         self._slave: Any = None
+        self._set: dict[str, Any] = {}
+        self._get_real: Any = None
+        self._get_int: Any = None
         self._generation = 0
         self._cleanup: Any = None
         self._in_real = [b for b in self.model.inputs if not b.integer]
@@ -581,14 +614,16 @@ class FmuController:
         """Extract the archive, load the binary, instantiate (once per core)."""
         from fmpy import extract  # noqa: PLC0415
         from fmpy.fmi2 import FMU2Slave  # noqa: PLC0415
+        from fmpy.fmi3 import FMU3Slave  # noqa: PLC0415
 
         folder = tempfile.mkdtemp(prefix="fowt-fmu-")
         self._cleanup = weakref.finalize(self, shutil.rmtree, folder, True)
         extract(str(self.model.path), folder)
         md = self.model.model_description
+        v3 = self.model.fmi_version == "3.0"
         try:
-            slave = FMU2Slave(
-                guid=md.guid,
+            slave = (FMU3Slave if v3 else FMU2Slave)(
+                guid=md.instantiationToken if v3 else md.guid,
                 unzipDirectory=folder,
                 modelIdentifier=self.model.model_identifier,
                 instanceName="fowt_controller",
@@ -597,6 +632,15 @@ class FmuController:
         except Exception as exc:  # fmpy raises bare Exceptions here
             raise self._fail("loading and instantiating", exc, None) from exc
         self._slave = slave
+        # The typed calls of the version (FMI 3.0: Float64 and Int32 for Real and Integer).
+        self._set = {
+            "real": slave.setFloat64 if v3 else slave.setReal,
+            "integer": slave.setInt32 if v3 else slave.setInteger,
+            "boolean": slave.setBoolean,
+            "string": slave.setString,
+        }
+        self._get_real = slave.getFloat64 if v3 else slave.getReal
+        self._get_int = slave.getInt32 if v3 else slave.getInteger
 
     def initial_state(self) -> FmuState:
         """Reset the FMU instance (loaded on the first call); its set-up comes with the
@@ -614,7 +658,7 @@ class FmuController:
             try:
                 self._slave.reset()
             except Exception as exc:
-                raise self._fail("fmi2Reset", exc, None) from exc
+                raise self._fail(f"{self._fmi}Reset", exc, None) from exc
         self._generation += 1
         return FmuState(generation=self._generation)
 
@@ -633,7 +677,6 @@ class FmuController:
         held = state.held
         mask = frame.valid_mask
         degraded = False
-        slave = self._slave
         if self._in_real:
             values = []
             for b in self._in_real:
@@ -644,25 +687,25 @@ class FmuController:
                     v = held.get(b.field, 0.0)
                     degraded = True
                 values.append(v / b.factor)
-            slave.setReal(self._vr_in_real, values)
+            self._set["real"](self._vr_in_real, values)
         if self._in_int:
-            slave.setInteger(self._vr_in_int, [int(getattr(frame, b.field)) for b in self._in_int])
+            ints = [int(getattr(frame, b.field)) for b in self._in_int]
+            self._set["integer"](self._vr_in_int, ints)
         return degraded
 
     def _initialise(self, state: FmuState, frame: SensorFrame) -> None:
         slave = self._slave
         t0 = frame.sample_time_ns * 1e-9
-        slave.setupExperiment(startTime=t0)
+        v3 = self.model.fmi_version == "3.0"
+        if not v3:
+            slave.setupExperiment(startTime=t0)
+        convert = {"real": float, "integer": int, "boolean": bool, "string": str}
         for s in self.model.starts:
-            if s.kind == "Real":
-                slave.setReal([s.vr], [float(s.value)])
-            elif s.kind == "Integer":
-                slave.setInteger([s.vr], [int(s.value)])
-            elif s.kind == "Boolean":
-                slave.setBoolean([s.vr], [bool(s.value)])
-            else:
-                slave.setString([s.vr], [str(s.value)])
-        slave.enterInitializationMode()
+            self._set[s.kind]([s.vr], [convert[s.kind](s.value)])
+        if v3:
+            slave.enterInitializationMode(startTime=t0)
+        else:
+            slave.enterInitializationMode()
         self._set_inputs(state, frame)
         slave.exitInitializationMode()
 
@@ -696,12 +739,17 @@ class FmuController:
         except Exception as exc:
             raise self._fail("setting the inputs", exc, t) from exc
         try:
-            slave.doStep(currentCommunicationPoint=t, communicationStepSize=dt_s)
+            result = slave.doStep(currentCommunicationPoint=t, communicationStepSize=dt_s)
         except Exception as exc:
-            raise self._fail("fmi2DoStep", exc, t) from exc
+            raise self._fail(f"{self._fmi}DoStep", exc, t) from exc
+        if result is not None and result[1]:  # FMI 3.0: terminateSimulation
+            raise FmuStepError(
+                f"{self.name}: fmi3DoStep asked to terminate the simulation at t = {t:.3f} s",
+                library=str(self.model.path),
+            )
         try:
-            reals = slave.getReal(self._vr_out_real) if self._vr_out_real else []
-            ints = slave.getInteger(self._vr_out_int) if self._vr_out_int else []
+            reals = self._get_real(self._vr_out_real) if self._vr_out_real else []
+            ints = self._get_int(self._vr_out_int) if self._vr_out_int else []
         except Exception as exc:
             raise self._fail("reading the outputs", exc, t) from exc
         state.steps += 1

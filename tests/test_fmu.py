@@ -37,55 +37,67 @@ TOL = 1e-9
 
 # ----------------------------------------------------------------------------- the FMUs
 @pytest.fixture(scope="session")
-def fmu_binary(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The test FMU's shared library, compiled once a session."""
+def fmu_binary(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The test FMU's shared library by FMI version ("2.0", "3.0"), compiled once a session."""
     if shutil.which("gcc") is None:
         pytest.skip("gcc not found: the test FMU is compiled from C")
     headers = Path(fmpy.__file__).parent / "c-code"
-    out = tmp_path_factory.mktemp("fmu-build") / "pi_controller.so"
-    subprocess.run(
-        [
-            "gcc",
-            "-O2",
-            "-shared",
-            "-fPIC",
-            f"-I{headers}",
-            str(SRC / "pi_controller.c"),
-            "-o",
-            str(out),
-            "-lm",
-        ],
-        check=True,
-        capture_output=True,
-    )
+    folder = tmp_path_factory.mktemp("fmu-build")
+    sources = {"2.0": ["pi_controller.c"], "3.0": ["pi_controller3.c", "fmi3_stubs.c"]}
+    out = {}
+    for version, files in sources.items():
+        lib = folder / f"pi_controller{version[0]}.so"
+        cmd = ["gcc", "-O2", "-shared", "-fPIC", f"-I{headers}"]
+        cmd += [str(SRC / f) for f in files] + ["-o", str(lib), "-lm"]
+        subprocess.run(cmd, check=True, capture_output=True)
+        out[version] = lib
     return out
 
 
 def make_fmu(
     path: Path,
-    binary: Path,
+    binaries: dict[str, Path],
     *,
     version: str = "2.0",
     interface: str = "CoSimulation",
     with_binary: bool = True,
     xml: str | None = None,
 ) -> Path:
-    """Zip an ``.fmu``: modelDescription.xml (from the template unless ``xml``) and the
-    binary under ``binaries/<platform>/``."""
-    text = (SRC / "modelDescription.xml").read_text()
-    text = text.replace("@FMI_VERSION@", version).replace("@INTERFACE@", interface)
+    """Zip an ``.fmu``: modelDescription.xml (from the version's template unless ``xml``)
+    and the version's binary under ``binaries/<platform>/``."""
+    if version == "3.0":
+        text = (SRC / "modelDescription3.xml").read_text()
+        platform = fmpy.platform_tuple
+    else:
+        text = (SRC / "modelDescription.xml").read_text()
+        text = text.replace("@FMI_VERSION@", version).replace("@INTERFACE@", interface)
+        platform = fmpy.platform
     if interface != "CoSimulation":
         text = text.replace(' canHandleVariableCommunicationStepSize="true"', "")
+    binary = binaries["3.0" if version == "3.0" else "2.0"]
     with zipfile.ZipFile(path, "w") as zf:
         zf.writestr("modelDescription.xml", text if xml is None else xml)
         if with_binary:
-            zf.write(binary, f"binaries/{fmpy.platform}/pi_controller{fmpy.sharedLibraryExtension}")
+            zf.write(binary, f"binaries/{platform}/pi_controller{fmpy.sharedLibraryExtension}")
     return path
 
 
 @pytest.fixture(scope="session")
-def pi_fmu(fmu_binary: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return make_fmu(tmp_path_factory.mktemp("fmu") / "pi_controller.fmu", fmu_binary)
+def pi_fmus(
+    fmu_binary: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, Path]:
+    """The test FMU by FMI version."""
+    folder = tmp_path_factory.mktemp("fmu")
+    return {
+        v: make_fmu(folder / f"pi_controller{v[0]}.fmu", fmu_binary, version=v)
+        for v in ("2.0", "3.0")
+    }
+
+
+@pytest.fixture(scope="session")
+def pi_fmu(pi_fmus: dict[str, Path]) -> Path:
+    """The FMI 2.0 test FMU."""
+    return pi_fmus["2.0"]
 
 
 SETTINGS = {
@@ -169,10 +181,13 @@ def run_core(core: object, fs: list[SensorFrame]) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- stepping
-def test_fmu_equals_python_law_and_resets(pi_fmu: Path) -> None:
-    """(a) The FMU stepped directly equals the Python law to 1e-9 over 800 frames (units
-    converted: rpm in, deg and kN.m out); a second run after initial_state() is identical."""
-    fmu = FmuController(settings(pi_fmu), DT)
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_fmu_equals_python_law_and_resets(version: str, pi_fmus: dict[str, Path]) -> None:
+    """(a) The FMU (FMI 2.0 and 3.0) stepped directly equals the Python law to 1e-9 over 800
+    frames (units converted: rpm in, deg and kN.m out); a second run after initial_state() is
+    identical."""
+    fmu = FmuController(settings(pi_fmus[version]), DT)
+    assert fmu.model.fmi_version == version
     fs = frames(800)
     got = run_core(fmu, fs)
     want = run_core(PiLaw(), fs)
@@ -203,6 +218,15 @@ def test_registry_builds_it_with_start_values(pi_fmu: Path, tmp_path: Path) -> N
     assert np.max(np.abs(got - want)) < TOL
 
 
+def test_fmi3_types_are_checked(pi_fmus: dict[str, Path]) -> None:
+    """FMI 3.0 variables map by their own types: Float64 for floats, Int32 for the regime."""
+    outputs = {**SETTINGS["outputs"], "regime": "PitchInt"}
+    with pytest.raises(FmuError, match="is Float64, expected Int32"):
+        check_fmu(settings(pi_fmus["3.0"], outputs=outputs))
+    with pytest.raises(FmuError, match="is Float64, expected a value of that type"):
+        check_fmu(settings(pi_fmus["3.0"], start_values={"Kp": True}))
+
+
 def test_dropout_holds_the_last_valid_input(pi_fmu: Path) -> None:
     """A mapped input whose valid bit is cleared is held at its last valid value."""
     fmu = FmuController(settings(pi_fmu), DT)
@@ -215,22 +239,24 @@ def test_dropout_holds_the_last_valid_input(pi_fmu: Path) -> None:
     fmu.close()
 
 
-def test_dostep_failure_names_fmu_time_and_status(fmu_binary: Path, tmp_path: Path) -> None:
-    fmu = FmuController(
-        settings(make_fmu(tmp_path / "f.fmu", fmu_binary), start_values={"FailTime": 0.1}), DT
-    )
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_dostep_failure_names_fmu_time_and_status(
+    version: str, fmu_binary: dict[str, Path], tmp_path: Path
+) -> None:
+    path = make_fmu(tmp_path / "f.fmu", fmu_binary, version=version)
+    fmu = FmuController(settings(path, start_values={"FailTime": 0.1}), DT)
     state = fmu.initial_state()
     with pytest.raises(FmuStepError) as err:
         for f in frames(10):
             state, _ = fmu.step(state, f, DT)
     msg = str(err.value)
-    assert "FMU f.fmu" in msg and "fmi2DoStep" in msg and "t = 0.100 s" in msg
-    assert "status 3 (error)" in msg and "\n" not in msg
+    call = f"fmi{version[0]}DoStep"
+    assert f"FMU f.fmu: {call} failed at t = 0.100 s: status 3 (error)" == msg
     fmu.close()
 
 
 # ----------------------------------------------------------------------------- validation
-def _broken(kind: str, binary: Path, d: Path) -> Path:
+def _broken(kind: str, binary: dict[str, Path], d: Path) -> Path:
     p = d / f"{kind}.fmu"
     if kind == "not_a_zip":
         p.write_text("no archive")
@@ -243,8 +269,10 @@ def _broken(kind: str, binary: Path, d: Path) -> Path:
         make_fmu(p, binary, interface="ModelExchange")
     elif kind == "no_binary":
         make_fmu(p, binary, with_binary=False)
-    elif kind == "fmi3":
-        make_fmu(p, binary, version="3.0")
+    elif kind == "fmi1":
+        make_fmu(p, binary, version="1.0")
+    elif kind == "no_binary_fmi3":
+        make_fmu(p, binary, version="3.0", with_binary=False)
     return p
 
 
@@ -257,11 +285,12 @@ def _broken(kind: str, binary: Path, d: Path) -> Path:
         ("malformed_xml", "malformed modelDescription.xml"),
         ("model_exchange", "no co-simulation interface"),
         ("no_binary", "no binary for this platform"),
-        ("fmi3", "is not supported"),
+        ("fmi1", "FMI version '1.0' is not supported"),
+        ("no_binary_fmi3", f"expected binaries/{fmpy.platform_tuple}/pi_controller"),
     ],
 )
 def test_unusable_fmu_is_one_line(
-    kind: str, expected: str, fmu_binary: Path, tmp_path: Path
+    kind: str, expected: str, fmu_binary: dict[str, Path], tmp_path: Path
 ) -> None:
     path = _broken(kind, fmu_binary, tmp_path)
     with pytest.raises(FmuError) as err:
@@ -331,12 +360,16 @@ def _sensors_rows(sensors: list[dict]) -> list[SensorFrame]:
 
 
 @pytest.mark.e2e
-@pytest.mark.parametrize("mode", ["lockstep", "inprocess"])
-def test_run_equals_python_law_replayed(mode: str, pi_fmu: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("version", "mode"), [("2.0", "lockstep"), ("2.0", "inprocess"), ("3.0", "lockstep")]
+)
+def test_run_equals_python_law_replayed(
+    version: str, mode: str, pi_fmus: dict[str, Path], tmp_path: Path
+) -> None:
     """(b) A 20 s run with a trimmed start (lock-step: plant, FMU controller and recorder
     processes over Zenoh; in-process: the settling run and the run in one process): every
     recorded command equals the Python law replayed on the recorded sensor frames to 1e-9."""
-    shutil.copy(pi_fmu, tmp_path / "pi.fmu")
+    shutil.copy(pi_fmus[version], tmp_path / "pi.fmu")
     scenario = tmp_path / "fmu-pi.toml"
     scenario.write_text(_scenario_text("pi.fmu"))
     out = tmp_path / "run"
@@ -361,7 +394,7 @@ def test_run_equals_python_law_replayed(mode: str, pi_fmu: Path, tmp_path: Path)
 
 @pytest.mark.e2e
 def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(
-    fmu_binary: Path, tmp_path: Path
+    fmu_binary: dict[str, Path], tmp_path: Path
 ) -> None:
     """A malformed FMU and a wrong mapping: one line on stderr, exit 2, no run folder."""
     _broken("no_model_description", fmu_binary, tmp_path)
@@ -384,7 +417,7 @@ def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(
 
 
 @pytest.mark.e2e
-def test_fowt_run_ends_when_dostep_fails(fmu_binary: Path, tmp_path: Path) -> None:
+def test_fowt_run_ends_when_dostep_fails(fmu_binary: dict[str, Path], tmp_path: Path) -> None:
     """An FMU whose doStep returns fmi2Error at t >= 2 s ends a lock-step run: not exit 0,
     and the message names the FMU, the time and the status. (Untrimmed start: the failure
     comes in the controller process's run, not in the plant's settling run.)"""
