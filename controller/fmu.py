@@ -1,10 +1,14 @@
-"""An FMI 2.0 co-simulation FMU as a bench controller (``[controller] kind = "fmu"``).
+"""An FMI 2.0 or 3.0 co-simulation FMU as a bench controller (``[controller] kind = "fmu"``).
 
 Industrial controllers are often delivered as Functional Mock-up Units exported from
 Simulink, Dymola, OpenModelica and similar tools. :class:`FmuController` runs one through
 ``fmpy``: every control period the mapped sensor-frame fields are set on the FMU's inputs,
-``fmi2DoStep`` advances it by one control period, and the mapped outputs become the command
-(and, optionally, status internals).
+``fmi2DoStep`` (``fmi3DoStep``) advances it by one control period, and the mapped outputs
+become the command (and, optionally, status internals).
+
+FMI 3.0 FMUs map the same way, with ``Float64`` where FMI 2.0 has ``Real`` and ``Int32``
+where it has ``Integer`` (start values also take ``Boolean`` and ``String``); array
+variables, clocks, other integer widths, event mode and early return are not used.
 
 Settings (``[controller.settings]``, :class:`FmuSettings`)
 ----------------------------------------------------------
@@ -21,7 +25,7 @@ Settings (``[controller.settings]``, :class:`FmuSettings`)
     and the estimates of :data:`STATUS_OUTPUTS` are optional.
 ``start_values``
     ``"<FMU variable>" = value``: parameters and start values set before the FMU's
-    initialisation (variables of causality ``parameter`` or ``input``, or with
+    initialisation (variables of causality ``parameter`` or ``input``, or local ones with
     ``initial = "exact"``/``"approx"``).
 ``units``
     ``"<FMU variable>" = "<unit>"``: the unit of a mapped variable that declares none in its
@@ -40,11 +44,12 @@ deg, rad/s and rpm, N.m and kN.m, W and kW/MW, ...); any other pair is refused b
 Timing and state
 ----------------
 The FMU is instantiated once per core (its binary loaded by ``fmpy``, its archive extracted
-into a temporary folder). :meth:`FmuController.initial_state` resets it (``fmi2Reset``), so
+into a temporary folder). :meth:`FmuController.initial_state` resets it (``fmi2Reset``,
+``fmi3Reset``), so
 a core stepped in a trimmed start's settling run and then in the run starts both from the
 same state; the first step after it sets up the experiment at the frame's sample time,
 applies the start values, sets the first frame's inputs in initialisation mode and leaves
-it, then steps. Each step is ``fmi2DoStep(t_k, dt)`` with ``t_k = t_0 + k dt`` (k: frames
+it, then steps. Each step is ``DoStep(t_k, dt)`` with ``t_k = t_0 + k dt`` (k: frames
 stepped since the reset), so the FMU's communication points never jump, whatever frames
 the bus lost. Like :mod:`controller.rosco`, the state is a handle on the one instance
 (:class:`FmuState`): stepping it advances the FMU, and an older state cannot be stepped
@@ -87,6 +92,7 @@ from bus_schemas.messages import (
 )
 from controller.discon import DisconError
 from controller.interface import (
+    REGIME_REGION_1,
     REGIME_REGION_2,
     REGIME_REGION_3,
     ActuatorLimits,
@@ -545,14 +551,14 @@ class FmuState:
 
 
 class FmuController:
-    """An FMI 2.0 co-simulation FMU as a bench controller (module docstring).
+    """An FMI 2.0 or 3.0 co-simulation FMU as a bench controller (module docstring).
 
     Parameters
     ----------
     settings : FmuSettings
         The FMU, its mapping, start values and actuator limits.
     control_period_s : float
-        Control period [s]: the communication step of every ``fmi2DoStep``.
+        Control period [s]: the communication step of every ``DoStep``.
     base_dir : path-like or None
         Folder a relative ``settings.fmu`` is taken from.
 
@@ -649,8 +655,7 @@ class FmuController:
         Raises
         ------
         FmuStepError
-            If the binary cannot be loaded, the instance not created, or ``fmi2Reset``
-            fails.
+            If the binary cannot be loaded, the instance not created, or the reset fails.
         """
         if self._slave is None:
             self._load()
@@ -712,7 +717,7 @@ class FmuController:
     def step(
         self, state: FmuState, measurement: SensorFrame, dt_s: float
     ) -> tuple[FmuState, ControlOutput]:
-        """Set the inputs, ``fmi2DoStep`` one control period, read the outputs.
+        """Set the inputs, ``DoStep`` one control period, read the outputs.
 
         Raises
         ------
@@ -768,6 +773,12 @@ class FmuController:
         torque = max(out.pop("generator_torque_commanded_nm"), 0.0)
         if ints:
             regime = int(ints[0])
+            if not REGIME_REGION_1 <= regime <= REGIME_REGION_3:
+                raise FmuStepError(
+                    f"{self.name}: output {self._out_int[0].variable!r} (regime) is {regime} "
+                    f"at t = {t:.3f} s (expected a regime code 0-4)",
+                    library=str(self.model.path),
+                )
         else:
             above = pitch >= s.pitch_min_rad + _REGION_3_MARGIN_RAD
             regime = REGIME_REGION_3 if above else REGIME_REGION_2

@@ -248,7 +248,7 @@ CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "fmu": ControllerKind(
         _fmu,
         settings=FmuSettings,
-        description="an FMI 2.0 co-simulation FMU run through fmpy (controller/fmu.py)",
+        description="an FMI 2.0 or 3.0 co-simulation FMU run through fmpy (controller/fmu.py)",
     ),
     "lqr_wave": ControllerKind(_lqr_wave, _design_lqr_wave),  # christiansen-2013
     "no_control": _CASANOVAS,
@@ -415,7 +415,10 @@ def settings_for(kind: str, settings: Any) -> Any:
     try:
         return msgspec.convert(settings, schema)
     except msgspec.ValidationError as exc:
-        raise ValueError(f"controller.settings: {exc}") from exc
+        msg = str(exc)
+        if " - at `$" in msg:  # the key at fault, as a scenario names it
+            raise ValueError(msg.replace(" - at `$", " - at `$.controller.settings")) from exc
+        raise ValueError(f"controller.settings: {msg}") from exc
 
 
 def actuator_limits(controller: Controller[Any]) -> ActuatorLimits:
