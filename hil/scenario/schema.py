@@ -485,11 +485,12 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
 
     ``"fmu"``: an FMI 2.0 or 3.0 co-simulation FMU (:mod:`controller.fmu`);
     ``[controller.settings]`` names the ``.fmu`` file and maps sensor-frame fields to its
-    inputs and its outputs to the command (:class:`controller.fmu.FmuSettings`). ``settings`` is validated against the
-    schema of the kind (``ControllerKind.settings`` in :mod:`controller.registry`); a kind
-    without one takes none. ``base_dir``: the folder relative paths in ``settings`` are
-    taken from (default: the scenario file's folder, set when the file is loaded).
-    ``core``: reserved for controllers loaded from a Python module (not yet accepted).
+    inputs and its outputs to the command (:class:`controller.fmu.FmuSettings`).
+    ``settings`` is validated against the schema of the kind (``ControllerKind.settings`` in
+    :mod:`controller.registry`); a kind without one takes none. ``base_dir``: the folder
+    relative paths in ``settings`` are taken from (default: the scenario file's folder, set
+    when the file is loaded). ``core``: reserved for controllers loaded from a Python module
+    (not yet accepted).
     """
 
     kind: Literal[
