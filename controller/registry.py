@@ -45,6 +45,7 @@ from typing import Any
 
 import msgspec
 
+from controller.fmu import FmuSettings
 from controller.interface import ActuatorLimits, Controller
 
 __all__ = [
@@ -64,6 +65,7 @@ __all__ = [
     "known_kinds",
     "list_kinds",
     "make_controller",
+    "settings_for",
     "validate_settings",
 ]
 
@@ -200,6 +202,14 @@ def _advanced(o: ControllerOptions) -> Controller[Any]:
     )
 
 
+def _fmu(o: ControllerOptions) -> Controller[Any]:
+    from controller.fmu import make_fmu_controller  # noqa: PLC0415
+
+    if o.settings is None:
+        raise ValueError("kind 'fmu' needs [controller.settings] (fmu, inputs, outputs)")
+    return make_fmu_controller(o.settings, o.control_period_s, o.base_dir)
+
+
 def _rosco(o: ControllerOptions) -> Controller[Any]:
     from controller.rosco import make_rosco_controller  # noqa: PLC0415
 
@@ -306,6 +316,11 @@ CONTROLLER_KINDS: dict[str, ControllerKind] = {
         _advanced, _design_advanced, description="LQRI plus the wave feedforward (al-2019)"
     ),
     "rosco": ControllerKind(_rosco, description="a Bladed-style DISCON library (ROSCO's)"),
+    "fmu": ControllerKind(
+        _fmu,
+        settings=FmuSettings,
+        description="an FMI 2.0 or 3.0 co-simulation FMU run through fmpy (controller/fmu.py)",
+    ),
     "lqr_wave": ControllerKind(
         _lqr_wave, _design_lqr_wave, description="wave-scheduled LQR (christiansen-2013)"
     ),
@@ -552,6 +567,11 @@ def validate_settings(found: FoundKind, settings: Mapping[str, Any] | None) -> A
         where = "controller.settings" + (f".{at.group(1)}" if at and at.group(1) else "")
         text = msg[: at.start()] if at else msg
         raise ControllerKindError(f"{where}: {text}") from exc
+
+
+def settings_for(kind: str, settings: Mapping[str, Any] | None, core: str | None = None) -> Any:
+    """``[controller.settings]`` of ``kind`` validated (:func:`validate_settings`)."""
+    return validate_settings(find_kind(kind, core), settings)
 
 
 @dataclass(frozen=True)

@@ -244,6 +244,14 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
         # other kinds check their presets when built (rosco: its DISCON.IN, at load)
     except (ValueError, OSError) as exc:
         fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+    if c.kind == "fmu":  # the archive, its modelDescription.xml and the mapping; no binary
+        from controller.fmu import check_fmu
+        from controller.registry import settings_for
+
+        try:
+            check_fmu(settings_for(c.kind, c.settings), c.base_dir)
+        except ValueError as exc:
+            fail(f"{ref}: controller kind 'fmu': {exc}")
     return sc
 
 

@@ -139,6 +139,8 @@ def _shipped(scenario: Scenario) -> bool:
     c = scenario.controller
     if scenario.turbine not in shipped_turbines() or c.parameter_file is not None:
         return False
+    if c.settings:  # e.g. an FMU: a file of the user's, not fingerprinted here
+        return False
     if scenario.platform is not None and scenario.platform not in shipped_platforms():
         return False
     if c.kind == "rosco":

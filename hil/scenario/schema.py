@@ -513,6 +513,10 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     relative paths in the settings resolve against (default: the scenario file's folder; the
     working directory for a shipped scenario). Every kind found is accepted
     (``fowt controllers`` lists them); an unknown one is refused with the closest names.
+
+    ``"fmu"``: an FMI 2.0 or 3.0 co-simulation FMU (:mod:`controller.fmu`);
+    ``[controller.settings]`` names the ``.fmu`` file and maps sensor-frame fields to its
+    inputs and its outputs to the command (:class:`controller.fmu.FmuSettings`).
     """
 
     kind: Annotated[str, msgspec.Meta(min_length=1, max_length=128)] = "baseline"
@@ -1104,7 +1108,13 @@ def scenario_text(name_or_path: str) -> tuple[str, str]:
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
-    """Load a shipped scenario by name or a scenario file by path."""
+    """Load a shipped scenario by name or a scenario file by path.
+
+    For a file with ``[controller.settings]``, ``controller.base_dir`` (the folder relative
+    paths in them are taken from) is set to the file's folder, or resolved against it when
+    the file gives a relative one, so every process that loads the file
+    finds the same files whatever its working directory.
+    """
     text, source = scenario_text(name_or_path)
     res = importlib.resources.files("hil.scenario") / "presets" / f"{name_or_path}.toml"
     shipped = "/" not in name_or_path and not name_or_path.endswith(".toml") and res.is_file()
