@@ -31,6 +31,8 @@ from typing import Any
 from _common import RESULTS, commit, load, save
 
 NAME = "realtime_watchdog"
+#: The run the target is stated for (``make bench-speed``: 10 x 600 s, about 105 min).
+FULL_COMMAND = "python bench/realtime_watchdog.py --runs 10 --duration 600 --hogs 2"
 
 
 def start_hogs(n: int) -> list[subprocess.Popen[bytes]]:
@@ -49,8 +51,10 @@ def _longest_miss_run(run_dir: Path) -> int | None:
     from hil.runlog.mcap_io import read_run
 
     try:
-        cycles = sorted(read_run(run_dir / "run.mcap").topic("timing/cycle"), key=lambda c: c["seq"])
-    except Exception:  # noqa: BLE001 - a file the review could not read says so itself
+        cycles = sorted(
+            read_run(run_dir / "run.mcap").topic("timing/cycle"), key=lambda c: c["seq"]
+        )
+    except (OSError, ValueError):  # a file the review could not read: its summary says so
         return None
     longest = current = 0
     for c in cycles:
@@ -132,7 +136,9 @@ def main() -> None:
         "commit": commit(),
         "exit_0_runs": ok,
         "total_runs": len(rows),
-        "met_9_of_10": ok >= 0.9 * len(rows),
+        "command": "python bench/realtime_watchdog.py " + " ".join(sys.argv[1:]),
+        # the target is for 10 runs of 600 s: a reduced run reports its share only
+        "met_9_of_10": ok >= 9 if len(rows) >= 10 and a.duration >= 600 else None,
         "watchdog_trips_total": sum(r["watchdog_trips"] or 0 for r in rows),
         "watchdog_recoveries_total": sum(r["watchdog_recoveries"] or 0 for r in rows),
         "runs": rows,
@@ -143,7 +149,14 @@ def main() -> None:
     if path.exists():
         runs = dict(json.loads(path.read_text()).get("runs", {}))
     runs[key] = entry
-    save(NAME, {"target": "exit 0 in >= 9 of 10 runs of 600 s at load 2-4", "runs": runs})
+    save(
+        NAME,
+        {
+            "target": "exit 0 in >= 9 of 10 runs of 600 s at load 2-4",
+            "full_command": FULL_COMMAND,
+            "runs": runs,
+        },
+    )
 
 
 if __name__ == "__main__":
