@@ -1261,7 +1261,11 @@ def safe_state_text(summary: dict[str, Any]) -> str:
     ctrl = summary.get("controller") or {}
     parts = []
     if tm.get("safe_state") or tm.get("safe_state_cycles"):
-        held = ", held at the end" if tm.get("safe_state") else ""
+        held = (
+            ", held at the end"
+            if tm.get("safe_state")
+            else (", recovered" if tm.get("watchdog_recoveries") else "")
+        )
         parts.append(f"plant safe state ({_fmt(tm.get('safe_state_cycles'))} cycles{held})")
     if ctrl.get("safe_mode_entered"):
         first = ctrl.get("safe_mode_first_entry_s")
