@@ -22,11 +22,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 import pytest
 from _helpers import NodeProcesses, key_file_args, two_endpoints
 
-from hil.nodes.plant_node import STARTUP_S
+from bus_schemas import ActuatorCommand
+from hil.nodes.plant_node import STARTUP_S, PlantLoop
 from hil.review.core import _WatchdogWindows, summarize
 from hil.review.outcome import ExitCode, run_outcome
 from hil.runlog.mcap_io import read_run
@@ -76,6 +78,57 @@ def test_the_default_scenario_recovers() -> None:
         MISSES,
         RECOVER,
     )
+
+
+# --------------------------------------------------------------------------- plant counters
+
+
+def _loop(policy: str, recover: int) -> PlantLoop:
+    base = load_scenario("nrel5mw-steady-18").with_duration(20.0)
+    timing = msgspec.structs.replace(
+        base.timing,
+        watchdog_misses=MISSES,
+        watchdog_policy=policy,
+        watchdog_recover_cycles=recover,
+    )
+    return PlantLoop(msgspec.structs.replace(base, timing=timing), lambda _mt, _m: None)
+
+
+def _cycle(loop: PlantLoop, answered: bool) -> int:
+    loop.sample()
+    pitch, torque = loop.applied
+    command = ActuatorCommand(
+        seq=loop.k,
+        answered_seq=loop.k,
+        sample_time_ns=loop.t_ns,
+        publish_time_ns=0,
+        mode=0,
+        blade_pitch_commanded_rad=pitch,
+        generator_torque_commanded_nm=torque,
+    )
+    loop.finish_cycle(command if answered else None, 500_000 if answered else 0)
+    return int(loop.safe_state)
+
+
+def test_the_plant_counts_trips_recoveries_and_the_longest_window() -> None:
+    # two stalls (5 and 10 missed periods), each followed by on-time commands
+    stalls = {*range(100, 105), *range(300, 310)}
+    k_rec = 20
+    loop = _loop("recover", k_rec)
+    flags = [_cycle(loop, answered=k not in stalls) for k in range(600)]
+    r = loop.result
+    assert (r.safe_state_entries, r.safe_state_recoveries) == (2, 2)
+    # safe from the third miss to the k_rec-th on-time period after the stall
+    assert flags[100 + MISSES - 1] == 1 and flags[105 + k_rec - 1] == 0
+    assert all(flags[100 + MISSES - 1 : 105 + k_rec - 1])
+    assert r.safe_state_longest_cycles == (310 + k_rec - 1) - (300 + MISSES - 1)
+    assert r.safe_state_cycles == sum(flags)
+    latched = _loop("latch", 0)
+    flags = [_cycle(latched, answered=k not in stalls) for k in range(600)]
+    assert all(flags[100 + MISSES - 1 :])
+    r = latched.result
+    assert (r.safe_state_entries, r.safe_state_recoveries) == (1, 0)
+    assert r.safe_state_longest_cycles == r.safe_state_cycles == 600 - (100 + MISSES - 1)
 
 
 # --------------------------------------------------------------------------- review counts
