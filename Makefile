@@ -60,6 +60,7 @@ bench: bench-speed bench-studies
 
 bench-speed: setup
 	$(BIN)/python bench/realtime_latency.py --realtime-priority $(RTPRIO)
+	$(BIN)/python bench/realtime_watchdog.py --runs 10 --duration 600 --hogs 2
 	$(BIN)/python bench/lockstep_speed.py
 	$(BIN)/python bench/lockstep_speed.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/inprocess_speed.py

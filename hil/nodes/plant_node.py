@@ -283,8 +283,10 @@ class PlantRunResult:
     sim_s: float = 0.0
     aborted: str = ""
     rejected: dict[str, int] = field(default_factory=dict)
-    safe_state_entries: int = 0
+    safe_state_entries: int = 0  # watchdog trips
+    safe_state_recoveries: int = 0  # control handed back (recover policy, start-up rule)
     safe_state_cycles: int = 0
+    safe_state_longest_cycles: int = 0  # the longest safe-state window [cycles]
     faults_injected: dict[str, int] = field(default_factory=dict)
     loop: str = "python"  # in-process runs: "compiled" (hil.inprocess.loop) or "python"
 
@@ -438,7 +440,11 @@ class PlantLoop:
         # Watchdog (see hil.scenario.schema.TimingSection): consecutive misses, safe state, and
         # the run of on-time commands counted towards recovery.
         self.watchdog_misses = scenario.timing.watchdog_misses
-        self.watchdog_recover = scenario.timing.watchdog_recover_cycles
+        self.watchdog_policy = scenario.timing.watchdog_rule
+        self.watchdog_recover = (
+            scenario.timing.watchdog_recover_cycles if self.watchdog_policy == "recover" else 0
+        )
+        self._safe_window = 0  # cycles of the current safe-state window
         self.consecutive_misses = 0
         self.on_time_run = 0
         self.safe_state = False
@@ -700,19 +706,25 @@ class PlantLoop:
         elif self.safe_state and 0 < self._recover_after() <= self.on_time_run:
             self.safe_state = False
             self._startup_safe_state = False
+            self.result.safe_state_recoveries += 1
             self.log(
                 f"plant leaves the safe state at t = {self.t_ns * 1e-9:.3f} s after "
-                f"{self.on_time_run} on-time commands"
+                f"{self.on_time_run} on-time commands ({self._safe_window} cycles in it)"
             )
+            self._safe_window = 0
         if self.safe_state:
-            self.result.safe_state_cycles += 1
+            r = self.result
+            r.safe_state_cycles += 1
+            self._safe_window += 1
+            r.safe_state_longest_cycles = max(r.safe_state_longest_cycles, self._safe_window)
             return self.safe_demand
         return demand
 
     def _recover_after(self) -> int:
         """On-time commands that hand control back from the safe state (0: latched).
 
-        The scenario's ``watchdog_recover_cycles``; for a safe state tripped in the first
+        The scenario's ``watchdog_recover_cycles`` under ``watchdog_policy = "recover"``, 0
+        under ``"latch"``; for a safe state tripped in the first
         ``startup_cycles`` (the start-up's misses: a process still loading, a first
         connection) at least ``startup_recover_cycles``, even where the scenario latches it,
         so that a slow start does not make the whole run a safe-state run. A controller that
@@ -1293,7 +1305,12 @@ def run_plant_node(
     log(
         f"plant done: {r.cycles} cycles, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.speed:.1f}x), deadline misses {r.deadline_misses}"
-        + (f", safe state for {r.safe_state_cycles} cycles" if r.safe_state_cycles else "")
+        + (
+            f", safe state for {r.safe_state_cycles} cycles ({r.safe_state_entries} trip(s), "
+            f"{r.safe_state_recoveries} recovered, longest {r.safe_state_longest_cycles} cycles)"
+            if r.safe_state_cycles
+            else ""
+        )
         + (f", rejected commands {r.rejected}" if r.rejected else "")
         + (f", aborted: {r.aborted}" if r.aborted else "")
     )

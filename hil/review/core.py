@@ -15,7 +15,12 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``,
     ``commands_late`` [1] and ``safe_state`` (0/1) from the final summary (``final`` = 1),
     else derived from ``timing/cycle``; ``cycles_logged`` [1] cycle messages in the file;
-    ``sim_seconds_per_wall_second`` [1]; ``controller_compute_us.{p50,p99,max}`` [us] of
+    ``sim_seconds_per_wall_second`` [1]; the plant watchdog's safe-state windows in
+    ``timing/cycle``: ``watchdog_policy`` (``"latch"`` or ``"recover"``, the scenario's
+    rule), ``watchdog_trips`` [1] (entries into the safe state), ``watchdog_recoveries``
+    [1] (control handed back), ``safe_state_longest_cycles`` [1] and
+    ``safe_state_longest_s`` [s] (the longest window; ``safe_state_cycles`` [1] their sum,
+    from the final summary); ``controller_compute_us.{p50,p99,max}`` [us] of
     ``controller/status`` ``compute_time_ns``; ``complete`` False when the run has no
     final summary (crash), counts then come from the logged cycles.
 ``kpi``
@@ -105,7 +110,7 @@ from hil.review import stream as rs
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
 from hil.runlog.completeness import completeness, describe
 from hil.runlog.mcap_io import PROFILE, MessageList, RunData, read_run
-from hil.scenario.schema import ReviewSection
+from hil.scenario.schema import ReviewSection, watchdog_rule
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -338,6 +343,54 @@ def _scenario_of(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, Any]:
     return out
 
 
+class _WatchdogWindows:
+    """The plant watchdog's safe-state windows in ``timing/cycle`` ``safe_state``, fed in
+    seq order batch by batch: trips (0 -> 1), recoveries (1 -> 0), the longest window."""
+
+    def __init__(self) -> None:
+        self.prev = False  # the last cycle's flag
+        self.open = 0  # cycles of the window still open at the last cycle fed
+        self.trips = 0
+        self.recoveries = 0
+        self.longest = 0
+
+    def add(self, flags: np.ndarray) -> None:
+        if not flags.size:
+            return
+        before = np.concatenate(([self.prev], flags[:-1]))
+        self.trips += int((flags & ~before).sum())
+        self.recoveries += int((before & ~flags).sum())
+        edges = np.diff(np.concatenate(([False], flags, [False])).astype(np.int8))
+        lengths = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
+        if lengths.size:
+            if flags[0]:  # the first window continues the one open at the last batch's end
+                lengths[0] += self.open
+            self.longest = max(self.longest, int(lengths.max()))
+        self.open = int(lengths[-1]) if flags[-1] else 0
+        self.prev = bool(flags[-1])
+
+    def result(self, config: Any, period_s: float) -> dict[str, Any]:
+        """``watchdog_policy`` (the scenario's rule), ``watchdog_trips``,
+        ``watchdog_recoveries``, ``safe_state_longest_cycles`` and ``safe_state_longest_s``."""
+        timing = config.get("timing") if isinstance(config, dict) else None
+        policy = watchdog_rule(timing) if isinstance(timing, dict) else None
+        return {
+            "watchdog_policy": policy,
+            "watchdog_trips": self.trips,
+            "watchdog_recoveries": self.recoveries,
+            "safe_state_longest_cycles": self.longest,
+            "safe_state_longest_s": self.longest * period_s if math.isfinite(period_s) else None,
+        }
+
+
+def _period_s(run: RunData | RunInfo) -> float:
+    """The control period [s] of the recorded scenario (nan when absent)."""
+    cfg = _scenario(run).get("config") or {}
+    timing = cfg.get("timing") if isinstance(cfg, dict) else None
+    period = timing.get("control_period_s") if isinstance(timing, dict) else None
+    return float(period) if isinstance(period, int | float) and period > 0 else math.nan
+
+
 class _Summary:
     """The review's figures accumulated over batches of columns (:mod:`hil.review.stream`).
 
@@ -356,6 +409,7 @@ class _Summary:
         self.cycles = 0
         self.cycle_sums = {"deadline_missed": 0, "command_held": 0}
         self.cycle_safe = 0
+        self.watchdog = _WatchdogWindows()
         self.cycle_first: tuple[float, float] | None = None
         self.cycle_last: tuple[float, float] = (math.nan, math.nan)
         # timing/summary
@@ -461,6 +515,7 @@ class _Summary:
         for name in self.cycle_sums:
             self.cycle_sums[name] += int(np.nansum(c[name]))
         self.cycle_safe = max(self.cycle_safe, int(np.nanmax(np.nan_to_num(c["safe_state"]))))
+        self.watchdog.add(np.nan_to_num(c["safe_state"]) > 0)
         t, w = c["sample_time_ns"], c["publish_time_ns"]
         if self.cycle_first is None:
             self.cycle_first = (float(t[0]), float(w[0]))
@@ -641,6 +696,7 @@ class _Summary:
                 sim_seconds_per_wall_second=speed,
             )
         out["controller_compute_us"] = self._compute_us()
+        out.update(self.watchdog.result(_scenario(self.info).get("config"), _period_s(self.info)))
         return out
 
     def _compute_us(self) -> dict[str, float]:
@@ -1173,11 +1229,29 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     ):
         v = tm.get(name)
         ct.add_row(name.replace("_", " "), f"[yellow]{v}[/yellow]" if v else _fmt(v))
+    trips = tm.get("watchdog_trips")
+    if trips:
+        ct.add_row("watchdog trips", f"[yellow]{watchdog_text(tm)}[/yellow]")
     safe = safe_state_text(summary)
     ct.add_row("safe state", f"[bold red]{safe}[/bold red]" if safe != "no" else safe)
     ct.add_row("sim s / wall s", _fmt(tm.get("sim_seconds_per_wall_second"), digits=3))
     console.print(ct)
     _render_accounts(summary, console)
+
+
+def watchdog_text(tm: dict[str, Any]) -> str:
+    """The plant watchdog's trips in words: ``"2 (2 recovered, longest 0.15 s; recover)"``."""
+    longest = tm.get("safe_state_longest_s")
+    span = (
+        f"{longest:.3g} s"
+        if isinstance(longest, int | float)
+        else f"{_fmt(tm.get('safe_state_longest_cycles'))} cycles"
+    )
+    policy = tm.get("watchdog_policy") or "latch"
+    return (
+        f"{_fmt(tm.get('watchdog_trips'))} ({_fmt(tm.get('watchdog_recoveries'))} recovered, "
+        f"longest {span}; policy {policy})"
+    )
 
 
 def safe_state_text(summary: dict[str, Any]) -> str:
@@ -1187,7 +1261,12 @@ def safe_state_text(summary: dict[str, Any]) -> str:
     ctrl = summary.get("controller") or {}
     parts = []
     if tm.get("safe_state") or tm.get("safe_state_cycles"):
-        parts.append(f"plant safe state ({_fmt(tm.get('safe_state_cycles'))} cycles)")
+        held = (
+            ", held at the end"
+            if tm.get("safe_state")
+            else (", recovered" if tm.get("watchdog_recoveries") else "")
+        )
+        parts.append(f"plant safe state ({_fmt(tm.get('safe_state_cycles'))} cycles{held})")
     if ctrl.get("safe_mode_entered"):
         first = ctrl.get("safe_mode_first_entry_s")
         text = f"controller safe mode {_fmt(ctrl.get('safe_mode_s'), digits=2)} s"

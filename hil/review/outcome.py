@@ -10,7 +10,9 @@ give the same verdict. The codes (docs/exit-codes.md):
 * 3 ``aborted``: stopped by SIGINT, SIGTERM or SIGHUP (the summary written says so);
 * 4 ``recording_incomplete``: the recording lost messages, or the file is truncated;
 * 5 ``safe_state``: the plant entered its safe state, or the controller its safe mode, at
-  any time;
+  any time; except under ``timing.watchdog_policy = "recover"``, where a safe state (safe
+  mode) that was left before the end does not count by itself when the missed deadlines
+  are within the tolerance (:func:`recovered_watchdog_tolerated`);
 * 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_miss_fraction``
   of the cycles.
 
@@ -27,12 +29,15 @@ import enum
 import math
 from typing import Any
 
+from hil.scenario.schema import watchdog_rule
+
 __all__ = [
     "DEFAULT_MAX_DEADLINE_MISS_FRACTION",
     "ExitCode",
     "deadline_miss_tolerance",
     "outcome_line",
     "record_outcome",
+    "recovered_watchdog_tolerated",
     "run_outcome",
 ]
 
@@ -145,12 +150,16 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
 
     cycles = _number(timing.get("cycles"))
     safe_cycles = _number(timing.get("safe_state_cycles")) or 0.0
-    if safe_cycles > 0 or (_number(timing.get("safe_state")) or 0.0) > 0:
+    held = (_number(timing.get("safe_state")) or 0.0) > 0
+    if (safe_cycles > 0 or held) and not recovered_watchdog_tolerated(summary, held):
         share = f" ({100 * safe_cycles / cycles:.1f} % of the run)" if cycles else ""
         count = f" for {safe_cycles:.0f} cycles{share}" if safe_cycles > 0 else ""
         found.append((ExitCode.SAFE_STATE, f"the plant entered its safe state{count}"))
-    entries = _number(_dict(summary.get("controller")).get("safe_mode_entries")) or 0.0
-    if entries > 0:
+    controller = _dict(summary.get("controller"))
+    entries = _number(controller.get("safe_mode_entries")) or 0.0
+    if entries > 0 and not recovered_watchdog_tolerated(
+        summary, bool(controller.get("safe_mode_at_end"))
+    ):
         found.append(
             (ExitCode.SAFE_STATE, f"the controller entered its safe mode {entries:.0f} time(s)")
         )
@@ -173,6 +182,29 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
         return ExitCode.OK, []
     found.sort(key=lambda item: item[0])  # stable: within a code, the order above
     return found[0][0], [reason for _, reason in found]
+
+
+def recovered_watchdog_tolerated(summary: dict[str, Any], held_at_end: bool) -> bool:
+    """True when a watchdog's safe state (the plant's) or safe mode (the controller's) needs
+    no verdict of its own: the recorded scenario's watchdog policy is ``"recover"``
+    (:func:`hil.scenario.schema.watchdog_rule`), control was handed back before the end
+    (``held_at_end`` False), and the missed deadlines are within
+    :func:`deadline_miss_tolerance`. A trip is how a stall the tolerance allows shows
+    itself under that policy; a run whose misses exceed it still gets the safe-state code,
+    the more telling of the two. Under ``"latch"`` (or a safe state held to the end) it
+    is never tolerated.
+    """
+    if held_at_end:
+        return False
+    config = _dict(_dict(summary.get("scenario")).get("config"))
+    if watchdog_rule(_dict(config.get("timing"))) != "recover":
+        return False
+    timing = _dict(summary.get("timing"))
+    cycles = _number(timing.get("cycles"))
+    misses = _number(timing.get("deadline_misses")) or 0.0
+    if misses <= 0:
+        return True
+    return bool(cycles) and misses / (cycles or 1.0) <= deadline_miss_tolerance(summary)
 
 
 def record_outcome(summary: dict[str, Any]) -> ExitCode:

@@ -572,6 +572,23 @@ def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
             )
 
 
+def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) -> None:
+    """Shade the plant's safe-state windows on a per-cycle axis (the windows' seconds over
+    the control period), the watchdog's trips and recoveries in the legend."""
+    period = data.period_s
+    if not (math.isfinite(period) and period > 0):
+        return
+    for k, (lo, hi) in enumerate(data.events()["plant_safe_state"]):
+        label = None
+        if k == 0:
+            trips, back = timing.get("watchdog_trips"), timing.get("watchdog_recoveries")
+            label = "plant safe state" + (
+                f" ({trips} trip(s), {back} recovered)" if isinstance(trips, int) else ""
+            )
+        ax.axvspan(lo / period, hi / period, color="tab:purple", alpha=0.18, lw=0, zorder=0,
+                   label=label)  # fmt: skip
+
+
 def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
     timing = data.summary.get("timing") or {}
     pct = timing.get("latency_us") or {}
@@ -645,6 +662,7 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
             )
         if deadline > 0:
             a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
+        _mark_safe_state_cycles(data, timing, a1)
         a1.legend(fontsize="small", loc="best", framealpha=0.9)
     else:
         _no_data(a0)

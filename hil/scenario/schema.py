@@ -206,6 +206,21 @@ SENSOR_CHANNELS = (
 )
 
 
+#: What the watchdogs do after a trip (:class:`TimingSection`).
+WatchdogPolicy = Literal["latch", "recover"]
+
+
+def watchdog_rule(timing: dict[str, object]) -> WatchdogPolicy:
+    """The watchdog policy in force for a ``[timing]`` table given as a plain dict (a
+    scenario recorded in a run's summary): ``watchdog_policy`` if set, else ``"recover"``
+    when ``watchdog_recover_cycles`` > 0, else ``"latch"``."""
+    given = timing.get("watchdog_policy")
+    if given in ("latch", "recover"):
+        return "recover" if given == "recover" else "latch"
+    k = timing.get("watchdog_recover_cycles")
+    return "recover" if isinstance(k, int) and not isinstance(k, bool) and k > 0 else "latch"
+
+
 class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Rates of the loop.
 
@@ -216,12 +231,24 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     the plant enters its safe state (pitch demand to feather, moved at the pitch actuator's
     rate limit; generator-torque demand to zero, ramped down at the torque rate limit),
     ignores the controller's commands and says so (``safe_state`` = 1 in ``timing/cycle``
-    and ``timing/summary``). Recovery rule: with ``watchdog_recover_cycles`` = 0 (the
-    default) the safe state is latched for the rest of the run; with K > 0 control is handed
-    back after K consecutive commands that each met their deadline. In real time, a safe
-    state tripped in the run's first second (:data:`hil.nodes.plant_node.STARTUP_S`: misses of a
-    slow start) is handed back after a second's worth of on-time commands (or K, if more)
-    even when latched: a slow start does not make the whole run a safe-state run.
+    and ``timing/summary``). What follows a trip is ``watchdog_policy``:
+
+    * ``"latch"``: the safe state holds for the rest of the run, as a turbine's would
+      (``watchdog_recover_cycles`` must be 0);
+    * ``"recover"``: control is handed back after ``watchdog_recover_cycles`` = K (>= 1)
+      consecutive periods whose commands each met their deadline; every trip and every
+      recovery is counted (``fowt review``: ``timing.watchdog_trips``,
+      ``timing.watchdog_recoveries``).
+
+    Unset, the policy follows ``watchdog_recover_cycles``: ``"recover"`` when it is > 0,
+    ``"latch"`` when it is 0 (the default). The controller's sensor-frame watchdog follows
+    the same keys (its safe mode). A safe state recovered from under ``"recover"`` does not
+    by itself fail a run whose missed deadlines are within the tolerance; a safe state
+    still held at the end, or any under ``"latch"``, does (:mod:`hil.review.outcome`). In
+    real time, a safe state tripped in the run's first second
+    (:data:`hil.nodes.plant_node.STARTUP_S`: misses of a slow start) is handed back after
+    a second's worth of on-time commands (or K, if more) even when latched: a slow start
+    does not make the whole run a safe-state run.
 
     ``max_deadline_miss_fraction`` (0 to 1): missed deadlines tolerated, as a fraction of
     the run's cycles, before ``fowt run`` exits with its deadline-misses code
@@ -232,8 +259,32 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     control_period_s: Annotated[float, msgspec.Meta(ge=0.001, le=1.0)] = 0.01
     plant_step_s: Annotated[float, msgspec.Meta(ge=0.0001, le=1.0)] = 0.01
     watchdog_misses: Cycles = 3
+    watchdog_policy: WatchdogPolicy | None = None
     watchdog_recover_cycles: Cycles = 0
     max_deadline_miss_fraction: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] | None = None
+
+    def __post_init__(self) -> None:
+        k = self.watchdog_recover_cycles
+        if self.watchdog_policy == "recover" and k == 0:
+            raise ValueError(
+                'timing.watchdog_policy = "recover" hands control back after '
+                "timing.watchdog_recover_cycles on-time periods: expected "
+                "watchdog_recover_cycles >= 1 (e.g. 40: one second at 40 Hz)"
+            )
+        if self.watchdog_policy == "latch" and k > 0:
+            raise ValueError(
+                f'timing.watchdog_policy = "latch" holds the safe state to the end, but '
+                f"timing.watchdog_recover_cycles = {k} would hand control back: expected "
+                'watchdog_recover_cycles = 0, or watchdog_policy = "recover"'
+            )
+
+    @property
+    def watchdog_rule(self) -> WatchdogPolicy:
+        """The watchdog's policy in force: ``watchdog_policy``, or when unset ``"recover"``
+        if ``watchdog_recover_cycles`` > 0, else ``"latch"``."""
+        if self.watchdog_policy is not None:
+            return self.watchdog_policy
+        return "recover" if self.watchdog_recover_cycles > 0 else "latch"
 
 
 class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
