@@ -60,6 +60,9 @@ class ControllerOptions:
         (None: the shipped one named by ``preset``) and the folder for its files.
     preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
+    core : str or None
+        ``"python"`` only: ``"package.module:function"``, a function of these options
+        returning the core (:func:`_python`).
     """
 
     kind: str
@@ -78,6 +81,7 @@ class ControllerOptions:
     symmetric_pitch_limit_deg: float | None = None
     torque_weight_factor: float | None = None
     gamma_1_s: float | None = None
+    core: str | None = None
 
 
 @dataclass(frozen=True)
@@ -169,6 +173,25 @@ def _casanovas(o: ControllerOptions) -> Controller[Any]:
 Say = Callable[[str], None]
 
 
+def _python(o: ControllerOptions) -> Controller[Any]:
+    """A user's core: ``o.core`` = ``"package.module:function"``, the function called with
+    the options (minimal form: the module is imported, the function looked up and called)."""
+    import importlib  # noqa: PLC0415 - only this kind imports a user's module
+
+    ref = o.core or ""
+    module, sep, attr = ref.partition(":")
+    if not sep or not module or not attr:
+        raise ValueError(f"controller.core = {ref!r}: expected 'package.module:function'")
+    try:
+        factory = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"controller.core = {ref!r}: {exc}") from exc
+    if not callable(factory):
+        raise ValueError(f"controller.core = {ref!r}: not a function")
+    core: Controller[Any] = factory(o)
+    return core
+
+
 def _design_advanced(r: DesignRequest, say: Say) -> Path | None:
     from controller.design.on_demand import ensure_advanced  # noqa: PLC0415
 
@@ -224,6 +247,7 @@ CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "lqr_steady": _CASANOVAS,
     "lqr_finite": _CASANOVAS,
     "lqr_overlaid": _CASANOVAS,
+    "python": ControllerKind(_python),  # a user's core, controller.core = "module:function"
 }
 """``kind`` -> constructor and design: the one place a controller kind is registered."""
 
@@ -288,6 +312,7 @@ def make_controller(
     symmetric_pitch_limit_deg: float | None = None,
     torque_weight_factor: float | None = None,
     gamma_1_s: float | None = None,
+    core: str | None = None,
 ) -> Controller[Any]:
     """Build a controller of ``kind`` from a shipped preset name or a preset file path.
 
@@ -317,6 +342,8 @@ def make_controller(
         (:func:`controller.rosco.make_rosco_controller`).
     preview, horizon_s, overlap, symmetric_pitch_limit_deg, torque_weight_factor, gamma_1_s
         casanovas-2014 kinds only (:func:`controller.casanovas.make_casanovas`).
+    core : str or None
+        ``"python"`` only: ``"package.module:function"`` (:class:`ControllerOptions`).
 
     Returns
     -------
@@ -348,6 +375,7 @@ def make_controller(
             symmetric_pitch_limit_deg=symmetric_pitch_limit_deg,
             torque_weight_factor=torque_weight_factor,
             gamma_1_s=gamma_1_s,
+            core=core,
         )
     )
 

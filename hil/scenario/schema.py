@@ -482,6 +482,10 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
     gives one; ``library`` a user's build (default: the ``rosco`` wheel's ``libdiscon``).
     Relative paths are taken from the working directory of ``fowt run``.
+
+    ``"python"``: a user's core; ``core`` = ``"package.module:function"``, the function
+    called with :class:`controller.registry.ControllerOptions` and returning the core (the
+    module must be importable by the controller process).
     """
 
     kind: Literal[
@@ -495,8 +499,11 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
         "lqr_steady",
         "lqr_finite",
         "lqr_overlaid",
+        "python",
     ] = "baseline"
     preset: str = "nrel5mw_baseline"
+    # kind = "python": the user's core, "package.module:function" (controller.registry).
+    core: str | None = None
     forecaster: Literal["dispersion", "ar", "esprit"] | None = None
     feedforward: Literal["balanced", "max_performance"] = "balanced"
     library: str | None = None
@@ -510,6 +517,11 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     gamma_1_s: float | Literal["no_preview"] | None = None
 
     def __post_init__(self) -> None:
+        if (self.kind == "python") != (self.core is not None):
+            raise ValueError(
+                "controller.core ('package.module:function') is needed by kind = 'python' "
+                f"and used only by it (kind is {self.kind!r})"
+            )
         if self.kind != "rosco" and (self.library is not None or self.parameter_file is not None):
             raise ValueError(
                 "controller.library and controller.parameter_file are used only by "
