@@ -99,6 +99,7 @@ kind = "steady"
 speed_m_s = 10.0
 [timing]
 control_period_s = {PERIOD_S}
+plant_step_s = {PERIOD_S / 2}
 [initial]
 trim = {"true" if trim else "false"}
 [controller]

@@ -101,7 +101,7 @@ from bus_schemas.messages import (
     EST_WIND_SPEED,
     PLANT_REJECT_REASONS,
 )
-from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, read_fault
+from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, read_fault
 from hil.review import kpi
 from hil.review import stream as rs
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
@@ -1275,6 +1275,12 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
     for reason, n in (ctrl.get("frames_rejected") or {}).items():
         if n:
             rows.append((f"  frames rejected: {reason}", n, src))
+    fault = ctrl.get("fault")
+    if isinstance(fault, dict) and fault.get("kind"):
+        rows.append(("core fault", fault_line(fault).removeprefix("controller "), src))
+        rows.append(("commands flagged as faulted", ctrl.get("fault_commands"), src))
+    if ctrl.get("overruns"):
+        rows.append(("steps over the control period", ctrl.get("overruns"), "controller/status"))
     psrc = str(plant.get("source") or "-")
     rows += [
         ("plant commands applied", plant.get("commands_applied"), psrc),
@@ -1285,7 +1291,7 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
             rows.append((f"  commands rejected: {reason}", n, psrc))
     for name, v, where in rows:
         text = _fmt(v, digits=2)
-        if v and ("safe mode" in name or "rejected" in name):
+        if v and ("safe mode" in name or "rejected" in name or "fault" in name or "over" in name):
             text = f"[yellow]{text}[/yellow]"
         t.add_row(escape(name), text, where)
     console.print(t)
