@@ -410,7 +410,7 @@ def run(
       5  safe state: the plant's safe state or the controller's safe mode, at any time
       6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
          real time, 0 in lock-step and in process), or a controller slower than
-         its control period in more than that fraction of its cycles
+         its control period in more than a quarter of its cycles
       7  controller fault: its core raised, or gave a non-finite or out-of-range
          command (never applied); wins over 4, 5 and 6, not over 1 and 3
     """

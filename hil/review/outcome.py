@@ -13,8 +13,7 @@ give the same verdict. The codes (docs/exit-codes.md):
   any time;
 * 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_miss_fraction``
   of the cycles, or a controller whose step took longer than the control period in more
-  than that fraction of its cycles (its compute time; the real-time default 0.01 in every
-  mode when the key is unset: a wall-clock figure is never deterministic);
+  than :data:`OVERRUN_FRACTION` of its cycles (its compute time);
 * 7 ``controller_fault``: the controller's core raised, or returned a non-finite or
   out-of-range command (:mod:`hil.nodes.controller_fault`).
 
@@ -77,6 +76,12 @@ PRECEDENCE: tuple[ExitCode, ...] = (
     ExitCode.DEADLINE_MISSES,
 )
 _RANK = {code: i for i, code in enumerate(PRECEDENCE)}
+
+#: The fraction of a controller's steps that may take longer than the control period
+#: before the run is judged on it (:func:`controller_overrun`): a busy host stretches a few
+#: steps (2.9 % of a ROSCO run's 10 ms steps in process at load average 14 on 2 cores), a
+#: core slower than its period most of them.
+OVERRUN_FRACTION = 0.25
 
 #: Missed deadlines tolerated, as a fraction of the run's cycles, when the scenario's
 #: ``timing.max_deadline_miss_fraction`` is not set. A lock-step or in-process plant waits
@@ -210,22 +215,17 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
 
 def controller_overrun(summary: dict[str, Any]) -> str | None:
     """``"controller exceeded its deadline in N of M cycles (p99 X ms)"`` when the core's
-    step took longer than the control period in more than the tolerated fraction of its
+    step took longer than the control period in more than :data:`OVERRUN_FRACTION` of its
     cycles (``controller.overruns`` of ``controller.cycles_stepped``), else None.
 
-    The tolerance: the scenario's ``timing.max_deadline_miss_fraction`` when set, else the
-    real-time default in every mode (a step's compute time is wall-clock time, which a
-    loaded host stretches in any mode, lock-step and in-process too).
+    A step's compute time is wall-clock time, which a loaded host stretches in every mode
+    (lock-step and in process too), so only a core slow in a good part of its cycles is
+    judged on it: a slow core, not a busy host.
     """
     controller = _dict(summary.get("controller"))
     overruns = _number(controller.get("overruns")) or 0.0
     stepped = _number(controller.get("cycles_stepped")) or 0.0
-    if overruns <= 0 or stepped <= 0:
-        return None
-    config = _dict(_dict(summary.get("scenario")).get("config"))
-    given = _number(_dict(config.get("timing")).get("max_deadline_miss_fraction"))
-    tolerated = given if given is not None else DEFAULT_MAX_DEADLINE_MISS_FRACTION["realtime"]
-    if overruns / stepped <= tolerated:
+    if overruns <= 0 or stepped <= 0 or overruns / stepped <= OVERRUN_FRACTION:
         return None
     p99 = _number(_dict(controller.get("compute_us")).get("p99"))
     detail = f" (p99 {p99 / 1e3:.1f} ms)" if p99 is not None else ""
