@@ -3,8 +3,9 @@
 Three cores (a baseline wrapped in a module this file writes into ``tmp_path``, reached
 through ``[controller] kind = "python"``, ``core = "module:function"``) misbehave: from
 t = :data:`FAULT_AT_S` one raises, one returns a NaN pitch; from :data:`SLOW_FROM_S` one
-sleeps longer than the control period. Each runs in process, lock-step and real time (``fowt run``, real
-processes), and in process through the campaign runner's :func:`execute_run`:
+sleeps longer than the control period. Each runs in process, lock-step and real time
+(``fowt run``, real processes), and in process through the campaign runner's
+:func:`execute_run`:
 
 * raise / NaN: exit 7 (``controller_fault``) everywhere, the same reason line (numbers
   aside), ``controller.fault`` with kind, message, t_s and cycle; the faulted commands are
@@ -241,6 +242,9 @@ def test_a_faulting_core_gets_the_same_verdict_in_every_mode(
         assert summary["controller"]["fault_commands"] > 0, mode
         assert summary["timing"]["safe_state_cycles"] > 0, mode
         assert summary["recording"]["complete"], (mode, summary["recording"]["problems"])
+        # nothing non-finite reached the plant: its state, hence the KPIs, stay numbers
+        assert summary["kpi"]["mean_power_w"] is not None, mode
+        assert summary["kpi"]["rotor_speed_mean_rad_s"] is not None, mode
         lines[mode] = _shape(first)
     assert len(set(lines.values())) == 1, lines
 

@@ -16,7 +16,9 @@ process's), never steps the core again, and answers every frame from then on wit
 command (pitch to feather, torque to 0, at the core's rate limits) flagged
 :data:`MODE_FAULT`: the command is recorded, and a plant never applies it but goes to its
 safe state. Nothing non-finite ever leaves the runtime. The same in every mode, so a
-faulting core gets the same verdict (``controller_fault``, exit 7) everywhere.
+faulting core gets the same verdict (``controller_fault``, exit 7) everywhere. (A DISCON
+library that reports ``aviFAIL`` < 0 raises :class:`controller.discon.DisconError` as before:
+the library itself ends the run, which fails with its message.)
 
 Sensor-frame watchdog (the controller's counterpart of the plant's, same rule and same
 scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycles`` = K):
@@ -474,6 +476,8 @@ class ControllerRuntime:
         if self.fault is None:
             try:
                 self.state, out = self.controller.step(self.state, frame, self.dt_s)
+            except DisconError:
+                raise  # a DISCON library's aviFAIL < 0: its own end of the run (as before)
             except Exception as exc:  # the core's fault, never the process's (module docstring)
                 out = self._core_fault(frame, "raised", repr(exc), "")
             else:
