@@ -354,7 +354,7 @@ class ControllerRuntime:
         """True when frame ``seq`` would take :meth:`handle_frame`'s usual path: not in or
         leaving the safe mode, no gap in the sequence, no pacing decision due (a compiled
         twin of the path may then run it; wall-clock checks are the caller's to rule out)."""
-        if self.safe_mode or self.resuming or self._restart_core:
+        if self.safe_mode or self.resuming or self._restart_core or self.fault is not None:
             return False
         if self.last_seq >= 0 and self.last_seq != seq - 1:
             return False  # a gap: the watchdog counts misses
