@@ -201,11 +201,11 @@ def test_a_failed_or_aborted_run_stays_so() -> None:
 def test_a_slow_controller_is_named() -> None:
     summary = {
         "run": {"mode": "lockstep"},
-        "controller": {"overruns": 50, "cycles_stepped": 400, "compute_us": {"p99": 62_500.0}},
+        "controller": {"overruns": 150, "cycles_stepped": 400, "compute_us": {"p99": 62_500.0}},
     }
     code, reasons = run_outcome(summary)
     assert code == ExitCode.DEADLINE_MISSES
-    assert reasons == ["controller exceeded its deadline in 50 of 400 cycles (p99 62.5 ms)"]
+    assert reasons == ["controller exceeded its deadline in 150 of 400 cycles (p99 62.5 ms)"]
     summary["controller"]["overruns"] = 40  # 10 %: a busy host, not a slow core
     assert run_outcome(summary) == (ExitCode.OK, [])
 
@@ -246,6 +246,11 @@ def test_a_faulting_core_gets_the_same_verdict_in_every_mode(
         assert summary["kpi"]["mean_power_w"] is not None, mode
         assert summary["kpi"]["rotor_speed_mean_rad_s"] is not None, mode
         lines[mode] = _shape(first)
+        if mode == "lockstep":  # the file and what is beside it give the same verdict
+            out = tmp_path / f"{how}-{mode}"
+            review = _fowt(cores, "review", str(out / "run.mcap"), "--strict", "--no-plots")
+            assert review.returncode == 7, review.stdout + review.stderr
+            assert first in review.stderr, review.stderr
     assert len(set(lines.values())) == 1, lines
 
 
