@@ -345,6 +345,7 @@ class ControllerRuntime:
         self.fault: ControllerFault | None = None
         self.fault_commands = 0
         self.frames_overdue = 0  # skipped by the node (overdue)
+        self.last_compute_ns = 0  # the last cycle's time around the core's step [ns]
         self._pitch_lo = self.limits.pitch_min_rad - PITCH_TOLERANCE_RAD
         self._pitch_hi = self.limits.pitch_max_rad + PITCH_TOLERANCE_RAD
         self._restart_core = False
@@ -524,6 +525,7 @@ class ControllerRuntime:
             generator_torque_commanded_nm=torque,
         )
         rejected = self.rejected
+        self.last_compute_ns = compute_ns = now - t0  # (overdue)
         # Positional: the status's fields after ``rejected_frames`` are the core output's
         # after ``regime``, in the same order (checked at import, _STATUS_TAIL_FROM); one
         # astuple and a positional call cost ~1.1 us less than 24 keywords.
@@ -532,7 +534,7 @@ class ControllerRuntime:
             frame.seq,  # answered_seq
             frame.sample_time_ns,  # sample_time_ns
             now,  # publish_time_ns
-            now - t0,  # compute_time_ns
+            compute_ns,  # compute_time_ns
             regime,  # regime
             sum(rejected.values()) if rejected else 0,  # rejected_frames (rejected_total)
             *_astuple(out)[_STATUS_TAIL_FROM:],
@@ -559,14 +561,18 @@ class ControllerRuntime:
         return False
 
     def overdue(self, frame: SensorFrame, now_ns: int) -> bool:
-        """True when ``frame`` is older than :data:`OVERDUE_PERIODS` control periods while
-        the wall-clock checks apply (real time, one host's clock): a frame queued behind a
-        core slower than the period, whose answer could only be late. The node skips it
-        (the next frame's seq gap counts it as missing for the watchdog), so a slow core
-        answers the newest frames instead of falling ever further behind."""
-        if not self.same_host_clock or not self.wall_checks:
+        """True when ``frame`` queued behind a core slower than the period: the last step
+        took longer than a control period and the frame is older than
+        :data:`OVERDUE_PERIODS` periods, while the wall-clock checks apply (real time, one
+        host's clock). Its answer could only be late; the node skips it (the next frame's
+        seq gap counts it as missing for the watchdog), so a slow core answers the newest
+        frames instead of falling ever further behind. A frame late for another reason (a
+        bus delay) with a core on time is stepped on as before (stale)."""
+        if self.last_compute_ns <= self.period_ns or not self.wall_checks:
             return False
-        return now_ns - frame.publish_time_ns > OVERDUE_PERIODS * self.period_ns
+        return self.same_host_clock and (
+            now_ns - frame.publish_time_ns > OVERDUE_PERIODS * self.period_ns
+        )
 
     # ------------------------------------------------------------------ core faults
     def _check_output(self, frame: SensorFrame, out: ControlOutput) -> ControlOutput:
