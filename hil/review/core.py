@@ -63,7 +63,12 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``safe_mode_at_end``, ``safe_mode_s`` [s] (commands sent with ``mode`` = safe times
     ``control_period_s``), ``commands`` [1] published, ``frames_missing``, ``frames_stale``
     [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
-    commands) and ``frames_rejected_total`` [1].
+    commands) and ``frames_rejected_total`` [1]; the core's ``fault`` (``null``, or
+    ``kind``, ``message``, ``t_s`` [s], ``cycle``, ``field``, ``phase``: numbers from the
+    report, text from ``controller_fault.json`` beside the file,
+    :mod:`hil.nodes.controller_fault`), ``fault_commands`` [1] (sent flagged ``mode`` = 3),
+    ``cycles_stepped`` [1] (statuses) and ``overruns`` [1] (statuses whose
+    ``compute_time_ns`` exceeds the control period).
 ``plant``
     ``source`` (``"timing/report"``, the plant's final
     :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
