@@ -432,14 +432,20 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     info = run_info(req, scenario)
     design_dir = ensure_designs(scenario, console)
     abort.check(started=False)  # a signal during the design: nothing ran, nothing to review
-    try:
-        # The trimmed start settles here, in the launcher, before any node starts: a core
-        # that faults in it is the controller's fault (exit 7), not a plant process's exit
-        # status; a bus run's plant process reads the settled point from the trim store.
-        initial_condition(scenario)
-    except ControllerFaultError as exc:
-        return _trim_fault(exc, req, scenario, out, info, console)
-    abort.check(started=False)
+    if req.mode != "inprocess":
+        # A bus run's trimmed start settles here, in the launcher, before any node starts:
+        # a core that faults in it is the controller's fault (exit 7), not the plant
+        # process's exit status; the plant process then reads the settled point from the
+        # trim store. (An in-process run settles in this process anyway: below.)
+        try:
+            initial_condition(scenario)
+        except ControllerFaultError as exc:
+            return _trim_fault(exc, req, scenario, out, info, console)
+        except Exception:  # reported by the nodes, as it always was
+            # A core that cannot be built, a DISCON library that refuses: the nodes start,
+            # fail the same way and say so, and their recording is reviewed.
+            pass
+        abort.check(started=False)
     for level, line in feedforward_notice(scenario):
         console.print(
             f"[yellow]warning:[/] {escape(line)}" if level == "warning" else line,
@@ -460,6 +466,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
             if process_faults:
                 driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
             _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver, abort)
+    except ControllerFaultError as exc:  # in process: the core faulted in the trim
+        return _trim_fault(exc, req, scenario, out, info, console)
     except RunAbortedError as exc:
         if not mcap_path.is_file():  # stopped before the recorder opened its file
             raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
@@ -603,8 +611,8 @@ def _trim_fault(
     info: dict[str, str],
     console: Console,
 ) -> dict[str, Any]:
-    """The verdict of a run whose controller faulted in the trim's settling run: nothing
-    was started or recorded; ``summary.json`` says which process and why, exit 7."""
+    """The verdict of a run whose controller faulted in the trim's settling run: no cycle
+    of the run was recorded; ``summary.json`` says which process and why, exit 7."""
     summary: dict[str, Any] = {
         "run": {**info, "mode": req.mode, "failed_process": "controller", "aborted": False},
         "scenario": {"name": scenario.name},
