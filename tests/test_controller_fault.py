@@ -270,10 +270,13 @@ def test_a_slow_core_is_named_in_every_mode(cores: Path, tmp_path: Path) -> None
     assert len(set(lines.values())) == 1, lines
 
 
-def test_a_fault_in_the_trims_settling_run_is_the_controllers(cores: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("mode", ["inprocess", "lockstep"])
+def test_a_fault_in_the_trims_settling_run_is_the_controllers(
+    cores: Path, tmp_path: Path, mode: str
+) -> None:
     out = tmp_path / "trim"
     proc = _fowt(cores, "run", str(_scenario(tmp_path, "raise", trim=True)), "--mode",
-                 "lockstep", "--out", str(out), "--no-plots")  # fmt: skip
+                 mode, "--out", str(out), "--no-plots")  # fmt: skip
     _no_tracebacks(proc, out)
     assert proc.returncode == 7, proc.stdout + proc.stderr
     summary = json.loads((out / "summary.json").read_text())
