@@ -132,11 +132,24 @@ class SensorFrame(msgspec.Struct, frozen=True, gc=False):
     ]
 
 
+#: ``ActuatorCommand.mode`` values: the core's command; rate limited after the safe mode;
+#: the safe command (the controller's watchdog); the core faulted (:data:`COMMAND_MODE_FAULT`).
+COMMAND_MODE_NORMAL = 0
+COMMAND_MODE_RESUMING = 1
+COMMAND_MODE_SAFE = 2
+#: The controller's core raised or gave a non-finite or out-of-range command on this frame
+#: or an earlier one: the command's values are the controller's safe command, never the
+#: core's, and a plant never applies it (it goes to its safe state).
+COMMAND_MODE_FAULT = 3
+
+
 class ActuatorCommand(msgspec.Struct, frozen=True, gc=False):
     """Pitch and torque demand answering one :class:`SensorFrame`.
 
     ``answered_seq`` echoes the ``seq`` of the frame this command answers, so the plant
     can measure sensor-to-command latency on its own clock and discard stale commands.
+    ``mode``: 0 the core's command, 1 resuming after the safe mode, 2 the safe command,
+    3 the core faulted (not to be applied; :data:`COMMAND_MODE_FAULT`).
     """
 
     seq: Seq
@@ -402,6 +415,10 @@ PlantReport.__doc__ = "The plant's end-of-run account: messages published, comma
 #: commands it sent in it, the sample time of its first entry: 0 when ``safe_mode_entries``
 #: is 0), the frames its watchdog found missing or stale, and every rejected sensor-frame
 #: payload by reason. ``aborted`` = 1 when a signal stopped it before the plant's end.
+#: Version 2 adds the core's first fault (``core_fault``: 0 none, 1 it raised, 2 a
+#: non-finite command, 3 an out-of-range one; the frame ``seq`` and sample time it happened
+#: on; ``core_fault_field``: 0 none, 1 the pitch, 2 the torque) and how many commands it
+#: sent flagged :data:`COMMAND_MODE_FAULT` (:mod:`hil.nodes.controller_fault`).
 ControllerReport: type[msgspec.Struct] = msgspec.defstruct(
     "ControllerReport",
     [
@@ -420,6 +437,12 @@ ControllerReport: type[msgspec.Struct] = msgspec.defstruct(
         ("frames_missing", Count),
         ("frames_stale", Count),
         *_counts("frames_rejected", CONTROLLER_REJECT_REASONS),
+        # (defaults 0: a report without a fault need not name these)
+        ("core_fault", Flag, 0),
+        ("core_fault_seq", Seq, 0),
+        ("core_fault_time_ns", TimeNs, 0),
+        ("core_fault_field", Flag, 0),
+        ("core_fault_commands", Count, 0),
     ],
     frozen=True,
     kw_only=True,

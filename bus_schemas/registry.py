@@ -104,7 +104,7 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(TimingSummary, 6, 2, "timing/summary"),
     _mt(WavePreviewPerfect, 7, 1, "preview/wave_perfect"),
     _mt(PlantReport, 12, 1, "timing/report"),
-    _mt(ControllerReport, 13, 1, "controller/report"),
+    _mt(ControllerReport, 13, 2, "controller/report"),
 )
 
 #: Messages of multi-turbine platforms (the Hexicon H3 family): per-turbine ones are keyed

@@ -105,6 +105,7 @@ from hil.families import (
     resolve,
 )
 from hil.inprocess.run import run_inprocess
+from hil.inprocess.trim import initial_condition
 from hil.nodes.bus import (
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -113,6 +114,7 @@ from hil.nodes.bus import (
     free_tcp_endpoint,
     unbatching,
 )
+from hil.nodes.controller_fault import FAULT_FILE, ControllerFaultError, write_fault
 from hil.nodes.controller_node import (
     ControllerRuntime,
     controller_report,
@@ -163,7 +165,15 @@ class RunRequest:
 
 
 class RunFailedError(RuntimeError):
-    """A process of the run failed; the message names it and its log."""
+    """A process of the run failed; the message names it and its log.
+
+    ``process``: which one (``"plant"``, ``"controller"``, ``"recorder"``; None: not one
+    process), written to ``summary.json`` as ``run.failed_process``.
+    """
+
+    def __init__(self, message: str, process: str | None = None) -> None:
+        super().__init__(message)
+        self.process = process
 
 
 class ProcessFaultError(RunFailedError):
@@ -420,10 +430,25 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         if in_netns is not None:
             return in_netns
     out.mkdir(parents=True, exist_ok=True)
+    (out / FAULT_FILE).unlink(missing_ok=True)  # an earlier run's, in the same folder
     mcap_path = out / "run.mcap"
     info = run_info(req, scenario)
     design_dir = ensure_designs(scenario, console)
     abort.check(started=False)  # a signal during the design: nothing ran, nothing to review
+    if req.mode != "inprocess":
+        # A bus run's trimmed start settles here, in the launcher, before any node starts:
+        # a core that faults in it is the controller's fault (exit 7), not the plant
+        # process's exit status; the plant process then reads the settled point from the
+        # trim store. (An in-process run settles in this process anyway: below.)
+        try:
+            initial_condition(scenario)
+        except ControllerFaultError as exc:
+            return _trim_fault(exc, req, scenario, out, info, console)
+        except Exception:  # reported by the nodes, as it always was
+            # A core that cannot be built, a DISCON library that refuses: the nodes start,
+            # fail the same way and say so, and their recording is reviewed.
+            pass
+        abort.check(started=False)
     for level, line in feedforward_notice(scenario):
         console.print(
             f"[yellow]warning:[/] {escape(line)}" if level == "warning" else line,
@@ -444,6 +469,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
             if process_faults:
                 driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
             _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver, abort)
+    except ControllerFaultError as exc:  # in process: the core faulted in the trim
+        return _trim_fault(exc, req, scenario, out, info, console)
     except RunAbortedError as exc:
         if not mcap_path.is_file():  # stopped before the recorder opened its file
             raise RunAbortedError(exc.signum, exc.sim_s, started=False) from None
@@ -579,6 +606,31 @@ def _launch_family(
     return summary
 
 
+def _trim_fault(
+    exc: ControllerFaultError,
+    req: RunRequest,
+    scenario: Scenario,
+    out: Path,
+    info: dict[str, str],
+    console: Console,
+) -> dict[str, Any]:
+    """The verdict of a run whose controller faulted in the trim's settling run: no cycle
+    of the run was recorded; ``summary.json`` says which process and why, exit 7."""
+    summary: dict[str, Any] = {
+        "run": {**info, "mode": req.mode, "failed_process": "controller", "aborted": False},
+        "scenario": {"name": scenario.name},
+        "controller": {"fault": exc.fault.to_dict()},
+    }
+    code = record_outcome(summary)
+    write_fault(out, exc.fault)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    console.print(f"summary: {escape(str(out / 'summary.json'))}")
+    console.print(
+        outcome_line(code, summary["run"]["outcome_reasons"]), markup=False, soft_wrap=True
+    )
+    return summary
+
+
 def _failed_summary(mcap_path: Path, out: Path, exc: RunFailedError) -> None:
     """Best effort: a failed run's ``summary.json`` from what was recorded, outcome
     ``failed`` and why. Nothing when there is no file or it cannot be read or written
@@ -588,6 +640,8 @@ def _failed_summary(mcap_path: Path, out: Path, exc: RunFailedError) -> None:
     with contextlib.suppress(Exception):  # any failure here would only hide the run's own
         summary = review(mcap_path, out, plots=False, write_summary=False)
         summary.setdefault("run", {})["failed"] = str(exc)
+        if exc.process is not None:
+            summary["run"]["failed_process"] = exc.process
         record_outcome(summary)
         path = out / "summary.json"
         try:
@@ -629,7 +683,9 @@ def _run_inprocess(
     except BaseException as exc:
         log.close()
         if isinstance(exc, ValueError | DisconError):  # e.g. a DISCON library or DISCON.IN
-            raise RunFailedError(f"controller {scenario.controller.kind!r}: {exc}") from exc
+            raise RunFailedError(
+                f"controller {scenario.controller.kind!r}: {exc}", process="controller"
+            ) from exc
         raise
 
     def publish_with_preview(mt: MessageType, msg: msgspec.Struct) -> None:
@@ -664,6 +720,8 @@ def _run_inprocess(
                 stop=abort.event if abort is not None else None,
             )
             marks["loop_end"] = time.monotonic()
+            if runtime.fault is not None:  # its text beside the file (the review reads it)
+                write_fault(mcap_path.parent, runtime.fault)
             # The controller stops with the plant: its report goes last, as a process's would.
             counts = log.published()
             log.publish(
@@ -681,7 +739,7 @@ def _run_inprocess(
             raise
         except DisconError as exc:  # aviFAIL < 0: the run ends; the log so far stays readable
             raise RunFailedError(
-                f"controller failed: {exc}; the run up to it: {mcap_path}"
+                f"controller failed: {exc}; the run up to it: {mcap_path}", process="controller"
             ) from exc
         finally:
             # The writer that failed has said why (LogWriteError); a second account of the
@@ -1031,13 +1089,16 @@ def _supervise(
             driver.wait_for_others(procs, console)
         else:
             if rc != 0:
-                raise RunFailedError(f"plant exited with {rc}{_last_error(logs, 'plant')}")
+                raise RunFailedError(
+                    f"plant exited with {rc}{_last_error(logs, 'plant')}", process="plant"
+                )
             _wait_for_recorder(procs["recorder"], mcap_path, console)
             _stop(procs["controller"], 5.0)
             if procs["recorder"].returncode != 0:
                 raise RunFailedError(
                     f"recorder exited with {procs['recorder'].returncode}; "
-                    f"see {logs / 'recorder.log'}"
+                    f"see {logs / 'recorder.log'}",
+                    process="recorder",
                 )
         if driver is not None:
             driver.finish(console)
@@ -1276,7 +1337,8 @@ def _follow(
                     rc = proc.poll()
                     if rc is not None and rc != 0 and not (driver and driver.expected(proc)):
                         raise RunFailedError(
-                            f"{name} exited with {rc} during the run{_last_error(logs, name)}"
+                            f"{name} exited with {rc} during the run{_last_error(logs, name)}",
+                            process=name,
                         )
                 if driver is not None and start is not None:
                     driver.step(procs, start, console)

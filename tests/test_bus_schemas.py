@@ -177,6 +177,10 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "safe_mode_commands",
         "frames_missing",
         "frames_stale",
+        "core_fault",
+        "core_fault_seq",
+        "core_fault_field",
+        "core_fault_commands",
         *(f"commands_rejected_{r}" for r in PLANT_REJECT_REASONS),
         *(f"frames_rejected_{r}" for r in CONTROLLER_REJECT_REASONS),
     }

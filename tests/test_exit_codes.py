@@ -77,6 +77,7 @@ def test_codes_are_distinct_and_keep_1_and_2() -> None:
         "recording_incomplete",
         "safe_state",
         "deadline_misses",
+        "controller_fault",
     ]
 
 

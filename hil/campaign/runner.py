@@ -719,9 +719,17 @@ def _row_dicts(block: np.ndarray) -> list[dict[str, Any]]:
 
 
 def _inprocess(
-    scenario: Scenario, mcap_path: Path | None, toml_text: str, design_dir: str | None
+    scenario: Scenario,
+    mcap_path: Path | None,
+    toml_text: str,
+    design_dir: str | None,
+    faults: list[Any] | None = None,
 ) -> Any:
     """Run in process; the messages kept in memory (and written to ``mcap_path``).
+
+    ``faults`` gets the controller core's fault, if it faulted
+    (:class:`hil.nodes.controller_fault.ControllerFault`; its text also goes beside
+    ``mcap_path``).
 
     The compiled loop hands its messages over as rows (:class:`_RunSink`), the Python
     path's (a scenario the compiled loop does not run, or its cycles that need Python) come
@@ -729,6 +737,7 @@ def _inprocess(
     """
     from bus_schemas.registry import CONTROLLER_REPORT  # noqa: PLC0415
     from hil.inprocess.run import run_inprocess  # noqa: PLC0415
+    from hil.nodes.controller_fault import write_fault  # noqa: PLC0415
     from hil.nodes.controller_node import (  # noqa: PLC0415
         ControllerRuntime,
         controller_report,
@@ -737,7 +746,7 @@ def _inprocess(
     from hil.nodes.recorder import scenario_metadata  # noqa: PLC0415
 
     turbine = scenario.turbine_id
-    metadata = {
+    metadata: dict[str, Any] = {
         "scenario": scenario_metadata(scenario, toml_text),
         "run": {
             "mode": "inprocess",
@@ -768,6 +777,11 @@ def _inprocess(
             runtime, counts.get("command", 0), counts.get("controller/status", 0), aborted=False
         )
         sink.publish(CONTROLLER_REPORT, report)
+        if runtime.fault is not None:
+            if faults is not None:
+                faults.append(runtime.fault)
+            if mcap_path is not None:
+                write_fault(mcap_path.parent, runtime.fault)
     finally:
         if log is not None:
             log.close()
@@ -803,23 +817,32 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
         "psd": {},
         "worker": f"{os.uname().nodename}:{os.getpid()}",
     }
+    from hil.nodes.controller_fault import ControllerFaultError  # noqa: PLC0415
+
     try:
-        from hil.review.core import summarize  # noqa: PLC0415
+        from hil.review.core import summarize, with_fault_text  # noqa: PLC0415
+        from hil.review.outcome import record_outcome  # noqa: PLC0415
 
         scenario = msgspec.convert(payload["scenario"], Scenario)
         toml_text = to_toml(payload["scenario"])
         run_dir = Path(payload["run_dir"])
         record = payload.get("record", "mcap") == "mcap"
+        faults: list[Any] = []
         if payload.get("mode", "inprocess") == "lockstep":
-            run_data = _lockstep(scenario, toml_text, run_dir, record)
+            run_data = _lockstep(scenario, toml_text, run_dir, record, faults)
         else:
             if record:
                 run_dir.mkdir(parents=True, exist_ok=True)
             mcap = run_dir / "run.mcap" if record else None
-            run_data = _inprocess(scenario, mcap, toml_text, payload.get("design_dir"))
+            run_data = _inprocess(scenario, mcap, toml_text, payload.get("design_dir"), faults)
         summary = summarize(run_data)
         if record:
             summary["run"]["source"] = str(run_dir / "run.mcap")
+        summary["run"]["mode"] = payload.get("mode", "inprocess")
+        # The verdict fowt run would give this run (a core's fault by its text, exit 7).
+        with_fault_text(summary, faults[0].to_dict() if faults else None)
+        code = record_outcome(summary)
+        out["outcome"], out["exit_code"] = code.word, int(code)
         out.update(
             run_kpis_of(
                 run_data,
@@ -829,6 +852,9 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
         )
         out["summary"] = summary
         out["status"] = "ok"
+    except ControllerFaultError as exc:  # in the trim's settling run: nothing ran after it
+        out["error"] = str(exc)
+        out["outcome"], out["exit_code"] = "controller_fault", 7
     except Exception as exc:
         out["error"] = f"{type(exc).__name__}: {exc}"
         out["traceback"] = traceback.format_exc()
@@ -837,13 +863,28 @@ def execute_run(payload: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _lockstep(scenario: Scenario, toml_text: str, run_dir: Path, record: bool) -> Any:
-    """A lock-step run through :func:`hil.launch.launch` (OS processes over Zenoh)."""
+def _lockstep(
+    scenario: Scenario,
+    toml_text: str,
+    run_dir: Path,
+    record: bool,
+    faults: list[Any] | None = None,
+) -> Any:
+    """A lock-step run through :func:`hil.launch.launch` (OS processes over Zenoh).
+
+    ``faults`` gets the controller core's fault, if it faulted; one in the trim's settling
+    run raises :class:`hil.nodes.controller_fault.ControllerFaultError` (nothing ran).
+    """
     import tempfile  # noqa: PLC0415
 
     from rich.console import Console  # noqa: PLC0415
 
     from hil.launch import RunRequest, launch  # noqa: PLC0415
+    from hil.nodes.controller_fault import (  # noqa: PLC0415
+        ControllerFault,
+        ControllerFaultError,
+        read_fault,
+    )
     from hil.runlog.mcap_io import read_run  # noqa: PLC0415
 
     with tempfile.TemporaryDirectory(prefix="fowt-campaign-") as tmp:
@@ -858,6 +899,11 @@ def _lockstep(scenario: Scenario, toml_text: str, run_dir: Path, record: bool) -
             )
         finally:
             quiet.file.close()
+        fault = read_fault(work)
+        if fault is not None and not (work / "run.mcap").is_file():
+            raise ControllerFaultError(ControllerFault(**fault))
+        if fault is not None and faults is not None:
+            faults.append(ControllerFault(**fault))
         return read_run(work / "run.mcap")
 
 
@@ -874,6 +920,9 @@ def row_of(spec: RunSpec, result: dict[str, Any]) -> dict[str, Any]:
         "seed": spec.seed,
         "scenario_hash": spec.scenario_hash,
         "status": result.get("status", "failed"),
+        # the run's verdict, as fowt run gives it (hil.review.outcome; docs/exit-codes.md)
+        "outcome": result.get("outcome", "failed"),
+        "exit_code": int(result.get("exit_code", 1)),
         "error": result.get("error", ""),
         "wall_s": float(result.get("wall_s", math.nan)),
     }

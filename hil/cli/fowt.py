@@ -417,7 +417,10 @@ def run(
       4  recording incomplete (messages lost, file truncated)
       5  safe state: the plant's safe state or the controller's safe mode, at any time
       6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
-         real time, 0 in lock-step and in process)
+         real time, 0 in lock-step and in process), or a controller slower than
+         its control period in more than a quarter of its cycles
+      7  controller fault: its core raised, or gave a non-finite or out-of-range
+         command (never applied); wins over 4, 5 and 6, not over 1 and 3
     """
     from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
 
@@ -755,6 +758,7 @@ _LAUNCHER_RUN_KEYS = (
     "abort_signal",
     "aborted_at_s",
     "failed",
+    "failed_process",
     "launcher_wall_s",
     "inprocess_loop",
     "process_faults",

@@ -38,7 +38,13 @@ runs the Python loop), measured on the 2-core machine at load average 30. Result
 per process and on disk (:mod:`hil.inprocess.trim_store`): a campaign's seeds share one mean
 wind and controller, and a later process (the next run, a bus run's plant process) reads
 the settled point instead of settling again. A settling run that fails (a controller that
-cannot be built or raises) fails the run with its reason.
+cannot be built) fails the run with its reason. A core that faults in it (raises, or gives a
+non-finite or out-of-range command: :mod:`hil.nodes.controller_fault`) raises
+:class:`hil.nodes.controller_fault.ControllerFaultError` carrying the fault (``phase`` =
+``"trim"``): the fault is the controller's, whichever process settles. ``fowt run`` settles
+in the launcher before any node starts (a bus run's plant process then reads the settled
+point from the store), so such a run ends as the controller's fault (exit 7), never as the
+plant's.
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from typing import TYPE_CHECKING
 import msgspec
 import numpy as np
 
+from hil.nodes.controller_fault import ControllerFaultError
 from hil.nodes.plant_node import initial_overrides
 from hil.scenario.schema import (
     SENSOR_CHANNELS,
@@ -140,7 +147,7 @@ def _settled(encoded: bytes) -> tuple[float, float]:
     sums = [0.0, 0.0, 0]
 
     with tempfile.TemporaryDirectory(prefix="fowt-trim-") as run_dir:
-        runtime = ControllerRuntime(scenario, run_dir=run_dir, paced=False)
+        runtime = ControllerRuntime(scenario, run_dir=run_dir, paced=False, phase="trim")
 
         def publish(mt: object, msg: msgspec.Struct) -> None:
             if mt is TRUTH:
@@ -179,6 +186,8 @@ def _settled(encoded: bytes) -> tuple[float, float]:
         close = getattr(runtime.controller, "close", None)
         if callable(close):
             close()
+    if runtime.fault is not None:  # the controller's fault, not the plant's: said so
+        raise ControllerFaultError(runtime.fault)
     n = int(sums[2])
     if n == 0 or result.aborted:
         raise RuntimeError(f"trim of {scenario.name!r}: the settling run did not complete")

@@ -8,6 +8,18 @@ duplicated, reordered or stale, steps the core, and builds the command (echoing 
 I/O, so the in-process runner uses the very same object as the Zenoh node and the two give
 identical results.
 
+Core faults (:mod:`hil.nodes.controller_fault`): a core whose ``step`` raises, or returns a
+command that is non-finite or outside its own actuator limits' pitch range (or a negative or
+absurd torque), has *faulted*. The runtime keeps the first fault (kind, message, simulated
+time, cycle), logs one line naming it (no traceback: the fault is the core's, not the
+process's), never steps the core again, and answers every frame from then on with the safe
+command (pitch to feather, torque to 0, at the core's rate limits) flagged
+:data:`MODE_FAULT`: the command is recorded, and a plant never applies it but goes to its
+safe state. Nothing non-finite ever leaves the runtime. The same in every mode, so a
+faulting core gets the same verdict (``controller_fault``, exit 7) everywhere. (A DISCON
+library that reports ``aviFAIL`` < 0 raises :class:`controller.discon.DisconError` as before:
+the library itself ends the run, which fails with its message.)
+
 Sensor-frame watchdog (the controller's counterpart of the plant's, same rule and same
 scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycles`` = K):
 
@@ -85,6 +97,7 @@ from __future__ import annotations
 
 import math
 import operator
+import os
 import signal
 import threading
 import time
@@ -100,6 +113,7 @@ import zenoh
 
 from bus_schemas import ActuatorCommand, ControllerStatus, DecodeError, SensorFrame
 from bus_schemas.messages import (
+    COMMAND_MODE_FAULT,
     CONTROLLER_REJECT_REASONS,
     WAVE_PREVIEW_FIELDS,
     ControllerReport,
@@ -126,6 +140,13 @@ from hil.nodes.bus import (
     batch_key,
     wait_for_recorder,
     wait_matched,
+)
+from hil.nodes.controller_fault import (
+    FAULT_CODES,
+    FAULT_FIELDS,
+    TORQUE_MAX_NM,
+    ControllerFault,
+    write_fault,
 )
 from hil.nodes.rt import freeze_heap
 from hil.scenario.schema import Scenario
@@ -162,10 +183,18 @@ MODE_NORMAL = 0
 MODE_RESUMING = 1
 #: ``ActuatorCommand.mode``: the safe command (feathering, torque ramp-down).
 MODE_SAFE = 2
+#: ``ActuatorCommand.mode``: the core faulted (:data:`bus_schemas.messages.COMMAND_MODE_FAULT`).
+MODE_FAULT = COMMAND_MODE_FAULT
+#: Slack on the core's own pitch range before a command counts as out of range [rad]
+#: (0.06 deg: a core's clamp may round; a real excursion is far larger).
+PITCH_TOLERANCE_RAD = 1e-3
 #: Consecutive frames whose publish times advance by one control period (within
 #: :data:`PACED_TOLERANCE`) before the stream counts as paced in real time.
 PACED_FRAMES = 8
 PACED_TOLERANCE = 0.1
+#: Age [control periods] beyond which the node skips a frame in real time
+#: (:meth:`ControllerRuntime.overdue`).
+OVERDUE_PERIODS = 2
 #: Longest stretch of lost frames accepted as a plain gap [s] (module docstring, W).
 PLAUSIBLE_GAP_S = 5.0
 #: Consecutive, consistent implausible frames that make a genuine resync.
@@ -226,6 +255,9 @@ class ControllerRuntime:
     run_dir : str or Path, optional
         The run's folder, where a ``"rosco"`` core's library writes its files (None: the
         core's default, ``$FOWT_RUN_DIR``; :mod:`controller.rosco`).
+    phase : str
+        ``"run"``, or ``"trim"`` for the trim's settling run: recorded in a core fault
+        (:class:`hil.nodes.controller_fault.ControllerFault`).
 
     Raises
     ------
@@ -244,8 +276,10 @@ class ControllerRuntime:
         same_host_clock: bool = True,
         log: Callable[[str], None] | None = None,
         run_dir: str | Path | None = None,
+        phase: str = "run",
     ) -> None:
         c = scenario.controller
+        self.phase = phase
         waves = scenario.waves
         self.controller = make_controller(
             c.kind,
@@ -308,6 +342,14 @@ class ControllerRuntime:
         self._last_receive_ns = -1
         # The last published command: (pitch rad, torque N m, its frame's sample time ns).
         self._last_command: tuple[float, float, int] | None = None
+        # The core's first fault (hil.nodes.controller_fault; None: none) and the commands
+        # flagged MODE_FAULT since; the pitch range a command must be in [rad].
+        self.fault: ControllerFault | None = None
+        self.fault_commands = 0
+        self.frames_overdue = 0  # skipped by the node (overdue)
+        self.last_compute_ns = 0  # the last cycle's time around the core's step [ns]
+        self._pitch_lo = self.limits.pitch_min_rad - PITCH_TOLERANCE_RAD
+        self._pitch_hi = self.limits.pitch_max_rad + PITCH_TOLERANCE_RAD
         self._restart_core = False
 
     # ------------------------------------------------------------ compiled loop
@@ -315,7 +357,7 @@ class ControllerRuntime:
         """True when frame ``seq`` would take :meth:`handle_frame`'s usual path: not in or
         leaving the safe mode, no gap in the sequence, no pacing decision due (a compiled
         twin of the path may then run it; wall-clock checks are the caller's to rule out)."""
-        if self.safe_mode or self.resuming or self._restart_core:
+        if self.safe_mode or self.resuming or self._restart_core or self.fault is not None:
             return False
         if self.last_seq >= 0 and self.last_seq != seq - 1:
             return False  # a gap: the watchdog counts misses
@@ -434,14 +476,30 @@ class ControllerRuntime:
         if self._restart_core:  # leaving the safe mode: restart from this measurement
             self._restart_core = False
             self.state = self.controller.initial_state()
-        self.state, out = self.controller.step(self.state, frame, self.dt_s)
+        if self.fault is None:
+            try:
+                self.state, out = self.controller.step(self.state, frame, self.dt_s)
+            except DisconError:
+                raise  # a DISCON library's aviFAIL < 0: its own end of the run (as before)
+            except Exception as exc:  # the core's fault, never the process's (module docstring)
+                out = self._core_fault(frame, "raised", repr(exc), "")
+            else:
+                p, q = out.blade_pitch_commanded_rad, out.generator_torque_commanded_nm
+                # (NaN fails every comparison: one test for the usual cycle)
+                if not (self._pitch_lo <= p <= self._pitch_hi and 0.0 <= q <= TORQUE_MAX_NM):
+                    out = self._check_output(frame, out)
+        else:
+            out = self._faulted_output(frame)
         self.last_seq = frame.seq
         self._jump_run = None
         self.last_sample_time_ns = frame.sample_time_ns
         self.accepted += 1
         pitch, torque = out.blade_pitch_commanded_rad, out.generator_torque_commanded_nm
         regime = out.regime
-        if self.safe_mode:
+        if self.fault is not None:  # the safe command, flagged: a plant never applies it
+            mode = MODE_FAULT
+            self.fault_commands += 1
+        elif self.safe_mode:
             pitch, torque = self._safe_command(frame)
             mode, regime = MODE_SAFE, REGIME_SAFE
             self.safe_commands += 1
@@ -469,6 +527,7 @@ class ControllerRuntime:
             generator_torque_commanded_nm=torque,
         )
         rejected = self.rejected
+        self.last_compute_ns = compute_ns = now - t0  # (overdue)
         # Positional: the status's fields after ``rejected_frames`` are the core output's
         # after ``regime``, in the same order (checked at import, _STATUS_TAIL_FROM); one
         # astuple and a positional call cost ~1.1 us less than 24 keywords.
@@ -477,7 +536,7 @@ class ControllerRuntime:
             frame.seq,  # answered_seq
             frame.sample_time_ns,  # sample_time_ns
             now,  # publish_time_ns
-            now - t0,  # compute_time_ns
+            compute_ns,  # compute_time_ns
             regime,  # regime
             sum(rejected.values()) if rejected else 0,  # rejected_frames (rejected_total)
             *_astuple(out)[_STATUS_TAIL_FROM:],
@@ -502,6 +561,69 @@ class ControllerRuntime:
             return True
         self._jump_run = (frame.seq, frame.sample_time_ns, length)
         return False
+
+    def overdue(self, frame: SensorFrame, now_ns: int) -> bool:
+        """True when ``frame`` queued behind a core slower than the period: the last step
+        took longer than a control period and the frame is older than
+        :data:`OVERDUE_PERIODS` periods, while the wall-clock checks apply (real time, one
+        host's clock). Its answer could only be late; the node skips it (the next frame's
+        seq gap counts it as missing for the watchdog), so a slow core answers the newest
+        frames instead of falling ever further behind. A frame late for another reason (a
+        bus delay) with a core on time is stepped on as before (stale)."""
+        if self.last_compute_ns <= self.period_ns or not self.wall_checks:
+            return False
+        return self.same_host_clock and (
+            now_ns - frame.publish_time_ns > OVERDUE_PERIODS * self.period_ns
+        )
+
+    # ------------------------------------------------------------------ core faults
+    def _check_output(self, frame: SensorFrame, out: ControlOutput) -> ControlOutput:
+        """The core's output, or the faulted output when its command is non-finite or out
+        of range (the pitch outside the core's own limits, the torque negative or above
+        :data:`hil.nodes.controller_fault.TORQUE_MAX_NM`)."""
+        for name in FAULT_FIELDS[1:]:
+            v = getattr(out, name)
+            if not math.isfinite(v):
+                return self._core_fault(frame, "non_finite", f"{name} = {v!r}", name)
+        p, q = out.blade_pitch_commanded_rad, out.generator_torque_commanded_nm
+        lim = self.limits
+        if not self._pitch_lo <= p <= self._pitch_hi:
+            why = (
+                f"blade_pitch_commanded_rad = {p:.6g} outside "
+                f"[{lim.pitch_min_rad:.6g}, {lim.pitch_max_rad:.6g}] rad"
+            )
+            return self._core_fault(frame, "out_of_range", why, FAULT_FIELDS[1])
+        if not 0.0 <= q <= TORQUE_MAX_NM:
+            why = f"generator_torque_commanded_nm = {q:.6g} outside [0, {TORQUE_MAX_NM:g}] N m"
+            return self._core_fault(frame, "out_of_range", why, FAULT_FIELDS[2])
+        return out
+
+    def _core_fault(self, frame: SensorFrame, kind: str, message: str, field: str) -> ControlOutput:
+        """Keep the core's first fault, say it once, and answer with the faulted output.
+
+        From now on the core is not stepped again (its state is not to be trusted after an
+        exception or a non-finite output): every command is the safe command (pitch to
+        feather, torque to 0, at the core's rate limits) flagged :data:`MODE_FAULT`.
+        """
+        self.fault = ControllerFault(
+            kind=kind,
+            message=message,
+            t_s=frame.sample_time_ns * 1e-9,
+            cycle=int(frame.seq),
+            field=field,
+            phase=self.phase,
+        )
+        self.log(
+            f"controller FAULT: {self.fault.line()}; the core is not stepped again, its "
+            f"commands are flagged as faulted (mode {MODE_FAULT}: pitch to feather, torque "
+            "ramp-down) and the plant goes to its safe state"
+        )
+        return self._faulted_output(frame)
+
+    def _faulted_output(self, frame: SensorFrame) -> ControlOutput:
+        """The output after a fault: the safe command, no estimates (all finite)."""
+        pitch, torque = self._safe_command(frame)
+        return ControlOutput(pitch, torque, REGIME_SAFE, 0.0, 0.0, 0.0)
 
     # ------------------------------------------------------------------ watchdog
     def check_silence(self, now_ns: int | None = None) -> bool:
@@ -706,7 +828,27 @@ def controller_report(
         frames_missing=rt.frames_missing,
         frames_stale=rt.frames_stale,
         **rejection_fields(rt.rejected, "frames_rejected", CONTROLLER_REJECT_REASONS),
+        **fault_fields(rt.fault, rt.fault_commands),
     )
+
+
+def fault_fields(fault: ControllerFault | None, commands: int) -> dict[str, int]:
+    """The ``core_fault*`` fields of a :class:`ControllerReport` (all 0: no fault)."""
+    if fault is None:
+        return {
+            "core_fault": 0,
+            "core_fault_seq": 0,
+            "core_fault_time_ns": 0,
+            "core_fault_field": 0,
+            "core_fault_commands": 0,
+        }
+    return {
+        "core_fault": FAULT_CODES[fault.kind],
+        "core_fault_seq": fault.cycle,
+        "core_fault_time_ns": max(0, round(fault.t_s * 1e9)),
+        "core_fault_field": FAULT_FIELDS.index(fault.field),
+        "core_fault_commands": commands,
+    }
 
 
 def _no_log(_msg: str) -> None:
@@ -820,6 +962,10 @@ def run_controller_node(
     lock = threading.Lock()
 
     failure: list[DisconError] = []
+    put_failed: list[Exception] = []
+    # The run's folder (the launcher's $FOWT_RUN_DIR) takes a core fault's text.
+    run_dir_env = os.environ.get("FOWT_RUN_DIR", "").strip()
+    fault_dir = Path(run_dir_env) if run_dir_env and Path(run_dir_env).is_dir() else None
     # A core that takes the perfect wave preview waits for the preview of its frame: the two
     # keys are delivered by Zenoh without a mutual order, so a frame that arrives first is
     # held (at most half a control period, then it runs on the last preview, which the core
@@ -828,6 +974,7 @@ def run_controller_node(
     pending: list[tuple[SensorFrame, float]] = []
 
     def cycle(frame: SensorFrame) -> None:
+        had_fault = runtime.fault is not None
         try:
             result = runtime.handle_frame(frame)
         except DisconError as exc:  # a DISCON library's aviFAIL < 0 ends the run
@@ -835,23 +982,40 @@ def run_controller_node(
             reason[0] = "controller failed"
             done.set()
             return
+        if not had_fault and runtime.fault is not None and fault_dir is not None:
+            write_fault(fault_dir, runtime.fault)  # the fault's text beside the run's file
         if result is None:
             return
         command, status = result
-        cmd_pub.put(COMMAND.codec.encode(command))
-        commands[0] += 1
-        statuses.add(CONTROLLER_STATUS.codec.encode(status))
-        if statuses.due():
-            statuses.flush()
+        try:
+            cmd_pub.put(COMMAND.codec.encode(command))
+            commands[0] += 1
+            statuses.add(CONTROLLER_STATUS.codec.encode(status))
+            if statuses.due():
+                statuses.flush()
+        except zenoh.ZError as exc:
+            # The session is closing (the run's end): nothing more goes out. During the
+            # run it is said once, never as a traceback.
+            if not done.is_set() and not put_failed:
+                log(f"controller: a command did not go out ({exc})")
+            put_failed.append(exc)
 
     def on_frame(_key: str, payload: bytes) -> None:
+        if done.is_set():  # the run is over: frames still queued are not stepped on
+            return
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
-            if failure:
+            if failure or done.is_set():
                 return
             try:
                 frame = SENSORS.codec.decode(payload)
             except DecodeError as exc:
                 runtime.rejected[exc.reason] += 1
+                return
+            if runtime.overdue(frame, time.monotonic_ns()):
+                # Frames queued behind a core slower than the period: stepping on each would
+                # put the controller ever further behind (and keep the final summary queued
+                # behind them); the next frame shows the gap, which the watchdog counts.
+                runtime.frames_overdue += 1
                 return
             if wants_preview and runtime.preview_seq < frame.seq:
                 if pending:  # a newer frame: the held one goes now
@@ -956,6 +1120,8 @@ def run_controller_node(
         f"{rt.silent_periods} silent periods, safe mode entered {rt.safe_entries} times "
         f"({rt.safe_commands} safe commands)"
         + (", in safe mode at the end" if rt.safe_mode else "")
+        + (f"; {rt.frames_overdue} overdue frames skipped" if rt.frames_overdue else "")
+        + (f"; core FAULT: {rt.fault.line()}" if rt.fault is not None else "")
     )
     return ControllerNodeResult(
         rt.accepted,

@@ -78,6 +78,7 @@ import zenoh
 
 from bus_schemas import ActuatorCommand, CycleTiming, DecodeError, SensorFrame, TimingSummary
 from bus_schemas.messages import (
+    COMMAND_MODE_FAULT,
     PLANT_REJECT_REASONS,
     WAVE_PREVIEW_FIELDS,
     WAVE_PREVIEW_SAMPLES,
@@ -287,6 +288,7 @@ class PlantRunResult:
     safe_state_recoveries: int = 0  # control handed back (recover policy, start-up rule)
     safe_state_cycles: int = 0
     safe_state_longest_cycles: int = 0  # the longest safe-state window [cycles]
+    commands_faulted: int = 0  # flagged or unusable commands, never applied (command_usable)
     faults_injected: dict[str, int] = field(default_factory=dict)
     loop: str = "python"  # in-process runs: "compiled" (hil.inprocess.loop) or "python"
 
@@ -336,6 +338,19 @@ def plant_report(
         commands_applied=max(0, result.cycles - result.commands_held),
         **rejection_fields(result.rejected, "commands_rejected", PLANT_REJECT_REASONS),
     )
+
+
+def command_usable(command: ActuatorCommand) -> bool:
+    """True when a plant may apply ``command``: not flagged as faulted by the controller
+    (``mode`` :data:`bus_schemas.messages.COMMAND_MODE_FAULT`), finite, torque not negative.
+
+    Over the bus the codec refuses non-finite and out-of-range payloads before this; an
+    in-process command comes straight from the controller runtime, so this is its guard.
+    """
+    p = command.blade_pitch_commanded_rad
+    q = command.generator_torque_commanded_nm
+    # (NaN fails the comparisons; infinities fail the bound)
+    return command.mode != COMMAND_MODE_FAULT and -10.0 <= p <= 10.0 and 0.0 <= q <= 5e7
 
 
 class SensorLink:
@@ -635,7 +650,14 @@ class PlantLoop:
         sim = self.sim
         t_ns = self.k * self.period_ns
         switch = 0
-        if command is not None:
+        faulted = command is not None and not command_usable(command)
+        if faulted:
+            assert command is not None
+            self._faulted_command(command)
+            self.hist.record(latency_ns)
+            new = previous  # never applied: the safe state takes over below
+            self.result.commands_held += 1
+        elif command is not None:
             new = (command.blade_pitch_commanded_rad, command.generator_torque_commanded_nm)
             if at_arrival and self.speed > 0:
                 switch = min(sim.n, round(latency_ns * 1e-9 * self.speed / sim.h))
@@ -651,7 +673,7 @@ class PlantLoop:
             new = previous
             self.result.deadline_misses += 1
             self.result.commands_held += 1
-        new = self._watchdog(missed, new)
+        new = self._watchdog(missed or faulted, new)
         self.x = sim.advance(t_ns * 1e-9, self.x, previous, new, switch)
         self.applied = new
         now = time.monotonic_ns()
@@ -661,7 +683,7 @@ class PlantLoop:
             publish_time_ns=now,
             latency_ns=latency_ns,
             deadline_missed=int(missed),
-            command_held=int(missed),
+            command_held=int(missed or faulted),
             safe_state=int(self.safe_state),
             plant_compute_ns=now - t0,
             tick_lateness_ns=tick_lateness_ns,
@@ -670,6 +692,29 @@ class PlantLoop:
         self.result.cycles = self.k
         if self.k % self._summary_every == 0:
             self.publish_summary(final=False)
+
+    def _faulted_command(self, command: ActuatorCommand) -> None:
+        """A command the controller flagged as faulted, or a non-finite or negative-torque
+        one (:func:`command_usable`): never applied; the plant enters its safe state at once
+        (its usual safe state: pitch to feather, torque ramp-down), whatever the watchdog's
+        miss count. Held there while the faulted commands go on (they count as misses
+        towards the watchdog's recovery rule)."""
+        self.result.commands_faulted += 1
+        if self.safe_state:
+            return
+        self.safe_state = True
+        self.result.safe_state_entries += 1
+        self.on_time_run = 0
+        self.log(
+            f"plant SAFE STATE at t = {self.t_ns * 1e-9:.3f} s: the controller's command "
+            f"{command.seq} (answering frame {command.answered_seq}) is "
+            + (
+                "flagged as faulted (mode 3)"
+                if command.mode == COMMAND_MODE_FAULT
+                else "not a usable demand (non-finite or a negative torque)"
+            )
+            + ": not applied; pitch to feather, torque ramp-down"
+        )
 
     def _watchdog(self, missed: bool, demand: tuple[float, float]) -> tuple[float, float]:
         """The demand to apply this cycle after the watchdog's rule (see TimingSection)."""
@@ -1312,6 +1357,11 @@ def run_plant_node(
             else ""
         )
         + (f", rejected commands {r.rejected}" if r.rejected else "")
+        + (
+            f", {r.commands_faulted} commands flagged as faulted not applied"
+            if r.commands_faulted
+            else ""
+        )
         + (f", aborted: {r.aborted}" if r.aborted else "")
     )
     if r.faults_injected:

@@ -68,7 +68,12 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``safe_mode_at_end``, ``safe_mode_s`` [s] (commands sent with ``mode`` = safe times
     ``control_period_s``), ``commands`` [1] published, ``frames_missing``, ``frames_stale``
     [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
-    commands) and ``frames_rejected_total`` [1].
+    commands) and ``frames_rejected_total`` [1]; the core's ``fault`` (``null``, or
+    ``kind``, ``message``, ``t_s`` [s], ``cycle``, ``field``, ``phase``: numbers from the
+    report, text from ``controller_fault.json`` beside the file,
+    :mod:`hil.nodes.controller_fault`), ``fault_commands`` [1] (sent flagged ``mode`` = 3),
+    ``cycles_stepped`` [1] (statuses) and ``overruns`` [1] (statuses whose
+    ``compute_time_ns`` exceeds the control period).
 ``plant``
     ``source`` (``"timing/report"``, the plant's final
     :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
@@ -98,6 +103,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from bus_schemas.messages import (
+    COMMAND_MODE_FAULT,
     CONTROLLER_REJECT_REASONS,
     EST_PLATFORM_PITCH_RATE,
     EST_PLATFORM_SURGE_VELOCITY,
@@ -105,6 +111,7 @@ from bus_schemas.messages import (
     EST_WIND_SPEED,
     PLANT_REJECT_REASONS,
 )
+from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, read_fault
 from hil.review import kpi
 from hil.review import stream as rs
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
@@ -303,6 +310,42 @@ def kpi_window(run: RunData) -> dict[str, Any]:
 #: ``ActuatorCommand.mode`` of a command sent in the controller's safe mode
 #: (:data:`hil.nodes.controller_node.MODE_SAFE`; not imported: that module loads the bus).
 MODE_SAFE_COMMAND = 2
+#: ``ActuatorCommand.mode`` of a command flagged as faulted (the core faulted; never applied).
+MODE_FAULT_COMMAND = COMMAND_MODE_FAULT
+
+
+def _fault_of(report: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The core's fault from the controller's report (its numbers; the text, if any, is
+    beside the file: :func:`with_fault_text`), None when it reports none."""
+    if report is None:
+        return None
+    code = int(report.get("core_fault", 0))
+    if code <= 0:
+        return None
+    kinds = {v: k for k, v in FAULT_CODES.items()}
+    field_index = int(report.get("core_fault_field", 0))
+    field = FAULT_FIELDS[field_index] if 0 <= field_index < len(FAULT_FIELDS) else ""
+    return {
+        "kind": kinds.get(code, "raised"),
+        "message": "",
+        "t_s": int(report.get("core_fault_time_ns", 0)) / 1e9,
+        "cycle": int(report.get("core_fault_seq", 0)),
+        "field": field,
+        "phase": "run",
+    }
+
+
+def with_fault_text(summary: dict[str, Any], fault: dict[str, Any] | None) -> None:
+    """Complete ``summary["controller"]["fault"]`` with ``fault``'s text (the runtime's own
+    record, :class:`hil.nodes.controller_fault.ControllerFault`), when the recorded report
+    names the same fault (same cycle): a file left from another run in the folder adds
+    nothing."""
+    if not fault:
+        return
+    ctrl = summary.setdefault("controller", {})
+    known = ctrl.get("fault")
+    if isinstance(known, dict) and known.get("cycle") == fault.get("cycle"):
+        ctrl["fault"] = {**known, **fault}
 
 
 def _control_period_s(run: RunData, commands: Sequence[dict[str, Any]]) -> float:
@@ -425,6 +468,7 @@ class _Summary:
         self.safe_entries = 0
         self.safe_first_s: float | None = None
         self.safe_count = 0
+        self.fault_count = 0  # commands flagged as faulted (mode 3)
         self.safe_last: bool | None = None
         self.cmd_last_t = math.nan
         self.cmd_diffs: Counter[float] = Counter()
@@ -530,6 +574,7 @@ class _Summary:
             self.safe_first_s = float(t[entries[0]])
         self.safe_entries += int(entries.size)
         self.safe_count += int(safe.sum())
+        self.fault_count += int(np.count_nonzero(c["mode"] == MODE_FAULT_COMMAND))
         self.safe_prev = bool(safe[-1])
         self.safe_last = bool(safe[-1])
         self.commands += n
@@ -865,6 +910,15 @@ class _Summary:
                 frames_rejected=rejected,
                 frames_rejected_total=sum(rejected.values()),
             )
+        out["fault"] = _fault_of(report)
+        out["fault_commands"] = self.fault_count
+        if report is not None:
+            out["fault_commands"] = int(report.get("core_fault_commands", self.fault_count))
+        compute = self.compute.array()
+        out["cycles_stepped"] = int(compute.size)
+        out["overruns"] = (
+            int(np.count_nonzero(compute > period * 1e9)) if math.isfinite(period) else 0
+        )
         n_safe = self.safe_count if self.commands else int(out["safe_mode_commands"])
         out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
         out["safe_mode_entered"] = bool(out["safe_mode_entries"])
@@ -1029,6 +1083,8 @@ def review(
 
         summary = hexicon_review.summarize(run)
     summary["run"]["source"] = str(mcap_path)
+    # A core fault's text, written beside the file by whoever ran the core.
+    with_fault_text(summary, read_fault(mcap_path.parent))
     if write_summary or plots:
         out.mkdir(parents=True, exist_ok=True)
     if write_summary:
@@ -1303,6 +1359,12 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
     for reason, n in (ctrl.get("frames_rejected") or {}).items():
         if n:
             rows.append((f"  frames rejected: {reason}", n, src))
+    fault = ctrl.get("fault")
+    if isinstance(fault, dict) and fault.get("kind"):
+        rows.append(("core fault", fault_line(fault).removeprefix("controller "), src))
+        rows.append(("commands flagged as faulted", ctrl.get("fault_commands"), src))
+    if ctrl.get("overruns"):
+        rows.append(("steps over the control period", ctrl.get("overruns"), "controller/status"))
     psrc = str(plant.get("source") or "-")
     rows += [
         ("plant commands applied", plant.get("commands_applied"), psrc),
@@ -1313,7 +1375,7 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
             rows.append((f"  commands rejected: {reason}", n, psrc))
     for name, v, where in rows:
         text = _fmt(v, digits=2)
-        if v and ("safe mode" in name or "rejected" in name):
+        if v and ("safe mode" in name or "rejected" in name or "fault" in name or "over" in name):
             text = f"[yellow]{text}[/yellow]"
         t.add_row(escape(name), text, where)
     console.print(t)
