@@ -768,8 +768,8 @@ def _can_ready(
     from hil.nodes.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
 
     reason = transport_unavailable_reason(can)
-    if reason is not None:
-        raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
+    if reason is not None:  # refused before anything started: bad input (exit 2)
+        raise RunRequestError(f"--transport can --can-interface {can.interface}: {reason}")
     if can.interface == "udp_multicast" and not in_private_netns():
         if os.environ.get(_NETNS_ENV):  # never re-exec twice
             raise RunFailedError(

@@ -11,8 +11,8 @@ give the same verdict. The codes (docs/exit-codes.md):
 * 4 ``recording_incomplete``: the recording lost messages, or the file is truncated;
 * 5 ``safe_state``: the plant entered its safe state, or the controller its safe mode, at
   any time;
-* 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_miss_fraction``
-  of the cycles.
+* 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_misses`` and
+  than ``timing.max_deadline_miss_fraction`` of the cycles (:func:`deadline_misses_over`).
 
 When several apply, the lowest non-zero code wins (the order of the list): a failure or an
 abort makes the rest of the verdict moot; a recording that is not whole cannot vouch for
@@ -28,9 +28,12 @@ import math
 from typing import Any
 
 __all__ = [
+    "DEFAULT_MAX_DEADLINE_MISSES",
     "DEFAULT_MAX_DEADLINE_MISS_FRACTION",
     "ExitCode",
+    "deadline_miss_count_tolerance",
     "deadline_miss_tolerance",
+    "deadline_misses_over",
     "outcome_line",
     "record_outcome",
     "run_outcome",
@@ -67,6 +70,13 @@ DEFAULT_MAX_DEADLINE_MISS_FRACTION: dict[str, float] = {
 }
 
 
+#: Missed deadlines tolerated as a count, when the scenario's ``timing.max_deadline_misses`` is
+#: not set: a run fails on its misses only when they are over both this and the fraction
+#: above, so one miss in a real-time run shorter than 100 cycles (a Hexicon run's 1 s
+#: period: 60 cycles a minute) does not fail it; in lock-step and in process none.
+DEFAULT_MAX_DEADLINE_MISSES: dict[str, int] = {"realtime": 1, "lockstep": 0, "inprocess": 0}
+
+
 def _dict(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
@@ -92,6 +102,42 @@ def deadline_miss_tolerance(summary: dict[str, Any]) -> float:
     mode = str(_dict(summary.get("run")).get("mode", "realtime"))
     return DEFAULT_MAX_DEADLINE_MISS_FRACTION.get(
         mode, DEFAULT_MAX_DEADLINE_MISS_FRACTION["realtime"]
+    )
+
+
+def deadline_miss_count_tolerance(summary: dict[str, Any]) -> int:
+    """The missed deadlines tolerated as a count in this run: the scenario's
+    ``timing.max_deadline_misses``, else :data:`DEFAULT_MAX_DEADLINE_MISSES` for the run's
+    mode (as :func:`deadline_miss_tolerance`)."""
+    config = _dict(_dict(summary.get("scenario")).get("config"))
+    given = _number(_dict(config.get("timing")).get("max_deadline_misses"))
+    if given is not None:
+        return int(given)
+    mode = str(_dict(summary.get("run")).get("mode", "realtime"))
+    return DEFAULT_MAX_DEADLINE_MISSES.get(mode, DEFAULT_MAX_DEADLINE_MISSES["realtime"])
+
+
+def deadline_misses_over(summary: dict[str, Any]) -> str | None:
+    """Why the run's missed deadlines fail it, or None when they are tolerated.
+
+    They fail it when they are more than the count tolerated
+    (:func:`deadline_miss_count_tolerance`) and more than the fraction of the cycles
+    tolerated (:func:`deadline_miss_tolerance`).
+    """
+    timing = _dict(summary.get("timing"))
+    misses = _number(timing.get("deadline_misses")) or 0.0
+    if misses <= 0:
+        return None
+    cycles = _number(timing.get("cycles"))
+    count = deadline_miss_count_tolerance(summary)
+    tolerated = deadline_miss_tolerance(summary)
+    fraction = misses / cycles if cycles else math.inf
+    if misses <= count or fraction <= tolerated:
+        return None
+    return (
+        f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles ({100 * fraction:.2f} %): "
+        f"more than the {count} tolerated (timing.max_deadline_misses) and over the "
+        f"{100 * tolerated:g} % tolerated (timing.max_deadline_miss_fraction)"
     )
 
 
@@ -155,19 +201,9 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
             (ExitCode.SAFE_STATE, f"the controller entered its safe mode {entries:.0f} time(s)")
         )
 
-    misses = _number(timing.get("deadline_misses")) or 0.0
-    if misses > 0:
-        tolerated = deadline_miss_tolerance(summary)
-        fraction = misses / cycles if cycles else math.inf
-        if fraction > tolerated:
-            found.append(
-                (
-                    ExitCode.DEADLINE_MISSES,
-                    f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles "
-                    f"({100 * fraction:.2f} %), over the {100 * tolerated:g} % tolerated "
-                    "(timing.max_deadline_miss_fraction)",
-                )
-            )
+    over = deadline_misses_over(summary)
+    if over is not None:
+        found.append((ExitCode.DEADLINE_MISSES, over))
 
     if not found:
         return ExitCode.OK, []
