@@ -269,7 +269,10 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
             _check_rosco_files(c.preset, c.parameter_file, c.library)
         # other kinds check their presets when built
     except (ValueError, OSError) as exc:
-        fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+        key, value = "preset", c.preset
+        if c.kind == "rosco" and c.parameter_file is not None:
+            key, value = "parameter_file", c.parameter_file
+        fail(f"{ref}: controller.{key} = {value!r} for kind {c.kind!r}: {exc}")
     return sc
 
 

@@ -135,9 +135,9 @@ def deadline_misses_over(summary: dict[str, Any]) -> str | None:
     if misses <= count or fraction <= tolerated:
         return None
     return (
-        f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles ({100 * fraction:.2f} %): "
-        f"more than the {count} tolerated (timing.max_deadline_misses) and over the "
-        f"{100 * tolerated:g} % tolerated (timing.max_deadline_miss_fraction)"
+        f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles ({100 * fraction:.2f} %), "
+        f"over the {100 * tolerated:g} % tolerated (timing.max_deadline_miss_fraction) and "
+        f"more than the {count} tolerated (timing.max_deadline_misses)"
     )
 
 

@@ -17,6 +17,7 @@ import difflib
 import importlib.resources
 import importlib.util
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable
@@ -993,7 +994,7 @@ def resolve_paths(raw: dict[str, object], base_dir: Path, source: str = "") -> d
             continue
         path = Path(value).expanduser()
         if not path.is_absolute():
-            path = base / path
+            path = Path(os.path.normpath(base / path))  # "../x" without a "dir/.." left in
         if not path.is_file():
             name = f"{section}.{key}" if section else key
             where = f"{source}: " if source else ""
@@ -1002,7 +1003,7 @@ def resolve_paths(raw: dict[str, object], base_dir: Path, source: str = "") -> d
                 if Path(value).expanduser().is_absolute()
                 else (" (a relative path is taken from the scenario file's folder)")
             )
-            raise ScenarioError(f"{where}{name} = {value!r}: no such file {path}{relative}")
+            raise ScenarioError(f"{where}{name} = {value!r}: file not found: {path}{relative}")
         if section:
             table = dict(table)
             out[section] = table
@@ -1212,7 +1213,7 @@ def scenario_folder(name_or_path: str) -> Path:
     res = importlib.resources.files("hil.scenario") / "presets" / f"{name_or_path}.toml"
     if bare and name_or_path and res.is_file():
         return Path(str(importlib.resources.files("hil.scenario") / "presets"))
-    return Path(name_or_path).expanduser().absolute().parent
+    return Path(os.path.normpath(Path(name_or_path).expanduser().absolute())).parent
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
