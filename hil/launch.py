@@ -1032,9 +1032,9 @@ def _supervise(
             _wait_for_recorder(procs["recorder"], mcap_path, console)
             _stop(procs["controller"], 5.0)
             if procs["recorder"].returncode != 0:
-                raise RunFailedError(
-                    f"recorder exited with {procs['recorder'].returncode}; "
-                    f"see {logs / 'recorder.log'}"
+                raise RunFailedError(  # its own last error line says why (a full disk)
+                    f"recorder exited with {procs['recorder'].returncode}"
+                    f"{_last_error(logs, 'recorder')}"
                 )
         if driver is not None:
             driver.finish(console)
