@@ -609,6 +609,52 @@ def test_help_texts_are_clean(cmd: list[str]) -> None:
     assert "scenario's  " not in text and "scenario's )" not in text
 
 
+@pytest.mark.parametrize(
+    ("why", "said"),
+    [
+        ("not root", "this process is not root: run it as root, or use --transport zenoh"),
+        ("no ip", "ip not found on PATH: install util-linux and iproute2, or use --transport"),
+    ],
+)
+def test_udp_multicast_without_a_namespace_is_refused_exit_2(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, why: str, said: str
+) -> None:
+    """``--transport can`` on ``udp_multicast`` where no private network namespace can be
+    made (not root; ``unshare``/``ip`` missing): one line, exit 2, saying what to use, and
+    nothing started or written. In process (CliRunner) to stand in for such a host."""
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+    from hil.nodes import can_bus
+
+    monkeypatch.setattr(can_bus, "in_private_netns", lambda: False)
+    if why == "not root":
+        monkeypatch.setattr(can_bus.os, "geteuid", lambda: 1000)
+    else:
+        monkeypatch.setattr(can_bus.os, "geteuid", lambda: 0)
+        monkeypatch.setattr(can_bus.shutil, "which", lambda tool: None if tool == "ip" else tool)
+    monkeypatch.chdir(tmp_path)
+    args = ["run", "nrel5mw-ramp", "--mode", "lockstep", "--transport", "can", "--out", "out"]
+    for scenario in ("nrel5mw-ramp", "hexicon-s1_step15"):
+        args[1] = scenario
+        result = CliRunner().invoke(app, args, env={"COLUMNS": "400"})
+        assert result.exit_code == 2, result.output
+        assert "--can-interface udp_multicast" in result.output and said in result.output
+        assert "Traceback" not in result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_help_says_refusals_are_exit_2() -> None:
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+
+    text = " ".join(CliRunner().invoke(app, ["run", "--help"]).output.split())
+    assert "2 bad input, refused before anything started" in text
+    assert "a transport, CAN interface, channel or device this host cannot use" in text
+    assert "max_deadline_misses" in text and "scenario file's folder" in text
+
+
 def test_plant_wait_timeout_default_in_help(tmp_path: Path) -> None:
     proc = _fowt(["plant", "--help"], tmp_path)
     text = " ".join(proc.stdout.split())
