@@ -258,8 +258,8 @@ def gather_commands(
     Waits on ``commands`` (``(arrival_ns, command)`` pairs, stamped on arrival) until the
     three turbines' commands are in or the deadline passes; once it has passed, what already
     arrived is still taken, judged by its arrival stamp, so a plant that looks late does not
-    count a command that came in time as missed. Commands answering an earlier frame are
-    dropped.
+    count a command that came in time as missed. Commands answering an earlier frame came
+    after that frame's cycle closed: dropped, and counted as late.
 
     Parameters
     ----------
@@ -277,7 +277,8 @@ def gather_commands(
     got : dict of int to TurbineCommand
         Turbine index (1-3) -> its command in time; fewer than 3: a deadline miss.
     late : int
-        Commands answering ``seq`` that came after the deadline.
+        Commands taken that came after their cycle's deadline (this frame's, or an earlier
+        one's).
     """
     got: dict[int, TurbineCommand] = {}
     late = 0
@@ -290,9 +291,7 @@ def gather_commands(
                 arrival_ns, c = commands.get_nowait()
         except queue.Empty:
             break
-        if c.answered_seq != seq:
-            continue
-        if arrival_ns > deadline_ns:
+        if c.answered_seq != seq or arrival_ns > deadline_ns:
             late += 1
             continue
         got[c.turbine_index] = c
