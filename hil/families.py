@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bus_schemas.registry import PLATFORM_FRAME, TIMING_SUMMARY
+from bus_schemas.registry import TIMING_SUMMARY
 from hil.nodes.bus import LINK_TIMEOUT_S
 
 if TYPE_CHECKING:
@@ -366,16 +366,19 @@ def _hexicon_nodes(ctx: NodeContext) -> dict[str, list[str]]:
 
 
 def _hexicon_progress_key(platform: str) -> str:
-    # the truth twin: on Zenoh even when the measured frames travel on CAN
-    return f"{PLATFORM_FRAME.key(platform)}/truth"
+    from hil.hexicon.nodes import progress_key  # noqa: PLC0415
+
+    return progress_key(platform)  # on Zenoh even when the frames travel on CAN
 
 
-def _platform_frame(payload: bytes) -> tuple[float, float] | None:
+def _platform_progress(payload: bytes) -> tuple[float, float] | None:
+    """The Hexicon plant's running account (:func:`hil.hexicon.nodes.progress_key`):
+    simulated seconds done and deadline misses so far."""
     try:
-        f = PLATFORM_FRAME.codec.decode(payload)
-    except Exception:
+        got = json.loads(payload)
+        return float(got["sim_s"]), float(got["deadline_misses"])
+    except (ValueError, TypeError, KeyError):
         return None
-    return f.sample_time_ns / 1e9, 0.0
 
 
 HEXICON = PlantFamily(
@@ -385,7 +388,7 @@ HEXICON = PlantFamily(
     owns=lambda ref: ref.startswith(HEXICON_PREFIX),
     node_commands=_hexicon_nodes,
     progress_key=_hexicon_progress_key,
-    progress=_platform_frame,
+    progress=_platform_progress,
     run_options=frozenset({"hexicon", "can_channel", "can_fd"}),
     inprocess=False,
     plan=lambda ref, duration_s, options: hexicon_run(
@@ -404,7 +407,7 @@ def list_scenarios() -> dict[str, dict[str, str]]:
 
 def resolve(ref: str) -> PlantFamily:
     """The family of a scenario address; a ``hexicon-`` name that is no Hexicon scenario
-    is refused here, naming the shipped ones.
+    is refused here, naming the closest shipped ones.
 
     Raises
     ------
@@ -412,11 +415,12 @@ def resolve(ref: str) -> PlantFamily:
         An unknown ``hexicon-`` name.
     """
     if HEXICON.owns(ref):
+        from hil.scenario.schema import suggestion  # noqa: PLC0415
+
         names = HEXICON.scenarios()
         if ref not in names:
-            raise RunRequestError(
-                f"unknown Hexicon scenario {ref!r}; shipped: {', '.join(sorted(names))}"
-            )
+            hint = suggestion(ref, sorted(names)) or "'fowt scenarios' lists the shipped ones"
+            raise RunRequestError(f"unknown Hexicon scenario {ref!r}; {hint}")
         return HEXICON
     return TURBINE
 

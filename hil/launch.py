@@ -829,8 +829,8 @@ def _can_ready(
     from hil.nodes.can_bus import in_private_netns, transport_unavailable_reason  # noqa: PLC0415
 
     reason = transport_unavailable_reason(can)
-    if reason is not None:
-        raise RunFailedError(f"--transport can --can-interface {can.interface}: {reason}")
+    if reason is not None:  # refused before anything started: bad input (exit 2)
+        raise RunRequestError(f"--transport can --can-interface {can.interface}: {reason}")
     if can.interface == "udp_multicast" and not in_private_netns():
         if os.environ.get(_NETNS_ENV):  # never re-exec twice
             raise RunFailedError(
@@ -1095,9 +1095,9 @@ def _supervise(
             _wait_for_recorder(procs["recorder"], mcap_path, console)
             _stop(procs["controller"], 5.0)
             if procs["recorder"].returncode != 0:
-                raise RunFailedError(
-                    f"recorder exited with {procs['recorder'].returncode}; "
-                    f"see {logs / 'recorder.log'}",
+                raise RunFailedError(  # its own last error line says why (a full disk)
+                    f"recorder exited with {procs['recorder'].returncode}"
+                    f"{_last_error(logs, 'recorder')}",
                     process="recorder",
                 )
         if driver is not None:

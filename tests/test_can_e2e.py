@@ -147,15 +147,16 @@ def test_can_run_matches_zenoh_run(
 
 
 def test_virtual_interface_is_refused_for_processes(tmp_path: Path) -> None:
-    """python-can's virtual bus does not cross processes: the launcher says so, runs nothing."""
+    """python-can's virtual bus does not cross processes: refused before anything starts
+    (exit 2, bad input), saying what to use."""
     cmd = [sys.executable, "-m", "hil", "run", "nrel5mw-ramp", "--mode", "lockstep"]
     cmd += ["--duration", "1", "--out", str(tmp_path / "v"), "--transport", "can"]
     cmd += ["--can-interface", "virtual"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, check=False)
-    assert proc.returncode == 1
+    assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: run failed: "), proc.stderr
-    assert "only connects buses inside one process" in lines[0]
+    assert len(lines) == 1 and lines[0].startswith("error: --transport can"), proc.stderr
+    assert "only connects buses inside one process" in lines[0] and "udp_multicast" in lines[0]
     assert not (tmp_path / "v" / "run.mcap").exists()
 
 

@@ -85,7 +85,30 @@ INPUTS: dict[str, str | bytes] = {
     ),
     "platform.toml": _variant("default", 'platform = "iea15mw_volturnus"', 'platform = "p.toml"'),
     "bad.json5": "{ listen: ",
+    "wind_kind.toml": _variant("nrel5mw-ramp", 'kind = "ramp"', 'kind = "rmap"'),
+    "can_iface.toml": _variant(
+        "nrel5mw-ramp", "[controller]", '[can]\ninterface = "socketcn"\n\n[controller]'
+    ),
+    "rel_preset.toml": _variant(
+        "nrel5mw-ramp", 'preset = "nrel5mw_baseline"', 'preset = "presets/mine.toml"'
+    ),
+    "rosco_lib.toml": _variant(
+        "nrel5mw-ramp",
+        'kind = "baseline"\npreset = "nrel5mw_baseline"',
+        'kind = "rosco"\npreset = "nrel5mw"\nlibrary = "build/libdiscon.so"',
+    ),
+    "rosco_in.toml": _variant(
+        "nrel5mw-ramp",
+        'kind = "baseline"\npreset = "nrel5mw_baseline"',
+        'kind = "rosco"\npreset = "nrel5mw"\nparameter_file = "bad.json5"',
+    ),
 }
+
+#: A CAN netdevice no host has (socketcan refusals).
+NO_CAN = "fowtnocan7"
+NO_SOCKETCAN = ["--transport", "can", "--can-interface", "socketcan", "--can-channel", NO_CAN]
+#: A lock-step run on CAN (the options of each case follow).
+CAN_RUN = ["run", "nrel5mw-ramp", "--mode", "lockstep", "--transport", "can", "--out", "out"]
 
 RUN = ["run", "--mode", "inprocess", "--out", "out"]
 
@@ -124,12 +147,93 @@ CASES: list[tuple[str, list[str], list[str]]] = [
         ["run", "kind_preset.toml", *RUN[1:]],
         ["controller.preset = 'iea15mw_advanced' for kind 'baseline'"],
     ),
-    ("platform-file-missing", ["run", "platform.toml", *RUN[1:]], ["platform", "not found"]),
+    (
+        "platform-file-missing",
+        ["run", "platform.toml", *RUN[1:]],
+        ["platform = 'p.toml'", "not found", "p.toml", "scenario file's folder"],
+    ),
+    (
+        "preset-file-missing-relative",
+        ["run", "rel_preset.toml", *RUN[1:]],
+        ["controller.preset = 'presets/mine.toml'", "not found", "/presets/mine.toml"],
+    ),
+    (
+        "rosco-library-missing",
+        ["run", "rosco_lib.toml", *RUN[1:]],
+        ["controller.library = 'build/libdiscon.so'", "not found", "/build/libdiscon.so"],
+    ),
+    (
+        "rosco-parameter-file-malformed",
+        ["run", "rosco_in.toml", *RUN[1:]],
+        ["controller.parameter_file", "bad.json5", "kind 'rosco'"],
+    ),
     ("scenario-missing", ["run", "nope.toml", *RUN[1:]], ["nope.toml", "does not exist"]),
     (
         "scenario-unknown-name",
         ["run", "no-such-scenario", *RUN[1:]],
-        ["no-such-scenario", "default"],
+        ["no-such-scenario", "'fowt scenarios' lists"],
+    ),
+    ("scenario-near-miss", ["run", "defualt", *RUN[1:]], ["'defualt'", "did you mean 'default'?"]),
+    (
+        "hexicon-scenario-near-miss",
+        ["run", "hexicon-s1_turbulnt", "--out", "out"],
+        ["'hexicon-s1_turbulnt'", "did you mean 'hexicon-s1_turbulent'?"],
+    ),
+    (
+        "enum-near-miss",
+        ["run", "wind_kind.toml", *RUN[1:]],
+        ["'wind.kind'", "'rmap'", "did you mean 'ramp'?"],
+    ),
+    (
+        "enum-near-miss-can-interface",
+        ["run", "can_iface.toml", *RUN[1:]],
+        ["'can.interface'", "did you mean 'socketcan'?"],
+    ),
+    (
+        "turbine-near-miss",
+        ["run", "turbine.toml", *RUN[1:]],
+        ["turbine = 'nrel5'", "did you mean 'nrel5mw'?"],
+    ),
+    # transport, interface, channel, device: refused before anything starts
+    (
+        "run-socketcan-no-device",
+        [*CAN_RUN, "--can-interface", "socketcan", "--can-channel", NO_CAN],
+        [f"socketcan device '{NO_CAN}' does not exist", "use --can-interface udp_multicast"],
+    ),
+    (
+        "run-can-virtual",
+        [*CAN_RUN, "--can-interface", "virtual"],
+        ["--can-interface virtual", "one process", "udp_multicast"],
+    ),
+    (
+        "run-can-interface-unknown",
+        [*CAN_RUN, "--can-interface", "socketcn"],
+        ["'socketcn'", "did you mean 'socketcan'?"],
+    ),
+    (
+        "run-can-channel-not-a-group",
+        [*CAN_RUN, "--can-interface", "udp_multicast", "--can-channel", "127.0.0.1"],
+        ["udp_multicast channel '127.0.0.1'", "multicast group"],
+    ),
+    (
+        "run-can-inprocess",
+        ["run", "nrel5mw-ramp", "--transport", "can", *RUN[1:]],
+        ["--mode inprocess has no bus", "lockstep or realtime"],
+    ),
+    (
+        "hexicon-socketcan-no-device",
+        ["run", "hexicon-s1_step15", *NO_SOCKETCAN, "--out", "out"],
+        [f"socketcan device '{NO_CAN}' does not exist", "use --can-interface udp_multicast"],
+    ),
+    (
+        "plant-socketcan-no-device",
+        ["plant", "nrel5mw-ramp", "--insecure", *NO_SOCKETCAN],
+        [f"socketcan device '{NO_CAN}' does not exist"],
+    ),
+    (
+        "controller-socketcan-no-device",
+        ["controller", "nrel5mw-ramp", "--insecure", *NO_SOCKETCAN],
+        [f"socketcan device '{NO_CAN}' does not exist"],
     ),
     # campaign options
     (
@@ -353,6 +457,22 @@ def test_bad_input_is_one_line_exit_2_nothing_written(
     assert _tree(tmp_path) == before  # no output folder, no runs/, no probe file left
 
 
+def test_a_near_miss_names_the_closest_names_not_every_name(tmp_path: Path) -> None:
+    """``fowt run defualt``: the closest shipped names (1-3), never the whole list."""
+    for args, meant in (
+        (["run", "defualt", "--out", "out"], "default"),
+        (["run", "iea15mw-lc", "--out", "out"], "iea15mw-lc7"),
+        (["run", "hexicon-s1_step1", "--out", "out"], "hexicon-s1_step15"),
+    ):
+        proc = _fowt(args, tmp_path)
+        assert proc.returncode == 2, proc.stderr
+        line = proc.stderr.strip()
+        assert "did you mean" in line and f"'{meant}'" in line, line
+        names = re.findall(r"'([^']+)'", line.split("did you mean", 1)[1])
+        assert 1 <= len(names) <= 3, line
+        assert "nrel5mw-tlp" not in line and "casanovas" not in line  # not the whole list
+
+
 def test_cases_cover_every_command() -> None:
     """The table has a case for each command that takes input (review: its own tests)."""
     commands = {" ".join(a[:2]) if a[0] in ("analyze", "preset") else a[0] for _, a, _ in CASES}
@@ -487,6 +607,52 @@ def test_help_texts_are_clean(cmd: list[str]) -> None:
     assert not [ln for ln in summaries.splitlines() if ln.rstrip().endswith("...")]
     # no markup eaten from the text ("the scenario's [can] interface" once lost "[can]")
     assert "scenario's  " not in text and "scenario's )" not in text
+
+
+@pytest.mark.parametrize(
+    ("why", "said"),
+    [
+        ("not root", "this process is not root: run it as root, or use --transport zenoh"),
+        ("no ip", "ip not found on PATH: install util-linux and iproute2, or use --transport"),
+    ],
+)
+def test_udp_multicast_without_a_namespace_is_refused_exit_2(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, why: str, said: str
+) -> None:
+    """``--transport can`` on ``udp_multicast`` where no private network namespace can be
+    made (not root; ``unshare``/``ip`` missing): one line, exit 2, saying what to use, and
+    nothing started or written. In process (CliRunner) to stand in for such a host."""
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+    from hil.nodes import can_bus
+
+    monkeypatch.setattr(can_bus, "in_private_netns", lambda: False)
+    if why == "not root":
+        monkeypatch.setattr(can_bus.os, "geteuid", lambda: 1000)
+    else:
+        monkeypatch.setattr(can_bus.os, "geteuid", lambda: 0)
+        monkeypatch.setattr(can_bus.shutil, "which", lambda tool: None if tool == "ip" else tool)
+    monkeypatch.chdir(tmp_path)
+    args = ["run", "nrel5mw-ramp", "--mode", "lockstep", "--transport", "can", "--out", "out"]
+    for scenario in ("nrel5mw-ramp", "hexicon-s1_step15"):
+        args[1] = scenario
+        result = CliRunner().invoke(app, args, env={"COLUMNS": "400"})
+        assert result.exit_code == 2, result.output
+        assert "--can-interface udp_multicast" in result.output and said in result.output
+        assert "Traceback" not in result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_help_says_refusals_are_exit_2() -> None:
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+
+    text = " ".join(CliRunner().invoke(app, ["run", "--help"]).output.split())
+    assert "2 bad input, refused before anything started" in text
+    assert "a transport, CAN interface, channel or device this host cannot use" in text
+    assert "max_deadline_misses" in text and "scenario file's folder" in text
 
 
 def test_plant_wait_timeout_default_in_help(tmp_path: Path) -> None:

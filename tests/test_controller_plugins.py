@@ -299,9 +299,11 @@ def test_campaign_takes_every_kind_and_key_and_asks_design_hooks(plugin_path: Pa
         settings = { pitch_ki = 0.01, speed_filter_corner_hz = 0.3 }
         """
     )
+    (plugin_path / "my_DISCON.IN").write_text("! a parameter file the campaign names\n")
     c = parse_campaign(text, "c.toml", plugin_path)
     by = {r.controller: r.scenario["controller"] for r in c.runs}
-    assert by["rosco"]["parameter_file"] == "my_DISCON.IN"
+    # a variant's file paths are taken from the campaign file's folder, and carried absolute
+    assert by["rosco"]["parameter_file"] == str(plugin_path.resolve() / "my_DISCON.IN")
     assert by["mine"]["core"] == "userplug:KIND"
     assert by["mine"]["settings"] == {"pitch_ki": 0.01, "speed_filter_corner_hz": 0.3}
     assert by["mine"]["base_dir"] == str(plugin_path.resolve())

@@ -31,7 +31,9 @@ from _helpers import fowt
 
 from hil.review.outcome import (
     DEFAULT_MAX_DEADLINE_MISS_FRACTION,
+    DEFAULT_MAX_DEADLINE_MISSES,
     ExitCode,
+    deadline_miss_count_tolerance,
     deadline_miss_tolerance,
     outcome_line,
     record_outcome,
@@ -199,6 +201,48 @@ def test_deadline_miss_tolerance_from_scenario_else_mode() -> None:
     summary["run"]["mode"] = "realtime"
     code, reasons = run_outcome(summary)
     assert code == ExitCode.DEADLINE_MISSES and "over the 0 % tolerated" in reasons[0]
+
+
+def test_a_short_run_fails_on_misses_only_over_the_count_and_the_fraction() -> None:
+    """A 60-cycle real-time run (a Hexicon minute): one miss is 1.67 % of it, over the
+    fraction but not over the count tolerated; two are over both. A long run is judged by
+    the fraction (the count is passed at once), and the scenario sets either key."""
+    summary = _healthy("realtime")
+    summary["timing"].update(cycles=60, deadline_misses=1)
+    assert deadline_miss_count_tolerance(summary) == DEFAULT_MAX_DEADLINE_MISSES["realtime"] == 1
+    assert run_outcome(summary) == (ExitCode.OK, [])
+    summary["timing"]["deadline_misses"] = 2
+    code, reasons = run_outcome(summary)
+    assert code == ExitCode.DEADLINE_MISSES
+    assert "2 missed deadlines in 60 cycles (3.33 %)" in reasons[0]
+    assert "more than the 1 tolerated (timing.max_deadline_misses)" in reasons[0]
+    summary["scenario"]["config"]["timing"]["max_deadline_misses"] = 2
+    assert run_outcome(summary)[0] == ExitCode.OK
+    summary["timing"].update(cycles=6000, deadline_misses=60)  # 1 %: within the fraction
+    assert run_outcome(summary)[0] == ExitCode.OK
+    summary["timing"]["deadline_misses"] = 61
+    assert run_outcome(summary)[0] == ExitCode.DEADLINE_MISSES
+    # lock-step and in process: any miss (both defaults 0)
+    summary = _healthy("lockstep")
+    summary["timing"].update(cycles=60, deadline_misses=1)
+    assert deadline_miss_count_tolerance(summary) == 0
+    assert run_outcome(summary)[0] == ExitCode.DEADLINE_MISSES
+    # both keys 0 in real time: any miss fails the run
+    summary = _healthy("realtime")
+    summary["timing"].update(cycles=60, deadline_misses=1)
+    summary["scenario"]["config"]["timing"].update(
+        max_deadline_misses=0, max_deadline_miss_fraction=0.0
+    )
+    assert run_outcome(summary)[0] == ExitCode.DEADLINE_MISSES
+
+
+def test_max_deadline_misses_is_a_validated_timing_key() -> None:
+    text = BASE + "\n[timing]\nmax_deadline_misses = 3\n"
+    assert parse_scenario(text).timing.max_deadline_misses == 3
+    assert load_scenario("nrel5mw-ramp").timing.max_deadline_misses is None
+    for bad in ("-1", "1.5", '"3"'):
+        with pytest.raises(ScenarioError, match="max_deadline_misses"):
+            parse_scenario(BASE + f"\n[timing]\nmax_deadline_misses = {bad}\n")
 
 
 def test_record_outcome_writes_the_verdict_into_the_summary() -> None:

@@ -159,7 +159,7 @@ def test_stuck_with_no_valid_reading_stays_invalid_and_bus_plan_is_a_pure_functi
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ({"kind": "stuk", "channel": IMU[0]}, "kinds: stuck"),
+        ({"kind": "stuk", "channel": IMU[0]}, "did you mean 'stuck'"),
         ({"kind": "stuck", "channel": "platform_pitch_rad"}, "'platform_pitch_measured_rad'"),
         ({"kind": "stuck", "channel": "command"}, "not a measured SensorFrame field"),
         ({"kind": "bus_loss", "channel": IMU[0], "probability": 0.1}, "not a bus channel"),

@@ -25,7 +25,7 @@ from hil.inprocess.run import run_inprocess
 from hil.launch import RunFailedError, RunRequest, launch
 from hil.nodes.controller_node import ControllerRuntime
 from hil.review.core import review
-from hil.scenario.schema import parse_scenario
+from hil.scenario.schema import ScenarioError, parse_scenario
 
 try:
     from controller.rosco import default_library
@@ -187,26 +187,25 @@ def test_library_failure_ends_the_run_with_its_message(tmp_path: Path, mode: str
             launch(_run_request(tmp_path / "trimmed", _scenario(kind, duration=3.0), mode))
 
 
+@pytest.mark.parametrize("mode", ["inprocess", "lockstep"])
+def test_a_missing_library_is_refused_with_the_scenario(tmp_path: Path, mode: str) -> None:
+    """A library file that is not there: the scenario itself is refused (bad input, exit 2
+    from ``fowt run``) with the path looked for, before any process, file or folder."""
+    text = _scenario('kind = "rosco"\npreset = "nrel5mw"\nlibrary = "lib/libdiscon.so"\n')
+    with pytest.raises(ScenarioError, match=r"controller\.library = 'lib/libdiscon\.so': file not"):
+        launch(_run_request(tmp_path, text, mode))
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.parametrize(
     ("lines", "expected", "mode"),
     [
-        (
-            'library = "/nonexistent/libdiscon.so"',
-            "DISCON library not found: /nonexistent",
-            "inprocess",
-        ),
-        (
-            'library = "/nonexistent/libdiscon.so"',
-            "DISCON library not found: /nonexistent",
-            "lockstep",
-        ),
         ("parameter_file = '{bad}'", "parameter 'PC_MaxRat' = 'fast' is not a number", "inprocess"),
     ],
 )
-def test_missing_library_and_malformed_parameter_file(
-    tmp_path: Path, lines: str, expected: str, mode: str
-) -> None:
-    """Refused before the run starts, with the file and parameter named; the MCAP reviews."""
+def test_malformed_parameter_file(tmp_path: Path, lines: str, expected: str, mode: str) -> None:
+    """The launcher's own check, with the file and parameter named; the MCAP reviews
+    (``fowt run`` refuses it before the launch: exit 2, tests/test_cli_input.py)."""
     bad = tmp_path / "DISCON.IN"
     good = shipped_parameter_files()["nrel5mw"].read_text()
     bad.write_text(

@@ -73,6 +73,8 @@ from hil.scenario.schema import (
     ScenarioError,
     _known_fields,
     key_at_text,
+    resolve_paths,
+    scenario_folder,
     scenario_text,
     settings_base_dir,
     unknown_key_text,
@@ -308,19 +310,33 @@ def _scenario_base(ref: str, base_dir: Path, where: str) -> dict[str, Any]:
     path = Path(ref)
     if path.suffix == ".toml" and not path.is_absolute():
         path = base_dir / path
+    scenario = str(path) if path.suffix == ".toml" else ref
     try:
-        text, source = scenario_text(str(path) if path.suffix == ".toml" else ref)
+        text, source = scenario_text(scenario)
     except ScenarioError as exc:
         raise CampaignError(f"{where}: {exc}") from exc
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise CampaignError(f"{where}: {source}: not valid TOML: {exc}") from exc
-    shipped = path.suffix != ".toml" and source.startswith("hil/scenario/presets/")
-    settings_base_dir(raw, Path.cwd() if shipped else Path(source).parent)
+    folder = scenario_folder(scenario)
+    try:  # the scenario's own file paths: from its folder, as when it runs alone
+        raw = resolve_paths(raw, folder, source)
+    except ScenarioError as exc:
+        raise CampaignError(f"{where}: {exc}") from exc
+    settings_base_dir(raw, folder)
     # Validate the scenario as shipped first, so its own errors name its file.
     _convert(raw, f"{where} ({source})")
     return raw
+
+
+def _campaign_paths(d: dict[str, Any], base_dir: Path, where: str) -> dict[str, Any]:
+    """The file paths the campaign file gave (overrides, controllers) taken from its folder;
+    the scenario's own are absolute already (:func:`_scenario_base`)."""
+    try:
+        return resolve_paths(d, base_dir)
+    except ScenarioError as exc:
+        raise CampaignError(f"{where}: {exc}") from exc
 
 
 def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
@@ -338,7 +354,7 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
     for i, case in enumerate(spec.cases):
         where = f"cases[{i}] ({case.name})"
         raw = _scenario_base(case.scenario, base_dir, where)
-        merged = _deep_merge(raw, case.overrides)
+        merged = _campaign_paths(_deep_merge(raw, case.overrides), base_dir, where)
         merged["duration_s"] = spec.duration_s
         if spec.tsr_opt is not None:
             merged["review"] = {**(merged.get("review") or {}), "tsr_opt": spec.tsr_opt}
@@ -364,6 +380,7 @@ def expand(spec: CampaignFile, base_dir: Path) -> tuple[RunSpec, ...]:
                     holder = {"controller": msgspec.to_builtins(variant.section())}
                     settings_base_dir(holder, base_dir)  # a variant's settings: the file's
                     d["controller"] = holder["controller"]
+                    d = _campaign_paths(d, base_dir, f"{where}, controller {variant.name!r}")
                     label = f"{spec.name}-{case.name}-{variant.name}-{waves}-s{seed}"
                     d["name"] = label
                     sc = _convert(d, f"{where}, controller {variant.name!r}, seed {seed}")

@@ -8,6 +8,7 @@ created by the check), input text files by :func:`text_file`.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import tempfile
@@ -151,11 +152,13 @@ def text_file(path: Path | None) -> Path | None:
 
 
 def choice(*allowed: str) -> Callable[[str], str]:
-    """Callback: one of ``allowed``."""
+    """Callback: one of ``allowed`` (a near miss is told the closest: ``did you mean``)."""
 
     def check(value: str) -> str:
         if value not in allowed:
-            raise typer.BadParameter(f"expected one of {', '.join(allowed)}, got {value!r}")
+            close = difflib.get_close_matches(value, allowed, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise typer.BadParameter(f"expected one of {', '.join(allowed)}, got {value!r}{hint}")
         return value
 
     return check

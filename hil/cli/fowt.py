@@ -215,7 +215,7 @@ def _can_config(
     from hil.nodes.can_bus import CanBusConfig, CanConfigError
 
     try:
-        return CanBusConfig.for_interface(
+        can = CanBusConfig.for_interface(
             interface or sc.can.interface,
             channel if channel is not None else sc.can.channel,
             sc.can.fd if fd is None else fd,
@@ -223,6 +223,30 @@ def _can_config(
         )
     except CanConfigError as exc:
         fail(str(exc))
+    _check_can_device(can)
+    return can
+
+
+def _check_can_device(can: CanBusConfig) -> None:
+    """Exit 2 when a ``socketcan`` bus's netdevice does not exist (nothing could open it)."""
+    from hil.nodes.can_bus import socketcan_available
+
+    if can.interface == "socketcan" and not socketcan_available(can.effective_channel):
+        from hil.nodes.can_bus import transport_unavailable_reason
+
+        fail(f"--can-interface socketcan: {transport_unavailable_reason(can)}")
+
+
+def _check_can_runs_here(can: CanBusConfig | None) -> None:
+    """``fowt run``: exit 2 when the CAN bus cannot connect the run's processes on this
+    host (:func:`hil.nodes.can_bus.transport_unavailable_reason`), saying what to use."""
+    if can is None:
+        return
+    from hil.nodes.can_bus import transport_unavailable_reason
+
+    reason = transport_unavailable_reason(can)
+    if reason is not None:
+        fail(f"--transport can --can-interface {can.interface}: {reason}")
 
 
 def _scenario(ref: str, duration: float | None) -> Scenario:
@@ -241,9 +265,14 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
             from controller.runtime import load_advanced_settings
 
             load_advanced_settings(c.preset)
-        # other kinds check their presets when built (rosco: its DISCON.IN, at load)
+        elif c.kind == "rosco":  # its DISCON.IN and its library: files that must be there
+            _check_rosco_files(c.preset, c.parameter_file, c.library)
+        # other kinds check their presets when built
     except (ValueError, OSError) as exc:
-        fail(f"{ref}: controller.preset = {c.preset!r} for kind {c.kind!r}: {exc}")
+        key, value = "preset", c.preset
+        if c.kind == "rosco" and c.parameter_file is not None:
+            key, value = "parameter_file", c.parameter_file
+        fail(f"{ref}: controller.{key} = {value!r} for kind {c.kind!r}: {exc}")
     if c.kind == "fmu":  # the archive, its modelDescription.xml and the mapping; no binary
         from controller.fmu import check_fmu
         from controller.registry import settings_for
@@ -253,6 +282,21 @@ def _scenario(ref: str, duration: float | None) -> Scenario:
         except ValueError as exc:
             fail(f"{ref}: controller kind 'fmu': {exc}")
     return sc
+
+
+def _check_rosco_files(preset: str, parameter_file: str | None, library: str | None) -> None:
+    """ValueError unless a ``rosco`` controller's DISCON.IN reads and its library is there
+    (the scenario's own library was checked on load: :func:`hil.scenario.schema.resolve_paths`)."""
+    from controller.rosco import default_library, read_discon_in, shipped_parameter_files
+
+    if parameter_file is None:
+        shipped = shipped_parameter_files()
+        if preset in shipped:  # an unknown name: refused by the scenario's validation
+            read_discon_in(shipped[preset])
+    else:
+        read_discon_in(parameter_file)
+    if library is None:
+        default_library()
 
 
 def _realtime(priority: int, who: str) -> None:
@@ -412,15 +456,21 @@ def run(
     Exit codes (the first that applies; docs/exit-codes.md; summary.json run.outcome):
       0  complete and healthy
       1  the run failed (a process died, a write failed: disk full)
-      2  bad input, refused before anything started
+      2  bad input, refused before anything started: an option, a scenario key,
+         a file or path that is not there, a transport, CAN interface, channel or
+         device this host cannot use (one line saying what to use instead)
       3  aborted by a signal (SIGINT, SIGTERM, SIGHUP)
       4  recording incomplete (messages lost, file truncated)
       5  safe state: the plant's safe state or the controller's safe mode, at any time
-      6  deadline misses over [timing] max_deadline_miss_fraction (default 0.01 in
-         real time, 0 in lock-step and in process), or a controller slower than
+      6  deadline misses over both [timing] max_deadline_misses and
+         max_deadline_miss_fraction of the cycles (default 1 and 0.01 in real
+         time, 0 and 0 in lock-step and in process), or a controller slower than
          its control period in more than a quarter of its cycles
       7  controller fault: its core raised, or gave a non-finite or out-of-range
          command (never applied); wins over 4, 5 and 6, not over 1 and 3
+
+    Paths in a scenario file (presets, platform, library, parameter file) are taken
+    from the scenario file's folder.
     """
     from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
 
@@ -454,11 +504,13 @@ def run(
 
     if options is not None:
         can = _family_can(transport, can_interface, can_channel, can_fd, options.platform)
+        _check_can_runs_here(can)
     else:
         sc = _scenario(scenario, duration)  # validate before launching anything
         can = _can_config(sc, transport, can_interface, can_channel, can_fd)
         if can is not None and mode == "inprocess":
             fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+        _check_can_runs_here(can)
         if loop != "auto" and mode != "inprocess":
             fail(f"--loop {loop}: only with --mode inprocess")
         if out is None:
@@ -519,11 +571,13 @@ def _family_can(
     from hil.nodes.can_bus import CanBusConfig, CanConfigError
 
     try:
-        return CanBusConfig.for_interface(
+        can = CanBusConfig.for_interface(
             can_interface or "udp_multicast", can_channel, bool(can_fd), ident
         )
     except CanConfigError as exc:
         fail(str(exc))
+    _check_can_device(can)
+    return can
 
 
 @app.command(short_help="Run the plant process alone.")

@@ -20,7 +20,14 @@ is signed and checked (docs/security.md). Keys::
 
 Modes: ``lockstep`` (the plant waits for the three commands answering each cycle; simulated
 time runs as fast as the loop) and ``realtime`` (the plant ticks every control period on the
-wall clock; commands not in by the next tick are held and counted as deadline misses).
+wall clock, from the publication of its first frame). In real time a cycle's deadline is one
+control period after its frame was published: a cycle whose three commands did not all reach
+the plant by then is a deadline miss, its command held (:func:`gather_commands`). This is
+the latency the review's histogram shows (frame publication to the last of the three
+commands), so a run whose latencies all stay under the period has no miss; the plant's own
+work before it publishes a frame (the first cycle's model evaluation) is not the
+controller's time. The plant's running count goes out on :func:`progress_key` each cycle
+(the launcher's progress bar).
 
 Sensors: the frames carry the preset's sensor channels (:mod:`plant.hexicon.sensors`,
 seeded); the truth goes on the ``.../truth`` keys, which only the recorder subscribes to.
@@ -240,6 +247,63 @@ def identification_scenario(
 
 
 # ------------------------------------------------------------------------------ plant
+def gather_commands(
+    commands: queue.SimpleQueue[tuple[int, TurbineCommand]],
+    seq: int,
+    deadline_ns: int,
+    clock: Any = time.monotonic_ns,
+) -> tuple[dict[int, TurbineCommand], int]:
+    """The commands answering frame ``seq`` that reached the plant by ``deadline_ns``.
+
+    Waits on ``commands`` (``(arrival_ns, command)`` pairs, stamped on arrival) until the
+    three turbines' commands are in or the deadline passes; once it has passed, what already
+    arrived is still taken, judged by its arrival stamp, so a plant that looks late does not
+    count a command that came in time as missed. Commands answering an earlier frame came
+    after that frame's cycle closed: dropped, and counted as late.
+
+    Parameters
+    ----------
+    commands : queue.SimpleQueue
+        The plant's inbox: ``(arrival_ns, TurbineCommand)`` [ns, CLOCK_MONOTONIC].
+    seq : int
+        The frame the commands must answer.
+    deadline_ns : int
+        The cycle's deadline [ns, CLOCK_MONOTONIC]: its frame's publication + the period.
+    clock : callable
+        ``() -> ns`` on the same clock (tests give their own).
+
+    Returns
+    -------
+    got : dict of int to TurbineCommand
+        Turbine index (1-3) -> its command in time; fewer than 3: a deadline miss.
+    late : int
+        Commands taken that came after their cycle's deadline (this frame's, or an earlier
+        one's).
+    """
+    got: dict[int, TurbineCommand] = {}
+    late = 0
+    while len(got) < 3:
+        remaining_s = (deadline_ns - clock()) / 1e9
+        try:
+            if remaining_s > 0:
+                arrival_ns, c = commands.get(timeout=remaining_s)
+            else:
+                arrival_ns, c = commands.get_nowait()
+        except queue.Empty:
+            break
+        if c.answered_seq != seq or arrival_ns > deadline_ns:
+            late += 1
+            continue
+        got[c.turbine_index] = c
+    return got, late
+
+
+def progress_key(platform: str) -> str:
+    """``fowt/<platform>/platform/progress``: the plant's running account after each cycle
+    (JSON ``{"sim_s", "deadline_misses"}``), which the launcher's progress bar shows."""
+    return f"{KEY_PREFIX}/{platform}/platform/progress"
+
+
 def run_plant_node(
     scenario: str,
     platform: str,
@@ -274,7 +338,7 @@ def run_plant_node(
     bus = PlatformLink(BusConfig(listen=(listen,), auth_key=auth_key), can, platform)
     stop = _stop_on_sigterm()
     token = bus.session.liveliness().declare_token(f"{KEY_PREFIX}/{platform}/alive/plant")
-    commands: queue.SimpleQueue[TurbineCommand] = queue.SimpleQueue()
+    commands: queue.SimpleQueue[tuple[int, TurbineCommand]] = queue.SimpleQueue()
     rejected = 0
 
     def on_cmd(_key: str, msg: Any) -> None:
@@ -282,7 +346,7 @@ def run_plant_node(
         if msg is None:
             rejected += 1
         else:
-            commands.put(msg)
+            commands.put((time.monotonic_ns(), msg))
 
     bus.subscribe(TURBINE_COMMAND, tuple(f"{platform}/{t}" for t in TURBINES), on_cmd)
     try:
@@ -293,9 +357,9 @@ def run_plant_node(
         cmd = HexiconCommand((x[3], x[6], x[9]), (q0[0], q0[1], q0[2]))
         n = round((duration_s or scn.duration_s) / scn.control_period_s)
         period_ns = round(scn.control_period_s * 1e9)
-        misses = held = 0
+        misses = held = late = 0
         stopped = False
-        t0 = time.monotonic_ns()
+        t0 = 0  # the wall clock of the run: set when frame 0 goes out
         for k in range(n + 1):
             if stop.is_set():
                 stopped = True
@@ -306,6 +370,8 @@ def run_plant_node(
             truth = truth_sample(x, v, b, out.powers_w, out.rotor_winds_m_s)
             meas = sensors.measure(k * period_ns, truth)
             now = time.monotonic_ns()
+            if k == 0:
+                t0 = now
             for i, name in enumerate(TURBINES):
                 for s, sink in ((meas, bus.publish), (truth, bus.put_truth)):
                     tu = s.turbines[i]
@@ -337,18 +403,10 @@ def run_plant_node(
                 sink(PLATFORM_FRAME, platform, pf)
             if k == n:
                 break
-            got: dict[int, TurbineCommand] = {}
-            deadline = t0 + (k + 1) * period_ns if mode == "realtime" else now + 10 * 10**9
-            while len(got) < 3:
-                remaining = (deadline - time.monotonic_ns()) / 1e9
-                if remaining <= 0:
-                    break
-                try:
-                    c = commands.get(timeout=remaining)
-                except queue.Empty:
-                    break
-                if c.answered_seq == k:
-                    got[c.turbine_index] = c
+            # The deadline runs from the frame's publication (`now`, just before it went out).
+            deadline = now + (period_ns if mode == "realtime" else 10 * 10**9)
+            got, late_k = gather_commands(commands, k, deadline)
+            late += late_k
             if len(got) < 3:
                 if mode != "realtime":
                     print(f"plant: no commands for cycle {k} within 10 s", file=sys.stderr)
@@ -368,6 +426,8 @@ def run_plant_node(
                     scn.plant_dt_s,
                     p,
                 )
+            progress = {"sim_s": (k + 1) * scn.control_period_s, "deadline_misses": misses}
+            bus.zenoh.put(progress_key(platform), json.dumps(progress).encode())
             if mode == "realtime":
                 sleep_ns = t0 + (k + 1) * period_ns - time.monotonic_ns()
                 if sleep_ns > 0:
@@ -377,6 +437,7 @@ def run_plant_node(
                 "plant_cycles": k if stopped else n,
                 "deadline_misses": misses,
                 "commands_held": held,
+                "commands_late": late,
                 "commands_rejected": rejected + bus.can_rejected(),
                 "sensor_seed": sensors.seed,
                 "sensor_noise": sensors.enabled,
@@ -569,8 +630,9 @@ class PlatformMcap:
 
 def summary_key(platform: str) -> str:
     """``fowt/<platform>/platform/summary``: the plant's end-of-run account (JSON object:
-    ``plant_cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``,
-    ``sensor_seed``, ``sensor_noise``, ``stopped``); the recorder stores it in the file's
+    ``plant_cycles``, ``deadline_misses``, ``commands_held``, ``commands_late`` (commands
+    that came after their cycle's deadline), ``commands_rejected``, ``sensor_seed``,
+    ``sensor_noise``, ``stopped``); the recorder stores it in the file's
     metadata, the controller ends on it."""
     return f"{KEY_PREFIX}/{platform}/platform/summary"
 

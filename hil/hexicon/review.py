@@ -17,9 +17,11 @@ mode, transport, sensor seed) plus ``duration_s``, ``messages`` per topic, ``tru
 outside [θ_r(V), 25°]), ``solve_p99_ms`` and ``overruns`` (MPC).
 ``timing``: ``latency_us.{p50,p99,max}`` [us] from the measured platform frame's publish
 time to the last of the three commands answering it (one clock: CLOCK_MONOTONIC is
-system-wide), ``cycles``, ``deadline_misses``, ``commands_held``, ``commands_rejected``
-(plant summary), ``controller_compute_us.{p50,p99,max}`` (status ``compute_time_ns``),
-``deadline_us`` (the control period).
+system-wide), ``cycles``, ``deadline_misses``, ``commands_held``, ``commands_late``,
+``commands_rejected`` (plant summary; in real time a miss is a cycle whose three commands
+were not all in within the period of the frame's publication, the latency above:
+:func:`hil.hexicon.nodes.gather_commands`), ``controller_compute_us.{p50,p99,max}`` (status
+``compute_time_ns``), ``deadline_us`` (the control period).
 ``recording``: ``complete`` and ``problems`` (:func:`recording_check`), which the run's
 exit code is judged on (:func:`hil.review.outcome.run_outcome`, docs/exit-codes.md).
 Plots (``hexicon.png``): heading and wind direction, heading error, per-turbine pitch
@@ -151,6 +153,7 @@ def summarize(run: RunData) -> dict[str, Any]:
         "cycles": _num(meta, "plant_cycles"),
         "deadline_misses": _num(meta, "deadline_misses"),
         "commands_held": _num(meta, "commands_held"),
+        "commands_late": _num(meta, "commands_late"),
         "commands_rejected": _num(meta, "commands_rejected"),
         "deadline_us": period * 1e6,
         "controller_compute_us": _pct([s["compute_time_ns"] / 1e3 for s in status]),
@@ -281,6 +284,7 @@ def write_plots(run: RunData, out_dir: Path) -> list[Path]:
 
 def render(summary: dict[str, Any], console: Any) -> None:
     """Print a platform review as rich tables."""
+    from rich.markup import escape  # noqa: PLC0415
     from rich.table import Table  # noqa: PLC0415
 
     run = summary["run"]
@@ -306,18 +310,71 @@ def render(summary: dict[str, Any], console: Any) -> None:
         "recording", "complete" if rec.get("complete", True) else "; ".join(rec["problems"])
     )
     console.print(head)
+    kpi = summary.get("kpi") or {}
     t = Table(title="KPIs")
     t.add_column("KPI")
     t.add_column("value", justify="right")
-    for k, v in summary["kpi"].items():
-        t.add_row(k, "-" if v is None else f"{v:.4g}")
+    t.add_column("unit")
+    listed = set()
+    for key, label, scale, unit in KPI_ROWS:
+        if key in kpi:
+            listed.add(key)
+            t.add_row(label, _value(kpi[key], scale), unit)
+    for key, value in kpi.items():  # a KPI this table does not know yet: as it is
+        if key not in listed:
+            t.add_row(key, _value(value, 1.0), "")
     console.print(t)
+    timing = summary.get("timing") or {}
     tm = Table(title="Timing")
-    tm.add_column("item")
-    tm.add_column("value", justify="right")
-    for k, v in summary["timing"].items():
-        text = str(v)
-        if isinstance(v, dict):
-            text = ", ".join(f"{a} {b:.1f}" if b is not None else f"{a} -" for a, b in v.items())
-        tm.add_row(k, text)
+    tm.add_column("quantity")
+    for col in ("p50", "p99", "max"):
+        tm.add_column(col, justify="right")
+    tm.add_column("unit")
+    for key, label in (
+        ("latency_us", "latency (frame to the last of 3 commands)"),
+        ("controller_compute_us", "controller compute"),
+    ):
+        stats = timing.get(key) or {}
+        tm.add_row(label, *(_value(stats.get(c), 1e-3) for c in ("p50", "p99", "max")), "ms")
     console.print(tm)
+    counts = Table(title="Cycle counts")
+    counts.add_column("counter")
+    counts.add_column("value", justify="right")
+    for key, label in (
+        ("cycles", "cycles"),
+        ("latency_cycles", "cycles with a latency"),
+        ("deadline_misses", "deadline misses"),
+        ("commands_held", "commands held"),
+        ("commands_late", "commands late"),
+        ("commands_rejected", "commands rejected"),
+    ):
+        if key in timing:
+            counts.add_row(label, "-" if timing[key] is None else str(timing[key]))
+    deadline = timing.get("deadline_us")
+    if isinstance(deadline, int | float):
+        counts.add_row(escape("deadline [s]"), f"{deadline / 1e6:g}")
+    console.print(counts)
+
+
+#: The KPI table's rows: (summary key, label, scale to the unit shown, unit).
+KPI_ROWS: tuple[tuple[str, str, float, str], ...] = (
+    ("heading_rms_deg", "heading error RMS", 1.0, "deg"),
+    ("heading_max_abs_deg", "heading error max |e|", 1.0, "deg"),
+    ("overshoot_deg", "overshoot", 1.0, "deg"),
+    ("settling_time_s", "settling time (|e| <= 1 deg)", 1.0, "s"),
+    ("final_error_deg", "final heading error", 1.0, "deg"),
+    ("energy_ratio", "energy / wake-free energy", 1.0, "[1]"),
+    ("power_mean_w", "platform power mean", 1e-6, "MW"),
+    ("wake_free_power_mean_w", "wake-free power mean", 1e-6, "MW"),
+    ("pitch_travel_deg", "pitch travel Σ|Δθ|", 1.0, "deg"),
+    ("constraint_violations", "pitch constraint violations", 1.0, "cycles"),
+    ("solve_p99_ms", "MPC solve time p99", 1.0, "ms"),
+    ("overruns", "MPC overruns", 1.0, "[1]"),
+)
+
+
+def _value(value: Any, scale: float) -> str:
+    """A KPI's value in its unit (``-``: not available)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        return "-"
+    return f"{value * scale:.4g}"

@@ -45,6 +45,7 @@ as :class:`hil.nodes.bus.Bus`.
 
 from __future__ import annotations
 
+import difflib
 import importlib.util
 import ipaddress
 import os
@@ -135,13 +136,15 @@ def netns_unavailable_reason() -> str | None:
     if os.geteuid() != 0:
         return (
             "udp_multicast between processes needs a private network namespace, and creating "
-            "one (unshare -n) needs root; this process is not root"
+            "one (unshare -n) needs root; this process is not root: run it as root, or use "
+            "--transport zenoh (the default)"
         )
     missing = [tool for tool in ("unshare", "ip") if shutil.which(tool) is None]
     if missing:
         return (
             "udp_multicast between processes needs a private network namespace: "
-            f"{' and '.join(missing)} not found on PATH (util-linux, iproute2)"
+            f"{' and '.join(missing)} not found on PATH: install util-linux and iproute2, or "
+            "use --transport zenoh (the default)"
         )
     return None
 
@@ -270,8 +273,10 @@ class CanBusConfig:
             For an unknown interface or a ``udp_multicast`` channel that is not a group.
         """
         if interface not in INTERFACES:
+            close = difflib.get_close_matches(interface, INTERFACES, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise CanConfigError(
-                f"CAN interface {interface!r}: expected virtual, socketcan or udp_multicast"
+                f"CAN interface {interface!r}: expected virtual, socketcan or udp_multicast{hint}"
             )
         return cls(interface, channel or "", fd, turbine_id)
 

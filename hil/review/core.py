@@ -111,6 +111,7 @@ from bus_schemas.messages import (
     EST_WIND_SPEED,
     PLANT_REJECT_REASONS,
 )
+from bus_schemas.registry import WAVE_PREVIEW_PERFECT
 from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, read_fault
 from hil.review import kpi
 from hil.review import stream as rs
@@ -367,6 +368,21 @@ def _final_record(msgs: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
 def _reasons(record: dict[str, Any], prefix: str, reasons: tuple[str, ...]) -> dict[str, int]:
     """``{reason: count}`` of a report's ``<prefix>_<reason>`` fields."""
     return {r: int(record.get(f"{prefix}_{r}", 0)) for r in reasons}
+
+
+def could_have(topic: str, config: Any) -> bool:
+    """Whether a run of the scenario ``config`` (the recorded scenario, parsed; None: not
+    known) could publish on ``topic`` (a key suffix). The run's ``messages`` list an empty
+    topic only then: a writer declares every channel of the bench, and an empty channel the
+    run could never have (``preview/wave_perfect`` without a perfect wave preview) is not a
+    loss worth a line."""
+    if not isinstance(config, dict):
+        return True
+    if topic == WAVE_PREVIEW_PERFECT.key_suffix:  # the plant's bench oracle (plant_node)
+        controller = config.get("controller")
+        preview = controller.get("preview") if isinstance(controller, dict) else None
+        return preview == "perfect" and config.get("platform") is not None
+    return True
 
 
 def _scenario(run: RunData | RunInfo) -> dict[str, Any]:
@@ -822,10 +838,15 @@ class _Summary:
         t_min, t_max = self.t_min, self.t_max
         duration = (t_max - t_min) / 1e9 if t_max >= t_min else math.nan
         out: dict[str, Any] = dict(info.metadata.get("run", {}))
+        config = _scenario(info).get("config")
         out.update(
             turbine=_turbine(info.topics),
             duration_s=duration,
-            messages={_suffix(k): info.counts[k] for k in info.topics},
+            messages={
+                _suffix(k): info.counts[k]
+                for k in info.topics
+                if info.counts[k] or could_have(_suffix(k), config)
+            },
             truncated=info.truncated,
             truncated_at_s=(t_max / 1e9 if t_max >= t_min else None) if info.truncated else None,
             statistics_ok=info.statistics_ok,

@@ -13,9 +13,10 @@ give the same verdict. The codes (docs/exit-codes.md):
   any time; except under ``timing.watchdog_policy = "recover"``, where a safe state (safe
   mode) that was left before the end does not count by itself when the missed deadlines
   are within the tolerance (:func:`recovered_watchdog_tolerated`);
-* 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_miss_fraction``
-  of the cycles, or a controller whose step took longer than the control period in more
-  than :data:`OVERRUN_FRACTION` of its cycles (its compute time);
+* 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_misses`` and
+  than ``timing.max_deadline_miss_fraction`` of the cycles (:func:`deadline_misses_over`),
+  or a controller whose step took longer than the control period in more than
+  :data:`OVERRUN_FRACTION` of its cycles (its compute time);
 * 7 ``controller_fault``: the controller's core raised, or returned a non-finite or
   out-of-range command (:mod:`hil.nodes.controller_fault`).
 
@@ -39,10 +40,13 @@ from hil.nodes.controller_fault import fault_line
 from hil.scenario.schema import watchdog_rule
 
 __all__ = [
+    "DEFAULT_MAX_DEADLINE_MISSES",
     "DEFAULT_MAX_DEADLINE_MISS_FRACTION",
     "PRECEDENCE",
     "ExitCode",
+    "deadline_miss_count_tolerance",
     "deadline_miss_tolerance",
+    "deadline_misses_over",
     "outcome_line",
     "record_outcome",
     "recovered_watchdog_tolerated",
@@ -100,6 +104,13 @@ DEFAULT_MAX_DEADLINE_MISS_FRACTION: dict[str, float] = {
 }
 
 
+#: Missed deadlines tolerated as a count, when the scenario's ``timing.max_deadline_misses`` is
+#: not set: a run fails on its misses only when they are over both this and the fraction
+#: above, so one miss in a real-time run shorter than 100 cycles (a Hexicon run's 1 s
+#: period: 60 cycles a minute) does not fail it; in lock-step and in process none.
+DEFAULT_MAX_DEADLINE_MISSES: dict[str, int] = {"realtime": 1, "lockstep": 0, "inprocess": 0}
+
+
 def _dict(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
@@ -125,6 +136,42 @@ def deadline_miss_tolerance(summary: dict[str, Any]) -> float:
     mode = str(_dict(summary.get("run")).get("mode", "realtime"))
     return DEFAULT_MAX_DEADLINE_MISS_FRACTION.get(
         mode, DEFAULT_MAX_DEADLINE_MISS_FRACTION["realtime"]
+    )
+
+
+def deadline_miss_count_tolerance(summary: dict[str, Any]) -> int:
+    """The missed deadlines tolerated as a count in this run: the scenario's
+    ``timing.max_deadline_misses``, else :data:`DEFAULT_MAX_DEADLINE_MISSES` for the run's
+    mode (as :func:`deadline_miss_tolerance`)."""
+    config = _dict(_dict(summary.get("scenario")).get("config"))
+    given = _number(_dict(config.get("timing")).get("max_deadline_misses"))
+    if given is not None:
+        return int(given)
+    mode = str(_dict(summary.get("run")).get("mode", "realtime"))
+    return DEFAULT_MAX_DEADLINE_MISSES.get(mode, DEFAULT_MAX_DEADLINE_MISSES["realtime"])
+
+
+def deadline_misses_over(summary: dict[str, Any]) -> str | None:
+    """Why the run's missed deadlines fail it, or None when they are tolerated.
+
+    They fail it when they are more than the count tolerated
+    (:func:`deadline_miss_count_tolerance`) and more than the fraction of the cycles
+    tolerated (:func:`deadline_miss_tolerance`).
+    """
+    timing = _dict(summary.get("timing"))
+    misses = _number(timing.get("deadline_misses")) or 0.0
+    if misses <= 0:
+        return None
+    cycles = _number(timing.get("cycles"))
+    count = deadline_miss_count_tolerance(summary)
+    tolerated = deadline_miss_tolerance(summary)
+    fraction = misses / cycles if cycles else math.inf
+    if misses <= count or fraction <= tolerated:
+        return None
+    return (
+        f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles ({100 * fraction:.2f} %), "
+        f"over the {100 * tolerated:g} % tolerated (timing.max_deadline_miss_fraction) and "
+        f"more than the {count} tolerated (timing.max_deadline_misses)"
     )
 
 
@@ -197,19 +244,9 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
             (ExitCode.SAFE_STATE, f"the controller entered its safe mode {entries:.0f} time(s)")
         )
 
-    misses = _number(timing.get("deadline_misses")) or 0.0
-    if misses > 0:
-        tolerated = deadline_miss_tolerance(summary)
-        fraction = misses / cycles if cycles else math.inf
-        if fraction > tolerated:
-            found.append(
-                (
-                    ExitCode.DEADLINE_MISSES,
-                    f"{misses:.0f} missed deadlines in {cycles or 0:.0f} cycles "
-                    f"({100 * fraction:.2f} %), over the {100 * tolerated:g} % tolerated "
-                    "(timing.max_deadline_miss_fraction)",
-                )
-            )
+    over = deadline_misses_over(summary)
+    if over is not None:
+        found.append((ExitCode.DEADLINE_MISSES, over))
 
     overrun = controller_overrun(summary)
     if overrun is not None:
@@ -225,11 +262,11 @@ def recovered_watchdog_tolerated(summary: dict[str, Any], held_at_end: bool) -> 
     """True when a watchdog's safe state (the plant's) or safe mode (the controller's) needs
     no verdict of its own: the recorded scenario's watchdog policy is ``"recover"``
     (:func:`hil.scenario.schema.watchdog_rule`), control was handed back before the end
-    (``held_at_end`` False), and the missed deadlines are within
-    :func:`deadline_miss_tolerance`. A trip is how a stall the tolerance allows shows
-    itself under that policy; a run whose misses exceed it still gets the safe-state code,
-    the more telling of the two. Under ``"latch"`` (or a safe state held to the end) it
-    is never tolerated.
+    (``held_at_end`` False), and the missed deadlines are within the tolerance
+    (:func:`deadline_misses_over` finds none over it). A trip is how a stall the tolerance
+    allows shows itself under that policy; a run whose misses exceed it still gets the
+    safe-state code, the more telling of the two. Under ``"latch"`` (or a safe state held
+    to the end) it is never tolerated.
     """
     if held_at_end:
         return False
@@ -241,7 +278,7 @@ def recovered_watchdog_tolerated(summary: dict[str, Any], held_at_end: bool) -> 
     misses = _number(timing.get("deadline_misses")) or 0.0
     if misses <= 0:
         return True
-    return bool(cycles) and misses / (cycles or 1.0) <= deadline_miss_tolerance(summary)
+    return bool(cycles) and deadline_misses_over(summary) is None
 
 
 def controller_overrun(summary: dict[str, Any]) -> str | None:

@@ -17,6 +17,7 @@ import difflib
 import importlib.resources
 import importlib.util
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Iterator
@@ -250,10 +251,13 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     a second's worth of on-time commands (or K, if more) even when latched: a slow start
     does not make the whole run a safe-state run.
 
-    ``max_deadline_miss_fraction`` (0 to 1): missed deadlines tolerated, as a fraction of
-    the run's cycles, before ``fowt run`` exits with its deadline-misses code
-    (:mod:`hil.review.outcome`); unset: 0.01 in real time, 0 in lock-step and in process (there
-    the plant waits for every command, so any miss is a fault).
+    ``max_deadline_miss_fraction`` (0 to 1) and ``max_deadline_misses`` (a count): missed
+    deadlines tolerated. ``fowt run`` exits with its deadline-misses code
+    (:mod:`hil.review.outcome`) only when the run's misses are more than
+    ``max_deadline_misses`` and more than ``max_deadline_miss_fraction`` of its cycles, so a
+    single miss in a short run is not a failed run, nor a handful in a long one. Unset:
+    1 miss and 0.01 in real time, 0 and 0 in lock-step and in process (there the plant waits
+    for every command, so any miss is a fault); both 0: any miss fails the run.
     """
 
     control_period_s: Annotated[float, msgspec.Meta(ge=0.001, le=1.0)] = 0.01
@@ -262,6 +266,7 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     watchdog_policy: WatchdogPolicy | None = None
     watchdog_recover_cycles: Cycles = 0
     max_deadline_miss_fraction: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] | None = None
+    max_deadline_misses: Cycles | None = None
 
     def __post_init__(self) -> None:
         k = self.watchdog_recover_cycles
@@ -554,7 +559,8 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     ``"rosco"``: a Bladed-style DISCON library (:mod:`controller.rosco`); ``preset`` names
     a shipped DISCON.IN (``"nrel5mw"``, ``"iea15mw_volturnus"``) unless ``parameter_file``
     gives one; ``library`` a user's build (default: the ``rosco`` wheel's ``libdiscon``).
-    Relative paths are taken from the working directory of ``fowt run``.
+    A relative ``library`` or ``parameter_file`` (or a ``preset`` path) is taken from the
+    scenario file's folder.
 
     A kind of your own (docs/guide/own-controller.md): the name an installed distribution
     registers in the entry-point group ``fowt_hil.controllers``, or ``kind = "python"`` with
@@ -562,7 +568,7 @@ class ControllerSection(_Section, frozen=True, forbid_unknown_fields=True, kw_on
     the Python path). ``[controller.settings]``: the kind's own table, validated against the
     settings schema the kind declares when the scenario is read. ``base_dir``: the folder
     relative paths in the settings resolve against (default: the scenario file's folder; the
-    working directory for a shipped scenario). Every kind found is accepted
+    shipped scenarios' folder for a shipped scenario). Every kind found is accepted
     (``fowt controllers`` lists them); an unknown one is refused with the closest names.
 
     ``"fmu"``: an FMI 2.0 or 3.0 co-simulation FMU (:mod:`controller.fmu`);
@@ -720,7 +726,15 @@ class InitialSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=
 
 
 class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """One run of the bench."""
+    """One run of the bench.
+
+    Keys that name a file (:data:`FILE_KEYS`: ``turbine``, ``platform`` and
+    ``controller.preset`` when given as a path rather than a shipped name, which holds a ``/``
+    or ends in ``.toml``; ``controller.library``, ``controller.parameter_file``) take a
+    relative path from the scenario file's folder, wherever ``fowt`` runs from, as a campaign
+    file's ``scenario`` does; a file that is not there is refused with the path it was looked
+    for at.
+    """
 
     name: str
     turbine: str
@@ -1036,13 +1050,146 @@ def settings_base_dir(raw: dict[str, Any], base_dir: str | Path | None) -> None:
         c["base_dir"] = str((Path(base_dir) / given).resolve())
 
 
+#: Scenario keys that name a file, as (section, key, how): ``"file"`` is always a path,
+#: ``"preset"`` a shipped name or, when it holds a ``/`` or ends in ``.toml``, a path.
+#: :func:`resolve_paths` takes the relative ones from the scenario file's folder.
+FILE_KEYS: tuple[tuple[str, str, Literal["file", "preset"]], ...] = (
+    ("", "turbine", "preset"),
+    ("", "platform", "preset"),
+    ("controller", "preset", "preset"),
+    ("controller", "library", "file"),
+    ("controller", "parameter_file", "file"),
+)
+
+
+def _is_path(value: str, how: str) -> bool:
+    return how == "file" or "/" in value or value.endswith(".toml")
+
+
+def resolve_paths(raw: dict[str, object], base_dir: Path, source: str = "") -> dict[str, object]:
+    """``raw`` (a parsed scenario) with its relative file paths taken from ``base_dir``.
+
+    Every key of :data:`FILE_KEYS` that holds a path (a shipped preset name stays as it is)
+    becomes an absolute path: ``~`` expanded, a relative path joined to ``base_dir`` (the
+    scenario file's folder). The processes of a run load the same file and so resolve the
+    same paths, whatever their working directory; a campaign's runs carry them absolute.
+
+    Parameters
+    ----------
+    raw : dict
+        The scenario's TOML, parsed (not changed: the sections touched are copied).
+    base_dir : Path
+        The folder relative paths are taken from.
+    source : str
+        The scenario's file, for the message.
+
+    Returns
+    -------
+    dict
+        The scenario with absolute paths.
+
+    Raises
+    ------
+    ScenarioError
+        When a path names no file (a ``.toml`` preset, a library, a parameter file): the
+        message gives the key, the value and the path it was looked for at.
+    """
+    out = dict(raw)
+    base = base_dir.expanduser().absolute()
+    for section, key, how in FILE_KEYS:
+        table = out.get(section) if section else out
+        if not isinstance(table, dict):
+            continue
+        value = table.get(key)
+        if not isinstance(value, str) or not value or not _is_path(value, how):
+            continue
+        path = Path(value).expanduser()
+        if not path.is_absolute():
+            path = Path(os.path.normpath(base / path))  # "../x" without a "dir/.." left in
+        if not path.is_file():
+            name = f"{section}.{key}" if section else key
+            where = f"{source}: " if source else ""
+            relative = (
+                ""
+                if Path(value).expanduser().is_absolute()
+                else (" (a relative path is taken from the scenario file's folder)")
+            )
+            raise ScenarioError(f"{where}{name} = {value!r}: file not found: {path}{relative}")
+        if section:
+            table = dict(table)
+            out[section] = table
+        else:
+            table = out
+        table[key] = str(path)
+    return out
+
+
+def _literal_values(tp: msgspec.inspect.Type) -> list[str]:
+    """The string values a type allows (its ``Literal`` parts), or []."""
+    if isinstance(tp, msgspec.inspect.LiteralType):
+        return [str(v) for v in tp.values]
+    if isinstance(tp, msgspec.inspect.UnionType):
+        return [v for t in tp.types for v in _literal_values(t)]
+    return []
+
+
+def allowed_values(path: str) -> list[str]:
+    """The values the scenario key at ``path`` (``controller.kind``, ``wind.kind``,
+    ``faults[0].kind``) allows when it is one of a fixed set (a ``Literal``, or the ``kind``
+    of a tagged table), else []."""
+    tp: msgspec.inspect.Type = msgspec.inspect.type_info(Scenario)
+    for part in path.split("."):
+        name = re.sub(r"\[\d+\]$", "", part)
+        structs = [tp] if isinstance(tp, msgspec.inspect.StructType) else []
+        if isinstance(tp, msgspec.inspect.UnionType):
+            structs = [t for t in tp.types if isinstance(t, msgspec.inspect.StructType)]
+            tags = [str(t.tag) for t in structs if t.tag_field == name and t.tag is not None]
+            if tags:
+                return tags
+        fields = [f for s in structs for f in s.fields if f.encode_name == name]
+        if not fields:
+            return []
+        tp = fields[0].type
+        if part != name:  # a list item: faults[i]
+            if not isinstance(tp, msgspec.inspect.ListType):
+                return []
+            tp = tp.item_type
+    return _literal_values(tp)
+
+
+_BAD_VALUE = re.compile(r"Invalid (?:enum )?value '([^']*)'")
+
+
+def _enum_hint(msg: str) -> str:
+    """``; did you mean 'x'?`` (or the values expected, when none is close) for msgspec's
+    ``Invalid enum value`` / ``Invalid value`` of a key with a fixed set of values, else ""."""
+    bad, at = _BAD_VALUE.match(msg), _AT_PATH.search(msg)
+    if bad is None or at is None:
+        return ""
+    known = allowed_values(at.group(1))
+    if not known:
+        return ""
+    hint = suggestion(bad.group(1), known)
+    return f"; {hint}" if hint else f"; expected one of {', '.join(known)}"
+
+
 def parse_scenario(
     text: str, source: str = "<string>", base_dir: str | Path | None = None
 ) -> Scenario:
     """Parse and validate scenario TOML text.
 
-    ``base_dir``: the folder the controller settings' relative paths resolve against
-    (:func:`settings_base_dir`; None: left unset, the working directory when built).
+    Parameters
+    ----------
+    text : str
+        The scenario's TOML.
+    source : str
+        Where it came from (its file), for the messages.
+    base_dir : Path, optional
+        The folder the scenario's relative file paths are taken from (the scenario file's:
+        :func:`resolve_paths`), and the default of ``[controller] base_dir``, which the
+        controller settings' relative paths resolve against (:func:`settings_base_dir`);
+        None leaves them as they are (relative to the working directory of the process that
+        opens them).
 
     Raises
     ------
@@ -1056,6 +1203,8 @@ def parse_scenario(
     bad = non_finite_key(raw)
     if bad is not None:
         raise ScenarioError(f"{source}: key {bad[0]!r}: expected a finite number, got {bad[1]}")
+    if base_dir is not None:
+        raw = resolve_paths(raw, Path(base_dir), source)
     settings_base_dir(raw, base_dir)
     try:
         return msgspec.convert(raw, Scenario)
@@ -1064,11 +1213,7 @@ def parse_scenario(
         unknown = unknown_key_text(msg, _known_fields)
         if unknown is not None:
             raise ScenarioError(f"{source}: unknown key {unknown}") from exc
-        at = _AT_PATH.search(msg)
-        kinds = ""
-        if at is not None and re.fullmatch(r"faults\[\d+\]\.kind", at.group(1)):
-            kinds = f" (kinds: {', '.join(get_args(FaultKind))})"
-        raise ScenarioError(f"{source}: {key_at_text(msg, kinds)}") from exc
+        raise ScenarioError(f"{source}: {key_at_text(msg, _enum_hint(msg))}") from exc
 
 
 def package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[str]:
@@ -1086,17 +1231,33 @@ def package_presets(package: str, *folder: str, suffix: str = ".toml") -> list[s
     return sorted(p.name.removesuffix(suffix) for p in root.glob(f"*{suffix}"))
 
 
+def suggestion(value: str, known: list[str] | tuple[str, ...], n: int = 3) -> str:
+    """``"did you mean 'a'?"`` / ``"did you mean 'a', 'b' or 'c'?"``: the names of ``known``
+    closest to ``value`` (at most ``n``, :func:`difflib.get_close_matches`), or "" when none
+    is close."""
+    close = difflib.get_close_matches(value, list(known), n=n, cutoff=0.6)
+    if not close:
+        return ""
+    # Only those about as close as the closest: 'iea15mw_baselin' is 'iea15mw_baseline', not
+    # also 'nrel5mw_baseline'.
+    best = difflib.SequenceMatcher(None, value, close[0]).ratio()
+    close = [c for c in close if difflib.SequenceMatcher(None, value, c).ratio() >= best - 0.1]
+    quoted = [repr(c) for c in close]
+    if len(quoted) == 1:
+        return f"did you mean {quoted[0]}?"
+    return f"did you mean {', '.join(quoted[:-1])} or {quoted[-1]}?"
+
+
 def _check_preset(key: str, ref: str, shipped: list[str], what: str) -> None:
     """A preset reference: a shipped name, or a path to an existing ``.toml`` file."""
     if ref in shipped:
         return
     if ref.endswith(".toml"):
         if not Path(ref).is_file():
-            raise ValueError(f"{key} = {ref!r}: preset file not found")
+            raise ValueError(f"{key} = {ref!r}: preset file not found ({Path(ref).absolute()})")
         return
-    raise ValueError(
-        f"{key} = {ref!r}: expected {what} ({', '.join(shipped)}) or a path to a preset .toml"
-    )
+    hint = suggestion(ref, shipped) or "'fowt presets' lists them"
+    raise ValueError(f"{key} = {ref!r}: expected {what} or a path to a preset .toml; {hint}")
 
 
 def shipped_turbines() -> list[str]:
@@ -1135,9 +1296,11 @@ def scenario_text(name_or_path: str) -> tuple[str, str]:
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists() or not bare:
         if path.is_dir():
+            hint = suggestion(name_or_path, shipped_scenarios())
             raise ScenarioError(
                 f"scenario {name_or_path!r}: {path} is a directory, not a scenario file, and "
-                f"no shipped scenario has that name (shipped: {', '.join(shipped_scenarios())})"
+                "no shipped scenario has that name"
+                + (f"; {hint}" if hint else " ('fowt scenarios' lists them)")
             )
         if not path.is_file():
             raise ScenarioError(f"scenario file {path} does not exist")
@@ -1152,22 +1315,30 @@ def scenario_text(name_or_path: str) -> tuple[str, str]:
             raise ScenarioError(
                 f"scenario file {path}: cannot read it ({exc.strerror or exc})"
             ) from exc
+    hint = suggestion(name_or_path, shipped_scenarios())
     raise ScenarioError(
-        f"no scenario {name_or_path!r}: expected a .toml path or one of "
-        f"{', '.join(shipped_scenarios())}"
+        f"no scenario {name_or_path!r}: expected a shipped scenario's name or a .toml path; "
+        + (hint or "'fowt scenarios' lists the shipped ones")
     )
+
+
+def scenario_folder(name_or_path: str) -> Path:
+    """The folder a scenario's relative file paths are taken from: its file's folder (for a
+    shipped scenario, the shipped scenarios' folder)."""
+    bare = "/" not in name_or_path and not name_or_path.endswith(".toml")
+    res = importlib.resources.files("hil.scenario") / "presets" / f"{name_or_path}.toml"
+    if bare and name_or_path and res.is_file():
+        return Path(str(importlib.resources.files("hil.scenario") / "presets"))
+    return Path(os.path.normpath(Path(name_or_path).expanduser().absolute())).parent
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
     """Load a shipped scenario by name or a scenario file by path.
 
-    For a file with ``[controller.settings]``, ``controller.base_dir`` (the folder relative
-    paths in them are taken from) is set to the file's folder, or resolved against it when
-    the file gives a relative one, so every process that loads the file
+    Its relative file paths are taken from its folder (:func:`resolve_paths`), and so is
+    ``[controller] base_dir`` of a scenario with ``[controller.settings]`` (the folder
+    relative paths in the settings are taken from), so every process that loads the file
     finds the same files whatever its working directory.
     """
     text, source = scenario_text(name_or_path)
-    res = importlib.resources.files("hil.scenario") / "presets" / f"{name_or_path}.toml"
-    shipped = "/" not in name_or_path and not name_or_path.endswith(".toml") and res.is_file()
-    base_dir = Path.cwd() if shipped else Path(source).parent
-    return parse_scenario(text, source, base_dir)
+    return parse_scenario(text, source, scenario_folder(name_or_path))
