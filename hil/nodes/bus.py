@@ -27,17 +27,20 @@ from __future__ import annotations
 import contextlib
 import ipaddress
 import json
+import os
+import shutil
 import socket
+import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import zenoh
 
-from bus_schemas.auth import sign, verify
+from bus_schemas.auth import session_credentials, sign, verify
 from bus_schemas.codec import DecodeError, TruncatedError
 from bus_schemas.registry import KEY_PREFIX, MessageType, identify
 
@@ -84,7 +87,8 @@ class BusConfig:
     auth_key : bytes or None
         The run's 32-byte secret (:mod:`bus_schemas.auth`): every payload put is signed,
         every payload received is verified before anyone decodes it. None: unauthenticated
-        (``--insecure``, the in-process tools).
+        (``--insecure``, the in-process tools). Without ``config_file`` the key also
+        authenticates the Zenoh session itself (:attr:`session_auth`).
     """
 
     listen: tuple[str, ...] = ()
@@ -99,8 +103,28 @@ class BusConfig:
             for ep in (*self.listen, *self.connect):
                 _check_loopback(ep)
 
+    @property
+    def session_auth(self) -> bool:
+        """True when the session opens only with the run's credential.
+
+        Zenoh's transport authentication (``transport/auth/usrpwd``, user and password
+        from :func:`bus_schemas.auth.session_credentials`) on the loopback set-up the
+        launcher makes: a listening node accepts a link only from a session proving it
+        holds the run's password, so a process without ``run.key`` gets no session to
+        route, subscribe or flood through. With a config file the file's own transport
+        security applies (mutual TLS and access control through a router,
+        docs/multi-host.md): a router without the run's dictionary would refuse a node
+        offering a password.
+        """
+        return self.auth_key is not None and self.config_file is None
+
     def zenoh_config(self) -> zenoh.Config:
-        """Build the ``zenoh.Config`` for this node."""
+        """Build the ``zenoh.Config`` for this node.
+
+        With :attr:`session_auth` it carries the run's user and password (what a node
+        presents when it connects); what a listening node checks against, the dictionary
+        file, is added by :class:`Bus` for the moment the session opens.
+        """
         if self.config_file is not None:
             conf = zenoh.Config.from_file(str(self.config_file))
         else:
@@ -120,6 +144,11 @@ class BusConfig:
             conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         for key, value in self.extra:
             conf.insert_json5(key, value)
+        if self.session_auth:
+            assert self.auth_key is not None
+            user, password = session_credentials(self.auth_key)
+            conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+            conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
         return conf
 
     def describe(self) -> str:
@@ -129,7 +158,8 @@ class BusConfig:
         ``, config FILE``.
         """
         if self.config_file is None:
-            return f"listen {list(self.listen)}, connect {list(self.connect)}"
+            auth = ", session authenticated" if self.session_auth else ""
+            return f"listen {list(self.listen)}, connect {list(self.connect)}{auth}"
         conf = self.zenoh_config()
         listen, connect = (
             json.loads(conf.get_json(f"{k}/endpoints")) for k in ("listen", "connect")
@@ -147,6 +177,49 @@ def free_tcp_endpoint() -> str:
 
 class BusOpenError(RuntimeError):
     """The Zenoh session could not be opened (refused certificate, no peer, port in use)."""
+
+
+@contextlib.contextmanager
+def credential_dictionary(user: str, password: str) -> Iterator[Path]:
+    """A ``user:password`` dictionary file for Zenoh's ``usrpwd`` check, while it is open.
+
+    Zenoh reads the accepted credentials from a file (``dictionary_file``) once, when the
+    session opens. The file is made in a fresh private folder (mode 0700, the file 0600,
+    created exclusively) and removed with its folder on leaving, so the password rests on
+    disk only for the moment ``zenoh.open`` takes, readable by nobody else, and never
+    appears on a command line.
+    """
+    folder = Path(tempfile.mkdtemp(prefix="fowt-zenoh-auth-"))
+    try:
+        path = folder / "usrpwd"
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+        try:
+            os.write(fd, f"{user}:{password}\n".encode())
+        finally:
+            os.close(fd)
+        yield path
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def open_session(config: BusConfig) -> zenoh.Session:
+    """``zenoh.open`` of ``config``, with the run's credential dictionary when it has one.
+
+    Raises
+    ------
+    BusOpenError
+        On a refused TLS handshake, an endpoint in use, a client that reached no router.
+    """
+    conf = config.zenoh_config()
+    try:
+        if not config.session_auth:
+            return zenoh.open(conf)
+        assert config.auth_key is not None
+        with credential_dictionary(*session_credentials(config.auth_key)) as path:
+            conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(path)))
+            return zenoh.open(conf)
+    except zenoh.ZError as exc:  # a refused TLS handshake, an endpoint in use, ...
+        raise BusOpenError(f"the Zenoh session did not open ({config.describe()}): {exc}") from exc
 
 
 class SigningPublisher:
@@ -185,12 +258,7 @@ class Bus:
 
     def __init__(self, config: BusConfig) -> None:
         self.config = config
-        try:
-            self.session = zenoh.open(config.zenoh_config())
-        except zenoh.ZError as exc:  # a refused TLS handshake, an endpoint in use, ...
-            raise BusOpenError(
-                f"the Zenoh session did not open ({config.describe()}): {exc}"
-            ) from exc
+        self.session = open_session(config)
         self._publishers: dict[str, Any] = {}
         self._subscribers: list[Any] = []
 
@@ -418,6 +486,22 @@ class LogBatcher:
             return
         self.puts += 1
         self.messages += len(parts)
+
+
+#: Simulated seconds past a run's duration that a received sample time may still lie [s]
+#: (a preview looks ahead; a run ends within one control period of its duration).
+SAMPLE_TIME_SLACK_S = 300.0
+
+
+def sample_time_limit_ns(duration_s: float) -> int:
+    """The latest ``sample_time_ns`` a node accepts in a run of ``duration_s`` [s].
+
+    A run's sample times start at 0 and end at its duration: a received time past this
+    limit (:data:`SAMPLE_TIME_SLACK_S` beyond it) is implausible (a forgery by a key holder,
+    or a corrupted sender) and counted as a ``time`` rejection, never used in arithmetic
+    (a time near 2**63 - 1 plus the run's start overflows 64 bits).
+    """
+    return round((duration_s + SAMPLE_TIME_SLACK_S) * 1e9)
 
 
 #: Wall seconds a node waits for its links to the others (:func:`wait_matched`) before it

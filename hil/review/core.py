@@ -103,7 +103,13 @@ from bus_schemas.messages import (
 from hil.review import kpi
 from hil.review import stream as rs
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
-from hil.runlog.completeness import completeness, describe
+from hil.runlog.completeness import (
+    CONSECUTIVE_TOPICS,
+    CYCLE_FIELDS,
+    CycleOrder,
+    completeness,
+    describe,
+)
 from hil.runlog.mcap_io import PROFILE, MessageList, RunData, read_run
 from hil.scenario.schema import ReviewSection
 
@@ -375,6 +381,7 @@ class _Summary:
         self.cmd_last_t = math.nan
         self.cmd_diffs: Counter[float] = Counter()
         self.rows: dict[str, list[dict[str, Any]]] = {t: [] for t in rs.ROW_TOPICS}
+        self.order = {t: CycleOrder(t in CONSECUTIVE_TOPICS) for t in CYCLE_FIELDS}
         # windowed (KPI window): truth, sensors, joined status
         self.window: rs.Window | None = None
         self.truth_any = False
@@ -426,6 +433,9 @@ class _Summary:
         if not b.first:
             return
         s = b.suffix
+        order = self.order.get(s)
+        if order is not None and CYCLE_FIELDS[s] in c:
+            order.feed(c[CYCLE_FIELDS[s]])
         if s == "truth":
             self.truth_any = True
             self._window().truth_times(t / 1e9)
@@ -742,6 +752,7 @@ class _Summary:
             plant[-1] if plant else None,
             self.rows["controller/report"],
             self.final_summary is not None,
+            order={t: o.as_dict() for t, o in self.order.items() if o.last is not None},
         )
 
     def _plant_account(self) -> dict[str, Any]:
