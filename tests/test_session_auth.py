@@ -177,3 +177,41 @@ def test_a_keyless_client_cannot_touch_a_lockstep_run(tmp_path: Path, mode: str)
 @pytest.mark.e2e
 def test_a_keyless_flood_cannot_stop_a_realtime_run(tmp_path: Path) -> None:
     _run_beside(tmp_path, "flood", lockstep=False, duration_s=5.0)
+
+
+@pytest.mark.e2e
+def test_fowt_run_removes_the_key_unless_asked_to_keep_it(tmp_path: Path) -> None:
+    from _helpers import fowt
+
+    for keep in (False, True):
+        out = tmp_path / f"keep{keep}"
+        args = ["run", SCENARIO, "--mode", "lockstep", "--duration", "2", "--out", str(out)]
+        proc = fowt(*args, "--no-plots", *(["--keep-key"] if keep else []), timeout=180)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert (out / "run.key").exists() == keep
+        meta = read_run(out / "run.mcap").metadata["recorder"]
+        assert meta["authenticated"] == "true" and meta["session_authenticated"] == "true"
+        assert "unauthenticated" not in proc.stdout
+
+
+@pytest.mark.e2e
+def test_an_insecure_run_warns_and_says_so_in_its_recording_and_review(tmp_path: Path) -> None:
+    from _helpers import fowt
+
+    endpoints = two_endpoints()
+    nodes = lockstep_node_cmds(SCENARIO, 2.0, tmp_path, endpoints, ["--insecure"])
+    with NodeProcesses(tmp_path) as procs:
+        for name, cmd in nodes.items():
+            procs.start(name, cmd)
+        codes = procs.wait(timeout=180)
+        logs = procs.logs()
+    assert codes == dict.fromkeys(codes, 0), logs
+    for log in logs.values():
+        assert "warning: --insecure" in log
+    meta = read_run(tmp_path / "run.mcap").metadata["recorder"]
+    assert meta["authenticated"] == "false" and meta["session_authenticated"] == "false"
+    review = fowt("review", str(tmp_path / "run.mcap"), "--no-plots", "--json")
+    assert review.returncode == 0, review.stderr
+    assert json.loads(review.stdout)["run"]["authenticated"] is False
+    shown = fowt("review", str(tmp_path / "run.mcap"), "--no-plots", columns=200)
+    assert "unauthenticated run" in shown.stdout

@@ -25,6 +25,12 @@ scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycle
   every half period; each period past the expected arrival of the next frame (half a period
   of grace for jitter) counts one miss.
 
+Time plausibility: a frame whose sample time lies past the run's window
+(:func:`hil.nodes.bus.sample_time_limit_ns`) or further ahead of the last accepted frame's
+than its seq is (frame k is sampled at k control periods; one period of slack) is refused as
+``implausible_time`` and moves nothing, so a single signed far-future frame cannot make every
+genuine frame after it "stale".
+
 Sequence plausibility: a frame whose ``seq`` is more than W ahead of the last accepted one,
 W = max(ceil(:data:`PLAUSIBLE_GAP_S` / T), 2 N) frames (T the control period, N the watchdog's
 miss limit; 500 frames at 100 Hz), is not a gap the bus could have made in a run: it is
@@ -124,6 +130,7 @@ from hil.nodes.bus import (
     BusConfig,
     LogBatcher,
     batch_key,
+    sample_time_limit_ns,
     wait_for_recorder,
     wait_matched,
 )
@@ -274,6 +281,7 @@ class ControllerRuntime:
         self.clock = clock
         self.last_seq = -1
         self.last_sample_time_ns = -1
+        self.max_sample_time_ns = sample_time_limit_ns(scenario.duration_s)
         self.seq_window = seq_window(self.dt_s, scenario.timing.watchdog_misses)
         # A run of implausible frames: (its last seq, its last sample time ns, length).
         self._jump_run: tuple[int, int, int] | None = None
@@ -420,6 +428,17 @@ class ControllerRuntime:
             return None
         if frame.sample_time_ns <= self.last_sample_time_ns:
             self.rejected["stale"] += 1
+            return None
+        # Plausible time: inside the run's window, and no further ahead of the last accepted
+        # frame than its seq is (frame k is sampled at k periods, plus one period of slack).
+        # A key holder's single far-future frame would otherwise make every genuine frame
+        # after it "stale" and wedge the controller.
+        ahead = frame.sample_time_ns - max(self.last_sample_time_ns, 0)
+        if (
+            frame.sample_time_ns > self.max_sample_time_ns
+            or ahead > (frame.seq - self.last_seq + 1) * self.period_ns
+        ):
+            self.rejected["implausible_time"] += 1
             return None
         # One C-level sum instead of a check per field: a sum of finite floats of at most
         # ~1e8 each is finite, and any NaN or infinity makes it NaN or infinite.

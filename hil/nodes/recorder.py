@@ -636,6 +636,9 @@ def run_recorder_node(
             "messages": str(run_log.count),
             "shortfall": json.dumps(missing),
             "rejected": json.dumps(dict(recorder.rejected)),
+            # --insecure: payloads neither signed nor checked, the session open to anyone
+            "authenticated": "false" if bus_config.auth_key is None else "true",
+            "session_authenticated": str(bus_config.session_auth).lower(),
             "unknown_keys": json.dumps(dict(recorder.unknown_keys)),
         }
         if can_bus is not None and tap is not None:

@@ -741,6 +741,10 @@ class _Summary:
             error=info.error,
             skipped_ranges=[r.as_dict() for r in info.skipped],
         )
+        # The recorder says whether the run's bus was authenticated ("true"/"false"); a file
+        # from before that record says nothing (None).
+        auth = info.metadata.get("recorder", {}).get("authenticated")
+        out["authenticated"] = None if auth is None else auth == "true"
         return out
 
     def _recording(self) -> dict[str, Any]:
@@ -1084,6 +1088,11 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     msgs = run.get("messages", {})
     head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
     console.print(head)
+    if run.get("authenticated") is False:
+        console.print(
+            "[bold yellow]unauthenticated run (--insecure): any local process could join "
+            "its bus, command the turbine and write to this recording[/bold yellow]"
+        )
     rec = summary.get("recording")
     if isinstance(rec, dict):
         line = escape(f"recording: {describe(rec)}")
