@@ -114,3 +114,47 @@ def test_review_finds_repeats_reorders_skips_and_excess() -> None:
         "sensors: 2 cycles recorded again, 1 cycles out of order, "
         "2 cycles missing between recorded ones"
     ]
+
+
+def test_only_the_runs_recorder_satisfies_the_controllers_wait(tmp_path: Path) -> None:
+    """The controller's ``--await-recorder`` wait ends on the recorder's signed answer to
+    its nonce, not on any subscriber (which made a plant start before the recorder's link
+    was up, cutting the start of the recording)."""
+    import threading
+
+    from hil.nodes.bus import Bus, BusConfig, await_recorder, free_tcp_endpoint
+
+    key = new_key()
+    ep = free_tcp_endpoint()
+    controller = Bus(BusConfig(listen=(ep,), auth_key=key))
+    others: list[Bus] = []
+    try:
+        status = controller.publisher("fowt/t1/controller/batch")
+        # A session holding the credential that subscribes to everything but is no recorder
+        # (and one answering with its own nonce) does not end the wait.
+        bystander = Bus(BusConfig(connect=(ep,), auth_key=key))
+        others.append(bystander)
+        bystander.subscribe("fowt/t1/**", lambda _k, _p: None)
+        liar = bystander.publisher("fowt/t1/recorder/ready")
+        bystander.subscribe("fowt/t1/controller/hello", lambda _k, _p: liar.put(bytes(16)))
+        assert not await_recorder(controller, status, "t1", 1.0)
+        stop = threading.Event()
+        stop.set()  # a signal ends the wait at once
+        assert not await_recorder(controller, status, "t1", 60.0, stop)
+        # The run's recorder answers the nonce it got.
+        log = RecorderLog(tmp_path / "r.mcap", "t1")
+        recorder = Recorder(log, key)
+        rec_bus = Bus(BusConfig(connect=(ep,), auth_key=key))
+        others.append(rec_bus)
+        recorder.answer_hello = lambda nonce: rec_bus.put("fowt/t1/recorder/ready", nonce)
+        sub = rec_bus.session.declare_subscriber(
+            "fowt/t1/**", lambda s: recorder.on_sample(str(s.key_expr), s.payload.to_bytes())
+        )
+        assert await_recorder(controller, status, "t1", 30.0)
+        sub.undeclare()
+        assert recorder.rejected == {} and recorder.unknown_keys == {}
+        log.close()
+    finally:
+        for bus in others:
+            bus.close()
+        controller.close()

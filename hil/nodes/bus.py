@@ -25,9 +25,11 @@ nodes wait for the recorder first (:func:`wait_for_recorder`).
 from __future__ import annotations
 
 import contextlib
+import hmac
 import ipaddress
 import json
 import os
+import secrets
 import shutil
 import socket
 import tempfile
@@ -510,7 +512,7 @@ def sample_time_limit_ns(duration_s: float) -> int:
 LINK_TIMEOUT_S = 30.0
 
 
-def wait_matched(publisher: Any, timeout_s: float) -> bool:
+def wait_matched(publisher: Any, timeout_s: float, stop: threading.Event | None = None) -> bool:
     """Block until ``publisher``'s session knows a subscriber for its key; False on timeout.
 
     A put on a key no subscriber is known for is dropped, and a liveliness token seen by a
@@ -518,14 +520,63 @@ def wait_matched(publisher: Any, timeout_s: float) -> bool:
     to the plant and the controller, and while its link to the controller is not up (its
     connect retried after the controller started listening) the controller's samples have
     no way to it. Zenoh's matching status of the publisher says when one has (polled every
-    5 ms; a :class:`SigningPublisher` is looked through).
+    5 ms; a :class:`SigningPublisher` is looked through). ``stop`` set (a signal): False at
+    once.
     """
     inner = getattr(publisher, "publisher", publisher)
     deadline = time.monotonic() + timeout_s
     while not inner.matching_status.matching:
-        if time.monotonic() >= deadline:
+        if time.monotonic() >= deadline or (stop is not None and stop.is_set()):
             return False
         time.sleep(0.005)
+    return True
+
+
+#: Key suffixes of the controller's readiness handshake with the recorder: the controller
+#: puts a fresh nonce on ``controller/hello``; the recorder, on receiving it, puts the same
+#: nonce on ``recorder/ready`` (both signed with the run's secret).
+HELLO_SUFFIX = "controller/hello"
+READY_SUFFIX = "recorder/ready"
+#: Wall seconds between two hellos while the recorder has not answered [s].
+HELLO_INTERVAL_S = 0.1
+
+
+def await_recorder(
+    bus: Bus,
+    publisher: Any,
+    turbine: str,
+    timeout_s: float,
+    stop: threading.Event | None = None,
+) -> bool:
+    """Block until the run's own recorder gets this node's samples; False on timeout or stop.
+
+    Authenticated: the node puts a fresh 16-byte nonce on ``fowt/<turbine>/controller/hello``
+    every :data:`HELLO_INTERVAL_S` and waits for the recorder's answer, the same nonce on
+    ``fowt/<turbine>/recorder/ready``, both tagged with the run's secret. The answer proves
+    that the recorder (a holder of the key, not any subscriber) has received a sample of
+    this node over its own link, so the node's later samples reach it too; a replayed
+    answer carries another run's or an earlier nonce. Otherwise :func:`wait_matched` on
+    ``publisher``: unauthenticated (``--insecure``: any subscriber satisfies it), and with a
+    Zenoh config file (multi-host: the router's access control lets the recorder put
+    nothing, and only nodes with a client certificate have a session to subscribe from).
+    """
+    if not bus.config.session_auth:
+        return wait_matched(publisher, timeout_s, stop)
+    nonce = secrets.token_bytes(16)
+    answered = threading.Event()
+
+    def on_ready(_key: str, payload: bytes) -> None:
+        if hmac.compare_digest(payload, nonce):
+            answered.set()
+
+    bus.subscribe(f"{KEY_PREFIX}/{turbine}/{READY_SUFFIX}", on_ready)
+    hello = bus.publisher(f"{KEY_PREFIX}/{turbine}/{HELLO_SUFFIX}")
+    deadline = time.monotonic() + timeout_s
+    while not answered.is_set():
+        if time.monotonic() >= deadline or (stop is not None and stop.is_set()):
+            return False
+        hello.put(nonce)
+        answered.wait(HELLO_INTERVAL_S)
     return True
 
 

@@ -129,10 +129,10 @@ from hil.nodes.bus import (
     Bus,
     BusConfig,
     LogBatcher,
+    await_recorder,
     batch_key,
     sample_time_limit_ns,
     wait_for_recorder,
-    wait_matched,
 )
 from hil.nodes.rt import freeze_heap
 from hil.scenario.schema import Scenario
@@ -788,11 +788,12 @@ def run_controller_node(
     """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
 
     ``await_recorder_s`` > 0: the controller announces itself (its liveliness token, which
-    the plant waits for) only once a recorder's subscription reaches its status key
-    (:func:`hil.nodes.bus.wait_matched`), waiting at most that many seconds (then it says
-    so and announces itself anyway). ``fowt run`` asks for it: without it a plant may start
-    while the recorder's link to the controller is still being made, and the first
-    cycles' statuses would be lost.
+    the plant waits for) only once the run's recorder answers its hello
+    (:func:`hil.nodes.bus.await_recorder`: a signed nonce back, in an authenticated run;
+    else any subscription reaching its status key), waiting at most that many seconds
+    (then it says so and announces itself anyway); a signal ends the wait at once.
+    ``fowt run`` asks for it: without it a plant may start while the recorder's link to the
+    controller is still being made, and the first cycles' statuses would be lost.
 
     The design artefacts are looked up in the shipped designs and in ``$FOWT_DESIGN_DIR``
     (the launcher sets it to the cache it designed into). When one is missing for the
@@ -906,7 +907,9 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame, on_frame_rejected)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
-    if await_recorder_s > 0 and not wait_matched(statuses.publisher, await_recorder_s):
+    if await_recorder_s > 0 and not await_recorder(
+        bus, statuses.publisher, tid, await_recorder_s, done
+    ):
         log(
             f"controller: no recorder reached its status key within {await_recorder_s:g} s; "
             "announcing itself anyway (what it publishes before one does is not recorded)"

@@ -111,6 +111,8 @@ from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
 from hil.nodes.bus import (
     BATCH_SUFFIXES,
+    HELLO_SUFFIX,
+    READY_SUFFIX,
     Bus,
     BusConfig,
     recorder_ack_key,
@@ -297,6 +299,8 @@ class Recorder:
         self.max_sample_time_ns = max_sample_time_ns
         #: Per per-cycle topic, the newest cycle queued for writing.
         self.newest_cycle: dict[str, int] = {}
+        #: Puts a controller's hello nonce back on ``recorder/ready`` (None: no answer).
+        self.answer_hello: Callable[[bytes], None] | None = None
         self.queue: queue.SimpleQueue[tuple[str, Any, int]] = queue.SimpleQueue()
         self.rejected: Counter[str] = Counter()
         self.unknown_keys: Counter[str] = Counter()
@@ -323,6 +327,9 @@ class Recorder:
         (``<batch suffix>:<reason>``), a message in it that does not decode alone.
         """
         suffix = key.removeprefix(self.prefix)
+        if suffix in (HELLO_SUFFIX, READY_SUFFIX):  # the readiness handshake, not run data
+            self._on_hello(key, suffix, payload)
+            return
         self.samples[suffix] += 1
         batch = suffix in BATCH_SUFFIXES
         mt = None if batch else BY_SUFFIX.get(suffix)
@@ -340,6 +347,22 @@ class Recorder:
             self._on_batch(suffix, payload)
             return
         self._queue(key, suffix, mt, payload, time.time_ns())
+
+    def _on_hello(self, key: str, suffix: str, payload: bytes) -> None:
+        """Answer a controller's hello (:func:`hil.nodes.bus.await_recorder`) with its nonce.
+
+        Its own answers come back through its subscription and are skipped; a hello whose
+        tag does not verify is counted as ``controller/hello:auth`` and not answered.
+        """
+        if suffix != HELLO_SUFFIX or self.answer_hello is None:
+            return
+        if self.auth_key is not None:
+            try:
+                payload = verify(self.auth_key, key, payload)
+            except DecodeError as exc:
+                self.rejected[f"{suffix}:{exc.reason}"] += 1
+                return
+        self.answer_hello(payload)
 
     def _queue(
         self, key: str, suffix: str, mt: MessageType, payload: bytes | memoryview, recv: int
@@ -549,6 +572,8 @@ def run_recorder_node(
     recorder = Recorder(run_log, bus_config.auth_key, sample_time_limit_ns(scenario.duration_s))
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
+    ready_key = f"{KEY_PREFIX}/{scenario.turbine_id}/{READY_SUFFIX}"
+    recorder.answer_hello = lambda nonce: bus.put(ready_key, nonce)
     written = 0
     # The samples wait in the subscriber's FIFO channel and the main thread takes them every
     # 20 ms: no Python thread wakes per sample (a callback subscriber hands each one to a
