@@ -43,3 +43,32 @@ def test_a_far_future_frame_does_not_wedge_the_controller() -> None:
         assert runtime.handle_frame(_frame(k)) is not None, k
     assert runtime.rejected == {"implausible_time": 3} and not runtime.safe_mode
     assert runtime.frames_missing == 0 and runtime.frames_stale == 0
+
+
+def test_the_plant_refuses_a_command_with_an_implausible_time() -> None:
+    from bus_schemas import ActuatorCommand
+    from bus_schemas.registry import COMMAND
+    from hil.nodes.plant_node import CommandInbox
+
+    def command(answered: int, sample_time_ns: int) -> bytes:
+        return COMMAND.codec.encode(
+            ActuatorCommand(
+                seq=answered,
+                answered_seq=answered,
+                sample_time_ns=sample_time_ns,
+                publish_time_ns=answered,
+                mode=0,
+                blade_pitch_commanded_rad=0.02,
+                generator_torque_commanded_nm=30_000.0,
+            )
+        )
+
+    inbox = CommandInbox()
+    inbox.published_seq = 10
+    inbox.period_ns = PERIOD_NS
+    inbox.on_payload("", command(5, 2**63 - 1))
+    inbox.on_payload("", command(6, 9 * PERIOD_NS))
+    assert inbox.rejected == {"implausible_time": 2} and inbox.latest is None
+    inbox.on_payload("", command(5, 5 * PERIOD_NS))  # the genuine answer still counts
+    got = inbox.take(5)
+    assert got is not None and got[0].answered_seq == 5
