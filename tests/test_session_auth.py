@@ -215,3 +215,34 @@ def test_an_insecure_run_warns_and_says_so_in_its_recording_and_review(tmp_path:
     assert json.loads(review.stdout)["run"]["authenticated"] is False
     shown = fowt("review", str(tmp_path / "run.mcap"), "--no-plots", columns=200)
     assert "unauthenticated run" in shown.stdout
+
+
+@pytest.mark.e2e
+def test_a_controller_waiting_for_the_recorder_stops_on_sigterm(tmp_path: Path) -> None:
+    """SIGTERM ends ``--await-recorder``'s wait (it used to run out its whole timeout)."""
+    import signal
+    import time
+
+    cmd = [sys.executable, "-m", "hil", "controller", SCENARIO, "--duration", "5",
+           "--listen", free_tcp_endpoint(), "--await-recorder", "600",
+           *key_file_args(tmp_path)]  # fmt: skip
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:  # no recorder comes: it waits
+            if "waiting up to 600 s for the recorder" in line:
+                break
+        time.sleep(0.5)  # inside the wait, not before it
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=120)  # far below the 600 s it would wait
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+    assert "signal SIGTERM" in out or "SIGTERM" in out, out

@@ -599,6 +599,7 @@ def wait_for_recorder(
     turbine: str,
     node: str,
     timeout_s: float = RECORDER_ACK_TIMEOUT_S,
+    stop: threading.Event | None = None,
 ) -> str:
     """Block until the recorder holds what ``node`` published, before its session closes.
 
@@ -608,10 +609,12 @@ def wait_for_recorder(
     the recorder's token :func:`recorder_ack_key` appears, or no recorder is there (its
     token ``fowt/<turbine>/alive/recorder`` absent or gone), or ``timeout_s`` [s] passed.
 
+    ``stop`` set (a signal during the wait) ends it within 0.1 s.
+
     Returns
     -------
     str
-        ``"acknowledged"``, ``"no recorder"`` or ``"timeout"``.
+        ``"acknowledged"``, ``"no recorder"``, ``"timeout"`` or ``"stopped"``.
     """
     ack = recorder_ack_key(turbine, node)
     alive = f"{KEY_PREFIX}/{turbine}/alive/recorder"
@@ -641,6 +644,8 @@ def wait_for_recorder(
                     return "no recorder"
             if time.monotonic() > deadline:
                 return "timeout"
+            if stop is not None and stop.is_set():
+                return "stopped"
             changed.wait(0.1)
             changed.clear()
             first = False

@@ -890,9 +890,12 @@ def run_controller_node(
             reason[0] = "plant finished"
             done.set()
 
+    signalled = threading.Event()  # a signal, also one after the run's end
+
     def on_signal(signum: int, _frame: Any) -> None:
         reason[0] = f"signal {signal.Signals(signum).name}"
         done.set()
+        signalled.set()
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
@@ -907,8 +910,12 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame, on_frame_rejected)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
-    if await_recorder_s > 0 and not await_recorder(
-        bus, statuses.publisher, tid, await_recorder_s, done
+    if await_recorder_s > 0:
+        log(f"controller: waiting up to {await_recorder_s:g} s for the recorder")
+    if (
+        await_recorder_s > 0
+        and not await_recorder(bus, statuses.publisher, tid, await_recorder_s, done)
+        and not done.is_set()
     ):
         log(
             f"controller: no recorder reached its status key within {await_recorder_s:g} s; "
@@ -961,7 +968,9 @@ def run_controller_node(
         if statuses.failed:
             log(f"controller: {statuses.failed} status batches failed to go out")
         # Open until the recorder holds what it published (hil.nodes.bus.wait_for_recorder).
-        if wait_for_recorder(bus.session, tid, "controller") == "timeout":
+        # A signal that ended the run does not skip this wait; one during it ends it.
+        signalled.clear()
+        if wait_for_recorder(bus.session, tid, "controller", stop=signalled) == "timeout":
             log("controller: the recorder did not confirm it holds its messages; closing anyway")
         plant_watch.undeclare()
         token.undeclare()

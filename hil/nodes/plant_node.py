@@ -1220,9 +1220,12 @@ def run_plant_node(
         bus.subscribe(COMMAND.key(tid), inbox.on_payload, inbox.reject)
     received: list[int] = []
 
+    signalled = threading.Event()  # a signal, also one after the run's end
+
     def on_signal(signum: int, _frame: Any) -> None:
         received.append(signum)
         stop.set()
+        signalled.set()
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
@@ -1289,7 +1292,9 @@ def run_plant_node(
             # A session closed while its samples are on their way to a recorder behind the
             # run loses them (hil.nodes.bus.wait_for_recorder): it stays open until the recorder
             # holds them all.
-            ack = wait_for_recorder(bus.session, tid, "plant")
+            # A signal that ended the run does not skip this wait; one during it ends it.
+            signalled.clear()
+            ack = wait_for_recorder(bus.session, tid, "plant", stop=signalled)
             if ack == "timeout":
                 log("plant: the recorder did not confirm it holds the run; closing anyway")
         token.undeclare()
