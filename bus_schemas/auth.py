@@ -42,6 +42,10 @@ TAG_BYTES = 16
 ZENOH_LABEL = b"fowt-hil/zenoh-payload/v1\x00"
 #: Domain-separation label of the CAN authenticator (:mod:`bus_schemas.can_codec`).
 CAN_LABEL = b"fowt-hil/can-secoc/v1\x00"
+#: Domain-separation label of the Zenoh session password (:func:`session_credentials`).
+SESSION_LABEL = b"fowt-hil/zenoh-session/v1\x00"
+#: Zenoh user name of every authenticated bench node (the password is what is secret).
+SESSION_USER = "fowt-hil"
 #: File name of the run's secret in its folder.
 KEY_FILE_NAME = "run.key"
 
@@ -95,6 +99,21 @@ def can_mac(secret: bytes, message_id: int, freshness: int, data: bytes, size: i
     return hmac.digest(secret, CAN_LABEL + head + data, "sha256")[:size]
 
 
+def session_credentials(secret: bytes) -> tuple[str, str]:
+    """The Zenoh transport credential (user, password) of the run whose secret is ``secret``.
+
+    Every node of an authenticated run opens its Zenoh session with this user name and
+    password (``transport/auth/usrpwd``), and a node that listens accepts a link only from
+    a session that proves it holds the same password (Zenoh's challenge-response: the
+    password itself never crosses the link). The password is
+    ``hex(HMAC-SHA256(K, SESSION_LABEL))``: derived from the run's secret, so holding
+    ``run.key`` is holding the credential, and a session password that leaks (it sits in
+    the node's memory and, for a moment, in a 0600 file Zenoh reads) does not give away K,
+    which signs the payloads.
+    """
+    return SESSION_USER, hmac.digest(secret, SESSION_LABEL, "sha256").hex()
+
+
 def new_key() -> bytes:
     """A fresh 32-byte secret from the operating system's CSPRNG."""
     return secrets.token_bytes(KEY_BYTES)
@@ -144,6 +163,8 @@ __all__ = [
     "CAN_LABEL",
     "KEY_BYTES",
     "KEY_FILE_NAME",
+    "SESSION_LABEL",
+    "SESSION_USER",
     "TAG_BYTES",
     "ZENOH_LABEL",
     "AuthError",
@@ -152,6 +173,7 @@ __all__ = [
     "create_key_file",
     "new_key",
     "read_key_file",
+    "session_credentials",
     "sign",
     "verify",
 ]

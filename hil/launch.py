@@ -152,6 +152,7 @@ class RunRequest:
     realtime_priority: int = 0  # SCHED_FIFO for the plant and controller (0: normal)
     inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # see run_inprocess
     hexicon: HexiconOptions | None = None  # a Hexicon scenario's options (hil.families)
+    keep_key: bool = False  # leave run.key in the run folder after the run (--keep-key)
 
     def given(self) -> dict[str, bool]:
         """The options set to other than their defaults that only some families take
@@ -1015,10 +1016,16 @@ def _start_nodes(
         options=options,
     )
     feed = _Feed(name, duration_s, ident, family)
-    _supervise(
-        family.node_commands(ctx), env, out, mcap_path, feed, endpoints[0], console,
-        nice_recorder=can is None, driver=driver, abort=abort, auth_key=auth_key,
-    )  # fmt: skip
+    try:
+        _supervise(
+            family.node_commands(ctx), env, out, mcap_path, feed, endpoints[0], console,
+            nice_recorder=can is None, driver=driver, abort=abort, auth_key=auth_key,
+        )  # fmt: skip
+    finally:
+        # Every node has exited (_supervise stops them all): the secret signs nothing more,
+        # and a copy of the folder must not carry the credential of a run's bus.
+        if not req.keep_key:
+            key_path.unlink(missing_ok=True)
 
 
 def _supervise(

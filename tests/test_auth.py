@@ -46,6 +46,7 @@ from bus_schemas.auth import (
     create_key_file,
     new_key,
     read_key_file,
+    session_credentials,
     sign,
     verify,
 )
@@ -203,10 +204,13 @@ class Attacker:
 
     ``key``: None puts unsigned commands answering the frame just seen; a key puts signed
     sensor frames far ahead and signed commands answering frames not yet published. Stops
-    at :data:`ATTACK_STOP_CYCLE`; ``sent`` counts the puts by key.
+    at :data:`ATTACK_STOP_CYCLE`; ``sent`` counts the puts by key. ``session_key``: the
+    run's secret, whose session credential it presents (without it no session of an
+    authenticated run would take it at all, tests/test_session_auth.py; with it the
+    payload tags are what is tested here).
     """
 
-    def __init__(self, endpoints: tuple[str, ...], key: bytes | None) -> None:
+    def __init__(self, endpoints: tuple[str, ...], key: bytes | None, session_key: bytes) -> None:
         conf = zenoh.Config()
         conf.insert_json5("mode", '"peer"')
         conf.insert_json5("scouting/multicast/enabled", "false")
@@ -214,6 +218,9 @@ class Attacker:
         conf.insert_json5("transport/unicast/lowlatency", "true")
         conf.insert_json5("transport/unicast/qos/enabled", "false")
         conf.insert_json5("connect/endpoints", str(list(endpoints)).replace("'", '"'))
+        user, password = session_credentials(session_key)
+        conf.insert_json5("transport/auth/usrpwd/user", f'"{user}"')
+        conf.insert_json5("transport/auth/usrpwd/password", f'"{password}"')
         self.session = zenoh.open(conf)
         self.key = key
         self.rng = random.Random(11)
@@ -314,7 +321,7 @@ def _attacked_run(out: Path, attacker_key: str) -> tuple[dict[str, str], Attacke
                 procs.start(name, cmd)
             # The attacker connects to both nodes (Zenoh retries until they listen).
             forger_key = None if attacker_key == "none" else run_key
-            attacker = Attacker(endpoints, forger_key)
+            attacker = Attacker(endpoints, forger_key, run_key)
             codes = procs.wait(timeout=240)
     finally:
         if attacker is not None:

@@ -362,6 +362,14 @@ def _bus(
             "(fowt run makes <run folder>/run.key); pass --key-file FILE, or --insecure to "
             "run unauthenticated"
         )
+    else:
+        stderr.print(
+            Text.assemble(
+                ("warning: ", "yellow"),
+                "--insecure: this node neither authenticates its Zenoh session nor signs or "
+                "checks payloads; any local process can join the bus and command the turbine",
+            )
+        )
     return dataclasses.replace(config, auth_key=auth_key)
 
 
@@ -436,6 +444,15 @@ def run(
             min=0,
         ),
     ] = 0,
+    keep_key: Annotated[
+        bool,
+        typer.Option(
+            "--keep-key",
+            help="Leave the run's secret (<out>/run.key, mode 0600) in the run folder after "
+            "the run (default: removed when the run ends; it signs every payload and is "
+            "the Zenoh session credential).",
+        ),
+    ] = False,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
 
@@ -532,6 +549,7 @@ def run(
         realtime_priority=realtime_priority,
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
         hexicon=options,
+        keep_key=keep_key,
     )
     _launch_and_exit(req)
 

@@ -25,19 +25,24 @@ nodes wait for the recorder first (:func:`wait_for_recorder`).
 from __future__ import annotations
 
 import contextlib
+import hmac
 import ipaddress
 import json
+import os
+import secrets
+import shutil
 import socket
+import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import zenoh
 
-from bus_schemas.auth import sign, verify
+from bus_schemas.auth import session_credentials, sign, verify
 from bus_schemas.codec import DecodeError, TruncatedError
 from bus_schemas.registry import KEY_PREFIX, MessageType, identify
 
@@ -84,7 +89,8 @@ class BusConfig:
     auth_key : bytes or None
         The run's 32-byte secret (:mod:`bus_schemas.auth`): every payload put is signed,
         every payload received is verified before anyone decodes it. None: unauthenticated
-        (``--insecure``, the in-process tools).
+        (``--insecure``, the in-process tools). Without ``config_file`` the key also
+        authenticates the Zenoh session itself (:attr:`session_auth`).
     """
 
     listen: tuple[str, ...] = ()
@@ -99,8 +105,28 @@ class BusConfig:
             for ep in (*self.listen, *self.connect):
                 _check_loopback(ep)
 
+    @property
+    def session_auth(self) -> bool:
+        """True when the session opens only with the run's credential.
+
+        Zenoh's transport authentication (``transport/auth/usrpwd``, user and password
+        from :func:`bus_schemas.auth.session_credentials`) on the loopback set-up the
+        launcher makes: a listening node accepts a link only from a session proving it
+        holds the run's password, so a process without ``run.key`` gets no session to
+        route, subscribe or flood through. With a config file the file's own transport
+        security applies (mutual TLS and access control through a router,
+        docs/multi-host.md): a router without the run's dictionary would refuse a node
+        offering a password.
+        """
+        return self.auth_key is not None and self.config_file is None
+
     def zenoh_config(self) -> zenoh.Config:
-        """Build the ``zenoh.Config`` for this node."""
+        """Build the ``zenoh.Config`` for this node.
+
+        With :attr:`session_auth` it carries the run's user and password (what a node
+        presents when it connects); what a listening node checks against, the dictionary
+        file, is added by :class:`Bus` for the moment the session opens.
+        """
         if self.config_file is not None:
             conf = zenoh.Config.from_file(str(self.config_file))
         else:
@@ -120,6 +146,11 @@ class BusConfig:
             conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         for key, value in self.extra:
             conf.insert_json5(key, value)
+        if self.session_auth:
+            assert self.auth_key is not None
+            user, password = session_credentials(self.auth_key)
+            conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+            conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
         return conf
 
     def describe(self) -> str:
@@ -129,7 +160,8 @@ class BusConfig:
         ``, config FILE``.
         """
         if self.config_file is None:
-            return f"listen {list(self.listen)}, connect {list(self.connect)}"
+            auth = ", session authenticated" if self.session_auth else ""
+            return f"listen {list(self.listen)}, connect {list(self.connect)}{auth}"
         conf = self.zenoh_config()
         listen, connect = (
             json.loads(conf.get_json(f"{k}/endpoints")) for k in ("listen", "connect")
@@ -147,6 +179,49 @@ def free_tcp_endpoint() -> str:
 
 class BusOpenError(RuntimeError):
     """The Zenoh session could not be opened (refused certificate, no peer, port in use)."""
+
+
+@contextlib.contextmanager
+def credential_dictionary(user: str, password: str) -> Iterator[Path]:
+    """A ``user:password`` dictionary file for Zenoh's ``usrpwd`` check, while it is open.
+
+    Zenoh reads the accepted credentials from a file (``dictionary_file``) once, when the
+    session opens. The file is made in a fresh private folder (mode 0700, the file 0600,
+    created exclusively) and removed with its folder on leaving, so the password rests on
+    disk only for the moment ``zenoh.open`` takes, readable by nobody else, and never
+    appears on a command line.
+    """
+    folder = Path(tempfile.mkdtemp(prefix="fowt-zenoh-auth-"))
+    try:
+        path = folder / "usrpwd"
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+        try:
+            os.write(fd, f"{user}:{password}\n".encode())
+        finally:
+            os.close(fd)
+        yield path
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def open_session(config: BusConfig) -> zenoh.Session:
+    """``zenoh.open`` of ``config``, with the run's credential dictionary when it has one.
+
+    Raises
+    ------
+    BusOpenError
+        On a refused TLS handshake, an endpoint in use, a client that reached no router.
+    """
+    conf = config.zenoh_config()
+    try:
+        if not config.session_auth:
+            return zenoh.open(conf)
+        assert config.auth_key is not None
+        with credential_dictionary(*session_credentials(config.auth_key)) as path:
+            conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(path)))
+            return zenoh.open(conf)
+    except zenoh.ZError as exc:  # a refused TLS handshake, an endpoint in use, ...
+        raise BusOpenError(f"the Zenoh session did not open ({config.describe()}): {exc}") from exc
 
 
 class SigningPublisher:
@@ -185,12 +260,7 @@ class Bus:
 
     def __init__(self, config: BusConfig) -> None:
         self.config = config
-        try:
-            self.session = zenoh.open(config.zenoh_config())
-        except zenoh.ZError as exc:  # a refused TLS handshake, an endpoint in use, ...
-            raise BusOpenError(
-                f"the Zenoh session did not open ({config.describe()}): {exc}"
-            ) from exc
+        self.session = open_session(config)
         self._publishers: dict[str, Any] = {}
         self._subscribers: list[Any] = []
 
@@ -420,13 +490,29 @@ class LogBatcher:
         self.messages += len(parts)
 
 
+#: Simulated seconds past a run's duration that a received sample time may still lie [s]
+#: (a preview looks ahead; a run ends within one control period of its duration).
+SAMPLE_TIME_SLACK_S = 300.0
+
+
+def sample_time_limit_ns(duration_s: float) -> int:
+    """The latest ``sample_time_ns`` a node accepts in a run of ``duration_s`` [s].
+
+    A run's sample times start at 0 and end at its duration: a received time past this
+    limit (:data:`SAMPLE_TIME_SLACK_S` beyond it) is implausible (a forgery by a key holder,
+    or a corrupted sender) and counted as a ``time`` rejection, never used in arithmetic
+    (a time near 2**63 - 1 plus the run's start overflows 64 bits).
+    """
+    return round((duration_s + SAMPLE_TIME_SLACK_S) * 1e9)
+
+
 #: Wall seconds a node waits for its links to the others (:func:`wait_matched`) before it
 #: announces itself anyway [s]: a connection to an endpoint not yet listening is retried at
 #: most every 4 s by Zenoh's defaults.
 LINK_TIMEOUT_S = 30.0
 
 
-def wait_matched(publisher: Any, timeout_s: float) -> bool:
+def wait_matched(publisher: Any, timeout_s: float, stop: threading.Event | None = None) -> bool:
     """Block until ``publisher``'s session knows a subscriber for its key; False on timeout.
 
     A put on a key no subscriber is known for is dropped, and a liveliness token seen by a
@@ -434,14 +520,63 @@ def wait_matched(publisher: Any, timeout_s: float) -> bool:
     to the plant and the controller, and while its link to the controller is not up (its
     connect retried after the controller started listening) the controller's samples have
     no way to it. Zenoh's matching status of the publisher says when one has (polled every
-    5 ms; a :class:`SigningPublisher` is looked through).
+    5 ms; a :class:`SigningPublisher` is looked through). ``stop`` set (a signal): False at
+    once.
     """
     inner = getattr(publisher, "publisher", publisher)
     deadline = time.monotonic() + timeout_s
     while not inner.matching_status.matching:
-        if time.monotonic() >= deadline:
+        if time.monotonic() >= deadline or (stop is not None and stop.is_set()):
             return False
         time.sleep(0.005)
+    return True
+
+
+#: Key suffixes of the controller's readiness handshake with the recorder: the controller
+#: puts a fresh nonce on ``controller/hello``; the recorder, on receiving it, puts the same
+#: nonce on ``recorder/ready`` (both signed with the run's secret).
+HELLO_SUFFIX = "controller/hello"
+READY_SUFFIX = "recorder/ready"
+#: Wall seconds between two hellos while the recorder has not answered [s].
+HELLO_INTERVAL_S = 0.1
+
+
+def await_recorder(
+    bus: Bus,
+    publisher: Any,
+    turbine: str,
+    timeout_s: float,
+    stop: threading.Event | None = None,
+) -> bool:
+    """Block until the run's own recorder gets this node's samples; False on timeout or stop.
+
+    Authenticated: the node puts a fresh 16-byte nonce on ``fowt/<turbine>/controller/hello``
+    every :data:`HELLO_INTERVAL_S` and waits for the recorder's answer, the same nonce on
+    ``fowt/<turbine>/recorder/ready``, both tagged with the run's secret. The answer proves
+    that the recorder (a holder of the key, not any subscriber) has received a sample of
+    this node over its own link, so the node's later samples reach it too; a replayed
+    answer carries another run's or an earlier nonce. Otherwise :func:`wait_matched` on
+    ``publisher``: unauthenticated (``--insecure``: any subscriber satisfies it), and with a
+    Zenoh config file (multi-host: the router's access control lets the recorder put
+    nothing, and only nodes with a client certificate have a session to subscribe from).
+    """
+    if not bus.config.session_auth:
+        return wait_matched(publisher, timeout_s, stop)
+    nonce = secrets.token_bytes(16)
+    answered = threading.Event()
+
+    def on_ready(_key: str, payload: bytes) -> None:
+        if hmac.compare_digest(payload, nonce):
+            answered.set()
+
+    bus.subscribe(f"{KEY_PREFIX}/{turbine}/{READY_SUFFIX}", on_ready)
+    hello = bus.publisher(f"{KEY_PREFIX}/{turbine}/{HELLO_SUFFIX}")
+    deadline = time.monotonic() + timeout_s
+    while not answered.is_set():
+        if time.monotonic() >= deadline or (stop is not None and stop.is_set()):
+            return False
+        hello.put(nonce)
+        answered.wait(HELLO_INTERVAL_S)
     return True
 
 
@@ -464,6 +599,7 @@ def wait_for_recorder(
     turbine: str,
     node: str,
     timeout_s: float = RECORDER_ACK_TIMEOUT_S,
+    stop: threading.Event | None = None,
 ) -> str:
     """Block until the recorder holds what ``node`` published, before its session closes.
 
@@ -473,10 +609,12 @@ def wait_for_recorder(
     the recorder's token :func:`recorder_ack_key` appears, or no recorder is there (its
     token ``fowt/<turbine>/alive/recorder`` absent or gone), or ``timeout_s`` [s] passed.
 
+    ``stop`` set (a signal during the wait) ends it within 0.1 s.
+
     Returns
     -------
     str
-        ``"acknowledged"``, ``"no recorder"`` or ``"timeout"``.
+        ``"acknowledged"``, ``"no recorder"``, ``"timeout"`` or ``"stopped"``.
     """
     ack = recorder_ack_key(turbine, node)
     alive = f"{KEY_PREFIX}/{turbine}/alive/recorder"
@@ -506,6 +644,8 @@ def wait_for_recorder(
                     return "no recorder"
             if time.monotonic() > deadline:
                 return "timeout"
+            if stop is not None and stop.is_set():
+                return "stopped"
             changed.wait(0.1)
             changed.clear()
             first = False

@@ -37,6 +37,12 @@ scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycle
   every half period; each period past the expected arrival of the next frame (half a period
   of grace for jitter) counts one miss.
 
+Time plausibility: a frame whose sample time lies past the run's window
+(:func:`hil.nodes.bus.sample_time_limit_ns`) or further ahead of the last accepted frame's
+than its seq is (frame k is sampled at k control periods; one period of slack) is refused as
+``implausible_time`` and moves nothing, so a single signed far-future frame cannot make every
+genuine frame after it "stale".
+
 Sequence plausibility: a frame whose ``seq`` is more than W ahead of the last accepted one,
 W = max(ceil(:data:`PLAUSIBLE_GAP_S` / T), 2 N) frames (T the control period, N the watchdog's
 miss limit; 500 frames at 100 Hz), is not a gap the bus could have made in a run: it is
@@ -137,9 +143,10 @@ from hil.nodes.bus import (
     Bus,
     BusConfig,
     LogBatcher,
+    await_recorder,
     batch_key,
+    sample_time_limit_ns,
     wait_for_recorder,
-    wait_matched,
 )
 from hil.nodes.controller_fault import (
     FAULT_CODES,
@@ -311,6 +318,7 @@ class ControllerRuntime:
         self.clock = clock
         self.last_seq = -1
         self.last_sample_time_ns = -1
+        self.max_sample_time_ns = sample_time_limit_ns(scenario.duration_s)
         self.seq_window = seq_window(self.dt_s, scenario.timing.watchdog_misses)
         # A run of implausible frames: (its last seq, its last sample time ns, length).
         self._jump_run: tuple[int, int, int] | None = None
@@ -465,6 +473,17 @@ class ControllerRuntime:
             return None
         if frame.sample_time_ns <= self.last_sample_time_ns:
             self.rejected["stale"] += 1
+            return None
+        # Plausible time: inside the run's window, and no further ahead of the last accepted
+        # frame than its seq is (frame k is sampled at k periods, plus one period of slack).
+        # A key holder's single far-future frame would otherwise make every genuine frame
+        # after it "stale" and wedge the controller.
+        ahead = frame.sample_time_ns - max(self.last_sample_time_ns, 0)
+        if (
+            frame.sample_time_ns > self.max_sample_time_ns
+            or ahead > (frame.seq - self.last_seq + 1) * self.period_ns
+        ):
+            self.rejected["implausible_time"] += 1
             return None
         # One C-level sum instead of a check per field: a sum of finite floats of at most
         # ~1e8 each is finite, and any NaN or infinity makes it NaN or infinite.
@@ -914,11 +933,12 @@ def run_controller_node(
     """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
 
     ``await_recorder_s`` > 0: the controller announces itself (its liveliness token, which
-    the plant waits for) only once a recorder's subscription reaches its status key
-    (:func:`hil.nodes.bus.wait_matched`), waiting at most that many seconds (then it says
-    so and announces itself anyway). ``fowt run`` asks for it: without it a plant may start
-    while the recorder's link to the controller is still being made, and the first
-    cycles' statuses would be lost.
+    the plant waits for) only once the run's recorder answers its hello
+    (:func:`hil.nodes.bus.await_recorder`: a signed nonce back, in an authenticated run;
+    else any subscription reaching its status key), waiting at most that many seconds
+    (then it says so and announces itself anyway); a signal ends the wait at once.
+    ``fowt run`` asks for it: without it a plant may start while the recorder's link to the
+    controller is still being made, and the first cycles' statuses would be lost.
 
     The design artefacts are looked up in the shipped designs and in ``$FOWT_DESIGN_DIR``
     (the launcher sets it to the cache it designed into). When one is missing for the
@@ -1037,9 +1057,12 @@ def run_controller_node(
             reason[0] = "plant finished"
             done.set()
 
+    signalled = threading.Event()  # a signal, also one after the run's end
+
     def on_signal(signum: int, _frame: Any) -> None:
         reason[0] = f"signal {signal.Signals(signum).name}"
         done.set()
+        signalled.set()
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
@@ -1054,7 +1077,13 @@ def run_controller_node(
         bus.subscribe(WAVE_PREVIEW_PERFECT.key(tid), on_preview)
     bus.subscribe(SENSORS.key(tid), on_frame, on_frame_rejected)
     bus.subscribe(TIMING_SUMMARY.key(tid), on_summary)
-    if await_recorder_s > 0 and not wait_matched(statuses.publisher, await_recorder_s):
+    if await_recorder_s > 0:
+        log(f"controller: waiting up to {await_recorder_s:g} s for the recorder")
+    if (
+        await_recorder_s > 0
+        and not await_recorder(bus, statuses.publisher, tid, await_recorder_s, done)
+        and not done.is_set()
+    ):
         log(
             f"controller: no recorder reached its status key within {await_recorder_s:g} s; "
             "announcing itself anyway (what it publishes before one does is not recorded)"
@@ -1106,7 +1135,9 @@ def run_controller_node(
         if statuses.failed:
             log(f"controller: {statuses.failed} status batches failed to go out")
         # Open until the recorder holds what it published (hil.nodes.bus.wait_for_recorder).
-        if wait_for_recorder(bus.session, tid, "controller") == "timeout":
+        # A signal that ended the run does not skip this wait; one during it ends it.
+        signalled.clear()
+        if wait_for_recorder(bus.session, tid, "controller", stop=signalled) == "timeout":
             log("controller: the recorder did not confirm it holds its messages; closing anyway")
         plant_watch.undeclare()
         token.undeclare()

@@ -839,6 +839,11 @@ class CommandInbox:
         The newest sensor frame seq the plant has published (:meth:`published`); a command
         answering a later one cannot be genuine and is refused as ``unpublished_seq``.
         None: not tracked (unit use without a plant loop).
+    period_ns : int or None
+        The control period [ns]: frame k is sampled at k periods and a command echoes its
+        frame's sample time, so a command whose ``sample_time_ns`` is more than one period
+        away from ``answered_seq`` periods is refused as ``implausible_time`` (never used in
+        arithmetic). None: not checked.
     """
 
     def __init__(self, faults: BusFaultPlan | None = None, speed: float = 1.0) -> None:
@@ -847,6 +852,7 @@ class CommandInbox:
         self.rejected: Counter[str] = Counter()
         self.last_answered = -1
         self.published_seq: int | None = None
+        self.period_ns: int | None = None
         self.late = 0  # commands that answered an older frame than the one awaited
         self.faults = faults if faults else None
         self.speed = speed
@@ -917,6 +923,13 @@ class CommandInbox:
                 # An answer to a frame not yet sent: forged, and accepting it would advance
                 # last_answered past the genuine answers (they would all be duplicates).
                 self.rejected["unpublished_seq"] += 1
+                return
+            period = self.period_ns
+            if (
+                period is not None
+                and abs(command.sample_time_ns - command.answered_seq * period) > period
+            ):
+                self.rejected["implausible_time"] += 1  # does not advance last_answered
                 return
             self.last_answered = command.answered_seq
             if self.faults is not None:
@@ -1253,6 +1266,7 @@ def run_plant_node(
     command_faults = BusFaultPlan(scenario.fault_specs(), "command", scenario.sensors.seed)
     inbox = CommandInbox(command_faults if mode == "realtime" else None, speed)
     inbox.published_seq = -1  # nothing published yet: no command can be an answer
+    inbox.period_ns = round(scenario.timing.control_period_s * 1e9)
     stop = threading.Event()
     channel: CommandChannel | None = None
     if mode == "lockstep" and can_bus is None:
@@ -1263,9 +1277,12 @@ def run_plant_node(
         bus.subscribe(COMMAND.key(tid), inbox.on_payload, inbox.reject)
     received: list[int] = []
 
+    signalled = threading.Event()  # a signal, also one after the run's end
+
     def on_signal(signum: int, _frame: Any) -> None:
         received.append(signum)
         stop.set()
+        signalled.set()
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
@@ -1332,7 +1349,9 @@ def run_plant_node(
             # A session closed while its samples are on their way to a recorder behind the
             # run loses them (hil.nodes.bus.wait_for_recorder): it stays open until the recorder
             # holds them all.
-            ack = wait_for_recorder(bus.session, tid, "plant")
+            # A signal that ended the run does not skip this wait; one during it ends it.
+            signalled.clear()
+            ack = wait_for_recorder(bus.session, tid, "plant", stop=signalled)
             if ack == "timeout":
                 log("plant: the recorder did not confirm it holds the run; closing anyway")
         token.undeclare()

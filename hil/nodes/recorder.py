@@ -97,11 +97,28 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from bus_schemas import CycleTiming, DecodeError, PlantState, SensorFrame, TimingSummary
+from bus_schemas import (
+    ActuatorCommand,
+    ControllerStatus,
+    CycleTiming,
+    DecodeError,
+    PlantState,
+    SensorFrame,
+    TimingSummary,
+)
 from bus_schemas.auth import verify
 from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
-from hil.nodes.bus import BATCH_SUFFIXES, Bus, BusConfig, recorder_ack_key, split_batch
+from hil.nodes.bus import (
+    BATCH_SUFFIXES,
+    HELLO_SUFFIX,
+    READY_SUFFIX,
+    Bus,
+    BusConfig,
+    recorder_ack_key,
+    sample_time_limit_ns,
+    split_batch,
+)
 from hil.runlog.completeness import CONTROLLER_TOPICS, PLANT_TOPICS, expected_counts, shortfall
 from hil.runlog.mcap_io import RunLog
 from hil.scenario.schema import Scenario
@@ -233,6 +250,16 @@ class RecorderLog(RunLog):
 
 #: The plant's messages that carry the cycle number (``seq``) of every control cycle.
 _PER_CYCLE = (SensorFrame, PlantState, CycleTiming)
+#: Per-cycle messages and the field naming their cycle: the plant's own ``seq``, the
+#: controller's ``answered_seq`` (its own ``seq`` starts again at 0 when a controller is
+#: restarted during a run; the cycle it answers does not go back).
+CYCLE_FIELD: dict[type, str] = {
+    SensorFrame: "seq",
+    PlantState: "seq",
+    CycleTiming: "seq",
+    ActuatorCommand: "answered_seq",
+    ControllerStatus: "answered_seq",
+}
 
 
 class Recorder:
@@ -246,11 +273,34 @@ class Recorder:
         The run's secret: every sample's tag is checked before it is decoded
         (:func:`bus_schemas.auth.verify`), a failure counted as ``<suffix>:auth`` and
         nothing of it written. None: unauthenticated run.
+    max_sample_time_ns : int or None
+        The end of the run's time window [ns] (:func:`hil.nodes.bus.sample_time_limit_ns`):
+        a message whose ``sample_time_ns`` lies past it is counted as ``<suffix>:time`` and
+        not written. None: no limit (beyond what the run log can hold).
+
+    Notes
+    -----
+    Exact recordings: per per-cycle topic (:data:`CYCLE_FIELD`) the recorder writes each
+    cycle once and in order. A message whose cycle is not newer than the newest written on
+    its topic is a replay or a duplicate (a key holder re-putting a captured sample):
+    counted as ``<suffix>:duplicate`` and not written, so the file never holds more
+    messages than the nodes published (the nodes' own publishers put each cycle once and
+    in order, one link per publisher).
     """
 
-    def __init__(self, log: RunLog, auth_key: bytes | None = None) -> None:
+    def __init__(
+        self,
+        log: RunLog,
+        auth_key: bytes | None = None,
+        max_sample_time_ns: int | None = None,
+    ) -> None:
         self.log = log
         self.auth_key = auth_key
+        self.max_sample_time_ns = max_sample_time_ns
+        #: Per per-cycle topic, the newest cycle queued for writing.
+        self.newest_cycle: dict[str, int] = {}
+        #: Puts a controller's hello nonce back on ``recorder/ready`` (None: no answer).
+        self.answer_hello: Callable[[bytes], None] | None = None
         self.queue: queue.SimpleQueue[tuple[str, Any, int]] = queue.SimpleQueue()
         self.rejected: Counter[str] = Counter()
         self.unknown_keys: Counter[str] = Counter()
@@ -277,6 +327,9 @@ class Recorder:
         (``<batch suffix>:<reason>``), a message in it that does not decode alone.
         """
         suffix = key.removeprefix(self.prefix)
+        if suffix in (HELLO_SUFFIX, READY_SUFFIX):  # the readiness handshake, not run data
+            self._on_hello(key, suffix, payload)
+            return
         self.samples[suffix] += 1
         batch = suffix in BATCH_SUFFIXES
         mt = None if batch else BY_SUFFIX.get(suffix)
@@ -295,6 +348,22 @@ class Recorder:
             return
         self._queue(key, suffix, mt, payload, time.time_ns())
 
+    def _on_hello(self, key: str, suffix: str, payload: bytes) -> None:
+        """Answer a controller's hello (:func:`hil.nodes.bus.await_recorder`) with its nonce.
+
+        Its own answers come back through its subscription and are skipped; a hello whose
+        tag does not verify is counted as ``controller/hello:auth`` and not answered.
+        """
+        if suffix != HELLO_SUFFIX or self.answer_hello is None:
+            return
+        if self.auth_key is not None:
+            try:
+                payload = verify(self.auth_key, key, payload)
+            except DecodeError as exc:
+                self.rejected[f"{suffix}:{exc.reason}"] += 1
+                return
+        self.answer_hello(payload)
+
     def _queue(
         self, key: str, suffix: str, mt: MessageType, payload: bytes | memoryview, recv: int
     ) -> None:
@@ -303,6 +372,17 @@ class Recorder:
         except DecodeError as exc:
             self.rejected[f"{suffix}:{exc.reason}"] += 1
             return
+        limit = self.max_sample_time_ns
+        if limit is not None and getattr(msg, "sample_time_ns", 0) > limit:
+            self.rejected[f"{suffix}:time"] += 1  # outside the run's window: never written
+            return
+        field = CYCLE_FIELD.get(type(msg))
+        if field is not None:
+            cycle = getattr(msg, field)
+            if cycle <= self.newest_cycle.get(suffix, -1):
+                self.rejected[f"{suffix}:duplicate"] += 1
+                return
+            self.newest_cycle[suffix] = cycle
         self.queue.put((key, msg, recv))
         if isinstance(msg, TimingSummary) and msg.final:
             self.final_seen.set()
@@ -489,9 +569,11 @@ def run_recorder_node(
     run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
     if run_info:
         run_log.add_metadata("run", run_info)
-    recorder = Recorder(run_log, bus_config.auth_key)
+    recorder = Recorder(run_log, bus_config.auth_key, sample_time_limit_ns(scenario.duration_s))
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
+    ready_key = f"{KEY_PREFIX}/{scenario.turbine_id}/{READY_SUFFIX}"
+    recorder.answer_hello = lambda nonce: bus.put(ready_key, nonce)
     written = 0
     # The samples wait in the subscriber's FIFO channel and the main thread takes them every
     # 20 ms: no Python thread wakes per sample (a callback subscriber hands each one to a
@@ -579,6 +661,9 @@ def run_recorder_node(
             "messages": str(run_log.count),
             "shortfall": json.dumps(missing),
             "rejected": json.dumps(dict(recorder.rejected)),
+            # --insecure: payloads neither signed nor checked, the session open to anyone
+            "authenticated": "false" if bus_config.auth_key is None else "true",
+            "session_authenticated": str(bus_config.session_auth).lower(),
             "unknown_keys": json.dumps(dict(recorder.unknown_keys)),
         }
         if can_bus is not None and tap is not None:

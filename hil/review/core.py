@@ -116,7 +116,13 @@ from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, re
 from hil.review import kpi
 from hil.review import stream as rs
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
-from hil.runlog.completeness import completeness, describe
+from hil.runlog.completeness import (
+    CONSECUTIVE_TOPICS,
+    CYCLE_FIELDS,
+    CycleOrder,
+    completeness,
+    describe,
+)
 from hil.runlog.mcap_io import PROFILE, MessageList, RunData, read_run
 from hil.scenario.schema import ReviewSection, watchdog_rule
 
@@ -489,6 +495,7 @@ class _Summary:
         self.cmd_last_t = math.nan
         self.cmd_diffs: Counter[float] = Counter()
         self.rows: dict[str, list[dict[str, Any]]] = {t: [] for t in rs.ROW_TOPICS}
+        self.order = {t: CycleOrder(t in CONSECUTIVE_TOPICS) for t in CYCLE_FIELDS}
         # windowed (KPI window): truth, sensors, joined status
         self.window: rs.Window | None = None
         self.truth_any = False
@@ -540,6 +547,9 @@ class _Summary:
         if not b.first:
             return
         s = b.suffix
+        order = self.order.get(s)
+        if order is not None and CYCLE_FIELDS[s] in c:
+            order.feed(c[CYCLE_FIELDS[s]])
         if s == "truth":
             self.truth_any = True
             self._window().truth_times(t / 1e9)
@@ -853,6 +863,10 @@ class _Summary:
             error=info.error,
             skipped_ranges=[r.as_dict() for r in info.skipped],
         )
+        # The recorder says whether the run's bus was authenticated ("true"/"false"); a file
+        # from before that record says nothing (None).
+        auth = info.metadata.get("recorder", {}).get("authenticated")
+        out["authenticated"] = None if auth is None else auth == "true"
         return out
 
     def _recording(self) -> dict[str, Any]:
@@ -864,6 +878,7 @@ class _Summary:
             plant[-1] if plant else None,
             self.rows["controller/report"],
             self.final_summary is not None,
+            order={t: o.as_dict() for t, o in self.order.items() if o.last is not None},
         )
 
     def _plant_account(self) -> dict[str, Any]:
@@ -1206,6 +1221,11 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     msgs = run.get("messages", {})
     head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
     console.print(head)
+    if run.get("authenticated") is False:
+        console.print(
+            "[bold yellow]unauthenticated run (--insecure): any local process could join "
+            "its bus, command the turbine and write to this recording[/bold yellow]"
+        )
     rec = summary.get("recording")
     if isinstance(rec, dict):
         line = escape(f"recording: {describe(rec)}")

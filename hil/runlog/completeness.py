@@ -16,6 +16,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
+
 #: Topic (key suffix) -> the :class:`PlantReport` field counting its published messages.
 PLANT_TOPICS: dict[str, str] = {
     "sensors": "sensor_frames_published",
@@ -63,6 +65,87 @@ def expected_counts(
     return out
 
 
+#: Per-cycle topics and the field naming their cycle (the controller's own ``seq`` starts
+#: again when it is restarted; the cycle it answers does not go back).
+CYCLE_FIELDS: dict[str, str] = {
+    "sensors": "seq",
+    "truth": "seq",
+    "timing/cycle": "seq",
+    "command": "answered_seq",
+    "controller/status": "answered_seq",
+}
+#: Per-cycle topics whose cycles are consecutive (the plant publishes every cycle once;
+#: a controller answers only the frames it got, so its cycles may skip).
+CONSECUTIVE_TOPICS = frozenset({"sensors", "truth", "timing/cycle"})
+
+
+class CycleOrder:
+    """The order of one per-cycle topic's cycles, as the file holds them (streamed).
+
+    Counts, against the highest cycle before each one, ``repeated`` (equal to it),
+    ``reordered`` (lower) and, when ``consecutive``, ``skipped`` (cycles jumped over).
+    An exact recording has none of them.
+    """
+
+    def __init__(self, consecutive: bool) -> None:
+        self.consecutive = consecutive
+        self.last: int | None = None
+        self.repeated = 0
+        self.reordered = 0
+        self.skipped = 0
+
+    def feed(self, cycles: np.ndarray) -> None:
+        """Take the next cycles of the topic, in file order."""
+        c = np.asarray(cycles).astype(np.int64, copy=False)
+        if not c.size:
+            return
+        # Against the highest cycle before each one: a late cycle counts once, as reordered.
+        seen = np.maximum.accumulate(c if self.last is None else np.concatenate(([self.last], c)))
+        step = (c[1:] if self.last is None else c) - seen[:-1]
+        self.repeated += int(np.count_nonzero(step == 0))
+        self.reordered += int(np.count_nonzero(step < 0))
+        if self.consecutive:
+            self.skipped += int(np.sum(step[step > 1] - 1))
+        self.last = int(seen[-1])
+
+    def as_dict(self) -> dict[str, int]:
+        """``repeated``, ``reordered`` and ``skipped``."""
+        return {"repeated": self.repeated, "reordered": self.reordered, "skipped": self.skipped}
+
+
+def order_problems(order: Mapping[str, Mapping[str, int]]) -> list[str]:
+    """One sentence per per-cycle topic whose cycles repeat, go back or skip."""
+    out = []
+    for topic, o in order.items():
+        parts = [
+            f"{o[k]} {what}"
+            for k, what in (
+                ("repeated", "cycles recorded again"),
+                ("reordered", "cycles out of order"),
+                ("skipped", "cycles missing between recorded ones"),
+            )
+            if o.get(k, 0)
+        ]
+        if parts:
+            out.append(f"{topic}: {', '.join(parts)}")
+    return out
+
+
+def excess(recorded: Mapping[str, int], expected: Mapping[str, int]) -> list[str]:
+    """One line per plant topic with more messages recorded than the plant published.
+
+    Only the plant's topics: the plant always reports, while a controller killed and
+    restarted during a run leaves no report of what it published before; its topics are
+    held to one message per cycle by :class:`CycleOrder` instead.
+    """
+    return [
+        f"{topic}: {recorded.get(topic, 0)} recorded, {n} published "
+        f"({recorded.get(topic, 0) - n} more than the plant put)"
+        for topic, n in expected.items()
+        if topic in PLANT_TOPICS and recorded.get(topic, 0) > n
+    ]
+
+
 def shortfall(recorded: Mapping[str, int], expected: Mapping[str, int]) -> list[str]:
     """One line per topic with fewer messages recorded than expected (empty: none short)."""
     return [
@@ -77,6 +160,7 @@ def completeness(
     plant: Mapping[str, Any] | None,
     controllers: Sequence[Mapping[str, Any]],
     final_summary: bool,
+    order: Mapping[str, Mapping[str, int]] | None = None,
 ) -> dict[str, Any]:
     """The review's ``recording`` section: is every published message in the file?
 
@@ -90,6 +174,9 @@ def completeness(
         The controller reports in the file.
     final_summary : bool
         Whether the file holds the plant's final timing summary (``final`` = 1).
+    order : mapping or None
+        Per per-cycle topic, :meth:`CycleOrder.as_dict` of its cycles in the file: any
+        repeat, reorder or skip is a problem (exact recording: each cycle once, in order).
 
     Returns
     -------
@@ -97,7 +184,8 @@ def completeness(
         ``complete`` (bool: no gap, the final summary and both reports present),
         ``topics`` (suffix -> ``{"recorded": n, "expected": m}``; ``m`` None where no
         report covers the topic), ``problems`` (one sentence each), ``plant_report`` and
-        ``controller_report`` (bool: present).
+        ``controller_report`` (bool: present), ``order`` (as given, or empty). A plant
+        topic must hold exactly what the plant published, no more (:func:`excess`).
     """
     expected = expected_counts(plant, controllers)
     problems: list[str] = []
@@ -110,6 +198,8 @@ def completeness(
             "no controller report (controller/report): what the controller published is unknown"
         )
     problems += shortfall(recorded, expected)
+    problems += excess(recorded, expected)
+    problems += order_problems(order or {})
     topics = {
         t: {"recorded": int(recorded.get(t, 0)), "expected": expected.get(t)}
         for t in (*PLANT_TOPICS, *CONTROLLER_TOPICS, PLANT_REPORT_TOPIC, CONTROLLER_REPORT_TOPIC)
@@ -121,6 +211,7 @@ def completeness(
         "problems": problems,
         "plant_report": plant is not None,
         "controller_report": bool(controllers),
+        "order": {t: dict(o) for t, o in (order or {}).items()},
     }
 
 

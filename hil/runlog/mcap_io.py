@@ -296,7 +296,8 @@ class RunLog:
         (:meth:`maybe_flush`). ``receive_unix_ns``: its ``publish_time`` (default: now).
 
         Raises ``KeyError`` for a topic of no channel and ``ValueError`` (nothing queued)
-        for a ``uint64`` field above ``2**63 - 1`` (the rows are int64; no run counts so far).
+        for a ``uint64`` field above ``2**63 - 1`` (the rows are int64; no run counts so far)
+        or a ``sample_time_ns`` whose log time (the run's start plus it) would pass it.
         """
         cid = self._by_topic.get(key)
         if cid is None:
@@ -310,6 +311,11 @@ class RunLog:
             if values[i] > _I64_MAX:  # a row holds int64 (the codec allows up to 2**64 - 1)
                 name = ch.mt.cls.__struct_fields__[i]
                 raise ValueError(f"{ch.mt.name}.{name} = {values[i]} does not fit the run log")
+        sample_ns = getattr(msg, "sample_time_ns", 0)
+        if sample_ns > _I64_MAX - self.start_unix_ns:  # the log time (start + it) is int64
+            raise ValueError(
+                f"{ch.mt.name}.sample_time_ns = {sample_ns} puts its log time past 2**63 - 1"
+            )
         self._queue(ch, "structs", values, recv)
         ch.queued += 1
         self._queued += 1
