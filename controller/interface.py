@@ -106,6 +106,11 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
         AR/ESPRIT wave forecaster: fits so far with poles outside the unit circle (stabilised)
         and forecasts so far replaced by the fallback 0 m by the bound guard
         (:mod:`controller.forecast`); 0 for the dispersion forecaster.
+    estimator_faults : int
+        Estimator faults so far: divergences detected by an estimator's guard (sustained
+        innovation gating or clamping to the physical range, or a non-finite state), each
+        starting a fallback (the baseline's TSR-tracking law: :mod:`controller.baseline`);
+        0 for a core without such a guard.
     """
 
     blade_pitch_commanded_rad: float
@@ -128,6 +133,7 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
     feedforward_torque_nm: float = 0.0
     forecast_unstable_fits: int = 0
     forecast_guarded: int = 0
+    estimator_faults: int = 0
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,9 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``safe_mode_at_end``, ``safe_mode_s`` [s] (commands sent with ``mode`` = safe times
     ``control_period_s``), ``commands`` [1] published, ``frames_missing``, ``frames_stale``
     [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
-    commands) and ``frames_rejected_total`` [1].
+    commands) and ``frames_rejected_total`` [1]; ``estimator_faults`` [1]: the estimator
+    divergences the controller detected and fell back from (the largest running count of
+    ``controller/status``; 0 in a log from before the count existed).
 ``plant``
     ``source`` (``"timing/report"``, the plant's final
     :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
@@ -410,6 +412,7 @@ class _Summary:
         self.f_eta = rs.Moments()
         self.f_err = rs.Moments()
         self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
+        self.estimator_faults = -math.inf  # the status's running count: its largest value
 
     def _window(self) -> rs.Window:
         if self.window is None:  # the scenario's metadata comes before the messages
@@ -437,6 +440,10 @@ class _Summary:
             self.compute.add(c["compute_time_ns"])
             self.status_count += b.size
             self.last_rejected = float(c["rejected_frames"][-1])
+            # the whole run (not the review window): a fault in the first seconds counts
+            faults = c.get("estimator_faults")
+            if faults is not None and np.isfinite(faults).any():
+                self.estimator_faults = max(self.estimator_faults, float(np.nanmax(faults)))
             self.join.add_status(c)
         elif s == "timing/cycle":
             self._cycles(c, b.size)
@@ -688,7 +695,17 @@ class _Summary:
             "degraded_fraction": nan,
         }
         fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
-        out = {"estimator": est, "forecast": fc, "controller": {"compute_us": self._compute_us()}}
+        faults = self.estimator_faults
+        out = {
+            "estimator": est,
+            "forecast": fc,
+            "controller": {
+                "compute_us": self._compute_us(),
+                # estimator divergences the controller detected (ControllerStatus v3; 0 in
+                # an older log, which has no such count)
+                "estimator_faults": int(faults) if math.isfinite(faults) else 0,
+            },
+        }
         if not self.w_status or not self.truth_any or not self.w_mask_finite:
             return out  # no estimate, or a log of ControllerStatus version 1
         est["degraded_fraction"] = self.w_degraded / self.w_status
@@ -1220,6 +1237,7 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
         ("frames missing", ctrl.get("frames_missing"), src),
         ("frames stale", ctrl.get("frames_stale"), src),
         ("frames rejected", ctrl.get("frames_rejected_total"), src),
+        ("estimator faults", ctrl.get("estimator_faults"), "controller/status"),
     ]
     for reason, n in (ctrl.get("frames_rejected") or {}).items():
         if n:
@@ -1234,7 +1252,7 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
             rows.append((f"  commands rejected: {reason}", n, psrc))
     for name, v, where in rows:
         text = _fmt(v, digits=2)
-        if v and ("safe mode" in name or "rejected" in name):
+        if v and ("safe mode" in name or "rejected" in name or "faults" in name):
             text = f"[yellow]{text}[/yellow]"
         t.add_row(escape(name), text, where)
     console.print(t)

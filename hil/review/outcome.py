@@ -155,6 +155,18 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
             (ExitCode.SAFE_STATE, f"the controller entered its safe mode {entries:.0f} time(s)")
         )
 
+    # the controller's estimator diverged (its guard's count, ControllerStatus v3): a
+    # controller fault, the run is not healthy whatever else it did
+    est_faults = _number(_dict(summary.get("controller")).get("estimator_faults")) or 0.0
+    if est_faults > 0:
+        found.append(
+            (
+                getattr(ExitCode, "CONTROLLER_FAULT", ExitCode.SAFE_STATE),
+                f"the controller's estimator diverged {est_faults:.0f} time(s) and it ran "
+                "on its fallback (controller.estimator_faults)",
+            )
+        )
+
     misses = _number(timing.get("deadline_misses")) or 0.0
     if misses > 0:
         tolerated = deadline_miss_tolerance(summary)
