@@ -60,8 +60,8 @@ __all__ = [
     "LQRI_LIMITS",
     "aero_torque",
     "cp_lookup",
-    "ekf_predict",
     "ekf_guarded_step",
+    "ekf_predict",
     "ekf_step",
     "ekf_update",
     "ff_cycle",
@@ -1042,7 +1042,7 @@ BL_CONSTANTS = (
     "k_opt",  # the fallback's region-2 gain K (HSS) [N m/(rad/s)^2]
 )
 #: Length of the baseline's float state array (``baseline_step``'s ``st``).
-BL_STATE_SIZE = 28
+BL_STATE_SIZE = 29
 
 
 @_jit
@@ -1129,7 +1129,9 @@ def baseline_step(
     TSR-tracking law only (``bl[tsr]`` = 1; the array then has :data:`BL_STATE_SIZE`
     entries), (v_f, Δω_f, θ_lo, EKF x (3), EKF P (6), the platform-pitch-rate filters (3),
     the last valid rate, the wind guard's fault count, bad and good times [s], fallback
-    flag and last good filtered estimate [m/s]); the new state goes to ``st_out``;
+    flag and last good filtered estimate [m/s], and the trimmed-start flag: on the first
+    call, 1 starts the EKF and the wind filter from the state's values instead of the
+    anemometer); the new state goes to ``st_out``;
     ``w`` is the generator speed [rad/s], ``pitch_meas`` and ``torque_meas`` the measured
     pitch [rad] and torque [N m], ``wind_meas`` the anemometer [m/s] (the EKF's start);
     ``prm``, ``tsr_grid``, ``pitch_grid``, ``cells``: the wind EKF's constants and Cp table
@@ -1181,7 +1183,14 @@ def baseline_step(
         n_ps = int(bl[42])
         omega_r = w / gear
         gate2, v_lo, v_hi, t_fault, t_recover = bl[47], bl[48], bl[49], bl[50], bl[51]
-        if first_call:
+        trim_start = first_call and st[28] != 0.0
+        if trim_start:
+            # a trimmed start (BaselineController.trimmed_state): the EKF and the wind
+            # filter as the state holds them, at the operating point's mean wind
+            x_e = (st[10], st[11], st[12])
+            p_e = (st[13], st[14], st[15], st[16], st[17], st[18])
+            faults, t_bad, t_good, fallback, v_hold = 0.0, 0.0, 0.0, False, st[7]
+        elif first_call:
             u_m = _pmin(_pmax(_pmax(wind_meas, 3.0), prm[8]), prm[9])
             sigma_t = prm[10] * u_m
             x_e = (omega_r, 0.0, u_m)
@@ -1226,7 +1235,7 @@ def baseline_step(
         v = x_e[1] + x_e[2]
         if fallback:
             v_f = v_hold
-        elif first_call:
+        elif first_call and not trim_start:
             v_f = v
         else:
             a_w = math.exp(-dt_s * w_we)
@@ -1267,10 +1276,8 @@ def baseline_step(
         if fallback:
             # the anemometer-free region-2 law (rated torque on the region-3 pitch
             # criterion); the PI's integral tracks it for a bumpless return
-            if th_prev >= th_lo + th_switch:
-                tq = tq_rated
-            else:
-                tq = _pmin(bl[52] * w_f * w_f, tq_rated)
+            k_opt = bl[52]
+            tq = tq_rated if th_prev >= th_lo + th_switch else _pmin(k_opt * w_f * w_f, tq_rated)
             i_t = tq / ki_t
         else:
             i_t += e_t * dt_s
@@ -1298,6 +1305,7 @@ def baseline_step(
         st_out[25] = t_good
         st_out[26] = 1.0 if fallback else 0.0
         st_out[27] = v_hold
+        st_out[28] = 0.0
         n_faults = int(faults)
         degraded = 1 if fallback else 0
         st_out[7] = v_f

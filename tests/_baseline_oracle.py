@@ -63,6 +63,9 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
     estimator_faults, wind_bad_s, wind_good_s, wind_fallback, wind_last_good_m_s
         ``"tsr_tracking"``: the wind guard's faults so far, current bad and healthy runs
         [s], fallback flag and last good filtered estimate [m/s].
+    trimmed : bool
+        With ``first_call``: a trimmed start, the EKF and the wind filter start from the
+        values here (``BaselineController.trimmed_state``).
     """
 
     first_call: bool
@@ -87,6 +90,7 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
     wind_good_s: float = 0.0
     wind_fallback: bool = False
     wind_last_good_m_s: float = 0.0
+    trimmed: bool = False
 
 
 ORACLE_INITIAL = OracleState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -254,7 +258,12 @@ def oracle_step(
         ekf = ctrl.ekf
         assert ekf is not None
         omega_r = w / gear
-        if state.first_call:  # ROSCO: the anemometer, at least 3 m/s
+        trim_start = state.first_call and state.trimmed
+        if trim_start:  # BaselineController.trimmed_state: the EKF and filter as held
+            x_e, p_e = state.wind_ekf_x, state.wind_ekf_p
+            faults, t_bad, t_good, fallback = 0, 0.0, 0.0, False
+            v_hold = state.wind_filtered_m_s
+        elif state.first_call:  # ROSCO: the anemometer, at least 3 m/s
             est0 = ekf.initial_state(
                 omega_r,
                 measurement.blade_pitch_measured_rad,
@@ -305,7 +314,7 @@ def oracle_step(
         v = x_e[1] + x_e[2]
         if fallback:
             v_f = v_hold
-        elif state.first_call:
+        elif state.first_call and not trim_start:
             v_f = v
         else:
             a_w = math.exp(-dt_s * w_we)
