@@ -246,6 +246,10 @@ def ekf_step(
 ]:
     """Predict, update when ``valid`` and z is finite, and the model torque at the estimate.
 
+    The estimate :math:`u_t + u_m` is bounded to the mean-wind range
+    ``[wind_min, wind_max]`` (:math:`u_t` set at an end; :math:`u_m` already is): an EKF
+    fed a speed far noisier than its model cannot run off the physical range.
+
     Returns (x, P upper triangle, innovation (NaN: no update), updated, T_a [N m]).
     """
     x, p = ekf_predict(prm, tsr_grid, pitch_grid, cells, x, p, pitch, torque, dt_s)
@@ -254,6 +258,11 @@ def ekf_step(
     if valid and math.isfinite(z):
         x, p, y = ekf_update(prm, x, p, z)
         updated = True
+    v = x[1] + x[2]
+    if v < prm[8]:
+        x = (x[0], prm[8] - x[2], x[2])
+    elif v > prm[9]:
+        x = (x[0], prm[9] - x[2], x[2])
     ta = aero_torque(prm, tsr_grid, pitch_grid, cells, x[0], x[1] + x[2], pitch)[0]
     return x, p, y, updated, ta
 

@@ -65,6 +65,26 @@ not copied from any source code):
      when :math:`\\theta_{k-1} \\ge \\theta_{lo} + (\\theta_3 - \\theta_{min})`, 2.5 at rated
      torque, 1.5 at the minimum-speed reference, else 2.
 
+   **The estimate's guard** (step 2c, ``"tsr_tracking"``; :func:`controller._kernels.
+   ekf_guarded_step`): the EKF's rotor-speed update is skipped when the innovation
+   :math:`y = \\omega_r - \\hat\\omega^-` has :math:`y^2 > k^2 s` (:math:`s = P_{\\omega\\omega} +
+   r`, ``wind_estimator_gate_sigma`` = k), and :math:`u_t` is set so that :math:`\\hat v =
+   u_t + u_m` lies in [``wind_estimate_min_m_s``, ``wind_estimate_max_m_s``]; such a step is
+   *bad*. ``wind_estimator_fault_s`` of uninterrupted bad steps, or a non-finite EKF state,
+   is an estimator fault: the count (``estimator_faults``) goes up by one if the fallback
+   was not on, the fallback starts, the EKF restarts at :math:`(\\omega_r, 0, \\hat v_{good})`
+   with its initial covariance, where :math:`\\hat v_{good}` is the filtered estimate before
+   the bad run began. In the fallback :math:`\\hat v_f = \\hat v_{good}` (held), the torque is
+   :math:`T_{rt}` on the region-3 pitch criterion, else :math:`\\min(K^* \\omega_f^2, T_{rt})`
+   with :math:`K^* = \\tfrac12\\rho\\pi R^5 C_p(\\lambda^*, \\theta_{min})/(\\lambda^{*3} N^3)`
+   (the anemometer-free region-2 law on the EKF's Cp table), the torque integral is set to
+   :math:`T/K_{I,T}`, ``estimator_degraded`` is 1 and the reported estimate is the held one;
+   ``wind_estimator_recover_s`` without a bad step ends it.
+
+   **Trimmed start** (:meth:`BaselineController.trimmed_state`): the first step takes the
+   EKF's state and :math:`\\hat v_f` from the state (converged at the operating point's mean
+   wind) instead of starting them from the anemometer.
+
 3. **Blade pitch** (collective): gain schedule from the previous command,
    :math:`G_K = 1/(1+\\theta_{k-1}/\\theta_K)` (or a table of :math:`K_P(\\theta)`,
    :math:`K_I(\\theta)` with linear interpolation, end values held); speed error

@@ -1,5 +1,7 @@
 """The baseline's wind-speed estimator cannot run away, and its faults are reported.
 
+* ``trimmed_state`` starts the EKF at the mean wind, the kernel as the oracle;
+* the wind EKF's step (every controller's) keeps its estimate in range on a wild speed;
 * the guarded kernel equals the plain-Python oracle (tests/_baseline_oracle.py) through a
   forced divergence (a generator speed that jumps by 60 % of rated), the fault is counted
   once, the fallback flagged as ``estimator_degraded`` and the estimate stays in range;
@@ -18,11 +20,14 @@ import math
 from pathlib import Path
 
 import msgspec
+import numpy as np
 import pytest
 from _baseline_oracle import ORACLE_INITIAL, oracle_step
 from _helpers import fowt, sensor_frame
 
 from controller.baseline import BaselineController, load_baseline
+from controller.estimators import WindEKFMeasurement
+from controller.interface import OperatingPoint
 from hil.review.outcome import ExitCode
 from hil.scenario.schema import parse_scenario
 
@@ -116,6 +121,54 @@ def test_a_diverging_estimate_is_a_fault_and_the_kernel_equals_the_oracle() -> N
     assert 10.0 + p.wind_estimator_fault_s - 0.1 <= first <= 10.0 + p.wind_estimator_fault_s + 0.1
     assert degraded[faults.index(1)] == 1
     assert all(p.wind_estimate_min_m_s <= v <= p.wind_estimate_max_m_s for v in winds)
+
+
+def test_trimmed_state_starts_the_ekf_at_the_mean_wind_as_the_oracle() -> None:
+    """trimmed_state: the kernel's trimmed first step equals the oracle's, and the estimate
+    starts at the mean wind (not the anemometer's 6.8 m/s) and stays there."""
+    ctrl = BaselineController(load_baseline("iea15mw_baseline"))
+    p = ctrl.params
+    omega = 5.65 * math.pi / 30.0
+    op = OperatingPoint(wind_m_s=8.0, rotor_speed_rad_s=omega, blade_pitch_rad=0.0)
+    bstate = ctrl.trimmed_state(op)
+    assert bstate.first_call and bstate.trimmed
+    assert bstate.wind_filtered_m_s == pytest.approx(8.0, abs=0.05)
+    v = bstate.values
+    state = msgspec.structs.replace(
+        ORACLE_INITIAL,
+        wind_filtered_m_s=float(v[7]),
+        wind_ekf_x=tuple(v[10:13].tolist()),
+        wind_ekf_p=tuple(v[13:19].tolist()),
+        trimmed=True,
+    )
+    assert ctrl.ekf is not None
+    torque = ctrl.ekf.aero_torque(omega, 8.0, 0.0)[0] / p.gearbox_ratio
+    for k in range(400):
+        frame = msgspec.structs.replace(
+            sensor_frame(omega * p.gearbox_ratio, 0.0, torque), wind_speed_measured_m_s=6.8
+        )
+        state, want = oracle_step(ctrl, state, frame, 0.025)
+        bstate, got = ctrl.step(bstate, frame, 0.025)
+        for name in got.__struct_fields__:
+            g, w = getattr(got, name), getattr(want, name)
+            assert _close(g, w) if isinstance(w, float) else g == w, (k, name, g, w)
+        assert got.wind_speed_estimated_m_s == pytest.approx(8.0, abs=0.1)
+        assert got.estimator_faults == 0
+
+
+def test_the_wind_ekf_step_stays_in_its_range_on_a_wild_speed() -> None:
+    """WindSpeedEKF.step (the advanced controllers' EKF): a rotor speed with noise 0.3 rad/s
+    (40 % of rated) and a model assuming 1 mrad/s leaves the estimate inside its range."""
+    ekf = BaselineController(load_baseline("iea15mw_baseline")).ekf
+    assert ekf is not None
+    c = ekf.config
+    rng = np.random.default_rng(5)
+    st = ekf.initial_state(0.75, 0.05, 1.5e7, 10.0)
+    for _ in range(4000):
+        z = 0.75 + 0.3 * float(rng.normal())
+        st, est = ekf.step(st, WindEKFMeasurement(z, 0.05, 1.5e7, True), 0.025)
+        assert c.wind_min_m_s - 1e-9 <= est.wind_m_s <= c.wind_max_m_s + 1e-9
+        assert math.isfinite(est.rotor_speed_rad_s)
 
 
 def _run(tmp_path: Path, text: str, mode: str) -> tuple[int, dict]:
