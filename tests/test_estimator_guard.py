@@ -184,6 +184,7 @@ def _run(tmp_path: Path, text: str, mode: str) -> tuple[int, dict]:
 def test_the_users_iea15mw_scenario_runs_with_a_bounded_estimate(tmp_path: Path) -> None:
     code, summary = _run(tmp_path, USER.format(duration=60.0), "inprocess")
     assert summary["controller"]["estimator_faults"] == 0
+    assert summary["controller"]["estimator_faults_first_s"] is None
     est = summary["estimator"]
     assert abs(est["wind_speed_error_mean_pct"]) < 5.0  # (it ran away to -3404 %)
     assert est["wind_speed_error_rms_m_s"] < 2.0
@@ -196,6 +197,8 @@ def test_a_biased_speed_sensor_is_an_estimator_fault_in_every_mode(
 ) -> None:
     code, summary = _run(tmp_path, USER.format(duration=60.0) + BIAS, mode)
     assert summary["controller"]["estimator_faults"] >= 1
+    # the bias from 20 s, gated until the fault 5 s later
+    assert 24.9 <= summary["controller"]["estimator_faults_first_s"] <= 30.0
     assert code != ExitCode.OK
     assert summary["run"]["outcome"] != "ok"
     assert any("estimator" in r for r in summary["run"]["outcome_reasons"])

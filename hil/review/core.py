@@ -65,7 +65,9 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     [1] (``null`` from commands), ``frames_rejected`` ``{reason: count}`` (``null`` from
     commands) and ``frames_rejected_total`` [1]; ``estimator_faults`` [1]: the estimator
     divergences the controller detected and fell back from (the largest running count of
-    ``controller/status``; 0 in a log from before the count existed).
+    ``controller/status``; 0 in a log from before the count existed) and
+    ``estimator_faults_first_s`` [s] (sample time of the first status counting one; null:
+    none).
 ``plant``
     ``source`` (``"timing/report"``, the plant's final
     :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
@@ -413,6 +415,7 @@ class _Summary:
         self.f_err = rs.Moments()
         self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
         self.estimator_faults = -math.inf  # the status's running count: its largest value
+        self.estimator_fault_first_s: float | None = None  # sample time of the first [s]
 
     def _window(self) -> rs.Window:
         if self.window is None:  # the scenario's metadata comes before the messages
@@ -444,6 +447,9 @@ class _Summary:
             faults = c.get("estimator_faults")
             if faults is not None and np.isfinite(faults).any():
                 self.estimator_faults = max(self.estimator_faults, float(np.nanmax(faults)))
+                first = np.flatnonzero(faults > 0)
+                if first.size and self.estimator_fault_first_s is None:
+                    self.estimator_fault_first_s = float(t[first[0]]) / 1e9
             self.join.add_status(c)
         elif s == "timing/cycle":
             self._cycles(c, b.size)
@@ -704,6 +710,7 @@ class _Summary:
                 # estimator divergences the controller detected (ControllerStatus v3; 0 in
                 # an older log, which has no such count)
                 "estimator_faults": int(faults) if math.isfinite(faults) else 0,
+                "estimator_faults_first_s": self.estimator_fault_first_s,
             },
         }
         if not self.w_status or not self.truth_any or not self.w_mask_finite:
@@ -1238,6 +1245,7 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
         ("frames stale", ctrl.get("frames_stale"), src),
         ("frames rejected", ctrl.get("frames_rejected_total"), src),
         ("estimator faults", ctrl.get("estimator_faults"), "controller/status"),
+        ("estimator fault first [s]", ctrl.get("estimator_faults_first_s"), "controller/status"),
     ]
     for reason, n in (ctrl.get("frames_rejected") or {}).items():
         if n:
