@@ -168,11 +168,12 @@ def _logged(folder: Path, preset: str = "nrel5mw", level: int = 1) -> str:
     lines = []
     for line in src.read_text().splitlines():
         if line.rstrip().endswith("! LoggingLevel"):
-            line = f"{level:<41d}! LoggingLevel"
+            lines.append(f"{level:<41d}! LoggingLevel")
         elif line.rstrip().endswith("! PerfFileName"):
             name = line.split("!")[0].strip().strip('"')
-            line = f'"{src.parent / name}"   ! PerfFileName'
-        lines.append(line)
+            lines.append(f'"{src.parent / name}"   ! PerfFileName')
+        else:
+            lines.append(line)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{preset}_L{level}_DISCON.IN"
     path.write_text("\n".join(lines) + "\n")
