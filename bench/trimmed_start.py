@@ -167,9 +167,7 @@ def table_row(kind: str, turbine: str, wind: float, duration: float) -> dict[str
         "surge_std_0_60_s_m": round(s0, 4),
         "surge_std_400_600_s_m": round(s1, 4),
         "surge_std_ratio": round(s0 / s1, 3) if s1 > 0 else None,
-        "trimmed_state": callable(
-            getattr(ControllerRuntime(sc, paced=False).controller, "trimmed_state", None)
-        ),
+        "trimmed_state": bool(s["has_trimmed_state"][0]),
     }
 
 
@@ -226,7 +224,12 @@ def truth_series(scenario: Scenario) -> dict[str, np.ndarray]:
 
     run_inprocess(scenario, publish, publishing_step(runtime, publish), runtime=runtime)
     a = np.array(rows)
-    return {"t": a[:, 0], **{s: a[:, i + 1] for i, s in enumerate(SIGNALS)}}
+    has_trim = callable(getattr(runtime.controller, "trimmed_state", None))
+    return {
+        "t": a[:, 0],
+        **{s: a[:, i + 1] for i, s in enumerate(SIGNALS)},
+        "has_trimmed_state": np.array([has_trim]),
+    }
 
 
 def window_std(series: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
