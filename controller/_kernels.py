@@ -26,7 +26,9 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
 * Wind EKF (:func:`ekf_predict`, :func:`ekf_update`, :func:`ekf_step`): first-order predict
   :math:`\\hat x^- = \\hat x + \\Delta t f`, :math:`P^- = F P F^T + \\Delta t\\,\\mathrm{diag}(q)`
   unrolled on the upper triangle; scalar Joseph update with :math:`h = e_1`,
-  :math:`P_{ij} - k_i P_{1j} - P_{i1} k_j + s k_i k_j`.
+  :math:`P_{ij} - k_i P_{1j} - P_{i1} k_j + s k_i k_j`; the step bounds the estimate
+  :math:`u_t + u_m` to the mean-wind range, and :func:`ekf_guarded_step` (the baseline's)
+  also gates the innovation at :math:`k\\sqrt{s}` and says when it gated or clamped.
 * Platform KF (:func:`kf_predict`, :func:`kf_update`): :math:`x \\leftarrow F x + B u`,
   :math:`P \\leftarrow F P F^T + Q` (k steps); gated update of the accepted subset a,
   :math:`K = P H_a^T S_{aa}^{-1}` (Gauss-Jordan inverse with partial pivoting, k <= p),
