@@ -259,6 +259,8 @@ class ControllerStatus(msgspec.Struct, frozen=True, gc=False):
     missing or invalid measurements. ``forecast_unstable_fits`` and ``forecast_guarded`` count
     (since the start) the AR/ESPRIT wave-forecaster fits stabilised for poles outside the unit
     circle and the forecasts the bound guard replaced by 0 m (``controller.forecast``).
+    Version 3 adds ``estimator_faults``: the estimator divergences the controller detected
+    since the start, each one starting its fallback (``controller.interface.ControlOutput``).
     """
 
     seq: Seq
@@ -305,6 +307,7 @@ class ControllerStatus(msgspec.Struct, frozen=True, gc=False):
     ] = 0.0
     forecast_unstable_fits: Count = 0
     forecast_guarded: Count = 0
+    estimator_faults: Count = 0
 
 
 class CycleTiming(msgspec.Struct, frozen=True, gc=False):

@@ -99,7 +99,7 @@ MESSAGES: tuple[MessageType, ...] = (
     _mt(SensorFrame, 1, 1, "sensors"),
     _mt(ActuatorCommand, 2, 1, "command"),
     _mt(PlantState, 3, 2, "truth"),
-    _mt(ControllerStatus, 4, 2, "controller/status"),
+    _mt(ControllerStatus, 4, 3, "controller/status"),
     _mt(CycleTiming, 5, 1, "timing/cycle"),
     _mt(TimingSummary, 6, 2, "timing/summary"),
     _mt(WavePreviewPerfect, 7, 1, "preview/wave_perfect"),

@@ -26,7 +26,9 @@ which keep their signatures. The equations are those of :mod:`controller.estimat
 * Wind EKF (:func:`ekf_predict`, :func:`ekf_update`, :func:`ekf_step`): first-order predict
   :math:`\\hat x^- = \\hat x + \\Delta t f`, :math:`P^- = F P F^T + \\Delta t\\,\\mathrm{diag}(q)`
   unrolled on the upper triangle; scalar Joseph update with :math:`h = e_1`,
-  :math:`P_{ij} - k_i P_{1j} - P_{i1} k_j + s k_i k_j`.
+  :math:`P_{ij} - k_i P_{1j} - P_{i1} k_j + s k_i k_j`; the step bounds the estimate
+  :math:`u_t + u_m` to the mean-wind range, and :func:`ekf_guarded_step` (the baseline's)
+  also gates the innovation at :math:`k\\sqrt{s}` and says when it gated or clamped.
 * Platform KF (:func:`kf_predict`, :func:`kf_update`): :math:`x \\leftarrow F x + B u`,
   :math:`P \\leftarrow F P F^T + Q` (k steps); gated update of the accepted subset a,
   :math:`K = P H_a^T S_{aa}^{-1}` (Gauss-Jordan inverse with partial pivoting, k <= p),
@@ -60,6 +62,7 @@ __all__ = [
     "LQRI_LIMITS",
     "aero_torque",
     "cp_lookup",
+    "ekf_guarded_step",
     "ekf_predict",
     "ekf_step",
     "ekf_update",
@@ -245,6 +248,10 @@ def ekf_step(
 ]:
     """Predict, update when ``valid`` and z is finite, and the model torque at the estimate.
 
+    The estimate :math:`u_t + u_m` is bounded to the mean-wind range
+    ``[wind_min, wind_max]`` (:math:`u_t` set at an end; :math:`u_m` already is): an EKF
+    fed a speed far noisier than its model cannot run off the physical range.
+
     Returns (x, P upper triangle, innovation (NaN: no update), updated, T_a [N m]).
     """
     x, p = ekf_predict(prm, tsr_grid, pitch_grid, cells, x, p, pitch, torque, dt_s)
@@ -253,8 +260,56 @@ def ekf_step(
     if valid and math.isfinite(z):
         x, p, y = ekf_update(prm, x, p, z)
         updated = True
+    v = x[1] + x[2]
+    if v < prm[8]:
+        x = (x[0], prm[8] - x[2], x[2])
+    elif v > prm[9]:
+        x = (x[0], prm[9] - x[2], x[2])
     ta = aero_torque(prm, tsr_grid, pitch_grid, cells, x[0], x[1] + x[2], pitch)[0]
     return x, p, y, updated, ta
+
+
+@_jit
+def ekf_guarded_step(
+    prm: np.ndarray,
+    tsr_grid: np.ndarray,
+    pitch_grid: np.ndarray,
+    cells: np.ndarray,
+    x: tuple[float, float, float],
+    p: tuple[float, float, float, float, float, float],
+    z: float,
+    pitch: float,
+    torque: float,
+    dt_s: float,
+    gate2: float,
+    v_lo: float,
+    v_hi: float,
+) -> tuple[tuple[float, float, float], tuple[float, float, float, float, float, float], bool]:
+    """Predict, a gated update and the estimate bounded to ``[v_lo, v_hi]``.
+
+    The update is skipped when the innovation :math:`y = z - \\hat\\omega^-` is not finite
+    or :math:`y^2 > k^2 s` (``gate2`` = :math:`k^2`, :math:`s = P_{\\omega\\omega} + r`);
+    then :math:`u_t` is set so that :math:`\\hat v = u_t + u_m` lies in ``[v_lo, v_hi]``.
+    Returns (x, P upper triangle, bad): ``bad`` when the update was gated or the estimate
+    clamped (the divergence detector's input, :func:`baseline_step`).
+    """
+    x, p = ekf_predict(prm, tsr_grid, pitch_grid, cells, x, p, pitch, torque, dt_s)
+    y = z - x[0]
+    s = p[0] + prm[4]
+    bad = False
+    if y * y <= gate2 * s:  # False for a non-finite y
+        x, p, _y = ekf_update(prm, x, p, z)
+    else:
+        bad = True
+    omega, u_t, u_m = x
+    v = u_t + u_m
+    if not v >= v_lo:  # (also a NaN)
+        u_t = v_lo - u_m
+        bad = True
+    elif v > v_hi:
+        u_t = v_hi - u_m
+        bad = True
+    return (omega, u_t, u_m), p, bad
 
 
 @_jit
@@ -989,9 +1044,16 @@ BL_CONSTANTS = (
     "w_fl",  # its second-order low pass: corner [rad/s], damping [-]
     "zeta_fl",
     "w_hp",  # its high pass corner [rad/s]
+    # the wind estimate's guard (module docstring of controller.baseline, step 2c)
+    "gate2",  # innovation gate: k^2 of |y| <= k sqrt(s) [-]
+    "v_lo",  # physical range of the estimate [m/s]
+    "v_hi",
+    "t_fault",  # sustained gating/clamping before a fault [s]
+    "t_recover",  # healthy time in the fallback before the estimate is used again [s]
+    "k_opt",  # the fallback's region-2 gain K (HSS) [N m/(rad/s)^2]
 )
 #: Length of the baseline's float state array (``baseline_step``'s ``st``).
-BL_STATE_SIZE = 23
+BL_STATE_SIZE = 29
 
 
 @_jit
@@ -1070,21 +1132,25 @@ def baseline_step(
     cells: np.ndarray,
     prate: float,
     prate_valid: bool,
-) -> tuple[float, float, int, float, float, float, float]:
+) -> tuple[float, float, int, float, float, float, float, int, int]:
     """The law of ``BaselineController.step`` (:mod:`controller.baseline`; its plain-Python
     oracle: tests/_baseline_oracle.py).
 
     ``st`` holds (lpf_z1, lpf_z2, ω_f, I_pitch, I_torque, θ_prev, T_prev) and, for the
     TSR-tracking law only (``bl[tsr]`` = 1; the array then has :data:`BL_STATE_SIZE`
     entries), (v_f, Δω_f, θ_lo, EKF x (3), EKF P (6), the platform-pitch-rate filters (3),
-    the last valid rate); the new state goes to ``st_out``;
+    the last valid rate, the wind guard's fault count, bad and good times [s], fallback
+    flag and last good filtered estimate [m/s], and the trimmed-start flag: on the first
+    call, 1 starts the EKF and the wind filter from the state's values instead of the
+    anemometer); the new state goes to ``st_out``;
     ``w`` is the generator speed [rad/s], ``pitch_meas`` and ``torque_meas`` the measured
     pitch [rad] and torque [N m], ``wind_meas`` the anemometer [m/s] (the EKF's start);
     ``prm``, ``tsr_grid``, ``pitch_grid``, ``cells``: the wind EKF's constants and Cp table
     (:class:`controller.estimators.WindSpeedEKF`; unused by the K ω² law); ``prate`` the
     platform pitch rate [rad/s] and ``prate_valid`` its valid bit. Returns the
     :class:`ControlOutput` fields (θ, T, regime, ω_f, K_I I, G_K) and the wind estimate
-    (0 for the K ω² law).
+    (0 for the K ω² law), the estimator faults so far and the fallback flag (both 0 for
+    the K ω² law).
     """
     order2 = bl[0] != 0.0
     w_c, zeta, w_ci, w_2, K, slope15 = bl[1], bl[2], bl[3], bl[4], bl[5], bl[6]
@@ -1120,29 +1186,73 @@ def baseline_step(
     v = 0.0
     v_f = 0.0
     ss = 0.0
+    n_faults = 0
+    degraded = 0
     if tsr:
         tsr_gain, w_we, ss_vs, ss_pc, w_ss = bl[32], bl[33], bl[34], bl[35], bl[36]
         eta, p_rt_e, th_switch, gear, p22_0 = bl[37], bl[38], bl[39], bl[40], bl[41]
         n_ps = int(bl[42])
         omega_r = w / gear
-        if first_call:
+        gate2, v_lo, v_hi, t_fault, t_recover = bl[47], bl[48], bl[49], bl[50], bl[51]
+        trim_start = first_call and st[28] != 0.0
+        if trim_start:
+            # a trimmed start (BaselineController.trimmed_state): the EKF and the wind
+            # filter as the state holds them, at the operating point's mean wind
+            x_e = (st[10], st[11], st[12])
+            p_e = (st[13], st[14], st[15], st[16], st[17], st[18])
+            faults, t_bad, t_good, fallback, v_hold = 0.0, 0.0, 0.0, False, st[7]
+        elif first_call:
             u_m = _pmin(_pmax(_pmax(wind_meas, 3.0), prm[8]), prm[9])
             sigma_t = prm[10] * u_m
             x_e = (omega_r, 0.0, u_m)
             p_e = (prm[4], 0.0, 0.0, sigma_t * sigma_t, 0.0, p22_0 * p22_0)
+            faults, t_bad, t_good, fallback, v_hold = 0.0, 0.0, 0.0, False, u_m
         else:
             x_e = (st[10], st[11], st[12])
             p_e = (st[13], st[14], st[15], st[16], st[17], st[18])
-        x_e, p_e, _y, _upd, _ta = ekf_step(
-            prm, tsr_grid, pitch_grid, cells, x_e, p_e, omega_r, True, pitch_meas,
-            torque_meas, dt_s,
+            faults, t_bad, t_good, fallback, v_hold = st[23], st[24], st[25], st[26] != 0.0, st[27]
+        x_e, p_e, bad = ekf_guarded_step(
+            prm, tsr_grid, pitch_grid, cells, x_e, p_e, omega_r, pitch_meas, torque_meas,
+            dt_s, gate2, v_lo, v_hi,
         )  # fmt: skip
+        finite = True
+        for k in range(3):
+            if not math.isfinite(x_e[k]):
+                finite = False
+        for k in range(6):
+            if not math.isfinite(p_e[k]):
+                finite = False
+        if bad:
+            t_bad += dt_s
+            t_good = 0.0
+        else:
+            t_good += dt_s
+            t_bad = 0.0
+        if not finite or t_bad >= t_fault:
+            # divergence: an estimator fault; the EKF restarts at the measured rotor speed
+            # and the last good estimate, the torque falls back to the K omega^2 law
+            if not fallback:
+                faults += 1.0
+                fallback = True
+            u_m = _pmin(_pmax(v_hold, prm[8]), prm[9])
+            sigma_t = prm[10] * u_m
+            om0 = omega_r if math.isfinite(omega_r) else 0.0
+            x_e = (om0, 0.0, u_m)
+            p_e = (prm[4], 0.0, 0.0, sigma_t * sigma_t, 0.0, p22_0 * p22_0)
+            t_bad = 0.0
+            t_good = 0.0
+        elif fallback and t_good >= t_recover:
+            fallback = False
         v = x_e[1] + x_e[2]
-        if first_call:
+        if fallback:
+            v_f = v_hold
+        elif first_call and not trim_start:
             v_f = v
         else:
             a_w = math.exp(-dt_s * w_we)
             v_f = (1.0 - a_w) * v + a_w * st[7]
+        if not fallback and t_bad == 0.0:
+            v_hold = v_f
         o = 3 * n_gs
         if n_ps == 0:
             th_lo = th_min
@@ -1174,16 +1284,23 @@ def baseline_step(
         e_t = w_f - w_vs
         if first_call:
             i_t = tq_prev / ki_t
-        i_t += e_t * dt_s
-        if i_t < 0.0:
-            i_t = 0.0
-        elif i_t > tq_rated / ki_t:
-            i_t = tq_rated / ki_t
-        tq = kp_t * e_t + ki_t * i_t
-        if tq < 0.0:
-            tq = 0.0
-        elif tq > tq_rated:
-            tq = tq_rated
+        if fallback:
+            # the anemometer-free region-2 law (rated torque on the region-3 pitch
+            # criterion); the PI's integral tracks it for a bumpless return
+            k_opt = bl[52]
+            tq = tq_rated if th_prev >= th_lo + th_switch else _pmin(k_opt * w_f * w_f, tq_rated)
+            i_t = tq / ki_t
+        else:
+            i_t += e_t * dt_s
+            if i_t < 0.0:
+                i_t = 0.0
+            elif i_t > tq_rated / ki_t:
+                i_t = tq_rated / ki_t
+            tq = kp_t * e_t + ki_t * i_t
+            if tq < 0.0:
+                tq = 0.0
+            elif tq > tq_rated:
+                tq = tq_rated
         if th_prev >= th_lo + th_switch:
             regime = 4
         elif tq >= tq_rated:
@@ -1192,6 +1309,16 @@ def baseline_step(
             regime = 1
         else:
             regime = 2
+        if fallback:
+            v = v_f  # the estimate in use: the last good one, held
+        st_out[23] = faults
+        st_out[24] = t_bad
+        st_out[25] = t_good
+        st_out[26] = 1.0 if fallback else 0.0
+        st_out[27] = v_hold
+        st_out[28] = 0.0
+        n_faults = int(faults)
+        degraded = 1 if fallback else 0
         st_out[7] = v_f
         st_out[8] = ss
         st_out[9] = th_lo
@@ -1298,7 +1425,7 @@ def baseline_step(
     st_out[4] = i_t
     st_out[5] = th
     st_out[6] = tq
-    return th, tq, regime, w_f, i_term, gk, v
+    return th, tq, regime, w_f, i_term, gk, v, n_faults, degraded
 
 
 @_jit
@@ -1481,7 +1608,7 @@ def advanced_cycle(
     gs = c[lay[_L_BL_GS] : lay[_L_BL_GS] + 3 * n_gs]
     w_b = gen_speed if speed_ok else omega * gear
     # (a K omega^2 baseline: the TSR-tracking part and its state are not used)
-    th_b, tq_b, regime_b, _wf_b, iterm_b, _gk_b, _v_b = baseline_step(
+    th_b, tq_b, regime_b, _wf_b, iterm_b, _gk_b, _v_b, _nf_b, _dg_b = baseline_step(
         bl, gs, n_gs, first_bl, bst_in, w_b, pitch_meas, torque_meas, dt_s, bst,
         0.0, prm, tsr, pgrid, cells, 0.0, False,
     )  # fmt: skip

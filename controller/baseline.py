@@ -65,6 +65,26 @@ not copied from any source code):
      when :math:`\\theta_{k-1} \\ge \\theta_{lo} + (\\theta_3 - \\theta_{min})`, 2.5 at rated
      torque, 1.5 at the minimum-speed reference, else 2.
 
+   **The estimate's guard** (step 2c, ``"tsr_tracking"``; :func:`controller._kernels.
+   ekf_guarded_step`): the EKF's rotor-speed update is skipped when the innovation
+   :math:`y = \\omega_r - \\hat\\omega^-` has :math:`y^2 > k^2 s` (:math:`s = P_{\\omega\\omega} +
+   r`, ``wind_estimator_gate_sigma`` = k), and :math:`u_t` is set so that :math:`\\hat v =
+   u_t + u_m` lies in [``wind_estimate_min_m_s``, ``wind_estimate_max_m_s``]; such a step is
+   *bad*. ``wind_estimator_fault_s`` of uninterrupted bad steps, or a non-finite EKF state,
+   is an estimator fault: the count (``estimator_faults``) goes up by one if the fallback
+   was not on, the fallback starts, the EKF restarts at :math:`(\\omega_r, 0, \\hat v_{good})`
+   with its initial covariance, where :math:`\\hat v_{good}` is the filtered estimate before
+   the bad run began. In the fallback :math:`\\hat v_f = \\hat v_{good}` (held), the torque is
+   :math:`T_{rt}` on the region-3 pitch criterion, else :math:`\\min(K^* \\omega_f^2, T_{rt})`
+   with :math:`K^* = \\tfrac12\\rho\\pi R^5 C_p(\\lambda^*, \\theta_{min})/(\\lambda^{*3} N^3)`
+   (the anemometer-free region-2 law on the EKF's Cp table), the torque integral is set to
+   :math:`T/K_{I,T}`, ``estimator_degraded`` is 1 and the reported estimate is the held one;
+   ``wind_estimator_recover_s`` without a bad step ends it.
+
+   **Trimmed start** (:meth:`BaselineController.trimmed_state`): the first step takes the
+   EKF's state and :math:`\\hat v_f` from the state (converged at the operating point's mean
+   wind) instead of starting them from the anemometer.
+
 3. **Blade pitch** (collective): gain schedule from the previous command,
    :math:`G_K = 1/(1+\\theta_{k-1}/\\theta_K)` (or a table of :math:`K_P(\\theta)`,
    :math:`K_I(\\theta)` with linear interpolation, end values held); speed error
@@ -125,12 +145,14 @@ from controller import _kernels
 from controller.estimators import (
     CpTable,
     WindEKFConfig,
+    WindEKFMeasurement,
     WindSpeedEKF,
     cp_table_from_rosco_text,
 )
 from controller.interface import (
     ActuatorLimits,
     ControlOutput,
+    OperatingPoint,
 )
 
 __all__ = [
@@ -267,6 +289,17 @@ class BaselineParams:
         Second-order low pass of the rate [rad/s], [-] (``F_FlCornerFreq``).
     platform_pitch_rate_hpf_corner_rad_s : float
         First-order high pass of the rate [rad/s] (``F_FlHighPassFreq``).
+    wind_estimate_min_m_s, wind_estimate_max_m_s : float
+        Physical range of the wind estimate [m/s] (the EKF's mean-wind bounds too; default
+        1 and 37.5, a 25 m/s cut-out x 1.5): an estimate outside is clamped to it and counts
+        as bad (``"tsr_tracking"``, module docstring step 2c).
+    wind_estimator_gate_sigma : float
+        k of the EKF's innovation gate, :math:`|y| \\le k\\sqrt{s}` [-] (default 5).
+    wind_estimator_fault_s : float
+        Time of uninterrupted gating or clamping that makes an estimator fault [s]
+        (default 5).
+    wind_estimator_recover_s : float
+        Time without gating or clamping after which the fallback ends [s] (default 10).
     """
 
     generator_speed_lpf_corner_rad_s: float
@@ -316,6 +349,11 @@ class BaselineParams:
     platform_pitch_rate_lpf_corner_rad_s: float = 0.2130
     platform_pitch_rate_lpf_damping: float = 1.0
     platform_pitch_rate_hpf_corner_rad_s: float = 0.01042
+    wind_estimate_min_m_s: float = 1.0
+    wind_estimate_max_m_s: float = 37.5
+    wind_estimator_gate_sigma: float = 5.0
+    wind_estimator_fault_s: float = 5.0
+    wind_estimator_recover_s: float = 10.0
 
     def __post_init__(self) -> None:
         """Validate every field; raise ``ValueError``/``TypeError`` naming field and unit."""
@@ -529,6 +567,16 @@ class BaselineParams:
         _check_positive(
             "wind_estimate_lpf_corner_rad_s", self.wind_estimate_lpf_corner_rad_s, "rad/s"
         )
+        _check_nonnegative("wind_estimate_min_m_s", self.wind_estimate_min_m_s, "m/s")
+        _check_positive("wind_estimate_max_m_s", self.wind_estimate_max_m_s, "m/s")
+        if self.wind_estimate_max_m_s <= max(self.wind_estimate_min_m_s, 3.0):
+            raise ValueError(
+                "BaselineParams.wind_estimate_max_m_s must exceed wind_estimate_min_m_s and "
+                f"3 m/s (the estimator's lowest start), got {self.wind_estimate_max_m_s!r} m/s"
+            )
+        _check_positive("wind_estimator_gate_sigma", self.wind_estimator_gate_sigma, "(-)")
+        _check_positive("wind_estimator_fault_s", self.wind_estimator_fault_s, "s")
+        _check_positive("wind_estimator_recover_s", self.wind_estimator_recover_s, "s")
         _check_nonnegative("setpoint_smoother_vs_gain", self.setpoint_smoother_vs_gain, "(-)")
         _check_nonnegative("setpoint_smoother_pc_gain", self.setpoint_smoother_pc_gain, "(-)")
         _check_positive(
@@ -654,7 +702,12 @@ class BaselineState(NamedTuple):
       state and covariance, :class:`controller.estimators.WindEKFState`), ``fl_hpf_lp``,
       ``fl_lpf_z1``, ``fl_lpf_z2`` (the platform-pitch-rate filters [rad/s]: the high
       pass's low-pass part, the second-order low pass), ``platform_pitch_rate_rad_s`` (the
-      last valid rate [rad/s], held on dropout).
+      last valid rate [rad/s], held on dropout), ``estimator_faults`` (the wind guard's
+      faults so far), ``wind_bad_s`` and ``wind_good_s`` (the current run of gated or
+      clamped, and of healthy, steps [s]), ``wind_fallback`` (the fallback is on) and
+      ``wind_last_good_m_s`` (the filtered estimate before the current bad run [m/s]);
+      ``trimmed`` (with ``first_call``: start the EKF and the wind filter from these values,
+      :meth:`BaselineController.trimmed_state`).
 
     ``first_call`` is True before the first step, which initialises from the measurement.
     """
@@ -727,6 +780,35 @@ class BaselineState(NamedTuple):
     def platform_pitch_rate_rad_s(self) -> float:
         return float(self.values[22])
 
+    @property
+    def estimator_faults(self) -> int:
+        return int(self.values[23])
+
+    @property
+    def wind_bad_s(self) -> float:
+        return float(self.values[24])
+
+    @property
+    def wind_good_s(self) -> float:
+        return float(self.values[25])
+
+    @property
+    def wind_fallback(self) -> bool:
+        return bool(self.values[26])
+
+    @property
+    def wind_last_good_m_s(self) -> float:
+        return float(self.values[27])
+
+    @property
+    def trimmed(self) -> bool:
+        return bool(self.values[28])
+
+
+#: Time the wind EKF is stepped at a trimmed operating point [s] (``trimmed_state``), and
+#: its step [s]: the covariance reaches its steady value in about 20 s.
+TRIM_EKF_S = 60.0
+TRIM_EKF_DT_S = 0.025
 
 #: A frame for the warm-up step at construction (any finite values).
 _WARM_FRAME = SensorFrame(0, 0, 0, 0, *(0.0,) * len(SensorFrame.__struct_fields__[4:]))
@@ -784,6 +866,8 @@ class BaselineController:
                     p.gearbox_ratio,
                     air_density_kg_m3=p.air_density_kg_m3,
                     rotor_speed_noise_std_rad_s=p.wind_estimator_speed_noise_std_rad_s,
+                    wind_min_m_s=max(p.wind_estimate_min_m_s, 1e-3),
+                    wind_max_m_s=p.wind_estimate_max_m_s,
                 )
             )
         k = (
@@ -841,6 +925,13 @@ class BaselineController:
             p.platform_pitch_rate_hpf_corner_rad_s,
             p.min_pitch_wind_m_s,
             p.min_pitch_schedule_rad,
+            # --- the wind estimate's guard (indices 52-57; module docstring, step 2c)
+            p.wind_estimator_gate_sigma**2,
+            p.wind_estimate_min_m_s,
+            p.wind_estimate_max_m_s,
+            p.wind_estimator_fault_s,
+            p.wind_estimator_recover_s,
+            _fallback_region2_gain(p, ekf),
         )
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "ekf", ekf)
@@ -881,7 +972,7 @@ class BaselineController:
             Length of the gain table.
         """
         k = self._k
-        bl = np.array([float(v) for v in (*k[:29], *k[32:50])])
+        bl = np.array([float(v) for v in (*k[:29], *k[32:50], *k[52:58])])
         gs = np.array([*k[29], *k[30], *k[31], *k[50], *k[51]], dtype=np.float64)
         return bl, gs, len(k[29])
 
@@ -937,6 +1028,48 @@ class BaselineController:
     def initial_state(self) -> BaselineState:
         """State before the first call; the first :meth:`step` initialises it from data."""
         return BaselineState(np.zeros(_kernels.BL_STATE_SIZE), True)
+
+    def trimmed_state(self, operating_point: OperatingPoint) -> BaselineState:
+        """State before the first call of a run started at ``operating_point`` (trimmed).
+
+        The filters, integrators and commands initialise from the first measurement as in
+        :meth:`initial_state` (a trimmed plant measures the operating point). The TSR law's
+        wind EKF does not start from the anemometer (behind the rotor it reads low: 6.8
+        m/s in an 8 m/s wind, and the estimate's recovery kicked the torque by 24 %) but
+        converged at the point: started at the mean wind and stepped for
+        :data:`TRIM_EKF_S` on the point's rotor speed, pitch and generator torque (given,
+        else the EKF model's own balance at the mean wind); the wind filter at its estimate.
+        The K omega^2 law has nothing more to trim.
+
+        Parameters
+        ----------
+        operating_point : OperatingPoint
+            Mean wind [m/s], rotor speed [rad/s], pitch [rad], generator torque [N m] or
+            None.
+        """
+        state = self.initial_state()
+        ekf = self.ekf
+        if ekf is None:
+            return state
+        p = self.params
+        op = operating_point
+        wind = min(max(op.wind_m_s, p.wind_estimate_min_m_s, 3.0), p.wind_estimate_max_m_s)
+        omega, theta = op.rotor_speed_rad_s, op.blade_pitch_rad
+        torque = op.generator_torque_nm
+        if torque is None:
+            torque = ekf.aero_torque(omega, wind, theta)[0] / p.gearbox_ratio
+        es = ekf.initial_state(omega, theta, torque, wind)
+        m = WindEKFMeasurement(omega, theta, torque, True)
+        for _ in range(round(TRIM_EKF_S / TRIM_EKF_DT_S)):
+            es, _ = ekf.step(es, m, TRIM_EKF_DT_S)
+        v = es.x[1] + es.x[2]
+        values = state.values.copy()
+        values[7] = v  # the wind filter
+        values[10:13] = es.x
+        values[13:19] = es.p
+        values[27] = v  # the last good estimate
+        values[28] = 1.0  # trimmed start
+        return BaselineState(values, True)
 
     def actuator_limits(self) -> ActuatorLimits:
         """The preset's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""
@@ -1008,8 +1141,24 @@ class BaselineController:
         )  # fmt: skip
         new = BaselineState(values, False)
         if self.ekf is not None:
-            return new, ControlOutput(r[0], r[1], r[2], r[3], r[4], r[5], EST_WIND_SPEED, 0, r[6])
+            return new, ControlOutput(
+                r[0], r[1], r[2], r[3], r[4], r[5], EST_WIND_SPEED, r[8], r[6],
+                estimator_faults=r[7],
+            )  # fmt: skip
         return new, ControlOutput(r[0], r[1], r[2], r[3], r[4], r[5])
+
+
+def _fallback_region2_gain(p: BaselineParams, ekf: WindSpeedEKF | None) -> float:
+    """K of the fallback's :math:`T = K\\omega^2` [N m/(rad/s)^2, HSS]: the optimal
+    tip-speed ratio's torque on the EKF's Cp table at the minimum pitch,
+    :math:`\\tfrac12\\rho\\pi R^5 C_p(\\lambda^*, \\theta_{min})/(\\lambda^{*3} N^3)` (0
+    without the TSR-tracking law)."""
+    if ekf is None or p.optimal_tsr is None or p.rotor_radius_m is None:
+        return 0.0
+    lam = p.optimal_tsr
+    cp = max(ekf.config.cp_table.lookup(lam, p.min_pitch_rad)[0], 0.0)
+    k = 0.5 * p.air_density_kg_m3 * math.pi * p.rotor_radius_m**5
+    return k * cp / (lam**3 * p.gearbox_ratio**3)
 
 
 def _min_pitch(
@@ -1100,6 +1249,11 @@ class _PresetFile(msgspec.Struct, forbid_unknown_fields=True, kw_only=True):
     platform_pitch_rate_lpf_corner_rad_s: float | None = None
     platform_pitch_rate_lpf_damping: float | None = None
     platform_pitch_rate_hpf_corner_rad_s: float | None = None
+    wind_estimate_min_m_s: float | None = None
+    wind_estimate_max_m_s: float | None = None
+    wind_estimator_gate_sigma: float | None = None
+    wind_estimator_fault_s: float | None = None
+    wind_estimator_recover_s: float | None = None
 
 
 # Alternative spellings: field of BaselineParams -> ((toml key, factor to SI), ...).

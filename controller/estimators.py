@@ -686,6 +686,12 @@ class WindSpeedEKF:
     ) -> tuple[WindEKFState, WindEstimate]:
         """Predict over ``dt_s`` with the measured inputs, then update with the rotor speed.
 
+        The wind estimate :math:`u_t + u_m` is then bounded to ``[wind_min_m_s,
+        wind_max_m_s]`` (:math:`u_t` set at the end; :math:`u_m` is bounded by the update):
+        an estimate cannot run off the physical range, whatever the measurements
+        (:func:`controller._kernels.ekf_step`). The baseline's TSR law adds an innovation
+        gate and a divergence detector (:mod:`controller.baseline`).
+
         Parameters
         ----------
         state : WindEKFState

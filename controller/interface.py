@@ -29,6 +29,15 @@ code  meaning
 :class:`ActuatorLimits` is what a core's ``actuator_limits()`` returns: its pitch range and
 rate limits, from which the node builds its safe command without reaching into the core.
 
+A core may also offer ``trimmed_state(operating_point) -> state`` (optional, not part of
+:class:`Controller`): the state it holds in steady operation at an
+:class:`OperatingPoint` (filters at the trimmed speeds, estimators at the mean wind,
+integrators at the trimmed torque and pitch), so that a run started at that point (a
+trimmed plant) meets a controller already in its steady state and nothing jumps at t = 0.
+The runner calls it, when present, instead of ``initial_state()`` for a trimmed run
+(:mod:`hil.inprocess.trim`); a core without it starts from ``initial_state()`` and its
+first measurement. A watchdog restart always uses ``initial_state()``.
+
 This module imports no controller implementation; the cores import it, and
 :mod:`controller.registry` (the kind -> constructor table) imports the cores.
 
@@ -37,6 +46,7 @@ The controller package never imports ``plant``: it speaks only ``bus_schemas``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
@@ -54,6 +64,7 @@ __all__ = [
     "ActuatorLimits",
     "ControlOutput",
     "Controller",
+    "OperatingPoint",
 ]
 
 REGIME_REGION_1 = 0
@@ -106,6 +117,11 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
         AR/ESPRIT wave forecaster: fits so far with poles outside the unit circle (stabilised)
         and forecasts so far replaced by the fallback 0 m by the bound guard
         (:mod:`controller.forecast`); 0 for the dispersion forecaster.
+    estimator_faults : int
+        Estimator faults so far: divergences detected by an estimator's guard (sustained
+        innovation gating or clamping to the physical range, or a non-finite state), each
+        starting a fallback (the baseline's TSR-tracking law: :mod:`controller.baseline`);
+        0 for a core without such a guard.
     """
 
     blade_pitch_commanded_rad: float
@@ -128,6 +144,48 @@ class ControlOutput(msgspec.Struct, frozen=True, gc=False):
     feedforward_torque_nm: float = 0.0
     forecast_unstable_fits: int = 0
     forecast_guarded: int = 0
+    estimator_faults: int = 0
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """A steady operating point, as a trimmed run starts at it (``trimmed_state``).
+
+    The bench finds it by a settling run of the plant and the scenario's controller at the
+    run's mean wind (:mod:`hil.inprocess.trim`); it reaches the core as these numbers only
+    (the controller never sees the plant).
+
+    Attributes
+    ----------
+    wind_m_s : float
+        Mean (rotor-effective) wind speed [m/s].
+    rotor_speed_rad_s : float
+        Rotor (low-speed shaft) speed [rad/s]; a core multiplies by its own gearbox ratio.
+    blade_pitch_rad : float
+        Collective blade pitch [rad].
+    generator_torque_nm : float or None
+        Generator torque [N m, high-speed shaft]; None: not known to the runner (the core
+        derives it, e.g. from its own torque law or its estimator's aerodynamic model).
+    """
+
+    wind_m_s: float
+    rotor_speed_rad_s: float
+    blade_pitch_rad: float
+    generator_torque_nm: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("wind_m_s", "rotor_speed_rad_s", "blade_pitch_rad"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not math.isfinite(v):
+                raise ValueError(f"OperatingPoint.{name} must be a finite number, got {v!r}")
+        if self.wind_m_s < 0.0 or self.rotor_speed_rad_s < 0.0:
+            raise ValueError(
+                "OperatingPoint: wind_m_s [m/s] and rotor_speed_rad_s [rad/s] must be >= 0, "
+                f"got {self.wind_m_s!r} and {self.rotor_speed_rad_s!r}"
+            )
+        tq = self.generator_torque_nm
+        if tq is not None and not (isinstance(tq, int | float) and math.isfinite(tq)):
+            raise ValueError(f"OperatingPoint.generator_torque_nm must be finite, got {tq!r}")
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import gc
 import json
 import math
@@ -105,7 +106,7 @@ from hil.families import (
     resolve,
 )
 from hil.inprocess.run import run_inprocess
-from hil.inprocess.trim import initial_condition
+from hil.inprocess.trim import initial_condition, operating_point
 from hil.nodes.bus import (
     PLANT_BATCH_SUFFIX,
     Bus,
@@ -680,7 +681,12 @@ def _run_inprocess(
     # A core that cannot be built closes the log (its writer would keep the process alive)
     # and the run fails with the reason; the MCAP file stays reviewable.
     try:
-        runtime = ControllerRuntime(scenario, design_dir=design_dir, run_dir=mcap_path.parent)
+        runtime = ControllerRuntime(
+            scenario,
+            design_dir=design_dir,
+            run_dir=mcap_path.parent,
+            operating_point=functools.partial(operating_point, scenario),
+        )
     except BaseException as exc:
         log.close()
         if isinstance(exc, ValueError | DisconError):  # e.g. a DISCON library or DISCON.IN

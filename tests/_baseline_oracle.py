@@ -16,7 +16,7 @@ import msgspec
 
 from bus_schemas.messages import EST_WIND_SPEED, VALID_PLATFORM_PITCH_RATE, SensorFrame
 from controller.baseline import BaselineController, _min_pitch
-from controller.estimators import WindEKFMeasurement, WindEKFState
+from controller.estimators import WindEKFState
 from controller.interface import (
     REGIME_REGION_1,
     REGIME_REGION_1_5,
@@ -60,6 +60,12 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
         pass's low-pass part, the second-order low pass).
     platform_pitch_rate_rad_s : float
         ``"tsr_tracking"``: the last valid platform pitch rate [rad/s] (held on dropout).
+    estimator_faults, wind_bad_s, wind_good_s, wind_fallback, wind_last_good_m_s
+        ``"tsr_tracking"``: the wind guard's faults so far, current bad and healthy runs
+        [s], fallback flag and last good filtered estimate [m/s].
+    trimmed : bool
+        With ``first_call``: a trimmed start, the EKF and the wind filter start from the
+        values here (``BaselineController.trimmed_state``).
     """
 
     first_call: bool
@@ -79,6 +85,12 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
     fl_lpf_z1: float = 0.0
     fl_lpf_z2: float = 0.0
     platform_pitch_rate_rad_s: float = 0.0
+    estimator_faults: int = 0
+    wind_bad_s: float = 0.0
+    wind_good_s: float = 0.0
+    wind_fallback: bool = False
+    wind_last_good_m_s: float = 0.0
+    trimmed: bool = False
 
 
 ORACLE_INITIAL = OracleState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -201,6 +213,12 @@ def oracle_step(
         w_hp,
         ps_wind,
         ps_pitch,
+        gate2,
+        v_lo,
+        v_hi,
+        t_fault,
+        t_recover,
+        k_opt,
     ) = ctrl._k
     w = measurement.generator_speed_measured_rad_s
 
@@ -240,7 +258,12 @@ def oracle_step(
         ekf = ctrl.ekf
         assert ekf is not None
         omega_r = w / gear
-        if state.first_call:  # ROSCO: the anemometer, at least 3 m/s
+        trim_start = state.first_call and state.trimmed
+        if trim_start:  # BaselineController.trimmed_state: the EKF and filter as held
+            x_e, p_e = state.wind_ekf_x, state.wind_ekf_p
+            faults, t_bad, t_good, fallback = 0, 0.0, 0.0, False
+            v_hold = state.wind_filtered_m_s
+        elif state.first_call:  # ROSCO: the anemometer, at least 3 m/s
             est0 = ekf.initial_state(
                 omega_r,
                 measurement.blade_pitch_measured_rad,
@@ -248,25 +271,56 @@ def oracle_step(
                 max(measurement.wind_speed_measured_m_s, 3.0),
             )
             x_e, p_e = est0.x, est0.p
+            faults, t_bad, t_good, fallback = 0, 0.0, 0.0, False
+            v_hold = est0.x[2]
         else:
             x_e, p_e = state.wind_ekf_x, state.wind_ekf_p
-        ekf_state, _ = ekf.step(
+            faults, t_bad, t_good = state.estimator_faults, state.wind_bad_s, state.wind_good_s
+            fallback, v_hold = state.wind_fallback, state.wind_last_good_m_s
+        # the guard: predict, gate the innovation at k sigma, bound the estimate
+        pred = ekf.predict(
             WindEKFState(x_e, p_e),
-            WindEKFMeasurement(
-                omega_r,
-                measurement.blade_pitch_measured_rad,
-                measurement.generator_torque_measured_nm,
-                True,
-            ),
+            (measurement.blade_pitch_measured_rad, measurement.generator_torque_measured_nm),
             dt_s,
         )
-        x_e, p_e = ekf_state.x, ekf_state.p
+        y = omega_r - pred.x[0]
+        s_y = pred.p[0] + ekf.config.rotor_speed_noise_std_rad_s**2
+        bad = not (y * y <= gate2 * s_y)
+        upd = pred if bad else ekf.update(pred, omega_r)
+        om_e, u_t, u_m = upd.x
+        if not (u_t + u_m >= v_lo):
+            u_t, bad = v_lo - u_m, True
+        elif u_t + u_m > v_hi:
+            u_t, bad = v_hi - u_m, True
+        x_e, p_e = (om_e, u_t, u_m), upd.p
+        finite = all(math.isfinite(a) for a in (*x_e, *p_e))
+        if bad:
+            t_bad, t_good = t_bad + dt_s, 0.0
+        else:
+            t_bad, t_good = 0.0, t_good + dt_s
+        if not finite or t_bad >= t_fault:  # a fault: restart at the last good estimate
+            if not fallback:
+                faults, fallback = faults + 1, True
+            restart = ekf.initial_state(
+                omega_r if math.isfinite(omega_r) else 0.0,
+                measurement.blade_pitch_measured_rad,
+                measurement.generator_torque_measured_nm,
+                v_hold,
+            )
+            x_e, p_e = restart.x, restart.p
+            t_bad, t_good = 0.0, 0.0
+        elif fallback and t_good >= t_recover:
+            fallback = False
         v = x_e[1] + x_e[2]
-        if state.first_call:
+        if fallback:
+            v_f = v_hold
+        elif state.first_call and not trim_start:
             v_f = v
         else:
             a_w = math.exp(-dt_s * w_we)
             v_f = (1.0 - a_w) * v + a_w * state.wind_filtered_m_s
+        if not fallback and t_bad == 0.0:
+            v_hold = v_f
         th_lo = _min_pitch(ps_wind, ps_pitch, v_f, th_min)
         # setpoint smoother: the shift from the previous pitch over the last minimum
         # pitch and from the power deficit (electrical power eta * T * w_f)
@@ -287,16 +341,22 @@ def oracle_step(
         e_t = w_f - w_vs
         if state.first_call:
             i_t = tq_prev / ki_t
-        i_t += e_t * dt_s
-        if i_t < 0.0:
-            i_t = 0.0
-        elif i_t > tq_rated / ki_t:
-            i_t = tq_rated / ki_t
-        tq = kp_t * e_t + ki_t * i_t
-        if tq < 0.0:
-            tq = 0.0
-        elif tq > tq_rated:
-            tq = tq_rated
+        if fallback:  # K omega^2 (rated torque on the pitch criterion); the PI tracks it
+            tq = tq_rated if th_prev >= th_lo + th_switch else min(k_opt * w_f * w_f, tq_rated)
+            i_t = tq / ki_t
+        else:
+            i_t += e_t * dt_s
+            if i_t < 0.0:
+                i_t = 0.0
+            elif i_t > tq_rated / ki_t:
+                i_t = tq_rated / ki_t
+            tq = kp_t * e_t + ki_t * i_t
+            if tq < 0.0:
+                tq = 0.0
+            elif tq > tq_rated:
+                tq = tq_rated
+        if fallback:
+            v = v_f
         if th_prev >= th_lo + th_switch:
             regime = REGIME_REGION_3
         elif tq >= tq_rated:
@@ -419,9 +479,17 @@ def oracle_step(
                 f1,
                 f2,
                 q,
+                faults,
+                t_bad,
+                t_good,
+                fallback,
+                v_hold,
             ),
-            ControlOutput(th, tq, regime, w_f, i_term, gk, EST_WIND_SPEED, 0, v),
-        )
+            ControlOutput(
+                th, tq, regime, w_f, i_term, gk, EST_WIND_SPEED, int(fallback), v,
+                estimator_faults=faults,
+            ),
+        )  # fmt: skip
     return (
         OracleState(False, z1, z2, w_f, integ, i_t, th, tq),
         ControlOutput(th, tq, regime, w_f, i_term, gk),

@@ -161,6 +161,7 @@ def test_every_field_names_its_unit_or_is_a_counter() -> None:
         "estimator_degraded",
         "forecast_unstable_fits",
         "forecast_guarded",
+        "estimator_faults",
         # the end-of-run reports (PlantReport, ControllerReport): flags and counts
         "aborted",
         "sensor_frames_published",
@@ -253,7 +254,7 @@ def test_floating_fields_round_trip_and_appear_in_the_json_schema() -> None:
         wave_forecast_time_ns=10_025_000_000,
         feedforward_torque_nm=-1.0e5,
     )
-    assert CONTROLLER_STATUS.version == 2
+    assert CONTROLLER_STATUS.version == 3
     assert CONTROLLER_STATUS.codec.decode(CONTROLLER_STATUS.codec.encode(status)) == status
     # Baseline defaults: every optional estimate 0 and flagged invalid.
     bare = msgspec.structs.replace(status, estimates_valid_mask=0)

@@ -373,6 +373,8 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
             want.pitch_integrator_rad,
             want.gain_schedule_factor,
             want.wind_speed_estimated_m_s,
+            want.estimator_faults,
+            want.estimator_degraded,
         )
         for a, b in zip(got, w, strict=True):
             assert _close(a, b), f"{preset} cycle {k}: {got} != {w}"
@@ -396,6 +398,11 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
                 state.fl_lpf_z1,
                 state.fl_lpf_z2,
                 state.platform_pitch_rate_rad_s,
+                state.estimator_faults,
+                state.wind_bad_s,
+                state.wind_good_s,
+                float(state.wind_fallback),
+                state.wind_last_good_m_s,
             ]
         _same_arrays(k, "baseline state", st[: len(want_st)], want_st)
         _same_arrays(k, "BaselineController state", bstate.values[: len(want_st)], want_st)

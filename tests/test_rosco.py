@@ -159,6 +159,27 @@ def _scenario(kind_lines: str, duration: float = 4.0, wind: float = 18.0) -> str
     ) + textwrap.dedent(kind_lines)
 
 
+def _logged(folder: Path, preset: str = "nrel5mw", level: int = 1) -> str:
+    """A ``[controller]`` table of kind rosco with the shipped ``preset``'s DISCON.IN at
+    ``LoggingLevel`` = ``level`` (the shipped files log at 0): a copy in ``folder`` naming
+    the shipped Cp table by its absolute path. Level 1 gives the status ROSCO's wind-speed
+    estimate and the ``.RO.dbg`` file."""
+    src = shipped_parameter_files()[preset]
+    lines = []
+    for line in src.read_text().splitlines():
+        if line.rstrip().endswith("! LoggingLevel"):
+            lines.append(f"{level:<41d}! LoggingLevel")
+        elif line.rstrip().endswith("! PerfFileName"):
+            name = line.split("!")[0].strip().strip('"')
+            lines.append(f'"{src.parent / name}"   ! PerfFileName')
+        else:
+            lines.append(line)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{preset}_L{level}_DISCON.IN"
+    path.write_text("\n".join(lines) + "\n")
+    return f'kind = "rosco"\nparameter_file = "{path}"\n'
+
+
 def _run_request(tmp: Path, text: str, mode: str) -> RunRequest:
     path = tmp / "scenario.toml"
     path.write_text(text)
@@ -229,6 +250,14 @@ def test_shipped_parameter_files_read() -> None:
     assert nrel.pc_max_rat_rad_s == pytest.approx(0.1745) and nrel.we_mode == 2
     iea = read_discon_in(files["iea15mw_volturnus"])
     assert iea.vs_rt_pwr_w == 15e6 and iea.perf_file is not None and iea.perf_file.is_file()
+    # no debug files unless a scenario's own DISCON.IN asks (level 2 wrote ~165 MB per 900 s)
+    assert nrel.logging_level == 0 and iea.logging_level == 0
+
+
+@needs_rosco
+def test_the_shipped_files_write_no_debug_files(tmp_path: Path) -> None:
+    _collect(_scenario('kind = "rosco"\npreset = "nrel5mw"\n', duration=3.0), tmp_path)
+    assert not list(tmp_path.glob("*.dbg*"))
 
 
 def _collect(text: str, run_dir: Path) -> tuple[list[PlantState], list, list[ActuatorCommand]]:
@@ -260,10 +289,12 @@ def test_rosco_and_baseline_agree_in_region_3(tmp_path: Path) -> None:
     pitch: ROSCO's settled pitch within 0.1 deg of the baseline's (last 5 s of 30 s)."""
     res = {}
     for kind, preset in (("rosco", "nrel5mw"), ("baseline", "nrel5mw_baseline")):
-        truth, status, _ = _collect(
-            _scenario(f'kind = "{kind}"\npreset = "{preset}"\n', duration=30.0),
-            tmp_path / kind,
+        table = (
+            _logged(tmp_path / "in")  # LoggingLevel 1: the status gets ROSCO's estimate
+            if kind == "rosco"
+            else f'kind = "{kind}"\npreset = "{preset}"\n'
         )
+        truth, status, _ = _collect(_scenario(table, duration=30.0), tmp_path / kind)
         last = truth[-200:]
         res[kind] = (
             np.mean([s.rotor_speed_rad_s for s in last]) * 30 / np.pi,
@@ -285,7 +316,7 @@ def test_rosco_and_baseline_agree_in_region_3(tmp_path: Path) -> None:
 def test_rosco_lockstep_equals_inprocess(tmp_path: Path) -> None:
     """Deterministic: the lock-step run over Zenoh (two processes) gives the in-process
     run's KPIs exactly."""
-    text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n', duration=5.0, wind=14.0)
+    text = _scenario(_logged(tmp_path / "in"), duration=5.0, wind=14.0)
     out = {}
     for mode in ("inprocess", "lockstep"):
         d = tmp_path / mode
@@ -307,7 +338,7 @@ def test_library_error_is_a_value_error() -> None:
 def test_watchdog_restart_loads_a_fresh_rosco(tmp_path: Path) -> None:
     """Frames missing -> safe mode; after K healthy frames the core restarts: a new private
     copy of the library (first call again, its files rosco-2.RO.*), rate-limited transfer."""
-    text = _scenario('kind = "rosco"\npreset = "nrel5mw"\n', duration=10.0).replace(
+    text = _scenario(_logged(tmp_path / "in"), duration=10.0).replace(
         "[timing]\n", "[timing]\nwatchdog_misses = 3\nwatchdog_recover_cycles = 5\n"
     )
     scenario = parse_scenario(text)

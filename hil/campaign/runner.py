@@ -48,6 +48,7 @@ without its name and description, plus the mode).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -754,6 +755,7 @@ def _inprocess(
     """
     from bus_schemas.registry import CONTROLLER_REPORT  # noqa: PLC0415
     from hil.inprocess.run import run_inprocess  # noqa: PLC0415
+    from hil.inprocess.trim import operating_point  # noqa: PLC0415
     from hil.nodes.controller_fault import write_fault  # noqa: PLC0415
     from hil.nodes.controller_node import (  # noqa: PLC0415
         ControllerRuntime,
@@ -779,7 +781,12 @@ def _inprocess(
     log = InProcessRunLog(mcap_path, turbine, metadata) if mcap_path is not None else None
     sink = _RunSink(turbine, log)
     try:
-        runtime = ControllerRuntime(scenario, design_dir=design_dir, paced=False)
+        runtime = ControllerRuntime(
+            scenario,
+            design_dir=design_dir,
+            paced=False,
+            operating_point=functools.partial(operating_point, scenario),
+        )
         step = publishing_step(runtime, sink.publish)
         run_inprocess(
             scenario,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import dataclasses
+import functools
 import gc
 import json
 import math
@@ -729,10 +730,17 @@ def controller(
         insecure=insecure,
     )
     _realtime(realtime_priority, "controller")
+    from hil.inprocess.trim import operating_point
     from hil.nodes import controller_node
 
+    trim = functools.partial(operating_point, sc)  # a trimmed run: the core's steady state
     if can is None:
-        controller_node.run_controller_node(sc, bus, await_recorder_s=await_recorder)  # type: ignore[arg-type]
+        controller_node.run_controller_node(
+            sc,
+            bus,  # type: ignore[arg-type]
+            await_recorder_s=await_recorder,
+            operating_point=trim,
+        )
         return
     from hil.nodes.can_bus import hybrid_bus_factory
 
@@ -744,6 +752,7 @@ def controller(
         bus,  # type: ignore[arg-type]
         bus_factory=hybrid_bus_factory(can),
         await_recorder_s=await_recorder,
+        operating_point=trim,
     )
 
 

@@ -580,6 +580,7 @@ def run_cycles(
             r_sta[js, 21] = r[14]
             r_sta_i[js, 22] = fi[FI_UNSTABLE]
             r_sta_i[js, 23] = fi[FI_GUARDED]
+            r_sta_i[js, 24] = 0
         else:
             # the TSR-tracking law's wind EKF tables travel in cc (layout in lay:
             # controller._kernels.CoreBundle), empty for the K omega^2 law
@@ -601,7 +602,7 @@ def run_cycles(
             r_sta[js, 8] = rs[4]
             r_sta[js, 9] = rs[5]
             r_sta_i[js, 10] = lay[0]  # EST_WIND_SPEED for the TSR-tracking law, else 0
-            r_sta_i[js, 11] = 0
+            r_sta_i[js, 11] = rs[8]  # the wind guard's fallback
             r_sta[js, 12] = rs[6]
             for q in range(13, 19):
                 r_sta[js, q] = 0.0
@@ -610,6 +611,7 @@ def run_cycles(
             r_sta[js, 21] = 0.0
             r_sta_i[js, 22] = 0
             r_sta_i[js, 23] = 0
+            r_sta_i[js, 24] = rs[7]  # estimator faults
         ist[I_LAST_SEQ] = k
         ist[I_LAST_SAMPLE_NS] = t_ns
         ist[I_ACCEPTED] += 1

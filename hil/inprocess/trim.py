@@ -24,12 +24,15 @@ plant and the real controller core in process:
 
 The plant never imports the controller nor the controller the plant: the settling run goes
 through the same in-process loop as a run (:func:`hil.inprocess.run.run_inprocess`). The
-controllers' internal states (filters, integrators, observers) are not handed over: each
-core initialises them from its first measurement (the baseline's filter at the measured
-speed and its pitch integrator at the measured pitch; the LQRI's observers at the
-measured operating point; ROSCO's DISCON on its first call), so a trimmed plant meets a
-controller already consistent with it (``bench/trimmed_start.py`` measures the first
-seconds; ``tests/test_trim.py`` bounds them).
+controller's side of the trim is :func:`operating_point` (mean wind, rotor speed, pitch):
+the runner hands it to a core's optional ``trimmed_state(operating_point)``
+(:mod:`controller.interface`), which returns the state the core holds in steady operation
+there (the baseline: its wind EKF converged at the mean wind instead of started from the
+nacelle anemometer). A core without it initialises its filters, integrators and observers
+from its first measurement (the baseline's filter at the measured speed and its pitch
+integrator at the measured pitch; the LQRI's observers at the measured operating point;
+ROSCO's DISCON on its first call), which a trimmed plant makes consistent with it
+(``bench/trimmed_start.py`` measures the first seconds; ``tests/test_trim.py`` bounds them).
 
 It runs where the plant is built, before the first cycle (:class:`hil.nodes.plant_node.PlantLoop`:
 the plant process of a bus run, the launcher's process of an in-process run): 2.1 s of wall
@@ -57,6 +60,7 @@ from typing import TYPE_CHECKING
 import msgspec
 import numpy as np
 
+from controller.interface import OperatingPoint
 from hil.nodes.controller_fault import ControllerFaultError
 from hil.nodes.plant_node import initial_overrides
 from hil.scenario.schema import (
@@ -74,7 +78,14 @@ from plant.initial import InitialCondition
 if TYPE_CHECKING:
     pass
 
-__all__ = ["AVERAGE_S", "SETTLE_S", "initial_condition", "mean_wind_m_s", "settle_rotor"]
+__all__ = [
+    "AVERAGE_S",
+    "SETTLE_S",
+    "initial_condition",
+    "mean_wind_m_s",
+    "operating_point",
+    "settle_rotor",
+]
 
 #: Length of the settling run [s]: the baseline's rotor speed from the plant's own start at
 #: 5 m/s (3.84 rpm) to within 0.1 % of its steady 5.1 rpm takes about 100 s (the slowest
@@ -210,6 +221,32 @@ def settle_rotor(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[floa
     """
     sc = settling_scenario(scenario, duration_s)
     return _settled_stored(msgspec.json.encode(sc), scenario.name)
+
+
+def operating_point(scenario: Scenario) -> OperatingPoint | None:
+    """The controller's side of the trim: the operating point its core starts at.
+
+    None for an untrimmed run (``[initial] trim = false``). Else the mean wind and the rotor
+    speed and blade pitch of :func:`initial_condition` (the settled point, or the
+    ``[initial]`` keys where set; the generator torque when ``generator_torque_nm`` is set,
+    else None: the core derives it). The runner hands it to a core's optional
+    ``trimmed_state`` (:class:`hil.nodes.controller_node.ControllerRuntime`,
+    :mod:`controller.interface`): the controller then starts in its own steady state there
+    instead of initialising from its first measurement. Computed after the plant's
+    :func:`initial_condition` in the same process it costs nothing (both read the same
+    settled point); in a bus run's controller process it reads the on-disk store the plant
+    process filled (:mod:`hil.inprocess.trim_store`), or settles once more.
+    """
+    if not scenario.initial.trim:
+        return None
+    ic = initial_condition(scenario)
+    assert ic.rotor_speed_rad_s is not None and ic.blade_pitch_rad is not None
+    return OperatingPoint(
+        wind_m_s=mean_wind_m_s(scenario.wind),
+        rotor_speed_rad_s=ic.rotor_speed_rad_s,
+        blade_pitch_rad=ic.blade_pitch_rad,
+        generator_torque_nm=ic.generator_torque_nm,
+    )
 
 
 def initial_condition(scenario: Scenario) -> InitialCondition:

@@ -135,7 +135,7 @@ from bus_schemas.registry import (
     MessageType,
 )
 from controller.discon import DisconError
-from controller.interface import REGIME_SAFE, ControlOutput
+from controller.interface import REGIME_SAFE, ControlOutput, OperatingPoint
 from controller.lqri import DesignNotFoundError
 from controller.registry import actuator_limits, make_controller
 from hil.nodes.bus import (
@@ -265,6 +265,11 @@ class ControllerRuntime:
     phase : str
         ``"run"``, or ``"trim"`` for the trim's settling run: recorded in a core fault
         (:class:`hil.nodes.controller_fault.ControllerFault`).
+    operating_point : OperatingPoint, callable or None
+        A trimmed run's operating point (:func:`hil.inprocess.trim.operating_point`), or a
+        function returning it (called only for a core that has ``trimmed_state``): the core
+        then starts from ``trimmed_state(operating_point)`` instead of ``initial_state()``
+        (:mod:`controller.interface`). None: ``initial_state()``.
 
     Raises
     ------
@@ -284,6 +289,7 @@ class ControllerRuntime:
         log: Callable[[str], None] | None = None,
         run_dir: str | Path | None = None,
         phase: str = "run",
+        operating_point: OperatingPoint | Callable[[], OperatingPoint | None] | None = None,
     ) -> None:
         c = scenario.controller
         self.phase = phase
@@ -310,6 +316,11 @@ class ControllerRuntime:
             base_dir=c.base_dir,
         )
         self.state: Any = self.controller.initial_state()
+        trimmed_state = getattr(self.controller, "trimmed_state", None)
+        if operating_point is not None and callable(trimmed_state):
+            op = operating_point() if callable(operating_point) else operating_point
+            if op is not None:  # a trimmed run: the core starts in its steady state there
+                self.state = trimmed_state(op)
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
         self._accept_preview = getattr(self.controller, "accept_preview", None)
         self.preview_seq = -1  # seq of the newest preview handed to the core
@@ -929,8 +940,12 @@ def run_controller_node(
     log: Callable[[str], None] = print,
     bus_factory: Callable[[BusConfig], Any] = Bus,
     await_recorder_s: float = 0.0,
+    operating_point: Callable[[], OperatingPoint | None] | None = None,
 ) -> ControllerNodeResult:
     """Serve commands until the plant's final summary, a signal, or ``timeout_s``.
+
+    ``operating_point``: a trimmed run's operating point, computed once the core is built
+    and only for a core with ``trimmed_state`` (:class:`ControllerRuntime`).
 
     ``await_recorder_s`` > 0: the controller announces itself (its liveliness token, which
     the plant waits for) only once the run's recorder answers its hello
@@ -953,7 +968,10 @@ def run_controller_node(
     """
     try:
         runtime = ControllerRuntime(
-            scenario, same_host_clock=bus_config.config_file is None, log=log
+            scenario,
+            same_host_clock=bus_config.config_file is None,
+            log=log,
+            operating_point=operating_point,
         )
     except (DesignNotFoundError, DisconError) as exc:
         raise SystemExit(f"error: {exc}") from exc

@@ -73,7 +73,11 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     report, text from ``controller_fault.json`` beside the file,
     :mod:`hil.nodes.controller_fault`), ``fault_commands`` [1] (sent flagged ``mode`` = 3),
     ``cycles_stepped`` [1] (statuses) and ``overruns`` [1] (statuses whose
-    ``compute_time_ns`` exceeds the control period).
+    ``compute_time_ns`` exceeds the control period); ``estimator_faults`` [1]: the estimator
+    divergences the controller detected and fell back from (the largest running count of
+    ``controller/status``; 0 in a log from before the count existed) and
+    ``estimator_faults_first_s`` [s] (sample time of the first status counting one; null:
+    none).
 ``plant``
     ``source`` (``"timing/report"``, the plant's final
     :class:`~bus_schemas.messages.PlantReport`, else ``"timing/summary"``),
@@ -531,6 +535,8 @@ class _Summary:
         self.f_eta = rs.Moments()
         self.f_err = rs.Moments()
         self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
+        self.estimator_faults = -math.inf  # the status's running count: its largest value
+        self.estimator_fault_first_s: float | None = None  # sample time of the first [s]
 
     def _window(self) -> rs.Window:
         if self.window is None:  # the scenario's metadata comes before the messages
@@ -561,6 +567,13 @@ class _Summary:
             self.compute.add(c["compute_time_ns"])
             self.status_count += b.size
             self.last_rejected = float(c["rejected_frames"][-1])
+            # the whole run (not the review window): a fault in the first seconds counts
+            faults = c.get("estimator_faults")
+            if faults is not None and np.isfinite(faults).any():
+                self.estimator_faults = max(self.estimator_faults, float(np.nanmax(faults)))
+                first = np.flatnonzero(faults > 0)
+                if first.size and self.estimator_fault_first_s is None:
+                    self.estimator_fault_first_s = float(t[first[0]]) / 1e9
             self.join.add_status(c)
         elif s == "timing/cycle":
             self._cycles(c, b.size)
@@ -815,7 +828,18 @@ class _Summary:
             "degraded_fraction": nan,
         }
         fc: dict[str, Any] = {"vaf_pct": nan, "samples": 0}
-        out = {"estimator": est, "forecast": fc, "controller": {"compute_us": self._compute_us()}}
+        faults = self.estimator_faults
+        out = {
+            "estimator": est,
+            "forecast": fc,
+            "controller": {
+                "compute_us": self._compute_us(),
+                # estimator divergences the controller detected (ControllerStatus v3; 0 in
+                # an older log, which has no such count)
+                "estimator_faults": int(faults) if math.isfinite(faults) else 0,
+                "estimator_faults_first_s": self.estimator_fault_first_s,
+            },
+        }
         if not self.w_status or not self.truth_any or not self.w_mask_finite:
             return out  # no estimate, or a log of ControllerStatus version 1
         est["degraded_fraction"] = self.w_degraded / self.w_status
@@ -1396,6 +1420,8 @@ def _render_accounts(summary: dict[str, Any], console: Console) -> None:
         ("frames missing", ctrl.get("frames_missing"), src),
         ("frames stale", ctrl.get("frames_stale"), src),
         ("frames rejected", ctrl.get("frames_rejected_total"), src),
+        ("estimator faults", ctrl.get("estimator_faults"), "controller/status"),
+        ("estimator fault first [s]", ctrl.get("estimator_faults_first_s"), "controller/status"),
     ]
     for reason, n in (ctrl.get("frames_rejected") or {}).items():
         if n:

@@ -244,6 +244,18 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
             (ExitCode.SAFE_STATE, f"the controller entered its safe mode {entries:.0f} time(s)")
         )
 
+    # the controller's estimator diverged (its guard's count, ControllerStatus v3): a
+    # controller fault, the run is not healthy whatever else it did
+    est_faults = _number(_dict(summary.get("controller")).get("estimator_faults")) or 0.0
+    if est_faults > 0:
+        found.append(
+            (
+                ExitCode.CONTROLLER_FAULT,
+                f"the controller's estimator diverged {est_faults:.0f} time(s) and it ran "
+                "on its fallback (controller.estimator_faults)",
+            )
+        )
+
     over = deadline_misses_over(summary)
     if over is not None:
         found.append((ExitCode.DEADLINE_MISSES, over))

@@ -72,6 +72,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
         "wave_elevation_forecast_m",
         "forecast_unstable_fits",
         "forecast_guarded",
+        "estimator_faults",
     ),
     "timing/cycle": (
         "publish_time_ns",

@@ -292,6 +292,20 @@ class TimingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
         return "recover" if self.watchdog_recover_cycles > 0 else "latch"
 
 
+#: Sensor presets per turbine preset: the channel tables a floating scenario naming the
+#: turbine gets beneath its own ``[sensors.channels]`` (which override them key by key).
+#: :func:`sensors.default_floating_suite` models an NREL 5 MW-class drivetrain: a 4096-count
+#: encoder on a geared high-speed shaft, σ = 0.05 rad/s and a 2π/(4096 h) quantization
+#: (0.061 rad/s at h = 0.025 s). The IEA 15 MW is direct drive: its generator turns at the
+#: rotor's 5-7.56 rpm (0.52-0.79 rad/s), where those figures are 7-12 % of the speed and
+#: drive its wind-speed estimator off any physical range; it gets a high-resolution absolute
+#: encoder (ASSUMPTION: 1 mrad/s resolution, 2 mrad/s noise, as the shipped iea15mw-*
+#: scenarios).
+TURBINE_SENSOR_PRESETS: dict[str, dict[str, dict[str, float]]] = {
+    "iea15mw": {"generator_speed_measured_rad_s": {"std": 0.002, "resolution": 0.001}},
+}
+
+
 class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Sensor models and their seed.
 
@@ -300,7 +314,10 @@ class SensorSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     tables ``[sensors.channels.<name>]`` with any of ``std``, ``bias``, ``resolution``,
     ``delay_s``, ``sample_period_s``, ``dropout_probability``, ``range_min``, ``range_max``
     (units of the channel), applied on top of :func:`sensors.default_floating_suite` for a
-    floating plant, on top of the noise-only channels for a bottom-fixed one.
+    floating plant, on top of the noise-only channels for a bottom-fixed one. A floating
+    scenario naming a turbine of :data:`TURBINE_SENSOR_PRESETS` gets that turbine's tables
+    beneath its own (the IEA 15 MW: a direct-drive encoder, 2 mrad/s noise, 1 mrad/s
+    resolution).
     """
 
     seed: Seed = 1
@@ -795,6 +812,14 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                     '"iea15mw_volturnus"); a bottom-fixed turbine has no platform'
                 )
             self.waves.check()
+        preset = TURBINE_SENSOR_PRESETS.get(self.turbine) if self.platform is not None else None
+        if preset:
+            # the turbine's sensor preset under the scenario's own channel tables (key by
+            # key: a scenario that sets only a channel's std keeps the preset's resolution)
+            merged = {name: dict(table) for name, table in preset.items()}
+            for name, table in self.sensors.channels.items():
+                merged[name] = {**merged.get(name, {}), **table}
+            msgspec.structs.force_setattr(self.sensors, "channels", merged)
         self.sensors.check(self.timing.control_period_s)
         if self.review.power_metric == "quadratic_linear":
             casanovas = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
