@@ -1,19 +1,17 @@
 """Whole-command speed of an in-process run, beside the loop's own, idle and loaded.
 
-``fowt run <scenario> --mode inprocess --duration 600 --no-plots`` as a user types it (a
-fresh interpreter each time; ``--plots both`` also times the default command, which writes
-the plots, alternating with ``--no-plots``), for the lqri_ff controller (target: whole
-command >= 400x real time) and the baseline (>= 600x). Per run: the loop's speed (the
-plant's final summary:
-simulated seconds per wall second of the cycle loop), the whole command's (600 s over the
-command's wall time, measured outside the process: interpreter start to exit) and the
+``fowt run <scenario> --mode inprocess --duration 600 --no-plots`` as a user types it (a fresh
+interpreter each time; ``--plots both`` also times the default command, which writes the
+plots, alternating with ``--no-plots``), for the lqri_ff controller (target: whole command >=
+400x real time) and the baseline (>= 600x). Per run: the loop's speed (the plant's final
+summary: simulated seconds per wall second of the cycle loop), the whole command's (600 s over
+the command's wall time, measured outside the process: interpreter start to exit) and the
 phases the command reports in ``summary["run"]["wall_phases_s"]`` (start-up to the loop's
 first cycle, run, log writer finishing, review; :func:`hil.launch.speed_line`) and the CPU
-seconds of the command and its children (the log writer), which a loaded machine inflates
-less than the wall time. Medians of
-``--repeat`` runs, first with the machine as it is, then with ``--hogs`` CPU hogs
-(busy-looping child processes started and stopped here). The load average is saved with
-each figure: the machine is shared.
+seconds of the command and its children (the log writer), which a loaded machine inflates less
+than the wall time. Medians of ``--repeat`` runs, first with the machine as it is, then with
+``--hogs`` CPU hogs (busy-looping child processes started and stopped here). The load average
+is saved with each figure: the machine is shared.
 
     python bench/whole_command_speed.py [--repeat 5] [--hogs 2] [--plots off|on|both]
         [--scenarios iea15mw-lc2-lqri-ff ...]
