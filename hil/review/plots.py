@@ -627,6 +627,28 @@ def _power_of_ten(value: float, _pos: int | None = None) -> str:
     return f"{value:g}"
 
 
+def _one_x_axis(axes: Sequence[Any], lo: float, hi: float, ticks: Iterable[float]) -> None:
+    """Panels stacked over one x range: ticks and labels on the bottom panel only, the others
+    with grid lines at the same places and no ticks.
+
+    Not ``sharex``: the shared axes would share their tick locator, and every panel would
+    build and measure a full set of ticks (five artists each) that it does not label.
+    """
+    from matplotlib.ticker import FixedLocator, NullLocator  # noqa: PLC0415 - drawing only
+
+    at = [float(v) for v in ticks if lo <= v <= hi]
+    for a in axes:
+        a.set_xlim(lo, hi)
+    for a in axes[:-1]:
+        a.xaxis.set_major_locator(NullLocator())
+        a.xaxis.set_minor_locator(NullLocator())
+        if at:
+            a.vlines(
+                at, 0.0, 1.0, transform=a.get_xaxis_transform(), colors="0.69", lw=0.8, alpha=0.3
+            )
+    axes[-1].xaxis.set_major_locator(FixedLocator(at))
+
+
 def _few_ticks(axes: Sequence[Any]) -> None:
     """At most about five labelled ticks on each linear y axis (matplotlib's default up to ten):
     each tick is five artists, built and measured when the figure is drawn."""
@@ -658,10 +680,6 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
     fig, axes = _figure(
         13, 18, len(_PANELS), left=0.075, right=0.8, top=0.965, bottom=0.035, hspace=0.12
     )
-    for a in axes[1:]:
-        a.sharex(axes[0])
-    for a in axes[:-1]:
-        a.tick_params(labelbottom=False)
     _few_ticks(axes)
     commanded = {
         "blade_pitch_rad": ("blade_pitch_commanded_rad", 180.0 / math.pi),
@@ -718,6 +736,13 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
         else:
             _no_data(a)
         a.grid(True, alpha=0.3)
+    if any(has_data):
+        from matplotlib.ticker import MaxNLocator  # noqa: PLC0415 - drawing only
+
+        lo = min(a.dataLim.x0 for a, d in zip(axes, has_data, strict=True) if d)
+        hi = max(a.dataLim.x1 for a, d in zip(axes, has_data, strict=True) if d)
+        if hi > lo:
+            _one_x_axis(axes, lo, hi, MaxNLocator(nbins=8).tick_values(lo, hi))
     note = ""
     if isinstance(start, float) and start > 0:
         note = f"; KPIs from t = {start:.1f} s (dotted line)"
@@ -849,7 +874,9 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     n_missed = int(late.shape[0]) + unanswered
     a0.set_title(
         f"{label}: sensor-to-command latency of all {n_cycles} cycles "
-        f"({n_missed} missed, {unanswered} without a command)"
+        f"({n_missed} missed, {unanswered} without a command)",
+        loc="left",
+        fontsize="medium",
     )
     a0.set_xlabel("sensor-to-command latency [us]")
     a0.set_ylabel("cycles [1]")
@@ -869,10 +896,6 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
 
 def _psd_plot(data: PlotData, label: str, path: Path) -> None:
     fig, axes = _figure(12, 12, len(_SPECTRA), left=0.09, right=0.75, top=0.92, bottom=0.05)
-    for a in axes[1:]:
-        a.sharex(axes[0])
-    for a in axes[:-1]:
-        a.tick_params(labelbottom=False)
     title = f"{label}: power spectral densities"
     n = next(iter(data.welch.values())).n if data.welch else 0
     marks = spectral_marks(data.summary, data.metadata)
@@ -911,7 +934,10 @@ def _psd_plot(data: PlotData, label: str, path: Path) -> None:
             ax.grid(True, which="major", alpha=0.3)
             drawn.append(ax)
         if drawn:
-            axes[0].set_xlim(lo_hz, hi_hz)
+            for ax in axes:
+                ax.set_xscale("log")
+            decades = range(math.ceil(math.log10(lo_hz)), math.floor(math.log10(hi_hz)) + 1)
+            _one_x_axis(axes, lo_hz, hi_hz, [10.0**k for k in decades])
             _mark_frequencies(marks, drawn)
     else:
         for ax, (name, _field, _scale, unit) in zip(axes, _SPECTRA, strict=True):
