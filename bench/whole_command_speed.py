@@ -16,7 +16,8 @@ is saved with each figure: the machine is shared.
     python bench/whole_command_speed.py [--repeat 5] [--hogs 2] [--plots off|on|both]
         [--scenarios iea15mw-lc2-lqri-ff ...]
 
-``--hogs 0`` measures the machine as it is only.
+``--hogs 0`` measures the machine as it is only. With ``--plots on`` or ``both`` the result is
+saved as ``whole_command_speed_plots`` (``_compare``).
 
 With ``--compare-python PY --compare-root DIR`` (another checkout and its interpreter, e.g.
 an older commit's worktree) the runs of the two alternate (ABBA, :func:`_common.alternate`)
@@ -137,7 +138,12 @@ def main() -> None:
                 p.kill()
                 p.wait()
         result[label] = cond
-    name = "whole_command_speed" + ("_compare" if len(sides) > 1 else "")
+    # the command with its plots is another measurement: its own result file
+    name = (
+        "whole_command_speed"
+        + ("" if args.plots == "off" else "_plots")
+        + ("_compare" if len(sides) > 1 else "")
+    )
     save(name, result)
 
 
