@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= runs/default
 
-.PHONY: setup run test lint typecheck docs pytest bench bench-speed bench-studies al2019-docs golden clean
+.PHONY: setup run test test-quick lint typecheck docs pytest bench bench-speed bench-studies al2019-docs golden clean
 
 setup: $(STAMP)
 
@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml
 	# ROSCO's compiled controller (kind = "rosco"): the wheel's libdiscon only, without the
 	# toolbox's dependencies (--no-deps keeps the install small).
 	$(BIN)/python -m pip install --quiet --no-deps 'rosco==2.10.*'
-	# Compile the numba kernels once (about 1 min on a fresh clone; cached in __pycache__),
+	# Compile the numba kernels once (a few minutes on a fresh clone; cached in __pycache__),
 	# so that no run, peer process or test starts late compiling them.
 	$(BIN)/python -m hil.warmup
 	touch $(STAMP)
@@ -44,6 +44,18 @@ pytest: setup
 	$(BIN)/python -m pytest
 
 test: lint typecheck docs pytest
+
+# The quick check while working (under 5 min on two cores, against about 35 min for `make
+# test`): lint, type-check and the unit tests of the message schemas, CAN codec, scenario
+# input, sensors, waves, aerodynamics, estimators and review, none launching a process.
+# `make test` (and CI, .ci/run) still runs everything.
+QUICK_TESTS ?= tests/test_bus_schemas.py tests/test_can_codec.py tests/test_can_db.py \
+	tests/test_kpi_stats.py tests/test_review_kpi.py tests/test_review_plots.py \
+	tests/test_review_stream.py tests/test_review_input.py tests/test_scenario_input.py \
+	tests/test_sensor_channels.py tests/test_waves.py tests/test_plant_aero.py \
+	tests/test_estimators.py
+test-quick: lint typecheck
+	$(BIN)/python -m pytest -m "not e2e" $(QUICK_TESTS)
 
 # Regenerate the golden in-process KPIs (tests/test_golden_inprocess.py) after a deliberate
 # change of what a run computes; `--check` instead only lists what would change.

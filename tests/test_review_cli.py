@@ -305,3 +305,59 @@ def test_lqri_ff_run_says_when_its_feedforward_starts(tmp_path: Path) -> None:
     assert f"lqri_ff: feedforward active from t = {fill:.1f} s" in text
     assert "warning: the run is 4 s, not longer than the forecast fill time" in text
     assert "Estimator and wave forecast" in text and "wind speed error, RMS" in text
+
+
+# ----------------------------------------------------------------- outputs and verdict
+
+
+def test_review_writes_only_into_out_names_each_file_and_ends_with_the_verdict(
+    floating_log: Path, tmp_path: Path
+) -> None:
+    """With --out nothing is written beside the file; every file written is named; the last
+    line is the verdict 'fowt run' gives (hil.review.outcome.run_outcome), exit 0 without
+    --strict and that code with it; with --json stdout stays the summary alone."""
+    from hil.review.outcome import outcome_line, run_outcome
+
+    here = tmp_path / "log"
+    here.mkdir()
+    log = here / "run.mcap"
+    log.write_bytes(floating_log.read_bytes())
+    out = tmp_path / "out"
+    proc = _fowt("review", str(log), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in here.iterdir()) == ["run.mcap"]
+    assert {p.name for p in out.iterdir()} == {"summary.json", *PLOT_FILES}
+    lines = proc.stdout.strip().splitlines()
+    for name in ("summary.json", *PLOT_FILES):
+        assert any(line.endswith(str(out / name)) for line in lines), name
+    summary = json.loads((out / "summary.json").read_text())
+    code, reasons = run_outcome(summary)
+    assert lines[-1] == outcome_line(code, reasons)
+    assert lines[-1].startswith(f"outcome: {code.word} (exit {int(code)})")
+    strict = _fowt("review", str(log), "--out", str(out), "--no-plots", "--strict")
+    assert strict.returncode == int(code), strict.stdout + strict.stderr
+    as_json = _fowt("review", str(log), "--out", str(out), "--json")
+    assert json.loads(as_json.stdout)["kpi"] == summary["kpi"]
+    assert as_json.stderr.strip().splitlines()[-1] == outcome_line(code, reasons)
+
+
+def test_one_kpi_naming_for_review_compare_and_report(floating_log: Path) -> None:
+    """Every KPI of a review is declared once (hil.review.kpi_names), and the review's table,
+    fowt compare's rows and fowt report's table show it under the same label and unit."""
+    from hil.campaign.html_report import compare_name, run_html
+    from hil.review.kpi_names import REVIEW_KPIS, kpi_name
+
+    s = review(floating_log, plots=False, write_summary=False)
+    declared = {k.key for k in REVIEW_KPIS}
+    assert set(s["kpi"]) <= declared, set(s["kpi"]) - declared
+    console = Console(file=io.StringIO(), record=True, width=200)
+    render_summary(s, console)
+    text = console.export_text()
+    html, _summary = run_html(floating_log)
+    for key in s["kpi"]:
+        name = kpi_name(key)
+        assert compare_name(f"kpi.{key}") == (name.heading, name.scale)
+        assert name.heading in html
+        if name.console:
+            assert any(name.label in line and name.unit in line for line in text.splitlines())
+    assert compare_name("kpi.rotor_speed_mean_rad_s") == ("rotor speed mean [rpm]", 30 / math.pi)

@@ -11,7 +11,17 @@ import numpy as np
 import pytest
 from scipy.signal import welch
 
-from hil.review.plots import MAX_POINTS, Envelope, Spans, StreamingWelch, psd_segment
+from hil.review.plots import (
+    DRAW_COLUMNS,
+    MAX_POINTS,
+    SHIPPED_PLATFORM_PERIODS_S,
+    Envelope,
+    Spans,
+    StreamingWelch,
+    platform_periods_s,
+    psd_segment,
+    spectral_marks,
+)
 
 
 def _reference_spans(t: np.ndarray, f: np.ndarray, period: float) -> list[tuple[float, float]]:
@@ -83,15 +93,15 @@ def test_streaming_welch_equals_scipy_on_the_whole_record(n_s: float) -> None:
 
 def test_envelope_keeps_every_sample_of_a_short_run_and_bounds_a_long_one() -> None:
     rng = np.random.default_rng(3)
-    short = Envelope(24_000)
-    x = rng.standard_normal(24_000)
-    for a in range(0, 24_000, 4096):
-        short.add({"t": np.arange(a, min(a + 4096, 24_000)) * 1.0, "x": x[a : a + 4096]})
+    short = Envelope(MAX_POINTS)
+    x = rng.standard_normal(MAX_POINTS)
+    for a in range(0, MAX_POINTS, 1000):
+        short.add({"t": np.arange(a, min(a + 1000, MAX_POINTS)) * 1.0, "x": x[a : a + 1000]})
     assert short.bucket == 1
     np.testing.assert_array_equal(short.get("x"), x)
     n = 24 * 3600 * 40  # a day at 40 Hz
     long = Envelope(n)
-    assert long.bucket == -(-n // (MAX_POINTS // 2))
+    assert long.bucket == -(-n // DRAW_COLUMNS)
     y = rng.standard_normal(200_000)
     y[123_457] = 50.0  # a spike every-B-th sampling would miss
     for a in range(0, y.size, 4096):
@@ -100,3 +110,77 @@ def test_envelope_keeps_every_sample_of_a_short_run_and_bounds_a_long_one() -> N
     assert drawn.size == t.size == 2 * -(-y.size // long.bucket)
     assert drawn.max() == 50.0 and drawn.min() == y.min()
     assert np.all(np.diff(t) >= 0)
+
+
+def test_min_max_decimation_of_a_600_s_run_keeps_every_single_sample_spike() -> None:
+    """A 600 s run at 40 Hz (24 000 samples) is drawn as at most one min/max bucket per pixel
+    column; each single-sample spike, up or down, is one of the drawn points (exactly), and
+    every bucket's two points are the bucket's minimum and maximum."""
+    rng = np.random.default_rng(11)
+    n = 24_000
+    t = np.arange(n) / 40.0
+    x = np.sin(2 * np.pi * 0.1 * t) + 0.05 * rng.standard_normal(n)
+    where = rng.choice(n, size=40, replace=False)
+    spikes = np.where(rng.random(40) < 0.5, 1.0, -1.0) * rng.uniform(5.0, 50.0, 40)
+    x[where] += spikes
+    env = Envelope(n)
+    assert env.bucket > 1
+    at = 0
+    for size in rng.integers(1, 3000, 100):
+        env.add({"t": t[at : at + size], "x": x[at : at + size]})
+        at += int(size)
+        if at >= n:
+            break
+    drawn, times = env.get("x"), env.get("t")
+    assert drawn.size == times.size <= 2 * DRAW_COLUMNS
+    for k in where:
+        assert x[k] in drawn, (k, x[k])
+    b = env.bucket
+    pad = (-n) % b
+    rows = np.concatenate((x, np.full(pad, np.nan))).reshape(-1, b)
+    np.testing.assert_array_equal(drawn[0::2], np.nanmin(rows, axis=1))
+    np.testing.assert_array_equal(drawn[1::2], np.nanmax(rows, axis=1))
+    assert np.all(np.diff(times) >= 0)
+
+
+def _metadata(config: dict[str, object]) -> dict[str, dict[str, str]]:
+    import json
+
+    return {"scenario": {"name": "x", "json": json.dumps(config)}}
+
+
+def test_spectra_mark_the_wave_peak_1p_3p_and_the_platform_modes_of_the_preset() -> None:
+    """Wave peak 1/Tp, 1P = mean rotor speed / 2 pi and 3P, and the platform's surge and
+    pitch modes within 10 % of the damped natural periods of the preset's linearised model
+    (plant.modes.natural_modes, which adds radiation memory and the rotor)."""
+    from plant.modes import natural_modes
+
+    omega = 0.6  # rad/s
+    cfg = {"platform": "iea15mw_volturnus", "waves": {"kind": "jonswap", "tp_s": 8.0}}
+    marks = dict(
+        (text.split(" (")[0], hz)
+        for text, hz in spectral_marks({"kpi": {"rotor_speed_mean_rad_s": omega}}, _metadata(cfg))
+    )
+    assert marks["wave peak 1/Tp"] == pytest.approx(1 / 8.0, rel=1e-12)
+    assert marks["1P"] == pytest.approx(omega / (2 * np.pi), rel=1e-12)
+    assert marks["3P"] == pytest.approx(3 * omega / (2 * np.pi), rel=1e-12)
+    modes = {m.name: m.period_s for m in natural_modes("iea15mw_volturnus")}
+    assert 1 / marks["platform surge"] == pytest.approx(modes["surge"], rel=0.1)
+    assert 1 / marks["platform pitch"] == pytest.approx(modes["pitch"], rel=0.1)
+    # a bottom-fixed turbine in still water with no rotor speed: nothing to mark
+    assert spectral_marks({"kpi": {}}, _metadata({"waves": {"kind": "still"}})) == []
+
+
+def test_shipped_platform_periods_are_those_of_their_presets() -> None:
+    """The table the review marks from is the computation on each shipped floating preset."""
+    from pathlib import Path
+
+    from plant.presets import floating
+
+    names = sorted(p.stem for p in Path(floating.__file__).parent.glob("*.toml"))
+    assert sorted(SHIPPED_PLATFORM_PERIODS_S) == names
+    for name in names:
+        got = platform_periods_s(name)
+        assert got.keys() == SHIPPED_PLATFORM_PERIODS_S[name].keys(), name
+        for dof, period in got.items():
+            assert SHIPPED_PLATFORM_PERIODS_S[name][dof] == pytest.approx(period, rel=1e-9)

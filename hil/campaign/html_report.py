@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from hil.campaign import kpi as ck
+from hil.review import kpi_names
 from hil.review import kpi_stats as kst
 
 _STYLE = """
@@ -585,8 +586,13 @@ def run_html(mcap_path: Path, out_dir: Path | None = None) -> tuple[str, dict[st
     parts.append(f'<p class="note">{_esc(win)}</p>')
     for section, title in run_sections(summary):
         flat = _flatten(summary.get(section) or {})
-        if flat:
-            parts.append(f"<h2>{_esc(title)}</h2>")
+        if not flat:
+            continue
+        parts.append(f"<h2>{_esc(title)}</h2>")
+        if section == "kpi":  # named and in the units of fowt review and fowt compare
+            rows = [[kpi_names.heading(k), fmt(kpi_names.shown(k, v)), k] for k, v in flat]
+            parts.append(table(["KPI", "value", "summary.json key (SI)"], rows))
+        else:
             parts.append(table(["key", "value"], [[k, fmt(v)] for k, v in flat]))
     for reason in ck.NOT_AVAILABLE.values():
         parts.append(f'<p class="note">{_esc(reason)}.</p>')
@@ -709,11 +715,32 @@ def compare_diffs(vals: Sequence[Any]) -> tuple[list[float | None], list[str]]:
     return diffs, status
 
 
+def _scaled(v: Any, scale: float) -> Any:
+    """``v`` x ``scale`` for a number, anything else as it is."""
+    return v * scale if isinstance(v, int | float) and not isinstance(v, bool) else v
+
+
 def diff_text(d: float | None, status: str) -> str:
     """A compare cell's difference: ``+1.23 %``, ``n/m`` or ``-``."""
     if status == kst.NOT_MEANINGFUL:
         return kst.NOT_MEANINGFUL
     return "-" if d is None else f"{d:+.2f} %"
+
+
+def compare_name(key: str) -> tuple[str, float]:
+    """(``label [unit]``, scale to that unit) of a row of :func:`compare_runs`: a review KPI
+    (``kpi.*``) as ``fowt review`` names it (:mod:`hil.review.kpi_names`), a campaign KPI
+    (``campaign.*``) as the campaign tables do (:data:`hil.campaign.kpi.KPIS`)."""
+    group, _, name = key.partition(".")
+    if group == "kpi":
+        k = kpi_names.kpi_name(name)
+        return k.heading, k.scale
+    if group == "campaign" and name in ck.KPIS:
+        unit, _direction, label = ck.KPIS[name]
+        return f"campaign {label} [{unit}]", 1.0
+    if key == "timing.deadline_misses":
+        return "deadline misses [1]", 1.0
+    return key, 1.0
 
 
 def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
@@ -729,7 +756,9 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
     -------
     dict
         ``runs`` (labels, paths, KPI windows), ``kpi[name] = [value per run]``,
-        ``diff_pct[name] = [100 (x_j / x_0 − 1) per run]`` (None where not given) and
+        ``kpi_names[name]`` (the row's ``label [unit]``, :func:`compare_name`; ``kpi`` keeps
+        the values as named, SI), ``diff_pct[name] = [100 (x_j / x_0 − 1) per run]`` (None
+        where not given) and
         ``diff_status[name]`` (``ok``, ``n/m``: x_0 near zero against the largest |x| of the
         runs, :mod:`hil.review.kpi_stats`; ``n/a``: missing); ``psd_ylabels`` (the PSD panels'
         axis labels: units squared per Hz).
@@ -813,6 +842,7 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
             for lab, p, w in zip(labels, paths, windows, strict=True)
         ],
         "kpi": kpi_rows,
+        "kpi_names": {k: compare_name(k)[0] for k in kpi_rows},
         "diff_pct": diff,
         "diff_status": diff_status,
         "psd_ylabels": psd_ylabels,
@@ -823,10 +853,11 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
     head = ["KPI", *labels[:1], *[f"{lab} (Δ %)" for lab in labels[1:]]]
     body = []
     for k, vals in kpi_rows.items():
-        cells = [fmt(vals[0])]
+        name, scale = compare_name(k)
+        cells = [fmt(_scaled(vals[0], scale))]
         for v, d, st in zip(vals[1:], diff[k][1:], diff_status[k][1:], strict=True):
-            cells.append(f"{fmt(v)} ({diff_text(d, st)})")
-        body.append([k, *cells])
+            cells.append(f"{fmt(_scaled(v, scale))} ({diff_text(d, st)})")
+        body.append([name, *cells])
     note = (
         '<p class="note">KPIs over each run\'s KPI window ('
         + "; ".join(
@@ -835,11 +866,12 @@ def compare_runs(paths: Sequence[Path], out: Path) -> dict[str, Any]:
             for lab, w in zip(labels, windows, strict=True)
         )
         + "), the same functions and window as fowt report and campaigns (DELs: Wöhler m = "
-        "4, 1 Hz equivalent). kpi.* are the review's KPIs, campaign.* al-2019's table 2-3; "
-        "the same name in both is the same number. Δ % vs run 0; n/m: run 0's value is "
-        f"near zero, under {100 * kst.NEAR_ZERO_FRACTION:g} % of the largest |x| of the "
-        "runs (hil.review.kpi_stats); single runs carry no standard error, so a difference here "
-        "is not tested against its noise (a campaign with several seeds is).</p>"
+        "4, 1 Hz equivalent). The review's KPIs are named and in the units of fowt review, "
+        "campaign ones are al-2019's table 2-3 (compare.json keeps them in SI units, kpi.* "
+        "and campaign.*; the same name in both is the same number). Δ % vs run 0; n/m: run "
+        f"0's value is near zero, under {100 * kst.NEAR_ZERO_FRACTION:g} % of the largest "
+        "|x| of the runs (hil.review.kpi_stats); single runs carry no standard error, so a "
+        "difference here is not tested against its noise (a campaign with several seeds is).</p>"
     )
     body_html = (
         note

@@ -200,7 +200,7 @@ def register(app: typer.Typer, console: Console) -> None:
         ] = Path("compare"),
     ) -> None:
         """Compare runs: KPI table with % differences vs the first, overlaid series, PSDs."""
-        from hil.campaign.html_report import compare_runs, diff_text, fmt
+        from hil.campaign.html_report import compare_name, compare_runs, diff_text, fmt
 
         if len(runs) < 2:
             cli_common.fail("give at least two MCAP files")
@@ -217,12 +217,14 @@ def register(app: typer.Typer, console: Console) -> None:
         for lab in labels:
             t.add_column(lab, justify="right")
         for k, vals in res["kpi"].items():
-            cells = [fmt(vals[0])]
+            name, scale = compare_name(k)  # the review's naming and units
+            shown = [v * scale if isinstance(v, int | float) else v for v in vals]
+            cells = [fmt(shown[0])]
             for v, d, st in zip(
-                vals[1:], res["diff_pct"][k][1:], res["diff_status"][k][1:], strict=True
+                shown[1:], res["diff_pct"][k][1:], res["diff_status"][k][1:], strict=True
             ):
                 cells.append(f"{fmt(v)} ({diff_text(d, st)})")
-            t.add_row(k, *cells)
+            t.add_row(name, *cells)
         console.print(t)
         for name in ("compare.html", "compare_timeseries.png", "compare_psd.png", "compare.json"):
             console.print(f"wrote {out / name}", markup=False)

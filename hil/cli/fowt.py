@@ -872,7 +872,10 @@ def review_cmd(
 ) -> None:
     """Review a recorded run: KPIs, timing and plots.
 
-    Everything comes from the MCAP file alone.
+    Everything comes from the MCAP file alone. The summary and the plots are written into
+    --out (default: the file's folder, over what the run wrote there), each file named as
+    written; the last line is the verdict 'fowt run' gives the run, ``outcome: <word> (exit
+    <code>): <reasons>`` (on stderr with --json). The exit code is 0 unless --strict.
     """
     from hil.review.core import (
         NotRunLogError,
@@ -898,8 +901,11 @@ def review_cmd(
                 for k, v in json.loads(beside.read_text()).get("run", {}).items()
                 if k in _LAUNCHER_RUN_KEYS
             }
+    written: list[Path] = []
     try:
-        summary = review(mcap, out, plots=(not as_json) if plots is None else plots)
+        summary = review(
+            mcap, out, plots=(not as_json) if plots is None else plots, written=written
+        )
     except (NotMcapError, NotRunLogError) as exc:
         fail(str(exc))
     except OSError as exc:
@@ -908,27 +914,37 @@ def review_cmd(
         summary["run"].setdefault(key, value)
     if launched:
         record_outcome(summary)
-        written = (out if out is not None else mcap.parent) / "summary.json"
+        again = (out if out is not None else mcap.parent) / "summary.json"
         try:
-            written.write_text(json.dumps(summary, indent=2) + "\n")
+            again.write_text(json.dumps(summary, indent=2) + "\n")
         except OSError as exc:
-            fail(os_error_text(exc, written), code=ExitCode.FAILED)
+            fail(os_error_text(exc, again), code=ExitCode.FAILED)
+        written.append(again)
     note = truncation_note(summary)
+    # With --json stdout is the summary alone: what was written and the verdict go to stderr.
+    tell = stderr if as_json else console
     if as_json:
         sys.stdout.write(json.dumps(summary, indent=2) + "\n")
         if note:
             stderr.print(Text.assemble(("warning: ", "yellow"), f"{mcap}: {note}"))
     else:
         render_summary(summary, console)
-    if not strict:
-        return
     problems = review_problems(summary)
     if note is not None or problems or summary["run"].get("statistics_ok") is False:
+        # the file cannot be judged as a run: the review's own failure (exit 1)
         reason = "; ".join(([note] if note else []) + problems) or str(summary["run"].get("error"))
-        fail(f"--strict: {mcap}: {reason}", code=ExitCode.FAILED)
-    code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.review.outcome)
-    if code != ExitCode.OK:
+        code, reasons = ExitCode.FAILED, [reason]
+    else:
+        code, reasons = run_outcome(summary)  # the verdict 'fowt run' gave (hil.review.outcome)
+    failing = strict and code != ExitCode.OK
+    if not (as_json and failing):  # a failing --json --strict says one line, the error
+        for path in dict.fromkeys(written):  # summary.json is written twice with launcher keys
+            kind = "summary:" if path.suffix == ".json" else "plot:   "
+            tell.print(f"{kind} {path}", markup=False, soft_wrap=True)
+    if failing:
         fail(f"--strict: {mcap}: {outcome_line(code, reasons)}", code=code)
+    # the verdict 'fowt run' ends with; exit 0 here all the same (--strict: exit with it)
+    tell.print(outcome_line(code, reasons), markup=False, soft_wrap=True)
 
 
 @app.command("recover", short_help="Make a truncated MCAP file complete.")

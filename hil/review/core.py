@@ -119,6 +119,7 @@ from bus_schemas.registry import WAVE_PREVIEW_PERFECT
 from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, read_fault
 from hil.review import kpi
 from hil.review import stream as rs
+from hil.review.kpi_names import REVIEW_KPIS
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
 from hil.runlog.completeness import (
     CONSECUTIVE_TOPICS,
@@ -1104,7 +1105,11 @@ def write_plots_of_file(
 
 
 def review(
-    mcap_path: Path, out_dir: Path | None = None, plots: bool = True, write_summary: bool = True
+    mcap_path: Path,
+    out_dir: Path | None = None,
+    plots: bool = True,
+    write_summary: bool = True,
+    written: list[Path] | None = None,
 ) -> dict[str, Any]:
     """Read a run log, write ``summary.json`` (and plots) and return the summary.
 
@@ -1122,6 +1127,8 @@ def review(
         Also write the PNG plots (:func:`write_plots`).
     write_summary : bool
         Write ``summary.json`` (False: only return the summary).
+    written : list of Path, optional
+        Gets the path of every file written, in order (all inside ``out_dir``).
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
@@ -1147,17 +1154,21 @@ def review(
     with_fault_text(summary, read_fault(mcap_path.parent))
     if write_summary or plots:
         out.mkdir(parents=True, exist_ok=True)
+    files: list[Path] = []
     if write_summary:
         (out / "summary.json").write_text(
             json.dumps(_clean(summary), indent=2, allow_nan=False) + "\n"
         )
+        files.append(out / "summary.json")
     if plots:
         if run is not None:
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
-            hexicon_review.write_plots(run, out)
+            files += hexicon_review.write_plots(run, out)
         else:  # a second pass over the file, chunk by chunk, knowing the summary
-            write_plots_of_file(mcap_path, reader.info, summary, out)
+            files += write_plots_of_file(mcap_path, reader.info, summary, out)
+    if written is not None:
+        written.extend(files)
     return summary
 
 
@@ -1270,30 +1281,9 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     t.add_column("KPI")
     t.add_column("value", justify="right")
     t.add_column("unit")
-    rows: list[tuple[str, Any, float, str]] = [
-        ("mean electrical power", k.get("mean_power_w"), 1e-6, "MW"),
-        ("rotor speed mean", k.get("rotor_speed_mean_rad_s"), 30.0 / math.pi, "rpm"),
-        ("rotor speed std", k.get("rotor_speed_std_rad_s"), 30.0 / math.pi, "rpm"),
-        ("pitch travel |dθ/dt|", k.get("pitch_travel_deg_s"), 1.0, "deg/s"),
-        ("generator torque mean", k.get("generator_torque_mean_nm"), 1e-3, "kN m"),
-        ("thrust mean", k.get("thrust_mean_n"), 1e-3, "kN"),
-        ("thrust max", k.get("thrust_max_n"), 1e-3, "kN"),
-        (
-            f"shaft DEL (m={_fmt(k.get('shaft_del_wohler_m'), digits=0)})",
-            k.get("shaft_del_nm"),
-            1e-3,
-            "kN m",
-        ),
-        ("thrust DEL (m=4)", k.get("thrust_del_n"), 1e-3, "kN"),
-        ("tower-base moment mean", k.get("tower_base_moment_mean_nm"), 1e-6, "MN m"),
-        ("tower-base DEL (m=4)", k.get("tower_base_del_nm"), 1e-6, "MN m"),
-        ("platform pitch mean", k.get("platform_pitch_mean_deg"), 1.0, "deg"),
-        ("platform pitch std", k.get("platform_pitch_std_deg"), 1.0, "deg"),
-        ("surge mean", k.get("surge_mean_m"), 1.0, "m"),
-        ("surge std", k.get("surge_std_m"), 1.0, "m"),
-    ]
-    for name, v, scale, unit in rows:
-        t.add_row(name, _fmt(v, scale), unit)
+    for row in REVIEW_KPIS:  # the one naming of the KPIs (fowt compare and report too)
+        if row.console:
+            t.add_row(row.label, _fmt(k.get(row.key), row.scale), row.unit)
     console.print(t)
     if caption:
         console.print(caption)

@@ -6,11 +6,13 @@
 :class:`hil.runlog.columns.ColumnReader`, or a run in memory through
 :func:`hil.runlog.columns.run_batches`) and keeps only what is drawn:
 
-* **time series**: every sample of a run up to :data:`MAX_POINTS` samples per channel (a
-  600 s run at 40 Hz, 24 000 samples, is drawn sample by sample); a longer run in buckets of
-  B = ceil(n / (MAX_POINTS / 2)) consecutive samples, each drawn as its minimum at the
+* **time series**: what a figure :data:`DRAW_COLUMNS` pixels wide can show: every sample of
+  a run up to :data:`MAX_POINTS` (2 :data:`DRAW_COLUMNS`) samples per channel, a longer run
+  (a 600 s run at 40 Hz has 24 000) in buckets of B = ceil(n / :data:`DRAW_COLUMNS`)
+  consecutive samples, one a pixel column at most, each drawn as its minimum at the
   bucket's first time and its maximum at its last, so the line covers the envelope of what
-  it replaces (a spike is not lost, as it would be by taking every B-th sample);
+  it replaces (a single-sample spike is not lost, as it would be by taking every B-th
+  sample);
 * **event windows** (the plant's safe state, the controller's safe mode, the feedforward's
   starts, a sensor's invalid samples) at full rate, span by span (:class:`Spans`);
 * **latency**: a histogram on fixed log-spaced bins (:data:`LATENCY_BINS_PER_DECADE` a
@@ -18,8 +20,9 @@
   cycles as a time series as above, the missed ones each;
 * **spectra**: Welch's average over the KPI window (Hann, 50 % overlap, segment
   :func:`psd_segment`), taken segment by segment as the samples come (:class:`StreamingWelch`):
-  the same estimate as ``scipy.signal.welch`` over the whole record, holding at most two
-  segments.
+  the same estimate as ``scipy.signal.welch`` over the whole record (computed with numpy:
+  importing ``scipy.signal`` alone costs more than the spectra), holding at most two
+  segments; marked with the frequencies that explain them (:func:`spectral_marks`).
 
 The counts per channel (for B), the KPI window and the latency percentiles come from the
 run's summary (:func:`hil.review.core.summarize_batches`), which a review computes in its own
@@ -37,12 +40,13 @@ import numpy as np
 import numpy.typing as npt
 
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST, VALID_BITS
-from hil.review.core import scenario_period_s
+from hil.review.core import _scenario_of, scenario_period_s
 from hil.runlog.columns import ColumnBatch, suffix_of
 
 FloatArray = npt.NDArray[np.float64]
 
 __all__ = [
+    "DRAW_COLUMNS",
     "MAX_POINTS",
     "PLOT_FIELDS",
     "PLOT_FILES",
@@ -50,13 +54,18 @@ __all__ = [
     "PlotData",
     "Spans",
     "StreamingWelch",
+    "platform_periods_s",
     "psd_segment",
+    "spectral_marks",
     "write_plots",
 ]
 
 PLOT_FILES = ("timeseries.png", "timing.png", "psd.png")
-#: Samples per channel drawn as they are; longer runs are drawn as min/max buckets.
-MAX_POINTS = 32768
+#: Pixel columns a time series is drawn for at most (the plots are about 1300 pixels wide):
+#: a longer channel is drawn as one min/max bucket per column.
+DRAW_COLUMNS = 2000
+#: Samples per channel drawn as they are (two per column); longer runs as min/max buckets.
+MAX_POINTS = 2 * DRAW_COLUMNS
 #: Fixed bins of the latency histogram per decade (from 1 ns to 1000 s).
 LATENCY_BINS_PER_DECADE = 200
 _LAT_EDGES_US = np.logspace(-3.0, 9.0, 12 * LATENCY_BINS_PER_DECADE + 1)
@@ -64,6 +73,8 @@ _LAT_EDGES_US = np.logspace(-3.0, 9.0, 12 * LATENCY_BINS_PER_DECADE + 1)
 #: a semi-submersible (about 0.008 Hz) and resolves its pitch mode (about 0.037 Hz).
 PSD_TARGET_SEGMENT_S = 250.0
 RPM_PER_RAD_S = 30.0 / math.pi
+#: Resolution of the PNGs [dots per inch].
+DPI = 100
 #: ``command`` ``mode`` of a safe-mode command (:data:`hil.review.core.MODE_SAFE_COMMAND`).
 MODE_SAFE_COMMAND = 2
 
@@ -92,10 +103,10 @@ _PANELS: tuple[tuple[str, str, str, float, str], ...] = (
 )
 #: (name, truth field, scale, unit of the density) of the spectra.
 _SPECTRA: tuple[tuple[str, str, float, str], ...] = (
-    ("rotor speed", "rotor_speed_rad_s", RPM_PER_RAD_S, "rpm$^2$/Hz"),
-    ("blade pitch", "blade_pitch_rad", 180.0 / math.pi, "deg$^2$/Hz"),
-    ("platform pitch", "platform_pitch_rad", 180.0 / math.pi, "deg$^2$/Hz"),
-    ("tower-base fore-aft moment", "tower_base_moment_nm", 1e-6, "(MN m)$^2$/Hz"),
+    ("rotor speed", "rotor_speed_rad_s", RPM_PER_RAD_S, "rpm²/Hz"),
+    ("blade pitch", "blade_pitch_rad", 180.0 / math.pi, "deg²/Hz"),
+    ("platform pitch", "platform_pitch_rad", 180.0 / math.pi, "deg²/Hz"),
+    ("tower-base fore-aft moment", "tower_base_moment_nm", 1e-6, "(MN m)²/Hz"),
 )
 _TRUTH_FIELDS = (
     *(p[1] for p in _PANELS),
@@ -123,6 +134,99 @@ def psd_segment(n: int, fs_hz: float) -> int:
     return int(max(min(n, 8), min(round(PSD_TARGET_SEGMENT_S * fs_hz), n // 2)))
 
 
+#: Frequency range of the spectra [Hz]: the surge mode of a semi-submersible (about
+#: 0.008 Hz) to past 3P and the tower's first mode (about 0.5 Hz); the rest is noise floor.
+PSD_RANGE_HZ = (0.005, 2.0)
+#: Decades of density shown under each spectrum's peak (within :data:`PSD_RANGE_HZ`).
+PSD_DECADES = 5.0
+
+
+def platform_periods_s(preset: str) -> dict[str, float]:
+    """Undamped natural periods [s] of the platform's surge and pitch, from its preset.
+
+    The rigid platform's surge, heave and pitch (the tower held): ω² the eigenvalues of
+    M⁻¹ K with M the structural mass and infinite-frequency added mass
+    (:func:`plant.platform.load_floating`, no radiation memory) and K its hydrostatic and
+    gravity stiffness plus the mooring's, linearised at zero offset (surge -dF_x/dx, the
+    surge-pitch coupling -dM_φ/dx, the heave-pitch table). Each mode is named by the degree
+    of freedom holding most of its kinetic energy. Within about 10 % of the damped periods of
+    :func:`plant.modes.natural_modes` (which adds the radiation memory and the rotor), at a
+    fraction of its cost. A preset that cannot be read, or a mode not found (a locked or
+    unrestrained degree of freedom), is left out.
+    """
+    try:
+        from plant.platform import load_floating  # noqa: PLC0415 - only for the marks
+
+        params = load_floating(preset, radiation=False)
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    mass = np.asarray(params.mass_matrix, np.float64)[:3, :3]
+    k = np.array(params.stiffness, np.float64)[:3, :3]
+    moor = params.mooring
+    x = np.asarray(moor.surge_m, np.float64)
+    slope = np.diff(x)
+    k[0, 0] -= float(np.interp(0.0, x[:-1], np.diff(moor.force_surge_n) / slope))
+    coupling = -float(np.interp(0.0, x[:-1], np.diff(moor.moment_pitch_nm) / slope))
+    k[0, 2] += coupling
+    k[2, 0] += coupling
+    k[1:3, 1:3] += np.asarray(moor.stiffness_heave_pitch, np.float64)
+    w2, vec = np.linalg.eig(np.linalg.solve(mass, 0.5 * (k + k.T)))
+    out: dict[str, float] = {}
+    for dof, name in ((0, "surge"), (2, "pitch")):
+        energy = np.abs(vec) ** 2 * np.diag(mass)[:, None]
+        share = energy[dof] / energy.sum(axis=0)
+        j = int(np.argmax(share))
+        lam = complex(w2[j])
+        if share[j] > 0.5 and lam.real > 0 and abs(lam.imag) < 1e-9 * lam.real:
+            out[name] = 2.0 * math.pi / math.sqrt(lam.real)
+    return out
+
+
+#: :func:`platform_periods_s` of the shipped floating presets [s], so that a review does not
+#: import and load the plant model to mark two lines (about 0.3 s);
+#: ``tests/test_review_plots.py`` checks each against the preset it comes from.
+SHIPPED_PLATFORM_PERIODS_S: dict[str, dict[str, float]] = {
+    "iea15mw_volturnus": {"surge": 128.23311394923235, "pitch": 28.01236170140107},
+    "nrel5mw_oc3_hywind": {"surge": 125.39837298558052, "pitch": 29.959146211400075},
+    "nrel5mw_tlp": {"surge": 34.02311869877013},
+}
+
+
+def spectral_marks(
+    summary: Mapping[str, Any], metadata: Mapping[str, Mapping[str, str]]
+) -> list[tuple[str, float]]:
+    """The frequencies [Hz] marked on the spectra, with their labels.
+
+    * the wave spectrum's peak 1 / T_p (the scenario's ``waves.tp_s``);
+    * 1P and 3P: the mean rotor speed over the KPI window (``kpi.rotor_speed_mean_rad_s``)
+      over 2π, and three times that (the blades passing the tower);
+    * the platform's surge and pitch natural frequencies (:func:`platform_periods_s` of the
+      scenario's ``platform`` preset, :data:`SHIPPED_PLATFORM_PERIODS_S` for a shipped one;
+      none for a bottom-fixed turbine).
+
+    A figure the run does not have is left out.
+    """
+    cfg = _scenario_of(metadata).get("config") or {}
+    marks: list[tuple[str, float]] = []
+    waves = cfg.get("waves") if isinstance(cfg, dict) else None
+    tp = waves.get("tp_s") if isinstance(waves, dict) else None
+    if isinstance(tp, int | float) and tp > 0:
+        marks.append((f"wave peak 1/Tp (Tp = {tp:.3g} s)", 1.0 / float(tp)))
+    w = (summary.get("kpi") or {}).get("rotor_speed_mean_rad_s")
+    if isinstance(w, int | float) and math.isfinite(w) and w > 0:
+        one_p = float(w) / (2.0 * math.pi)
+        marks.append((f"1P ({float(w) * RPM_PER_RAD_S:.3g} rpm)", one_p))
+        marks.append(("3P", 3.0 * one_p))
+    preset = cfg.get("platform") if isinstance(cfg, dict) else None
+    if isinstance(preset, str) and preset:
+        periods = SHIPPED_PLATFORM_PERIODS_S.get(preset)
+        for name, period in (
+            periods if periods is not None else platform_periods_s(preset)
+        ).items():
+            marks.append((f"platform {name} (T = {period:.3g} s)", 1.0 / period))
+    return marks
+
+
 class Envelope:
     """A channel group's samples, every one up to :data:`MAX_POINTS`, else min/max buckets.
 
@@ -130,13 +234,13 @@ class Envelope:
     ----------
     count : int
         Samples the group will get (the run's message count of the topic); sets the bucket:
-        B = 1 up to :data:`MAX_POINTS`, else ceil(count / (MAX_POINTS / 2)) (two points a
-        bucket).
+        B = 1 up to :data:`MAX_POINTS`, else ceil(count / :data:`DRAW_COLUMNS`) (at most one
+        bucket, two points, a pixel column).
     """
 
     def __init__(self, count: int) -> None:
         n = int(count)
-        self.bucket = 1 if n <= MAX_POINTS else -(-n // (MAX_POINTS // 2))
+        self.bucket = 1 if n <= MAX_POINTS else -(-n // DRAW_COLUMNS)
         self._parts: dict[str, list[np.ndarray]] = {}
         self._carry: dict[str, np.ndarray] = {}
 
@@ -264,10 +368,28 @@ class StreamingWelch:
 
 
 def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:
-    from scipy.signal import welch  # noqa: PLC0415 - plots only (import ~0.3 s)
+    """``scipy.signal.welch(x, fs, nperseg=nper, detrend="constant", window="hann")``.
 
-    f, p = welch(x, fs=fs, nperseg=nper, detrend="constant", window="hann")
-    return np.asarray(f), np.asarray(p)
+    Periodic Hann window, segments every nper - nper // 2 samples, each segment's mean
+    removed, density scaling 1 / (fs Σ w²), one-sided (doubled but for 0 Hz and, for an even
+    segment, the Nyquist bin), the mean over segments. Written with numpy: importing
+    ``scipy.signal`` costs more than the plots' spectra (about 0.3 s).
+    """
+    x = np.asarray(x, np.float64)
+    nper = int(min(nper, x.size))
+    f = np.fft.rfftfreq(nper, 1.0 / fs)
+    if nper < 1:
+        return f, np.zeros(f.size)
+    step = nper - nper // 2
+    segs = np.lib.stride_tricks.sliding_window_view(x, nper)[::step]
+    win = 0.5 - 0.5 * np.cos(2.0 * math.pi * np.arange(nper) / nper)
+    spec = np.fft.rfft((segs - segs.mean(axis=1, keepdims=True)) * win, axis=1)
+    p = (spec.real**2 + spec.imag**2).mean(axis=0) / (fs * float(np.sum(win * win)))
+    if nper % 2:
+        p[1:] *= 2.0
+    else:
+        p[1:-1] *= 2.0
+    return f, p
 
 
 class PlotData:
@@ -421,7 +543,10 @@ def collect(
 def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
     """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
 
-    Uses the Agg backend (selected here, not at import). Panels with no data say so.
+    Drawn on :class:`matplotlib.figure.Figure` objects saved with the Agg renderer (no
+    pyplot, no backend selected: nothing global changes for importers), with fixed margins
+    (a layout engine would measure every label again per figure) and every legend outside
+    the data, to the right of its panel. Panels with no data say so.
 
     * timeseries: truth (bold) and command (dashed steps) over the measured readings (thin,
       transparent, behind), so quantised and noisy sensors do not hide them; a reading whose
@@ -430,38 +555,121 @@ def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
       plant's safe-state windows are shaded, the controller's safe-mode windows hatched,
       and each start of the feedforward is a dash-dotted vertical line, each with one
       legend entry on the top panel. A run longer than :data:`MAX_POINTS` samples is drawn
-      as min/max buckets (module docstring; the title says so).
+      as min/max buckets, one a pixel column (module docstring; the title says so).
     * timing: histogram of every cycle's latency with the deadline, p50 and p99; latency per
       cycle with missed cycles marked (late command at its latency, or no command at all).
     * psd: Welch spectra over the KPI window (Hann, 50 % overlap, segment from
       :func:`psd_segment`, its resolution in each title) of the rotor speed [rpm²/Hz], blade
-      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz].
+      pitch [deg²/Hz], platform pitch [deg²/Hz] and tower-base moment [(MN m)²/Hz], over
+      :data:`PSD_RANGE_HZ` and :data:`PSD_DECADES` decades under each one's peak, with the
+      wave peak, 1P, 3P and the platform's surge and pitch modes marked
+      (:func:`spectral_marks`).
 
     Returns
     -------
     list of Path
         The files written, in the order above.
     """
-    # Lazy: selecting a backend at import would be a global side effect for importers.
-    import matplotlib  # noqa: PLC0415
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
     out_dir.mkdir(parents=True, exist_ok=True)
     label = data.label()
     written = [out_dir / name for name in PLOT_FILES]
-    _timeseries_plot(data, label, written[0], plt)
-    _timing_plot(data, label, written[1], plt)
-    _psd_plot(data, label, written[2], plt)
+    _timeseries_plot(data, label, written[0])
+    _timing_plot(data, label, written[1])
+    _psd_plot(data, label, written[2])
     return written
+
+
+def _figure(width_in: float, height_in: float, rows: int, **margins: float) -> tuple[Any, Any]:
+    """A figure of ``rows`` panels sharing nothing, with fixed margins (fractions)."""
+    # Lazy: matplotlib is imported only by a review that draws.
+    from matplotlib.figure import Figure  # noqa: PLC0415
+
+    fig = Figure(figsize=(width_in, height_in))
+    axes = fig.subplots(rows, 1, squeeze=False, gridspec_kw=margins)[:, 0]
+    return fig, axes
+
+
+def _save(fig: Any, path: Path) -> None:
+    """Write ``fig`` as a PNG at :data:`DPI` (zlib level 1: the default 6 costs about a fifth of
+    the drawing for files a little smaller), its log axes first made cheap to draw
+    (:func:`_plain_log_axes`)."""
+    _plain_log_axes(fig)
+    fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
+
+
+def _plain_log_axes(fig: Any) -> None:
+    """No minor ticks on log axes, and plain-text labels on the major ones.
+
+    Each tick is a few artists built and measured at every draw (eight minor ticks a decade
+    made most of the spectra's drawing time); the grid of the major ones (a line a decade) is
+    kept, labelled 10⁻³ in plain text (:func:`_power_of_ten`): matplotlib's own log labels
+    are mathtext, whose parser costs about a second to build.
+    """
+    from matplotlib.ticker import FuncFormatter, NullLocator  # noqa: PLC0415 - drawing only
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_scale() == "log":
+                axis.set_minor_locator(NullLocator())
+                axis.set_major_formatter(FuncFormatter(_power_of_ten))
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _power_of_ten(value: float, _pos: int | None = None) -> str:
+    """A log axis's tick label: 10ⁿ for a power of ten, else the value (``%g``)."""
+    if not value > 0:
+        return ""
+    exp = math.log10(value)
+    if abs(exp - round(exp)) < 1e-9:
+        return "10" + str(round(exp)).translate(_SUPERSCRIPT)
+    return f"{value:g}"
+
+
+def _one_x_axis(axes: Sequence[Any], lo: float, hi: float, ticks: Iterable[float]) -> None:
+    """Panels stacked over one x range: ticks and labels on the bottom panel only, the others
+    with grid lines at the same places and no ticks.
+
+    Not ``sharex``: the shared axes would share their tick locator, and every panel would
+    build and measure a full set of ticks (five artists each) that it does not label.
+    """
+    from matplotlib.ticker import FixedLocator, NullLocator  # noqa: PLC0415 - drawing only
+
+    at = [float(v) for v in ticks if lo <= v <= hi]
+    for a in axes:
+        a.set_xlim(lo, hi)
+    for a in axes[:-1]:
+        a.xaxis.set_major_locator(NullLocator())
+        a.xaxis.set_minor_locator(NullLocator())
+        if at:
+            a.vlines(
+                at, 0.0, 1.0, transform=a.get_xaxis_transform(), colors="0.69", lw=0.8, alpha=0.3
+            )
+    axes[-1].xaxis.set_major_locator(FixedLocator(at))
+
+
+def _few_ticks(axes: Sequence[Any]) -> None:
+    """At most about five labelled ticks on each linear y axis (matplotlib's default up to ten):
+    each tick is five artists, built and measured when the figure is drawn."""
+    from matplotlib.ticker import MaxNLocator  # noqa: PLC0415 - drawing only
+
+    for a in axes:
+        a.yaxis.set_major_locator(MaxNLocator(nbins=5))
+
+
+def _legend_outside(ax: Any, **kw: Any) -> None:
+    """The panel's legend to its right, in the figure's right margin (never over data)."""
+    ax.legend(
+        loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize="small", **kw
+    )
 
 
 def _no_data(ax: Any, text: str = "no data") -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
-def _timeseries_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
+def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
     truth, sensors, command = (data.series[k] for k in ("truth", "sensors", "command"))
     has = {k: k in data.seen for k in ("truth", "sensors", "command")}
     tt, ts, tc = truth.get("t"), sensors.get("t"), command.get("t")
@@ -469,7 +677,10 @@ def _timeseries_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
     behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
     front = {"lw": 1.3, "zorder": 3}
     cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
-    fig, axes = plt.subplots(len(_PANELS), 1, figsize=(11, 18), sharex=True, layout="constrained")
+    fig, axes = _figure(
+        13, 18, len(_PANELS), left=0.075, right=0.8, top=0.965, bottom=0.035, hspace=0.12
+    )
+    _few_ticks(axes)
     commanded = {
         "blade_pitch_rad": ("blade_pitch_commanded_rad", 180.0 / math.pi),
         "generator_torque_nm": ("generator_torque_commanded_nm", 1e-3),
@@ -519,20 +730,29 @@ def _timeseries_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
         if drawn:
             if isinstance(start, float) and start > 0:
                 a.axvline(start, color="0.3", ls=":", lw=0.8, zorder=0)
-            a.legend(loc="upper right", fontsize="small", ncols=3)
+            _legend_outside(a)
         elif has["truth"] and not floating and i >= 5:
             _no_data(a, "bottom-fixed plant: no platform")
         else:
             _no_data(a)
         a.grid(True, alpha=0.3)
+    if any(has_data):
+        from matplotlib.ticker import MaxNLocator  # noqa: PLC0415 - drawing only
+
+        lo = min(a.dataLim.x0 for a, d in zip(axes, has_data, strict=True) if d)
+        hi = max(a.dataLim.x1 for a, d in zip(axes, has_data, strict=True) if d)
+        if hi > lo:
+            _one_x_axis(axes, lo, hi, MaxNLocator(nbins=8).tick_values(lo, hi))
     note = ""
     if isinstance(start, float) and start > 0:
         note = f"; KPIs from t = {start:.1f} s (dotted line)"
     if truth.bucket > 1:
         note += f"; min/max of every {truth.bucket} samples"
-    fig.suptitle(f"{label}: time series (truth bold, command dashed, measured grey{note})")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    fig.suptitle(
+        f"{label}: time series\n(truth bold, command dashed, measured grey{note})",
+        fontsize="medium",
+    )
+    _save(fig, path)
 
 
 def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
@@ -589,7 +809,7 @@ def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) 
                    label=label)  # fmt: skip
 
 
-def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
+def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     timing = data.summary.get("timing") or {}
     pct = timing.get("latency_us") or {}
     deadline = timing.get("deadline_us")
@@ -597,7 +817,7 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
     unanswered = sum(int(u.size) for u in data.unanswered)
     late = np.concatenate(data.late) if data.late else np.zeros((0, 2))
     n_cycles = data.lat_n + unanswered
-    fig, (a0, a1) = plt.subplots(2, 1, figsize=(10, 8), layout="constrained")
+    fig, (a0, a1) = _figure(12, 8, 2, left=0.08, right=0.72, top=0.94, bottom=0.08, hspace=0.35)
     mode = data.metadata.get("run", {}).get("mode", "")
     enforced = mode not in ("lockstep", "inprocess")
     dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
@@ -615,10 +835,12 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
             step = max(1, -(-(i1 - i0) // 100))
             edges = np.unique(np.minimum(np.arange(i0, i1 + step, step), _LAT_EDGES_US.size - 1))
             bins = _LAT_EDGES_US[edges]
-            a0.hist(
-                centers[nz],
-                bins=bins,
-                weights=counts[nz],
+            # one artist for the whole histogram (hist draws a patch per bin)
+            per_bin = np.histogram(centers[nz], bins=bins, weights=counts[nz])[0]
+            a0.stairs(
+                per_bin,
+                bins,
+                fill=True,
                 color="tab:blue",
                 label=f"{data.lat_n} cycles with a command",
             )
@@ -633,7 +855,7 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
         if deadline > 0:
             a0.axvline(deadline, color="tab:red", lw=1.5, label=dl_label)
         a0.set_yscale("log")
-        a0.legend(fontsize="small")
+        _legend_outside(a0)
         ok = data.series["timing/cycle"]
         a1.plot(
             ok.get("t"), ok.get("latency_us"), ".", ms=2, color="tab:blue", label="command in time"
@@ -663,14 +885,16 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
         if deadline > 0:
             a1.axhline(deadline, color="tab:red", lw=1.2, label=dl_label)
         _mark_safe_state_cycles(data, timing, a1)
-        a1.legend(fontsize="small", loc="best", framealpha=0.9)
+        _legend_outside(a1)
     else:
         _no_data(a0)
         _no_data(a1)
     n_missed = int(late.shape[0]) + unanswered
     a0.set_title(
         f"{label}: sensor-to-command latency of all {n_cycles} cycles "
-        f"({n_missed} missed, {unanswered} without a command)"
+        f"({n_missed} missed, {unanswered} without a command)",
+        loc="left",
+        fontsize="medium",
     )
     a0.set_xlabel("sensor-to-command latency [us]")
     a0.set_ylabel("cycles [1]")
@@ -685,16 +909,19 @@ def _timing_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
     a1.set_xlabel("cycle [1]")
     a1.set_ylabel("latency [us]")
     a1.grid(True, alpha=0.3)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
 
 
-def _psd_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
-    fig, axes = plt.subplots(len(_SPECTRA), 1, figsize=(10, 12), sharex=True, layout="constrained")
+def _psd_plot(data: PlotData, label: str, path: Path) -> None:
+    fig, axes = _figure(12, 12, len(_SPECTRA), left=0.09, right=0.75, top=0.92, bottom=0.05)
     title = f"{label}: power spectral densities"
     n = next(iter(data.welch.values())).n if data.welch else 0
+    marks = spectral_marks(data.summary, data.metadata)
     if n >= 8:
         shown = False
+        drawn = []
+        fs = next(iter(data.welch.values())).fs
+        lo_hz, hi_hz = PSD_RANGE_HZ[0], min(PSD_RANGE_HZ[1], 0.5 * fs)
         for ax, (name, field, _scale, unit) in zip(axes, _SPECTRA, strict=True):
             ax.set_ylabel(f"{name}\n[{unit}]")
             if field == "platform_pitch_rad" and not data.floating:
@@ -717,13 +944,44 @@ def _psd_plot(data: PlotData, label: str, path: Path, plt: Any) -> None:
             if not pos.any():
                 _no_data(ax, f"{name} constant over the window: no spectrum")
                 continue
-            ax.loglog(f[1:][pos], pxx[1:][pos], lw=1.0)
-            ax.grid(True, which="both", alpha=0.3)
+            fp, pp = f[1:][pos], pxx[1:][pos]
+            ax.loglog(fp, pp, lw=1.0, color="tab:blue")
+            inside = (fp >= lo_hz) & (fp <= hi_hz)
+            peak = float(pp[inside].max()) if inside.any() else float(pp.max())
+            ax.set_ylim(peak * 10.0**-PSD_DECADES, peak * 3.0)
+            ax.grid(True, which="major", alpha=0.3)
+            drawn.append(ax)
+        if drawn:
+            for ax in axes:
+                ax.set_xscale("log")
+            decades = range(math.ceil(math.log10(lo_hz)), math.floor(math.log10(hi_hz)) + 1)
+            _one_x_axis(axes, lo_hz, hi_hz, [10.0**k for k in decades])
+            _mark_frequencies(marks, drawn)
     else:
         for ax, (name, _field, _scale, unit) in zip(axes, _SPECTRA, strict=True):
             ax.set_ylabel(f"{name}\n[{unit}]")
             _no_data(ax)
     axes[-1].set_xlabel("frequency [Hz]")
     fig.suptitle(title, fontsize="medium")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path)
+
+
+#: Line style of each kind of mark on the spectra, in :func:`spectral_marks`' order.
+_MARK_STYLES = {
+    "wave": {"color": "tab:cyan", "ls": "-"},
+    "1P": {"color": "tab:red", "ls": "--"},
+    "3P": {"color": "tab:red", "ls": ":"},
+    "platform surge": {"color": "tab:green", "ls": "--"},
+    "platform pitch": {"color": "tab:purple", "ls": "--"},
+}
+
+
+def _mark_frequencies(marks: Sequence[tuple[str, float]], axes: Sequence[Any]) -> None:
+    """A vertical line at each marked frequency on every drawn spectrum; the legend (outside,
+    right of the top one) names them."""
+    for i, ax in enumerate(axes):
+        for text, hz in marks:
+            style = next((v for k, v in _MARK_STYLES.items() if text.startswith(k)), {})
+            ax.axvline(hz, lw=1.1, alpha=0.8, zorder=0, label=text if i == 0 else None, **style)
+    if marks:
+        _legend_outside(axes[0], title="marked")
