@@ -763,6 +763,16 @@ def live_node(
         run_live_node(sc, bus, port, summary)  # type: ignore[arg-type]
     except RuntimeError as exc:  # the port in use: the sdk's error, one line
         fail(f"live view: {exc}", code=ExitCode.FAILED)
+    _exit_past_viewers()
+
+
+def _exit_past_viewers() -> None:
+    """Exit 0 now: everything is written, and the Foxglove sdk's exit hook would wait for
+    every viewer's socket to close, which a viewer that does not read never does
+    (:meth:`hil.live.server.LiveServer.close`)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
 
 
 @app.command(short_help="Replay a run log to Foxglove (the live view, no plant).")
@@ -805,6 +815,7 @@ def view(
     except RuntimeError as exc:  # the port in use
         fail(f"fowt view: {exc}", code=ExitCode.FAILED)
     console.print(f"replayed {stats.published} messages")
+    _exit_past_viewers()
 
 
 @app.command(short_help="Run the Zenoh router of a two-host bench.")

@@ -45,6 +45,8 @@ QUEUE_CAPACITY = 8192
 CLIENT_BACKLOG = 4096
 #: Wall seconds between two scene updates.
 SCENE_PERIOD_S = 1.0
+#: Wall seconds :meth:`LiveServer.close` waits for the sdk's server to stop.
+STOP_WAIT_S = 2.0
 #: The sdk's logger of a client's full outbox.
 _OUTBOX_LOGGER = "foxglove.websocket.connected_client.send_lossy"
 
@@ -72,6 +74,8 @@ class LiveStats:
     outbox_full: int = 0
     clients: int = 0
     rejected: dict[str, int] = field(default_factory=dict)
+    #: The server had not stopped after STOP_WAIT_S (a viewer held its socket open).
+    stop_waited: bool = False
 
 
 class LiveServer:
@@ -267,7 +271,13 @@ class LiveServer:
         """Publish what is queued, stop the server; returns the counts."""
         self._stop.set()
         self._thread.join(5.0)
-        self._server.stop()
+        # The sdk's stop waits for every client's socket to close, which a viewer that does
+        # not read never does: it gets STOP_WAIT_S, then the process goes on (and ends with
+        # os._exit, hil.cli.fowt, so the sdk's exit hook does not wait either).
+        stopper = threading.Thread(target=self._server.stop, name="live-stop", daemon=True)
+        stopper.start()
+        stopper.join(STOP_WAIT_S)
+        self.stats.stop_waited = stopper.is_alive()
         logging.getLogger(_OUTBOX_LOGGER).removeHandler(self._outbox)
         self.stats.outbox_full = self._outbox.count
         return self.stats
