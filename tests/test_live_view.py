@@ -323,3 +323,33 @@ def test_view_replays_a_run_log_as_the_live_view_serves_it(tmp_path: Path) -> No
     assert _assert_window_equal(got, logged) > 0
     assert len(got["fowt/t1/truth"]) > 0.5 * len(logged["fowt/t1/truth"])
     assert client.received.get("/tf") and client.received.get("/scene")
+
+
+def test_live_is_refused_where_it_cannot_serve(tmp_path: Path) -> None:
+    """Exit 2 before anything starts: no bus to watch, another transport, a port in use."""
+    from _helpers import fowt
+
+    for args in (["--mode", "inprocess", "--live"], ["--transport", "can", "--live", "0"]):
+        proc = fowt("run", "default", *args, "--out", str(tmp_path / "x"), timeout=120)
+        assert proc.returncode == 2, proc.stdout + proc.stderr
+        assert "--live" in proc.stderr
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = fowt("run", "default", "--live", str(port), "--out", str(tmp_path / "x"))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert f"127.0.0.1:{port} is not free" in proc.stderr
+    assert not (tmp_path / "x").exists()  # nothing started
+
+
+def test_bare_live_means_the_default_port() -> None:
+    from hil.cli.fowt import LIVE_DEFAULT_PORT, _bare_live
+
+    assert _bare_live(["run", "--live"]) == ["run", f"--live={LIVE_DEFAULT_PORT}"]
+    assert _bare_live(["run", "--live", "default"]) == [
+        "run",
+        f"--live={LIVE_DEFAULT_PORT}",
+        "default",
+    ]
+    assert _bare_live(["run", "--live", "9000"]) == ["run", "--live", "9000"]

@@ -469,8 +469,8 @@ def run(
                 writable("folder")(default_out_dir(sc))
             except typer.BadParameter as exc:
                 fail(f"default output folder: {exc.message} (give --out)")
-    if live is not None and (options is not None or mode == "inprocess"):
-        fail("--live: a single-turbine scenario in --mode realtime or lockstep only")
+    if live is not None:
+        _check_live(live, options is not None, mode, transport)
     # The same launcher, review and exit codes for every family; the family checks the
     # options that are its own (hil.families).
     req = RunRequest(
@@ -488,6 +488,21 @@ def run(
         live_port=live,
     )
     _launch_and_exit(req)
+
+
+def _check_live(port: int, hexicon: bool, mode: str, transport: str) -> None:
+    """``--live PORT``: a single-turbine run over Zenoh in real time or lock-step, on a port
+    that is free on 127.0.0.1 (else exit 2 before anything starts)."""
+    import socket
+
+    if hexicon or mode == "inprocess" or transport != "zenoh":
+        fail("--live: a single-turbine scenario over Zenoh in --mode realtime or lockstep only")
+    if port:
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError as exc:
+                fail(f"--live {port}: 127.0.0.1:{port} is not free ({exc.strerror or exc})")
 
 
 def _launch_and_exit(req: Any) -> None:

@@ -256,12 +256,28 @@ def scene(geometry: TurbineGeometry, unix_ns: int) -> Any:
         size=Vector3(x=6 * g.rotor_radius_m, y=6 * g.rotor_radius_m, z=0.5),
         color=color(_WATER),
     )
+    # Frame-locked: each part follows its frame's latest transform, whatever the scene's own
+    # timestamp (a lock-step run's log times run ahead of the wall clock).
     return SceneUpdate(
         entities=[
-            SceneEntity(timestamp=ts, frame_id="world", id="water", cubes=[water]),
             SceneEntity(
-                timestamp=ts, frame_id="platform", id="platform", cubes=[nacelle], **platform_parts
+                timestamp=ts, frame_id="world", id="water", frame_locked=True, cubes=[water]
             ),
-            SceneEntity(timestamp=ts, frame_id="rotor", id="rotor", cubes=blades, spheres=[hub]),
+            SceneEntity(
+                timestamp=ts,
+                frame_id="platform",
+                id="platform",
+                frame_locked=True,
+                cubes=[nacelle],
+                **platform_parts,
+            ),
+            SceneEntity(
+                timestamp=ts,
+                frame_id="rotor",
+                id="rotor",
+                frame_locked=True,
+                cubes=blades,
+                spheres=[hub],
+            ),
         ]
     )
