@@ -176,6 +176,7 @@ class LiveServer:
             self.stats.dropped += 1
             return False
         self._queue.append((topic, msg))
+        self._wake.set()
         return True
 
     def offer_cdr(self, topic: str, payload: bytes, log_time_ns: int) -> None:
@@ -215,12 +216,13 @@ class LiveServer:
             self._send_scene()
 
     def _run(self) -> None:
+        # Woken by offer (the feeder offers in batches: the node every 20 ms), else once per
+        # scene period: no polling beside the run's processes.
         while not self._stop.is_set():
-            if not self._queue:
-                self._maybe_scene()
-                self._stop.wait(0.005)
-                continue
+            self._wake.wait(SCENE_PERIOD_S)
+            self._wake.clear()
             self._publish_queued()
+            self._maybe_scene()
         self._publish_queued()
 
     def _publish_queued(self) -> None:
@@ -270,6 +272,7 @@ class LiveServer:
     def close(self) -> LiveStats:
         """Publish what is queued, stop the server; returns the counts."""
         self._stop.set()
+        self._wake.set()
         self._thread.join(5.0)
         # The sdk's stop waits for every client's socket to close, which a viewer that does
         # not read never does: it gets STOP_WAIT_S, then the process goes on (and ends with
