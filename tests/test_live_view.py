@@ -234,6 +234,8 @@ def test_lockstep_run_live_view_equals_the_run_log(tmp_path: Path) -> None:
     assert len(logged["fowt/t1/truth"]) == cycles > 0
     assert len(got["fowt/t1/truth"]) > 0.5 * cycles  # the client saw most of the run
     assert compared > 4 * len(got["fowt/t1/truth"])
+    # The controller's statuses too (subscribed once the controller announced itself).
+    assert len(got["fowt/t1/controller/status"]) > 0.5 * cycles
     live = json.loads((out / "live.json").read_text())
     assert summary["run"]["live_view"] == live
     assert live["dropped"] == 0 and live["rejected"] == {}
@@ -353,3 +355,31 @@ def test_bare_live_means_the_default_port() -> None:
         "default",
     ]
     assert _bare_live(["run", "--live", "9000"]) == ["run", "--live", "9000"]
+
+
+def test_the_live_view_never_stands_in_for_the_recorder(tmp_path: Path) -> None:
+    """A controller started with --await-recorder announces itself once a subscriber of its
+    status key is reachable: the live view (linked to it first) must not count as one."""
+    from _helpers import NodeProcesses, key_file_args, two_endpoints
+
+    plant_ep, ctrl_ep = two_endpoints()
+    key = key_file_args(tmp_path)
+    hil = [sys.executable, "-m", "hil"]
+    with NodeProcesses(tmp_path) as nodes:
+        nodes.start(
+            "live",
+            [*hil, "live-node", "default", "--connect", plant_ep, "--connect", ctrl_ep,
+             "--port", "0", *key],
+        )  # fmt: skip
+        time.sleep(1.0)  # its connect to the controller's endpoint is retried from now on
+        nodes.start(
+            "controller",
+            [*hil, "controller", "default", "--listen", ctrl_ep, "--connect", plant_ep,
+             "--await-recorder", "8", *key],
+        )  # fmt: skip
+        log = tmp_path / "controller.log"
+        deadline = time.monotonic() + 120.0
+        while "announcing itself anyway" not in log.read_text() and time.monotonic() < deadline:
+            assert nodes.procs["controller"].poll() is None, log.read_text()
+            time.sleep(0.2)
+        assert "no recorder reached its status key" in log.read_text(), log.read_text()

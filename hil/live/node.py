@@ -16,6 +16,13 @@ after it (checking, decoding, encoding, the sdk's per-client outbox) can only lo
 for the viewers, counted in ``live.json`` (:class:`~hil.live.server.LiveStats`) and in the
 run summary's ``run.live_view``; the recorder, which subscribes on its own, is unaffected.
 
+Never in the run's gates either: a controller started with ``--await-recorder`` announces
+itself once a subscriber of its status key is reachable (:func:`hil.nodes.bus.wait_matched`),
+which must be the recorder, not this process. So the controller's status keys
+(``controller/batch``, ``controller/status``) are subscribed only while the controller's
+liveliness token is there (it is declared after that wait), and dropped when it goes (a
+restarted controller waits for the recorder again); the other keys from the start.
+
 It ends once the plant's final timing summary and both reports have come (or the plant's
 liveliness token went) and :data:`END_IDLE_S` passed without a sample, or on SIGTERM/SIGINT.
 """
@@ -37,10 +44,17 @@ import zenoh
 from bus_schemas import DecodeError, TimingSummary
 from bus_schemas.auth import verify
 from bus_schemas.messages import ControllerReport, PlantReport
-from bus_schemas.registry import BY_SUFFIX, KEY_PREFIX
+from bus_schemas.registry import BY_SUFFIX, CONTROLLER_STATUS, KEY_PREFIX, MESSAGES
 from hil.live.scene import geometry_of
 from hil.live.server import LiveServer, LiveStats
-from hil.nodes.bus import BATCH_SUFFIXES, Bus, BusConfig, split_batch
+from hil.nodes.bus import (
+    BATCH_SUFFIXES,
+    CONTROLLER_BATCH_SUFFIX,
+    PLANT_BATCH_SUFFIX,
+    Bus,
+    BusConfig,
+    split_batch,
+)
 from hil.scenario.schema import Scenario
 
 #: Raw samples held between two takes of the main thread (about 2 s of the fastest
@@ -135,6 +149,17 @@ class LiveFeed:
         )
 
 
+def _gated(tid: str) -> tuple[str, ...]:
+    """The keys of the controller's statuses: subscribed only once it announced itself."""
+    return (f"{KEY_PREFIX}/{tid}/{CONTROLLER_BATCH_SUFFIX}", CONTROLLER_STATUS.key(tid))
+
+
+def _open_keys(tid: str) -> list[str]:
+    """Every other key of the run's messages (and the plant's log batches)."""
+    keys = [mt.key(tid) for mt in MESSAGES] + [f"{KEY_PREFIX}/{tid}/{PLANT_BATCH_SUFFIX}"]
+    return [k for k in keys if k not in _gated(tid)]
+
+
 def live_node_command(
     scenario: str,
     duration_s: float,
@@ -184,18 +209,42 @@ def run_live_node(
         if sample.kind == zenoh.SampleKind.DELETE:
             plant_gone.set()
 
+    controller_up = threading.Event()
+
+    def on_controller(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.DELETE:
+            controller_up.clear()
+        else:
+            controller_up.set()
+
+    subs: list[Any] = []
+    gated: list[Any] = []
     try:
-        sub = bus.session.declare_subscriber(f"{KEY_PREFIX}/{tid}/**", feed.on_sample)
-        watch = bus.session.liveliness().declare_subscriber(f"fowt/{tid}/alive/plant", on_plant)
+        for key in _open_keys(tid):
+            subs.append(bus.session.declare_subscriber(key, feed.on_sample))
+        liveliness = bus.session.liveliness()
+        subs.append(liveliness.declare_subscriber(f"fowt/{tid}/alive/plant", on_plant))
+        subs.append(
+            liveliness.declare_subscriber(
+                f"fowt/{tid}/alive/controller", on_controller, history=True
+            )
+        )
         while not stop.is_set():
+            # The controller's status keys only while its token is there (module docstring).
+            if controller_up.is_set() and not gated:
+                gated = [bus.session.declare_subscriber(k, feed.on_sample) for k in _gated(tid)]
+            elif not controller_up.is_set() and gated:
+                for sub in gated:
+                    sub.undeclare()
+                gated = []
             feed.take()
             ended = plant_gone.is_set() or (feed.final_seen and len(feed.reports) == 2)
             if ended and time.monotonic() - feed.last_sample >= END_IDLE_S:
                 break
             stop.wait(0.02)
         feed.take()
-        watch.undeclare()
-        sub.undeclare()
+        for sub in gated + subs:
+            sub.undeclare()
     finally:
         bus.close()
         server.close()

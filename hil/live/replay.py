@@ -17,6 +17,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
+from bus_schemas import ros2
 from hil.live.scene import geometry_of
 from hil.live.server import LiveServer, LiveStats
 from hil.runlog.mcap_io import check_magic
@@ -35,15 +36,25 @@ def _scenario_of(path: Path) -> tuple[str, str | None]:
     raise ReplayError(f"{path}: no 'scenario' metadata record (not a fowt run log?)")
 
 
-def _turbine_id(path: Path) -> str:
+def _channels(path: Path) -> tuple[str, dict[str, tuple[str, str]]]:
+    """The file's turbine id (from its truth channel) and its ``cdr`` channels' ros2msg
+    schemas by topic (so a file of older schema versions is served as it was written)."""
     with path.open("rb") as fh:
         summary = make_reader(fh).get_summary()
-    topics = [] if summary is None else [c.topic for c in summary.channels.values()]
-    for topic in topics:
-        parts = topic.split("/")
+    if summary is None:
+        raise ReplayError(f"{path}: no summary section (fowt recover makes the file complete)")
+    schemas: dict[str, tuple[str, str]] = {}
+    tid = None
+    for c in summary.channels.values():
+        schema = summary.schemas.get(c.schema_id)
+        if c.message_encoding == "cdr" and schema is not None and schema.encoding == "ros2msg":
+            schemas[c.topic] = (schema.name, schema.data.decode())
+        parts = c.topic.split("/")
         if len(parts) == 3 and parts[0] == "fowt" and parts[2] == "truth":
-            return parts[1]
-    raise ReplayError(f"{path}: no fowt/<turbine>/truth channel")
+            tid = parts[1]
+    if tid is None:
+        raise ReplayError(f"{path}: no fowt/<turbine>/truth channel")
+    return tid, schemas
 
 
 def replay(
@@ -59,9 +70,11 @@ def replay(
     """
     check_magic(path)
     turbine, platform = _scenario_of(path)
-    tid = _turbine_id(path)
+    tid, schemas = _channels(path)
+    truth_topic = f"fowt/{tid}/truth"
+    truth_dtype = ros2.dtype_of_msgdef(schemas[truth_topic][1]) if truth_topic in schemas else None
     stop = stop or threading.Event()
-    server = LiveServer(tid, geometry_of(turbine, platform), port)
+    server = LiveServer(tid, geometry_of(turbine, platform), port, schemas=schemas)
     try:
         if on_ready is not None:
             on_ready(server.port)
@@ -80,7 +93,10 @@ def replay(
                     wait = due - time.monotonic()
                     if wait > 0 and stop.wait(wait):
                         break
-                server.offer_cdr(channel.topic, message.data, message.log_time)
+                truth = None
+                if channel.topic == truth_topic and truth_dtype is not None:
+                    truth = ros2.decode_as(truth_dtype, message.data)[0]
+                server.offer_cdr(channel.topic, message.data, message.log_time, truth)
     finally:
         stats = server.close()
     return stats

@@ -93,6 +93,11 @@ class LiveServer:
         Log time of simulated time 0 [ns] (the run log's convention); default now.
     queue_capacity : int
         Bound of the hand-over queue.
+    client_backlog : int
+        Messages the sdk keeps per client before it drops the oldest.
+    schemas : dict or None
+        ``topic -> (schema name, ros2msg text)`` replacing the current declarations' (a
+        recorded file's own schemas, :mod:`hil.live.replay`).
     """
 
     def __init__(
@@ -103,6 +108,7 @@ class LiveServer:
         start_unix_ns: int | None = None,
         queue_capacity: int = QUEUE_CAPACITY,
         client_backlog: int = CLIENT_BACKLOG,
+        schemas: dict[str, tuple[str, str]] | None = None,
     ) -> None:
         import foxglove  # noqa: PLC0415
         from foxglove.channels import FrameTransformChannel, SceneUpdateChannel  # noqa: PLC0415
@@ -115,9 +121,8 @@ class LiveServer:
         self._channels: dict[str, tuple[Any, MessageType]] = {}
         for mt in MESSAGES:
             topic = mt.key(turbine)
-            schema = foxglove.Schema(
-                name=ros2.schema_name(mt), encoding="ros2msg", data=ros2.msgdef(mt).encode()
-            )
+            name, text = (schemas or {}).get(topic, (ros2.schema_name(mt), ros2.msgdef(mt)))
+            schema = foxglove.Schema(name=name, encoding="ros2msg", data=text.encode())
             meta = {"version": str(mt.version), "message_id": str(mt.message_id)}
             ch = foxglove.Channel(
                 topic, schema=schema, message_encoding="cdr", context=self._context, metadata=meta
@@ -179,23 +184,33 @@ class LiveServer:
         self._wake.set()
         return True
 
-    def offer_cdr(self, topic: str, payload: bytes, log_time_ns: int) -> None:
-        """Publish a CDR payload as it is (a run log's message, :mod:`hil.live.replay`)."""
+    def offer_cdr(
+        self, topic: str, payload: bytes, log_time_ns: int, truth: np.void | None = None
+    ) -> None:
+        """Publish a CDR payload as it is (a run log's message, :mod:`hil.live.replay`).
+
+        ``truth``: the decoded record when it is the truth's (it places the frames; a field
+        it lacks, in a file of an older schema, counts as 0).
+        """
         got = self._channels.get(topic)
         if got is None:
             return
-        ch, mt = got
+        ch, _mt = got
         ch.log(payload, log_time=log_time_ns)
         self.stats.published += 1
-        if topic == self._truth_topic:
-            rec = ros2.decode(mt, payload)[0]
+        if truth is not None:
+            names = truth.dtype.names or ()
+
+            def f(name: str) -> float:
+                return float(truth[name]) if name in names else 0.0
+
             self._place(
                 log_time_ns,
-                int(rec["sample_time_ns"]),
-                float(rec["rotor_speed_rad_s"]),
-                float(rec["platform_surge_m"]),
-                float(rec["platform_heave_m"]),
-                float(rec["platform_pitch_rad"]),
+                int(truth["sample_time_ns"]),
+                f("rotor_speed_rad_s"),
+                f("platform_surge_m"),
+                f("platform_heave_m"),
+                f("platform_pitch_rad"),
             )
         self._maybe_scene()
 
