@@ -392,3 +392,28 @@ def test_the_live_view_never_stands_in_for_the_recorder(tmp_path: Path) -> None:
             assert nodes.procs["controller"].poll() is None, log.read_text()
             time.sleep(0.2)
         assert "no recorder reached its status key" in log.read_text(), log.read_text()
+
+
+def test_shipped_layout_plots_fields_the_live_view_serves() -> None:
+    """docs/foxglove-layout.json: every plotted path is a served topic's field, and the 3-D
+    panel shows the scene and the frames."""
+    import re
+
+    from bus_schemas.registry import MESSAGES
+
+    layout = json.loads((REPO / "docs" / "foxglove-layout.json").read_text())
+    fields = {mt.key("t1"): set(mt.cls.__struct_fields__) for mt in MESSAGES}
+    paths = [
+        p["value"]
+        for key, cfg in layout["configById"].items()
+        if key.startswith("Plot!")
+        for p in cfg["paths"]
+    ]
+    assert len(paths) >= 5
+    for path in paths:
+        m = re.fullmatch(r'"([^"]+)"\.([a-z0-9_]+)', path)
+        assert m, path
+        assert m.group(2) in fields[m.group(1)], path
+    (three_d,) = [c for k, c in layout["configById"].items() if k.startswith("3D!")]
+    assert three_d["topics"]["/scene"]["visible"]
+    assert set(three_d["transforms"]) == {"frame:world", "frame:platform", "frame:rotor"}
