@@ -154,6 +154,7 @@ class RunRequest:
     inprocess_loop: Literal["auto", "compiled", "python"] = "auto"  # see run_inprocess
     hexicon: HexiconOptions | None = None  # a Hexicon scenario's options (hil.families)
     keep_key: bool = False  # leave run.key in the run folder after the run (--keep-key)
+    live_port: int | None = None  # serve the run to Foxglove on this port (hil.live)
 
     def given(self) -> dict[str, bool]:
         """The options set to other than their defaults that only some families take
@@ -490,6 +491,8 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     wall = time.monotonic() - t0
     phases.setdefault("log_end", time.monotonic())
     summary = review(mcap_path, out, plots=req.plots)
+    if req.live_port is not None:
+        _live_summary(summary, out, console)
     phases["review_end"] = time.monotonic()
     summary.setdefault("run", {})["launcher_wall_s"] = round(wall, 3)
     speed = (
@@ -518,6 +521,23 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     if driver is not None and driver.problems:
         raise RunFailedError("; ".join(driver.problems))
     return summary
+
+
+def _live_summary(summary: dict[str, Any], out: Path, console: Console) -> None:
+    """The live view's counts (its ``live.json``) into ``run.live_view``, and one line."""
+    from hil.live.node import LIVE_JSON  # noqa: PLC0415
+
+    try:
+        live = json.loads((out / LIVE_JSON).read_text())
+    except (OSError, ValueError):
+        live = {"error": f"no {LIVE_JSON}: the live view did not finish (logs/live.log)"}
+    summary.setdefault("run", {})["live_view"] = live
+    console.print(
+        f"live view: {live.get('published', 0)} messages published, "
+        f"{live.get('dropped', 0)} dropped for the viewers, "
+        f"{live.get('outbox_full', 0)} viewer outbox overflows (the run log is unaffected)",
+        markup=False,
+    )
 
 
 def _conclude(
@@ -1022,9 +1042,17 @@ def _start_nodes(
         options=options,
     )
     feed = _Feed(name, duration_s, ident, family)
+    cmds = family.node_commands(ctx)
+    if req.live_port is not None:  # the live view: a process of its own (hil.live.node)
+        from hil.live.node import LIVE_JSON, live_node_command  # noqa: PLC0415
+
+        (out / LIVE_JSON).unlink(missing_ok=True)
+        cmds["live"] = live_node_command(
+            scenario, duration_s, endpoints, key_path, req.live_port, out / LIVE_JSON
+        )
     try:
         _supervise(
-            family.node_commands(ctx), env, out, mcap_path, feed, endpoints[0], console,
+            cmds, env, out, mcap_path, feed, endpoints[0], console,
             nice_recorder=can is None, driver=driver, abort=abort, auth_key=auth_key,
         )  # fmt: skip
     finally:
@@ -1092,8 +1120,10 @@ def _supervise(
         return proc
 
     try:
-        for name in ("recorder", "controller", "plant"):
-            start(name)
+        # The live view first (when asked for): subscribed before the plant's first cycle.
+        for name in ("live", "recorder", "controller", "plant"):
+            if name in cmds:
+                start(name)
         if driver is not None:
             driver.start_clock()
         _follow(procs, feed, plant_ep, console, driver, start, logs, abort, auth_key)

@@ -163,6 +163,19 @@ InsecureOpt = Annotated[
         " can command the turbine. For tools and tests only.",
     ),
 ]
+#: Foxglove's default WebSocket port: what a bare ``--live`` serves on (:func:`_bare_live`).
+LIVE_DEFAULT_PORT = 8765
+LiveOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--live",
+        help="Serve the run live to Foxglove on ws://127.0.0.1:PORT (bare --live: 8765;"
+        " 0: any free port), read-only; docs/guide/live-view.md.",
+        min=0,
+        max=65535,
+        show_default=False,
+    ),
+]
 RealtimePriorityOpt = Annotated[
     int,
     typer.Option(
@@ -454,6 +467,7 @@ def run(
             "the Zenoh session credential).",
         ),
     ] = False,
+    live: LiveOpt = None,
 ) -> None:
     """Launch plant, controller and recorder as separate processes, then review the run.
 
@@ -536,6 +550,8 @@ def run(
                 writable("folder")(default_out_dir(sc))
             except typer.BadParameter as exc:
                 fail(f"default output folder: {exc.message} (give --out)")
+    if live is not None:
+        _check_live(live, options is not None, mode, transport)
     # The same launcher, review and exit codes for every family; the family checks the
     # options that are its own (hil.families).
     req = RunRequest(
@@ -551,8 +567,24 @@ def run(
         inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
         hexicon=options,
         keep_key=keep_key,
+        live_port=live,
     )
     _launch_and_exit(req)
+
+
+def _check_live(port: int, hexicon: bool, mode: str, transport: str) -> None:
+    """``--live PORT``: a single-turbine run over Zenoh in real time or lock-step, on a port
+    that is free on 127.0.0.1 (else exit 2 before anything starts)."""
+    import socket
+
+    if hexicon or mode == "inprocess" or transport != "zenoh":
+        fail("--live: a single-turbine scenario over Zenoh in --mode realtime or lockstep only")
+    if port:
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError as exc:
+                fail(f"--live {port}: 127.0.0.1:{port} is not free ({exc.strerror or exc})")
 
 
 def _launch_and_exit(req: Any) -> None:
@@ -806,6 +838,91 @@ def record(
         )
     except OSError as exc:  # disk full, file too large: the file is readable up to it
         fail(f"recorder: writing failed: {os_error_text(exc, out)}", code=ExitCode.FAILED)
+
+
+@app.command("live-node", hidden=True)
+def live_node(
+    scenario: ScenarioArg = "default",
+    duration: DurationOpt = None,
+    listen: ListenOpt = None,
+    connect: ConnectOpt = None,
+    zenoh_config: ZenohConfigOpt = None,
+    key_file: KeyFileOpt = None,
+    insecure: InsecureOpt = False,
+    port: Annotated[int, typer.Option(help="TCP port on 127.0.0.1 (0: any).", min=0)] = 8765,
+    summary: Annotated[
+        Path | None, typer.Option(help="Write the counts here (JSON).", callback=writable("file"))
+    ] = None,
+) -> None:
+    """Serve a run on its bus to Foxglove (fowt run --live starts it; hil.live.node)."""
+    sc = _scenario(scenario, duration)
+    from hil.live.node import run_live_node
+
+    bus = _bus(
+        listen,
+        connect,
+        zenoh_config,
+        default_connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:7448"),
+        key_file=key_file,
+        insecure=insecure,
+    )
+    try:
+        run_live_node(sc, bus, port, summary)  # type: ignore[arg-type]
+    except RuntimeError as exc:  # the port in use: the sdk's error, one line
+        fail(f"live view: {exc}", code=ExitCode.FAILED)
+    _exit_past_viewers()
+
+
+def _exit_past_viewers() -> None:
+    """Exit 0 now: everything is written, and the Foxglove sdk's exit hook would wait for
+    every viewer's socket to close, which a viewer that does not read never does
+    (:meth:`hil.live.server.LiveServer.close`)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
+@app.command(short_help="Replay a run log to Foxglove (the live view, no plant).")
+def view(
+    mcap: Annotated[Path, typer.Argument(help="Run log (MCAP) to replay.")],
+    speed: Annotated[
+        float,
+        typer.Option(help="Times the recorded pace (0: as fast as it goes).", min=0.0),
+    ] = 1.0,
+    port: Annotated[
+        int, typer.Option(help="TCP port on 127.0.0.1 (0: any free one).", min=0, max=65535)
+    ] = LIVE_DEFAULT_PORT,
+) -> None:
+    """Serve a recorded run log on ws://127.0.0.1:PORT as 'fowt run --live' serves a run.
+
+    Same channels, schemas, frame transforms and 3-D scene (docs/guide/live-view.md);
+    paced by the file's log times. Ends at the file's end or on Ctrl-C.
+    """
+    import signal
+    import threading
+
+    from hil.live.replay import ReplayError, replay
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())  # Ctrl-C ends the replay cleanly
+    if not mcap.is_file():
+        fail(f"{mcap}: no such file")
+    try:
+        stats = replay(
+            mcap,
+            port,
+            speed,
+            stop,
+            on_ready=lambda p: console.print(
+                f"serving {escape(str(mcap))} on ws://127.0.0.1:{p} (Foxglove: Open connection)"
+            ),
+        )
+    except (ReplayError, ValueError) as exc:
+        fail(str(exc))
+    except RuntimeError as exc:  # the port in use
+        fail(f"fowt view: {exc}", code=ExitCode.FAILED)
+    console.print(f"replayed {stats.published} messages")
+    _exit_past_viewers()
 
 
 @app.command(short_help="Run the Zenoh router of a two-host bench.")
@@ -1539,6 +1656,15 @@ def _click_base(name: str) -> type[Exception]:
     return next(c for c in typer.BadParameter.__mro__ if c.__name__ == name)
 
 
+def _bare_live(args: list[str]) -> list[str]:
+    """``--live`` without a port (the next word not a number) means ``--live 8765``."""
+    out = list(args)
+    for i, a in enumerate(out):
+        if a == "--live" and (i + 1 == len(out) or not out[i + 1].isdigit()):
+            out[i] = f"--live={LIVE_DEFAULT_PORT}"
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of ``fowt`` and ``python -m hil``.
 
@@ -1546,7 +1672,7 @@ def main(argv: list[str] | None = None) -> None:
     option value, an unknown option, a missing argument) is one line, ``error: ...``, on
     stderr with exit code 2, like every other bad input; no arguments print the help.
     """
-    args = sys.argv[1:] if argv is None else list(argv)
+    args = _bare_live(sys.argv[1:] if argv is None else list(argv))
     # The interpreter's last full collection walks every object the imports and numba's
     # kernels made (millions) only to free memory the OS takes back anyway: 0.3-0.8 s of
     # every command's exit, measured. Frozen objects are skipped (files are closed by the
