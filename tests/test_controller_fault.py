@@ -11,10 +11,10 @@ sleeps longer than the control period. Each runs in process, lock-step and real 
   aside), ``controller.fault`` with kind, message, t_s and cycle; the faulted commands are
   recorded flagged (mode 3) and never applied: the plant enters its safe state, its state
   stays finite; no traceback on the console or in any node's log;
-* slow: the reason "controller exceeded its deadline in N of M cycles (p99 ... ms)" in
-  every mode; the verdict is ``deadline_misses`` (6) where the plant waits for each command
-  (lock-step, in process) and ``safe_state`` (5) in real time (the plant's watchdog acts);
-  the run ends within its duration plus a few seconds of wall time past the plant;
+* slow: exit 7 and the reason "controller exceeded its deadline in N of M cycles (p99 ...
+  ms)" in every mode, whether the plant waits for each command (lock-step, in process) or
+  its watchdog takes it to its safe state (real time); the run ends within its duration
+  plus a few seconds of wall time past the plant;
 * a core that raises in the trim's settling run: exit 7, the controller named, not the plant.
 
 Plus :func:`hil.review.outcome.run_outcome`'s precedence for the new code.
@@ -204,7 +204,7 @@ def test_a_slow_controller_is_named() -> None:
         "controller": {"overruns": 150, "cycles_stepped": 400, "compute_us": {"p99": 62_500.0}},
     }
     code, reasons = run_outcome(summary)
-    assert code == ExitCode.DEADLINE_MISSES
+    assert code == ExitCode.CONTROLLER_FAULT
     assert reasons == ["controller exceeded its deadline in 150 of 400 cycles (p99 62.5 ms)"]
     summary["controller"]["overruns"] = 40  # 10 %: a busy host, not a slow core
     assert run_outcome(summary) == (ExitCode.OK, [])
@@ -258,11 +258,13 @@ def test_a_slow_core_is_named_in_every_mode(cores: Path, tmp_path: Path) -> None
     lines = {}
     for mode in MODES:
         summary, last = _run(cores, tmp_path, "slow", mode)
-        code = summary["run"]["exit_code"]
-        # the plant waits for each command in lock-step and in process: no safe state there
-        assert code == (5 if mode == "realtime" else 6), (mode, last)
+        # the same verdict in every mode, though the plant waits for each command in lock-step
+        # and in process (no safe state there) and takes its safe state in real time
+        assert summary["run"]["exit_code"] == 7, (mode, last)
+        assert summary["run"]["outcome"] == "controller_fault", (mode, last)
         slow = [r for r in summary["run"]["outcome_reasons"] if r.startswith("controller exc")]
         assert slow, (mode, summary["run"]["outcome_reasons"])
+        assert summary["run"]["outcome_reasons"][0] == slow[0], summary["run"]
         assert slow[0] in last
         lines[mode] = _shape(slow[0])
         if mode == "realtime":  # no long wait for the recorder behind a slow controller

@@ -496,10 +496,11 @@ def run(
       5  safe state: the plant's safe state or the controller's safe mode, at any time
       6  deadline misses over both [timing] max_deadline_misses and
          max_deadline_miss_fraction of the cycles (default 1 and 0.01 in real
-         time, 0 and 0 in lock-step and in process), or a controller slower than
-         its control period in more than a quarter of its cycles
+         time, 0 and 0 in lock-step and in process)
       7  controller fault: its core raised, or gave a non-finite or out-of-range
-         command (never applied); wins over 4, 5 and 6, not over 1 and 3
+         command (never applied), its estimator diverged, or it was slower than its
+         control period in more than a quarter of its cycles; wins over 4, 5 and 6,
+         not over 1 and 3
 
     Paths in a scenario file (presets, platform, library, parameter file) are taken
     from the scenario file's folder.

@@ -14,11 +14,12 @@ give the same verdict. The codes (docs/exit-codes.md):
   mode) that was left before the end does not count by itself when the missed deadlines
   are within the tolerance (:func:`recovered_watchdog_tolerated`);
 * 6 ``deadline_misses``: more missed deadlines than ``timing.max_deadline_misses`` and
-  than ``timing.max_deadline_miss_fraction`` of the cycles (:func:`deadline_misses_over`),
-  or a controller whose step took longer than the control period in more than
-  :data:`OVERRUN_FRACTION` of its cycles (its compute time);
+  than ``timing.max_deadline_miss_fraction`` of the cycles (:func:`deadline_misses_over`);
 * 7 ``controller_fault``: the controller's core raised, or returned a non-finite or
-  out-of-range command (:mod:`hil.nodes.controller_fault`).
+  out-of-range command (:mod:`hil.nodes.controller_fault`), its estimator diverged, or its
+  step took longer than the control period in more than :data:`OVERRUN_FRACTION` of its
+  cycles (:func:`controller_overrun`): the same code in every mode, whatever the plant did
+  about it (a safe state in real time, waiting in lock-step and in process).
 
 When several apply, the first in :data:`PRECEDENCE` wins: failed, usage, aborted,
 controller fault, recording incomplete, safe state, deadline misses. A failure or an abort
@@ -261,8 +262,8 @@ def run_outcome(summary: dict[str, Any]) -> tuple[ExitCode, list[str]]:
         found.append((ExitCode.DEADLINE_MISSES, over))
 
     overrun = controller_overrun(summary)
-    if overrun is not None:
-        found.append((ExitCode.DEADLINE_MISSES, overrun))
+    if overrun is not None:  # a slow core: the controller's fault in every mode
+        found.append((ExitCode.CONTROLLER_FAULT, overrun))
 
     if not found:
         return ExitCode.OK, []
