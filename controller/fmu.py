@@ -90,7 +90,6 @@ from bus_schemas.messages import (
     VALID_BITS,
     SensorFrame,
 )
-from controller.discon import DisconError
 from controller.interface import (
     REGIME_REGION_1,
     REGIME_REGION_2,
@@ -160,13 +159,18 @@ class FmuError(ValueError):
     """An FMU or its mapping that cannot be used; one line naming what was expected."""
 
 
-class FmuStepError(DisconError):
+class FmuStepError(RuntimeError):
     """The FMU failed during the run (an FMI call returned error, fatal or discard).
 
-    A :class:`controller.discon.DisconError` (a foreign compiled controller that failed), so
-    the controller node and the in-process launcher end the run on it as on a failed DISCON
-    library. ``library`` is the FMU's path and ``status`` the FMI status code.
+    Raised from the core's ``step`` like any exception of a core, so the run's verdict is a
+    controller fault (``controller_fault``, exit 7) in every mode, naming this message.
+    ``library`` is the FMU's path and ``status`` the FMI status code.
     """
+
+    def __init__(self, message: str, library: str = "", status: int = 0) -> None:
+        super().__init__(message)
+        self.library = library
+        self.status = status
 
 
 #: Bench unit -> {FMU unit (spaces removed, ``*`` written ``.``): factor}; the bench value

@@ -418,9 +418,9 @@ def test_fowt_run_refuses_bad_fmu_and_mapping_before_start(
 
 @pytest.mark.e2e
 def test_fowt_run_ends_when_dostep_fails(fmu_binary: dict[str, Path], tmp_path: Path) -> None:
-    """An FMU whose doStep returns fmi2Error at t >= 2 s ends a lock-step run: not exit 0,
-    and the message names the FMU, the time and the status. (Untrimmed start: the failure
-    comes in the controller process's run, not in the plant's settling run.)"""
+    """An FMU whose doStep returns fmi2Error at t >= 2 s is a controller fault (exit 7) of a
+    lock-step run, and the verdict names the FMU, the time and the status. (Untrimmed
+    start: the failure comes in the controller process's run, not in a settling run.)"""
     make_fmu(tmp_path / "pi.fmu", fmu_binary)
     scenario = tmp_path / "fail.toml"
     extra = "[controller.settings.start_values]\nFailTime = 2.0\n[initial]\ntrim = false\n"
@@ -438,8 +438,9 @@ def test_fowt_run_ends_when_dostep_fails(fmu_binary: dict[str, Path], tmp_path: 
         cwd=REPO,
         timeout=600,
     )
-    assert r.returncode != 0
+    assert r.returncode == 7, (r.stdout + r.stderr)[-3000:]
     text = r.stdout + r.stderr
+    assert "controller_fault (exit 7): controller raised FmuStepError(" in text, text[-3000:]
     assert "FMU pi.fmu: fmi2DoStep failed at t = 2.000 s: status 3 (error)" in text, text[-3000:]
 
 
