@@ -54,7 +54,8 @@ def _status(seq: int) -> ControllerStatus:
         values[f.name] = 0.0 if f.is_float else 0
         if f.is_float and not f.minimum <= 0.0 <= f.maximum:
             values[f.name] = f.minimum
-    values.update(seq=seq, sample_time_ns=seq * 25_000_000)
+    # a status answers the frame of its cycle (the recorder keeps one per answered frame)
+    values.update(seq=seq, answered_seq=seq, sample_time_ns=seq * 25_000_000)
     return ControllerStatus(**values)
 
 

@@ -39,6 +39,13 @@ _SKIP = can_netns_skip_reason()
 needs_netns = pytest.mark.skipif(_SKIP is not None, reason=_SKIP or "")
 
 KPIS = ("mean_power_w", "rotor_speed_std_rad_s", "pitch_travel_deg_s")
+#: Relative tolerance per KPI, CAN against Zenoh. A CAN signal carries a speed in steps of
+#: 15 rad/s / 2^16 = 0.23 mrad/s (bus_schemas/can_db.py), so the controller reads numbers
+#: that differ from Zenoh's by up to 0.11 mrad/s. The pitch travel sums |dθ| over every
+#: step; with the IEA 15 MW's direct-drive encoder (1 mrad/s steps, 2 mrad/s noise) the pitch
+#: loop answers each reading, and those small differences add up to 1.2 % over the floating
+#: case's 6 s (measured), while mean power and rotor-speed spread stay within 1 %.
+KPI_REL = {"mean_power_w": 0.01, "rotor_speed_std_rad_s": 0.01, "pitch_travel_deg_s": 0.03}
 
 
 def _ramp_into_region3(tmp_path: Path) -> Path:
@@ -115,7 +122,7 @@ def _compare(can: dict[str, Any], zenoh: dict[str, Any]) -> None:
     for key in KPIS:
         c, z = can["kpi"][key], zenoh["kpi"][key]
         assert c is not None and z is not None, key
-        assert c == pytest.approx(z, rel=0.01, abs=1e-12), (key, c, z)
+        assert c == pytest.approx(z, rel=KPI_REL[key], abs=1e-12), (key, c, z)
         print(f"{key}: can {c:.7g}, zenoh {z:.7g}")
 
 
@@ -128,7 +135,8 @@ def _compare(can: dict[str, Any], zenoh: dict[str, Any]) -> None:
 def test_can_run_matches_zenoh_run(
     tmp_path: Path, which: str, duration: float, formats: tuple[bool, ...]
 ) -> None:
-    """KPIs over CAN (classic, and CAN FD for the bottom-fixed case) within 1 % of Zenoh's."""
+    """KPIs over CAN (classic, and CAN FD for the bottom-fixed case) within 1 % of Zenoh's
+    (pitch travel: 3 %, :data:`KPI_REL`)."""
     scenario = str(_ramp_into_region3(tmp_path)) if which == "bottom-fixed" else "default"
     period = 0.01 if which == "bottom-fixed" else 0.025
     cycles = round(duration / period)

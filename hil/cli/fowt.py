@@ -992,8 +992,8 @@ def review_cmd(
 
     Everything comes from the MCAP file alone. The summary and the plots are written into
     --out (default: the file's folder, over what the run wrote there), each file named as
-    written; the last line is the verdict 'fowt run' gives the run, ``outcome: <word> (exit
-    <code>): <reasons>`` (on stderr with --json). The exit code is 0 unless --strict.
+    written; the last line is the verdict 'fowt run' gives the run, 'outcome: <word> (exit
+    <code>): <reasons>' (on stderr with --json). The exit code is 0 unless --strict.
     """
     from hil.review.core import (
         NotRunLogError,
