@@ -122,7 +122,7 @@ def test_process_faults_parse_and_stay_out_of_the_channel_faults() -> None:
             r"faults\[0\]: key 'restart_after_s' is used only by kind 'controller_kill'",
         ),
         ('kind = "stuck"\nstart_s = 1.0', r"faults\[0\]: fault stuck: channel is required"),
-        ('kind = "controler_kill"\nstart_s = 1.0', r"controller_kill, plant_kill"),
+        ('kind = "controler_kill"\nstart_s = 1.0', r"did you mean 'controller_kill'\?"),
         (
             'kind = "plant_kill"\nrestart_after_ms = 1.0',
             r"unknown key 'faults\[0\].restart_after_ms",

@@ -202,6 +202,10 @@ class CanRawFrame(msgspec.Struct, frozen=True):
     data: str
 
 
+#: The largest cycle number a run log's int64 rows hold (the codec's counters are uint64).
+_INT64_MAX = 2**63 - 1
+
+
 class RecorderLog(RunLog):
     """:class:`hil.runlog.mcap_io.RunLog` plus the raw CAN frame channel.
 
@@ -379,6 +383,11 @@ class Recorder:
         field = CYCLE_FIELD.get(type(msg))
         if field is not None:
             cycle = getattr(msg, field)
+            if cycle > _INT64_MAX:
+                # no row of the log holds it: refused here, before it could move the
+                # duplicate filter past every later cycle of its topic
+                self.rejected[f"{suffix}:range"] += 1
+                return
             if cycle <= self.newest_cycle.get(suffix, -1):
                 self.rejected[f"{suffix}:duplicate"] += 1
                 return
