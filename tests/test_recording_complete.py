@@ -48,6 +48,7 @@ from hil.nodes.bus import (
     BusConfig,
     batch_key,
     free_tcp_endpoint,
+    wait_matched,
 )
 from hil.nodes.plant_node import wait_for_peers
 from hil.review.core import review
@@ -248,6 +249,10 @@ def test_recorder_waits_for_the_controller_after_the_plant_final_summary(
         plant_token = plant.session.liveliness().declare_token(f"fowt/{TID}/alive/plant")
         ctrl_token = ctrl.session.liveliness().declare_token(f"fowt/{TID}/alive/controller")
         wait_for_peers(plant, TID, ("recorder",), 60.0)
+        # the recorder's token says nothing of its link to the controller's endpoint (a
+        # connect Zenoh retries): put only once both publishers reach its subscription
+        for bus, mt in ((plant, SENSORS), (ctrl, COMMAND)):
+            assert wait_matched(bus.publisher(mt.key(TID)), 60.0), mt.key_suffix
         cycles = 300
         msgs = [m for k in range(cycles) for m in _cycle(k)]
         for mt, msg in msgs:
