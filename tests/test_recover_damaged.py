@@ -39,9 +39,7 @@ START_NS = 1_700_000_000_000_000_000
 
 
 def _write_log(path: Path, compression: str = "zstd") -> None:
-    log = RunLog(
-        path, TID, start_unix_ns=START_NS, flush_interval_s=1e9, compression=compression
-    )
+    log = RunLog(path, TID, start_unix_ns=START_NS, flush_interval_s=1e9, compression=compression)
     log.add_metadata("run", {"mode": "realtime", "speed": "1"})
     n = 0
     for k in range(CYCLES):
@@ -243,9 +241,7 @@ def _identities(path: Path) -> Counter[tuple[str, int, int]]:
     its summary, which a damaged file may lack)."""
     with open(path, "rb") as fh:
         reader = make_reader(fh)
-        return Counter(
-            (ch.topic, m.sequence, m.log_time) for _s, ch, m in reader.iter_messages()
-        )
+        return Counter((ch.topic, m.sequence, m.log_time) for _s, ch, m in reader.iter_messages())
 
 
 def _layout(path: Path) -> tuple[list[tuple[int, int]], int, int]:
