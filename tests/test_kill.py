@@ -2,9 +2,11 @@
 
 For each process (plant, controller, recorder) a real-time run of ``nrel5mw-ramp`` (speed 1,
 100 Hz) is started as ``fowt run`` starts it, plus a monitor session in this process that
-follows the truth and the controller status on the bus. About 3 s into the run the victim
-gets SIGKILL; the sample time of the newest message the monitor had seen is the time of the
-kill in simulated seconds. Then:
+follows the truth and the controller status on the bus. The victim gets SIGKILL once three
+things have been observed (no wall-clock sleep decides it, so a loaded machine only makes
+the wait longer): the monitor has seen the truth reach 3 s, it has seen a controller status,
+and the file holds a flushed chunk of each. The sample time of the newest message the
+monitor had seen is the time of the kill in simulated seconds. Then:
 
 * the file reviews (``fowt review --json``) up to its last flushed chunk; when the recorder
   survives it is a complete, conformant MCAP file (``_mcap_conformance``), and when the
@@ -146,6 +148,26 @@ def _start(
     return procs, (plant_ep, ctrl_ep), files
 
 
+CHANNELS = ("truth", "controller/status")
+
+
+def _recorded(mcap: Path) -> dict[str, float]:
+    """Newest sample time per channel of :data:`CHANNELS` in the file [simulated s]: the
+    flushed chunks of a file being written, or of a cut one (a channel with no message
+    yet is absent)."""
+    from hil.runlog.mcap_io import read_run
+
+    if not mcap.is_file() or mcap.stat().st_size < 64:
+        return {}
+    try:
+        run = read_run(mcap)
+    except Exception:  # the recorder has not written its header yet
+        return {}
+    return {
+        s: max(m["sample_time_ns"] for m in run.topic(s)) / 1e9 for s in CHANNELS if run.topic(s)
+    }
+
+
 def _review_cli(mcap: Path) -> dict[str, Any]:
     proc = subprocess.run(
         [sys.executable, "-m", "hil", "review", str(mcap), "--json", "--no-plots"],
@@ -164,17 +186,29 @@ def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path
     from hil.runlog.mcap_io import read_run, recover
 
     procs, endpoints, files = _start(tmp_path)
+    mcap = tmp_path / "run.mcap"
     from bus_schemas.auth import KEY_FILE_NAME, read_key_file
 
     monitor = Monitor(endpoints, read_key_file(tmp_path / KEY_FILE_NAME))
     others = [n for n in procs if n != victim]
     hung: list[str] = []
     try:
+        # Kill on observed events, not on the clock: the run has reached KILL_AT_S on the
+        # bus, the monitor has seen both channels, and the file holds a chunk of each (on a
+        # loaded machine a process can be seconds late to publish or flush its first
+        # message; killing before that measures nothing).
         deadline = time.monotonic() + 60
-        while monitor.snapshot()["truth"] < KILL_AT_S:
-            assert time.monotonic() < deadline, "the run did not start"
-            assert all(p.poll() is None for p in procs.values())
-            time.sleep(0.01)
+        while True:
+            assert time.monotonic() < deadline, (
+                f"the run did not reach {KILL_AT_S} s with both channels on the bus and in "
+                f"the file: bus {monitor.snapshot()}, file {_recorded(mcap)}"
+            )
+            assert all(p.poll() is None for p in procs.values()), "a process ended early"
+            seen = monitor.snapshot()
+            on_bus = seen["truth"] >= KILL_AT_S and min(seen.values()) >= 0
+            if on_bus and len(_recorded(mcap)) == len(CHANNELS):
+                break
+            time.sleep(0.05)
         procs[victim].send_signal(signal.SIGKILL)
         at_kill = monitor.snapshot()
         assert procs[victim].wait(10) == -signal.SIGKILL
@@ -198,14 +232,11 @@ def test_sigkill_leaves_a_reviewable_file_and_bounded_loss(victim: str, tmp_path
             fh.close()
     logs = {n: (tmp_path / f"{n}.log").read_text() for n in procs}
 
-    mcap = tmp_path / "run.mcap"
     summary = _review_cli(mcap)
     run = read_run(mcap)
     assert summary["run"]["truncated"] is (victim == "recorder")
-    in_file = {
-        suffix: max(m["sample_time_ns"] for m in run.topic(suffix)) / 1e9
-        for suffix in ("truth", "controller/status")
-    }
+    in_file = _recorded(mcap)
+    assert set(in_file) == set(CHANNELS), in_file  # (both were in the file before the kill)
     # A channel that went on after the kill (the plant's, when the controller died) lost 0.
     loss = {s: round(max(0.0, at_kill[s] - in_file[s]), 3) for s in at_kill}
     print(f"\nSIGKILL {victim} at t = {at_kill['truth']:.2f} s simulated: lost {loss} s")

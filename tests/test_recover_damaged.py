@@ -2,8 +2,10 @@
 
 The log is a real :class:`hil.runlog.mcap_io.RunLog` file of a few thousand messages in small
 chunks. One chunk in the middle is damaged (its zstd data, its CRC, or a length in its header);
-``fowt recover`` must skip exactly that chunk, say which bytes and log times it skipped,
-keep every message of every other chunk and write a file that mcap's reader opens;
+``fowt recover`` must skip exactly that chunk, say which bytes and log times it skipped and
+how many messages they held, keep every message of every other chunk and write a file that
+mcap's reader opens, and exit 0 only when no message of the input is missing from it (each
+kind of damage in the table of :data:`DAMAGE`, checked against the undamaged original);
 ``fowt review`` must read the chunks after the damaged one too and report the file as not
 complete (``--strict`` exits non-zero).
 """
@@ -11,6 +13,7 @@ complete (``--strict`` exits non-zero).
 from __future__ import annotations
 
 import io
+import re
 import struct
 from collections import Counter
 from pathlib import Path
@@ -35,8 +38,8 @@ PERIOD_NS = 10_000_000
 START_NS = 1_700_000_000_000_000_000
 
 
-def _write_log(path: Path) -> None:
-    log = RunLog(path, TID, start_unix_ns=START_NS, flush_interval_s=1e9)
+def _write_log(path: Path, compression: str = "zstd") -> None:
+    log = RunLog(path, TID, start_unix_ns=START_NS, flush_interval_s=1e9, compression=compression)
     log.add_metadata("run", {"mode": "realtime", "speed": "1"})
     n = 0
     for k in range(CYCLES):
@@ -170,11 +173,12 @@ def test_recover_cli_prints_the_skipped_range(clean_log: Path, tmp_path: Path) -
     start, _end, kept = _damage(clean_log, bad, "zstd")
     res = CliRunner().invoke(app, ["recover", str(bad)])
     assert res.exit_code == 4, res.output  # recording incomplete: a range is lost
-    assert "1 damaged range(s) skipped" in res.output
+    lost = sum(Counter(_counts(clean_log)).values()) - sum(kept.values())
+    assert f"warning: {lost} messages lost in 1 range(s)" in res.output
     assert "Traceback" not in res.output
-    lines = [line for line in res.output.splitlines() if line.startswith("skipped")]
+    lines = [line for line in res.output.splitlines() if " lost in bytes " in line]
     assert len(lines) == 1, res.output
-    assert f"bytes {start}-" in lines[0]
+    assert lines[0].startswith(f"{lost} messages lost in bytes {start}-")
     # The lost chunk's log times, in seconds since the file's first message (= t here).
     times = lines[0].split("log time ")[1].removesuffix(" s").split("-")
     a, b = float(times[0]), float(times[1])
@@ -219,3 +223,133 @@ def test_channels_lost_with_the_first_chunk_come_from_the_summary(
     run = read_run(bad)
     assert {t: len(m) for t, m in run.messages.items() if m} == dict(kept)
     assert run.metadata["run"]["mode"] == "realtime"
+
+
+# --- Every kind of damage against what recover says it lost --------------------------------
+
+
+@pytest.fixture(scope="module")
+def raw_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The same log with uncompressed chunks (its message records lie bare in the file)."""
+    path = tmp_path_factory.mktemp("raw") / "run.mcap"
+    _write_log(path, compression="")
+    return path
+
+
+def _identities(path: Path) -> Counter[tuple[str, int, int]]:
+    """Each message by channel, sequence and log time, read by mcap's own reader (without
+    its summary, which a damaged file may lack)."""
+    with open(path, "rb") as fh:
+        reader = make_reader(fh)
+        return Counter((ch.topic, m.sequence, m.log_time) for _s, ch, m in reader.iter_messages())
+
+
+def _layout(path: Path) -> tuple[list[tuple[int, int]], int, int]:
+    """The chunks' byte ranges, the summary section's start and the Footer's offset."""
+    with open(path, "rb") as fh:
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        assert summary is not None
+        chunks = [(ci.chunk_start_offset, ci.chunk_length) for ci in summary.chunk_indexes]
+    data = path.read_bytes()
+    footer = len(data) - 8 - 29  # Footer record (1 + 8 + 20 B) before the closing magic
+    (summary_start,) = struct.unpack_from("<Q", data, footer + 9)
+    return chunks, summary_start, footer
+
+
+def _damage_kind(src: Path, dst: Path, kind: str) -> None:
+    chunks, summary_start, footer = _layout(src)
+    start, length = chunks[len(chunks) // 2]
+    data = bytearray(src.read_bytes())
+    (n_comp,) = struct.unpack_from("<I", data, start + 9 + 28)
+    records = start + 9 + 32 + n_comp + 8  # the (compressed) records
+    if kind == "opcode":  # the chunk's opcode byte: no record the reader knows
+        data[start] = 0x7F
+    elif kind == "opcode-as-message":  # a known opcode, the wrong one
+        data[start] = 0x05
+    elif kind == "length-longer":  # the record length: the reader swallows what follows
+        (n,) = struct.unpack_from("<Q", data, start + 1)
+        struct.pack_into("<Q", data, start + 1, n + 3000)
+    elif kind == "length-shorter":
+        (n,) = struct.unpack_from("<Q", data, start + 1)
+        struct.pack_into("<Q", data, start + 1, n - 40)
+    elif kind == "length-huge":
+        struct.pack_into("<Q", data, start + 1, 1 << 40)
+    elif kind == "compression":  # the compression name
+        data[start + 9 + 32 : start + 9 + 32 + n_comp] = b"zsxd"[:n_comp].ljust(n_comp, b"?")
+    elif kind == "crc":  # the uncompressed CRC
+        data[start + 9 + 24] ^= 0xFF
+    elif kind == "data":  # bytes in the middle of the compressed data
+        mid = records + (start + length - records) // 2
+        data[mid : mid + 16] = bytes(16)
+    elif kind == "message-length":  # (uncompressed chunks) the third message's length
+        at = records
+        for _ in range(2):
+            (n,) = struct.unpack_from("<Q", data, at + 1)
+            at += 9 + n
+        assert data[at] == 0x05
+        struct.pack_into("<Q", data, at + 1, 7)
+    elif kind == "cut-mid-chunk":
+        del data[start + length // 2 :]
+    elif kind == "cut-between-chunks":
+        del data[chunks[-1][0] :]
+    elif kind == "cut-in-summary":
+        del data[summary_start + (footer - summary_start) // 2 :]
+    elif kind == "summary-bytes":  # the summary's Statistics and indexes garbled
+        data[summary_start : summary_start + 64] = b"\xa5" * 64
+    elif kind == "footer":
+        data[footer : footer + 29] = b"\x00" * 29
+    else:
+        raise AssertionError(kind)
+    dst.write_bytes(bytes(data))
+
+
+LOST_LINE = re.compile(r"^(\d+ messages|unknown number) lost in bytes (\d+)-(\d+) ")
+
+#: Damage kind -> (exit code, the count is known). 0 only where nothing is lost.
+DAMAGE = {
+    "opcode": (4, True),
+    "opcode-as-message": (4, True),
+    "length-longer": (4, True),
+    "length-shorter": (4, True),
+    "length-huge": (4, True),
+    "compression": (4, True),
+    "crc": (4, True),
+    "data": (4, True),
+    "message-length": (4, True),
+    "cut-mid-chunk": (4, False),
+    "cut-between-chunks": (4, False),
+    "cut-in-summary": (0, True),
+    "summary-bytes": (0, True),
+    "footer": (0, True),
+}
+
+
+@pytest.mark.parametrize("kind", list(DAMAGE))
+def test_recover_counts_what_each_damage_lost(
+    clean_log: Path, raw_log: Path, tmp_path: Path, kind: str
+) -> None:
+    src = raw_log if kind == "message-length" else clean_log
+    bad, out = tmp_path / "run.mcap", tmp_path / "fixed.mcap"
+    _damage_kind(src, bad, kind)
+    res = CliRunner().invoke(app, ["recover", str(bad), "--out", str(out)])
+    assert "Traceback" not in res.output, res.output
+    original, kept = _identities(src), _identities(out)
+    assert not kept - original, "recover wrote messages the input never had"
+    truly_lost = sum((original - kept).values())
+    code, known = DAMAGE[kind]
+    print(f"\n{kind}: exit {res.exit_code}, {truly_lost} lost\n{res.output}")
+    assert res.exit_code == code, res.output
+    lines = [m for m in map(LOST_LINE.match, res.output.splitlines()) if m]
+    said = [None if m[1] == "unknown number" else int(m[1].split()[0]) for m in lines]
+    if code == 0:
+        assert truly_lost == 0 and not any(said), res.output
+        return
+    assert truly_lost > 0 or not known
+    assert lines, res.output
+    if known:
+        assert None not in said and sum(n or 0 for n in said) == truly_lost, res.output
+    else:
+        assert None in said, res.output
+    for m in lines:
+        assert int(m[2]) < int(m[3]) or m[1] == "unknown number"

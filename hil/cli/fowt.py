@@ -1075,30 +1075,33 @@ def recover_cmd(
     """Make a truncated or damaged MCAP file complete.
 
     The new file holds every message that can be read, with summary and footer: a damaged
-    chunk is skipped (one line each: its bytes and log times) and the chunks after it kept.
-    Exit 0 when nothing was skipped, 4 (recording incomplete) when a range was: the new file
-    is complete as a file but lacks those messages.
+    chunk is skipped and the chunks after it kept. One line per lost range says how many
+    messages it held (from the input's chunk indexes or message indexes; "unknown number"
+    when they cannot say), its bytes and log times. Exit 0 only when every message of the
+    input is known to be in the new file, 4 (recording incomplete) otherwise.
     """
-    from hil.runlog.mcap_io import NotMcapError, SkippedRange, recover
+    from hil.runlog.mcap_io import NotMcapError, recover_report
 
     if not mcap.is_file():
         fail(f"{mcap} is not a file")
     target = out if out is not None else mcap.with_suffix(".recovered.mcap")
     if target.resolve() == mcap.resolve():
         fail("--out must differ from the input file")
-    skipped: list[SkippedRange] = []
     try:
-        n = recover(mcap, target, skipped)
+        result = recover_report(mcap, target)
     except NotMcapError as exc:
         fail(str(exc))
     except OSError as exc:
         fail(os_error_text(exc, target))
-    for r in skipped:  # plain lines: never wrapped, one per range
-        sys.stdout.write(f"skipped {r.describe()}\n")
-    console.print(f"recovered {n} messages into {target}", markup=False)
-    if skipped:
+    for r in result.lost:  # plain lines: never wrapped, one per range
+        sys.stdout.write(f"{r.lost_line()}\n")
+    of = "" if result.expected is None else f" of {result.expected}"
+    console.print(f"recovered {result.kept}{of} messages into {target}", markup=False)
+    if not result.complete:
+        n = result.lost_count
+        what = "an unknown number of messages" if n is None else f"{n} messages"
         stderr.print(
-            f"warning: {len(skipped)} damaged range(s) skipped; their messages are lost",
+            f"warning: {what} lost in {len(result.lost)} range(s); the new file lacks them",
             markup=False,
         )
         raise typer.Exit(int(ExitCode.RECORDING_INCOMPLETE))
