@@ -45,7 +45,7 @@ from typing import Any
 
 import msgspec
 
-from controller.fmu import FmuSettings
+from controller.fmu_settings import FmuSettings
 from controller.interface import ActuatorLimits, Controller
 
 __all__ = [
