@@ -457,6 +457,22 @@ def test_bad_input_is_one_line_exit_2_nothing_written(
     assert _tree(tmp_path) == before  # no output folder, no runs/, no probe file left
 
 
+@pytest.mark.parametrize("taken", ["run.mcap", "summary.json"])
+def test_a_folder_in_the_logs_place_is_refused_before_any_process(
+    tmp_path: Path, taken: str
+) -> None:
+    """A folder where the run writes its log or summary: one line, exit 2, before the
+    recorder (whose start-up takes seconds on a loaded machine) would find out."""
+    out = tmp_path / "out"
+    (out / taken).mkdir(parents=True)
+    proc = _fowt(["run", "nrel5mw-ramp", "--mode", "lockstep", "--out", str(out)], tmp_path)
+    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert f"{out / taken} is a folder" in lines[0]
+    assert not (out / "logs").exists()  # no process was started
+
+
 def test_a_near_miss_names_the_closest_names_not_every_name(tmp_path: Path) -> None:
     """``fowt run defualt``: the closest shipped names (1-3), never the whole list."""
     for args, meant in (

@@ -546,11 +546,14 @@ def run(
         _check_can_runs_here(can)
         if loop != "auto" and mode != "inprocess":
             fail(f"--loop {loop}: only with --mode inprocess")
+        folder = out
         if out is None:
+            folder = default_out_dir(sc)
             try:
-                writable("folder")(default_out_dir(sc))
+                writable("folder")(folder)
             except typer.BadParameter as exc:
                 fail(f"default output folder: {exc.message} (give --out)")
+        _check_run_files(folder)
     if live is not None:
         _check_live(live, options is not None, mode, transport)
     # The same launcher, review and exit codes for every family; the family checks the
@@ -571,6 +574,20 @@ def run(
         live_port=live,
     )
     _launch_and_exit(req)
+
+
+def _check_run_files(folder: Path | None) -> None:
+    """The files a run writes in its folder (``run.mcap``, ``summary.json``, ``logs/``) can be
+    written: checked here, before anything starts, so a folder in the log's place is one line
+    and exit 2 at once, not a recorder failing seconds into the run (its start-up is slow
+    on a loaded machine)."""
+    if folder is None:
+        return
+    for name in ("run.mcap", "summary.json"):
+        if (folder / name).is_dir():
+            fail(f"--out: expected a file name, {folder / name} is a folder")
+    if (folder / "logs").exists() and not (folder / "logs").is_dir():
+        fail(f"--out: expected a folder, {folder / 'logs'} is a file")
 
 
 def _check_live(port: int, hexicon: bool, mode: str, transport: str) -> None:
