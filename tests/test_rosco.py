@@ -188,24 +188,31 @@ def _run_request(tmp: Path, text: str, mode: str) -> RunRequest:
 
 @needs_gcc
 @pytest.mark.parametrize("mode", ["inprocess", "lockstep"])
-def test_library_failure_ends_the_run_with_its_message(tmp_path: Path, mode: str) -> None:
-    """aviFAIL < 0 at t = 1 s: a RunFailedError with the library's message; the MCAP reviews.
+def test_library_failure_is_a_controller_fault(tmp_path: Path, mode: str) -> None:
+    """aviFAIL < 0 at t = 1 s: the controller's fault (exit 7) with the library's message,
+    the same in both modes; the library is not called again, the plant goes to its safe
+    state on the flagged commands and the MCAP reviews whole.
 
     The run is untrimmed (its start needs no settling run of the library): the failure comes
-    in the run. Trimmed, the settling run meets it first and the run fails with the same
-    message before its first cycle."""
+    in the run. Trimmed, the settling run meets it first: the same verdict at its start."""
     lib = _build(tmp_path, fail_at=1.0)
     kind = f'kind = "rosco"\npreset = "nrel5mw"\nlibrary = "{lib}"\n'
     text = _scenario(kind + "[initial]\ntrim = false\n", duration=3.0)
-    with pytest.raises(RunFailedError, match="test DISCON: deliberate failure"):
-        launch(_run_request(tmp_path, text, mode))
-    summary = review(tmp_path / "run" / "run.mcap", plots=False)
-    cycles = summary["timing"]["cycles"]
-    assert 30 <= cycles <= 41 if mode == "inprocess" else cycles <= 41  # stopped near 1 s
+    summary = launch(_run_request(tmp_path, text, mode))
+    assert summary["run"]["outcome"] == "controller_fault", summary["run"]
+    assert summary["run"]["exit_code"] == 7
+    fault = summary["controller"]["fault"]
+    assert fault["kind"] == "raised"
+    assert "test DISCON: deliberate failure" in fault["message"]
+    assert fault["t_s"] == pytest.approx(1.0, abs=0.05)
+    assert "test DISCON: deliberate failure" in summary["run"]["outcome_reasons"][0]
+    assert summary["controller"]["fault_commands"] > 0
+    assert summary["timing"]["cycles"] == round(3.0 / 0.025)  # the run goes on, safe
     if mode == "inprocess":
         (tmp_path / "trimmed").mkdir()
-        with pytest.raises(RunFailedError, match="test DISCON: deliberate failure"):
-            launch(_run_request(tmp_path / "trimmed", _scenario(kind, duration=3.0), mode))
+        trimmed = launch(_run_request(tmp_path / "trimmed", _scenario(kind, duration=3.0), mode))
+        assert trimmed["run"]["exit_code"] == 7, trimmed["run"]
+        assert "test DISCON: deliberate failure" in trimmed["run"]["outcome_reasons"][0]
 
 
 @pytest.mark.parametrize("mode", ["inprocess", "lockstep"])

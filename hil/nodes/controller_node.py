@@ -16,9 +16,9 @@ process's), never steps the core again, and answers every frame from then on wit
 command (pitch to feather, torque to 0, at the core's rate limits) flagged
 :data:`MODE_FAULT`: the command is recorded, and a plant never applies it but goes to its
 safe state. Nothing non-finite ever leaves the runtime. The same in every mode, so a
-faulting core gets the same verdict (``controller_fault``, exit 7) everywhere. (A DISCON
-library that reports ``aviFAIL`` < 0 raises :class:`controller.discon.DisconError` as before:
-the library itself ends the run, which fails with its message.)
+faulting core gets the same verdict (``controller_fault``, exit 7) everywhere. A DISCON
+library that reports ``aviFAIL`` < 0 (:class:`controller.discon.DisconError`, with the
+library's message) is such a fault too: the library is not called again.
 
 Sensor-frame watchdog (the controller's counterpart of the plant's, same rule and same
 scenario keys ``timing.watchdog_misses`` = N and ``timing.watchdog_recover_cycles`` = K):
@@ -509,8 +509,6 @@ class ControllerRuntime:
         if self.fault is None:
             try:
                 self.state, out = self.controller.step(self.state, frame, self.dt_s)
-            except DisconError:
-                raise  # a DISCON library's aviFAIL < 0: its own end of the run (as before)
             except Exception as exc:  # the core's fault, never the process's (module docstring)
                 out = self._core_fault(frame, "raised", repr(exc), "")
             else:
@@ -999,7 +997,6 @@ def run_controller_node(
     reason = ["timeout"]
     lock = threading.Lock()
 
-    failure: list[DisconError] = []
     put_failed: list[Exception] = []
     # The run's folder (the launcher's $FOWT_RUN_DIR) takes a core fault's text.
     run_dir_env = os.environ.get("FOWT_RUN_DIR", "").strip()
@@ -1013,13 +1010,7 @@ def run_controller_node(
 
     def cycle(frame: SensorFrame) -> None:
         had_fault = runtime.fault is not None
-        try:
-            result = runtime.handle_frame(frame)
-        except DisconError as exc:  # a DISCON library's aviFAIL < 0 ends the run
-            failure.append(exc)
-            reason[0] = "controller failed"
-            done.set()
-            return
+        result = runtime.handle_frame(frame)
         if not had_fault and runtime.fault is not None and fault_dir is not None:
             write_fault(fault_dir, runtime.fault)  # the fault's text beside the run's file
         if result is None:
@@ -1042,7 +1033,7 @@ def run_controller_node(
         if done.is_set():  # the run is over: frames still queued are not stepped on
             return
         with lock:  # one cycle at a time, whatever thread Zenoh calls us from
-            if failure or done.is_set():
+            if done.is_set():
                 return
             try:
                 frame = SENSORS.codec.decode(payload)
@@ -1160,8 +1151,6 @@ def run_controller_node(
         plant_watch.undeclare()
         token.undeclare()
         bus.close()
-    if failure:
-        raise SystemExit(f"error: {failure[0]}")
     rt = runtime
     log(
         f"controller stopped ({reason[0]}): {rt.accepted} cycles, rejected {dict(rt.rejected)}; "
