@@ -1104,10 +1104,12 @@ def _supervise(
         if again:
             fh.write(f"\n--- {name} restarted by the launcher at {_utc()} ---\n".encode())
             fh.flush()
-        # The recorder only logs: it runs niced (RECORDER_NICE) so the plant and controller,
-        # whose exchange paces the run, get the CPU first when it is scarce. Not on CAN:
-        # its udp_multicast frames have no flow control, a starved recorder would lose some.
-        nice = RECORDER_NICE if name == "recorder" and nice_recorder else 0
+        # The recorder only logs and the live view only shows: they run niced
+        # (RECORDER_NICE) so the plant and controller, whose exchange paces the run, get the
+        # CPU first when it is scarce (the viewer's queue is bounded, its drops its own).
+        # Not the recorder on CAN: its udp_multicast frames have no flow control, a starved
+        # recorder would lose some.
+        nice = RECORDER_NICE if (name == "recorder" and nice_recorder) or name == "live" else 0
         proc = subprocess.Popen(
             cmds[name],
             stdout=fh,
