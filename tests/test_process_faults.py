@@ -239,7 +239,8 @@ def test_driver_kills_at_start_s_and_restarts_after_the_delay() -> None:
     (rec,) = driver.records
     assert rec["outcome"] == "controller killed and restarted"
     assert rec["killed"]["sim_s"] == 1.0 and rec["killed"]["pid"] == first.pid
-    assert rec["restarted"]["wall_s"] - rec["killed"]["wall_s"] == pytest.approx(0.3, abs=0.15)
+    # Never before its delay; late only by the step cadence, which a loaded host stretches.
+    assert 0.3 - 0.05 <= rec["restarted"]["wall_s"] - rec["killed"]["wall_s"] <= 0.3 + 1.0
     assert rec["plant_safe_state"] == {"entered_sim_s": 1.05, "left_sim_s": 5.0}
     assert not driver.problems and not driver.plant_killed
     driver.render(console)
@@ -305,8 +306,11 @@ def test_controller_killed_and_restarted(tmp_path: Path) -> None:
     assert summary["run"]["plant_killed"] is False
     assert rec["kind"] == "controller_kill" and rec["outcome"] == "controller killed and restarted"
     kill, restart = rec["killed"], rec["restarted"]
-    assert 10.0 <= kill["sim_s"] < 10.5, rec
-    assert restart["wall_s"] - kill["wall_s"] == pytest.approx(2.0, abs=0.3), rec
+    # Bounds that hold beside two CPU hogs: the kill is never early and follows the plant's
+    # cycle records within a second; the restart is never before its 2 s delay and late
+    # only by the follow loop's cadence on a loaded host.
+    assert 10.0 <= kill["sim_s"] < 11.0, rec
+    assert 2.0 - 0.05 <= restart["wall_s"] - kill["wall_s"] < 3.5, rec
     assert restart["pid"] != kill["pid"]
 
     cycles, commands, _ = _cycles(out / "run.mcap")
@@ -364,16 +368,16 @@ def test_plant_killed(mode: str, tmp_path: Path) -> None:
         {ExitCode.SAFE_STATE, ExitCode.DEADLINE_MISSES} if mode == "realtime" else set()
     )
     assert judged in allowed, proc.stdout + proc.stderr + json.dumps(logs)
-    assert time.monotonic() - t0 < 90
+    assert time.monotonic() - t0 < 180  # a 20 s run: hung waits would take far longer
     assert summary["run"]["plant_killed"] is True
     (rec,) = summary["run"]["process_faults"]
     assert rec["kind"] == "plant_kill" and rec["outcome"] == "plant killed"
-    slack = 0.5 if mode == "realtime" else 5.0
+    slack = 1.0 if mode == "realtime" else 5.0  # the launcher follows the cycles over Zenoh
     assert 5.0 <= rec["killed"]["sim_s"] < 5.0 + slack
     for name in ("controller", "recorder"):
         other = rec["others"][name]
         assert other["by_itself"] is True and other["exit_code"] == 0, rec
-        assert other["exited_after_s"] < 5.0, rec
+        assert other["exited_after_s"] < 10.0, rec  # their plant-gone timeouts, with load
     assert "plant gone" in logs["controller.log"]
     assert "the plant went away" in logs["recorder.log"]
     # The file is closed by the recorder and reviews; its timing stops at the kill.
