@@ -68,9 +68,9 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
         preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
         dof: Annotated[
             str,
-            typer.Option("--dof", help="surge, heave or pitch.", callback=choice(
-                "surge", "heave", "pitch"
-            )),
+            typer.Option(
+                "--dof", help="surge, heave or pitch.", callback=choice("surge", "heave", "pitch")
+            ),
         ] = "surge",
         offset: Annotated[
             float,
@@ -110,7 +110,7 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
         the next: period T [s], log decrement delta = ln(a_k/a_k+1), damping ratio
         zeta = delta / sqrt(4 pi^2 + delta^2) (plant.decay).
         """
-        from plant.decay import free_decay
+        from plant.decay import free_decay  # noqa: PLC0415  (keeps `fowt --help` fast)
 
         if offset == 0.0:
             fail("--offset: expected a non-zero displacement")
@@ -128,8 +128,14 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
             title=f"Free decay of {escape(preset)}: {dof} from {offset:g} {unit} "
             f"(equilibrium {result.equilibrium:.4g} {unit})"
         )
-        for col in ("cycle", "start [s]", f"amplitude [{unit}]", "period [s]", "log decrement",
-                    "damping ratio"):
+        for col in (
+            "cycle",
+            "start [s]",
+            f"amplitude [{unit}]",
+            "period [s]",
+            "log decrement",
+            "damping ratio",
+        ):
             table.add_column(escape(col), justify="right")
         for c in result.cycles:
             table.add_row(
@@ -175,8 +181,9 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
         surge_offset: Annotated[
             float,
             typer.Option(
-                "--surge-offset", help="Surge release offset, m.", callback=number("m", gt=0.0,
-                                                                                  le=20.0)
+                "--surge-offset",
+                help="Surge release offset, m.",
+                callback=number("m", gt=0.0, le=20.0),
             ),
         ] = 2.0,
         pitch_offset: Annotated[
@@ -207,9 +214,12 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
         at the same wind (blade pitch and torque held: fowt analyze modes). A negative
         damping ratio is a mode that grows.
         """
-        from hil.inprocess.closed_loop import CLOSED_LOOP_CASE, closed_loop_decay
-        from hil.scenario.schema import ScenarioError, load_scenario
-        from plant.modes import natural_modes
+        from hil.inprocess.closed_loop import (  # noqa: PLC0415  (imported when used)
+            CLOSED_LOOP_CASE,
+            closed_loop_decay,
+        )
+        from hil.scenario.schema import ScenarioError, load_scenario  # noqa: PLC0415
+        from plant.modes import natural_modes  # noqa: PLC0415
 
         if scenario is not None and controller is not None:
             fail("give a SCENARIO or --controller, not both")
@@ -252,8 +262,16 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
             sys.stdout.write(json.dumps(out, indent=2) + "\n")
             return
         table = Table(title=f"Closed-loop platform modes of {escape(ref)} (controller {kind})")
-        for col in ("wind [m/s]", "mode", "offset", "period [s]", "damping ratio",
-                    "cycles", "open-loop period [s]", "open-loop damping"):
+        for col in (
+            "wind [m/s]",
+            "mode",
+            "offset",
+            "period [s]",
+            "damping ratio",
+            "cycles",
+            "open-loop period [s]",
+            "open-loop damping",
+        ):
             table.add_column(escape(col), justify="right")
         for r in rows:
             table.add_row(

@@ -179,7 +179,7 @@ def closed_loop_decay(
                 (msg.sample_time_ns * 1e-9, getattr(msg, pos), getattr(msg, vel))  # type: ignore[attr-defined]
             )
         elif mt is WAVE_PREVIEW_PERFECT:
-            runtime.handle_preview(msg)  # type: ignore[arg-type]
+            runtime.handle_preview(msg)
 
     run_inprocess(displaced, publish, publishing_step(runtime, publish), initial=start)
     a = np.array(rows, dtype=np.float64)
