@@ -167,7 +167,6 @@ def _growth_at_11() -> dict[str, Any]:
     import msgspec
 
     from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
-    from hil.inprocess.closed_loop import quiet_steady
     from hil.inprocess.run import run_inprocess
     from hil.inprocess.trim import operating_point
     from hil.nodes.controller_node import ControllerRuntime, publishing_step
@@ -180,7 +179,6 @@ def _growth_at_11() -> dict[str, Any]:
     d["duration_s"] = 900.0
     d["initial"] = {"trim": True}
     noisy = msgspec.convert(d, Scenario)
-    _ = quiet_steady  # the closed-loop decays use the quiet copy of this same scenario
     runtime = ControllerRuntime(noisy, paced=False, operating_point=lambda: operating_point(noisy))
     rows: list[tuple[float, float]] = []
 
@@ -223,6 +221,12 @@ def main() -> int:
     p.add_argument("--n-omega", type=int, default=60, help="OC4 BEM frequencies 0.05..3 rad/s")
     p.add_argument("--radiation-omega-max", type=float, default=1.5, help="import option, rad/s")
     p.add_argument("--skip-oc4", action="store_true", help="no OC4 (needs capytaine)")
+    p.add_argument(
+        "--oc4-preset",
+        type=Path,
+        default=None,
+        help="an OC4 preset already imported from this deck (skips the BEM run)",
+    )
     p.add_argument("--skip-closed-loop", action="store_true", help="no closed-loop part")
     args = p.parse_args()
     result: dict[str, Any] = {
@@ -234,7 +238,18 @@ def main() -> int:
         "platforms": {"oc3": {"preset": "nrel5mw_oc3_hywind"}},
     }
     result["platforms"]["oc3"]["decays"] = _decays("nrel5mw_oc3_hywind", "oc3")
-    if not args.skip_oc4:
+    if not args.skip_oc4 and args.oc4_preset is not None:
+        toml = str(args.oc4_preset)
+        result["platforms"]["oc4"] = {
+            "preset": "OC4-DeepCwind deck of plant.reference_decks (openfast4), imported "
+            "earlier (--oc4-preset) with --radiation-omega-max "
+            f"{args.radiation_omega_max:g}",
+            "hydrodynamics": "capytaine of the columns, plant.reference_decks.oc4_hydro with "
+            f"{args.n_omega} frequencies, panel {args.panel:g} m, {args.n_theta} around",
+            "decays": _decays(toml, "oc4"),
+            "surge_budget": _surge_budget(toml),
+        }
+    elif not args.skip_oc4:
         try:
             import capytaine  # noqa: F401
         except ImportError:
