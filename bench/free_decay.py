@@ -3,29 +3,33 @@
 Usage::
 
     .venv/bin/python bench/free_decay.py [--panel 2.0] [--n-theta 16] [--n-omega 60]
-        [--skip-oc4] [--skip-closed-loop] [--radiation-omega-max 1.5]
+        [--skip-oc4] [--oc4-preset TOML] [--skip-closed-loop] [--only decay|closed-loop]
+        [--radiation-omega-max W]
 
 1. **Free decay** (``fowt analyze decay``, :func:`plant.decay.free_decay`: the time-domain
    plant parked in still air and still water, rotor aerodynamics off) of the shipped OC3
    preset and of the OC4-DeepCwind deck written by :func:`plant.reference_decks.write_deck`
    (OpenFAST 4 layout, capytaine hydrodynamics of the columns as in
    ``bench/openfast_import_periods.py``) and imported unedited with ``fowt preset
-   import-openfast ... --radiation-omega-max 1.5``. Surge, heave and pitch from a small
-   offset (1 m, 0.5 m, 0.5 deg) and a large one (20 m, 5 m, 8 deg), first-cycle period,
-   mean period, damping ratio, beside the linear periods (``fowt analyze modes --wind 0``)
-   and the published ones (OC3: Jonkman 2010, NREL/TP-500-47535; OC4: Robertson et al. 2014,
+   import-openfast`` (the importer's default radiation fit; ``--radiation-omega-max`` passes
+   the option on), or an OC4 preset imported earlier (``--oc4-preset``). Surge, heave and
+   pitch from a small offset (1 m, 0.5 m, 0.5 deg) and a large one (20 m, 5 m, 8 deg):
+   first-cycle period, mean period, damping ratio, beside the linear periods
+   (``fowt analyze modes --wind 0``) and the published ones (OC3: Jonkman 2010, NREL/TP-500-47535; OC4: Robertson et al. 2014,
    NREL/TP-5000-60601). The decay offsets of the code comparisons are not in the reference
    data here: 20 m / 5 m / 8 deg are chosen as sizes of that order, and the surge period is
    also given over 1-25 m.
 2. **OC4 surge budget**: the WAMIT surge added mass A₁₁(ω) at zero and infinite frequency,
    at 2π/107 s and at the decay's own frequency; the mooring's tangent stiffness at 0-20 m;
    the periods without radiation memory (A₁₁(∞) alone).
-3. **Closed loop at 11 m/s** (IEA 15 MW VolturnUS-S): ``fowt analyze closed-loop`` for the
-   baseline, LQRI + wave FF and ROSCO at 5, 8, 11, 15, 20 m/s (surge 2 m, pitch 1 deg), and a
+3. **Closed loop** (IEA 15 MW VolturnUS-S, saved apart as ``free_decay_closed_loop``):
+   ``fowt analyze closed-loop`` for the baseline, LQRI + wave FF and ROSCO at 5, 8, 11, 15,
+   20 m/s (surge 2 m, pitch 1 deg); the baseline's surge released from 0.5 m and 2 m at 11
+   and 15 m/s over 1500 s (the damping per cycle against the amplitude); the steady thrust's
+   slope along the trimmed operating curve and the quasi-steady surge damping it gives; and a
    900 s in-process run of ``iea15mw-still-water`` in steady 11 m/s with the scenario's
    sensor noise (trimmed start): the surge standard deviation over 0-60, 60-200, 200-400 and
-   400-900 s, beside what a linear mode of the measured damping driven by steady noise gives
-   from rest, σ²(t) ∝ 1 − e^{−2ζω t}.
+   400-900 s.
 """
 
 from __future__ import annotations
@@ -156,7 +160,11 @@ def _oc4(args: argparse.Namespace, tmp: Path) -> tuple[str, str]:
     hydro, desc = oc4_hydro(n_omega=args.n_omega, panel_m=args.panel, n_theta=args.n_theta)
     print(f"OC4 hydrodynamics: {desc}", flush=True)
     fst = write_deck(tmp / "deck", "oc4", "openfast4", hydro)
-    extra = ["--radiation-omega-max", str(args.radiation_omega_max)]
+    extra = (
+        []
+        if args.radiation_omega_max is None
+        else ["--radiation-omega-max", str(args.radiation_omega_max)]
+    )
     print(_fowt("preset", "import-openfast", str(fst), "--out", str(tmp / "oc4"), "--name",
                 "oc4", "--turbine", "nrel5mw", *extra))  # fmt: skip
     return str(tmp / "oc4" / "oc4.toml"), desc
@@ -203,32 +211,64 @@ def _growth_at_11() -> dict[str, Any]:
     }
 
 
-def _variance_build_up(zeta: float, period_s: float) -> dict[str, float]:
-    """σ(t)/σ(∞) of a linear mode (ζ, T) driven from rest by white noise, at the windows'
-    mid-points: √(1 − e^{−2ζω t})."""
-    w = 2.0 * math.pi / period_s
-    return {
-        f"{lo:g}-{hi:g} s": round(math.sqrt(1.0 - math.exp(-2.0 * zeta * w * 0.5 * (lo + hi))), 3)
-        for lo, hi in WINDOWS_S
-    }
+def _thrust_slope() -> dict[str, Any]:
+    """The steady thrust's slope dT/dU along the baseline's trimmed operating curve of the
+    IEA 15 MW (central difference over ±0.25 m/s of the trims), the mooring's tangent surge
+    stiffness at the trimmed offset, and the quasi-steady surge damping ratio it gives,
+    ζ_aero = (dT/dU) ω / (2 k) with ω = 2π / 100 s: the thrust of a controller that holds its
+    operating curve while the relative wind varies slowly with the surge velocity."""
+    from hil.inprocess.closed_loop import quiet_steady
+    from hil.inprocess.trim import initial_condition
+    from hil.nodes.plant_node import plant_spec
+    from hil.scenario.schema import load_scenario
+    from plant.build import build_plant
+    from plant.platform import relative_wind, rotor_thrust
+    from plant.simulator import PlantSimulator
+
+    sc = load_scenario("iea15mw-still-water")
+    out: dict[str, Any] = {}
+    for u in (8.0, 11.0, 15.0, 20.0):
+        pts = []
+        for du in (-0.25, 0.25):
+            q = quiet_steady(sc, u + du, 60.0)
+            sim = PlantSimulator(build_plant(plant_spec(q, initial_condition(q))))
+            x = sim.initial_state()
+            assert sim.floating is not None
+            fp = sim.floating.params
+            u_n = relative_wind(x, u + du, fp)
+            pts.append((rotor_thrust(x[8], x[9], u_n, fp.turbine), x[0]))
+        slope = (pts[1][0] - pts[0][0]) / 0.5
+        k = fp.mooring.stiffness_at(0.5 * (pts[0][1] + pts[1][1]))
+        w = 2.0 * math.pi / 100.0
+        out[f"{u:g} m/s"] = {
+            "thrust_slope_n_s_m": round(slope, 1),
+            "trimmed_surge_m": round(0.5 * (pts[0][1] + pts[1][1]), 3),
+            "tangent_stiffness_n_m": round(k, 1),
+            "quasi_steady_aero_damping_ratio": round(slope * w / (2.0 * k), 4),
+        }
+    return out
 
 
-def main() -> int:
-    """Command line."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--panel", type=float, default=2.0, help="OC4 BEM panel length, m")
-    p.add_argument("--n-theta", type=int, default=16, help="OC4 BEM panels around a column")
-    p.add_argument("--n-omega", type=int, default=60, help="OC4 BEM frequencies 0.05..3 rad/s")
-    p.add_argument("--radiation-omega-max", type=float, default=1.5, help="import option, rad/s")
-    p.add_argument("--skip-oc4", action="store_true", help="no OC4 (needs capytaine)")
-    p.add_argument(
-        "--oc4-preset",
-        type=Path,
-        default=None,
-        help="an OC4 preset already imported from this deck (skips the BEM run)",
-    )
-    p.add_argument("--skip-closed-loop", action="store_true", help="no closed-loop part")
-    args = p.parse_args()
+def _small_releases() -> dict[str, Any]:
+    """Baseline, surge released from 0.5 m and 2 m at 11 and 15 m/s, 1500 s: per cycle."""
+    out: dict[str, Any] = {}
+    for u in (11.0, 15.0):
+        for off in (0.5, 2.0):
+            r = json.loads(
+                _fowt("analyze", "closed-loop", "--controller", "baseline", "--winds", str(u),
+                      "--dof", "surge", "--surge-offset", str(off), "--duration", "1500",
+                      "--json")
+            )["modes"][0]  # fmt: skip
+            out[f"{u:g} m/s from {off:g} m"] = [
+                {"amplitude_m": round(c["amplitude"], 3), "period_s": round(c["period_s"], 2),
+                 "damping_ratio": round(c["damping_ratio"], 5)}
+                for c in r["cycles"]
+            ]  # fmt: skip
+            print(f"baseline {u} m/s from {off} m: {out[f'{u:g} m/s from {off:g} m']}", flush=True)
+    return out
+
+
+def _decay_part(args: argparse.Namespace) -> dict[str, Any] | None:
     result: dict[str, Any] = {
         "decay_command": "fowt analyze decay PRESET --dof DOF --offset X --json",
         "linear_command": "fowt analyze modes PRESET --wind 0 --json",
@@ -238,60 +278,100 @@ def main() -> int:
         "platforms": {"oc3": {"preset": "nrel5mw_oc3_hywind"}},
     }
     result["platforms"]["oc3"]["decays"] = _decays("nrel5mw_oc3_hywind", "oc3")
-    if not args.skip_oc4 and args.oc4_preset is not None:
+    how = (
+        "the importer's default radiation fit"
+        if args.radiation_omega_max is None
+        else f"--radiation-omega-max {args.radiation_omega_max:g}"
+    )
+    bem = (
+        f"capytaine of the columns, plant.reference_decks.oc4_hydro with {args.n_omega} "
+        f"frequencies 0.05..3 rad/s, panel {args.panel:g} m, {args.n_theta} around a column"
+    )
+    if args.skip_oc4:
+        return result
+    if args.oc4_preset is not None:
         toml = str(args.oc4_preset)
         result["platforms"]["oc4"] = {
             "preset": "OC4-DeepCwind deck of plant.reference_decks (openfast4), imported "
-            "earlier (--oc4-preset) with --radiation-omega-max "
-            f"{args.radiation_omega_max:g}",
-            "hydrodynamics": "capytaine of the columns, plant.reference_decks.oc4_hydro with "
-            f"{args.n_omega} frequencies, panel {args.panel:g} m, {args.n_theta} around",
+            f"earlier (--oc4-preset) with {how}",
+            "hydrodynamics": bem,
             "decays": _decays(toml, "oc4"),
             "surge_budget": _surge_budget(toml),
         }
-    elif not args.skip_oc4:
-        try:
-            import capytaine  # noqa: F401
-        except ImportError:
-            print("needs the [hydro] extra (capytaine) for the OC4 deck", file=sys.stderr)
-            return 2
-        with tempfile.TemporaryDirectory() as tmp:
-            toml, desc = _oc4(args, Path(tmp))
-            result["platforms"]["oc4"] = {
-                "preset": "OC4-DeepCwind deck of plant.reference_decks (openfast4), imported "
-                f"with --radiation-omega-max {args.radiation_omega_max:g}",
-                "hydrodynamics": desc,
-                "decays": _decays(toml, "oc4"),
-                "surge_budget": _surge_budget(toml),
-            }
-    if not args.skip_closed_loop:
-        closed: dict[str, Any] = {}
-        for kind in ("baseline", "lqri_ff", "rosco"):
-            out = json.loads(
-                _fowt("analyze", "closed-loop", "--controller", kind, "--winds", WINDS,
-                      "--json")
-            )  # fmt: skip
-            closed[kind] = [
-                {k: r[k] for k in ("wind_m_s", "dof", "offset", "period_s", "damping_ratio",
-                                   "open_loop_period_s", "open_loop_damping_ratio")}
-                | {"cycles": len(r["cycles"])}
-                for r in out["modes"]
-            ]  # fmt: skip
-            print(f"closed loop {kind}: {json.dumps(closed[kind])}", flush=True)
-        growth = _growth_at_11()
-        surge11 = next(
-            r for r in closed["baseline"] if r["wind_m_s"] == 11.0 and r["dof"] == "surge"
-        )
-        if surge11["damping_ratio"] is not None:
-            growth["linear_mode_build_up_sigma_over_sigma_inf"] = _variance_build_up(
-                surge11["damping_ratio"], surge11["period_s"]
-            )
-        result["closed_loop"] = {
-            "command": f"fowt analyze closed-loop --controller KIND --winds {WINDS} --json",
-            "modes": closed,
-            "growth_at_11_m_s": growth,
+        return result
+    try:
+        import capytaine  # noqa: F401
+    except ImportError:
+        print("needs the [hydro] extra (capytaine) for the OC4 deck", file=sys.stderr)
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        toml, desc = _oc4(args, Path(tmp))
+        result["platforms"]["oc4"] = {
+            "preset": "OC4-DeepCwind deck of plant.reference_decks (openfast4), imported "
+            f"with {how}",
+            "hydrodynamics": desc,
+            "decays": _decays(toml, "oc4"),
+            "surge_budget": _surge_budget(toml),
         }
-    save("free_decay", result)
+    return result
+
+
+def _closed_loop_part() -> dict[str, Any]:
+    closed: dict[str, Any] = {}
+    for kind in ("baseline", "lqri_ff", "rosco"):
+        out = json.loads(
+            _fowt("analyze", "closed-loop", "--controller", kind, "--winds", WINDS, "--json")
+        )
+        closed[kind] = [
+            {k: r[k] for k in ("wind_m_s", "dof", "offset", "period_s", "damping_ratio",
+                               "open_loop_period_s", "open_loop_damping_ratio")}
+            | {"cycles": len(r["cycles"])}
+            for r in out["modes"]
+        ]  # fmt: skip
+        print(f"closed loop {kind}: {json.dumps(closed[kind])}", flush=True)
+    return {
+        "command": f"fowt analyze closed-loop --controller KIND --winds {WINDS} --json",
+        "modes": closed,
+        "baseline_surge_small_releases": _small_releases(),
+        "thrust_slope": _thrust_slope(),
+        "growth_at_11_m_s": _growth_at_11(),
+    }
+
+
+def main() -> int:
+    """Command line."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--panel", type=float, default=2.0, help="OC4 BEM panel length, m")
+    p.add_argument("--n-theta", type=int, default=16, help="OC4 BEM panels around a column")
+    p.add_argument("--n-omega", type=int, default=60, help="OC4 BEM frequencies 0.05..3 rad/s")
+    p.add_argument(
+        "--radiation-omega-max",
+        type=float,
+        default=None,
+        help="import option, rad/s (default: the importer's own)",
+    )
+    p.add_argument(
+        "--only",
+        choices=("decay", "closed-loop"),
+        default=None,
+        help="one part (saved as free_decay or free_decay_closed_loop)",
+    )
+    p.add_argument("--skip-oc4", action="store_true", help="no OC4 (needs capytaine)")
+    p.add_argument(
+        "--oc4-preset",
+        type=Path,
+        default=None,
+        help="an OC4 preset already imported from this deck (skips the BEM run)",
+    )
+    p.add_argument("--skip-closed-loop", action="store_true", help="no closed-loop part")
+    args = p.parse_args()
+    if args.only != "closed-loop":
+        decay = _decay_part(args)
+        if decay is None:
+            return 2
+        save("free_decay", decay)
+    if args.only != "decay" and not args.skip_closed_loop:
+        save("free_decay_closed_loop", _closed_loop_part())
     return 0
 
 

@@ -12,9 +12,12 @@ Registered on the ``analyze`` group of the ``fowt`` app by :func:`register`.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import os
 import sys
+from collections.abc import Iterator
 from typing import Annotated
 
 import typer
@@ -54,6 +57,21 @@ def _dofs(value: str) -> str:
     if not parts or any(p not in ("surge", "pitch") for p in parts):
         raise typer.BadParameter(f"expected surge, pitch or surge,pitch, got {value!r}")
     return value
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """File descriptor 1 sent to stderr meanwhile: a compiled controller (ROSCO's DISCON)
+    prints its banner to the process's stdout, which must hold only the table or JSON."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def _fmt(v: float | None, spec: str) -> str:
@@ -241,7 +259,8 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
             for d in dofs:
                 off = surge_offset if d == "surge" else pitch_offset
                 try:
-                    res = closed_loop_decay(sc, u, d, off, duration)
+                    with _stdout_to_stderr():
+                        res = closed_loop_decay(sc, u, d, off, duration)
                 except (ValueError, OSError) as exc:
                     fail(f"{ref}: closed loop at {u:g} m/s: {exc}")
                 ol = open_loop.get(d)
