@@ -7,18 +7,17 @@ Usage::
         [--radiation-omega-max W]
 
 1. **Free decay** (``fowt analyze decay``, :func:`plant.decay.free_decay`: the time-domain
-   plant parked in still air and still water, rotor aerodynamics off) of the shipped OC3
-   preset and of the OC4-DeepCwind deck written by :func:`plant.reference_decks.write_deck`
-   (OpenFAST 4 layout, capytaine hydrodynamics of the columns as in
-   ``bench/openfast_import_periods.py``) and imported unedited with ``fowt preset
-   import-openfast`` (the importer's default radiation fit; ``--radiation-omega-max`` passes
-   the option on), or an OC4 preset imported earlier (``--oc4-preset``). Surge, heave and
-   pitch from a small offset (1 m, 0.5 m, 0.5 deg) and a large one (20 m, 5 m, 8 deg):
-   first-cycle period, mean period, damping ratio, beside the linear periods
-   (``fowt analyze modes --wind 0``) and the published ones (OC3: Jonkman 2010, NREL/TP-500-47535; OC4: Robertson et al. 2014,
-   NREL/TP-5000-60601). The decay offsets of the code comparisons are not in the reference
-   data here: 20 m / 5 m / 8 deg are chosen as sizes of that order, and the surge period is
-   also given over 1-25 m.
+   plant parked in still air and still water, rotor aerodynamics off) of the shipped OC3 preset
+   and of the OC4-DeepCwind deck written by :func:`plant.reference_decks.write_deck` (OpenFAST
+   4 layout, capytaine hydrodynamics of the columns as in ``bench/openfast_import_periods.py``)
+   and imported unedited with ``fowt preset import-openfast`` (the importer's default radiation
+   fit; ``--radiation-omega-max`` passes the option on), or an OC4 preset imported earlier
+   (``--oc4-preset``). Surge, heave and pitch from a small offset (1 m, 0.5 m, 0.5 deg) and a
+   large one (20 m, 5 m, 8 deg): first-cycle period, mean period, damping ratio, beside the
+   linear periods (``fowt analyze modes --wind 0``) and the published ones (OC3: Jonkman 2010,
+   NREL/TP-500-47535; OC4: Robertson et al. 2014, NREL/TP-5000-60601). The decay offsets of the
+   code comparisons are not in the reference data here: 20 m / 5 m / 8 deg are chosen as sizes
+   of that order, and the surge period is also given over 1-25 m.
 2. **OC4 surge budget**: the WAMIT surge added mass A₁₁(ω) at zero and infinite frequency,
    at 2π/107 s and at the decay's own frequency; the mooring's tangent stiffness at 0-20 m;
    the periods without radiation memory (A₁₁(∞) alone).
