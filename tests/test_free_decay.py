@@ -108,6 +108,8 @@ def test_decay_command_json_and_bad_input() -> None:
     assert "rotor aerodynamics off" in out["case"]
     bad = _fowt("analyze", "decay", OC3, "--dof", "heave", "--offset", "0")
     assert bad.returncode == 2 and bad.stderr.startswith("error: --offset")
+    missing = _fowt("analyze", "decay", "no/such/preset.toml")
+    assert missing.returncode == 2 and "expected an existing file" in missing.stderr
     both = _fowt("analyze", "closed-loop", "iea15mw-still-water", "--controller", "baseline")
     assert both.returncode == 2 and "not both" in both.stderr
 

@@ -18,6 +18,7 @@ import math
 import os
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -25,7 +26,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from hil.cli.common import choice, fail, number
+from hil.cli.common import choice, fail, number, text_file
 
 __all__ = ["CONTROLLER_SCENARIOS", "register"]
 
@@ -36,6 +37,13 @@ CONTROLLER_SCENARIOS = {
     "lqri_ff": "iea15mw-lc2-lqri-ff",
     "rosco": "iea15mw-lc2-rosco",
 }
+
+
+def _preset(value: str) -> str:
+    """Callback of a preset argument: a shipped name, or a path to a readable text file."""
+    if value.endswith(".toml") or "/" in value:
+        text_file(Path(value))
+    return value
 
 
 def _winds(value: str) -> str:
@@ -83,7 +91,9 @@ def register(analyze_app: typer.Typer, console: Console) -> None:
 
     @analyze_app.command("decay", short_help="Free decay of the parked platform from an offset.")
     def analyze_decay(
-        preset: Annotated[str, typer.Argument(help="Floating preset name or preset .toml path.")],
+        preset: Annotated[
+            str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset)
+        ],
         dof: Annotated[
             str,
             typer.Option(
