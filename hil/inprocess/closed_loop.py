@@ -25,6 +25,7 @@ controller's share of the damping is the difference.
 from __future__ import annotations
 
 import math
+import tempfile
 from dataclasses import dataclass
 
 import msgspec
@@ -166,12 +167,19 @@ def closed_loop_decay(
     }
     displaced = msgspec.convert(d, Scenario)
     start = initial_condition(displaced)
-    runtime = ControllerRuntime(
-        displaced, paced=False, operating_point=lambda: operating_point(displaced)
-    )
     rows: list[tuple[float, float, float]] = []
     pos = ("platform_surge_m", "platform_heave_m", "platform_pitch_rad")[i]
     vel = ("platform_surge_velocity_m_s", "", "platform_pitch_rate_rad_s")[i]
+
+    # a compiled controller (ROSCO's DISCON) writes its files into the run's folder: a
+    # temporary one, removed with them
+    run_dir = tempfile.TemporaryDirectory(prefix="fowt-closed-loop-")
+    runtime = ControllerRuntime(
+        displaced,
+        paced=False,
+        run_dir=run_dir.name,
+        operating_point=lambda: operating_point(displaced),
+    )
 
     def publish(mt: object, msg: object) -> None:
         if mt is TRUTH:
@@ -181,7 +189,8 @@ def closed_loop_decay(
         elif mt is WAVE_PREVIEW_PERFECT:
             runtime.handle_preview(msg)
 
-    run_inprocess(displaced, publish, publishing_step(runtime, publish), initial=start)
+    with run_dir:
+        run_inprocess(displaced, publish, publishing_step(runtime, publish), initial=start)
     a = np.array(rows, dtype=np.float64)
     t, y, v = a[:, 0] - a[0, 0], (a[:, 1] - x_eq[i]) * scale, a[:, 2]
     sign = 1.0 if offset > 0.0 else -1.0
