@@ -116,6 +116,7 @@ bench-studies: setup
 	# the OC4 deck's hydrodynamics are computed with capytaine (the optional [hydro] extra)
 	$(BIN)/python -m pip install --quiet -e '.[hydro]'
 	$(BIN)/python bench/openfast_import_periods.py
+	$(BIN)/python bench/free_decay.py
 	$(BIN)/python bench/christiansen_case.py
 	$(BIN)/python bench/hexicon.py
 	$(BIN)/python bench/hexicon_identify.py

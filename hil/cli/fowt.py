@@ -1667,6 +1667,9 @@ def _register_campaign_commands() -> None:
 
     register(app, console)
     register_controllers(app, console)
+    from hil.cli.analyze_decay import register as register_decay
+
+    register_decay(analyze_app, console)
 
 
 _register_campaign_commands()
