@@ -157,6 +157,11 @@ __all__ = [
     "required_designs",
 ]
 
+#: Relative standard deviation of the wind EKF's rotor speed when it starts without a valid
+#: speed sample (at the design's rated speed): the first sample then moves it to the measured
+#: speed instead of being gated as a 5-sigma outlier of an over-confident guess.
+UNMEASURED_SPEED_STD = 0.1
+
 FloatArray = npt.NDArray[np.float64]
 ForecasterName = Literal["dispersion", "ar", "esprit"]
 FeedforwardName = Literal["off", "balanced", "max_performance"]
@@ -866,7 +871,8 @@ class AdvancedController:
     ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
         """New state vectors with the EKF and KF started from the first frame.
 
-        The EKF from the measured rotor speed (the design's rated speed if invalid), pitch
+        The EKF from the measured rotor speed (the design's rated speed if invalid, with a
+        standard deviation of :data:`UNMEASURED_SPEED_STD` of it), pitch
         and torque (the last commands if invalid) at the steady wind of the measurements
         (:meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
         surge and pitch from the frame (:meth:`_first_kf_state`).
@@ -882,6 +888,8 @@ class AdvancedController:
         speed_ok = bool(mask & VALID_GENERATOR_SPEED)
         w0 = omega_meas if speed_ok else self.lqri.design.rated_rotor_speed_rad_s
         ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque))
+        if not speed_ok:  # a guess, not a sample: its variance says so (the gate's scale)
+            ekf0 = ekf0._replace(p=((UNMEASURED_SPEED_STD * w0) ** 2, *ekf0.p[1:]))
         u0 = ekf0.x[2]
         i = min(range(len(self._wind_grid)), key=lambda k: abs(self._wind_grid[k] - u0))
         kf0 = self._first_kf_state(i, frame)
@@ -889,6 +897,8 @@ class AdvancedController:
         v[0:3] = ekf0.x
         v[3:9] = ekf0.p
         v[fi["ekf_innovation"]] = ekf0.innovation_rad_s
+        v[fi["guard_v_hold"]] = ekf0.x[2]
+        v[fi["guard_p22_0"]] = ekf0.p[5]
         v[st["st_kf_x"] : st["st_kf_x"] + n] = kf0.x
         v[st["st_kf_P"] : st["st_kf_P"] + n * n] = kf0.P.ravel()
         v[st["st_kf_nis"] : st["st_kf_nis"] + p] = kf0.nis
@@ -1147,4 +1157,5 @@ class AdvancedController:
             r[14],
             fstate.unstable_fits,
             fstate.guarded,
+            r[15],
         )
