@@ -49,13 +49,14 @@ from __future__ import annotations
 
 import argparse
 import functools
+import json
 import math
 import time
 from typing import Any
 
 import msgspec
 import numpy as np
-from _common import save
+from _common import RESULTS, save
 
 from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT
 from hil.inprocess.run import run_inprocess
@@ -159,11 +160,18 @@ def table_row(kind: str, turbine: str, wind: float, duration: float) -> dict[str
     first = t < 60.0
     late = (t >= 400.0) & (t < 600.0)
     dev = float(np.max(np.abs(w[first] / ic.rotor_speed_rad_s - 1.0)) * 100.0)
+    # the steady run's own swing about the trim, late in the run (no start left in it)
+    dev_late = (
+        float(np.max(np.abs(w[late] / ic.rotor_speed_rad_s - 1.0)) * 100.0)
+        if late.any()
+        else math.nan
+    )
     s0 = float(np.std(x[first]))
     s1 = float(np.std(x[late])) if late.any() else math.nan
     return {
         "trim_rotor_rpm": round(ic.rotor_speed_rad_s * 30.0 / math.pi, 4),
         "rotor_max_dev_0_60_s_percent": round(dev, 3),
+        "rotor_max_dev_400_600_s_percent": round(dev_late, 3),
         "surge_std_0_60_s_m": round(s0, 4),
         "surge_std_400_600_s_m": round(s1, 4),
         "surge_std_ratio": round(s0 / s1, 3) if s1 > 0 else None,
@@ -175,6 +183,10 @@ def table(args: argparse.Namespace) -> None:
     """``--table`` (module docstring)."""
     t0 = time.perf_counter()
     rows: dict[str, Any] = {}
+    if args.merge:  # the saved table's other rows kept (a part re-measured)
+        old = RESULTS / "trimmed_start_table.json"
+        if old.is_file():
+            rows.update(json.loads(old.read_text()).get("rows", {}))
     for kind in args.kinds.split(","):
         for turbine in args.turbines.split(","):
             for wind in (float(v) for v in args.winds.split(",")):
@@ -189,6 +201,7 @@ def table(args: argparse.Namespace) -> None:
         {
             "command": "python bench/trimmed_start.py --table"
             f" --kinds {args.kinds} --turbines {args.turbines} --winds {args.winds}"
+            + (" --merge" if args.merge else "")
             + (f" --duration {args.duration:g}" if args.duration != 600.0 else ""),
             "duration_s": args.duration,
             "rows": rows,
@@ -305,6 +318,9 @@ def main() -> None:
     ap.add_argument("--kinds", default="baseline,lqri_ff,rosco")
     ap.add_argument("--turbines", default="iea15mw,nrel5mw")
     ap.add_argument("--winds", default=",".join(f"{w:g}" for w in TABLE_WINDS))
+    ap.add_argument(
+        "--merge", action="store_true", help="--table: keep the saved table's other rows"
+    )
     args = ap.parse_args()
     if args.table:
         table(args)

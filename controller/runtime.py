@@ -133,7 +133,7 @@ from controller.forecast import (
     ForecasterState,
     make_forecaster,
 )
-from controller.interface import ActuatorLimits, ControlOutput
+from controller.interface import ActuatorLimits, ControlOutput, OperatingPoint
 from controller.lqri import (
     DesignNotFoundError,
     LqriController,
@@ -866,15 +866,63 @@ class AdvancedController:
             x[1] = frame.platform_pitch_measured_rad - float(xo[1])
         return st._replace(x=x)
 
+    def trimmed_state(self, operating_point: OperatingPoint) -> AdvancedState:
+        """The state of steady operation at ``operating_point`` (a trimmed run's start).
+
+        The observers started as from a first frame at the operating point
+        (:meth:`_start`): the wind EKF at the trimmed rotor speed and the wind its model
+        balances against the operating point's generator torque (the plant's, from the
+        trim; the EKF converges there, not at the nominal mean wind, when the rotor sees
+        the wind tilted with the platform), at the mean wind when the operating point has
+        no torque (then the EKF model's aerodynamic torque over N stands for it); the
+        platform KF of the design nearest to that wind at the design's operating point; the
+        last commands the operating point's pitch and torque. The below-rated baseline and the LQRI start from the
+        first frame of the run, which a trimmed plant makes the operating point: the
+        baseline's filter at the measured speed, its pitch integrator at the measured pitch,
+        the LQRI's integrator bumpless at the measured pitch (:mod:`controller.lqri`).
+        """
+        op = operating_point
+        n = self.settings.gearbox_ratio
+        torque = op.generator_torque_nm
+        if torque is None:
+            torque = self.ekf.aero_torque(op.rotor_speed_rad_s, op.wind_m_s, op.blade_pitch_rad)[0]
+            torque /= n
+        frame = SensorFrame(
+            seq=0,
+            sample_time_ns=0,
+            publish_time_ns=0,
+            valid_mask=VALID_GENERATOR_SPEED | VALID_PITCH | VALID_TORQUE,
+            generator_speed_measured_rad_s=op.rotor_speed_rad_s * n,
+            rotor_speed_measured_rad_s=op.rotor_speed_rad_s,
+            blade_pitch_measured_rad=op.blade_pitch_rad,
+            generator_torque_measured_nm=torque,
+            electrical_power_measured_w=0.0,
+            wind_speed_measured_m_s=op.wind_m_s,
+            nacelle_acc_fore_aft_measured_m_s2=0.0,
+            platform_pitch_measured_rad=0.0,
+            platform_pitch_rate_measured_rad_s=0.0,
+            platform_surge_measured_m=0.0,
+            wave_elevation_gauge_measured_m=0.0,
+        )
+        state = self.initial_state()
+        values, flags = self._start(state.values, state.flags, frame)
+        values[self._fi["last_pitch_cmd"]] = op.blade_pitch_rad
+        values[self._fi["last_torque_cmd"]] = torque
+        return state._replace(values=values, flags=flags)
+
     def _start(
-        self, values: FloatArray, flags: npt.NDArray[np.int64], frame: SensorFrame
+        self,
+        values: FloatArray,
+        flags: npt.NDArray[np.int64],
+        frame: SensorFrame,
+        wind_m_s: float | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
         """New state vectors with the EKF and KF started from the first frame.
 
         The EKF from the measured rotor speed (the design's rated speed if invalid, with a
         standard deviation of :data:`UNMEASURED_SPEED_STD` of it), pitch
-        and torque (the last commands if invalid) at the steady wind of the measurements
-        (:meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
+        and torque (the last commands if invalid) at ``wind_m_s`` (None: the steady wind of
+        the measurements, :meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
         surge and pitch from the frame (:meth:`_first_kf_state`).
         """
         v, f = values.copy(), flags.copy()
@@ -887,7 +935,7 @@ class AdvancedController:
         )
         speed_ok = bool(mask & VALID_GENERATOR_SPEED)
         w0 = omega_meas if speed_ok else self.lqri.design.rated_rotor_speed_rad_s
-        ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque))
+        ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque), wind_m_s)
         if not speed_ok:  # a guess, not a sample: its variance says so (the gate's scale)
             ekf0 = ekf0._replace(p=((UNMEASURED_SPEED_STD * w0) ** 2, *ekf0.p[1:]))
         u0 = ekf0.x[2]
