@@ -25,6 +25,25 @@ One cycle, from one validated :class:`bus_schemas.messages.SensorFrame`:
    acceleration, gyro, attitude and GNSS surge minus their operating values. A channel whose
    bit is cleared, or whose value repeats the previous frame exactly (a sample-and-hold
    sensor slower than the control period), is not used this cycle.
+   **Estimator guard.** The EKF's update is skipped when the innovation
+   :math:`y = \\omega - \\hat\\omega^-` has :math:`y^2 > k^2 s` (:math:`s = P_{\\omega\\omega}
+   + r`; the first valid sample is taken ungated, and an EKF started without one has a
+   10 % rotor-speed standard deviation, :data:`UNMEASURED_SPEED_STD`), and the estimate
+   is bounded to the EKF's range; a step is *bad* when the update was gated, the estimate
+   left the physical range or the state is not finite. The figures are the below-rated
+   baseline preset's (``wind_estimator_gate_sigma`` k = 5, ``wind_estimate_min_m_s`` /
+   ``_max_m_s`` 1 and 37.5, ``wind_estimator_fault_s`` 5 s, ``wind_estimator_recover_s``
+   10 s). ``wind_estimator_fault_s`` of bad steps, or a non-finite EKF, is a divergence; so
+   is the platform KF (step 3) rejecting every valid channel at its gate for as long, or a
+   non-finite KF. A divergence counts one estimator fault (``estimator_faults``, once per
+   fallback; ``ControllerStatus`` v3, the run's outcome ``controller_fault``), restarts the
+   EKF at the measured rotor speed and the last good mean wind with its initial covariance
+   (a KF divergence restarts the KF at its design's operating point with its process
+   covariance) and starts the **fallback: the below-rated baseline's law** (step 5, the
+   measured generator speed only: its torque law and its pitch PI, which track the applied
+   commands, so the hand-over is bumpless) is the command, ``estimator_degraded`` is 1;
+   ``wind_estimator_recover_s`` without a bad step ends it, and the LQRI restarts
+   bumplessly from the applied command.
 4. **Wave forecast** (:func:`controller.forecast.make_forecaster`): called every
    :math:`T_f` = ``forecast.sample_period_s`` [s] with the gauge sample and its valid bit; the
    predictor's horizon is :math:`t_d + d_g` (the gauge's transport delay :math:`d_g` added) so
