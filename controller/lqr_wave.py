@@ -71,8 +71,6 @@ from bus_schemas.messages import (
 from controller.estimators import (
     GuardConfig,
     GuardState,
-    guard_step,
-    guarded_wind_step,
     PlatformKF,
     PlatformKFConfig,
     PlatformKFState,
@@ -82,6 +80,8 @@ from controller.estimators import (
     WindSpeedEKF,
     cp_table_from_rosco_text,
     encoder_rotor_speed_std,
+    guard_step,
+    guarded_wind_step,
 )
 from controller.forecast import WaveFrequencyConfig, WaveFrequencyEstimator, WaveFrequencyState
 from controller.interface import REGIME_REGION_3, ActuatorLimits, ControlOutput
@@ -462,7 +462,9 @@ class LqrWaveController:
         # KF rejecting every valid channel or not finite, is a bad step
         kf_finite = bool(np.isfinite(kf_state.x).all() and np.isfinite(kf_state.P).all())
         kf_bad = any(valid) and sum(kf_state.accepted) == accepted
-        guard, diverged = guard_step(guard, bad or kf_bad or not kf_finite, dt_s, self.guard_config, v)
+        guard, diverged = guard_step(
+            guard, bad or kf_bad or not kf_finite, dt_s, self.guard_config, v
+        )
         if diverged or not kf_finite:
             # restart both observers at the measured speed and the last good mean wind
             held = guard.held_wind_m_s if math.isfinite(guard.held_wind_m_s) else v

@@ -739,9 +739,9 @@ class RoscoController:
         )
         aero = self._rotor_model()
         q0 = 0.0 if aero is None else aero(omega0, theta0, wind)
-        torque = operating_point.generator_torque_nm
-        if torque is None:  # the torque that balances the model's aerodynamic torque
-            torque = q0 / n
+        given = operating_point.generator_torque_nm
+        # without the plant's torque: the one that balances the model's aerodynamic torque
+        torque: float = q0 / n if given is None else given
         q_trim = n * torque  # the model's torque offset to the trim point: Q(ω0, θ0) = N T
         n_calls = max(1, math.ceil(WARMUP_S / dt - 1e-9))
         period_ns = round(dt * 1e9)

@@ -895,8 +895,9 @@ class AdvancedController:
         the wind tilted with the platform), at the mean wind when the operating point has
         no torque (then the EKF model's aerodynamic torque over N stands for it); the
         platform KF of the design nearest to that wind at the design's operating point; the
-        last commands the operating point's pitch and torque. The below-rated baseline and the LQRI start from the
-        first frame of the run, which a trimmed plant makes the operating point: the
+        last commands the operating point's pitch and torque. The below-rated baseline and
+        the LQRI start from the first frame of the run, which a trimmed plant makes the
+        operating point: the
         baseline's filter at the measured speed, its pitch integrator at the measured pitch,
         the LQRI's integrator bumpless at the measured pitch (:mod:`controller.lqri`).
         """
@@ -941,8 +942,8 @@ class AdvancedController:
         The EKF from the measured rotor speed (the design's rated speed if invalid, with a
         standard deviation of :data:`UNMEASURED_SPEED_STD` of it), pitch
         and torque (the last commands if invalid) at ``wind_m_s`` (None: the steady wind of
-        the measurements, :meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
-        surge and pitch from the frame (:meth:`_first_kf_state`).
+        the measurements, :meth:`WindSpeedEKF.initial_state`); the KF of the design nearest
+        to that wind, surge and pitch from the frame (:meth:`_first_kf_state`).
         """
         v, f = values.copy(), flags.copy()
         fi, ii, st = self._fi, self._ii, self._st

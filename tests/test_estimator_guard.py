@@ -208,7 +208,10 @@ def test_a_biased_speed_sensor_is_an_estimator_fault_in_every_mode(
 
 # ------------------------------------------------------------- the advanced controllers
 #: The user's scenario with the advanced controller (LQRI with the wave feedforward).
-ADVANCED = USER.replace('kind = "baseline"\npreset = "iea15mw_baseline"', 'kind = "lqri_ff"\npreset = "iea15mw_advanced"')
+ADVANCED = USER.replace(
+    'kind = "baseline"\npreset = "iea15mw_baseline"',
+    'kind = "lqri_ff"\npreset = "iea15mw_advanced"',
+)
 
 
 #: The valid bits of the unit tests' frames: speed, pitch and torque (no platform channels).
@@ -235,7 +238,8 @@ def test_the_advanced_observers_fault_on_a_jump_and_fall_back_to_the_baseline_la
         t = k * dt
         speed = 0.95 * rated + (0.5 if t >= 10.0 else 0.0)
         frame = msgspec.structs.replace(
-            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE), wind_speed_measured_m_s=10.0
+            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=10.0,
         )
         state, out = ctrl.step(state, frame, dt)
         faults.append(out.estimator_faults)
@@ -267,7 +271,8 @@ def test_the_advanced_fallback_commands_the_baseline_law() -> None:
     for k in range(int(25.0 / dt)):
         speed = 0.95 * rated + (0.5 if k * dt >= 5.0 else 0.0)
         frame = msgspec.structs.replace(
-            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE), wind_speed_measured_m_s=10.0
+            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=10.0,
         )
         state, out = ctrl.step(state, frame, dt)
         parts = ctrl.state_parts(state)
@@ -283,7 +288,7 @@ def test_lqr_wave_observers_fault_on_a_jump_and_hold_the_last_good_wind() -> Non
     """lqr_wave (OC3 Hywind): the same jump; one fault 5 s after it, the scheduling wind
     (reported as ``gain_schedule_factor``) held at the last good estimate until the
     restarted observers have been healthy for 10 s."""
-    from controller.lqr_wave import LqrWaveController, load_lqr_wave_preset  # noqa: PLC0415
+    from controller.lqr_wave import LqrWaveController, load_lqr_wave_preset
 
     ctrl = LqrWaveController(load_lqr_wave_preset("nrel5mw_oc3_hywind_lqr2"), 0.025)
     state = ctrl.initial_state()
@@ -294,7 +299,8 @@ def test_lqr_wave_observers_fault_on_a_jump_and_hold_the_last_good_wind() -> Non
         t = k * dt
         speed = rated + (0.6 * rated if t >= 10.0 else 0.0)
         frame = msgspec.structs.replace(
-            sensor_frame(speed, 0.1, ctrl.torque_nm, valid_mask=_TURBINE), wind_speed_measured_m_s=15.0
+            sensor_frame(speed, 0.1, ctrl.torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=15.0,
         )
         state, out = ctrl.step(state, frame, dt)
         faults.append(out.estimator_faults)

@@ -275,10 +275,10 @@ def test_rosco_is_warmed_up_on_the_trimmed_plant(tmp_path: Any) -> None:
     get the library's settled demands (no start-up hold, no kick): within 1 % of torque and
     0.05° of pitch of the warm-up's last ones, where the library's first call alone
     demanded 3.3 times the torque (8.99 against 2.75 MN m)."""
-    from bus_schemas.messages import SensorFrame  # noqa: PLC0415
-    from controller.interface import OperatingPoint  # noqa: PLC0415
-    from controller.registry import make_controller  # noqa: PLC0415
-    from controller.rosco import _WARMUP_MASK, WARMUP_S  # noqa: PLC0415
+    from bus_schemas.messages import SensorFrame
+    from controller.interface import OperatingPoint
+    from controller.registry import make_controller
+    from controller.rosco import _WARMUP_MASK, WARMUP_S
 
     dt = 0.025
     ctrl = make_controller(
