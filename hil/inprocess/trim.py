@@ -25,15 +25,18 @@ plant and the real controller core in process:
 
 The plant never imports the controller nor the controller the plant: the settling run goes
 through the same in-process loop as a run (:func:`hil.inprocess.run.run_inprocess`). The
-controller's side of the trim is :func:`operating_point` (mean wind, rotor speed, pitch):
-the runner hands it to a core's optional ``trimmed_state(operating_point)``
-(:mod:`controller.interface`), which returns the state the core holds in steady operation
-there (the baseline: its wind EKF converged at the mean wind instead of started from the
-nacelle anemometer). A core without it initialises its filters, integrators and observers
-from its first measurement (the baseline's filter at the measured speed and its pitch
-integrator at the measured pitch; the LQRI's observers at the measured operating point;
-ROSCO's DISCON on its first call), which a trimmed plant makes consistent with it
-(``bench/trimmed_start.py`` measures the first seconds; ``tests/test_trim.py`` bounds them).
+controller's side of the trim is :func:`operating_point` (mean wind, rotor speed, pitch,
+and the settling run's mean generator torque): the runner hands it to a core's optional
+``trimmed_state(operating_point)`` (:mod:`controller.interface`), which returns the state
+the core holds in steady operation there (the baseline: its wind EKF converged on the
+point instead of started from the nacelle anemometer; the advanced controller: its
+observers started at the point; ROSCO: its DISCON library warmed up on the trimmed plant
+before cycle 0, :mod:`controller.rosco`). A core without it initialises its filters,
+integrators and observers from its first measurement (the baseline's filter at the
+measured speed and its pitch integrator at the measured pitch; ``lqr_wave``'s observers at
+the measured operating point), which a trimmed plant makes consistent with it
+(``bench/trimmed_start.py --table`` measures the first 60 s of every kind;
+``tests/test_trim.py`` bounds them).
 
 It runs where the plant is built, before the first cycle (:class:`hil.nodes.plant_node.PlantLoop`:
 the plant process of a bus run, the launcher's process of an in-process run): 2.1 s of wall
@@ -157,7 +160,7 @@ def _settled(encoded: bytes) -> tuple[float, float, float]:
 
     scenario = msgspec.json.decode(encoded, type=Scenario)
     start_ns = round((scenario.duration_s - AVERAGE_S) * 1e9)
-    sums = [0.0, 0.0, 0.0, 0]
+    sums = [0.0, 0.0, 0.0, 0]  # ω, θ, T_g and the count
 
     with tempfile.TemporaryDirectory(prefix="fowt-trim-") as run_dir:
         runtime = ControllerRuntime(scenario, run_dir=run_dir, paced=False, phase="trim")
