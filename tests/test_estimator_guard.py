@@ -330,3 +330,36 @@ def test_a_biased_speed_sensor_is_an_advanced_estimator_fault_in_every_mode(
     assert code == ExitCode.CONTROLLER_FAULT
     assert summary["run"]["outcome"] == "controller_fault"
     assert any("estimator" in r for r in summary["run"]["outcome_reasons"])
+
+
+def test_casanovas_observer_faults_on_a_jump_and_falls_back_to_the_region_2_law() -> None:
+    """lqr_steady (casanovas-2014, NREL 5 MW TLP): a surge reading that jumps by 30 m at
+    10 s is beyond the observer's innovation gate from then on; 5 s later one fault, the
+    observer restarted and the command the region-2 law K ω_g² at the design's pitch."""
+    from controller.casanovas import CasanovasController, load_casanovas_design
+
+    ctrl = CasanovasController(
+        "lqr_steady", load_casanovas_design("nrel5mw_tlp_casanovas_u8_hs6"), 0.1
+    )
+    state = ctrl.initial_state()
+    dt = 0.1
+    omega = ctrl.omega0
+    gear = 97.0
+    faults = []
+    for k in range(int(25.0 / dt)):
+        t = k * dt
+        frame = msgspec.structs.replace(
+            sensor_frame(omega * gear, 0.0, ctrl.t_bar, seq=k, valid_mask=_TURBINE),
+            rotor_speed_measured_rad_s=omega,
+            platform_surge_measured_m=ctrl.surge_bar + (30.0 if t >= 10.0 else 0.0),
+        )
+        state, out = ctrl.step(state, frame, dt)
+        faults.append(out.estimator_faults)
+        if out.estimator_faults:
+            assert out.estimator_degraded == 1
+            assert out.generator_torque_commanded_nm == pytest.approx(
+                min(ctrl.k_gen * (omega * gear) ** 2, 47402.91)
+            )
+    assert faults[int(9.9 / dt)] == 0
+    assert 14.9 <= faults.index(1) * dt <= 15.1
+    assert faults[-1] == 1
