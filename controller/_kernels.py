@@ -934,6 +934,13 @@ ADV_FLOAT_STATE = (
     "last_z_surge",
     "last_pitch_cmd",  # applied commands
     "last_torque_cmd",
+    # the wind EKF's guard (advanced_cycle): sustained bad and good time [s], the last good
+    # mean-wind estimate [m/s], the EKF's initial mean-wind variance [(m/s)^2] (its restart)
+    "guard_t_bad",
+    "guard_t_good",
+    "guard_v_hold",
+    "guard_p22_0",
+    "guard_kf_bad",  # the platform KF's sustained time with every valid channel rejected [s]
 )
 #: The int state ``si`` (the KF counters (4, p) follow at ``lay[st_counts]``).
 ADV_INT_STATE = (
@@ -948,6 +955,8 @@ ADV_INT_STATE = (
     "bl_present",  # the baseline state holds values
     "bl_first_call",
     "speed_misses",  # consecutive invalid speed samples
+    "estimator_faults",  # the guard's divergences (each entering the fallback once)
+    "fallback",  # 1: the guard's fallback, the baseline law, is on
 )
 (
     _F_EKF_X,
@@ -979,6 +988,11 @@ ADV_INT_STATE = (
     _,
     _F_LAST_TH,
     _F_LAST_TQ,
+    _F_G_BAD,
+    _F_G_GOOD,
+    _F_G_HOLD,
+    _F_G_P22,
+    _F_G_KF_BAD,
 ) = range(len(ADV_FLOAT_STATE))
 (
     _I_STARTED,
@@ -992,6 +1006,8 @@ ADV_INT_STATE = (
     _I_BL_PRESENT,
     _I_BL_FIRST,
     _I_SPEED_MISSES,
+    _I_EST_FAULTS,
+    _I_FALLBACK,
 ) = range(len(ADV_INT_STATE))
 
 #: The baseline constants (``BaselineController._k`` in its order, flags as 0/1, the pitch
@@ -1463,6 +1479,7 @@ def advanced_cycle(
     float,
     float,
     float,
+    int,
 ]:
     """One cycle of the advanced controller (``controller.runtime``, steps 1-3, 5, 6).
 
@@ -1477,9 +1494,14 @@ def advanced_cycle(
     ``sf_out``, ``si_out`` and updated there; the EKF and KF must have been started
     (``si[started]``, done by the caller from the first frame).
 
+    The wind EKF's update is gated at :math:`k\\sqrt{s}` and its estimate bounded, and a
+    divergence detector watches it and the KF (the guard: ``controller.runtime``'s module
+    docstring, "Estimator guard"); in the guard's fallback the baseline's law is the
+    command.
+
     Returns the :class:`ControlOutput` fields (θ_c, T_g, regime, ω_f N, integrator,
     scheduling wind, degraded, Û, pitch, pitch rate, surge, surge velocity, tower-top
-    velocity, FF pitch, FF torque) in that order.
+    velocity, FF pitch, FF torque, estimator faults) in that order.
     """
     for k in range(sf.size):
         sf_out[k] = sf[k]
@@ -1503,19 +1525,85 @@ def advanced_cycle(
     cells = c[o : o + 8 * n].reshape((n, 8))
     e = _F_EKF_X
     p = _F_EKF_P
-    xe, pe, y, updated, _ta = ekf_step(
+    ob = lay[_L_BL]
+    bl = c[ob : ob + len(BL_CONSTANTS)]
+    # the guard (the below-rated baseline's figures): gate, physical range, fault times
+    gate2, v_lo, v_hi, t_fault, t_recover = bl[47], bl[48], bl[49], bl[50], bl[51]
+    xe, pe = ekf_predict(
         prm,
         tsr,
         pgrid,
         cells,
         (sf[e], sf[e + 1], sf[e + 2]),
         (sf[p], sf[p + 1], sf[p + 2], sf[p + 3], sf[p + 4], sf[p + 5]),
-        omega_meas,
-        speed_ok,
         pitch,
         torque,
         dt_s,
     )
+    y = math.nan
+    updated = False
+    bad = False
+    if speed_ok and math.isfinite(omega_meas):
+        y_pre = omega_meas - xe[0]
+        # the first valid sample is taken ungated: an EKF started without one (the rated
+        # speed) would otherwise gate every sample until the detector restarted it
+        first_speed = si[_I_EKF_UPDATES] == 0
+        if first_speed or y_pre * y_pre <= gate2 * (pe[0] + prm[4]):  # False for a NaN y
+            xe, pe, y = ekf_update(prm, xe, pe, omega_meas)
+            updated = True
+        else:
+            bad = True  # gated: the rotor speed is not the model's
+    v_est = xe[1] + xe[2]
+    if not (v_est >= v_lo and v_est <= v_hi):  # beyond the physical range (or NaN)
+        bad = True
+    if v_est < prm[8]:
+        xe = (xe[0], prm[8] - xe[2], xe[2])
+    elif v_est > prm[9]:
+        xe = (xe[0], prm[9] - xe[2], xe[2])
+    finite = True
+    for k in range(3):
+        if not math.isfinite(xe[k]):
+            finite = False
+    for k in range(6):
+        if not math.isfinite(pe[k]):
+            finite = False
+    t_bad = sf[_F_G_BAD]
+    t_good = sf[_F_G_GOOD]
+    v_hold = sf[_F_G_HOLD]
+    faults = si[_I_EST_FAULTS]
+    fallback = si[_I_FALLBACK] != 0
+    if bad or not finite:
+        t_bad += dt_s
+        t_good = 0.0
+    else:
+        t_good += dt_s
+        t_bad = 0.0
+    if not finite or t_bad >= t_fault:
+        # divergence: an estimator fault; the baseline law takes over and the EKF restarts
+        # at the measured rotor speed and the last good mean wind, its initial covariance
+        if not fallback:
+            faults += 1
+            fallback = True
+        u0 = _pmin(_pmax(v_hold, prm[8]), prm[9])
+        om0 = omega_meas if speed_ok and math.isfinite(omega_meas) else xe[0]
+        if not math.isfinite(om0):
+            om0 = 0.0
+        sigma_t = prm[10] * u0
+        xe = (om0, 0.0, u0)
+        pe = (prm[4], 0.0, 0.0, sigma_t * sigma_t, 0.0, sf[_F_G_P22])
+        y = math.nan
+        updated = False
+        t_bad = 0.0
+        t_good = 0.0
+    elif fallback and t_good >= t_recover:
+        fallback = False
+    if not fallback and t_bad == 0.0:
+        v_hold = xe[2]
+    sf_out[_F_G_BAD] = t_bad
+    sf_out[_F_G_GOOD] = t_good
+    sf_out[_F_G_HOLD] = v_hold
+    si_out[_I_EST_FAULTS] = faults
+    si_out[_I_FALLBACK] = 1 if fallback else 0
     for k in range(3):
         sf_out[e + k] = xe[k]
     for k in range(6):
@@ -1587,6 +1675,37 @@ def advanced_cycle(
         sf_out[onis : onis + pch],
     )
     si_out[_I_KF_DEGRADED] = 1 if kf_degraded else 0
+    # the KF's guard: a non-finite state, or every valid channel rejected by its gate for
+    # the fault time, is an estimator fault too (the fallback above); the KF restarts at
+    # the operating point (x = 0) with its process covariance
+    n_valid = 0
+    n_acc = 0
+    for k in range(pch):
+        if valid[k]:
+            n_valid += 1
+        n_acc += si_out[oc + 3 * pch + k] - si[oc + 3 * pch + k]
+    t_kf = sf[_F_G_KF_BAD] + dt_s if (n_valid > 0 and n_acc == 0) else 0.0
+    kf_finite = True
+    for k in range(n):
+        if not math.isfinite(x_out[k]):
+            kf_finite = False
+    for k in range(nn):
+        if not math.isfinite(sf_out[oP + k]):
+            kf_finite = False
+    if not kf_finite or t_kf >= t_fault:
+        if not fallback:
+            faults += 1
+            fallback = True
+            si_out[_I_EST_FAULTS] = faults
+            si_out[_I_FALLBACK] = 1
+        oq = lay[_L_KF_Q] + i * nn
+        for k in range(n):
+            x_out[k] = 0.0
+        for k in range(nn):
+            sf_out[oP + k] = c[oq + k]
+        t_kf = 0.0
+        sf_out[_F_G_GOOD] = 0.0
+    sf_out[_F_G_KF_BAD] = t_kf
     degraded = kf_degraded or speed_misses > lay[_L_K_MISS]
     xa = np.empty(n)
     for k in range(n):
@@ -1602,8 +1721,6 @@ def advanced_cycle(
     else:
         first_bl = True
         bst_in = np.zeros(7)
-    ob = lay[_L_BL]
-    bl = c[ob : ob + len(BL_CONSTANTS)]
     n_gs = lay[_L_N_GS]
     gs = c[lay[_L_BL_GS] : lay[_L_BL_GS] + 3 * n_gs]
     w_b = gen_speed if speed_ok else omega * gear
@@ -1701,7 +1818,18 @@ def advanced_cycle(
         regime_b,
         dt_s,
     )
-    si_out[_I_LQ_FIRST] = 0
+    if fallback:
+        # the guard's fallback: the baseline law (measured generator speed only, no
+        # estimate); the LQRI restarts bumplessly from the applied command when it ends
+        th = th_b
+        tq = tq_b
+        regime = regime_b
+        zi = sf[_F_LQ_Z]
+        above = False
+        degraded = True
+        si_out[_I_LQ_FIRST] = 1
+    else:
+        si_out[_I_LQ_FIRST] = 0
     si_out[_I_LQ_ABOVE] = 1 if above else 0
     sf_out[_F_LQ_Z] = zi
     sf_out[_F_LQ_TH] = th
@@ -1737,6 +1865,7 @@ def advanced_cycle(
         xa[5],
         ff_th,
         ff_tq,
+        faults,
     )
 
 

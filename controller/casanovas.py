@@ -38,6 +38,15 @@ The state x̂ = [ϖ, ξ - ξ̄, ξ̇, r₁..r₄] comes from a steady-state Kalm
 on the measured rotor speed and surge, driven by the commands and by the current excitation
 (preview sample 0). The seed assumes the full state known; the observer is the bench's price.
 
+Observer guard: a correction whose innovation exceeds the physical gate
+(:data:`INNOVATION_GATE_ROTOR` x the design's rotor speed, :data:`INNOVATION_GATE_SURGE_M`;
+the steady-state filter has no innovation covariance at run time) is skipped and the step
+is bad, as is a non-finite estimate; 5 s of bad steps (or a non-finite estimate) is an
+estimator fault (``estimator_faults``, :func:`controller.estimators.guard_step`): the
+observer restarts from the measurement, and the fallback, the region-2 law
+T = K ω_g² (``base_torque``) at the design's pitch, commands until 10 s pass without a bad
+step.
+
 Preview (``preview``):
 
 * ``"perfect"``: the excitation force X(t + jΔ), j < 81, Δ = 0.25 s, computed by the plant from
@@ -73,6 +82,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bus_schemas.messages import SensorFrame
+from controller.estimators import GuardConfig, GuardState, guard_step
 from controller.interface import REGIME_REGION_2, ActuatorLimits, ControlOutput
 
 FloatArray = npt.NDArray[np.float64]
@@ -88,6 +98,11 @@ __all__ = [
     "make_casanovas",
     "riccati_trajectory",
 ]
+
+#: The observer's innovation gates (module docstring): rotor speed as a fraction of the
+#: design's rotor speed [-] and surge [m], far beyond the filter's steady innovations.
+INNOVATION_GATE_ROTOR = 0.2
+INNOVATION_GATE_SURGE_M = 10.0
 
 CASANOVAS_KINDS = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
 Preview = Literal["perfect", "forecast"]
@@ -348,6 +363,7 @@ class CasanovasState:
     since_reset: int = 0
     resets: int = 0
     overruns: int = 0
+    guard: GuardState = field(default_factory=GuardState)
 
 
 class CasanovasController:
@@ -400,6 +416,12 @@ class CasanovasController:
         self.clock = clock
         self.budget_ns = round(self.dt * 1e9)
         self.omega0 = s["rotor_speed_rad_s"]
+        #: The observer's guard (module docstring, "Observer guard"): physical innovation
+        #: gates [rad/s, m] and the divergence detector's times.
+        self.innovation_gate = np.array(
+            [INNOVATION_GATE_ROTOR * self.omega0, INNOVATION_GATE_SURGE_M]
+        )
+        self.guard_config = GuardConfig()
         self.t_bar = s["generator_torque_nm"]
         self.k_gen = s["torque_gain_nm_s2"]
         self.gear = s["gearbox_ratio"]
@@ -534,13 +556,36 @@ class CasanovasController:
             ]
         )
         ad, bd, ed, c, gain = self.obs
+        bad = False
         if not st.started:
             x = np.zeros(self.a.shape[0])
             x[0], x[1] = y
         else:
             x = ad @ st.x_hat + bd @ st.u_prev + ed * st.force_prev_n
-            x = x + gain @ (y - c @ x)
-        st = replace(st, started=True, x_hat=x, force_prev_n=float(preview[0]))
+            innovation = y - c @ x
+            # the guard's gate: an innovation beyond the physical gate is not corrected on
+            if np.all(np.abs(innovation) <= self.innovation_gate):  # False for a NaN
+                x = x + gain @ innovation
+            else:
+                bad = True
+        if not np.all(np.isfinite(x)):
+            bad = True
+        guard, diverged = guard_step(st.guard, bad, self.dt, self.guard_config, math.nan)
+        if diverged or not np.all(np.isfinite(x)):
+            # divergence: the observer restarts from the measurement (as on the first step)
+            x = np.zeros(self.a.shape[0])
+            x[0], x[1] = np.nan_to_num(y)
+            if not guard.fallback:
+                guard = guard._replace(faults=guard.faults + 1, fallback=True, good_s=0.0)
+        st = replace(st, started=True, x_hat=x, force_prev_n=float(preview[0]), guard=guard)
+        if guard.fallback:  # the fallback: the region-2 law (base_torque), design pitch
+            return st, self._out(
+                self.design.scalars["pitch_rad"],
+                self.k_gen * gen_speed * gen_speed,
+                gen_speed,
+                st,
+                x,
+            )
         # -- control
         if self.kind == "lqr_steady":
             u_fb = -self.k_steady @ x
@@ -611,7 +656,8 @@ class CasanovasController:
                 "platform_surge_velocity_estimated_m_s": float(x[2]),
                 "feedforward_pitch_rad": max(-2.0, min(2.0, ff_pitch)),
                 "feedforward_torque_nm": ff_torque,
-                "estimator_degraded": 1 if st.stale_now else 0,
+                "estimator_degraded": 1 if (st.stale_now or st.guard.fallback) else 0,
+                "estimator_faults": st.guard.faults,
             }
         return ControlOutput(
             blade_pitch_commanded_rad=pitch,

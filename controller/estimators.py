@@ -116,6 +116,8 @@ from controller import _kernels
 
 __all__ = [
     "CpTable",
+    "GuardConfig",
+    "GuardState",
     "PlatformEstimate",
     "PlatformKF",
     "PlatformKFConfig",
@@ -129,6 +131,8 @@ __all__ = [
     "chi2_gate",
     "cp_table_from_rosco_text",
     "encoder_rotor_speed_std",
+    "guard_step",
+    "guarded_wind_step",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -721,6 +725,134 @@ class WindSpeedEKF:
         else:
             state = WindEKFState(x, p, state.innovation_rad_s, state.updates)
         return state, _wind_estimate(state, ta)
+
+
+# ------------------------------------------------------------------ the observers' guard
+@dataclass(frozen=True)
+class GuardConfig:
+    """The observers' guard of a Python core (:func:`guarded_wind_step`, :func:`guard_step`).
+
+    The figures and meaning of the baseline's wind guard (:mod:`controller.baseline`, step
+    2c): an innovation gate at ``gate_sigma`` standard deviations, the wind estimate's
+    physical range, and a divergence detector.
+
+    Attributes
+    ----------
+    gate_sigma : float
+        k of the gate :math:`|y| \\le k\\sqrt{s}` [-].
+    wind_min_m_s, wind_max_m_s : float
+        Physical range of the wind estimate [m/s].
+    fault_s : float
+        Uninterrupted bad steps (gated, clamped, non-finite) that make an estimator fault [s].
+    recover_s : float
+        Time without a bad step after which the fallback ends [s].
+    """
+
+    gate_sigma: float = 5.0
+    wind_min_m_s: float = 1.0
+    wind_max_m_s: float = 37.5
+    fault_s: float = 5.0
+    recover_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name in ("gate_sigma", "fault_s", "recover_s", "wind_max_m_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0.0 < v < math.inf):
+                raise ValueError(f"GuardConfig.{name}: expected a finite number > 0, got {v!r}")
+        if not 0.0 <= self.wind_min_m_s < self.wind_max_m_s:
+            raise ValueError(
+                "GuardConfig: expected 0 <= wind_min_m_s < wind_max_m_s [m/s], got "
+                f"{self.wind_min_m_s!r}, {self.wind_max_m_s!r}"
+            )
+
+
+class GuardState(NamedTuple):
+    """The divergence detector's state.
+
+    Attributes
+    ----------
+    bad_s, good_s : float
+        Uninterrupted time of bad and of good steps [s].
+    held_wind_m_s : float
+        The last good mean-wind estimate [m/s] (NaN: none yet).
+    faults : int
+        Estimator faults so far (each entering the fallback once).
+    fallback : bool
+        The fallback is on.
+    """
+
+    bad_s: float = 0.0
+    good_s: float = 0.0
+    held_wind_m_s: float = math.nan
+    faults: int = 0
+    fallback: bool = False
+
+
+def guard_step(
+    guard: GuardState, bad: bool, dt_s: float, config: GuardConfig, mean_wind_m_s: float
+) -> tuple[GuardState, bool]:
+    """One step of the divergence detector: ``(new guard state, diverged now)``.
+
+    ``bad`` for a gated, clamped or non-finite step. ``config.fault_s`` of bad steps is a
+    divergence: the fault count goes up by one unless the fallback is already on, and the
+    fallback starts (the caller restarts its observers, at :attr:`GuardState.held_wind_m_s`);
+    ``config.recover_s`` without a bad step ends the fallback. The held wind follows
+    ``mean_wind_m_s`` while the fallback is off and no bad step is pending.
+    """
+    bad_s, good_s = (guard.bad_s + dt_s, 0.0) if bad else (0.0, guard.good_s + dt_s)
+    faults, fallback, held = guard.faults, guard.fallback, guard.held_wind_m_s
+    diverged = bad_s >= config.fault_s
+    if diverged:
+        if not fallback:
+            faults += 1
+            fallback = True
+        bad_s = good_s = 0.0
+    elif fallback and good_s >= config.recover_s:
+        fallback = False
+    if not fallback and bad_s == 0.0 and math.isfinite(mean_wind_m_s):
+        held = mean_wind_m_s
+    return GuardState(bad_s, good_s, held, faults, fallback), diverged
+
+
+def guarded_wind_step(
+    ekf: WindSpeedEKF,
+    state: WindEKFState,
+    measurement: WindEKFMeasurement,
+    dt_s: float,
+    config: GuardConfig,
+) -> tuple[WindEKFState, WindEstimate, bool]:
+    """:meth:`WindSpeedEKF.step` with the innovation gated: ``(state, estimate, bad)``.
+
+    The update is skipped when :math:`y^2 > k^2 s` (:math:`s = P_{\\omega\\omega} + r`; the
+    EKF's first valid sample is taken ungated); ``bad`` when it was, when the estimate
+    :math:`u_t + u_m` left ``[wind_min_m_s, wind_max_m_s]`` (it is then clamped to the
+    EKF's own range as :meth:`WindSpeedEKF.step` does) or when the state is not finite.
+    """
+    m = measurement
+    pitch, torque = float(m.blade_pitch_rad), float(m.generator_torque_nm)
+    x, p = _kernels.ekf_predict(*ekf._tables, state.x, state.p, pitch, torque, float(dt_s))
+    state = WindEKFState(x, p, state.innovation_rad_s, state.updates)
+    bad = False
+    z = float(m.rotor_speed_rad_s)
+    if m.valid and math.isfinite(z):
+        y = z - x[0]
+        if state.updates == 0 or y * y <= config.gate_sigma**2 * (p[0] + ekf._r):
+            state = ekf.update(state, z)
+        else:
+            bad = True
+    omega, u_t, u_m = state.x
+    v = u_t + u_m
+    c = ekf.config
+    if not config.wind_min_m_s <= v <= config.wind_max_m_s:
+        bad = True
+    if v < c.wind_min_m_s:
+        u_t = c.wind_min_m_s - u_m
+    elif v > c.wind_max_m_s:
+        u_t = c.wind_max_m_s - u_m
+    state = state._replace(x=(omega, u_t, u_m))
+    if not (all(math.isfinite(v) for v in state.x) and all(math.isfinite(v) for v in state.p)):
+        bad = True
+    return state, ekf.estimate(state, pitch), bad
 
 
 # ------------------------------------------------------------------------------ platform KF

@@ -36,7 +36,10 @@ integrators at the trimmed torque and pitch), so that a run started at that poin
 trimmed plant) meets a controller already in its steady state and nothing jumps at t = 0.
 The runner calls it, when present, instead of ``initial_state()`` for a trimmed run
 (:mod:`hil.inprocess.trim`); a core without it starts from ``initial_state()`` and its
-first measurement. A watchdog restart always uses ``initial_state()``.
+first measurement. A watchdog restart always uses ``initial_state()``. A core whose state
+is not a value (a DISCON library's static memory) may warm itself up in it on a model of
+the trimmed plant (:mod:`controller.rosco`): it is called once, before cycle 0, where the
+core is built (in process, or in the controller process of a bus run).
 
 This module imports no controller implementation; the cores import it, and
 :mod:`controller.registry` (the kind -> constructor table) imports the cores.

@@ -9,7 +9,15 @@ One cycle (period T, one validated :class:`bus_schemas.messages.SensorFrame`):
 
 1. rotor speed Ω = ω_g/N, measured pitch β and torque (held last command when invalid);
 2. wind EKF (:class:`controller.estimators.WindSpeedEKF`): mean-wind estimate v_m, the
-   scheduling variable (as the seed, sect. 2.10: "the slow varying mean wind speed");
+   scheduling variable (as the seed, sect. 2.10: "the slow varying mean wind speed"),
+   its update gated at 5 sigma and its estimate bounded to 1-37.5 m/s
+   (:func:`controller.estimators.guarded_wind_step`). The guard
+   (:func:`controller.estimators.guard_step`): a step with the EKF gated, clamped or not
+   finite, or with the KF of step 4 rejecting every valid channel, is bad; 5 s of bad
+   steps, or a non-finite KF, is an estimator fault (``estimator_faults`` + 1, once per
+   fallback): both observers restart (the EKF at the measured speed and the last good
+   mean wind, the KF at the operating point) and the fallback holds the last good mean
+   wind as the scheduling variable until 10 s pass without a bad step;
 3. wave frequency ω_w from the AR(2) RLS estimator on the wave-gauge channel
    (:class:`controller.forecast.WaveFrequencyEstimator`, seed sect. 2.11);
 4. platform and tower states (surge, heave, pitch, tower fore-aft and their rates) from the
@@ -61,6 +69,8 @@ from bus_schemas.messages import (
     SensorFrame,
 )
 from controller.estimators import (
+    GuardConfig,
+    GuardState,
     PlatformKF,
     PlatformKFConfig,
     PlatformKFState,
@@ -70,11 +80,13 @@ from controller.estimators import (
     WindSpeedEKF,
     cp_table_from_rosco_text,
     encoder_rotor_speed_std,
+    guard_step,
+    guarded_wind_step,
 )
 from controller.forecast import WaveFrequencyConfig, WaveFrequencyEstimator, WaveFrequencyState
 from controller.interface import REGIME_REGION_3, ActuatorLimits, ControlOutput
 from controller.lqri import design_search_path, period_tag, user_design_dir
-from controller.runtime import EkfSection, discretize
+from controller.runtime import UNMEASURED_SPEED_STD, EkfSection, discretize
 
 __all__ = [
     "LqrWaveController",
@@ -251,6 +263,7 @@ class LqrWaveState(msgspec.Struct, gc=False):
     last_z: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
     last_pitch_cmd_rad: float = 0.0
     speed_misses: int = 0
+    guard: GuardState = GuardState()
 
 
 class LqrWaveController:
@@ -286,6 +299,8 @@ class LqrWaveController:
                 rotor_speed_noise_std_rad_s=sigma,
             )
         )
+        #: The observers' guard (the baseline's figures: 5-sigma gate, 1-37.5 m/s, 5 s, 10 s).
+        self.guard_config = GuardConfig()
         self.design = load_lqr_wave_design(s.design, s.variant, control_period_s, design_dir)
         d = self.design
         ratio = s.wave_sample_period_s / control_period_s
@@ -390,6 +405,9 @@ class LqrWaveController:
             ekf_state = self.ekf.initial_state(
                 omega_meas if speed_ok else self.omega_rated, pitch, torque
             )
+            if not speed_ok:  # a guess, not a sample (AdvancedController._start)
+                p0 = (UNMEASURED_SPEED_STD * self.omega_rated) ** 2
+                ekf_state = ekf_state._replace(p=(p0, *ekf_state.p[1:]))
             u0 = float(ekf_state.x[2])
             i = min(range(len(self._grid)), key=lambda k: abs(self._grid[k] - u0))
             x = kf_state.x.copy()
@@ -400,11 +418,16 @@ class LqrWaveController:
                 x[2] = frame.platform_pitch_measured_rad - xo[2]
             kf_state = self.kfs[i].initial_state()._replace(x=x)
             beta_c = pitch
-        ekf_state, west = self.ekf.step(
-            ekf_state, WindEKFMeasurement(omega_meas, pitch, torque, speed_ok), dt_s
+        ekf_state, west, bad = guarded_wind_step(
+            self.ekf,
+            ekf_state,
+            WindEKFMeasurement(omega_meas, pitch, torque, speed_ok),
+            dt_s,
+            self.guard_config,
         )
         speed_misses = 0 if speed_ok else state.speed_misses + 1
         omega = omega_meas if speed_ok else west.rotor_speed_rad_s
+        guard = state.guard
         v = west.mean_wind_m_s
         # wave frequency (AR(2) on the gauge)
         wstate, w_wave = self.wave.step(
@@ -432,8 +455,27 @@ class LqrWaveController:
             bool(mask & VALID_NACELLE_ACC) and raw[3] != last[3],
         )
         kf = self.kfs[i]
+        accepted = sum(kf_state.accepted)
         kf_state = kf.predict(kf_state, u_kf, dt_s)
         kf_state = kf.update(kf_state, z, valid, u_kf)
+        # the guard (module docstring, step 2): the EKF gated, clamped or not finite, or the
+        # KF rejecting every valid channel or not finite, is a bad step
+        kf_finite = bool(np.isfinite(kf_state.x).all() and np.isfinite(kf_state.P).all())
+        kf_bad = any(valid) and sum(kf_state.accepted) == accepted
+        guard, diverged = guard_step(
+            guard, bad or kf_bad or not kf_finite, dt_s, self.guard_config, v
+        )
+        if diverged or not kf_finite:
+            # restart both observers at the measured speed and the last good mean wind
+            held = guard.held_wind_m_s if math.isfinite(guard.held_wind_m_s) else v
+            ekf_state = self.ekf.initial_state(
+                omega_meas if speed_ok else self.omega_rated, pitch, torque, held
+            )
+            kf_state = kf.initial_state()
+            if not kf_finite and not guard.fallback:
+                guard = guard._replace(faults=guard.faults + 1, fallback=True, good_s=0.0)
+        if guard.fallback and math.isfinite(guard.held_wind_m_s):
+            v = guard.held_wind_m_s  # the fallback: the last good estimate, held
         x_abs = kf_state.x + xo_i[:8]
         x_lqr = x_abs.copy()
         if s.platform_states == "measured":
@@ -457,7 +499,7 @@ class LqrWaveController:
         rate = -float(k @ zt)
         rate = min(max(rate, -self.rate_max), self.rate_max)
         beta_c = min(max(beta_c + rate * dt_s, self.pitch_min), self.pitch_max)
-        degraded = kf_state.degraded or speed_misses > self._k_miss
+        degraded = kf_state.degraded or speed_misses > self._k_miss or guard.fallback
         new = LqrWaveState(
             ekf=ekf_state,
             kf=kf_state,
@@ -468,6 +510,7 @@ class LqrWaveController:
             last_z=raw,
             last_pitch_cmd_rad=beta_c,
             speed_misses=speed_misses,
+            guard=guard,
         )
         out = ControlOutput(
             blade_pitch_commanded_rad=beta_c,
@@ -491,5 +534,6 @@ class LqrWaveController:
             tower_top_velocity_estimated_m_s=float(
                 sum(j * v for j, v in zip(self.hub_lever, x_abs[4:8], strict=True))
             ),
+            estimator_faults=guard.faults,
         )
         return new, out

@@ -214,7 +214,11 @@ def _rosco(o: ControllerOptions) -> Controller[Any]:
     from controller.rosco import make_rosco_controller  # noqa: PLC0415
 
     return make_rosco_controller(
-        o.preset, library=o.library, parameter_file=o.parameter_file, output_dir=o.output_dir
+        o.preset,
+        library=o.library,
+        parameter_file=o.parameter_file,
+        output_dir=o.output_dir,
+        control_period_s=o.control_period_s,
     )
 
 

@@ -25,6 +25,25 @@ One cycle, from one validated :class:`bus_schemas.messages.SensorFrame`:
    acceleration, gyro, attitude and GNSS surge minus their operating values. A channel whose
    bit is cleared, or whose value repeats the previous frame exactly (a sample-and-hold
    sensor slower than the control period), is not used this cycle.
+   **Estimator guard.** The EKF's update is skipped when the innovation
+   :math:`y = \\omega - \\hat\\omega^-` has :math:`y^2 > k^2 s` (:math:`s = P_{\\omega\\omega}
+   + r`; the first valid sample is taken ungated, and an EKF started without one has a
+   10 % rotor-speed standard deviation, :data:`UNMEASURED_SPEED_STD`), and the estimate
+   is bounded to the EKF's range; a step is *bad* when the update was gated, the estimate
+   left the physical range or the state is not finite. The figures are the below-rated
+   baseline preset's (``wind_estimator_gate_sigma`` k = 5, ``wind_estimate_min_m_s`` /
+   ``_max_m_s`` 1 and 37.5, ``wind_estimator_fault_s`` 5 s, ``wind_estimator_recover_s``
+   10 s). ``wind_estimator_fault_s`` of bad steps, or a non-finite EKF, is a divergence; so
+   is the platform KF (step 3) rejecting every valid channel at its gate for as long, or a
+   non-finite KF. A divergence counts one estimator fault (``estimator_faults``, once per
+   fallback; ``ControllerStatus`` v3, the run's outcome ``controller_fault``), restarts the
+   EKF at the measured rotor speed and the last good mean wind with its initial covariance
+   (a KF divergence restarts the KF at its design's operating point with its process
+   covariance) and starts the **fallback: the below-rated baseline's law** (step 5, the
+   measured generator speed only: its torque law and its pitch PI, which track the applied
+   commands, so the hand-over is bumpless) is the command, ``estimator_degraded`` is 1;
+   ``wind_estimator_recover_s`` without a bad step ends it, and the LQRI restarts
+   bumplessly from the applied command.
 4. **Wave forecast** (:func:`controller.forecast.make_forecaster`): called every
    :math:`T_f` = ``forecast.sample_period_s`` [s] with the gauge sample and its valid bit; the
    predictor's horizon is :math:`t_d + d_g` (the gauge's transport delay :math:`d_g` added) so
@@ -133,7 +152,7 @@ from controller.forecast import (
     ForecasterState,
     make_forecaster,
 )
-from controller.interface import ActuatorLimits, ControlOutput
+from controller.interface import ActuatorLimits, ControlOutput, OperatingPoint
 from controller.lqri import (
     DesignNotFoundError,
     LqriController,
@@ -156,6 +175,11 @@ __all__ = [
     "missing_designs",
     "required_designs",
 ]
+
+#: Relative standard deviation of the wind EKF's rotor speed when it starts without a valid
+#: speed sample (at the design's rated speed): the first sample then moves it to the measured
+#: speed instead of being gated as a 5-sigma outlier of an over-confident guess.
+UNMEASURED_SPEED_STD = 0.1
 
 FloatArray = npt.NDArray[np.float64]
 ForecasterName = Literal["dispersion", "ar", "esprit"]
@@ -861,15 +885,65 @@ class AdvancedController:
             x[1] = frame.platform_pitch_measured_rad - float(xo[1])
         return st._replace(x=x)
 
+    def trimmed_state(self, operating_point: OperatingPoint) -> AdvancedState:
+        """The state of steady operation at ``operating_point`` (a trimmed run's start).
+
+        The observers started as from a first frame at the operating point
+        (:meth:`_start`): the wind EKF at the trimmed rotor speed and the wind its model
+        balances against the operating point's generator torque (the plant's, from the
+        trim; the EKF converges there, not at the nominal mean wind, when the rotor sees
+        the wind tilted with the platform), at the mean wind when the operating point has
+        no torque (then the EKF model's aerodynamic torque over N stands for it); the
+        platform KF of the design nearest to that wind at the design's operating point; the
+        last commands the operating point's pitch and torque. The below-rated baseline and
+        the LQRI start from the first frame of the run, which a trimmed plant makes the
+        operating point: the
+        baseline's filter at the measured speed, its pitch integrator at the measured pitch,
+        the LQRI's integrator bumpless at the measured pitch (:mod:`controller.lqri`).
+        """
+        op = operating_point
+        n = self.settings.gearbox_ratio
+        torque = op.generator_torque_nm
+        if torque is None:
+            torque = self.ekf.aero_torque(op.rotor_speed_rad_s, op.wind_m_s, op.blade_pitch_rad)[0]
+            torque /= n
+        frame = SensorFrame(
+            seq=0,
+            sample_time_ns=0,
+            publish_time_ns=0,
+            valid_mask=VALID_GENERATOR_SPEED | VALID_PITCH | VALID_TORQUE,
+            generator_speed_measured_rad_s=op.rotor_speed_rad_s * n,
+            rotor_speed_measured_rad_s=op.rotor_speed_rad_s,
+            blade_pitch_measured_rad=op.blade_pitch_rad,
+            generator_torque_measured_nm=torque,
+            electrical_power_measured_w=0.0,
+            wind_speed_measured_m_s=op.wind_m_s,
+            nacelle_acc_fore_aft_measured_m_s2=0.0,
+            platform_pitch_measured_rad=0.0,
+            platform_pitch_rate_measured_rad_s=0.0,
+            platform_surge_measured_m=0.0,
+            wave_elevation_gauge_measured_m=0.0,
+        )
+        state = self.initial_state()
+        values, flags = self._start(state.values, state.flags, frame)
+        values[self._fi["last_pitch_cmd"]] = op.blade_pitch_rad
+        values[self._fi["last_torque_cmd"]] = torque
+        return state._replace(values=values, flags=flags)
+
     def _start(
-        self, values: FloatArray, flags: npt.NDArray[np.int64], frame: SensorFrame
+        self,
+        values: FloatArray,
+        flags: npt.NDArray[np.int64],
+        frame: SensorFrame,
+        wind_m_s: float | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
         """New state vectors with the EKF and KF started from the first frame.
 
-        The EKF from the measured rotor speed (the design's rated speed if invalid), pitch
-        and torque (the last commands if invalid) at the steady wind of the measurements
-        (:meth:`WindSpeedEKF.initial_state`); the KF of the design nearest to that wind,
-        surge and pitch from the frame (:meth:`_first_kf_state`).
+        The EKF from the measured rotor speed (the design's rated speed if invalid, with a
+        standard deviation of :data:`UNMEASURED_SPEED_STD` of it), pitch
+        and torque (the last commands if invalid) at ``wind_m_s`` (None: the steady wind of
+        the measurements, :meth:`WindSpeedEKF.initial_state`); the KF of the design nearest
+        to that wind, surge and pitch from the frame (:meth:`_first_kf_state`).
         """
         v, f = values.copy(), flags.copy()
         fi, ii, st = self._fi, self._ii, self._st
@@ -881,7 +955,9 @@ class AdvancedController:
         )
         speed_ok = bool(mask & VALID_GENERATOR_SPEED)
         w0 = omega_meas if speed_ok else self.lqri.design.rated_rotor_speed_rad_s
-        ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque))
+        ekf0 = self.ekf.initial_state(w0, float(pitch), float(torque), wind_m_s)
+        if not speed_ok:  # a guess, not a sample: its variance says so (the gate's scale)
+            ekf0 = ekf0._replace(p=((UNMEASURED_SPEED_STD * w0) ** 2, *ekf0.p[1:]))
         u0 = ekf0.x[2]
         i = min(range(len(self._wind_grid)), key=lambda k: abs(self._wind_grid[k] - u0))
         kf0 = self._first_kf_state(i, frame)
@@ -889,6 +965,8 @@ class AdvancedController:
         v[0:3] = ekf0.x
         v[3:9] = ekf0.p
         v[fi["ekf_innovation"]] = ekf0.innovation_rad_s
+        v[fi["guard_v_hold"]] = ekf0.x[2]
+        v[fi["guard_p22_0"]] = ekf0.p[5]
         v[st["st_kf_x"] : st["st_kf_x"] + n] = kf0.x
         v[st["st_kf_P"] : st["st_kf_P"] + n * n] = kf0.P.ravel()
         v[st["st_kf_nis"] : st["st_kf_nis"] + p] = kf0.nis
@@ -1147,4 +1225,5 @@ class AdvancedController:
             r[14],
             fstate.unstable_fits,
             fstate.guarded,
+            r[15],
         )

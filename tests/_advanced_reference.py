@@ -39,7 +39,7 @@ from bus_schemas.messages import (
 from controller.estimators import PlatformKFState, WindEKFMeasurement, WindEKFState
 from controller.interface import ControlOutput
 from controller.lqri import LqriMeasurement, LqriState
-from controller.runtime import AdvancedController
+from controller.runtime import UNMEASURED_SPEED_STD, AdvancedController
 
 
 class ComposedState(msgspec.Struct, gc=False):
@@ -104,6 +104,9 @@ class ComposedAdvanced:
         if ekf_state is None:
             w0 = omega_meas if speed_ok else c.lqri.design.rated_rotor_speed_rad_s
             ekf_state = c.ekf.initial_state(w0, pitch, torque)
+            if not speed_ok:  # the rated-speed guess's variance (AdvancedController._start)
+                p0 = (UNMEASURED_SPEED_STD * w0) ** 2
+                ekf_state = ekf_state._replace(p=(p0, *ekf_state.p[1:]))
             u0 = ekf_state.x[2]
             i = min(range(len(c._wind_grid)), key=lambda k: abs(c._wind_grid[k] - u0))
             kf_state = c._first_kf_state(i, frame)

@@ -25,9 +25,11 @@ import pytest
 from _baseline_oracle import ORACLE_INITIAL, oracle_step
 from _helpers import fowt, sensor_frame
 
+from bus_schemas.messages import VALID_GENERATOR_SPEED, VALID_PITCH, VALID_TORQUE
 from controller.baseline import BaselineController, load_baseline
 from controller.estimators import WindEKFMeasurement
 from controller.interface import OperatingPoint
+from controller.runtime import AdvancedController, load_advanced_settings
 from hil.review.outcome import ExitCode
 from hil.scenario.schema import parse_scenario
 
@@ -202,3 +204,162 @@ def test_a_biased_speed_sensor_is_an_estimator_fault_in_every_mode(
     assert code != ExitCode.OK
     assert summary["run"]["outcome"] != "ok"
     assert any("estimator" in r for r in summary["run"]["outcome_reasons"])
+
+
+# ------------------------------------------------------------- the advanced controllers
+#: The user's scenario with the advanced controller (LQRI with the wave feedforward).
+ADVANCED = USER.replace(
+    'kind = "baseline"\npreset = "iea15mw_baseline"',
+    'kind = "lqri_ff"\npreset = "iea15mw_advanced"',
+)
+
+
+#: The valid bits of the unit tests' frames: speed, pitch and torque (no platform channels).
+_TURBINE = VALID_GENERATOR_SPEED | VALID_PITCH | VALID_TORQUE
+
+
+def _advanced() -> AdvancedController:
+    return AdvancedController(
+        load_advanced_settings("iea15mw_advanced"), control_period_s=0.025, feedforward="off"
+    )
+
+
+def test_the_advanced_observers_fault_on_a_jump_and_fall_back_to_the_baseline_law() -> None:
+    """lqri: a generator-speed reading that jumps by 0.5 rad/s (60 % of rated) at 10 s is
+    gated from then on; 5 s later the guard counts one fault, flags the step degraded and
+    commands the below-rated baseline's law; the estimate stays in its physical range."""
+    ctrl = _advanced()
+    p = load_baseline("iea15mw_baseline")
+    state = ctrl.initial_state()
+    rated = p.region25_end_generator_speed_rad_s
+    dt = 0.025
+    faults, degraded, winds, fallback = [], [], [], []
+    for k in range(int(40.0 / dt)):
+        t = k * dt
+        speed = 0.95 * rated + (0.5 if t >= 10.0 else 0.0)
+        frame = msgspec.structs.replace(
+            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=10.0,
+        )
+        state, out = ctrl.step(state, frame, dt)
+        faults.append(out.estimator_faults)
+        degraded.append(out.estimator_degraded)
+        winds.append(out.wind_speed_estimated_m_s)
+        parts = ctrl.state_parts(state)
+        fallback.append(bool(parts["fallback"]))
+        assert math.isfinite(out.blade_pitch_commanded_rad)
+        assert math.isfinite(out.generator_torque_commanded_nm)
+    assert faults[int(9.9 / dt)] == 0  # healthy before the jump
+    first = faults.index(1) * dt
+    assert 14.9 <= first <= 15.1  # gated from the jump, the fault 5 s later
+    assert faults[-1] == 1  # counted once per fallback
+    k1 = faults.index(1)
+    assert degraded[k1] == 1 and fallback[k1]
+    assert all(1.0 - 1e-9 <= v <= 37.5 + 1e-9 for v in winds)
+
+
+def test_the_advanced_fallback_commands_the_baseline_law() -> None:
+    """In the fallback the command is the below-rated baseline's law (the kernel's own
+    baseline state, which tracks the applied commands): pitch and torque equal the
+    ``bl_pitch``/``bl_torque`` state parts the cycle stored."""
+    ctrl = _advanced()
+    state = ctrl.initial_state()
+    p = load_baseline("iea15mw_baseline")
+    rated = p.region25_end_generator_speed_rad_s
+    dt = 0.025
+    seen = 0
+    for k in range(int(25.0 / dt)):
+        speed = 0.95 * rated + (0.5 if k * dt >= 5.0 else 0.0)
+        frame = msgspec.structs.replace(
+            sensor_frame(speed, 0.02, 0.9 * p.rated_torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=10.0,
+        )
+        state, out = ctrl.step(state, frame, dt)
+        parts = ctrl.state_parts(state)
+        if parts["fallback"]:
+            seen += 1
+            assert out.blade_pitch_commanded_rad == parts["bl_pitch"]
+            assert out.generator_torque_commanded_nm == parts["bl_torque"]
+            assert out.estimator_degraded == 1
+    assert seen > 0
+
+
+def test_lqr_wave_observers_fault_on_a_jump_and_hold_the_last_good_wind() -> None:
+    """lqr_wave (OC3 Hywind): the same jump; one fault 5 s after it, the scheduling wind
+    (reported as ``gain_schedule_factor``) held at the last good estimate until the
+    restarted observers have been healthy for 10 s."""
+    from controller.lqr_wave import LqrWaveController, load_lqr_wave_preset
+
+    ctrl = LqrWaveController(load_lqr_wave_preset("nrel5mw_oc3_hywind_lqr2"), 0.025)
+    state = ctrl.initial_state()
+    rated = ctrl.omega_rated * ctrl.preset.gearbox_ratio
+    dt = 0.025
+    faults, sched = [], []
+    for k in range(int(30.0 / dt)):
+        t = k * dt
+        speed = rated + (0.6 * rated if t >= 10.0 else 0.0)
+        frame = msgspec.structs.replace(
+            sensor_frame(speed, 0.1, ctrl.torque_nm, valid_mask=_TURBINE),
+            wind_speed_measured_m_s=15.0,
+        )
+        state, out = ctrl.step(state, frame, dt)
+        faults.append(out.estimator_faults)
+        sched.append(out.gain_schedule_factor)
+        assert math.isfinite(out.blade_pitch_commanded_rad)
+        assert 1.0 - 1e-9 <= out.wind_speed_estimated_m_s <= 37.5 + 1e-9
+    assert faults[int(9.9 / dt)] == 0
+    k1 = faults.index(1)
+    assert 14.9 <= k1 * dt <= 15.1
+    assert faults[-1] == 1
+    # held for the recovery time (10 s without a bad step after the restart), then released
+    held = sched[k1]
+    assert all(v == held for v in sched[k1 : k1 + int(9.9 / dt)])
+    assert not state.guard.fallback
+
+
+@pytest.mark.parametrize("mode", ["inprocess", "lockstep"])
+def test_a_biased_speed_sensor_is_an_advanced_estimator_fault_in_every_mode(
+    tmp_path: Path, mode: str
+) -> None:
+    """lqri_ff on the IEA 15 MW with the +0.5 rad/s speed bias from 20 s: the advanced
+    controller's observers diverge, the run counts the fault and ends as the controller's
+    fault (exit 7), in process and in lock-step."""
+    code, summary = _run(tmp_path, ADVANCED.format(duration=40.0) + BIAS, mode)
+    assert summary["controller"]["estimator_faults"] >= 1
+    assert 24.9 <= summary["controller"]["estimator_faults_first_s"] <= 30.0
+    assert code == ExitCode.CONTROLLER_FAULT
+    assert summary["run"]["outcome"] == "controller_fault"
+    assert any("estimator" in r for r in summary["run"]["outcome_reasons"])
+
+
+def test_casanovas_observer_faults_on_a_jump_and_falls_back_to_the_region_2_law() -> None:
+    """lqr_steady (casanovas-2014, NREL 5 MW TLP): a surge reading that jumps by 30 m at
+    10 s is beyond the observer's innovation gate from then on; 5 s later one fault, the
+    observer restarted and the command the region-2 law K ω_g² at the design's pitch."""
+    from controller.casanovas import CasanovasController, load_casanovas_design
+
+    ctrl = CasanovasController(
+        "lqr_steady", load_casanovas_design("nrel5mw_tlp_casanovas_u8_hs6"), 0.1
+    )
+    state = ctrl.initial_state()
+    dt = 0.1
+    omega = ctrl.omega0
+    gear = 97.0
+    faults = []
+    for k in range(int(25.0 / dt)):
+        t = k * dt
+        frame = msgspec.structs.replace(
+            sensor_frame(omega * gear, 0.0, ctrl.t_bar, seq=k, valid_mask=_TURBINE),
+            rotor_speed_measured_rad_s=omega,
+            platform_surge_measured_m=ctrl.surge_bar + (30.0 if t >= 10.0 else 0.0),
+        )
+        state, out = ctrl.step(state, frame, dt)
+        faults.append(out.estimator_faults)
+        if out.estimator_faults:
+            assert out.estimator_degraded == 1
+            assert out.generator_torque_commanded_nm == pytest.approx(
+                min(ctrl.k_gen * (omega * gear) ** 2, 47402.91)
+            )
+    assert faults[int(9.9 / dt)] == 0
+    assert 14.9 <= faults.index(1) * dt <= 15.1
+    assert faults[-1] == 1

@@ -39,10 +39,12 @@ def _encoded(scenario: Scenario) -> bytes:
 class _Compute:
     """A settling run's stand-in that counts its calls (the store's logic, not the physics)."""
 
-    def __init__(self, values: tuple[float, float] = (0.5629347521144487, 0.0123)) -> None:
+    def __init__(
+        self, values: tuple[float, float, float] = (0.5629347521144487, 0.0123, 1.25e7)
+    ) -> None:
         self.values, self.calls = values, 0
 
-    def __call__(self, _encoded: bytes) -> tuple[float, float]:
+    def __call__(self, _encoded: bytes) -> tuple[float, float, float]:
         self.calls += 1
         return self.values
 
@@ -141,11 +143,15 @@ def test_stored_then_read_without_computing(store: Path) -> None:
     [
         "{not json",
         "",
-        '{"format": 1, "key": "another", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
-        '{"format": 1, "key": "KEY", "rotor_speed_rad_s": NaN, "blade_pitch_rad": 0.0}',
-        '{"format": 1, "key": "KEY", "rotor_speed_rad_s": "0.5", "blade_pitch_rad": 0.0}',
-        '{"format": 0, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
-        '{"format": 1, "key": "KEY"}',
+        '{"format": 2, "key": "another", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0}',
+        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": NaN, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0}',
+        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": "0.5", "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0}',
+        '{"format": 1, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
+        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
+        '{"format": 2, "key": "KEY"}',
         "[1, 2]",
     ],
 )
@@ -159,7 +165,11 @@ def test_a_bad_entry_is_recomputed_and_replaced(store: Path, content: str) -> No
     assert trim_store.settled_cached(encoded, "lc2", compute) == compute.values
     assert compute.calls == 1
     entry = json.loads((store / f"{key}.json").read_text())
-    assert (entry["rotor_speed_rad_s"], entry["blade_pitch_rad"]) == compute.values
+    assert (
+        entry["rotor_speed_rad_s"],
+        entry["blade_pitch_rad"],
+        entry["generator_torque_nm"],
+    ) == compute.values
 
 
 def test_a_preset_given_by_path_is_not_stored(store: Path, tmp_path: Path) -> None:

@@ -580,7 +580,7 @@ def run_cycles(
             r_sta[js, 21] = r[14]
             r_sta_i[js, 22] = fi[FI_UNSTABLE]
             r_sta_i[js, 23] = fi[FI_GUARDED]
-            r_sta_i[js, 24] = 0
+            r_sta_i[js, 24] = r[15]  # estimator faults (the observers' guard)
         else:
             # the TSR-tracking law's wind EKF tables travel in cc (layout in lay:
             # controller._kernels.CoreBundle), empty for the K omega^2 law

@@ -13,7 +13,8 @@ plant and the real controller core in process:
    2π/(4096 h) = 0.061 rad/s at h = 0.025 s is 12 % of the IEA 15 MW's 5 rpm), the plant
    starting at its own operating point (``[initial] trim = false``), :data:`SETTLE_S`
    simulated seconds;
-2. the rotor speed ω and blade pitch θ averaged over the last :data:`AVERAGE_S` (one surge
+2. the rotor speed ω, blade pitch θ (and generator torque, for the controller's side)
+   averaged over the last :data:`AVERAGE_S` (one surge
    period of the IEA 15 MW on VolturnUS-S, so what is left of the platform's slow
    oscillation averages out);
 3. the plant is handed that rotor point (:class:`plant.initial.InitialCondition`); it
@@ -24,15 +25,18 @@ plant and the real controller core in process:
 
 The plant never imports the controller nor the controller the plant: the settling run goes
 through the same in-process loop as a run (:func:`hil.inprocess.run.run_inprocess`). The
-controller's side of the trim is :func:`operating_point` (mean wind, rotor speed, pitch):
-the runner hands it to a core's optional ``trimmed_state(operating_point)``
-(:mod:`controller.interface`), which returns the state the core holds in steady operation
-there (the baseline: its wind EKF converged at the mean wind instead of started from the
-nacelle anemometer). A core without it initialises its filters, integrators and observers
-from its first measurement (the baseline's filter at the measured speed and its pitch
-integrator at the measured pitch; the LQRI's observers at the measured operating point;
-ROSCO's DISCON on its first call), which a trimmed plant makes consistent with it
-(``bench/trimmed_start.py`` measures the first seconds; ``tests/test_trim.py`` bounds them).
+controller's side of the trim is :func:`operating_point` (mean wind, rotor speed, pitch,
+and the settling run's mean generator torque): the runner hands it to a core's optional
+``trimmed_state(operating_point)`` (:mod:`controller.interface`), which returns the state
+the core holds in steady operation there (the baseline: its wind EKF converged on the
+point instead of started from the nacelle anemometer; the advanced controller: its
+observers started at the point; ROSCO: its DISCON library warmed up on the trimmed plant
+before cycle 0, :mod:`controller.rosco`). A core without it initialises its filters,
+integrators and observers from its first measurement (the baseline's filter at the
+measured speed and its pitch integrator at the measured pitch; ``lqr_wave``'s observers at
+the measured operating point), which a trimmed plant makes consistent with it
+(``bench/trimmed_start.py --table`` measures the first 60 s of every kind;
+``tests/test_trim.py`` bounds them).
 
 It runs where the plant is built, before the first cycle (:class:`hil.nodes.plant_node.PlantLoop`:
 the plant process of a bus run, the launcher's process of an in-process run): 2.1 s of wall
@@ -84,6 +88,7 @@ __all__ = [
     "initial_condition",
     "mean_wind_m_s",
     "operating_point",
+    "settle_point",
     "settle_rotor",
 ]
 
@@ -147,15 +152,15 @@ def settling_scenario(scenario: Scenario, duration_s: float = SETTLE_S) -> Scena
 
 
 @functools.lru_cache(maxsize=64)
-def _settled(encoded: bytes) -> tuple[float, float]:
-    """(ω rad/s, θ rad) averaged over the settling run's last :data:`AVERAGE_S`."""
+def _settled(encoded: bytes) -> tuple[float, float, float]:
+    """(ω rad/s, θ rad, T_g N m) averaged over the settling run's last :data:`AVERAGE_S`."""
     from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT  # noqa: PLC0415
     from hil.inprocess.run import run_inprocess  # noqa: PLC0415
     from hil.nodes.controller_node import ControllerRuntime, publishing_step  # noqa: PLC0415
 
     scenario = msgspec.json.decode(encoded, type=Scenario)
     start_ns = round((scenario.duration_s - AVERAGE_S) * 1e9)
-    sums = [0.0, 0.0, 0]
+    sums = [0.0, 0.0, 0.0, 0]  # ω, θ, T_g and the count
 
     with tempfile.TemporaryDirectory(prefix="fowt-trim-") as run_dir:
         runtime = ControllerRuntime(scenario, run_dir=run_dir, paced=False, phase="trim")
@@ -165,7 +170,8 @@ def _settled(encoded: bytes) -> tuple[float, float]:
                 if msg.sample_time_ns >= start_ns:  # type: ignore[attr-defined]
                     sums[0] += msg.rotor_speed_rad_s  # type: ignore[attr-defined]
                     sums[1] += msg.blade_pitch_rad  # type: ignore[attr-defined]
-                    sums[2] += 1
+                    sums[2] += msg.generator_torque_nm  # type: ignore[attr-defined]
+                    sums[3] += 1
             elif mt is WAVE_PREVIEW_PERFECT:
                 runtime.handle_preview(msg)
 
@@ -177,14 +183,16 @@ def _settled(encoded: bytes) -> tuple[float, float]:
             late = truth[truth["sample_time_ns"] >= start_ns]
             if late.size:
                 # sums in publish order, as the Structs' path adds them (same bits)
-                omegas, thetas = (
+                omegas, thetas, torques = (
                     late["rotor_speed_rad_s"].tolist(),
                     late["blade_pitch_rad"].tolist(),
+                    late["generator_torque_nm"].tolist(),
                 )
-                for omega, theta in zip(omegas, thetas, strict=True):
+                for omega, theta, torque in zip(omegas, thetas, torques, strict=True):
                     sums[0] += omega
                     sums[1] += theta
-                sums[2] += int(late.size)
+                    sums[2] += torque
+                sums[3] += int(late.size)
 
         result = run_inprocess(
             scenario,
@@ -199,14 +207,14 @@ def _settled(encoded: bytes) -> tuple[float, float]:
             close()
     if runtime.fault is not None:  # the controller's fault, not the plant's: said so
         raise ControllerFaultError(runtime.fault)
-    n = int(sums[2])
+    n = int(sums[3])
     if n == 0 or result.aborted:
         raise RuntimeError(f"trim of {scenario.name!r}: the settling run did not complete")
-    return sums[0] / n, sums[1] / n
+    return sums[0] / n, sums[1] / n, sums[2] / n
 
 
 @functools.lru_cache(maxsize=64)
-def _settled_stored(encoded: bytes, name: str) -> tuple[float, float]:
+def _settled_stored(encoded: bytes, name: str) -> tuple[float, float, float]:
     """:func:`_settled` through the on-disk store (:mod:`hil.inprocess.trim_store`)."""
     from hil.inprocess.trim_store import settled_cached  # noqa: PLC0415
 
@@ -219,6 +227,12 @@ def settle_rotor(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[floa
     Read from the on-disk store when an earlier process settled the same scenario with the
     same code (:mod:`hil.inprocess.trim_store`), else settled here and stored.
     """
+    omega, theta, _torque = settle_point(scenario, duration_s)
+    return omega, theta
+
+
+def settle_point(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[float, float, float]:
+    """:func:`settle_rotor` and the settled generator torque [N m, HSS]: (ω, θ, T_g)."""
     sc = settling_scenario(scenario, duration_s)
     return _settled_stored(msgspec.json.encode(sc), scenario.name)
 
@@ -228,8 +242,11 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
 
     None for an untrimmed run (``[initial] trim = false``). Else the mean wind and the rotor
     speed and blade pitch of :func:`initial_condition` (the settled point, or the
-    ``[initial]`` keys where set; the generator torque when ``generator_torque_nm`` is set,
-    else None: the core derives it). The runner hands it to a core's optional
+    ``[initial]`` keys where set) and the generator torque: ``generator_torque_nm`` when
+    set, else the settled point's mean generator torque when neither the rotor speed nor
+    the pitch was overridden (the torque the plant balances there, so that a core's
+    estimator starts at the wind the plant's rotor sees, not at the wind its own model
+    would balance), else None (the core derives it). The runner hands it to a core's optional
     ``trimmed_state`` (:class:`hil.nodes.controller_node.ControllerRuntime`,
     :mod:`controller.interface`): the controller then starts in its own steady state there
     instead of initialising from its first measurement. Computed after the plant's
@@ -241,11 +258,17 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
         return None
     ic = initial_condition(scenario)
     assert ic.rotor_speed_rad_s is not None and ic.blade_pitch_rad is not None
+    torque = ic.generator_torque_nm
+    if torque is None and (
+        initial_overrides(scenario.initial).rotor_speed_rad_s is None
+        and initial_overrides(scenario.initial).blade_pitch_rad is None
+    ):  # the settled point itself: its torque too
+        torque = settle_point(scenario)[2]
     return OperatingPoint(
         wind_m_s=mean_wind_m_s(scenario.wind),
         rotor_speed_rad_s=ic.rotor_speed_rad_s,
         blade_pitch_rad=ic.blade_pitch_rad,
-        generator_torque_nm=ic.generator_torque_nm,
+        generator_torque_nm=torque,
     )
 
 

@@ -72,7 +72,7 @@ __all__ = [
 ]
 
 #: Version of the entries' layout and of what the key covers; a change is a new key.
-FORMAT = 1
+FORMAT = 2
 #: The packages whose files (code and data) compute a trim.
 PACKAGES = ("plant", "controller", "sensors", "bus_schemas", "hil")
 
@@ -196,26 +196,30 @@ def store_key(encoded: bytes) -> str | None:
     return h.hexdigest()
 
 
-def _read(path: Path, key: str) -> tuple[float, float] | None:
+def _read(path: Path, key: str) -> tuple[float, float, float] | None:
     try:
         entry = json.loads(path.read_text())
-        omega, theta = entry["rotor_speed_rad_s"], entry["blade_pitch_rad"]
+        values = (
+            entry["rotor_speed_rad_s"],
+            entry["blade_pitch_rad"],
+            entry["generator_torque_nm"],
+        )
         ok = entry["format"] == FORMAT and entry["key"] == key
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    values = (omega, theta)
     if not ok or not all(isinstance(v, float) and math.isfinite(v) for v in values):
         return None
     return values
 
 
-def _write(path: Path, key: str, name: str, values: tuple[float, float]) -> None:
+def _write(path: Path, key: str, name: str, values: tuple[float, float, float]) -> None:
     entry = {
         "format": FORMAT,
         "key": key,
         "scenario": name,
         "rotor_speed_rad_s": values[0],
         "blade_pitch_rad": values[1],
+        "generator_torque_nm": values[2],
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
@@ -231,9 +235,9 @@ def _write(path: Path, key: str, name: str, values: tuple[float, float]) -> None
 def settled_cached(
     encoded: bytes,
     name: str,
-    compute: Callable[[bytes], tuple[float, float]],
+    compute: Callable[[bytes], tuple[float, float, float]],
     log: Callable[[str], None] | None = None,
-) -> tuple[float, float]:
+) -> tuple[float, float, float]:
     """``compute(encoded)``, read from the store when it holds the key, else stored.
 
     ``name`` (the scenario's) goes into the entry for a reader of the directory; ``log``

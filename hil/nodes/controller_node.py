@@ -315,12 +315,15 @@ class ControllerRuntime:
             settings=c.settings,
             base_dir=c.base_dir,
         )
-        self.state: Any = self.controller.initial_state()
         trimmed_state = getattr(self.controller, "trimmed_state", None)
+        op: OperatingPoint | None = None
         if operating_point is not None and callable(trimmed_state):
             op = operating_point() if callable(operating_point) else operating_point
-            if op is not None:  # a trimmed run: the core starts in its steady state there
-                self.state = trimmed_state(op)
+        # a trimmed run: the core starts in its steady state there (a DISCON core warmed up
+        # on the trimmed plant), built once: a core's instance may hold a loaded library
+        self.state: Any = (
+            self.controller.initial_state() if op is None else trimmed_state(op)  # type: ignore[misc]
+        )
         # casanovas-2014 cores take the plant's perfect wave preview (bench oracle) this way.
         self._accept_preview = getattr(self.controller, "accept_preview", None)
         self.preview_seq = -1  # seq of the newest preview handed to the core
