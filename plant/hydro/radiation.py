@@ -1205,6 +1205,19 @@ def fit_reduced_radiation(
     ``check_all_diagonal``, the default: every DOF) stay within
     ``max(tol, error of the unreduced stack)`` over the band, then scaled back.
 
+    The result is stable by construction. Balanced truncation of a stable system is stable in
+    exact arithmetic, but the stacks of many fits whose Hankel singular values span many
+    decades can come out of it with poles in the right half plane at every order. When no
+    truncation is both stable and within the errors, a second pass stabilises each order in
+    turn: the truncation's poles are put in real modal form with every unstable pole
+    reflected (``σ ± jω`` → ``−max(σ, 10⁻³ |λ|) ± jω``) and its residues ``C`` refitted by
+    weighted linear least squares to the kernels, constrained to ``K̂(0) = 0``; the smallest
+    order within the errors is kept (the ``source`` says "fit: the order-r truncation
+    stabilised (n unstable poles reflected, residues refitted)"). Failing that, the unreduced
+    stack is shipped (its poles are the kernel fits' own, reflected when fitted; "fit:
+    unreduced"). What the fit chose is reported per DOF and per DOF pair
+    (:meth:`RadiationModel.describe`, :meth:`RadiationModel.describe_pairs`).
+
     A diagonal kernel that misses ``tol`` at ``max_order`` is fitted with orders up to
     ``diagonal_max_order`` (:func:`fit_radiation`). That is what the surge kernel of the
     VolturnUS-S semi-submersible needs: its A(ω) and B(ω) ripple every ~0.1 rad/s (waves
@@ -1325,7 +1338,17 @@ def fit_reduced_radiation(
             )
             break
     if chosen is None:
+        # The modal form when it is numerically the same system (stable, same errors); the
+        # stacked canonical forms otherwise (their poles are the fits' own, placed at
+        # Re λ <= -10⁻³ |λ|, so rounding cannot move them across the axis).
         a_f, b_f, c_f = _real_modal_form(ss.A, b_s, c_s)
+        ea, eb = errors(a_f, b_f, c_f)
+        ea_c, eb_c = errors(ss.A, b_s, c_s)
+        same = np.allclose(ea, ea_c, rtol=1e-6, atol=1e-9) and np.allclose(
+            eb, eb_c, rtol=1e-6, atol=1e-9
+        )
+        if not (same and np.max(np.linalg.eigvals(a_f).real) < 0.0):
+            a_f, b_f, c_f = ss.A, b_s, c_s
         c_f = passive(a_f, b_f, c_f)
         ea, eb = errors(a_f, b_f, c_f)
         chosen = (a_f, b_f, c_f, ea, eb)
