@@ -119,10 +119,10 @@ from plant.platform import (
 )
 
 __all__ = [
+    "NO_RESTORING_PERIOD_S",
     "OPEN_LOOP_CASE",
     "PITCH_LENGTH_M",
     "Mode",
-    "NO_RESTORING_PERIOD_S",
     "OperatingPoint",
     "dofs_without_restoring",
     "identify_modes",

@@ -1258,9 +1258,7 @@ def import_openfast(
 
     duplicates = duplicate_add_stiffness(add_c, ballast, members, g)
     warnings = [d.warning() for d in duplicates]
-    stiffness_notes = [
-        _stiffness_budget(i, hydro, members, ballast, add_c, g) for i in (2, 3, 4)
-    ]
+    stiffness_notes = [_stiffness_budget(i, hydro, members, ballast, add_c, g) for i in (2, 3, 4)]
     if drop_duplicate_addclin and duplicates:
         add_c = [list(row) for row in add_c]
         for d in duplicates:
@@ -1479,8 +1477,10 @@ def duplicate_add_stiffness(
                 terms[i].append(("the strip-theory members' hydrostatic restoring", k))
                 if i in (3, 4) and ballast_k > 0.0:
                     terms[i].append(
-                        ("the fill groups' gravity and the members' hydrostatic restoring",
-                         ballast_k + k)
+                        (
+                            "the fill groups' gravity and the members' hydrostatic restoring",
+                            ballast_k + k,
+                        )
                     )
     found: dict[tuple[str, float], DuplicateStiffness] = {}
     for i, candidates in terms.items():

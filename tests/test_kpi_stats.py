@@ -315,4 +315,6 @@ def test_normalised_of_a_baseline_within_noise_is_not_a_number() -> None:
         if row["waves"] == "waves":
             row[k] = float(row[k]) + 0.2  # type: ignore[arg-type]
     pn = aggregate(rows, c)["normalised"]["ff"][k]["stats"]["weibull"]
-    assert pn["status"] in ("ok", "noise") and pn["value"] == pytest.approx(1 - 0.42 / 0.212, rel=0.05)
+    assert pn["status"] in ("ok", "noise") and pn["value"] == pytest.approx(
+        1 - 0.42 / 0.212, rel=0.05
+    )

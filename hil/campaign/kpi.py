@@ -49,10 +49,11 @@ D = X_base − X_still must exceed k SE(D) (k = 2, paired seeds) and
 :data:`BASELINE_NOISE` ("n/a: baseline within noise") and no number is shown. The general n/m
 floor of :mod:`hil.review.kpi_stats` (1 % of S) let D = 1.2 % of S through: a controller that
 changes the KPI by 40 % of its scale then reads P_n = −3500 %, a number that says nothing.
-At D = 5 % S, a change of 5 % of the scale moves P_n by 100 %. The Weibull-weighted relative and normalised figures
-are taken on the Weibull-weighted KPIs (X_W per configuration, then the ratio: the way
-al-2019 table 5-2 relates to its quoted -11 % and +0.10 %); :func:`weibull_mean` of the
-per-case ratios is given beside them.
+At D = 5 % S, a change of 5 % of the scale moves P_n by 100 %.
+
+The Weibull-weighted relative and normalised figures are taken on the Weibull-weighted KPIs
+(X_W per configuration, then the ratio: the way al-2019 table 5-2 relates to its quoted -11 %
+and +0.10 %); :func:`weibull_mean` of the per-case ratios is given beside them.
 """
 
 from __future__ import annotations

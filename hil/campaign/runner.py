@@ -1065,7 +1065,7 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
             offset,
         )
         of_cases = kst.weighted_mean_of([per[c] for c in cases], p, offset)
-        out = {
+        out: dict[str, Any] = {
             "per_case": {c: r.as_dict() for c, r in per.items()},
             "weibull": weib.as_dict(),
             "weibull_of_cases": of_cases.as_dict(),

@@ -1284,6 +1284,7 @@ def fit_reduced_radiation(
 
     ea_full, eb_full = errors(*_real_modal_form(ss.A, b_s, c_s))
     limit = {i: max(tol, ea_full[i, i], eb_full[i, i]) for i in idx}
+
     def within(ea: FloatArray, eb: FloatArray) -> bool:
         return all(
             ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
@@ -1418,7 +1419,7 @@ def _reflected_modal_form(a: FloatArray, b: FloatArray) -> tuple[FloatArray, Flo
             flipped += 1 if pole.real >= 0.0 else 0
             cols.append(v.real)
             blocks.append(np.array([[sigma]]))
-    b_m = np.linalg.solve(np.column_stack(cols), b)
+    b_m = np.asarray(np.linalg.solve(np.column_stack(cols), b), dtype=np.float64)
     pos = 0
     for blk in blocks:
         m = blk.shape[0]
