@@ -1,7 +1,7 @@
 """The review counts the samples in which the rotor ran outside its Cp/Ct table.
 
 The IEA 15 MW table ends at tip-speed ratio 14.5; at 4 m/s below rated the rotor turns at
-its minimum speed of 5 rpm (VS_MinOMSpd), λ = 0.5236 · 120 / 4 ≈ 15.7 > 14.5, so every sample
+its minimum speed of 5 rpm (VS_MinOMSpd), λ = 0.5236 · 120.97 / 4 = 15.83 > 14.5, so every sample
 is clamped to the table's edge; at 8 m/s it runs near λ* ≈ 9, inside. In-process runs of the
 bottom-fixed plant with steady wind, 30 s: the summary (``summary.json``) carries the count,
 the largest λ reached and the table's range, and the console says so in a note.

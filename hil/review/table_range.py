@@ -119,7 +119,7 @@ class RotorTableRange:
             "tsr_max": self.tsr_max if self.samples else None,
             "tsr_min": self.tsr_min if self.samples else None,
             "table_tsr": [lo, hi],
-            "table_pitch_deg": [math.degrees(p_lo), math.degrees(p_hi)],
+            "table_pitch_deg": [round(math.degrees(p_lo), 9), round(math.degrees(p_hi), 9)],
         }
 
 
