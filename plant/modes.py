@@ -119,12 +119,15 @@ from plant.platform import (
 )
 
 __all__ = [
+    "NO_RESTORING_PERIOD_S",
     "OPEN_LOOP_CASE",
     "PITCH_LENGTH_M",
     "Mode",
     "OperatingPoint",
+    "dofs_without_restoring",
     "identify_modes",
     "linearize",
+    "modal_analysis",
     "natural_modes",
     "operating_point",
 ]
@@ -133,6 +136,11 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Length (m) by which pitch (rad) is scaled to compare with translations in mode shapes.
 PITCH_LENGTH_M = 100.0
+
+#: A DOF whose stiffness column ∂q̈/∂q_k (all DOFs' accelerations, in metres) would give a
+#: period beyond this (s) has no restoring (e.g. surge imported without mooring): it has no
+#: natural mode, and its slowest eigenvalues are drift, not an oscillation.
+NO_RESTORING_PERIOD_S = 1.0e4
 
 #: The case :func:`natural_modes` analyses (no controller in the loop).
 OPEN_LOOP_CASE = (
@@ -390,6 +398,53 @@ def identify_modes(
     return modes
 
 
+def dofs_without_restoring(
+    a_matrix: FloatArray,
+    position_index: Sequence[int],
+    velocity_index: Sequence[int],
+    names: Sequence[str],
+    length_scale: Sequence[float],
+) -> list[str]:
+    """Names of the DOFs that no force pulls back: ``‖∂q̈/∂q_k‖ < (2π/T₀)²``.
+
+    ``T₀`` is :data:`NO_RESTORING_PERIOD_S`; the column holds every DOF's acceleration per unit
+    displacement of DOF k (rotations in metres by ``length_scale``), so a DOF restored only
+    through a coupling still counts as restored. Arguments as in :func:`identify_modes`.
+    """
+    scale = np.asarray(length_scale, dtype=np.float64)
+    vel = list(velocity_index)
+    limit = (2.0 * math.pi / NO_RESTORING_PERIOD_S) ** 2
+    free = []
+    for k, name in enumerate(names):
+        column = a_matrix[vel, position_index[k]] * scale / scale[k]
+        if float(np.max(np.abs(column))) < limit:
+            free.append(name)
+    return free
+
+
+def modal_analysis(
+    preset: str | Path | FloatingParams, wind_m_s: float = 5.0, torque_slope_nm_s_rad: float = 0.0
+) -> tuple[list[Mode], list[str]]:
+    """:func:`natural_modes` and the DOFs without restoring (:func:`dofs_without_restoring`).
+
+    A DOF without restoring (surge of a platform imported without mooring) has no natural
+    mode: none is reported for it, and its name is in the second list.
+    """
+    params = preset if isinstance(preset, FloatingParams) else load_floating(preset)
+    if not math.isfinite(torque_slope_nm_s_rad):
+        raise ValueError(
+            "torque_slope_nm_s_rad: expected a finite slope in N m s/rad, "
+            f"got {torque_slope_nm_s_rad}"
+        )
+    op = operating_point(params, wind_m_s)
+    a = linearize(params, op)
+    a[10, 8] += torque_slope_nm_s_rad * params.turbine.inv_torque_tau
+    args = (range(4), range(4, 8), DOF_NAMES, (1.0, 1.0, PITCH_LENGTH_M, 1.0))
+    free = dofs_without_restoring(a, *args)
+    modes = [m for m in identify_modes(a, *args) if m.name not in free]
+    return modes, free
+
+
 def natural_modes(
     preset: str | Path | FloatingParams, wind_m_s: float = 5.0, torque_slope_nm_s_rad: float = 0.0
 ) -> list[Mode]:
@@ -410,15 +465,7 @@ def natural_modes(
     Returns
     -------
     list of Mode
-        ``[surge, heave, pitch, tower_fore_aft]`` (those found), JSON-ready via ``as_dict``.
+        ``[surge, heave, pitch, tower_fore_aft]`` (those found), JSON-ready via ``as_dict``;
+        none for a DOF without restoring (:func:`modal_analysis` names those).
     """
-    params = preset if isinstance(preset, FloatingParams) else load_floating(preset)
-    if not math.isfinite(torque_slope_nm_s_rad):
-        raise ValueError(
-            "torque_slope_nm_s_rad: expected a finite slope in N m s/rad, "
-            f"got {torque_slope_nm_s_rad}"
-        )
-    op = operating_point(params, wind_m_s)
-    a = linearize(params, op)
-    a[10, 8] += torque_slope_nm_s_rad * params.turbine.inv_torque_tau
-    return identify_modes(a, range(4), range(4, 8), DOF_NAMES, (1.0, 1.0, PITCH_LENGTH_M, 1.0))
+    return modal_analysis(preset, wind_m_s, torque_slope_nm_s_rad)[0]

@@ -58,16 +58,20 @@ from plant.platform import FloatingPreset, MooringFile, RadiationFitOptions, tow
 
 __all__ = [
     "DEFAULT_RADIATION_OMEGA_MAX_RAD_S",
+    "DUPLICATE_STIFFNESS_REL_TOL",
     "Ballast",
+    "DuplicateStiffness",
     "ImportedDeck",
     "KeyedValues",
     "MooringLine",
     "MorisonMembers",
     "blade_properties",
     "compute_mooring",
+    "duplicate_add_stiffness",
     "flooded_member",
     "import_openfast",
     "morison_member",
+    "radiation_report",
     "read_fill_groups",
     "read_keyed_file",
     "read_moordyn",
@@ -996,6 +1000,9 @@ class ImportedDeck:
     ballast: Ballast | None = None
     #: The strip-theory members' buoyancy, restoring and added mass (None: the deck has none).
     members: MorisonMembers | None = None
+    #: Warnings the user must read, e.g. ``AddCLin`` entries that repeat a restoring the
+    #: importer already models (:func:`duplicate_add_stiffness`).
+    warnings: tuple[str, ...] = ()
 
 
 def _distributed_table(
@@ -1096,6 +1103,7 @@ def import_openfast(
     name: str | None = None,
     mooring: bool = True,
     radiation_omega_max_rad_s: float = DEFAULT_RADIATION_OMEGA_MAX_RAD_S,
+    drop_duplicate_addclin: bool = False,
 ) -> ImportedDeck:
     """Read a floating OpenFAST deck into preset figures (see the module docstring).
 
@@ -1115,6 +1123,10 @@ def import_openfast(
     radiation_omega_max_rad_s : float, optional
         Upper end of the radiation fit band ω_max (rad/s), default
         :data:`DEFAULT_RADIATION_OMEGA_MAX_RAD_S`; 0: the whole band of the WAMIT data.
+    drop_duplicate_addclin : bool, optional
+        Set to zero the diagonal ``AddCLin`` entries that repeat a restoring the import models
+        (:func:`duplicate_add_stiffness`); default False: keep them, with a warning in
+        :attr:`ImportedDeck.warnings` and the notes.
 
     Returns
     -------
@@ -1244,6 +1256,20 @@ def import_openfast(
             + m_b * ((ballast.cm_x_m - x_p) ** 2 + (ballast.cm_z_m - z_p) ** 2)
         )
 
+    duplicates = duplicate_add_stiffness(add_c, ballast, members, g)
+    warnings = [d.warning() for d in duplicates]
+    stiffness_notes = [_stiffness_budget(i, hydro, members, ballast, add_c, g) for i in (2, 3, 4)]
+    if drop_duplicate_addclin and duplicates:
+        add_c = [list(row) for row in add_c]
+        for d in duplicates:
+            for i in d.index:
+                add_c[i][i] = 0.0
+        warnings = [
+            f"dropped {' and '.join(d.entries)} = {d.add_value:.5g} (repeats {d.what} "
+            f"{d.modelled_value:.5g}, ratio {d.ratio:.4f}; --drop-duplicate-addclin)"
+            for d in duplicates
+        ]
+
     preset = FloatingPreset(
         name=name or (fst_lines[1].strip() if len(fst_lines) > 1 else fst_path.stem),
         turbine=turbine,
@@ -1320,6 +1346,8 @@ def import_openfast(
         f"{rho * v_members:.6g} kg, so the mooring and AddF0 must pull down "
         f"{(buoyancy - total) * g:.6g} N at rest"
     )
+    notes += stiffness_notes
+    notes += [f"warning: {w}" for w in warnings]
     if members is not None:
         a = np.array(members.added_mass)
         notes.append(
@@ -1365,6 +1393,131 @@ def import_openfast(
         mass_budget=tuple(budget),
         ballast=ballast,
         members=members,
+        warnings=tuple(warnings),
+    )
+
+
+#: Relative difference under which an ``AddCLin`` diagonal entry is taken for a repeat of a
+#: restoring the importer models (hand-entered decks carry 4-5 significant digits).
+DUPLICATE_STIFFNESS_REL_TOL = 0.02
+
+
+@dataclass(frozen=True)
+class DuplicateStiffness:
+    """``AddCLin`` diagonal entries that equal a restoring the importer already models.
+
+    ``entries``: OpenFAST's 1-based names (e.g. ``("AddCLin(4,4)", "AddCLin(5,5)")``);
+    ``index``: their 0-based DOFs; ``add_value`` and ``modelled_value`` in N/m or N m/rad
+    (the first entry's); ``what``: the modelled term.
+    """
+
+    entries: tuple[str, ...]
+    index: tuple[int, ...]
+    add_value: float
+    modelled_value: float
+    what: str
+
+    @property
+    def ratio(self) -> float:
+        """``add_value / modelled_value``."""
+        return self.add_value / self.modelled_value
+
+    def warning(self) -> str:
+        """One line: the entries, both figures, their ratio and the remedy."""
+        return (
+            f"{' and '.join(self.entries)} = {self.add_value:.5g} equals {self.what} "
+            f"{self.modelled_value:.5g} that the import already models (ratio "
+            f"{self.ratio:.4f}): that restoring is counted twice; import with "
+            "--drop-duplicate-addclin to drop the AddCLin entries"
+        )
+
+
+def duplicate_add_stiffness(
+    add_c: list[list[float]],
+    ballast: Ballast | None,
+    members: MorisonMembers | None,
+    g: float,
+    rel_tol: float = DUPLICATE_STIFFNESS_REL_TOL,
+) -> list[DuplicateStiffness]:
+    """Which diagonal ``AddCLin`` entries repeat a restoring the import models (heave, roll, pitch).
+
+    FAST v8-era decks put into ``AddCLin`` what HydroDyn did not compute then: the gravity
+    restoring of the ballast water, ``−m_b g z_b`` in roll and pitch, and the strip-theory
+    members' hydrostatics. The import models both (the fill groups' ballast enters the
+    platform's mass and centre of mass; the members' ``member_stiffness``), so an entry within
+    ``rel_tol`` of one of those terms, or of their sum, is a repeat.
+
+    Parameters
+    ----------
+    add_c : 6x6 list
+        ``AddCLin`` (N/m, N m/rad).
+    ballast, members
+        What the import read (None: none).
+    g : float
+        Gravity (m/s²).
+    rel_tol : float
+        Relative tolerance of "equal".
+
+    Returns
+    -------
+    list of DuplicateStiffness
+        One per modelled term found (rows of equal entries grouped).
+    """
+    terms: dict[int, list[tuple[str, float]]] = {2: [], 3: [], 4: []}
+    ballast_k = 0.0
+    if ballast is not None and ballast.mass_kg > 0.0:
+        ballast_k = -ballast.mass_kg * g * ballast.cm_z_m
+        if ballast_k > 0.0:
+            for i in (3, 4):
+                terms[i].append(("the fill groups' gravity restoring m_b g (-z_b)", ballast_k))
+    if members is not None:
+        for i in (2, 3, 4):
+            k = members.stiffness[i][i]
+            if k > 0.0:
+                terms[i].append(("the strip-theory members' hydrostatic restoring", k))
+                if i in (3, 4) and ballast_k > 0.0:
+                    terms[i].append(
+                        (
+                            "the fill groups' gravity and the members' hydrostatic restoring",
+                            ballast_k + k,
+                        )
+                    )
+    found: dict[tuple[str, float], DuplicateStiffness] = {}
+    for i, candidates in terms.items():
+        value = add_c[i][i]
+        for what, k in candidates:
+            if value != 0.0 and abs(value - k) <= rel_tol * abs(k):
+                key = (what, round(value, 6))
+                name = f"AddCLin({i + 1},{i + 1})"
+                prev = found.get(key)
+                if prev is None:
+                    found[key] = DuplicateStiffness((name,), (i,), value, k, what)
+                else:
+                    found[key] = DuplicateStiffness(
+                        (*prev.entries, name), (*prev.index, i), prev.add_value, k, what
+                    )
+                break
+    return list(found.values())
+
+
+def _stiffness_budget(
+    i: int,
+    hydro: HydroData,
+    members: MorisonMembers | None,
+    ballast: Ballast | None,
+    add_c: list[list[float]],
+    g: float,
+) -> str:
+    """One note: the restoring terms of DOF ``i`` (0-based) the import adds up, by source."""
+    dofs = list(hydro.dofs)
+    hst = float(hydro.hydrostatic_stiffness[dofs.index(i), dofs.index(i)]) if i in dofs else 0.0
+    gravity = -ballast.mass_kg * g * ballast.cm_z_m if ballast is not None and i > 2 else 0.0
+    unit = "N/m" if i < 3 else "N m/rad"
+    return (
+        f"stiffness budget {('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')[i]} ({unit}): "
+        f"hydrostatic (WAMIT .hst) {hst:.6g}, strip-theory members "
+        f"{members.stiffness[i][i] if members is not None else 0.0:.6g}, fill groups' gravity "
+        f"m_b g (-z_b) {gravity:.6g}, AddCLin({i + 1},{i + 1}) {add_c[i][i]:.6g}"
     )
 
 
@@ -1424,6 +1577,16 @@ def write_radiation(preset: FloatingPreset, hydro: HydroData, path: Path) -> Rad
 
 
 _DOF_NAME = {0: "surge", 2: "heave", 4: "pitch"}
+
+
+def radiation_report(model: RadiationModel) -> list[str]:
+    """What the radiation fit chose: order and band, the error of every kernel (each DOF, then
+    each DOF pair), and how it was made stable when the plain reduction was not."""
+    lines = [f"radiation {line}" for line in (*model.describe(), *model.describe_pairs())]
+    how = model.source.partition("; fit: ")[2]
+    if how:
+        lines.append(f"radiation fit: {how}")
+    return lines
 
 
 def _radiation_failure(
@@ -1495,7 +1658,7 @@ def write_preset(deck: ImportedDeck, out_dir: Path, stem: str | None = None) -> 
     preset = msgspec.structs.replace(
         deck.preset, hydro_file=hydro_name, mooring_file=moor_name, radiation_file=rad_name
     )
-    notes = [*deck.notes, *(f"radiation {line}" for line in model.describe())]
+    notes = [*deck.notes, *radiation_report(model)]
     header = "".join(f"# {n}\n" for n in notes)
     body = _toml_lines(msgspec.structs.asdict(preset))
     path = out_dir / f"{stem}.toml"

@@ -337,3 +337,58 @@ def test_diagonal_max_order_raises_only_the_kernels_that_need_it() -> None:
     # Heave and off-diagonal kernels are untouched.
     for pair in ((1, 1), (0, 2), (2, 0)):
         assert low.fits[low.pairs.index(pair)].order == high.fits[high.pairs.index(pair)].order
+
+
+def _unstable_truncation(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every balanced truncation comes out with its slowest pole (pair) in the right half
+    plane, as the ill-conditioned balancing of a large stack can give."""
+    import plant.hydro.radiation as rad
+
+    exact = rad.balanced_truncation
+
+    def flipped(a, b, c, order):  # type: ignore[no-untyped-def]
+        a_r, b_r, c_r, hsv = exact(a, b, c, order)
+        lam, vec = np.linalg.eig(a_r)
+        k = int(np.argmax(lam.real))
+        moved = lam.copy()
+        moved[np.isclose(lam.real, lam[k].real)] *= -1.0  # the pair: σ ± jω -> −σ ∓ jω
+        return (vec @ np.diag(moved) @ np.linalg.inv(vec)).real, b_r, c_r, hsv
+
+    monkeypatch.setattr(rad, "balanced_truncation", flipped)
+
+
+def test_unstable_truncations_are_stabilised_and_said(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reduced model is stable by construction: with every truncation unstable, the
+    unstable poles are reflected and the residues refitted (shipped spar data, 0..2 rad/s,
+    the OpenFAST importer's options); its diagonal errors stay within the 2 % tolerance or
+    the unreduced stack's, and what was done is in its source and its per-pair report."""
+    from plant.hydro.radiation import fit_reduced_radiation
+
+    hydro = load_hydro_preset("nrel5mw_oc3_hywind")
+    options = {"max_order": 12, "omega_range_rad_s": (0.0, 2.0)}
+    plain = fit_reduced_radiation(hydro.radiation, **options)
+    assert "fit:" not in plain.source  # the plain reduction is untouched when it works
+    _unstable_truncation(monkeypatch)
+    model = fit_reduced_radiation(hydro.radiation, **options)
+    assert np.max(np.linalg.eigvals(model.A).real) < 0.0
+    assert "truncation stabilised" in model.source and "residues refitted" in model.source
+    assert model.order < model.fitted_order
+    assert np.all(np.diag(model.error_added_mass) <= 0.02)  # 1.4 %, 1.0 %, 0.9 %
+    assert np.all(np.diag(model.error_damping) <= 0.02)
+    pairs = model.describe_pairs()
+    assert [p.split(":")[0] for p in pairs] == ["surge-heave", "surge-pitch", "heave-pitch"]
+
+
+def test_unreduced_stack_when_no_truncation_can_be_stabilised(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import plant.hydro.radiation as rad
+
+    hydro = load_hydro_preset("nrel5mw_oc3_hywind")
+    _unstable_truncation(monkeypatch)
+    monkeypatch.setattr(rad, "_refit_residues", lambda *args: None)
+    model = rad.fit_reduced_radiation(hydro.radiation, max_order=12, omega_range_rad_s=(0.0, 2.0))
+    assert model.order == model.fitted_order
+    assert np.max(np.linalg.eigvals(model.A).real) < 0.0
+    assert "unreduced" in model.source
+    assert np.all(np.diag(model.error_damping) <= 0.03)

@@ -236,7 +236,8 @@ def test_campaign_aggregates_and_report_say_nm_and_name_sections(base: str) -> N
         assert agg["relative"]["ff"]["shaft_del_nm"]["per_case"]["lc4"] > 1e5
     pn = agg["normalised"]["ff"]["rotor_speed_var_rpm2"]
     assert pn["per_case"]["lc2"] == pytest.approx(1.70, abs=0.05)
-    assert pn["stats"]["per_case"]["lc2"]["status"] == "n/m"
+    # the waves change the baseline's var(Ω) by 0.43 %: P_n not defined
+    assert pn["stats"]["per_case"]["lc2"]["status"] == ck.BASELINE_NOISE
     assert agg["noise"]["still_water_of"] == base and agg["noise"]["estimable"]
     html = campaign_html(agg, [])
     titles = [unescape(t) for t in re.findall(r"<h2>(.*?)</h2>", html)]
@@ -265,3 +266,55 @@ def test_campaign_with_one_seed_says_se_not_estimable() -> None:
     assert math.isnan(rel["se"]) and rel["status"] in ("ok", "noise")
     html = campaign_html(agg, [])
     assert "not estimable: one seed" in html and "± ?" in html
+
+
+def test_normalised_of_a_baseline_within_noise_is_not_a_number() -> None:
+    """var(Ω − Ω_opt): the waves add 1.2 % of the KPI's scale to the baseline (above the n/m
+    rule's 1 % floor, and 7 SE from zero), the controller 40 %: eq. (5-1) gives about
+    −3500 %. The normalised figure is "n/a: baseline within noise" (under 5 % of the scale),
+    in the JSON, the console table and the HTML; the relative figure stays a number."""
+    from rich.console import Console
+
+    from hil.cli.campaign import render_aggregates
+
+    seeds = 4
+    c = parse_campaign(_TOML.format(seeds=seeds, base="baseline"), base_dir=Path("."))
+    rows = _rows(c, seeds)
+    rng = np.random.default_rng(5)
+    for row in rows:
+        v = 1.0 + 0.0005 * rng.standard_normal()
+        if row["waves"] == "waves":
+            v += 0.012
+            if row["controller"] == "ff":
+                v -= 0.42
+        row["rotor_speed_error_var_rpm2"] = v
+    agg = aggregate(rows, c)
+    k = "rotor_speed_error_var_rpm2"
+    pn = agg["normalised"]["ff"][k]
+    assert pn["weibull"] == pytest.approx(-34.0, rel=0.1)  # eq. (5-1) as such
+    # the old rule let it through: D = 1.2 % of S > 1 %, and far outside 2 SE(D)
+    d = 0.012
+    assert not kst.near_zero(d, scale=1.012, se=0.0005)
+    stats = pn["stats"]
+    for figure in (stats["weibull"], stats["weibull_of_cases"], *stats["per_case"].values()):
+        assert figure["status"] == ck.BASELINE_NOISE
+        assert math.isnan(figure["value"])
+    assert agg["noise"]["wave_effect_fraction"] == ck.WAVE_EFFECT_FRACTION
+    rel = agg["relative"]["ff"][k]["stats"]["weibull"]
+    assert rel["status"] == "ok" and rel["value"] == pytest.approx(-0.41, abs=0.01)
+    console = Console(width=400, record=True)
+    render_aggregates(agg, console)
+    text = console.export_text()
+    assert "n/a: baseline within noise" in text
+    html = campaign_html(agg, [])
+    assert "n/a: baseline within noise" in html
+    pcts = [float(x) for x in re.findall(r"([+-]?\d+(?:\.\d+)?) %", html)]
+    assert max(abs(x) for x in pcts) < 1000
+    # a wave effect of 20 % of the scale, well outside its noise: P_n is a number again
+    for row in rows:
+        if row["waves"] == "waves":
+            row[k] = float(row[k]) + 0.2  # type: ignore[arg-type]
+    pn = aggregate(rows, c)["normalised"]["ff"][k]["stats"]["weibull"]
+    assert pn["status"] in ("ok", "noise") and pn["value"] == pytest.approx(
+        1 - 0.42 / 0.212, rel=0.05
+    )

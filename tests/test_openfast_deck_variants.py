@@ -367,3 +367,91 @@ def test_tower_drag_table_without_a_diameter_column_is_refused(tmp_path: Path) -
     ad.write_text(ad.read_text().replace("TwrDiam", "TwrWidth"))
     with pytest.raises(ValueError, match=r"aerodyn_tower\.dat.*tower aerodynamics.*TwrDiam"):
         import_openfast(deck, mooring=False)
+
+
+def _repeat_ballast_gravity_in_addclin(hd: Path) -> float:
+    """Write the fill groups' own gravity restoring −m_b g z_b into AddCLin(4,4) and (5,5),
+    as FAST v8-era decks did (5 significant digits); returns that value (N m/rad)."""
+    values, lines = read_keyed_file(hd)
+    ballast = read_fill_groups(hd, lines, values, 1025.0)
+    assert ballast is not None
+    k = float(f"{-ballast.mass_kg * 9.80665 * ballast.cm_z_m:.5g}")
+    text = hd.read_text().splitlines()
+    row = next(i for i, t in enumerate(text) if "AddCLin" in t)
+    text[row + 3] = f"     0      0      0      {k:.5E}      0      0"
+    text[row + 4] = f"     0      0      0      0      {k:.5E}      0"
+    hd.write_text("\n".join(text) + "\n")
+    return k
+
+
+def test_addclin_repeating_the_ballast_gravity_is_warned_and_can_be_dropped(
+    tmp_path: Path,
+) -> None:
+    """The restoring of the ballast enters twice when AddCLin also holds it: the import
+    warns with both figures and their ratio; ``drop_duplicate_addclin`` zeroes the entries,
+    and the pitch period grows back by √((C + K_b)/C) with C the rest of the restoring."""
+    from plant.modes import natural_modes
+    from plant.openfast_import import import_openfast
+    from plant.platform import build_floating_params, load_turbine
+
+    fst = _deck(tmp_path)
+    k = _repeat_ballast_gravity_in_addclin(tmp_path / "hydrodyn_pre35.dat")
+    kept = import_openfast(fst, mooring=False)
+    assert len(kept.warnings) == 1
+    w = kept.warnings[0]
+    assert w.startswith(f"AddCLin(4,4) and AddCLin(5,5) = {k:.5g} equals the fill groups'")
+    assert "ratio 1.0000" in w and "--drop-duplicate-addclin" in w
+    assert f"warning: {w}" in kept.notes
+    assert kept.preset.additional_linear_stiffness[4][4] == k
+    assert any(n.startswith("stiffness budget pitch (N m/rad)") for n in kept.notes)
+    dropped = import_openfast(fst, mooring=False, drop_duplicate_addclin=True)
+    c = dropped.preset.additional_linear_stiffness
+    assert c[3][3] == 0.0 and c[4][4] == 0.0
+    assert dropped.warnings[0].startswith("dropped AddCLin(4,4) and AddCLin(5,5)")
+    periods = []
+    for deck in (kept, dropped):
+        params = build_floating_params(
+            deck.preset, load_turbine("iea15mw"), deck.hydro, deck.mooring, None
+        )
+        periods.append({m.name: m.period_s for m in natural_modes(params, 0.0)}["pitch"])
+    assert periods[1] > 1.1 * periods[0]
+    # the deck without the repeat imports without a warning
+    assert import_openfast(_deck(_sub(tmp_path, True)), mooring=False).warnings == ()
+
+
+def test_default_import_prints_the_fit_and_modes_say_no_restoring_in_surge(
+    tmp_path: Path,
+) -> None:
+    """The reference semi's WAMIT data imported with no band option: the radiation fit's
+    order, band and errors per DOF and per DOF pair are printed, with the AddCLin warning;
+    imported without mooring, ``fowt analyze modes`` says there is no restoring in surge and
+    reports no surge mode (it did: 19.2 s at damping ratio 0.62, drift and radiation)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from hil.cli.fowt import app
+
+    fst = _deck(tmp_path)
+    _repeat_ballast_gravity_in_addclin(tmp_path / "hydrodyn_pre35.dat")
+    out = tmp_path / "preset"
+    runner = CliRunner()
+    args = ["preset", "import-openfast", str(fst), "--out", str(out), "--name", "semi"]
+    result = runner.invoke(app, [*args, "--no-mooring"])
+    assert result.exit_code == 0, result.output
+    printed = " ".join(result.output.split())
+    assert "radiation order" in printed and "band 0.05..2 rad/s" in printed
+    for pair in ("surge-heave", "surge-pitch", "heave-pitch"):
+        assert f"radiation {pair}: error A" in printed
+    assert "warning: AddCLin(4,4) and AddCLin(5,5) =" in printed
+    assert "stiffness budget pitch (N m/rad)" in printed
+    toml = out / "semi.toml"
+    parked = runner.invoke(app, ["analyze", "modes", str(toml), "--wind", "0", "--json"])
+    assert parked.exit_code == 0, parked.output
+    report = json.loads(parked.output)
+    assert report["no_restoring"] == ["surge"]
+    assert "surge" not in {m["name"] for m in report["modes"]}
+    assert {"heave", "pitch"} <= {m["name"] for m in report["modes"]}
+    text = runner.invoke(app, ["analyze", "modes", str(toml), "--wind", "0"])
+    assert text.exit_code == 0, text.output
+    assert "no restoring in surge" in " ".join(text.output.split())

@@ -172,3 +172,44 @@ def test_oc3_deck_periods_through_the_command_line(tmp_path: Path) -> None:
     assert periods["surge"] == pytest.approx(1 / 0.0080, rel=0.01)
     assert periods["heave"] == pytest.approx(1 / 0.0324, rel=0.01)
     assert periods["pitch"] == pytest.approx(1 / 0.0343, rel=0.05)
+
+
+def test_oc4_deck_imports_with_no_option_when_every_truncation_is_unstable(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The OC4 deck's default import (no ``--radiation-omega-max``) stopped at "the fitted
+    state space has unstable poles" with the MARIN WAMIT data. With every balanced
+    truncation made unstable here (the stand-in spar data give stable ones), the import
+    succeeds, says how the fit was made stable, and the preset loads with a stable model."""
+    from typer.testing import CliRunner
+
+    import plant.hydro.radiation as rad
+    from hil.cli.fowt import app
+    from plant.hydro.radiation import RadiationModel
+
+    exact = rad.balanced_truncation
+
+    def flipped(a, b, c, order):  # type: ignore[no-untyped-def]
+        a_r, b_r, c_r, hsv = exact(a, b, c, order)
+        lam, vec = np.linalg.eig(a_r)
+        moved = np.where(lam.real == lam.real.max(), -lam, lam)
+        return (vec @ np.diag(moved) @ np.linalg.inv(vec)).real, b_r, c_r, hsv
+
+    monkeypatch.setattr(rad, "balanced_truncation", flipped)
+    stand_in = load_hydro_preset("nrel5mw_oc3_hywind")
+    fst = write_deck(tmp_path / "deck", "oc4", "fast8", stand_in)
+    out = tmp_path / "preset"
+    result = CliRunner().invoke(
+        app,
+        [
+            *("preset", "import-openfast", str(fst), "--out", str(out), "--name", "oc4"),
+            *("--turbine", "nrel5mw", "--no-mooring"),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    printed = " ".join(result.output.split())
+    assert "radiation fit: the order-" in printed and "truncation stabilised" in printed
+    assert "radiation surge-pitch: error A" in printed
+    model = RadiationModel.load_npz(out / "oc4_radiation.npz")
+    assert np.max(np.linalg.eigvals(model.A).real) < 0.0
+    assert load_floating(out / "oc4.toml").radiation_a.shape == model.A.shape

@@ -165,7 +165,7 @@ def _bars(
         status = [str((d or {}).get("status", kst.OK)) for d in st]
         v = np.array(
             [
-                np.nan if a is None or s_ == kst.NOT_MEANINGFUL else float(a)
+                np.nan if a is None or s_ in (kst.NOT_MEANINGFUL, ck.BASELINE_NOISE) else float(a)
                 for a, s_ in zip(vals, status, strict=True)
             ]
         )
@@ -173,10 +173,15 @@ def _bars(
         err = np.array([float((d or {}).get("se", np.nan)) for d in st]) * scale
         xs = x + (i - (n - 1) / 2) * width
         for xi, s_ in zip(xs, status, strict=True):
-            if s_ == kst.NOT_MEANINGFUL:
+            if s_ in (kst.NOT_MEANINGFUL, ck.BASELINE_NOISE):
                 any_nm = True
                 ax.annotate(
-                    "n/m", (xi, base_line), fontsize=6, rotation=90, ha="center", va="bottom"
+                    "n/m" if s_ == kst.NOT_MEANINGFUL else "n/a",
+                    (xi, base_line),
+                    fontsize=6,
+                    rotation=90,
+                    ha="center",
+                    va="bottom",
                 )
         shown = np.nan_to_num(v)
         if clip is not None:  # a ratio to a near-zero value would flatten every other bar
@@ -366,8 +371,8 @@ def campaign_html(
             ]
             if norm:
                 row += [
-                    kst.percent_text(figure_stat(norm[k], "weibull"), signed=False),
-                    kst.percent_text(figure_stat(norm[k], "weibull_of_cases"), signed=False),
+                    ck.figure_text(figure_stat(norm[k], "weibull"), signed=False),
+                    ck.figure_text(figure_stat(norm[k], "weibull_of_cases"), signed=False),
                 ]
             body.append(row)
         parts.append(
@@ -491,8 +496,12 @@ def _noise_note(noise: dict[str, Any], base: str) -> str:
         "and controller of the campaign: a denominator under 1 % of the scale turns a "
         "difference of 1 % of the scale into more than 100 %. <b>!</b>: the change (R − 1; "
         f"for P_n its distance from 100 %) is within {k:g} SE, i.e. within its noise. The "
-        "Σp· figures are n/m when one case is. aggregates.json keeps every number with its "
-        "status (module hil.review.kpi_stats).</p>"
+        "Σp· figures are n/m when one case is. <b>n/a: baseline within noise</b>: P_n's "
+        f"denominator X_{_esc(base)} − X_still is under max({k:g} SE(D), "
+        f"{100 * noise.get('wave_effect_fraction', ck.WAVE_EFFECT_FRACTION):g} % of S): the "
+        "waves change the baseline too little for a fraction of their effect to mean "
+        "anything, so no number is given (module hil.campaign.kpi). aggregates.json keeps "
+        "every other number with its status (module hil.review.kpi_stats).</p>"
     )
 
 
@@ -511,7 +520,7 @@ def _per_case_table(
     for k, lab in zip(kpis, labels, strict=True):
         row = [lab, *[kst.percent_text(figure_stat(rel[k], c)) for c in cases]]
         if norm:
-            row += [kst.percent_text(figure_stat(norm[k], c), signed=False) for c in cases]
+            row += [ck.figure_text(figure_stat(norm[k], c), signed=False) for c in cases]
         body.append(row)
     return table(head, body)
 

@@ -42,10 +42,18 @@ Standard errors and the n/m rule for near-zero denominators: :mod:`hil.review.kp
 Normalised performance (:func:`normalised`, eq. 5-1): P_n = (X_ctrl − X_still) /
 (X_base − X_still); 1 = baseline with waves, 0 = baseline in still water (figure 5-2, 5-3/5-5
 bottom). Wave-induced increment (:func:`increment_ratio`, table 2-5, figure 2-5):
-X_waves / X_still with the baseline. The Weibull-weighted relative and normalised figures
-are taken on the Weibull-weighted KPIs (X_W per configuration, then the ratio: the way
-al-2019 table 5-2 relates to its quoted -11 % and +0.10 %); :func:`weibull_mean` of the
-per-case ratios is given beside them.
+X_waves / X_still with the baseline. P_n is defined only where the waves change the
+baseline's KPI measurably (:func:`baseline_within_noise`): its denominator
+D = X_base − X_still must exceed k SE(D) (k = 2, paired seeds) and
+:data:`WAVE_EFFECT_FRACTION` (5 %) of the KPI's scale S; otherwise the figure is
+:data:`BASELINE_NOISE` ("n/a: baseline within noise") and no number is shown. The general n/m
+floor of :mod:`hil.review.kpi_stats` (1 % of S) let D = 1.2 % of S through: a controller that
+changes the KPI by 40 % of its scale then reads P_n = −3500 %, a number that says nothing.
+At D = 5 % S, a change of 5 % of the scale moves P_n by 100 %.
+
+The Weibull-weighted relative and normalised figures are taken on the Weibull-weighted KPIs
+(X_W per configuration, then the ratio: the way al-2019 table 5-2 relates to its quoted -11 %
+and +0.10 %); :func:`weibull_mean` of the per-case ratios is given beside them.
 """
 
 from __future__ import annotations
@@ -57,7 +65,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from hil.review import kpi
+from hil.review import kpi, kpi_stats
 
 FloatArray = npt.NDArray[np.float64]
 NAN = float("nan")
@@ -98,6 +106,70 @@ NOTES: dict[str, str] = {
         "ratios are undefined there (n/m)"
     ),
 }
+
+#: Fraction of the KPI's scale S the baseline's wave-induced change D = X_base − X_still
+#: must reach for the normalised performance P_n = (X_ctrl − X_still) / D to be defined.
+WAVE_EFFECT_FRACTION = 0.05
+#: Status (and table text) of a P_n whose denominator is within its noise or under
+#: :data:`WAVE_EFFECT_FRACTION` of the scale.
+BASELINE_NOISE = "n/a: baseline within noise"
+
+
+def baseline_within_noise(
+    den_means: Sequence[float],
+    den_seeds: Sequence[npt.ArrayLike],
+    weights: Sequence[float],
+    scale: float,
+    k: float = kpi_stats.NOISE_K,
+    fraction: float = WAVE_EFFECT_FRACTION,
+) -> bool:
+    """Whether P_n's denominator D = Σ w_c d̄_c / Σ w_c is too small to divide by.
+
+    True when |D| < max(k SE(D), fraction · S): SE(D) = sqrt(Σ w_c² s²_{d,c} / n_c) / Σ w_c
+    over the paired seeds' d_{c,i} (left out when a weighted case has fewer than two seeds),
+    S the KPI's scale (left out when not finite). False when D is not finite (no value).
+
+    Parameters
+    ----------
+    den_means : sequence of float
+        d̄_c per case (KPI unit).
+    den_seeds : sequence of array_like
+        d_{c,i} per case, the seeds every configuration has.
+    weights : sequence of float
+        p_c (cases with p_c = 0 left out); ``[1.0]`` for one case.
+    scale : float
+        S (KPI unit).
+    k, fraction : float
+        Multiple of SE(D) and fraction of S.
+    """
+    w = np.asarray(weights, dtype=np.float64).reshape(-1)
+    d = np.asarray(den_means, dtype=np.float64).reshape(-1)
+    used = [int(i) for i in np.flatnonzero(w > 0)]
+    if not used or not np.isfinite(d[used]).all():
+        return False
+    wsum = float(w[used].sum())
+    dw = float(np.sum(w[used] * d[used])) / wsum
+    bound = fraction * abs(scale) if math.isfinite(scale) else 0.0
+    var = 0.0
+    for c in used:
+        seeds = np.asarray(den_seeds[c], dtype=np.float64).reshape(-1)
+        seeds = seeds[np.isfinite(seeds)]
+        if seeds.size < 2:
+            var = NAN
+            break
+        var += float(w[c]) ** 2 * float(np.var(seeds, ddof=1)) / seeds.size
+    if math.isfinite(var):
+        bound = max(bound, k * math.sqrt(var) / wsum)
+    return abs(dw) < bound or dw == 0.0
+
+
+def figure_text(d: Mapping[str, Any] | None, signed: bool = True) -> str:
+    """A ratio figure as table text (:func:`hil.review.kpi_stats.percent_text`), or
+    :data:`BASELINE_NOISE` for a P_n without a denominator to divide by."""
+    if d is not None and d.get("status") == BASELINE_NOISE:
+        return BASELINE_NOISE
+    return kpi_stats.percent_text(dict(d) if d is not None else None, signed=signed)
+
 
 #: Minimum rotor speed Ω_min [rad/s] of the shipped turbines for Ω_opt (below it the
 #: optimal-TSR speed is not reachable): IEA 15 MW DISCON VS_MinOMSpd = 0.5236 rad/s (5 rpm);

@@ -1040,8 +1040,15 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
 
     Side = dict[str, tuple[float, np.ndarray]]  # case -> (mean, paired seed values)
 
-    def ratio_stats(k: str, num: Side, den: Side, offset: float) -> dict[str, Any]:
-        """The ratio's figure per case, Weibull-weighted and Σp· (:mod:`hil.review.kpi_stats`)."""
+    def ratio_stats(
+        k: str, num: Side, den: Side, offset: float, wave_effect: bool = False
+    ) -> dict[str, Any]:
+        """The ratio's figure per case, Weibull-weighted and Σp· (:mod:`hil.review.kpi_stats`).
+
+        ``wave_effect`` (P_n): a figure whose denominator is within its noise or under
+        :data:`hil.campaign.kpi.WAVE_EFFECT_FRACTION` of the scale is
+        :data:`hil.campaign.kpi.BASELINE_NOISE`, without a number.
+        """
         nums = [num[c] for c in cases]
         dens = [den[c] for c in cases]
         per = {
@@ -1058,11 +1065,27 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
             offset,
         )
         of_cases = kst.weighted_mean_of([per[c] for c in cases], p, offset)
-        return {
+        out: dict[str, Any] = {
             "per_case": {c: r.as_dict() for c, r in per.items()},
             "weibull": weib.as_dict(),
             "weibull_of_cases": of_cases.as_dict(),
         }
+        if wave_effect:
+            undefined = {"value": math.nan, "se": math.nan, "status": ck.BASELINE_NOISE}
+            within = {
+                c: ck.baseline_within_noise([d[0]], [d[1]], [1.0], scales[k][c])
+                for c, d in zip(cases, dens, strict=True)
+            }
+            for c, yes in within.items():
+                if yes:
+                    out["per_case"][c] = dict(undefined)
+            if ck.baseline_within_noise(
+                [d[0] for d in dens], [d[1] for d in dens], p, scales[k]["weibull"]
+            ):
+                out["weibull"] = dict(undefined)
+            if any(within[c] and pc > 0 for c, pc in zip(cases, p, strict=True)):
+                out["weibull_of_cases"] = dict(undefined)
+        return out
 
     def weibull(waves: str, ctrl: str, k: str) -> float:
         return ck.weibull_mean([mean_of(c, waves, ctrl, k) for c in cases], p)
@@ -1140,6 +1163,7 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
                             for c in cases
                         },
                         0.0,
+                        wave_effect=True,
                     ),
                 }
     increment: dict[str, Any] = {}
@@ -1184,6 +1208,7 @@ def aggregate(rows: Sequence[dict[str, Any]], campaign: Campaign) -> dict[str, A
         "noise": {
             "k": kst.NOISE_K,
             "near_zero_fraction": kst.NEAR_ZERO_FRACTION,
+            "wave_effect_fraction": ck.WAVE_EFFECT_FRACTION,
             "seeds": spec.seeds,
             "estimable": spec.seeds > 1,
             "still_water_of": base if spec.still_water else None,

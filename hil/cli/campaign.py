@@ -50,9 +50,7 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
             row.append(kst.percent_text(figure_stat(rel[k], "weibull")))
             if agg["normalised"].get(ctrl):
                 row.append(
-                    kst.percent_text(
-                        figure_stat(agg["normalised"][ctrl][k], "weibull"), signed=False
-                    )
+                    ck.figure_text(figure_stat(agg["normalised"][ctrl][k], "weibull"), signed=False)
                 )
         t.add_row(*[escape(c) for c in row])
     console.print(t)
@@ -64,7 +62,10 @@ def render_aggregates(agg: dict[str, Any], console: Console) -> None:
         f"± one standard error ({src}); n/m: denominator near zero (|D| < max({k_se:g} SE, "
         f"{f:g} % of the KPI's largest |X| over the configurations)); !: change within "
         f"{k_se:g} SE; "
-        f"P_n and waves/still against {base}'s still-water twins",
+        f"P_n and waves/still against {base}'s still-water twins; {ck.BASELINE_NOISE}: the "
+        f"waves change {base}'s KPI by less than max({k_se:g} SE, "
+        f"{100 * float(noise.get('wave_effect_fraction', ck.WAVE_EFFECT_FRACTION)):g} % of its "
+        "scale), P_n not defined",
         markup=False,
     )
     for reason in agg.get("not_available", {}).values():

@@ -1287,10 +1287,10 @@ def analyze_modes(
     torque held at the operating point, rotor speed free (the case of OpenFAST
     linearisations above rated).
     """
-    from plant.modes import OPEN_LOOP_CASE, natural_modes
+    from plant.modes import OPEN_LOOP_CASE, modal_analysis
 
-    modes = _analysis(
-        lambda p, w: natural_modes(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
+    modes, free = _analysis(
+        lambda p, w: modal_analysis(p, w, torque_slope_nm_s_rad=torque_slope), preset, wind
     )
     case = (
         "parked in still air: rotor at rest, no aerodynamic forces and no aerodynamic "
@@ -1308,6 +1308,7 @@ def analyze_modes(
             "wind_m_s": wind,
             "case": case,
             "modes": [m.as_dict() for m in modes],
+            "no_restoring": free,
         }
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
         return
@@ -1319,6 +1320,11 @@ def analyze_modes(
         table.add_row(m.name, f"{m.period_s:.2f}", f"{m.damping_ratio:.4f}")
     table.caption = case
     console.print(table)
+    for name in free:
+        console.print(
+            f"no restoring in {name}: no natural mode (nothing pulls it back, e.g. no mooring)",
+            markup=False,
+        )
 
 
 @app.command("design", short_help="Offline controller design: LQRI, wave FF, observer.")
@@ -1615,6 +1621,15 @@ def preset_import_openfast(
             callback=number("rad/s", ge=0.0, le=100.0),
         ),
     ] = 2.0,
+    drop_duplicate_addclin: Annotated[
+        bool,
+        typer.Option(
+            "--drop-duplicate-addclin",
+            help="Drop the diagonal AddCLin entries that repeat a restoring the import already "
+            "models (the fill groups' ballast gravity, the strip-theory members' hydrostatics); "
+            "without it they are kept and a warning names them.",
+        ),
+    ] = False,
 ) -> None:
     """Import a floating OpenFAST deck as a platform preset (TOML + hydro, mooring data).
 
@@ -1630,12 +1645,18 @@ def preset_import_openfast(
             name=name,
             mooring=not no_mooring,
             radiation_omega_max_rad_s=radiation_omega_max,
+            drop_duplicate_addclin=drop_duplicate_addclin,
         )
         path = write_preset(deck, out, stem=name)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     for item, kg in deck.mass_budget:
         console.print(f"mass {item}: {kg:.6g} kg", markup=False)
+    for note in deck.notes:
+        if note.startswith("stiffness budget "):
+            console.print(note, markup=False)
+    for warning in deck.warnings:
+        console.print(f"warning: {warning}", markup=False)
     p = deck.preset
     console.print(
         f"platform (structure and ballast): mass {p.platform_mass_kg:.6g} kg, CM x "
@@ -1658,7 +1679,22 @@ def preset_import_openfast(
             "(surge has no restoring stiffness; add a mooring before running it)",
             markup=False,
         )
+    for line in _radiation_lines(path):
+        console.print(line, markup=False)
     console.print(f'wrote {path} (use it as `platform = "{path}"` in a scenario)', markup=False)
+
+
+def _radiation_lines(preset_toml: Path) -> list[str]:
+    """The radiation fit the import chose (order, band, error per DOF and DOF pair)."""
+    import msgspec
+
+    from plant.hydro.radiation import RadiationModel
+    from plant.openfast_import import radiation_report
+
+    name = msgspec.toml.decode(preset_toml.read_bytes()).get("radiation_file", "")
+    if not name:
+        return []
+    return radiation_report(RadiationModel.load_npz(preset_toml.parent / name))
 
 
 def _register_campaign_commands() -> None:

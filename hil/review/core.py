@@ -120,6 +120,7 @@ from hil.nodes.controller_fault import FAULT_CODES, FAULT_FIELDS, fault_line, re
 from hil.review import kpi
 from hil.review import stream as rs
 from hil.review.kpi_names import REVIEW_KPIS
+from hil.review.table_range import RotorTableRange, table_range_note
 from hil.runlog.columns import ColumnBatch, ColumnReader, RunInfo, run_batches, run_info
 from hil.runlog.completeness import (
     CONSECUTIVE_TOPICS,
@@ -538,6 +539,7 @@ class _Summary:
         self.f_max = {"forecast_unstable_fits": -math.inf, "forecast_guarded": -math.inf}
         self.estimator_faults = -math.inf  # the status's running count: its largest value
         self.estimator_fault_first_s: float | None = None  # sample time of the first [s]
+        self.rotor_table = RotorTableRange(info.metadata)  # samples outside the Cp/Ct table
 
     def _window(self) -> rs.Window:
         if self.window is None:  # the scenario's metadata comes before the messages
@@ -562,6 +564,7 @@ class _Summary:
             self._window().truth_times(t / 1e9)
             self._window().feed("truth", {"t_ns": t, **c})
             self.join.add_truth(c)
+            self.rotor_table.add(c)
         elif s == "sensors":
             self._window().feed("sensors", {"t_ns": t, **c})
         elif s == "controller/status":
@@ -714,6 +717,7 @@ class _Summary:
             **self._estimates(),
             "recording": self._recording(),
             "plant": self._plant_account(),
+            "rotor_table": self.rotor_table.result(),
         }
         summary["controller"].update(self._controller_account())
         return summary
@@ -1256,6 +1260,8 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
     msgs = run.get("messages", {})
     head.add_row("messages", ", ".join(f"{k}: {v}" for k, v in msgs.items()) or "-")
     console.print(head)
+    if table_note := table_range_note(summary.get("rotor_table")):
+        console.print(f"note: {table_note}", markup=False)
     if run.get("authenticated") is False:
         console.print(
             "[bold yellow]unauthenticated run (--insecure): any local process could join "

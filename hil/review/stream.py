@@ -58,6 +58,8 @@ FIELDS: dict[str, tuple[str, ...]] = {
         "platform_pitch_rate_rad_s",
         "platform_surge_velocity_m_s",
         "wave_elevation_platform_m",
+        "tip_speed_ratio",  # with blade_pitch_rad: the Cp/Ct table look-up (table_range.py)
+        "relative_wind_speed_m_s",
     ),
     "sensors": ("platform_pitch_measured_rad",),
     "controller/status": (

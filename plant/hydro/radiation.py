@@ -943,6 +943,21 @@ class RadiationModel:
             )
         return lines
 
+    def describe_pairs(self) -> list[str]:
+        """One line per coupling kernel ``(i, j)``, ``i < j`` (errors of ``Â``, ``B̂``).
+
+        The error of ``K_ji`` is listed with ``K_ij`` when it is larger (the larger of the two).
+        """
+        lines = []
+        for i, a in enumerate(self.dofs):
+            for j in range(i + 1, len(self.dofs)):
+                ea = max(self.error_added_mass[i, j], self.error_added_mass[j, i])
+                eb = max(self.error_damping[i, j], self.error_damping[j, i])
+                lines.append(
+                    f"{DOF_NAMES[a]}-{DOF_NAMES[self.dofs[j]]}: error A {ea:.3%}, B {eb:.3%}"
+                )
+        return lines
+
     def save_npz(self, path: str | Path) -> None:
         """Write plain arrays (no pickles); :meth:`load_npz` reads them back."""
         np.savez_compressed(
@@ -1190,6 +1205,19 @@ def fit_reduced_radiation(
     ``check_all_diagonal``, the default: every DOF) stay within
     ``max(tol, error of the unreduced stack)`` over the band, then scaled back.
 
+    The result is stable by construction. Balanced truncation of a stable system is stable in
+    exact arithmetic, but the stacks of many fits whose Hankel singular values span many
+    decades can come out of it with poles in the right half plane at every order. When no
+    truncation is both stable and within the errors, a second pass stabilises each order in
+    turn: the truncation's poles are put in real modal form with every unstable pole
+    reflected (``σ ± jω`` → ``−max(σ, 10⁻³ |λ|) ± jω``) and its residues ``C`` refitted by
+    weighted linear least squares to the kernels, constrained to ``K̂(0) = 0``; the smallest
+    order within the errors is kept (the ``source`` says "fit: the order-r truncation
+    stabilised (n unstable poles reflected, residues refitted)"). Failing that, the unreduced
+    stack is shipped (its poles are the kernel fits' own, reflected when fitted; "fit:
+    unreduced"). What the fit chose is reported per DOF and per DOF pair
+    (:meth:`RadiationModel.describe`, :meth:`RadiationModel.describe_pairs`).
+
     A diagonal kernel that misses ``tol`` at ``max_order`` is fitted with orders up to
     ``diagonal_max_order`` (:func:`fit_radiation`). That is what the surge kernel of the
     VolturnUS-S semi-submersible needs: its A(ω) and B(ω) ripple every ~0.1 rad/s (waves
@@ -1256,27 +1284,77 @@ def fit_reduced_radiation(
 
     ea_full, eb_full = errors(*_real_modal_form(ss.A, b_s, c_s))
     limit = {i: max(tol, ea_full[i, i], eb_full[i, i]) for i in idx}
+
+    def within(ea: FloatArray, eb: FloatArray) -> bool:
+        return all(
+            ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
+        )
+
+    def passive(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
+        if passive_floor is None:
+            return c
+        c_p, _ = enforce_passivity(a, b * root, c * root[:, None], w, bd, peak, floor=passive_floor)
+        return np.asarray(c_p / root[:, None], dtype=np.float64)
+
     n = ss.n_states
+    chosen: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray] | None = None
+    how = ""
+    hsv = np.zeros(0)
     for r in range(1, n + 1):
         a_r, b_r, c_r, hsv = balanced_truncation(ss.A, b_s, c_s, r)
         if np.max(np.linalg.eigvals(a_r).real) >= 0.0:
             continue
         ea, eb = errors(a_r, b_r, c_r)
-        if not all(
-            ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
-        ):
+        if not within(ea, eb):
             continue
-        if passive_floor is not None:
-            c_p, _ = enforce_passivity(
-                a_r, b_r * root, c_r * root[:, None], w, bd, peak, floor=passive_floor
-            )
-            c_r = c_p / root[:, None]
-            ea, eb = errors(a_r, b_r, c_r)
-            if not all(
-                ea[i, i] <= limit[i] * (1 + 1e-9) and eb[i, i] <= limit[i] * (1 + 1e-9) for i in idx
-            ):
-                continue
+        c_r = passive(a_r, b_r, c_r)
+        ea, eb = errors(a_r, b_r, c_r)
+        if not within(ea, eb):
+            continue
+        chosen = (a_r, b_r, c_r, ea, eb)
         break
+    if chosen is None:
+        # Every truncation that met the errors came out unstable (the balancing of a stack of
+        # many fits whose Hankel singular values span many decades is ill-conditioned): the
+        # truncations are stabilised (unstable poles reflected, residues refitted), and
+        # failing that the unreduced stack, stable by construction, is shipped.
+        k_s = _scaled_kernels(w, am, bd, a_inf, root)
+        for r in range(len(dofs) + 1, n + 1):
+            a_r, b_r, _, hsv = balanced_truncation(ss.A, b_s, c_s, r)
+            a_m, b_m, flipped = _reflected_modal_form(a_r, b_r)
+            c_m = _refit_residues(a_m, b_m, w, k_s)
+            if c_m is None:
+                continue
+            ea, eb = errors(a_m, b_m, c_m)
+            if not within(ea, eb):
+                continue
+            c_m = passive(a_m, b_m, c_m)
+            ea, eb = errors(a_m, b_m, c_m)
+            if not within(ea, eb):
+                continue
+            chosen = (a_m, b_m, c_m, ea, eb)
+            how = (
+                f"; fit: the order-{r} truncation stabilised ({flipped} unstable poles reflected, "
+                "residues refitted)"
+            )
+            break
+    if chosen is None:
+        # The modal form when it is numerically the same system (stable, same errors); the
+        # stacked canonical forms otherwise (their poles are the fits' own, placed at
+        # Re λ <= -10⁻³ |λ|, so rounding cannot move them across the axis).
+        a_f, b_f, c_f = _real_modal_form(ss.A, b_s, c_s)
+        ea, eb = errors(a_f, b_f, c_f)
+        ea_c, eb_c = errors(ss.A, b_s, c_s)
+        same = np.allclose(ea, ea_c, rtol=1e-6, atol=1e-9) and np.allclose(
+            eb, eb_c, rtol=1e-6, atol=1e-9
+        )
+        if not (same and np.max(np.linalg.eigvals(a_f).real) < 0.0):
+            a_f, b_f, c_f = ss.A, b_s, c_s
+        c_f = passive(a_f, b_f, c_f)
+        ea, eb = errors(a_f, b_f, c_f)
+        chosen = (a_f, b_f, c_f, ea, eb)
+        how = "; fit: unreduced (every truncation was unstable)"
+    a_r, b_r, c_r, ea, eb = chosen
     return RadiationModel(
         dofs=tuple(rad.dofs),
         A=a_r,
@@ -1287,8 +1365,99 @@ def fit_reduced_radiation(
         omega_range_rad_s=(float(w[0]), float(w[-1])),
         fitted_order=n,
         hankel_singular_values=hsv,
-        source=source or "Perez-Fossen kernel fits, stacked, balanced truncation",
+        source=(source or "Perez-Fossen kernel fits, stacked, balanced truncation") + how,
     )
+
+
+def _scaled_kernels(
+    w: FloatArray,
+    added_mass: FloatArray,
+    damping: FloatArray,
+    added_mass_inf: FloatArray,
+    root: FloatArray,
+) -> ComplexArray:
+    """``K_ij(jω) / (r_i r_j)`` (m, d, d): the kernels in the units of the scaled stack."""
+    d = root.size
+    k = np.empty((w.size, d, d), dtype=np.complex128)
+    for i in range(d):
+        for j in range(d):
+            k[:, i, j] = kernel_response(
+                w, added_mass[:, i, j], damping[:, i, j], float(added_mass_inf[i, j])
+            ) / (root[i] * root[j])
+    return k
+
+
+def _reflected_modal_form(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, int]:
+    """``(A', B')`` in real modal form with every pole of ``A`` moved into the left half plane.
+
+    A pole ``σ ± jω`` with ``σ ≥ 0`` becomes ``−max(σ, 10⁻³ |λ|) ± jω`` (as the kernel fits
+    reflect the roots of ``Q``); each modal state is scaled to a unit row of ``B'`` (the
+    residues are refitted afterwards, :func:`_refit_residues`). Returns the number of poles
+    moved.
+    """
+    lam, vec = np.linalg.eig(a)
+    cols: list[FloatArray] = []
+    blocks: list[FloatArray] = []
+    done = np.zeros(lam.size, dtype=bool)
+    flipped = 0
+    for k in np.argsort(-lam.real, kind="stable"):
+        if done[k]:
+            continue
+        done[k] = True
+        v, pole = vec[:, k], lam[k]
+        sigma = float(pole.real)
+        if sigma >= 0.0:
+            sigma = -max(sigma, 1e-3 * abs(pole))
+        if abs(pole.imag) > 1e-12 * max(abs(pole), 1.0):
+            mate = int(np.argmin(np.where(done, np.inf, np.abs(lam - np.conj(pole)))))
+            done[mate] = True
+            flipped += 2 if pole.real >= 0.0 else 0
+            om = float(pole.imag)
+            cols += [v.real, v.imag]
+            blocks.append(np.array([[sigma, om], [-om, sigma]]))
+        else:
+            flipped += 1 if pole.real >= 0.0 else 0
+            cols.append(v.real)
+            blocks.append(np.array([[sigma]]))
+    b_m = np.asarray(np.linalg.solve(np.column_stack(cols), b), dtype=np.float64)
+    pos = 0
+    for blk in blocks:
+        m = blk.shape[0]
+        norm = float(np.linalg.norm(b_m[pos : pos + m]))
+        if norm > 0.0:
+            b_m[pos : pos + m] /= norm
+        pos += m
+    return np.asarray(scipy.linalg.block_diag(*blocks), dtype=np.float64), b_m, flipped
+
+
+def _refit_residues(
+    a: FloatArray, b: FloatArray, w: FloatArray, kernels: ComplexArray
+) -> FloatArray | None:
+    """``C`` of ``C (jωI − A)⁻¹ B`` fitted to ``kernels`` (m, d, d) with ``A``, ``B`` fixed.
+
+    Linear least squares per output row with weights 1/ω (as the kernel fits), constrained to
+    ``C A⁻¹ B = 0`` so the kernels still vanish at ω = 0 (no static radiation force). None when
+    the order leaves no freedom (n ≤ d).
+    """
+    n, d = b.shape
+    if n <= d:
+        return None
+    basis = scipy.linalg.null_space(np.linalg.solve(a, b).T)  # (n, n − rank)
+    if basis.shape[1] == 0:
+        return None
+    eye = np.eye(n)
+    g = np.stack([np.linalg.solve(1j * x * eye - a, b) for x in w])  # (m, n, d)
+    weight = (1.0 / w)[:, None]
+    rows = np.einsum("mnd,nk->mdk", g, basis) * weight[:, :, None]  # (m, d, k)
+    k = basis.shape[1]
+    lhs = np.concatenate([rows.real.reshape(-1, k), rows.imag.reshape(-1, k)])
+    c = np.empty((d, n))
+    for i in range(d):
+        rhs = kernels[:, i, :] * weight
+        target = np.concatenate([rhs.real.ravel(), rhs.imag.ravel()])
+        z, *_ = np.linalg.lstsq(lhs, target, rcond=None)
+        c[i] = basis @ z
+    return c
 
 
 def fixed_order_radiation(
