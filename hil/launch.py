@@ -123,7 +123,11 @@ from hil.nodes.controller_node import (
     publishing_step,
 )
 from hil.nodes.plant_node import Mode
-from hil.nodes.recorder import scenario_metadata
+from hil.nodes.recorder import (
+    scenario_metadata,
+    scenario_recording_metadata,
+    scenario_truth_every,
+)
 from hil.review.core import render_summary, review
 from hil.review.outcome import outcome_line, record_outcome
 from hil.runlog.writer import BackgroundRunLog, LogWriteError
@@ -696,7 +700,12 @@ def _run_inprocess(
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
-        {"scenario": scenario_metadata(scenario, toml_text), "run": info},
+        {
+            "scenario": scenario_metadata(scenario, toml_text),
+            "recording": scenario_recording_metadata(scenario),
+            "run": info,
+        },
+        truth_every=scenario_truth_every(scenario),
     )
     # A core that cannot be built closes the log (its writer would keep the process alive)
     # and the run fails with the reason; the MCAP file stays reviewable.
