@@ -16,6 +16,8 @@ import math
 import numpy as np
 import pytest
 
+from hil.nodes.plant_node import PlantLoop
+from hil.scenario.schema import load_scenario
 from plant.build import TurbulenceRequest, load_turbine, make_waves, make_wind
 from plant.turbulence import ntm_sigma, synthesize_turbulence
 from plant.waves import JonswapSpectrum, excitation_force, synthesize
@@ -27,9 +29,7 @@ REQUEST = TurbulenceRequest(mean_m_s=7.1, turbulence_class="B", seed=2)
 
 def _whole_duration(duration_s: float, hub: float, radius: float) -> np.ndarray:
     """The record as synthesised for the whole duration (clipped at 0 as the spec does)."""
-    out = synthesize_turbulence(
-        7.1, ntm_sigma(7.1, "B"), hub, radius, duration_s, DT, 2
-    )
+    out = synthesize_turbulence(7.1, ntm_sigma(7.1, "B"), hub, radius, duration_s, DT, 2)
     return np.maximum(out, 0.0)
 
 
@@ -81,9 +81,7 @@ def test_wave_series_in_blocks_equals_the_whole_duration_series() -> None:
     n = blocks * per
     for x in (0.0, -450.0):  # platform, gauge 450 m up-wave
         whole = field.series(0.0, dt, n, x_m=x)
-        parts = np.concatenate(
-            [field.series(b * per * dt, dt, per, x_m=x) for b in range(blocks)]
-        )
+        parts = np.concatenate([field.series(b * per * dt, dt, per, x_m=x) for b in range(blocks)])
         # The block start time b·per·dt vs the whole call's t0 + start·dt: the same float
         assert np.array_equal(whole, parts)
     omega_tf = np.linspace(0.05, 3.5, 50)
@@ -98,8 +96,6 @@ def test_plant_waves_stepped_across_blocks_match_the_field() -> None:
     """The plant's wave stepper (the run's only wave evaluation: nothing of the run's
     length) across three resynchronisation blocks agrees with the direct sum of the same
     field at the platform and the gauge (rounding only: 1e-9 m)."""
-    from hil.nodes.plant_node import PlantLoop  # noqa: PLC0415
-    from hil.scenario.schema import load_scenario  # noqa: PLC0415
 
     sc = load_scenario("iea15mw-lc2-lqri-ff").with_duration(200.0)
     loop = PlantLoop(sc, lambda _mt, _msg: None)

@@ -412,10 +412,13 @@ class Recorder:
                 self.rejected[f"{suffix}:duplicate"] += 1
                 return
             self.newest_cycle[suffix] = cycle
-            if self.truth_every > 1 and isinstance(msg, PlantState):
-                if not truth_kept(cycle, self.truth_every):
-                    self.decimated += 1
-                    return
+            if (
+                self.truth_every > 1
+                and isinstance(msg, PlantState)
+                and not truth_kept(cycle, self.truth_every)
+            ):
+                self.decimated += 1
+                return
         self.queue.put((key, msg, recv))
         if isinstance(msg, TimingSummary) and msg.final:
             self.final_seen.set()

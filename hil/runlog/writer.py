@@ -396,9 +396,7 @@ class MessageBatcher(abc.ABC):
         """Queue one message for the log (the simulation loop's only logging cost)."""
         mid = mt.message_id
         if (
-            mid == _TRUTH_ID
-            and self.truth_every > 1
-            and not truth_kept(msg.seq, self.truth_every)  # type: ignore[attr-defined]
+            mid == _TRUTH_ID and self.truth_every > 1 and not truth_kept(msg.seq, self.truth_every)  # type: ignore[attr-defined]
         ):
             self.decimated += 1
             return
