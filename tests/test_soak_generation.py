@@ -112,3 +112,24 @@ def test_plant_waves_stepped_across_blocks_match_the_field() -> None:
         _, _, _, eta_p, eta_g = sim.wave_values()
         assert eta_p == pytest.approx(float(fp.waves.eta(t, 0.0)), abs=1e-9)
         assert eta_g == pytest.approx(float(fp.waves.eta(t, gx)), abs=1e-9)
+
+
+def test_progress_line_says_how_far_a_long_run_is() -> None:
+    """The in-process loop's progress: simulated time, share and speed, in hours for a
+    long run; nothing is said before its interval has passed."""
+    from types import SimpleNamespace
+
+    from hil.inprocess.run import Progress
+
+    lines: list[str] = []
+    plant = SimpleNamespace(k=0, period_ns=25_000_000)
+    day = 86_400 * 40  # cycles of a day at 40 Hz
+    slow = Progress(plant, day, lines.append, every_s=3600.0)  # type: ignore[arg-type]
+    slow()
+    assert lines == []
+    report = Progress(plant, day, lines.append, every_s=0.0)  # type: ignore[arg-type]
+    plant.k = day // 8  # 3 h
+    report()
+    assert len(lines) == 1
+    assert lines[0].startswith("in-process: 3.0 h of 24 h simulated (12 %), ")
+    assert lines[0].endswith("x real time")
