@@ -196,7 +196,7 @@ def test_inprocess_soak_run_is_complete_and_smaller(tmp_path: Path) -> None:
     assert soak["kpi"]["mean_power_w"] == pytest.approx(full["kpi"]["mean_power_w"], rel=0.05)
     size_full = (tmp_path / "full" / "run.mcap").stat().st_size
     size_soak = (tmp_path / "soak" / "run.mcap").stat().st_size
-    # Measured (docs/guide/run-log.md): the truth is 58 % of a full file's compressed
+    # Measured (docs/guide/run-log.md): the truth is 57 % of a full file's compressed
     # payloads, and every message costs 16 bytes of uncompressed index; at 1:40 the soak
     # file is 55 % of the full one. Bounds a few points either side (seeded run: the bytes
     # vary only with the wall-clock fields' compression).
