@@ -79,6 +79,7 @@ bench-speed: setup
 	$(BIN)/python bench/runlog_encoding.py
 	$(BIN)/python bench/whole_command_speed.py
 	$(BIN)/python bench/startup_floor.py
+	$(BIN)/python bench/soak_memory.py --soak
 	$(BIN)/python bench/review_speed.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)

@@ -123,7 +123,11 @@ from hil.nodes.controller_node import (
     publishing_step,
 )
 from hil.nodes.plant_node import Mode
-from hil.nodes.recorder import scenario_metadata
+from hil.nodes.recorder import (
+    scenario_metadata,
+    scenario_recording_metadata,
+    scenario_truth_every,
+)
 from hil.review.core import render_summary, review
 from hil.review.outcome import outcome_line, record_outcome
 from hil.runlog.writer import BackgroundRunLog, LogWriteError
@@ -465,7 +469,15 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
     try:
         if req.mode == "inprocess":
             loop_ran = _run_inprocess(
-                scenario, mcap_path, info, toml_text, design_dir, req.inprocess_loop, abort, phases
+                scenario,
+                mcap_path,
+                info,
+                toml_text,
+                design_dir,
+                req.inprocess_loop,
+                abort,
+                phases,
+                progress=lambda line: console.print(line, markup=False),
             )
             console.print(f"in-process loop: {loop_ran}")
         else:
@@ -682,8 +694,12 @@ def _run_inprocess(
     loop: Literal["auto", "compiled", "python"] = "auto",
     abort: AbortSignals | None = None,
     phases: dict[str, float] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> str:
     """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``).
+
+    ``progress`` gets a line on how far a long run is every ten seconds of wall time
+    (:class:`hil.inprocess.run.Progress`).
 
     ``phases`` gets the monotonic times [s] the loop started (``loop_start``) and ended
     (``loop_end``) and the log was closed (``log_end``), for :func:`speed_line`.
@@ -696,7 +712,12 @@ def _run_inprocess(
     log = BackgroundRunLog(
         mcap_path,
         scenario.turbine_id,
-        {"scenario": scenario_metadata(scenario, toml_text), "run": info},
+        {
+            "scenario": scenario_metadata(scenario, toml_text),
+            "recording": scenario_recording_metadata(scenario),
+            "run": info,
+        },
+        truth_every=scenario_truth_every(scenario),
     )
     # A core that cannot be built closes the log (its writer would keep the process alive)
     # and the run fails with the reason; the MCAP file stays reviewable.
@@ -745,6 +766,7 @@ def _run_inprocess(
                 publish_block=log.publish_block,
                 published=log.published,  # the plant's report follows its final summary
                 stop=abort.event if abort is not None else None,
+                progress=progress,
             )
             marks["loop_end"] = time.monotonic()
             if runtime.fault is not None:  # its text beside the file (the review reads it)

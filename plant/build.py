@@ -41,7 +41,15 @@ from plant.waves import (
     still_water,
     synthesize,
 )
-from plant.wind import GustWind, RampWind, SteadyWind, StepWind, TurbulentWind, WindSpec
+from plant.wind import (
+    TURBULENCE_BOX_S,
+    GustWind,
+    RampWind,
+    SteadyWind,
+    StepWind,
+    TurbulentWind,
+    WindSpec,
+)
 from sensors import ChannelSpec, NoiseSpec, default_floating_suite
 from sensors.faults import FaultSpec
 
@@ -202,9 +210,11 @@ def make_wind(
 ) -> WindSpec:
     """The wind model of a request.
 
-    A turbulent record is synthesised ``duration_s`` long, sampled every ``dt_s``,
-    rotor-averaged over the ``turbine``'s rotor at its hub height; a gust uses the turbine's
-    rotor diameter and hub height (no turbine: 90 m hub, 63 m radius).
+    A turbulent record is synthesised ``duration_s`` long, at most
+    :data:`plant.wind.TURBULENCE_BOX_S` (a longer run repeats that box: its memory and
+    synthesis time do not grow with the run), sampled every ``dt_s``, rotor-averaged over the
+    ``turbine``'s rotor at its hub height; a gust uses the turbine's rotor diameter and hub
+    height (no turbine: 90 m hub, 63 m radius).
     """
     if isinstance(spec, SteadyWind | StepWind | RampWind):
         return spec
@@ -217,7 +227,7 @@ def make_wind(
             seed=spec.seed,
             hub_height_m=hub,
             rotor_radius_m=radius,
-            duration_s=duration_s,
+            duration_s=min(duration_s, TURBULENCE_BOX_S),
             dt_s=dt_s,
         )
     return GustWind(

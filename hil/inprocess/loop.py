@@ -528,15 +528,24 @@ class CompiledLoop:
         loop.finish_cycle(command, clock() - t0, at_arrival=False)
         self.python_cycles += 1
 
-    def run(self, cycles: int, stopped: Callable[[], bool] | None = None) -> None:
+    def run(
+        self,
+        cycles: int,
+        stopped: Callable[[], bool] | None = None,
+        progress: Callable[[], None] | None = None,
+    ) -> None:
         """Run the plant loop's cycles up to ``cycles`` (the run's end), or until
-        ``stopped()`` is true when a batch is to start (a signal asked the run to end)."""
+        ``stopped()`` is true when a batch is to start (a signal asked the run to end);
+        ``progress()`` is called before each batch (it looks at the clock and says how far
+        the run is now and then: :class:`hil.inprocess.run.Progress`)."""
         loop = self.loop
         suite = self.suite
         clock = time.monotonic_ns
         while loop.k < cycles:
             if stopped is not None and stopped():
                 break
+            if progress is not None:
+                progress()
             if not self._ready():
                 self._python_cycle()
                 continue

@@ -61,7 +61,11 @@ log batch counting once), ``expected`` (JSON: per key suffix, what the reports c
 cycle number
 (``seq``) of the plant's per-cycle messages (sensor frame, truth, cycle timing) in the file,
 ``"0"`` for a run recorded from its start, larger when the recorder joined late (a partial
-run), ``"none"`` when no cycle was recorded.
+run), ``"none"`` when no cycle was recorded; ``truth_decimated``: the truth messages a
+``soak`` recording left out. The ``recording`` record (written first, with the scenario)
+names the recording level (scenario ``[recording]``): at ``soak`` the truth of the cycles
+whose ``seq`` is not a multiple of its ``truth_every`` N is taken and not written, as the
+in-process writer does, and the reports' truth count is expected at 1 in N.
 
 CAN runs
 --------
@@ -119,7 +123,15 @@ from hil.nodes.bus import (
     sample_time_limit_ns,
     split_batch,
 )
-from hil.runlog.completeness import CONTROLLER_TOPICS, PLANT_TOPICS, expected_counts, shortfall
+from hil.runlog.completeness import (
+    CONTROLLER_TOPICS,
+    PLANT_TOPICS,
+    RECORDING_RECORD,
+    expected_counts,
+    recording_metadata,
+    shortfall,
+    truth_kept,
+)
 from hil.runlog.mcap_io import RunLog
 from hil.scenario.schema import Scenario
 
@@ -281,6 +293,10 @@ class Recorder:
         The end of the run's time window [ns] (:func:`hil.nodes.bus.sample_time_limit_ns`):
         a message whose ``sample_time_ns`` lies past it is counted as ``<suffix>:time`` and
         not written. None: no limit (beyond what the run log can hold).
+    truth_every : int
+        A ``soak`` recording (scenario ``[recording]``): the truth of a cycle whose ``seq``
+        is not a multiple of N is counted in ``decimated`` and not written (the in-process
+        writer keeps the same cycles); the reports' truth count is expected at 1 in N.
 
     Notes
     -----
@@ -297,10 +313,14 @@ class Recorder:
         log: RunLog,
         auth_key: bytes | None = None,
         max_sample_time_ns: int | None = None,
+        truth_every: int = 1,
     ) -> None:
         self.log = log
         self.auth_key = auth_key
         self.max_sample_time_ns = max_sample_time_ns
+        self.truth_every = truth_every
+        #: Truth messages taken and not written (a soak recording's decimation).
+        self.decimated = 0
         #: Per per-cycle topic, the newest cycle queued for writing.
         self.newest_cycle: dict[str, int] = {}
         #: Puts a controller's hello nonce back on ``recorder/ready`` (None: no answer).
@@ -392,6 +412,13 @@ class Recorder:
                 self.rejected[f"{suffix}:duplicate"] += 1
                 return
             self.newest_cycle[suffix] = cycle
+            if (
+                self.truth_every > 1
+                and isinstance(msg, PlantState)
+                and not truth_kept(cycle, self.truth_every)
+            ):
+                self.decimated += 1
+                return
         self.queue.put((key, msg, recv))
         if isinstance(msg, TimingSummary) and msg.final:
             self.final_seen.set()
@@ -442,7 +469,7 @@ class Recorder:
     def expected(self) -> dict[str, int]:
         """Messages per key suffix the reports written so far count
         (:mod:`hil.runlog.completeness`)."""
-        return expected_counts(self.plant_report, self.controller_reports)
+        return expected_counts(self.plant_report, self.controller_reports, self.truth_every)
 
     def holds(self, node: str) -> bool:
         """True once the report of ``node`` (``plant``, ``controller``) is in and, per topic
@@ -576,9 +603,15 @@ def run_recorder_node(
         )  # first: a bus that cannot open leaves no half-written file
     run_log = RecorderLog(out, scenario.turbine_id, can_raw=can is not None)
     run_log.add_metadata("scenario", scenario_metadata(scenario, scenario_toml))
+    run_log.add_metadata(RECORDING_RECORD, scenario_recording_metadata(scenario))
     if run_info:
         run_log.add_metadata("run", run_info)
-    recorder = Recorder(run_log, bus_config.auth_key, sample_time_limit_ns(scenario.duration_s))
+    recorder = Recorder(
+        run_log,
+        bus_config.auth_key,
+        sample_time_limit_ns(scenario.duration_s),
+        truth_every=scenario_truth_every(scenario),
+    )
     tap = CanTap(recorder, can_bus) if can_bus is not None else None
     bus = Bus(bus_config)
     ready_key = f"{KEY_PREFIX}/{scenario.turbine_id}/{READY_SUFFIX}"
@@ -691,6 +724,7 @@ def run_recorder_node(
         meta["topics"] = json.dumps(dict(sorted(recorder.counts.items())))
         meta["samples"] = json.dumps(dict(sorted(recorder.samples.items())))
         meta["expected"] = json.dumps(recorder.expected())
+        meta["truth_decimated"] = str(recorder.decimated)
         meta["first_cycle_recorded"] = (
             "none" if recorder.first_cycle is None else str(recorder.first_cycle)
         )
@@ -764,6 +798,17 @@ def _record_to_the_end(
             return missing or ["the plant's final summary"]
         if took < _TAKE_MAX:
             time.sleep(_DRAIN_PERIOD_S)
+
+
+def scenario_truth_every(scenario: Scenario) -> int:
+    """N of the scenario's recording level: one truth message in N is recorded."""
+    return scenario.recording.truth_every(scenario.timing.control_period_s)
+
+
+def scenario_recording_metadata(scenario: Scenario) -> dict[str, str]:
+    """The ``recording`` metadata record (level, N, truth period) of a scenario's runs."""
+    rec = scenario.recording
+    return recording_metadata(rec.level, scenario_truth_every(scenario), rec.truth_period_s)
 
 
 def scenario_metadata(scenario: Scenario, toml_text: str) -> dict[str, str]:

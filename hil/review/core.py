@@ -89,7 +89,10 @@ Summary keys (all numbers, ``null`` where a channel was missing)
     ``expected`` [1], the latter from the plant's ``timing/report`` and the controller's
     ``controller/report``, ``null`` where no report covers the topic), ``problems`` (one
     sentence per gap; a missing final summary or report is one), ``plant_report`` and
-    ``controller_report`` (bool: present).
+    ``controller_report`` (bool: present), ``level`` (``"full"`` or ``"soak"``, the file's
+    ``recording`` metadata; ``"full"`` without it) and ``truth_every`` N (1 truth message in
+    N recorded; the KPIs that need every cycle's truth are then ``null``:
+    :func:`hil.runlog.completeness.soak_unavailable`).
 """
 
 from __future__ import annotations
@@ -128,6 +131,8 @@ from hil.runlog.completeness import (
     CycleOrder,
     completeness,
     describe,
+    recording_level,
+    soak_unavailable,
 )
 from hil.runlog.mcap_io import PROFILE, MessageList, RunData, read_run
 from hil.scenario.schema import ReviewSection, watchdog_rule
@@ -720,6 +725,7 @@ class _Summary:
             "rotor_table": self.rotor_table.result(),
         }
         summary["controller"].update(self._controller_account())
+        soak_unavailable(summary, summary["recording"]["truth_every"])
         return summary
 
     def _timing(self) -> dict[str, Any]:
@@ -902,13 +908,15 @@ class _Summary:
         info = self.info
         recorded = {_suffix(k): info.counts[k] for k in info.topics}
         plant = self.rows["timing/report"]
+        level, every = recording_level(info.metadata)
         return completeness(
             recorded,
             plant[-1] if plant else None,
             self.rows["controller/report"],
             self.final_summary is not None,
             order={t: o.as_dict() for t, o in self.order.items() if o.last is not None},
-        )
+            truth_every=every,
+        ) | {"level": level, "truth_every": every}
 
     def _plant_account(self) -> dict[str, Any]:
         report = _final_record(self.rows["timing/report"])
@@ -1269,6 +1277,10 @@ def render_summary(summary: dict[str, Any], console: Console) -> None:
         )
     rec = summary.get("recording")
     if isinstance(rec, dict):
+        if rec.get("level", "full") != "full":
+            console.print(
+                f"recording level: {rec['level']} (truth decimated 1:{rec.get('truth_every')})"
+            )
         line = escape(f"recording: {describe(rec)}")
         console.print(line if rec.get("complete") else f"[bold red]{line}[/bold red]")
 

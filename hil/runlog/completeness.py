@@ -9,6 +9,12 @@ reports themselves. The recorder (:mod:`hil.nodes.recorder`) records until that 
 review (:mod:`hil.review.core`, summary key ``recording``) checks it (:func:`completeness`).
 Pure functions on plain mappings: the recorder hands them decoded Structs' fields, the
 review the MCAP file's JSON.
+
+Recording levels (scenario ``[recording]``, :class:`hil.scenario.schema.RecordingSection`):
+at ``soak`` the writers keep the truth of the cycles ``seq`` that are a multiple of N
+(:func:`truth_kept`) and say so in the file's ``recording`` metadata record
+(:func:`recording_metadata`, read back by :func:`recording_level`); the reports still count
+what the plant published, and :func:`expected_counts` expects the kept share of it.
 """
 
 from __future__ import annotations
@@ -33,10 +39,57 @@ CONTROLLER_TOPICS: dict[str, str] = {
 }
 PLANT_REPORT_TOPIC = "timing/report"
 CONTROLLER_REPORT_TOPIC = "controller/report"
+#: The topic a ``soak`` recording decimates (the plant's truth, one message a cycle).
+DECIMATED_TOPIC = "truth"
+#: The metadata record naming a file's recording level.
+RECORDING_RECORD = "recording"
+
+
+def truth_kept(seq: np.ndarray | int, truth_every: int) -> np.ndarray | bool:
+    """Whether the truth of cycle(s) ``seq`` is kept at one in ``truth_every``: seq % N == 0.
+
+    The cycle number, not the arrival, decides, so the in-process writer and the bus
+    recorder keep the same cycles of a run.
+    """
+    if truth_every <= 1:
+        return np.ones(np.shape(seq), bool) if isinstance(seq, np.ndarray) else True
+    if isinstance(seq, np.ndarray):
+        kept: np.ndarray = (seq % truth_every) == 0
+        return kept
+    return int(seq) % truth_every == 0
+
+
+def kept_count(published: int, truth_every: int) -> int:
+    """Truth messages kept of ``published`` consecutive cycles from 0 (the plant's ``seq``)."""
+    n = max(1, truth_every)
+    return (max(0, published) + n - 1) // n
+
+
+def recording_metadata(level: str, truth_every: int, truth_period_s: float) -> dict[str, str]:
+    """The ``recording`` metadata record of a file (strings, as every MCAP metadata)."""
+    return {
+        "level": level,
+        "truth_every": str(truth_every if level != "full" else 1),
+        "truth_period_s": f"{truth_period_s:g}" if level != "full" else "",
+    }
+
+
+def recording_level(metadata: Mapping[str, Mapping[str, str]]) -> tuple[str, int]:
+    """(level, N) of a file from its metadata: ``("full", 1)`` without the record (a file
+    from before recording levels) or with a record that does not parse."""
+    rec = metadata.get(RECORDING_RECORD) or {}
+    level = str(rec.get("level", "full"))
+    try:
+        every = int(rec.get("truth_every", "1"))
+    except ValueError:
+        return ("full", 1)
+    return (level, every) if every >= 1 else ("full", 1)
 
 
 def expected_counts(
-    plant: Mapping[str, Any] | None, controllers: Sequence[Mapping[str, Any]]
+    plant: Mapping[str, Any] | None,
+    controllers: Sequence[Mapping[str, Any]],
+    truth_every: int = 1,
 ) -> dict[str, int]:
     """Messages a complete recording holds per topic, as far as the reports tell.
 
@@ -47,6 +100,8 @@ def expected_counts(
     controllers : sequence of mappings
         Every controller report of the run (a restarted controller process sends one per
         process that stopped by itself; a killed one sends none).
+    truth_every : int
+        N of a ``soak`` recording: one truth message in N is recorded (1: every one).
 
     Returns
     -------
@@ -57,6 +112,7 @@ def expected_counts(
     if plant is not None:
         for topic, name in PLANT_TOPICS.items():
             out[topic] = int(plant.get(name, 0))
+        out[DECIMATED_TOPIC] = kept_count(out[DECIMATED_TOPIC], truth_every)
         out[PLANT_REPORT_TOPIC] = 1
     if controllers:
         for topic, name in CONTROLLER_TOPICS.items():
@@ -161,6 +217,7 @@ def completeness(
     controllers: Sequence[Mapping[str, Any]],
     final_summary: bool,
     order: Mapping[str, Mapping[str, int]] | None = None,
+    truth_every: int = 1,
 ) -> dict[str, Any]:
     """The review's ``recording`` section: is every published message in the file?
 
@@ -177,6 +234,10 @@ def completeness(
     order : mapping or None
         Per per-cycle topic, :meth:`CycleOrder.as_dict` of its cycles in the file: any
         repeat, reorder or skip is a problem (exact recording: each cycle once, in order).
+    truth_every : int
+        N of a ``soak`` recording (:func:`recording_level`): the truth expected is the
+        kept share of what the plant published (:func:`kept_count`), and the cycles a
+        decimated truth skips on purpose are not gaps (its count still must match).
 
     Returns
     -------
@@ -187,7 +248,9 @@ def completeness(
         ``controller_report`` (bool: present), ``order`` (as given, or empty). A plant
         topic must hold exactly what the plant published, no more (:func:`excess`).
     """
-    expected = expected_counts(plant, controllers)
+    expected = expected_counts(plant, controllers, truth_every)
+    if truth_every > 1 and order and DECIMATED_TOPIC in order:
+        order = {**order, DECIMATED_TOPIC: {**order[DECIMATED_TOPIC], "skipped": 0}}
     problems: list[str] = []
     if not final_summary:
         problems.append("no final timing summary: the plant did not finish the run (killed?)")
@@ -220,3 +283,49 @@ def describe(section: Mapping[str, Any]) -> str:
     if section.get("complete"):
         return "complete"
     return f"INCOMPLETE ({'; '.join(section.get('problems') or ['unknown'])})"
+
+
+#: Review figures that need the truth of every cycle, per summary section: under a soak
+#: recording (1 truth message in N) they are ``null`` (unavailable), never estimated from
+#: the kept samples: a maximum and rainflow cycles (DELs) miss the peaks between them, the
+#: pitch travel the motion between them, and the estimator and forecast errors are taken
+#: against the truth interpolated to each status's time (at 1 Hz, the interpolation error
+#: of an 8 s wave or of 12.5 ms turbulence would be counted as the estimator's).
+SOAK_UNAVAILABLE: dict[str, tuple[str, ...]] = {
+    "kpi": (
+        "thrust_max_n",
+        "pitch_travel_deg_s",
+        "shaft_del_nm",
+        "tower_base_del_nm",
+        "thrust_del_n",
+    ),
+    "estimator": (
+        "wind_speed_error_mean_pct",
+        "wind_speed_error_rms_m_s",
+        "platform_pitch_rate_error_rms_rad_s",
+        "platform_surge_velocity_error_rms_m_s",
+    ),
+    "forecast": ("vaf_pct",),
+}
+
+
+def soak_unavailable(summary: dict[str, Any], truth_every: int) -> list[str]:
+    """Set the figures of :data:`SOAK_UNAVAILABLE` to None in a review summary whose truth
+    was recorded at 1 in ``truth_every`` (> 1); list them (``section.key``) under
+    ``summary["recording"]["unavailable"]``. The other truth KPIs (means, standard
+    deviations) are computed from the kept samples, a regular 1:N subsample."""
+    if truth_every <= 1:
+        return []
+    gone = []
+    for section, keys in SOAK_UNAVAILABLE.items():
+        part = summary.get(section)
+        if not isinstance(part, dict):
+            continue
+        for key in keys:
+            if key in part:
+                part[key] = None
+                gone.append(f"{section}.{key}")
+    rec = summary.get("recording")
+    if isinstance(rec, dict):
+        rec["unavailable"] = gone
+    return gone

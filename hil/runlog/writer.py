@@ -37,6 +37,13 @@ survives a kill does not depend on the machine's load.
 The lock-step and real-time modes do not use this path: their recorder writes the same
 :class:`~hil.runlog.mcap_io.RunLog` message by message and flushes a chunk every 0.15 s of wall
 time (:mod:`hil.nodes.recorder`).
+
+A ``soak`` recording level (scenario ``[recording]``; ``truth_every`` N > 1) drops, before
+the batch, the truth of the cycles whose ``seq`` is not a multiple of N
+(:func:`hil.runlog.completeness.truth_kept`, as the bus recorder does);
+:meth:`MessageBatcher.published` still counts them (what the plant published, for its
+report). Nothing here holds more than the batch being filled: the writer's memory does not
+grow with the run (the file's chunk index aside, about 100 bytes a chunk).
 """
 
 from __future__ import annotations
@@ -59,10 +66,12 @@ from typing import Any
 import msgspec
 import numpy as np
 
-from bus_schemas.registry import MESSAGES, MessageType
+from bus_schemas.registry import MESSAGES, TRUTH, MessageType
+from hil.runlog.completeness import truth_kept
 from hil.runlog.mcap_io import RunLog
 
 _BY_ID = {mt.message_id: mt for mt in MESSAGES}
+_TRUTH_ID = TRUTH.message_id
 
 #: Messages per batch (one MCAP chunk each); bench/inprocess_speed.py measured the choice.
 BATCH_MESSAGES = 1024
@@ -337,12 +346,19 @@ class MessageBatcher(abc.ABC):
     ----------
     batch_messages : int
         Messages per batch (module docstring).
+    truth_every : int
+        Keep the truth of one cycle in N (a ``soak`` recording; 1: every message).
     """
 
-    def __init__(self, batch_messages: int = BATCH_MESSAGES) -> None:
+    def __init__(self, batch_messages: int = BATCH_MESSAGES, truth_every: int = 1) -> None:
         if batch_messages < 1:
             raise ValueError(f"batch_messages: expected an integer >= 1, got {batch_messages}")
+        if truth_every < 1:
+            raise ValueError(f"truth_every: expected an integer >= 1, got {truth_every}")
         self._batch_messages = batch_messages
+        self.truth_every = truth_every
+        #: Truth messages published and not recorded (a soak recording's decimation).
+        self.decimated = 0
         # Messages per message id in the batches sent so far (counted per batch, from its
         # order, so publishing costs nothing more): published() adds the batch being filled.
         self._sent_counts = np.zeros(ROW_FLAG, np.int64)
@@ -370,13 +386,20 @@ class MessageBatcher(abc.ABC):
         return np.bincount(flags, minlength=ROW_FLAG).astype(np.int64)
 
     def published(self) -> dict[str, int]:
-        """Messages handed to the log so far per key suffix (Structs and rows alike)."""
+        """Messages handed to the log so far per key suffix (Structs and rows alike; a
+        soak recording's decimated truth included: what was published, not recorded)."""
         counts = self._sent_counts + self._id_counts(self._ids)
+        counts[TRUTH.message_id] += self.decimated
         return {mt.key_suffix: int(counts[mid]) for mid, mt in _BY_ID.items()}
 
     def publish(self, mt: MessageType, msg: msgspec.Struct) -> None:
         """Queue one message for the log (the simulation loop's only logging cost)."""
         mid = mt.message_id
+        if (
+            mid == _TRUTH_ID and self.truth_every > 1 and not truth_kept(msg.seq, self.truth_every)  # type: ignore[attr-defined]
+        ):
+            self.decimated += 1
+            return
         ids = self._ids
         ids.append(mid)
         lst = self._by_id.get(mid)
@@ -414,6 +437,8 @@ class MessageBatcher(abc.ABC):
         ids = np.asarray(order, np.uint8)
         if ids.ndim != 1:
             raise ValueError(f"publish_block: order must be 1-D, got shape {ids.shape}")
+        if self.truth_every > 1 and _TRUTH_ID in rows:
+            ids, rows = self._decimate(ids, rows)
         counts = np.bincount(ids, minlength=256)
         total = 0
         for mid, block in rows.items():
@@ -458,6 +483,24 @@ class MessageBatcher(abc.ABC):
             if len(self._ids) >= self._batch_messages:
                 self._send()
 
+    def _decimate(
+        self, ids: np.ndarray, rows: Mapping[int, np.ndarray]
+    ) -> tuple[np.ndarray, Mapping[int, np.ndarray]]:
+        """A block without the truth rows a soak recording drops (and their ids in order)."""
+        truth = rows[_TRUTH_ID]
+        keep = truth_kept(truth["seq"], self.truth_every)
+        assert isinstance(keep, np.ndarray)
+        dropped = int(truth.size - np.count_nonzero(keep))
+        if not dropped:
+            return ids, rows
+        at = np.flatnonzero(ids == _TRUTH_ID)
+        if at.size != truth.size:  # publish_block's own checks say what is wrong
+            return ids, rows
+        self.decimated += dropped
+        out = dict(rows)
+        out[_TRUTH_ID] = truth[keep]
+        return np.delete(ids, at[~keep]), out
+
     def _payload(self) -> bytes:
         """The batch as it goes to the writer: one msgpack call for all its messages."""
         return _encode_batch_payload((self._ids, self._by_id, self._rows))
@@ -478,6 +521,8 @@ class BackgroundRunLog(MessageBatcher):
         Chunk compression of the file (:data:`hil.runlog.mcap_io.COMPRESSIONS`).
     batch_messages : int
         Messages per batch (module docstring).
+    truth_every : int
+        Keep the truth of one cycle in N (a ``soak`` recording, module docstring).
     """
 
     def __init__(
@@ -487,8 +532,9 @@ class BackgroundRunLog(MessageBatcher):
         metadata: dict[str, dict[str, str]],
         compression: str = "zstd",
         batch_messages: int = BATCH_MESSAGES,
+        truth_every: int = 1,
     ) -> None:
-        super().__init__(batch_messages)
+        super().__init__(batch_messages, truth_every)
         ctx = multiprocessing.get_context("spawn")
         recv_end, send_end = ctx.Pipe(duplex=False)
         setpipe = getattr(fcntl, "F_SETPIPE_SZ", None)
@@ -611,8 +657,9 @@ class InProcessRunLog(MessageBatcher):
         metadata: dict[str, dict[str, str]],
         compression: str = "zstd",
         batch_messages: int = BATCH_MESSAGES,
+        truth_every: int = 1,
     ) -> None:
-        super().__init__(batch_messages)
+        super().__init__(batch_messages, truth_every)
         self.log = RunLog(path, turbine, compression=compression)
         for name, data in metadata.items():
             self.log.add_metadata(name, data)

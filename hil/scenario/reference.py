@@ -40,6 +40,7 @@ _SECTIONS: tuple[tuple[str, str], ...] = (
     ("CanSection", "[can]"),
     ("ReviewSection", "[review]"),
     ("InitialSection", "[initial]"),
+    ("RecordingSection", "[recording]"),
 )
 
 

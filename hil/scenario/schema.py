@@ -711,6 +711,44 @@ class ReviewSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=T
     power_metric: Literal["electrical", "quadratic_linear"] = "electrical"
 
 
+class RecordingSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """What the run log keeps (in every mode that records: the in-process log writer and
+    the bus recorder).
+
+    ``level = "full"`` (default): every message. ``level = "soak"``, for long runs (a day's
+    soak of a controller): the plant's truth (``fowt/<id>/truth``, the largest topic: 61 %
+    of a full log's bytes) is kept once every ``truth_period_s`` [s], the cycles ``seq``
+    that are a multiple of N = ``truth_period_s`` / ``timing.control_period_s`` (a whole
+    number of control periods), and every per-cycle control channel is kept whole (sensor
+    frames, commands, controller statuses, cycle timing), so timing, latency, the verdict
+    and the control figures are those of a full recording. The level and N are in the
+    file's ``recording`` metadata record; the review says ``recording level: soak (truth
+    decimated 1:N)``, expects 1 truth message in N, computes the truth means and standard
+    deviations from the kept samples (a regular 1:N subsample) and marks unavailable
+    (``null``) what needs every cycle's truth: the thrust maximum, pitch travel,
+    damage-equivalent loads, the estimator errors and the forecast VAF
+    (docs/guide/run-log.md).
+    """
+
+    level: Literal["full", "soak"] = "full"
+    truth_period_s: Positive = 1.0
+
+    def truth_every(self, control_period_s: float) -> int:
+        """N: one truth message in N is kept (1 at ``level = "full"``)."""
+        if self.level == "full":
+            return 1
+        return max(1, round(self.truth_period_s / control_period_s))
+
+    def check(self, control_period_s: float) -> None:
+        """ValueError unless ``truth_period_s`` is a whole number of control periods."""
+        ratio = self.truth_period_s / control_period_s
+        if self.level == "soak" and (round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-9):
+            raise ValueError(
+                f"recording.truth_period_s = {self.truth_period_s:g} s: expected a whole "
+                f"number of control periods ({control_period_s:g} s)"
+            )
+
+
 class InitialSection(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Where the run starts (as OpenFAST's ``RotSpeed``, ``BlPitch``, ``PtfmSurge``, ...).
 
@@ -768,6 +806,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
     can: CanSection = msgspec.field(default_factory=CanSection)
     review: ReviewSection = msgspec.field(default_factory=ReviewSection)
     initial: InitialSection = msgspec.field(default_factory=InitialSection)
+    recording: RecordingSection = msgspec.field(default_factory=RecordingSection)
 
     def __post_init__(self) -> None:
         ratio = self.timing.control_period_s / self.timing.plant_step_s
@@ -821,6 +860,7 @@ class Scenario(_Section, frozen=True, forbid_unknown_fields=True, kw_only=True):
                 merged[name] = {**merged.get(name, {}), **table}
             msgspec.structs.force_setattr(self.sensors, "channels", merged)
         self.sensors.check(self.timing.control_period_s)
+        self.recording.check(self.timing.control_period_s)
         if self.review.power_metric == "quadratic_linear":
             casanovas = ("no_control", "base_torque", "lqr_steady", "lqr_finite", "lqr_overlaid")
             if self.controller.kind not in casanovas or self.waves is None:
@@ -992,6 +1032,7 @@ def _known_fields(path: str) -> list[str]:
         "controller": ControllerSection,
         "can": CanSection,
         "review": ReviewSection,
+        "recording": RecordingSection,
     }
     if parts:
         if parts[0].startswith("faults["):
