@@ -31,6 +31,7 @@ pass first.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -591,27 +592,96 @@ def _figure(width_in: float, height_in: float, rows: int, **margins: float) -> t
 
 def _save(fig: Any, path: Path) -> None:
     """Write ``fig`` as a PNG at :data:`DPI` (zlib level 1: the default 6 costs about a fifth of
-    the drawing for files a little smaller), its log axes first made cheap to draw
-    (:func:`_plain_log_axes`)."""
-    _plain_log_axes(fig)
+    the drawing for files a little smaller), its ticks first made cheap to draw
+    (:func:`_plain_ticks`)."""
+    _plain_ticks(fig)
     fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
 
 
-def _plain_log_axes(fig: Any) -> None:
-    """No minor ticks on log axes, and plain-text labels on the major ones.
+#: Length of the tick marks and gap to their labels [points] (matplotlib's defaults).
+_TICK_PT, _PAD_PT = 3.5, 3.5
 
-    Each tick is a few artists built and measured at every draw (eight minor ticks a decade
-    made most of the spectra's drawing time); the grid of the major ones (a line a decade) is
-    kept, labelled 10⁻³ in plain text (:func:`_power_of_ten`): matplotlib's own log labels
-    are mathtext, whose parser costs about a second to build.
+
+def _plain_ticks(fig: Any) -> None:
+    """Every axis's ticks drawn as a few plain artists instead of matplotlib's tick objects.
+
+    A matplotlib tick is five artists (two marks, two labels, a grid line), built, copied
+    and measured at every draw: on the eight stacked panels of the time series they were
+    most of the drawing time. Each axis keeps the positions its locator gives for the final
+    limits, drawn as one collection of grid lines, one of tick marks and a plain text per
+    label (10⁻³ on a log axis, :func:`_power_of_ten`: matplotlib's own log labels are
+    mathtext, whose parser costs about a second to build; a linear axis's values with the
+    decimals their step needs); the axis labels are placed beside them. An axis whose locator
+    gives nothing (the upper panels of :func:`_one_x_axis`) stays bare.
     """
-    from matplotlib.ticker import FuncFormatter, NullLocator  # noqa: PLC0415 - drawing only
+    import matplotlib as mpl  # noqa: PLC0415 - drawing only
+    from matplotlib.collections import LineCollection  # noqa: PLC0415
+    from matplotlib.ticker import NullLocator  # noqa: PLC0415
+    from matplotlib.transforms import ScaledTranslation  # noqa: PLC0415
 
+    size = mpl.rcParams["ytick.labelsize"]
     for ax in fig.axes:
-        for axis in (ax.xaxis, ax.yaxis):
-            if axis.get_scale() == "log":
-                axis.set_minor_locator(NullLocator())
-                axis.set_major_formatter(FuncFormatter(_power_of_ten))
+        box = ax.get_position()
+        width_in = box.width * fig.get_figwidth()
+        height_in = box.height * fig.get_figheight()
+        for name in ("x", "y"):
+            axis = ax.xaxis if name == "x" else ax.yaxis
+            lim = ax.get_xlim() if name == "x" else ax.get_ylim()
+            lo, hi = min(lim), max(lim)
+            log = axis.get_scale() == "log"
+            tol = 1e-9 * (hi - lo)
+            at = [float(v) for v in axis.get_major_locator()() if lo - tol <= v <= hi + tol]
+            axis.set_major_locator(NullLocator())
+            axis.set_minor_locator(NullLocator())
+            if not at:
+                continue
+            texts = [_power_of_ten(v) for v in at] if log else _linear_labels(at)
+            if name == "y":
+                trans = ax.get_yaxis_transform()  # x in axes fraction, y in data
+                mark = -_TICK_PT / 72.0 / width_in
+                segs = [((0.0, v), (1.0, v)) for v in at] + [((mark, v), (0.0, v)) for v in at]
+                shift = ScaledTranslation(-(_TICK_PT + _PAD_PT) / 72.0, 0.0, fig.dpi_scale_trans)
+                place = {"ha": "right", "va": "center"}
+                chars = max(len(t) for t in texts)
+                gap_pt = _TICK_PT + _PAD_PT + 0.62 * chars * _font_pt(size) + 4.0
+                axis.set_label_coords(-gap_pt / 72.0 / width_in, 0.5)
+            else:
+                trans = ax.get_xaxis_transform()  # x in data, y in axes fraction
+                mark = -_TICK_PT / 72.0 / height_in
+                segs = [((v, 0.0), (v, 1.0)) for v in at] + [((v, mark), (v, 0.0)) for v in at]
+                shift = ScaledTranslation(0.0, -(_TICK_PT + _PAD_PT) / 72.0, fig.dpi_scale_trans)
+                place = {"ha": "center", "va": "top"}
+                gap_pt = _TICK_PT + _PAD_PT + 1.2 * _font_pt(size) + 3.0
+                axis.set_label_coords(0.5, -gap_pt / 72.0 / height_in)
+            # grid lines (light, behind) and tick marks (outside the panel): one artist
+            colors = [(0.69, 0.69, 0.69, 0.3)] * len(at) + [(0.0, 0.0, 0.0, 1.0)] * len(at)
+            lines = LineCollection(segs, colors=colors, linewidths=0.8, transform=trans,
+                                   zorder=0.5, clip_on=False)  # fmt: skip
+            ax.add_collection(lines, autolim=False)
+            for v, text in zip(at, texts, strict=True):
+                xy = (0.0, v) if name == "y" else (v, 0.0)
+                ax.text(*xy, text, transform=trans + shift, fontsize=size, **place)
+
+
+def _font_pt(size: Any) -> float:
+    """A font size [points] from a matplotlib size (a number or a name like ``medium``)."""
+    from matplotlib.font_manager import FontProperties  # noqa: PLC0415 - drawing only
+
+    return float(FontProperties(size=size).get_size_in_points())
+
+
+def _linear_labels(at: Sequence[float]) -> list[str]:
+    """Labels of evenly spaced ticks on a linear axis: as many decimals as their step needs
+    (matplotlib's minus sign)."""
+    step = min((abs(b - a) for a, b in itertools.pairwise(at) if b != a), default=0.0)
+    dec = max(0, -math.floor(math.log10(step) + 1e-9)) if step > 0 else 0
+    out = []
+    for v in at:
+        text = f"{v:.{dec}f}"
+        if float(text) == 0.0:
+            text = f"{0.0:.{dec}f}"
+        out.append(text.replace("-", "\u2212"))
+    return out
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -694,8 +764,7 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
             continue
         if has["sensors"]:
             ax.plot(ts, sensors.get(mfield) * scale, label=mlabel or "measured", **behind)
-            for k, (a, b) in enumerate(data.invalid[mfield].finish()):
-                ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if k else "invalid")
+            _spans(ax, data.invalid[mfield].finish(), "invalid", color="tab:red", alpha=0.15)
         if has["truth"]:
             if tfield == "wave_elevation_platform_m":
                 ax.plot(
@@ -735,7 +804,6 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
             _no_data(a, "bottom-fixed plant: no platform")
         else:
             _no_data(a)
-        a.grid(True, alpha=0.3)
     if any(has_data):
         from matplotlib.ticker import MaxNLocator  # noqa: PLC0415 - drawing only
 
@@ -760,36 +828,40 @@ def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
     ``axes``; the legend entries go on the first (top) panel only."""
     for i, a in enumerate(axes):
         first = i == 0
-        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
-            a.axvspan(
-                lo,
-                hi,
-                color="tab:purple",
-                alpha=0.18,
-                lw=0,
-                zorder=0,
-                label="plant safe state" if first and k == 0 else None,
+        _spans(a, ev["plant_safe_state"], "plant safe state" if first else None,
+               color="tab:purple", alpha=0.18, zorder=0)  # fmt: skip
+        _spans(a, ev["controller_safe_mode"], "controller safe mode" if first else None,
+               facecolor="none", edgecolor="tab:orange", hatch="//", zorder=0)  # fmt: skip
+        starts = ev["feedforward_starts_s"]
+        if starts:
+            text = f"feedforward on (t = {starts[0]:.1f} s)" if first else None
+            a.add_collection(
+                _lines_across(a, starts, color="tab:green", ls="-.", lw=1.2, zorder=2, label=text),
+                autolim=False,
             )
-        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
-            a.axvspan(
-                lo,
-                hi,
-                facecolor="none",
-                edgecolor="tab:orange",
-                hatch="//",
-                lw=0,
-                zorder=0,
-                label="controller safe mode" if first and k == 0 else None,
-            )
-        for k, ff in enumerate(ev["feedforward_starts_s"]):
-            a.axvline(
-                ff,
-                color="tab:green",
-                ls="-.",
-                lw=1.2,
-                zorder=2,
-                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
-            )
+
+
+def _spans(ax: Any, windows: Sequence[tuple[float, float]], label: str | None, **style: Any) -> None:
+    """Shade the x ``windows`` [(from, to)] over the panel's height: one artist for all
+    (``axvspan`` builds a patch each), one legend entry ``label``."""
+    if not windows:
+        return
+    from matplotlib.collections import PolyCollection  # noqa: PLC0415 - drawing only
+
+    verts = [((lo, 0.0), (lo, 1.0), (hi, 1.0), (hi, 0.0)) for lo, hi in windows]
+    ax.add_collection(
+        PolyCollection(verts, transform=ax.get_xaxis_transform(), linewidths=0, label=label,
+                       **style),  # fmt: skip
+        autolim=False,
+    )
+
+
+def _lines_across(ax: Any, xs: Sequence[float], **style: Any) -> Any:
+    """Vertical lines at ``xs`` over the panel's height, as one collection."""
+    from matplotlib.collections import LineCollection  # noqa: PLC0415 - drawing only
+
+    segs = [((x, 0.0), (x, 1.0)) for x in xs]
+    return LineCollection(segs, transform=ax.get_xaxis_transform(), **style)
 
 
 def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) -> None:
@@ -798,15 +870,12 @@ def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) 
     period = data.period_s
     if not (math.isfinite(period) and period > 0):
         return
-    for k, (lo, hi) in enumerate(data.events()["plant_safe_state"]):
-        label = None
-        if k == 0:
-            trips, back = timing.get("watchdog_trips"), timing.get("watchdog_recoveries")
-            label = "plant safe state" + (
-                f" ({trips} trip(s), {back} recovered)" if isinstance(trips, int) else ""
-            )
-        ax.axvspan(lo / period, hi / period, color="tab:purple", alpha=0.18, lw=0, zorder=0,
-                   label=label)  # fmt: skip
+    trips, back = timing.get("watchdog_trips"), timing.get("watchdog_recoveries")
+    label = "plant safe state" + (
+        f" ({trips} trip(s), {back} recovered)" if isinstance(trips, int) else ""
+    )
+    windows = [(lo / period, hi / period) for lo, hi in data.events()["plant_safe_state"]]
+    _spans(ax, windows, label, color="tab:purple", alpha=0.18, zorder=0)
 
 
 def _timing_plot(data: PlotData, label: str, path: Path) -> None:
@@ -908,7 +977,6 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     )
     a1.set_xlabel("cycle [1]")
     a1.set_ylabel("latency [us]")
-    a1.grid(True, alpha=0.3)
     _save(fig, path)
 
 
@@ -949,7 +1017,6 @@ def _psd_plot(data: PlotData, label: str, path: Path) -> None:
             inside = (fp >= lo_hz) & (fp <= hi_hz)
             peak = float(pp[inside].max()) if inside.any() else float(pp.max())
             ax.set_ylim(peak * 10.0**-PSD_DECADES, peak * 3.0)
-            ax.grid(True, which="major", alpha=0.3)
             drawn.append(ax)
         if drawn:
             for ax in axes:
