@@ -11,6 +11,10 @@ length, the file's size, and per length the CPU seconds and peak per hour of sim
 with them.
 
     python bench/review_memory.py [--durations 3600 21600 86400] [--repeat 1]
+        [--log DURATION=PATH ...]
+
+``--log 86400=day/run.mcap`` reviews a log made beforehand by that command for that
+duration instead of running it again (kept afterwards).
 """
 
 from __future__ import annotations
@@ -60,23 +64,32 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--durations", type=float, nargs="+", default=[3600.0, 21600.0, 86400.0])
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--log", nargs="*", default=[], metavar="DURATION=PATH")
     args = ap.parse_args()
+    made: dict[float, Path] = {}
+    for item in args.log:
+        dur, _, where = item.partition("=")
+        made[float(dur)] = Path(where)
     result: dict[str, Any] = {"load_before": load(), "scenario": SCENARIO, "runs": {}}
     with tempfile.TemporaryDirectory(prefix="fowt-review-memory-") as tmp:
         for dur in args.durations:
             run_dir = Path(tmp) / f"run{int(dur)}"
-            subprocess.run(
-                [sys.executable, "-m", "hil", "run", SCENARIO, "--mode", "inprocess",
-                 "--duration", str(dur), "--out", str(run_dir), "--no-plots"],
-                capture_output=True, check=True,
-            )  # fmt: skip
-            path = run_dir / "run.mcap"
+            if dur in made:
+                path = made[dur]
+            else:
+                subprocess.run(
+                    [sys.executable, "-m", "hil", "run", SCENARIO, "--mode", "inprocess",
+                     "--duration", str(dur), "--out", str(run_dir), "--no-plots"],
+                    capture_output=True, check=True,
+                )  # fmt: skip
+                path = run_dir / "run.mcap"
             size_mb = path.stat().st_size / 1e6
             rounds = [_review(path, Path(tmp) / f"review{int(dur)}") for _ in range(args.repeat)]
             med = {k: statistics.median(r[k] for r in rounds) for k in rounds[0]}
             hours = dur / 3600.0
             result["runs"][f"{hours:g}h"] = {
                 "simulated_s": dur,
+                "log_made_beforehand": dur in made,
                 "file_mb": size_mb,
                 "median": med,
                 "cpu_s_per_simulated_hour": med["cpu_s"] / hours,

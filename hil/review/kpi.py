@@ -218,10 +218,7 @@ def percentiles(
     if a.size == 0:
         return {n: NAN for n in names}
     vals: list[float] = (
-        [
-            float(v)
-            for v in np.percentile(a, list(qs), method="linear", overwrite_input=overwrite)
-        ]
+        [float(v) for v in np.percentile(a, list(qs), method="linear", overwrite_input=overwrite)]
         if qs
         else []
     )

@@ -76,6 +76,11 @@ PSD_TARGET_SEGMENT_S = 250.0
 RPM_PER_RAD_S = 30.0 / math.pi
 #: Resolution of the PNGs [dots per inch].
 DPI = 100
+#: Vertices of a line Agg rasterises at a time (matplotlib's ``agg.path.chunksize``; 0, its
+#: default, is the whole line at once). A long run's min/max envelope zig-zags over the whole
+#: panel height at every pixel column, and Agg holds a cell for every pixel such a line
+#: crosses: 20-30 MB a line for a day, none of it Python's. In pieces it holds one piece's.
+AGG_CHUNK = 500
 #: ``command`` ``mode`` of a safe-mode command (:data:`hil.review.core.MODE_SAFE_COMMAND`).
 MODE_SAFE_COMMAND = 2
 
@@ -594,8 +599,11 @@ def _save(fig: Any, path: Path) -> None:
     """Write ``fig`` as a PNG at :data:`DPI` (zlib level 1: the default 6 costs about a fifth of
     the drawing for files a little smaller), its ticks first made cheap to draw
     (:func:`_plain_ticks`)."""
+    import matplotlib as mpl  # noqa: PLC0415 - drawing only
+
     _plain_ticks(fig)
-    fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
+    with mpl.rc_context({"agg.path.chunksize": AGG_CHUNK}):
+        fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
 
 
 #: Length of the tick marks and gap to their labels [points] (matplotlib's defaults).
@@ -841,7 +849,9 @@ def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
             )
 
 
-def _spans(ax: Any, windows: Sequence[tuple[float, float]], label: str | None, **style: Any) -> None:
+def _spans(
+    ax: Any, windows: Sequence[tuple[float, float]], label: str | None, **style: Any
+) -> None:
     """Shade the x ``windows`` [(from, to)] over the panel's height: one artist for all
     (``axvspan`` builds a patch each), one legend entry ``label``."""
     if not windows:
@@ -850,8 +860,9 @@ def _spans(ax: Any, windows: Sequence[tuple[float, float]], label: str | None, *
 
     verts = [((lo, 0.0), (lo, 1.0), (hi, 1.0), (hi, 0.0)) for lo, hi in windows]
     ax.add_collection(
-        PolyCollection(verts, transform=ax.get_xaxis_transform(), linewidths=0, label=label,
-                       **style),  # fmt: skip
+        PolyCollection(
+            verts, transform=ax.get_xaxis_transform(), linewidths=0, label=label, **style
+        ),
         autolim=False,
     )
 
