@@ -97,7 +97,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -1010,7 +1010,12 @@ class _Summary:
 
 def _settle_s(info: RunInfo) -> float:
     """The scenario's ``[review] settle_s`` [s] (:data:`DEFAULT_SETTLE_S` when absent)."""
-    cfg = _scenario(info).get("config") or {}
+    return settle_s_of(info.metadata)
+
+
+def settle_s_of(metadata: Mapping[str, Mapping[str, str]]) -> float:
+    """The ``[review] settle_s`` [s] of the scenario in a log's metadata (default when absent)."""
+    cfg = _scenario_of(metadata).get("config") or {}
     rv = cfg.get("review") if isinstance(cfg, dict) else None
     if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
         return float(rv["settle_s"])
@@ -1022,7 +1027,11 @@ def _scenario_period_s(info: RunInfo | RunData) -> float:
     return scenario_period_s(info.metadata)
 
 
-def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str, Any]:
+def summarize_batches(
+    batches: Iterable[ColumnBatch],
+    info: RunInfo,
+    also: Callable[[ColumnBatch], None] | None = None,
+) -> dict[str, Any]:
     """The summary of a run given as batches of columns (filled into ``info`` meanwhile).
 
     Parameters
@@ -1032,10 +1041,14 @@ def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str
         :func:`hil.runlog.columns.run_batches` (a run in memory).
     info : RunInfo
         The run's counts, metadata and reading state; complete once ``batches`` is.
+    also : callable, optional
+        Gets every batch too (the plots' data, gathered in the same pass).
     """
     acc = _Summary(info)
     for b in batches:
         acc.add(b)
+        if also is not None:
+            also(b)
     cleaned: dict[str, Any] = _clean(acc.result())
     return cleaned
 
@@ -1155,8 +1168,21 @@ def review(
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
     # One pass over the file chunk by chunk (hil.runlog.columns), and one more for the plots;
     # memory does not grow with the run. A platform recording (small) is read whole.
-    reader = ColumnReader(mcap_path, rs.FIELDS)
-    summary = summarize_batches(reader.batches(), reader.info)
+    data = None
+    if plots:
+        from hil.review import plots as plots_mod  # noqa: PLC0415 - plots import this module
+
+        # A complete file says how many messages each topic has (its summary section): the
+        # plots' data is gathered in the review's own pass. Else a second pass draws them.
+        counts = plots_mod.logged_counts(mcap_path)
+        if counts is not None:
+            reader = ColumnReader(mcap_path, plots_mod.with_plot_fields(rs.FIELDS))
+            data = plots_mod.PlotData(counts, None, reader.info.metadata)
+    if data is None:
+        reader = ColumnReader(mcap_path, rs.FIELDS)
+    summary = summarize_batches(
+        reader.batches(), reader.info, data.feed if data is not None else None
+    )
     check_run_log(reader.info, mcap_path)
     family = run_family(reader.info)
     if family not in ("turbine", "hexicon"):
@@ -1186,6 +1212,11 @@ def review(
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
             files += hexicon_review.write_plots(run, out)
+        elif data is not None:  # gathered in the review's pass
+            from hil.review import plots as plots_mod  # noqa: PLC0415
+
+            data.finish(summary)
+            files += plots_mod.write_plots(data, out)
         else:  # a second pass over the file, chunk by chunk, knowing the summary
             files += write_plots_of_file(mcap_path, reader.info, summary, out)
     if written is not None:

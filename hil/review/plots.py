@@ -293,8 +293,8 @@ class Spans:
     """
 
     def __init__(self, period_s: float) -> None:
-        self.period_s = period_s
-        self.windows: list[tuple[float, float]] = []
+        self.period_s = period_s  # may be set until finish (the scenario read meanwhile)
+        self._spans: list[tuple[float, float]] = []  # (first, last flagged sample)
         self._open: float | None = None
         self._last = math.nan
 
@@ -316,8 +316,13 @@ class Spans:
 
     def _close(self, last: float) -> None:
         if self._open is not None:
-            self.windows.append((self._open, last + self.period_s))
+            self._spans.append((self._open, last))
         self._open = None
+
+    @property
+    def windows(self) -> list[tuple[float, float]]:
+        """The windows closed so far, (first flagged sample, last + ``period_s``) [s]."""
+        return [(a, b + self.period_s) for a, b in self._spans]
 
     def finish(self) -> list[tuple[float, float]]:
         """The windows, the one still open at the end closed."""
@@ -405,37 +410,56 @@ class PlotData:
     ----------
     counts : mapping of str to int
         Messages per topic suffix (the first topic of each; sets the buckets).
-    summary : dict
+    summary : dict or None
         The run's review summary: ``kpi_window``, ``timing`` (latency percentiles, deadline,
-        unanswered cycles) and ``run`` (mode) are read.
+        unanswered cycles) and ``run`` (mode) are read. None: fed in the same pass as the
+        review's own statistics, it is given to :meth:`finish` after the last batch (the
+        spectra's window found meanwhile as the review finds it).
     metadata : dict
-        The log's metadata records (scenario name and control period).
+        The log's metadata records (scenario name and control period); may still be filled
+        while the batches come (read with them from the file).
     """
 
     def __init__(
         self,
         counts: Mapping[str, int],
-        summary: Mapping[str, Any],
+        summary: Mapping[str, Any] | None,
         metadata: Mapping[str, Mapping[str, str]],
     ) -> None:
-        self.summary = summary
         self.metadata = metadata
-        self.period_s = scenario_period_s(metadata)
-        self.window = dict(summary.get("kpi_window") or {})
         self.series = {sfx: Envelope(counts.get(sfx, 0)) for sfx in PLOT_FIELDS}
         self.floating = False
         self.seen: set[str] = set()
-        p = self.period_s
-        self.plant_safe = Spans(p)
-        self.ctrl_safe = Spans(p)
-        self.acting = Spans(p)
-        self.invalid = {p_[2]: Spans(p) for p_ in _PANELS}
+        self.period_s = math.nan  # the scenario's (finish); the spans take it then
+        self.plant_safe = Spans(math.nan)
+        self.ctrl_safe = Spans(math.nan)
+        self.acting = Spans(math.nan)
+        self.invalid = {p_[2]: Spans(math.nan) for p_ in _PANELS}
         self.lat_counts = np.zeros(_LAT_EDGES_US.size - 1, np.int64)
         self.lat_n = 0
         self.late: list[np.ndarray] = []
         self.unanswered: list[np.ndarray] = []
         self.welch: dict[str, StreamingWelch] = {}
         self.psd_t = [math.nan, math.nan]
+        self.summary: Mapping[str, Any] = {}
+        self.window: dict[str, Any] = {}
+        # the spectra's KPI window: from the summary when given, else found as the review's
+        # own (hil.review.stream.Window: the truth held until its start is known)
+        self._psd_window: Any = None
+        self._cut_known = summary is not None
+        if summary is not None:
+            self.finish(summary)
+
+    def finish(self, summary: Mapping[str, Any]) -> None:
+        """Take the run's summary (KPI window, latency percentiles: what is drawn with the
+        samples) once the samples are in; the spectra's window is settled."""
+        self.summary = summary
+        self.window = dict(summary.get("kpi_window") or {})
+        self.period_s = scenario_period_s(self.metadata)
+        for spans in (self.plant_safe, self.ctrl_safe, self.acting, *self.invalid.values()):
+            spans.period_s = self.period_s
+        if self._psd_window is not None:
+            self._psd_window.finish()
 
     # ------------------------------------------------------------------ feeding
     def feed(self, batch: ColumnBatch) -> None:
@@ -466,21 +490,37 @@ class PlotData:
     def _truth(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
         self.floating = self.floating or bool(np.nansum(np.abs(cols["floating"])) > 0)
         self.series["truth"].add({"t": t, **{k: cols[k] for k in _TRUTH_FIELDS}})
-        start = self.window.get("from_s")
-        keep = t >= (float(start) if isinstance(start, int | float) else 0.0)
-        if not keep.any():
+        spectra = {f: cols[f] * scale for _n, f, scale, _u in _SPECTRA}
+        if self._cut_known:  # the summary given first: cut here
+            start = self.window.get("from_s")
+            keep = t >= (float(start) if isinstance(start, int | float) else 0.0)
+            if keep.any():
+                self._spectra(t[keep], {f: x[keep] for f, x in spectra.items()})
             return
-        tk = t[keep]
+        if self._psd_window is None:
+            from hil.review.core import settle_s_of  # noqa: PLC0415 - core imports this module
+            from hil.review.stream import Window  # noqa: PLC0415
+
+            self._psd_window = Window(
+                settle_s_of(self.metadata),
+                lambda _kind, c: self._spectra(c["t_ns"] / 1e9, c),
+            )
+        self._psd_window.truth_times(t)
+        self._psd_window.feed("truth", {"t_ns": cols["sample_time_ns"], **spectra})
+
+    def _spectra(self, tk: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
+        """Samples of the KPI window (times ``tk`` [s]) into the spectra."""
         if not self.welch:
             dt = float(np.median(np.diff(tk))) if tk.size > 1 else 0.0
             if dt <= 0:
                 # one sample in this batch: the control period, else 1 Hz
-                dt = self.period_s if math.isfinite(self.period_s) else 1.0
+                period = scenario_period_s(self.metadata)
+                dt = period if math.isfinite(period) else 1.0
             self.welch = {f: StreamingWelch(1.0 / dt) for _n, f, _s, _u in _SPECTRA}
             self.psd_t[0] = float(tk[0])
         self.psd_t[1] = float(tk[-1])
-        for _name, field, scale, _unit in _SPECTRA:
-            self.welch[field].add(cols[field][keep] * scale)
+        for _name, field, _scale, _unit in _SPECTRA:
+            self.welch[field].add(cols[field])
 
     def _sensors(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
         mask = cols["valid_mask"]
@@ -525,6 +565,37 @@ class PlotData:
         name = self.metadata.get("scenario", {}).get("name") or "run"
         mode = self.metadata.get("run", {}).get("mode", "")
         return f"{name}" + (f" ({mode})" if mode else "")
+
+
+def logged_counts(path: Path) -> dict[str, int] | None:
+    """Messages per topic suffix (its first topic's, in channel order) as a complete run log's
+    summary section counts them; None for a file without one (cut short, damaged).
+
+    What sets the plots' min/max buckets before the file is read (:class:`Envelope`), so
+    the plots' data can be gathered in the review's own pass.
+    """
+    from mcap.reader import SeekingReader  # noqa: PLC0415 - only for a review that draws
+
+    try:
+        with open(path, "rb") as fh:
+            summary = SeekingReader(fh).get_summary()
+    except Exception:  # a cut or damaged tail: no summary (the caller reads the file twice)
+        return None
+    if summary is None or summary.statistics is None:
+        return None
+    per_channel = summary.statistics.channel_message_counts
+    out: dict[str, int] = {}
+    for cid in sorted(summary.channels):
+        out.setdefault(suffix_of(summary.channels[cid].topic), int(per_channel.get(cid, 0)))
+    return out
+
+
+def with_plot_fields(fields: Mapping[str, Sequence[str]]) -> dict[str, tuple[str, ...]]:
+    """``fields`` (topic suffix to columns) and the plots' :data:`PLOT_FIELDS` together."""
+    out = {k: tuple(v) for k, v in fields.items()}
+    for k, v in PLOT_FIELDS.items():
+        out[k] = tuple(dict.fromkeys((*out.get(k, ()), *v)))
+    return out
 
 
 def collect(
