@@ -247,42 +247,53 @@ class Envelope:
     def __init__(self, count: int) -> None:
         n = int(count)
         self.bucket = 1 if n <= MAX_POINTS else -(-n // DRAW_COLUMNS)
-        self._parts: dict[str, list[np.ndarray]] = {}
-        self._carry: dict[str, np.ndarray] = {}
+        self._names: tuple[str, ...] | None = None
+        self._parts: list[np.ndarray] = []  # (channels, samples drawn) each
+        self._carry: np.ndarray | None = None  # (channels, samples of the open bucket)
 
     def add(self, cols: Mapping[str, np.ndarray]) -> None:
-        """Append consecutive samples (``t`` and the channels, equal lengths)."""
+        """Append consecutive samples (``t`` and the channels, equal lengths; the same
+        channels every time)."""
+        names = tuple(cols)
+        if self._names is None:
+            self._names = names
+        elif names != self._names:
+            raise ValueError(f"channels {names} fed to an envelope of {self._names}")
+        # all channels as one (channels, samples) array: one reduction a batch, not one each
+        x = np.array([np.asarray(c, np.float64) for c in cols.values()], np.float64, ndmin=2)
         b = self.bucket
-        for name, col in cols.items():
-            x = np.asarray(col, np.float64)
-            if b == 1:
-                self._parts.setdefault(name, []).append(x)
-                continue
-            carry = self._carry.get(name)
-            if carry is not None and carry.size:
-                x = np.concatenate((carry, x))
-            full = (x.size // b) * b
-            self._carry[name] = x[full:]
-            if full:
-                self._parts.setdefault(name, []).append(_buckets(name, x[:full].reshape(-1, b)))
+        if b == 1:
+            self._parts.append(x)
+            return
+        if self._carry is not None and self._carry.shape[1]:
+            x = np.concatenate((self._carry, x), axis=1)
+        full = (x.shape[1] // b) * b
+        self._carry = x[:, full:]
+        if full:
+            self._parts.append(self._buckets(x[:, :full].reshape(x.shape[0], -1, b)))
+
+    def _buckets(self, rows: np.ndarray) -> np.ndarray:
+        """Each bucket (the last axis) as two samples: (min, max) of a value, (first, last)
+        of the time ``t``; the NaN-ignoring reductions leave a bucket with no finite value a
+        gap (no warning)."""
+        out = np.empty((*rows.shape[:2], 2))
+        out[..., 0] = np.fmin.reduce(rows, axis=2)
+        out[..., 1] = np.fmax.reduce(rows, axis=2)
+        assert self._names is not None
+        if "t" in self._names:
+            i = self._names.index("t")
+            out[i, :, 0], out[i, :, 1] = rows[i, :, 0], rows[i, :, -1]
+        return out.reshape(rows.shape[0], -1)
 
     def get(self, name: str) -> FloatArray:
         """The drawn samples of ``name`` (``t``: their times), the last partial bucket too."""
-        parts = list(self._parts.get(name, []))
-        carry = self._carry.get(name)
-        if carry is not None and carry.size:
-            parts.append(_buckets(name, carry.reshape(1, -1)))
+        if self._names is None or name not in self._names:
+            return np.zeros(0)
+        i = self._names.index(name)
+        parts = [p[i] for p in self._parts]
+        if self._carry is not None and self._carry.shape[1]:
+            parts.append(self._buckets(self._carry[:, None, :])[i])
         return np.concatenate(parts) if parts else np.zeros(0)
-
-
-def _buckets(name: str, rows: np.ndarray) -> np.ndarray:
-    """Each row (a bucket) as two samples: (first, last) time, or (min, max) value; the
-    NaN-ignoring reductions leave a bucket with no finite value a gap (no warning)."""
-    if name == "t":
-        lo, hi = rows[:, 0], rows[:, -1]
-    else:
-        lo, hi = np.fmin.reduce(rows, axis=1), np.fmax.reduce(rows, axis=1)
-    return np.column_stack((lo, hi)).ravel()
 
 
 class Spans:
@@ -523,13 +534,13 @@ class PlotData:
             self.welch[field].add(cols[field])
 
     def _sensors(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
-        mask = cols["valid_mask"]
+        mask = np.nan_to_num(cols["valid_mask"]).astype(np.int64)
         drawn: dict[str, np.ndarray] = {"t": t}
         for _panel, _truth, field, _scale, _label in _PANELS:
             x = cols[field]
             bit = VALID_BITS.get(field)
             if bit is not None:
-                valid = (np.nan_to_num(mask).astype(np.int64) & bit) > 0
+                valid = (mask & bit) > 0
                 x = np.where(valid, x, np.nan)
             drawn[field] = x
             self.invalid[field].add(t, np.isnan(x) & np.isfinite(cols[field]))
