@@ -1166,8 +1166,9 @@ def review(
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
-    # One pass over the file chunk by chunk (hil.runlog.columns), and one more for the plots;
-    # memory does not grow with the run. A platform recording (small) is read whole.
+    # One pass over the file chunk by chunk (hil.runlog.columns), the plots' data gathered in
+    # it (a second pass for a file cut short); memory does not grow with the run. A platform
+    # recording (small) is read whole.
     data = None
     if plots:
         from hil.review import plots as plots_mod  # noqa: PLC0415 - plots import this module

@@ -24,9 +24,11 @@
   importing ``scipy.signal`` alone costs more than the spectra), holding at most two
   segments; marked with the frequencies that explain them (:func:`spectral_marks`).
 
-The counts per channel (for B), the KPI window and the latency percentiles come from the
-run's summary (:func:`hil.review.core.summarize_batches`), which a review computes in its own
-pass first.
+The counts per channel (for B) come from the file's summary section (:func:`logged_counts`)
+or from a first pass; the KPI window and the latency percentiles from the run's summary
+(:func:`hil.review.core.summarize_batches`). A review of a complete file gathers the plots'
+data in its own pass (:meth:`PlotData.finish` takes the summary at the end; the spectra's
+window is then found as the review finds it), a file cut short in a second pass.
 """
 
 from __future__ import annotations
