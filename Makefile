@@ -80,6 +80,7 @@ bench-speed: setup
 	$(BIN)/python bench/whole_command_speed.py
 	$(BIN)/python bench/startup_floor.py
 	$(BIN)/python bench/review_speed.py
+	$(BIN)/python bench/review_memory.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/plant_wait_signal.py
