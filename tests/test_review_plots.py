@@ -7,10 +7,15 @@ sample. Seeded random records; tolerances stated per check.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.signal import welch
+from test_review_long_run import write_log
 
+from hil.review import core, plots
+from hil.review import stream as rs
 from hil.review.plots import (
     DRAW_COLUMNS,
     MAX_POINTS,
@@ -22,6 +27,7 @@ from hil.review.plots import (
     psd_segment,
     spectral_marks,
 )
+from hil.runlog.columns import ColumnReader
 
 
 def _reference_spans(t: np.ndarray, f: np.ndarray, period: float) -> list[tuple[float, float]]:
@@ -184,3 +190,36 @@ def test_shipped_platform_periods_are_those_of_their_presets() -> None:
         assert got.keys() == SHIPPED_PLATFORM_PERIODS_S[name].keys(), name
         for dof, period in got.items():
             assert SHIPPED_PLATFORM_PERIODS_S[name][dof] == pytest.approx(period, rel=1e-9)
+
+
+def test_plots_gathered_in_the_review_pass_equal_a_second_pass(tmp_path: Path) -> None:
+    """A complete log's plots data gathered in the review's own pass (counts from the
+    summary section, the spectra's window found on the way) equals the second pass's, which
+    knows the summary: the same buckets, spans and spectra."""
+    path = tmp_path / "run.mcap"
+    write_log(path, 1500.0)  # 7500 cycles at 5 Hz: past MAX_POINTS, min/max buckets
+    counts = plots.logged_counts(path)
+    assert counts is not None and counts["truth"] == 7500
+    reader = ColumnReader(path, plots.with_plot_fields(rs.FIELDS))
+    one = plots.PlotData(counts, None, reader.info.metadata)
+    summary = core.summarize_batches(reader.batches(), reader.info, one.feed)
+    one.finish(summary)
+    two = plots.collect(
+        ColumnReader(path, plots.PLOT_FIELDS).batches(),
+        reader.info.counts,
+        summary,
+        reader.info.metadata,
+    )
+    assert one.series["truth"].bucket == two.series["truth"].bucket > 1
+    for sfx in ("truth", "timing/cycle"):
+        for name in ("t", *plots.PLOT_FIELDS[sfx]):
+            a, b = one.series[sfx].get(name), two.series[sfx].get(name)
+            np.testing.assert_array_equal(a, b)
+    assert one.events() == two.events()
+    assert one.psd_t == two.psd_t
+    for field, w in two.welch.items():
+        f1, p1, n1, s1 = one.welch[field].finish()
+        f2, p2, n2, s2 = w.finish()
+        np.testing.assert_array_equal(f1, f2)
+        assert (n1, s1) == (n2, s2)
+        np.testing.assert_allclose(p1, p2, rtol=1e-12)

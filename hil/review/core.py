@@ -100,7 +100,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -493,6 +493,12 @@ class _Summary:
         self.final_summary: dict[str, Any] | None = None
         # controller/status
         self.compute = rs.Store()
+        # the figures of the two whole columns (_whole_columns, at the end)
+        self.latency_cycles = 0
+        self.latency_us: dict[str, float] = {}
+        self.cycles_stepped = 0
+        self.overruns = 0
+        self.compute_us: dict[str, float] = {}
         self.status_count = 0
         self.last_rejected = math.nan
         # command
@@ -711,6 +717,7 @@ class _Summary:
 
     def result(self) -> dict[str, Any]:
         """:func:`summarize`'s dict (call once, after the last batch)."""
+        self._whole_columns()
         self.join.finish()
         window = self._window().finish()
         summary = {
@@ -728,9 +735,29 @@ class _Summary:
         soak_unavailable(summary, summary["recording"]["truth_every"])
         return summary
 
+    def _whole_columns(self) -> None:
+        """The figures of the two columns kept whole (latency, compute time), each computed
+        in its own array (sorted in place, no copy: 28 MB each for a day at 40 Hz), which is
+        then let go."""
+        period = _scenario_period_s(self.info)
+        if not math.isfinite(period):
+            period = rs.median_of_counts(self.cmd_diffs)
+        compute = self.compute.array()
+        self.compute = rs.Store()
+        self.cycles_stepped = int(compute.size)
+        self.overruns = (
+            int(np.count_nonzero(compute > period * 1e9)) if math.isfinite(period) else 0
+        )
+        np.divide(compute, 1e3, out=compute)  # the same figures as compute / 1e3
+        self.compute_us = kpi.percentiles(compute, [50.0, 99.0], ["p50", "p99", "max"], True)
+        del compute
+        lat_ns = self.latency.array()
+        self.latency = rs.Store()
+        self.latency_cycles = int(lat_ns.size)
+        self.latency_us = kpi.latency_percentiles_us(lat_ns, overwrite=True)
+
     def _timing(self) -> dict[str, Any]:
         final, last_summary = self.final_summary, self.final_summary or self.last_summary
-        lat_ns = self.latency.array()
         plant_lat = (
             {
                 "p50": last_summary.get("latency_p50_us"),
@@ -741,8 +768,8 @@ class _Summary:
             if last_summary is not None
             else {"p50": None, "p99": None, "p999": None, "max": None}
         )
-        if lat_ns.size or last_summary is None:
-            latency: dict[str, Any] = dict(kpi.latency_percentiles_us(lat_ns))
+        if self.latency_cycles or last_summary is None:
+            latency: dict[str, Any] = dict(self.latency_us)
             latency_source = "timing/cycle"
         else:
             latency = dict(plant_lat)
@@ -750,7 +777,7 @@ class _Summary:
         out: dict[str, Any] = {
             "complete": final is not None,
             "latency_us": latency,
-            "latency_cycles": int(lat_ns.size),
+            "latency_cycles": self.latency_cycles,
             "unanswered_cycles": self.unanswered,
             "deadline_us": _deadline_us(self.info),
             "latency_source": latency_source,
@@ -790,12 +817,9 @@ class _Summary:
                 safe_state=self.cycle_safe,
                 sim_seconds_per_wall_second=speed,
             )
-        out["controller_compute_us"] = self._compute_us()
+        out["controller_compute_us"] = dict(self.compute_us)
         out.update(self.watchdog.result(_scenario(self.info).get("config"), _period_s(self.info)))
         return out
-
-    def _compute_us(self) -> dict[str, float]:
-        return kpi.percentiles(self.compute.array() / 1e3, [50.0, 99.0], ["p50", "p99", "max"])
 
     def _kpis(self) -> dict[str, Any]:
         k = self.k
@@ -844,7 +868,7 @@ class _Summary:
             "estimator": est,
             "forecast": fc,
             "controller": {
-                "compute_us": self._compute_us(),
+                "compute_us": dict(self.compute_us),
                 # estimator divergences the controller detected (ControllerStatus v3; 0 in
                 # an older log, which has no such count)
                 "estimator_faults": int(faults) if math.isfinite(faults) else 0,
@@ -987,11 +1011,8 @@ class _Summary:
         out["fault_commands"] = self.fault_count
         if report is not None:
             out["fault_commands"] = int(report.get("core_fault_commands", self.fault_count))
-        compute = self.compute.array()
-        out["cycles_stepped"] = int(compute.size)
-        out["overruns"] = (
-            int(np.count_nonzero(compute > period * 1e9)) if math.isfinite(period) else 0
-        )
+        out["cycles_stepped"] = self.cycles_stepped
+        out["overruns"] = self.overruns
         n_safe = self.safe_count if self.commands else int(out["safe_mode_commands"])
         out["safe_mode_s"] = n_safe * period if math.isfinite(period) else None
         out["safe_mode_entered"] = bool(out["safe_mode_entries"])
@@ -1001,7 +1022,12 @@ class _Summary:
 
 def _settle_s(info: RunInfo) -> float:
     """The scenario's ``[review] settle_s`` [s] (:data:`DEFAULT_SETTLE_S` when absent)."""
-    cfg = _scenario(info).get("config") or {}
+    return settle_s_of(info.metadata)
+
+
+def settle_s_of(metadata: Mapping[str, Mapping[str, str]]) -> float:
+    """The ``[review] settle_s`` [s] of the scenario in a log's metadata (default when absent)."""
+    cfg = _scenario_of(metadata).get("config") or {}
     rv = cfg.get("review") if isinstance(cfg, dict) else None
     if isinstance(rv, dict) and isinstance(rv.get("settle_s"), int | float):
         return float(rv["settle_s"])
@@ -1013,7 +1039,11 @@ def _scenario_period_s(info: RunInfo | RunData) -> float:
     return scenario_period_s(info.metadata)
 
 
-def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str, Any]:
+def summarize_batches(
+    batches: Iterable[ColumnBatch],
+    info: RunInfo,
+    also: Callable[[ColumnBatch], None] | None = None,
+) -> dict[str, Any]:
     """The summary of a run given as batches of columns (filled into ``info`` meanwhile).
 
     Parameters
@@ -1023,10 +1053,14 @@ def summarize_batches(batches: Iterable[ColumnBatch], info: RunInfo) -> dict[str
         :func:`hil.runlog.columns.run_batches` (a run in memory).
     info : RunInfo
         The run's counts, metadata and reading state; complete once ``batches`` is.
+    also : callable, optional
+        Gets every batch too (the plots' data, gathered in the same pass).
     """
     acc = _Summary(info)
     for b in batches:
         acc.add(b)
+        if also is not None:
+            also(b)
     cleaned: dict[str, Any] = _clean(acc.result())
     return cleaned
 
@@ -1144,10 +1178,24 @@ def review(
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
-    # One pass over the file chunk by chunk (hil.runlog.columns), and one more for the plots;
-    # memory does not grow with the run. A platform recording (small) is read whole.
-    reader = ColumnReader(mcap_path, rs.FIELDS)
-    summary = summarize_batches(reader.batches(), reader.info)
+    # One pass over the file chunk by chunk (hil.runlog.columns), the plots' data gathered in
+    # it (a second pass for a file cut short); memory does not grow with the run. A platform
+    # recording (small) is read whole.
+    data = None
+    if plots:
+        from hil.review import plots as plots_mod  # noqa: PLC0415 - plots import this module
+
+        # A complete file says how many messages each topic has (its summary section): the
+        # plots' data is gathered in the review's own pass. Else a second pass draws them.
+        counts = plots_mod.logged_counts(mcap_path)
+        if counts is not None:
+            reader = ColumnReader(mcap_path, plots_mod.with_plot_fields(rs.FIELDS))
+            data = plots_mod.PlotData(counts, None, reader.info.metadata)
+    if data is None:
+        reader = ColumnReader(mcap_path, rs.FIELDS)
+    summary = summarize_batches(
+        reader.batches(), reader.info, data.feed if data is not None else None
+    )
     check_run_log(reader.info, mcap_path)
     family = run_family(reader.info)
     if family not in ("turbine", "hexicon"):
@@ -1177,6 +1225,11 @@ def review(
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
             files += hexicon_review.write_plots(run, out)
+        elif data is not None:  # gathered in the review's pass
+            from hil.review import plots as plots_mod  # noqa: PLC0415
+
+            data.finish(summary)
+            files += plots_mod.write_plots(data, out)
         else:  # a second pass over the file, chunk by chunk, knowing the summary
             files += write_plots_of_file(mcap_path, reader.info, summary, out)
     if written is not None:

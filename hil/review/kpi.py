@@ -147,7 +147,7 @@ def pitch_travel_deg_s(t_s: ArrayLike, pitch_rad: ArrayLike) -> float:
     return math.degrees(travel_rad) / duration
 
 
-def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
+def latency_percentiles_us(latency_ns: ArrayLike, overwrite: bool = False) -> dict[str, float]:
     """Latency percentiles from raw samples (linear interpolation, numpy's default).
 
     A sample may be ``inf``: a cycle whose command never came (its latency is beyond any
@@ -160,6 +160,9 @@ def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
     ----------
     latency_ns : array_like
         Latency samples [ns], ``inf`` for an unanswered cycle.
+    overwrite : bool
+        A float64 array given may be overwritten (turned into sorted microseconds) instead of
+        copied: a day of cycles at 40 Hz is 28 MB a copy. The figures are the same.
 
     Returns
     -------
@@ -170,7 +173,11 @@ def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
     a = _as_1d(latency_ns)
     if a.size == 0:
         return {"p50": NAN, "p99": NAN, "p999": NAN, "max": NAN}
-    us = np.sort(a / 1e3)
+    if overwrite and (a is latency_ns or a.base is latency_ns):
+        us = np.divide(a, 1e3, out=a)  # the same figures as a / 1e3, in place
+    else:
+        us = a / 1e3
+    us.sort()
     out: dict[str, float] = {}
     n = us.size
     for name, q in (("p50", 50.0), ("p99", 99.0), ("p999", 99.9)):
@@ -184,7 +191,9 @@ def latency_percentiles_us(latency_ns: ArrayLike) -> dict[str, float]:
     return out
 
 
-def percentiles(x: ArrayLike, qs: Sequence[float], names: Sequence[str]) -> dict[str, float]:
+def percentiles(
+    x: ArrayLike, qs: Sequence[float], names: Sequence[str], overwrite: bool = False
+) -> dict[str, float]:
     """Named percentiles of ``x`` (linear); ``"max"`` in ``names`` without a q is the max.
 
     Parameters
@@ -195,6 +204,9 @@ def percentiles(x: ArrayLike, qs: Sequence[float], names: Sequence[str]) -> dict
         Percentiles in [0, 100], one per leading name.
     names : sequence of str
         Keys of the result; names beyond ``len(qs)`` must be ``"max"``.
+    overwrite : bool
+        ``x`` may be reordered in place (numpy's ``overwrite_input``) instead of copied; the
+        figures are the same.
 
     Returns
     -------
@@ -206,7 +218,9 @@ def percentiles(x: ArrayLike, qs: Sequence[float], names: Sequence[str]) -> dict
     if a.size == 0:
         return {n: NAN for n in names}
     vals: list[float] = (
-        [float(v) for v in np.percentile(a, list(qs), method="linear")] if qs else []
+        [float(v) for v in np.percentile(a, list(qs), method="linear", overwrite_input=overwrite)]
+        if qs
+        else []
     )
     for name, v in zip(names, vals, strict=False):
         out[name] = v

@@ -24,13 +24,16 @@
   importing ``scipy.signal`` alone costs more than the spectra), holding at most two
   segments; marked with the frequencies that explain them (:func:`spectral_marks`).
 
-The counts per channel (for B), the KPI window and the latency percentiles come from the
-run's summary (:func:`hil.review.core.summarize_batches`), which a review computes in its own
-pass first.
+The counts per channel (for B) come from the file's summary section (:func:`logged_counts`)
+or from a first pass; the KPI window and the latency percentiles from the run's summary
+(:func:`hil.review.core.summarize_batches`). A review of a complete file gathers the plots'
+data in its own pass (:meth:`PlotData.finish` takes the summary at the end; the spectra's
+window is then found as the review finds it), a file cut short in a second pass.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -75,6 +78,11 @@ PSD_TARGET_SEGMENT_S = 250.0
 RPM_PER_RAD_S = 30.0 / math.pi
 #: Resolution of the PNGs [dots per inch].
 DPI = 100
+#: Vertices of a line Agg rasterises at a time (matplotlib's ``agg.path.chunksize``; 0, its
+#: default, is the whole line at once). A long run's min/max envelope zig-zags over the whole
+#: panel height at every pixel column, and Agg holds a cell for every pixel such a line
+#: crosses: 20-30 MB a line for a day, none of it Python's. In pieces it holds one piece's.
+AGG_CHUNK = 500
 #: ``command`` ``mode`` of a safe-mode command (:data:`hil.review.core.MODE_SAFE_COMMAND`).
 MODE_SAFE_COMMAND = 2
 
@@ -241,42 +249,53 @@ class Envelope:
     def __init__(self, count: int) -> None:
         n = int(count)
         self.bucket = 1 if n <= MAX_POINTS else -(-n // DRAW_COLUMNS)
-        self._parts: dict[str, list[np.ndarray]] = {}
-        self._carry: dict[str, np.ndarray] = {}
+        self._names: tuple[str, ...] | None = None
+        self._parts: list[np.ndarray] = []  # (channels, samples drawn) each
+        self._carry: np.ndarray | None = None  # (channels, samples of the open bucket)
 
     def add(self, cols: Mapping[str, np.ndarray]) -> None:
-        """Append consecutive samples (``t`` and the channels, equal lengths)."""
+        """Append consecutive samples (``t`` and the channels, equal lengths; the same
+        channels every time)."""
+        names = tuple(cols)
+        if self._names is None:
+            self._names = names
+        elif names != self._names:
+            raise ValueError(f"channels {names} fed to an envelope of {self._names}")
+        # all channels as one (channels, samples) array: one reduction a batch, not one each
+        x = np.array([np.asarray(c, np.float64) for c in cols.values()], np.float64, ndmin=2)
         b = self.bucket
-        for name, col in cols.items():
-            x = np.asarray(col, np.float64)
-            if b == 1:
-                self._parts.setdefault(name, []).append(x)
-                continue
-            carry = self._carry.get(name)
-            if carry is not None and carry.size:
-                x = np.concatenate((carry, x))
-            full = (x.size // b) * b
-            self._carry[name] = x[full:]
-            if full:
-                self._parts.setdefault(name, []).append(_buckets(name, x[:full].reshape(-1, b)))
+        if b == 1:
+            self._parts.append(x)
+            return
+        if self._carry is not None and self._carry.shape[1]:
+            x = np.concatenate((self._carry, x), axis=1)
+        full = (x.shape[1] // b) * b
+        self._carry = x[:, full:]
+        if full:
+            self._parts.append(self._buckets(x[:, :full].reshape(x.shape[0], -1, b)))
+
+    def _buckets(self, rows: np.ndarray) -> np.ndarray:
+        """Each bucket (the last axis) as two samples: (min, max) of a value, (first, last)
+        of the time ``t``; the NaN-ignoring reductions leave a bucket with no finite value a
+        gap (no warning)."""
+        out = np.empty((*rows.shape[:2], 2))
+        out[..., 0] = np.fmin.reduce(rows, axis=2)
+        out[..., 1] = np.fmax.reduce(rows, axis=2)
+        assert self._names is not None
+        if "t" in self._names:
+            i = self._names.index("t")
+            out[i, :, 0], out[i, :, 1] = rows[i, :, 0], rows[i, :, -1]
+        return out.reshape(rows.shape[0], -1)
 
     def get(self, name: str) -> FloatArray:
         """The drawn samples of ``name`` (``t``: their times), the last partial bucket too."""
-        parts = list(self._parts.get(name, []))
-        carry = self._carry.get(name)
-        if carry is not None and carry.size:
-            parts.append(_buckets(name, carry.reshape(1, -1)))
+        if self._names is None or name not in self._names:
+            return np.zeros(0)
+        i = self._names.index(name)
+        parts = [p[i] for p in self._parts]
+        if self._carry is not None and self._carry.shape[1]:
+            parts.append(self._buckets(self._carry[:, None, :])[i])
         return np.concatenate(parts) if parts else np.zeros(0)
-
-
-def _buckets(name: str, rows: np.ndarray) -> np.ndarray:
-    """Each row (a bucket) as two samples: (first, last) time, or (min, max) value; the
-    NaN-ignoring reductions leave a bucket with no finite value a gap (no warning)."""
-    if name == "t":
-        lo, hi = rows[:, 0], rows[:, -1]
-    else:
-        lo, hi = np.fmin.reduce(rows, axis=1), np.fmax.reduce(rows, axis=1)
-    return np.column_stack((lo, hi)).ravel()
 
 
 class Spans:
@@ -287,8 +306,8 @@ class Spans:
     """
 
     def __init__(self, period_s: float) -> None:
-        self.period_s = period_s
-        self.windows: list[tuple[float, float]] = []
+        self.period_s = period_s  # may be set until finish (the scenario read meanwhile)
+        self._spans: list[tuple[float, float]] = []  # (first, last flagged sample)
         self._open: float | None = None
         self._last = math.nan
 
@@ -310,8 +329,13 @@ class Spans:
 
     def _close(self, last: float) -> None:
         if self._open is not None:
-            self.windows.append((self._open, last + self.period_s))
+            self._spans.append((self._open, last))
         self._open = None
+
+    @property
+    def windows(self) -> list[tuple[float, float]]:
+        """The windows closed so far, (first flagged sample, last + ``period_s``) [s]."""
+        return [(a, b + self.period_s) for a, b in self._spans]
 
     def finish(self) -> list[tuple[float, float]]:
         """The windows, the one still open at the end closed."""
@@ -399,37 +423,56 @@ class PlotData:
     ----------
     counts : mapping of str to int
         Messages per topic suffix (the first topic of each; sets the buckets).
-    summary : dict
+    summary : dict or None
         The run's review summary: ``kpi_window``, ``timing`` (latency percentiles, deadline,
-        unanswered cycles) and ``run`` (mode) are read.
+        unanswered cycles) and ``run`` (mode) are read. None: fed in the same pass as the
+        review's own statistics, it is given to :meth:`finish` after the last batch (the
+        spectra's window found meanwhile as the review finds it).
     metadata : dict
-        The log's metadata records (scenario name and control period).
+        The log's metadata records (scenario name and control period); may still be filled
+        while the batches come (read with them from the file).
     """
 
     def __init__(
         self,
         counts: Mapping[str, int],
-        summary: Mapping[str, Any],
+        summary: Mapping[str, Any] | None,
         metadata: Mapping[str, Mapping[str, str]],
     ) -> None:
-        self.summary = summary
         self.metadata = metadata
-        self.period_s = scenario_period_s(metadata)
-        self.window = dict(summary.get("kpi_window") or {})
         self.series = {sfx: Envelope(counts.get(sfx, 0)) for sfx in PLOT_FIELDS}
         self.floating = False
         self.seen: set[str] = set()
-        p = self.period_s
-        self.plant_safe = Spans(p)
-        self.ctrl_safe = Spans(p)
-        self.acting = Spans(p)
-        self.invalid = {p_[2]: Spans(p) for p_ in _PANELS}
+        self.period_s = math.nan  # the scenario's (finish); the spans take it then
+        self.plant_safe = Spans(math.nan)
+        self.ctrl_safe = Spans(math.nan)
+        self.acting = Spans(math.nan)
+        self.invalid = {p_[2]: Spans(math.nan) for p_ in _PANELS}
         self.lat_counts = np.zeros(_LAT_EDGES_US.size - 1, np.int64)
         self.lat_n = 0
         self.late: list[np.ndarray] = []
         self.unanswered: list[np.ndarray] = []
         self.welch: dict[str, StreamingWelch] = {}
         self.psd_t = [math.nan, math.nan]
+        self.summary: Mapping[str, Any] = {}
+        self.window: dict[str, Any] = {}
+        # the spectra's KPI window: from the summary when given, else found as the review's
+        # own (hil.review.stream.Window: the truth held until its start is known)
+        self._psd_window: Any = None
+        self._cut_known = summary is not None
+        if summary is not None:
+            self.finish(summary)
+
+    def finish(self, summary: Mapping[str, Any]) -> None:
+        """Take the run's summary (KPI window, latency percentiles: what is drawn with the
+        samples) once the samples are in; the spectra's window is settled."""
+        self.summary = summary
+        self.window = dict(summary.get("kpi_window") or {})
+        self.period_s = scenario_period_s(self.metadata)
+        for spans in (self.plant_safe, self.ctrl_safe, self.acting, *self.invalid.values()):
+            spans.period_s = self.period_s
+        if self._psd_window is not None:
+            self._psd_window.finish()
 
     # ------------------------------------------------------------------ feeding
     def feed(self, batch: ColumnBatch) -> None:
@@ -460,30 +503,46 @@ class PlotData:
     def _truth(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
         self.floating = self.floating or bool(np.nansum(np.abs(cols["floating"])) > 0)
         self.series["truth"].add({"t": t, **{k: cols[k] for k in _TRUTH_FIELDS}})
-        start = self.window.get("from_s")
-        keep = t >= (float(start) if isinstance(start, int | float) else 0.0)
-        if not keep.any():
+        spectra = {f: cols[f] * scale for _n, f, scale, _u in _SPECTRA}
+        if self._cut_known:  # the summary given first: cut here
+            start = self.window.get("from_s")
+            keep = t >= (float(start) if isinstance(start, int | float) else 0.0)
+            if keep.any():
+                self._spectra(t[keep], {f: x[keep] for f, x in spectra.items()})
             return
-        tk = t[keep]
+        if self._psd_window is None:
+            from hil.review.core import settle_s_of  # noqa: PLC0415 - core imports this module
+            from hil.review.stream import Window  # noqa: PLC0415
+
+            self._psd_window = Window(
+                settle_s_of(self.metadata),
+                lambda _kind, c: self._spectra(c["t_ns"] / 1e9, c),
+            )
+        self._psd_window.truth_times(t)
+        self._psd_window.feed("truth", {"t_ns": cols["sample_time_ns"], **spectra})
+
+    def _spectra(self, tk: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
+        """Samples of the KPI window (times ``tk`` [s]) into the spectra."""
         if not self.welch:
             dt = float(np.median(np.diff(tk))) if tk.size > 1 else 0.0
             if dt <= 0:
                 # one sample in this batch: the control period, else 1 Hz
-                dt = self.period_s if math.isfinite(self.period_s) else 1.0
+                period = scenario_period_s(self.metadata)
+                dt = period if math.isfinite(period) else 1.0
             self.welch = {f: StreamingWelch(1.0 / dt) for _n, f, _s, _u in _SPECTRA}
             self.psd_t[0] = float(tk[0])
         self.psd_t[1] = float(tk[-1])
-        for _name, field, scale, _unit in _SPECTRA:
-            self.welch[field].add(cols[field][keep] * scale)
+        for _name, field, _scale, _unit in _SPECTRA:
+            self.welch[field].add(cols[field])
 
     def _sensors(self, t: np.ndarray, cols: Mapping[str, np.ndarray]) -> None:
-        mask = cols["valid_mask"]
+        mask = np.nan_to_num(cols["valid_mask"]).astype(np.int64)
         drawn: dict[str, np.ndarray] = {"t": t}
         for _panel, _truth, field, _scale, _label in _PANELS:
             x = cols[field]
             bit = VALID_BITS.get(field)
             if bit is not None:
-                valid = (np.nan_to_num(mask).astype(np.int64) & bit) > 0
+                valid = (mask & bit) > 0
                 x = np.where(valid, x, np.nan)
             drawn[field] = x
             self.invalid[field].add(t, np.isnan(x) & np.isfinite(cols[field]))
@@ -519,6 +578,37 @@ class PlotData:
         name = self.metadata.get("scenario", {}).get("name") or "run"
         mode = self.metadata.get("run", {}).get("mode", "")
         return f"{name}" + (f" ({mode})" if mode else "")
+
+
+def logged_counts(path: Path) -> dict[str, int] | None:
+    """Messages per topic suffix (its first topic's, in channel order) as a complete run log's
+    summary section counts them; None for a file without one (cut short, damaged).
+
+    What sets the plots' min/max buckets before the file is read (:class:`Envelope`), so
+    the plots' data can be gathered in the review's own pass.
+    """
+    from mcap.reader import SeekingReader  # noqa: PLC0415 - only for a review that draws
+
+    try:
+        with open(path, "rb") as fh:
+            summary = SeekingReader(fh).get_summary()
+    except Exception:  # a cut or damaged tail: no summary (the caller reads the file twice)
+        return None
+    if summary is None or summary.statistics is None:
+        return None
+    per_channel = summary.statistics.channel_message_counts
+    out: dict[str, int] = {}
+    for cid in sorted(summary.channels):
+        out.setdefault(suffix_of(summary.channels[cid].topic), int(per_channel.get(cid, 0)))
+    return out
+
+
+def with_plot_fields(fields: Mapping[str, Sequence[str]]) -> dict[str, tuple[str, ...]]:
+    """``fields`` (topic suffix to columns) and the plots' :data:`PLOT_FIELDS` together."""
+    out = {k: tuple(v) for k, v in fields.items()}
+    for k, v in PLOT_FIELDS.items():
+        out[k] = tuple(dict.fromkeys((*out.get(k, ()), *v)))
+    return out
 
 
 def collect(
@@ -591,27 +681,99 @@ def _figure(width_in: float, height_in: float, rows: int, **margins: float) -> t
 
 def _save(fig: Any, path: Path) -> None:
     """Write ``fig`` as a PNG at :data:`DPI` (zlib level 1: the default 6 costs about a fifth of
-    the drawing for files a little smaller), its log axes first made cheap to draw
-    (:func:`_plain_log_axes`)."""
-    _plain_log_axes(fig)
-    fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
+    the drawing for files a little smaller), its ticks first made cheap to draw
+    (:func:`_plain_ticks`)."""
+    import matplotlib as mpl  # noqa: PLC0415 - drawing only
+
+    _plain_ticks(fig)
+    with mpl.rc_context({"agg.path.chunksize": AGG_CHUNK}):
+        fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": 1})
 
 
-def _plain_log_axes(fig: Any) -> None:
-    """No minor ticks on log axes, and plain-text labels on the major ones.
+#: Length of the tick marks and gap to their labels [points] (matplotlib's defaults).
+_TICK_PT, _PAD_PT = 3.5, 3.5
 
-    Each tick is a few artists built and measured at every draw (eight minor ticks a decade
-    made most of the spectra's drawing time); the grid of the major ones (a line a decade) is
-    kept, labelled 10⁻³ in plain text (:func:`_power_of_ten`): matplotlib's own log labels
-    are mathtext, whose parser costs about a second to build.
+
+def _plain_ticks(fig: Any) -> None:
+    """Every axis's ticks drawn as a few plain artists instead of matplotlib's tick objects.
+
+    A matplotlib tick is five artists (two marks, two labels, a grid line), built, copied
+    and measured at every draw: on the eight stacked panels of the time series they were
+    most of the drawing time. Each axis keeps the positions its locator gives for the final
+    limits, drawn as one collection of grid lines, one of tick marks and a plain text per
+    label (10⁻³ on a log axis, :func:`_power_of_ten`: matplotlib's own log labels are
+    mathtext, whose parser costs about a second to build; a linear axis's values with the
+    decimals their step needs); the axis labels are placed beside them. An axis whose locator
+    gives nothing (the upper panels of :func:`_one_x_axis`) stays bare.
     """
-    from matplotlib.ticker import FuncFormatter, NullLocator  # noqa: PLC0415 - drawing only
+    import matplotlib as mpl  # noqa: PLC0415 - drawing only
+    from matplotlib.collections import LineCollection  # noqa: PLC0415
+    from matplotlib.ticker import NullLocator  # noqa: PLC0415
+    from matplotlib.transforms import ScaledTranslation  # noqa: PLC0415
 
+    size = mpl.rcParams["ytick.labelsize"]
     for ax in fig.axes:
-        for axis in (ax.xaxis, ax.yaxis):
-            if axis.get_scale() == "log":
-                axis.set_minor_locator(NullLocator())
-                axis.set_major_formatter(FuncFormatter(_power_of_ten))
+        box = ax.get_position()
+        width_in = box.width * fig.get_figwidth()
+        height_in = box.height * fig.get_figheight()
+        for name in ("x", "y"):
+            axis = ax.xaxis if name == "x" else ax.yaxis
+            lim = ax.get_xlim() if name == "x" else ax.get_ylim()
+            lo, hi = min(lim), max(lim)
+            log = axis.get_scale() == "log"
+            tol = 1e-9 * (hi - lo)
+            at = [float(v) for v in axis.get_major_locator()() if lo - tol <= v <= hi + tol]
+            axis.set_major_locator(NullLocator())
+            axis.set_minor_locator(NullLocator())
+            if not at:
+                continue
+            texts = [_power_of_ten(v) for v in at] if log else _linear_labels(at)
+            if name == "y":
+                trans = ax.get_yaxis_transform()  # x in axes fraction, y in data
+                mark = -_TICK_PT / 72.0 / width_in
+                segs = [((0.0, v), (1.0, v)) for v in at] + [((mark, v), (0.0, v)) for v in at]
+                shift = ScaledTranslation(-(_TICK_PT + _PAD_PT) / 72.0, 0.0, fig.dpi_scale_trans)
+                place = {"ha": "right", "va": "center"}
+                chars = max(len(t) for t in texts)
+                gap_pt = _TICK_PT + _PAD_PT + 0.62 * chars * _font_pt(size) + 4.0
+                axis.set_label_coords(-gap_pt / 72.0 / width_in, 0.5)
+            else:
+                trans = ax.get_xaxis_transform()  # x in data, y in axes fraction
+                mark = -_TICK_PT / 72.0 / height_in
+                segs = [((v, 0.0), (v, 1.0)) for v in at] + [((v, mark), (v, 0.0)) for v in at]
+                shift = ScaledTranslation(0.0, -(_TICK_PT + _PAD_PT) / 72.0, fig.dpi_scale_trans)
+                place = {"ha": "center", "va": "top"}
+                gap_pt = _TICK_PT + _PAD_PT + 1.2 * _font_pt(size) + 3.0
+                axis.set_label_coords(0.5, -gap_pt / 72.0 / height_in)
+            # grid lines (light, behind) and tick marks (outside the panel): one artist
+            colors = [(0.69, 0.69, 0.69, 0.3)] * len(at) + [(0.0, 0.0, 0.0, 1.0)] * len(at)
+            lines = LineCollection(segs, colors=colors, linewidths=0.8, transform=trans,
+                                   zorder=0.5, clip_on=False)  # fmt: skip
+            ax.add_collection(lines, autolim=False)
+            for v, text in zip(at, texts, strict=True):
+                xy = (0.0, v) if name == "y" else (v, 0.0)
+                ax.text(*xy, text, transform=trans + shift, fontsize=size, **place)
+
+
+def _font_pt(size: Any) -> float:
+    """A font size [points] from a matplotlib size (a number or a name like ``medium``)."""
+    from matplotlib.font_manager import FontProperties  # noqa: PLC0415 - drawing only
+
+    return float(FontProperties(size=size).get_size_in_points())
+
+
+def _linear_labels(at: Sequence[float]) -> list[str]:
+    """Labels of evenly spaced ticks on a linear axis: as many decimals as their step needs
+    (matplotlib's minus sign)."""
+    step = min((abs(b - a) for a, b in itertools.pairwise(at) if b != a), default=0.0)
+    dec = max(0, -math.floor(math.log10(step) + 1e-9)) if step > 0 else 0
+    out = []
+    for v in at:
+        text = f"{v:.{dec}f}"
+        if float(text) == 0.0:
+            text = f"{0.0:.{dec}f}"
+        out.append(text.replace("-", "\u2212"))
+    return out
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -694,8 +856,7 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
             continue
         if has["sensors"]:
             ax.plot(ts, sensors.get(mfield) * scale, label=mlabel or "measured", **behind)
-            for k, (a, b) in enumerate(data.invalid[mfield].finish()):
-                ax.axvspan(a, b, color="tab:red", alpha=0.15, lw=0, label=None if k else "invalid")
+            _spans(ax, data.invalid[mfield].finish(), "invalid", color="tab:red", alpha=0.15)
         if has["truth"]:
             if tfield == "wave_elevation_platform_m":
                 ax.plot(
@@ -735,7 +896,6 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
             _no_data(a, "bottom-fixed plant: no platform")
         else:
             _no_data(a)
-        a.grid(True, alpha=0.3)
     if any(has_data):
         from matplotlib.ticker import MaxNLocator  # noqa: PLC0415 - drawing only
 
@@ -760,36 +920,43 @@ def _mark_run_events(ev: Mapping[str, Any], axes: Sequence[Any]) -> None:
     ``axes``; the legend entries go on the first (top) panel only."""
     for i, a in enumerate(axes):
         first = i == 0
-        for k, (lo, hi) in enumerate(ev["plant_safe_state"]):
-            a.axvspan(
-                lo,
-                hi,
-                color="tab:purple",
-                alpha=0.18,
-                lw=0,
-                zorder=0,
-                label="plant safe state" if first and k == 0 else None,
+        _spans(a, ev["plant_safe_state"], "plant safe state" if first else None,
+               color="tab:purple", alpha=0.18, zorder=0)  # fmt: skip
+        _spans(a, ev["controller_safe_mode"], "controller safe mode" if first else None,
+               facecolor="none", edgecolor="tab:orange", hatch="//", zorder=0)  # fmt: skip
+        starts = ev["feedforward_starts_s"]
+        if starts:
+            text = f"feedforward on (t = {starts[0]:.1f} s)" if first else None
+            a.add_collection(
+                _lines_across(a, starts, color="tab:green", ls="-.", lw=1.2, zorder=2, label=text),
+                autolim=False,
             )
-        for k, (lo, hi) in enumerate(ev["controller_safe_mode"]):
-            a.axvspan(
-                lo,
-                hi,
-                facecolor="none",
-                edgecolor="tab:orange",
-                hatch="//",
-                lw=0,
-                zorder=0,
-                label="controller safe mode" if first and k == 0 else None,
-            )
-        for k, ff in enumerate(ev["feedforward_starts_s"]):
-            a.axvline(
-                ff,
-                color="tab:green",
-                ls="-.",
-                lw=1.2,
-                zorder=2,
-                label=f"feedforward on (t = {ff:.1f} s)" if first and k == 0 else None,
-            )
+
+
+def _spans(
+    ax: Any, windows: Sequence[tuple[float, float]], label: str | None, **style: Any
+) -> None:
+    """Shade the x ``windows`` [(from, to)] over the panel's height: one artist for all
+    (``axvspan`` builds a patch each), one legend entry ``label``."""
+    if not windows:
+        return
+    from matplotlib.collections import PolyCollection  # noqa: PLC0415 - drawing only
+
+    verts = [((lo, 0.0), (lo, 1.0), (hi, 1.0), (hi, 0.0)) for lo, hi in windows]
+    ax.add_collection(
+        PolyCollection(
+            verts, transform=ax.get_xaxis_transform(), linewidths=0, label=label, **style
+        ),
+        autolim=False,
+    )
+
+
+def _lines_across(ax: Any, xs: Sequence[float], **style: Any) -> Any:
+    """Vertical lines at ``xs`` over the panel's height, as one collection."""
+    from matplotlib.collections import LineCollection  # noqa: PLC0415 - drawing only
+
+    segs = [((x, 0.0), (x, 1.0)) for x in xs]
+    return LineCollection(segs, transform=ax.get_xaxis_transform(), **style)
 
 
 def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) -> None:
@@ -798,15 +965,12 @@ def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) 
     period = data.period_s
     if not (math.isfinite(period) and period > 0):
         return
-    for k, (lo, hi) in enumerate(data.events()["plant_safe_state"]):
-        label = None
-        if k == 0:
-            trips, back = timing.get("watchdog_trips"), timing.get("watchdog_recoveries")
-            label = "plant safe state" + (
-                f" ({trips} trip(s), {back} recovered)" if isinstance(trips, int) else ""
-            )
-        ax.axvspan(lo / period, hi / period, color="tab:purple", alpha=0.18, lw=0, zorder=0,
-                   label=label)  # fmt: skip
+    trips, back = timing.get("watchdog_trips"), timing.get("watchdog_recoveries")
+    label = "plant safe state" + (
+        f" ({trips} trip(s), {back} recovered)" if isinstance(trips, int) else ""
+    )
+    windows = [(lo / period, hi / period) for lo, hi in data.events()["plant_safe_state"]]
+    _spans(ax, windows, label, color="tab:purple", alpha=0.18, zorder=0)
 
 
 def _timing_plot(data: PlotData, label: str, path: Path) -> None:
@@ -908,7 +1072,6 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     )
     a1.set_xlabel("cycle [1]")
     a1.set_ylabel("latency [us]")
-    a1.grid(True, alpha=0.3)
     _save(fig, path)
 
 
@@ -949,7 +1112,6 @@ def _psd_plot(data: PlotData, label: str, path: Path) -> None:
             inside = (fp >= lo_hz) & (fp <= hi_hz)
             peak = float(pp[inside].max()) if inside.any() else float(pp.max())
             ax.set_ylim(peak * 10.0**-PSD_DECADES, peak * 3.0)
-            ax.grid(True, which="major", alpha=0.3)
             drawn.append(ax)
         if drawn:
             for ax in axes:
