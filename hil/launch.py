@@ -82,7 +82,6 @@ from typing import IO, TYPE_CHECKING, Any, Literal
 import msgspec
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bus_schemas.auth import KEY_FILE_NAME, create_key_file
@@ -1373,6 +1372,14 @@ def _follow(
             # The plant waits for this token (``--require ...,launcher``), so no cycle passes
             # unseen, however fast a lock-step run goes.
             token = bus.session.liveliness().declare_token(f"fowt/{tid}/alive/launcher")
+        # The progress bar of a bus run only: an in-process run does not load it (~50 ms).
+        from rich.progress import (  # noqa: PLC0415
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+        )
+
         with Progress(
             TextColumn("[bold]{task.description}"),
             BarColumn(),
