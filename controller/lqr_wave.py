@@ -361,7 +361,14 @@ class LqrWaveController:
         """
         omega, pitch, torque = self.omega_rated, self.pitch_min, self.torque_nm
         ekf0 = self.ekf.initial_state(omega, pitch, torque)
-        self.ekf.step(ekf0, WindEKFMeasurement(omega, pitch, torque, True), self.dt_s)
+        # the cycles' path: the guarded step (its predict and update kernels)
+        guarded_wind_step(
+            self.ekf,
+            ekf0,
+            WindEKFMeasurement(omega, pitch, torque, True),
+            self.dt_s,
+            self.guard_config,
+        )
         st = self.initial_state()
         kf = self.kfs[st.kf_index]
         kf_state = kf.predict(st.kf, (0.0, 0.0), self.dt_s)
