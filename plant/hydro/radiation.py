@@ -1296,6 +1296,17 @@ def fit_reduced_radiation(
         c_p, _ = enforce_passivity(a, b * root, c * root[:, None], w, bd, peak, floor=passive_floor)
         return np.asarray(c_p / root[:, None], dtype=np.float64)
 
+    def accepted(
+        a: FloatArray, b: FloatArray, c: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """``(c, ea, eb)`` of a candidate within the errors before and after passivity."""
+        ea, eb = errors(a, b, c)
+        if not within(ea, eb):
+            return None
+        c = passive(a, b, c)
+        ea, eb = errors(a, b, c)
+        return (c, ea, eb) if within(ea, eb) else None
+
     n = ss.n_states
     chosen: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray] | None = None
     how = ""
@@ -1304,14 +1315,10 @@ def fit_reduced_radiation(
         a_r, b_r, c_r, hsv = balanced_truncation(ss.A, b_s, c_s, r)
         if np.max(np.linalg.eigvals(a_r).real) >= 0.0:
             continue
-        ea, eb = errors(a_r, b_r, c_r)
-        if not within(ea, eb):
+        got = accepted(a_r, b_r, c_r)
+        if got is None:
             continue
-        c_r = passive(a_r, b_r, c_r)
-        ea, eb = errors(a_r, b_r, c_r)
-        if not within(ea, eb):
-            continue
-        chosen = (a_r, b_r, c_r, ea, eb)
+        chosen = (a_r, b_r, *got)
         break
     if chosen is None:
         # Every truncation that met the errors came out unstable (the balancing of a stack of
@@ -1323,16 +1330,10 @@ def fit_reduced_radiation(
             a_r, b_r, _, hsv = balanced_truncation(ss.A, b_s, c_s, r)
             a_m, b_m, flipped = _reflected_modal_form(a_r, b_r)
             c_m = _refit_residues(a_m, b_m, w, k_s)
-            if c_m is None:
+            got = None if c_m is None else accepted(a_m, b_m, c_m)
+            if got is None:
                 continue
-            ea, eb = errors(a_m, b_m, c_m)
-            if not within(ea, eb):
-                continue
-            c_m = passive(a_m, b_m, c_m)
-            ea, eb = errors(a_m, b_m, c_m)
-            if not within(ea, eb):
-                continue
-            chosen = (a_m, b_m, c_m, ea, eb)
+            chosen = (a_m, b_m, *got)
             how = (
                 f"; fit: the order-{r} truncation stabilised ({flipped} unstable poles reflected, "
                 "residues refitted)"
