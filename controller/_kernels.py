@@ -1069,7 +1069,7 @@ BL_CONSTANTS = (
     "k_opt",  # the fallback's region-2 gain K (HSS) [N m/(rad/s)^2]
 )
 #: Length of the baseline's float state array (``baseline_step``'s ``st``).
-BL_STATE_SIZE = 29
+BL_STATE_SIZE = 30
 
 
 @_jit
@@ -1415,8 +1415,14 @@ def baseline_step(
     if tsr:  # platform-pitch-rate feedback, outside the PI
         k_fl, w_fl, zeta_fl, w_hp = bl[43], bl[44], bl[45], bl[46]
         q = prate if prate_valid else (0.0 if first_call else st[22])  # held on dropout
-        a_h = math.exp(-dt_s * w_hp)
-        hp_lp = q if first_call else (1.0 - a_h) * q + a_h * st[19]
+        # the high pass's low-pass part starts as the running mean of the valid samples
+        # (gain 1/n until 1/n falls to the filter's own gain): from the first sample alone
+        # that sample's noise stayed in it for 1/w_hp (about 100 s of pitch offset)
+        n_q = (0.0 if first_call else st[29]) + (1.0 if prate_valid else 0.0)
+        g_h = 1.0 - math.exp(-dt_s * w_hp)
+        if n_q >= 1.0 and 1.0 / n_q > g_h:
+            g_h = 1.0 / n_q
+        hp_lp = q if first_call else g_h * q + (1.0 - g_h) * st[19]
         u_f = q - hp_lp
         q_f, f1, f2 = lowpass2_step(u_f, w_fl, zeta_fl, dt_s, st[20], st[21], first_call)
         th = th + k_fl * q_f
@@ -1428,6 +1434,7 @@ def baseline_step(
         st_out[20] = f1
         st_out[21] = f2
         st_out[22] = q
+        st_out[29] = min(n_q, 1e9)
     dth = th - th_prev
     lim = th_rate * dt_s
     if dth > lim:

@@ -95,7 +95,10 @@ not copied from any source code):
    ``"tsr_tracking"``: the lower limit is :math:`\\theta_{lo}` instead of
    :math:`\\theta_{min}`, the speed reference :math:`\\omega_{ref} + \\max(-\\Delta\\omega_f,
    0)`, and the platform pitch rate :math:`q` (gyro; held on dropout) high-passed (first
-   order, :math:`\\omega_{hp}`) and low-passed (second order, Tustin) to :math:`q_f` adds
+   order, :math:`\\omega_{hp}`: :math:`q - m` with :math:`m \\mathrel{+}= g_n (q - m)`,
+   :math:`g_n = \\max(1/n, 1 - e^{-\\omega_{hp}\\Delta t})` after the n-th valid sample, so
+   that :math:`m` starts as the samples' running mean) and low-passed (second order,
+   Tustin) to :math:`q_f` adds
    :math:`K_{fl} q_f` to the clamped PI output, clamped again, before the rate limit.
    On the first call :math:`\\theta_{k-1}` is the measured pitch (clamped to the limits) and
    :math:`I = \\theta_{k-1}/(G_K K_I)`, so that the PI output equals the measured pitch when
@@ -115,7 +118,11 @@ Deviations from the original DISCON, each deliberate:
   measured pitch: the first command is bumpless with respect to the actuators;
 * constant-power region 3 at :math:`\\omega_f \\le 0` gives zero torque (regime 0) instead
   of dividing by zero; for :math:`0 < \\omega_f \\le P_{rt}/T_{max}` it gives :math:`T_{max}`
-  (same as DISCON's saturation).
+  (same as DISCON's saturation);
+* the platform-pitch-rate high pass starts as the running mean of the first samples (ROSCO
+  starts it at the first sample, whose noise, about 0.6 of the gyro's bias here, then
+  stayed in the feedback for :math:`1/\\omega_{hp}` ≈ 100 s: a 0.3° pitch offset and a
+  10 cm surge transient at the IEA 15 MW's start).
 
 One implementation: :meth:`BaselineController.step` is one call of the compiled
 :func:`controller._kernels.baseline_step` on the state's array (:class:`BaselineState`),
@@ -707,7 +714,8 @@ class BaselineState(NamedTuple):
       clamped, and of healthy, steps [s]), ``wind_fallback`` (the fallback is on) and
       ``wind_last_good_m_s`` (the filtered estimate before the current bad run [m/s]);
       ``trimmed`` (with ``first_call``: start the EKF and the wind filter from these values,
-      :meth:`BaselineController.trimmed_state`).
+      :meth:`BaselineController.trimmed_state`); ``fl_samples`` (valid platform-pitch-rate
+      samples so far: the high pass starts as their running mean).
 
     ``first_call`` is True before the first step, which initialises from the measurement.
     """
@@ -795,6 +803,10 @@ class BaselineState(NamedTuple):
     @property
     def wind_fallback(self) -> bool:
         return bool(self.values[26])
+
+    @property
+    def fl_samples(self) -> float:
+        return float(self.values[29])
 
     @property
     def wind_last_good_m_s(self) -> float:

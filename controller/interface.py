@@ -169,12 +169,20 @@ class OperatingPoint:
     generator_torque_nm : float or None
         Generator torque [N m, high-speed shaft]; None: not known to the runner (the core
         derives it, e.g. from its own torque law or its estimator's aerodynamic model).
+    measurement_offsets : tuple of (str, float)
+        The instruments' constant offsets (biases) as (:class:`SensorFrame` field, offset
+        in that field's unit) pairs: what the steady plant's frames read on average beyond
+        the true value (the gyro's 1e-3 rad/s, the anemometer's wake deficit). A core that
+        warms up on model frames adds them, as a controller running for hours has seen
+        them (e.g. a high-pass filter then starts at its steady state for the biased
+        reading). Empty: none known.
     """
 
     wind_m_s: float
     rotor_speed_rad_s: float
     blade_pitch_rad: float
     generator_torque_nm: float | None = None
+    measurement_offsets: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("wind_m_s", "rotor_speed_rad_s", "blade_pitch_rad"):
@@ -189,6 +197,26 @@ class OperatingPoint:
         tq = self.generator_torque_nm
         if tq is not None and not (isinstance(tq, int | float) and math.isfinite(tq)):
             raise ValueError(f"OperatingPoint.generator_torque_nm must be finite, got {tq!r}")
+        fields = set(SensorFrame.__struct_fields__)
+        for entry in self.measurement_offsets:
+            if not (
+                isinstance(entry, tuple)
+                and len(entry) == 2
+                and entry[0] in fields
+                and isinstance(entry[1], int | float)
+                and math.isfinite(entry[1])
+            ):
+                raise ValueError(
+                    "OperatingPoint.measurement_offsets expected (SensorFrame field, finite "
+                    f"offset in its unit) pairs, got {entry!r}"
+                )
+
+    def measurement_offset(self, field: str) -> float:
+        """The constant offset of ``field``'s instrument [its unit]; 0 if none is known."""
+        for name, value in self.measurement_offsets:
+            if name == field:
+                return float(value)
+        return 0.0
 
 
 @dataclass(frozen=True)

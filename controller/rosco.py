@@ -99,7 +99,13 @@ rotor :math:`J\\dot\\omega = Q(\\omega, \\theta) - N T_g` started at ω0 (J =
 ``WE_Jtot``; :math:`Q = N T_0 + Q_{C_p}(\\omega, \\theta, U) - Q_{C_p}(\\omega_0, \\theta_0,
 U)`, the DISCON.IN's own Cp table (``PerfFileName``, ``WE_BladeRadius``, ``WE_RhoAir``)
 shifted to balance T0 at the trim, T0 that table's balance when the operating point has
-none). Without a Cp table or those figures the rotor speed is held at ω0. The warm-up is
+none). Without a Cp table or those figures the rotor speed is held at ω0. Every channel
+reads its instrument's constant bias on top
+(:attr:`~controller.interface.OperatingPoint.measurement_offsets`), and the gyro's
+difference (swap 83) goes on from the warm-up's last frame into the run: started afresh,
+or from an unbiased warm-up, the run's first sample (the gyro's 1e-3 rad/s bias, or its
+noise) stayed in ROSCO's integrated platform rate for its high pass's 100 s and pitched the
+IEA 15 MW's blades by 0.3° at 8 m/s (a 10 cm surge transient). The warm-up is
 not the run: nothing of it is published or recorded, the run's first frame is the
 library's next call (status 1) and the start-up hold does not apply. It costs 4800
 library calls at 40 Hz (about 0.3 s). Without the warm-up the library's first call came on
@@ -744,6 +750,7 @@ class RoscoController:
         torque: float = q0 / n if given is None else given
         q_trim = n * torque  # the model's torque offset to the trim point: Q(ω0, θ0) = N T
         n_calls = max(1, math.ceil(WARMUP_S / dt - 1e-9))
+        off = operating_point.measurement_offset
         period_ns = round(dt * 1e9)
         state = self.initial_state()
 
@@ -753,17 +760,18 @@ class RoscoController:
                 sample_time_ns=(k - n_calls) * period_ns,
                 publish_time_ns=0,
                 valid_mask=_WARMUP_MASK,
-                generator_speed_measured_rad_s=omega * n,
-                rotor_speed_measured_rad_s=omega,
-                blade_pitch_measured_rad=pitch,
-                generator_torque_measured_nm=torque,
-                electrical_power_measured_w=torque * omega * n * p.generator_efficiency,
-                wind_speed_measured_m_s=wind,
-                nacelle_acc_fore_aft_measured_m_s2=0.0,
-                platform_pitch_measured_rad=0.0,
-                platform_pitch_rate_measured_rad_s=0.0,
-                platform_surge_measured_m=0.0,
-                wave_elevation_gauge_measured_m=0.0,
+                generator_speed_measured_rad_s=omega * n + off("generator_speed_measured_rad_s"),
+                rotor_speed_measured_rad_s=omega + off("rotor_speed_measured_rad_s"),
+                blade_pitch_measured_rad=pitch + off("blade_pitch_measured_rad"),
+                generator_torque_measured_nm=torque + off("generator_torque_measured_nm"),
+                electrical_power_measured_w=torque * omega * n * p.generator_efficiency
+                + off("electrical_power_measured_w"),
+                wind_speed_measured_m_s=wind + off("wind_speed_measured_m_s"),
+                nacelle_acc_fore_aft_measured_m_s2=off("nacelle_acc_fore_aft_measured_m_s2"),
+                platform_pitch_measured_rad=off("platform_pitch_measured_rad"),
+                platform_pitch_rate_measured_rad_s=off("platform_pitch_rate_measured_rad_s"),
+                platform_surge_measured_m=off("platform_surge_measured_m"),
+                wave_elevation_gauge_measured_m=off("wave_elevation_gauge_measured_m"),
             )
 
         first = frame(0)
@@ -803,9 +811,10 @@ class RoscoController:
         except BaseException:
             state.close()
             raise
-        # the run's frames start the rotor azimuth and the gyro difference afresh
+        # the run's frames start the rotor azimuth afresh; the gyro difference goes on from
+        # the warm-up's biased reading (restarted, the run's first sample's noise stayed in
+        # ROSCO's integrated rate: a 0.3° pitch offset for the high pass's 100 s)
         state.azimuth_rad = 0.0
-        state.last_pitch_rate_rad_s = None
         return state
 
     def _held(self, state: RoscoState, frame: SensorFrame) -> tuple[list[float], bool]:

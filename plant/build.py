@@ -324,6 +324,30 @@ def floating_plant(
     )
 
 
+def sensor_channels(spec: PlantSpec) -> dict[str, ChannelSpec] | None:
+    """The plant's full channel models (:class:`sensors.ChannelSpec`), or None.
+
+    None for a bottom-fixed plant without channel tables (its five noise-only turbine
+    channels); else :func:`sensors.default_floating_suite` for a floating plant or the
+    noise-only turbine channels, then the std overrides, then the per-channel tables
+    (:func:`build_plant`). Cheap: nothing of the wind, waves or platform is built.
+    """
+    s = spec.sensors
+    if spec.platform is None and not s.channels:
+        return None
+    if spec.platform is not None:
+        channels = dict(default_floating_suite(spec.control_period_s))
+        for name, value in s.std.items():
+            channels[name] = replace(channels[name], std=value)
+    else:
+        channels = {
+            name: ChannelSpec(name=name, std=s.std.get(name, 0.0)) for name in TURBINE_CHANNELS
+        }
+    for name, table in s.channels.items():
+        channels[name] = ChannelSpec.from_table(name, dict(table), channels.get(name))
+    return channels
+
+
 def build_plant(spec: PlantSpec) -> PlantConfig:
     """The plant's configuration (:class:`plant.simulator.PlantConfig`) from its spec.
 
@@ -339,16 +363,6 @@ def build_plant(spec: PlantSpec) -> PlantConfig:
     floating = (
         floating_plant(spec.platform, spec.waves, limit) if spec.platform is not None else None
     )
-    channels: dict[str, ChannelSpec] | None = None
-    if floating is not None or s.channels:
-        if floating is not None:
-            channels = dict(default_floating_suite(spec.control_period_s))
-            for name, value in s.std.items():
-                channels[name] = replace(channels[name], std=value)
-        else:
-            channels = {name: ChannelSpec(name=name, std=n.std) for name, n in noise.items()}
-        for name, table in s.channels.items():
-            channels[name] = ChannelSpec.from_table(name, dict(table), channels.get(name))
     return PlantConfig(
         turbine=turbine,
         wind=make_wind(
@@ -362,7 +376,7 @@ def build_plant(spec: PlantSpec) -> PlantConfig:
         sensor_noise=noise,
         sensor_seed=s.seed,
         floating=floating,
-        sensor_channels=channels,
+        sensor_channels=sensor_channels(spec),
         sensor_faults=tuple(f for f in spec.sensor_faults if not f.is_bus),
         initial=spec.initial,
     )

@@ -63,6 +63,8 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
     estimator_faults, wind_bad_s, wind_good_s, wind_fallback, wind_last_good_m_s
         ``"tsr_tracking"``: the wind guard's faults so far, current bad and healthy runs
         [s], fallback flag and last good filtered estimate [m/s].
+    fl_samples : float
+        Valid platform-pitch-rate samples so far (the high pass's running-mean start).
     trimmed : bool
         With ``first_call``: a trimmed start, the EKF and the wind filter start from the
         values here (``BaselineController.trimmed_state``).
@@ -91,6 +93,7 @@ class OracleState(msgspec.Struct, frozen=True, gc=False):
     wind_fallback: bool = False
     wind_last_good_m_s: float = 0.0
     trimmed: bool = False
+    fl_samples: float = 0.0
 
 
 ORACLE_INITIAL = OracleState(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -441,8 +444,12 @@ def oracle_step(
             q = measurement.platform_pitch_rate_measured_rad_s
         else:  # held (0 before any valid sample)
             q = 0.0 if state.first_call else state.platform_pitch_rate_rad_s
-        a_h = math.exp(-dt_s * w_hp)
-        hp_lp = q if state.first_call else (1.0 - a_h) * q + a_h * state.fl_hpf_lp
+        valid = bool(measurement.valid_mask & VALID_PLATFORM_PITCH_RATE)
+        n_q = (0.0 if state.first_call else state.fl_samples) + (1.0 if valid else 0.0)
+        g_h = 1.0 - math.exp(-dt_s * w_hp)
+        if n_q >= 1.0 and 1.0 / n_q > g_h:  # the running mean of the first samples
+            g_h = 1.0 / n_q
+        hp_lp = q if state.first_call else g_h * q + (1.0 - g_h) * state.fl_hpf_lp
         u_f = q - hp_lp
         q_f, f1, f2 = lowpass2_step(
             u_f, w_fl, zeta_fl, dt_s, state.fl_lpf_z1, state.fl_lpf_z2, state.first_call
@@ -484,6 +491,7 @@ def oracle_step(
                 t_good,
                 fallback,
                 v_hold,
+                fl_samples=min(n_q, 1e9),
             ),
             ControlOutput(
                 th, tq, regime, w_f, i_term, gk, EST_WIND_SPEED, int(fallback), v,

@@ -406,6 +406,8 @@ def test_baseline_kernel_equals_baseline_controller(preset: str) -> None:
             ]
         _same_arrays(k, "baseline state", st[: len(want_st)], want_st)
         _same_arrays(k, "BaselineController state", bstate.values[: len(want_st)], want_st)
+        if tsr:  # after the trimmed-start flag: the high pass's valid-sample count
+            assert st[29] == state.fl_samples == bstate.fl_samples, f"cycle {k}"
         for theta in (-0.01, 0.0, 0.07, 0.2, 0.5):
             g = _kernels.baseline_gains(bl, gs, n_gs, theta)
             assert ctrl.pitch_gains(theta) == g

@@ -66,7 +66,7 @@ import numpy as np
 
 from controller.interface import OperatingPoint
 from hil.nodes.controller_fault import ControllerFaultError
-from hil.nodes.plant_node import initial_overrides
+from hil.nodes.plant_node import initial_overrides, plant_spec
 from hil.scenario.schema import (
     SENSOR_CHANNELS,
     GustWindSpec,
@@ -77,6 +77,7 @@ from hil.scenario.schema import (
     TurbulentWindSpec,
     WindSpecSection,
 )
+from plant.build import sensor_channels
 from plant.initial import InitialCondition
 
 if TYPE_CHECKING:
@@ -246,9 +247,11 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
     set, else the settled point's mean generator torque when neither the rotor speed nor
     the pitch was overridden (the torque the plant balances there, so that a core's
     estimator starts at the wind the plant's rotor sees, not at the wind its own model
-    would balance), else None (the core derives it). The runner hands it to a core's optional
-    ``trimmed_state`` (:class:`hil.nodes.controller_node.ControllerRuntime`,
-    :mod:`controller.interface`): the controller then starts in its own steady state there
+    would balance), else None (the core derives it); and the instruments' constant
+    offsets (the sensor channels' biases, :attr:`OperatingPoint.measurement_offsets`).
+    The runner hands it to a core's optional ``trimmed_state``
+    (:class:`hil.nodes.controller_node.ControllerRuntime`, :mod:`controller.interface`):
+    the controller then starts in its own steady state there
     instead of initialising from its first measurement. Computed after the plant's
     :func:`initial_condition` in the same process it costs nothing (both read the same
     settled point); in a bus run's controller process it reads the on-disk store the plant
@@ -264,11 +267,15 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
         and initial_overrides(scenario.initial).blade_pitch_rad is None
     ):  # the settled point itself: its torque too
         torque = settle_point(scenario)[2]
+    channels = sensor_channels(plant_spec(scenario)) or {}
     return OperatingPoint(
         wind_m_s=mean_wind_m_s(scenario.wind),
         rotor_speed_rad_s=ic.rotor_speed_rad_s,
         blade_pitch_rad=ic.blade_pitch_rad,
         generator_torque_nm=torque,
+        measurement_offsets=tuple(
+            (name, float(c.bias)) for name, c in sorted(channels.items()) if c.bias != 0.0
+        ),
     )
 
 
