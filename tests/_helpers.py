@@ -70,6 +70,55 @@ def fowt(
     )
 
 
+def fowt_forked(
+    cases: list[tuple[list[str], Path]], *, columns: int = 80, timeout: float = 900.0
+) -> list[subprocess.CompletedProcess[str]]:
+    """Many ``fowt`` commands, each in its own process forked from one interpreter.
+
+    ``cases``: (arguments, working folder). One ``python tests/_fowt_forked.py`` imports
+    the CLI once and forks a child per case that runs the ``fowt`` entry point in that
+    folder with its own exit code and streams (``tests/_fowt_forked.py``); the results come
+    back as :func:`fowt`'s would. For the many commands that stop at validation, where the
+    interpreter's start was nearly all of each command's cost.
+    """
+    import json
+    import tempfile
+
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
+    }
+    with tempfile.TemporaryDirectory(prefix="fowt-forked-") as tmp:
+        spec = {
+            "columns": columns,
+            "cases": [
+                {"args": args, "cwd": str(cwd), "out": f"{tmp}/{i}.out", "err": f"{tmp}/{i}.err"}
+                for i, (args, cwd) in enumerate(cases)
+            ],
+        }
+        proc = subprocess.run(
+            [sys.executable, str(REPO / "tests" / "_fowt_forked.py")],
+            input=json.dumps(spec),
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=False,
+            env=env,
+        )
+        assert proc.returncode == 0, proc.stderr
+        codes = json.loads(proc.stdout)
+        assert len(codes) == len(cases), proc.stdout
+        return [
+            subprocess.CompletedProcess(
+                ["fowt", *args],
+                code,
+                Path(f"{tmp}/{i}.out").read_text(errors="replace"),
+                Path(f"{tmp}/{i}.err").read_text(errors="replace"),
+            )
+            for i, ((args, _), code) in enumerate(zip(cases, codes, strict=True))
+        ]
+
+
 def can_netns_skip_reason() -> str | None:
     """Why a CAN run (python-can's ``udp_multicast`` bus inside a private network namespace,
     so that nothing leaves the machine) cannot run here, or None."""

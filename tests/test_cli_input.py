@@ -1,11 +1,12 @@
 """Bad input on every command: one line naming the key or option, exit 2, nothing written.
 
-Each case runs ``fowt`` as a subprocess in an empty folder holding only the case's input
-files and checks the exit code, that stderr is exactly one ``error: ...`` line containing
-the expected words (the key or option and what was expected), that there is no traceback,
-and that nothing appeared in the folder (no output folder, no default ``runs/``). Every case
-fails at validation, before a process, a bus or a file is opened, so each takes well under
-a second of CPU.
+Each case runs ``fowt`` in its own process (forked from one interpreter that imported the
+CLI once, ``tests/_fowt_forked.py``; three of them also as ``python -m hil`` processes of
+their own) in an empty folder holding only the case's input files and checks the exit
+code, that stderr is exactly one ``error: ...`` line containing the expected words (the key
+or option and what was expected), that there is no traceback, and that nothing appeared in
+the folder (no output folder, no default ``runs/``). Every case fails at validation, before
+a process, a bus or a file is opened, so each takes well under a second of CPU.
 
 The rest: the CLI's listings (``fowt scenarios`` never truncates a name, every shipped
 scenario has a description, ``fowt presets``), a shipped name winning over a stray folder,
@@ -20,7 +21,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from _helpers import fowt
+from _helpers import fowt, fowt_forked
 
 from hil.scenario.schema import load_scenario, scenario_text, shipped_scenarios
 
@@ -434,18 +435,62 @@ CASES: list[tuple[str, list[str], list[str]]] = [
 ]
 
 
-@pytest.mark.parametrize(("args", "words"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
-def test_bad_input_is_one_line_exit_2_nothing_written(
-    tmp_path: Path, args: list[str], words: list[str]
-) -> None:
+def _case_folder(root: Path) -> Path:
+    """An empty folder holding only the cases' input files."""
+    root.mkdir(parents=True)
     for name, content in INPUTS.items():
-        path = tmp_path / name
+        path = root / name
         if isinstance(content, bytes):
             path.write_bytes(content)
         else:
             path.write_text(content)
-    before = _tree(tmp_path)
-    proc = _fowt(args, tmp_path)
+    return root
+
+
+@pytest.fixture(scope="module")
+def forked_results(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> dict[str, tuple[Path, set[str], subprocess.CompletedProcess[str]]]:
+    """Every case run once, each in its own forked ``fowt`` process and folder."""
+    root = tmp_path_factory.mktemp("cli-cases")
+    folders = [_case_folder(root / case[0]) for case in CASES]
+    befores = [_tree(f) for f in folders]
+    procs = fowt_forked([(case[1], f) for case, f in zip(CASES, folders, strict=True)])
+    return {
+        case[0]: (f, before, proc)
+        for case, f, before, proc in zip(CASES, folders, befores, procs, strict=True)
+    }
+
+
+#: Cases also run as a ``python -m hil`` process of their own (the console path whole).
+OWN_PROCESS = ("scenario-missing", "run-duration-nan", "plant-zenoh-config-invalid")
+
+
+@pytest.mark.parametrize(
+    ("case", "words"), [(c[0], c[2]) for c in CASES], ids=[c[0] for c in CASES]
+)
+def test_bad_input_is_one_line_exit_2_nothing_written(
+    forked_results: dict[str, tuple[Path, set[str], subprocess.CompletedProcess[str]]],
+    case: str,
+    words: list[str],
+) -> None:
+    folder, before, proc = forked_results[case]
+    _check_one_line_exit_2(folder, before, proc, words)
+
+
+@pytest.mark.parametrize("case", OWN_PROCESS)
+def test_bad_input_in_a_process_of_its_own(tmp_path: Path, case: str) -> None:
+    """The same as a separate ``python -m hil`` process: the interpreter's start and exit
+    paths too."""
+    (args, words) = next(c[1:] for c in CASES if c[0] == case)
+    folder = _case_folder(tmp_path / "case")
+    before = _tree(folder)
+    _check_one_line_exit_2(folder, before, _fowt(args, folder), words)
+
+
+def _check_one_line_exit_2(
+    tmp_path: Path, before: set[str], proc: subprocess.CompletedProcess[str], words: list[str]
+) -> None:
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
     assert "Traceback" not in proc.stderr + proc.stdout
