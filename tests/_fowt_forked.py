@@ -19,7 +19,6 @@ import os
 import sys
 import traceback
 
-
 #: Modules the validation paths import lazily (measured: sys.modules after a case).
 PRELOAD = (
     "typer._adapters",
