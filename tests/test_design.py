@@ -135,7 +135,13 @@ def test_lqri_beats_the_pi_baseline_on_a_wind_step(models: dict[float, LinearMod
 
 
 def test_design_artefacts_round_trip_and_report(tmp_path: Path) -> None:
-    paths = design("iea15mw_volturnus", tmp_path, {"wind_grid_m_s": (12.0, 16.0, 20.0)})
+    # three scheduled winds for both designs (the shipped wave FF's 22 took 30-140 s here)
+    paths = design(
+        "iea15mw_volturnus",
+        tmp_path,
+        {"wind_grid_m_s": (12.0, 16.0, 20.0)},
+        wave_ff_wind_grid_m_s=(12.0, 16.0, 20.0),
+    )
     meta = json.loads(paths["lqri_json"].read_text())
     assert meta["preset"] == "iea15mw_volturnus"
     assert meta["settings"]["wind_grid_m_s"] == [12.0, 16.0, 20.0]
@@ -145,6 +151,9 @@ def test_design_artefacts_round_trip_and_report(tmp_path: Path) -> None:
     with np.load(paths["lqri_npz"]) as z:
         assert np.allclose(np.array(d.k_x), z["k_x"])
         assert np.allclose(np.array(d.k_i), z["k_i"])
+    with np.load(paths["waveff_npz"]) as z:
+        assert np.array_equal(z["wind_m_s"], [12.0, 16.0, 20.0])
+    assert json.loads(paths["waveff_json"].read_text())["preset"] == "iea15mw_volturnus"
     rep = linear_report("iea15mw_volturnus", 15.0)
     json.dumps(rep)
     assert {m["name"] for m in rep["modes"]} >= {"surge", "pitch"}

@@ -78,6 +78,7 @@ def design(
     control_period_s: float | None = None,
     provenance: dict[str, object] | None = None,
     below_rated_baseline: str = "iea15mw_baseline",
+    wave_ff_wind_grid_m_s: tuple[float, ...] | None = None,
 ) -> dict[str, Path]:
     """Run the offline LQRI and wave-feedforward designs and write their artefacts.
 
@@ -99,6 +100,9 @@ def design(
         Baseline preset whose torque law the advanced controller runs below rated
         (``AdvancedSettings.below_rated_baseline``): the wave-FF filters are designed at the
         operating points that law holds (rotor at or above its minimum speed ``VS_MinOMSpd``).
+    wave_ff_wind_grid_m_s : tuple of float, optional
+        Scheduled winds of the wave feedforward [m/s] (default
+        :data:`controller.design.wave_ff.FF_WIND_GRID_M_S`).
 
     Returns
     -------
@@ -168,7 +172,10 @@ def design(
     js = npz.with_suffix(".json")
     js.write_text(json.dumps(meta, indent=2) + "\n")
     from controller.baseline import load_baseline  # noqa: PLC0415
-    from controller.design.wave_ff import write_wave_ff_artefact  # noqa: PLC0415
+    from controller.design.wave_ff import (  # noqa: PLC0415
+        FF_WIND_GRID_M_S,
+        write_wave_ff_artefact,
+    )
 
     # the below-rated torque law of the advanced controller (controller.runtime) holds the
     # rotor at or above the baseline's minimum speed (VS_MinOMSpd, region 1.5)
@@ -180,6 +187,7 @@ def design(
         dt_s=s.control_period_s,
         provenance=prov,
         min_rotor_speed_rad_s=base.cut_in_generator_speed_rad_s / base.gearbox_ratio,
+        wind_grid_m_s=wave_ff_wind_grid_m_s or FF_WIND_GRID_M_S,
     )
     return {"lqri_npz": npz, "lqri_json": js, **ff}
 
