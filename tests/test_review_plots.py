@@ -7,6 +7,7 @@ sample. Seeded random records; tolerances stated per check.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -223,3 +224,59 @@ def test_plots_gathered_in_the_review_pass_equal_a_second_pass(tmp_path: Path) -
         np.testing.assert_array_equal(f1, f2)
         assert (n1, s1) == (n2, s2)
         np.testing.assert_allclose(p1, p2, rtol=1e-12)
+
+
+def test_plots_drawn_in_two_processes_equal_the_serial_ones(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The timing and spectra figures drawn in a forked child are the same files, byte for
+    byte, as drawn in the calling process (the serial path, forced here)."""
+    import os
+    import threading
+
+    if threading.active_count() > 1 or not hasattr(os, "fork"):
+        pytest.skip("this process runs threads (or has no fork): the drawing is serial here")
+    path = tmp_path / "run.mcap"
+    write_log(path, 300.0)
+    forks = []
+    real_fork = os.fork
+
+    def counted_fork() -> int:
+        forks.append(1)
+        return real_fork()
+
+    monkeypatch.setattr(os, "fork", counted_fork)
+    two = core.review(path, tmp_path / "two", plots=True)
+    assert forks == [1]  # the timing and spectra were drawn in a child
+    monkeypatch.setattr(os, "fork", real_fork)
+
+    def serial(first: Callable[[], object], second: Callable[[], object]) -> None:
+        first()
+        second()
+
+    monkeypatch.setattr(plots, "_in_two_processes", serial)
+    core.review(path, tmp_path / "one", plots=True)
+    for name in plots.PLOT_FILES:
+        a = (tmp_path / "one" / name).read_bytes()
+        assert a == (tmp_path / "two" / name).read_bytes(), name
+    assert two["run"]["source"] == str(path)
+
+
+def test_a_failing_child_figure_is_raised_in_the_calling_process(tmp_path: Path) -> None:
+    """The child's exception reaches the caller as one line (its type and message); what
+    both sides wrote is there."""
+    import threading
+
+    from hil.review.plots import _in_two_processes
+
+    if threading.active_count() > 1 or not hasattr(__import__("os"), "fork"):
+        pytest.skip("this process runs threads: the drawing is serial here")
+
+    def second() -> None:
+        (tmp_path / "child.txt").write_text("drawn")
+        raise ValueError("a figure the child could not draw")
+
+    with pytest.raises(RuntimeError, match=r"ValueError: a figure the child could not draw"):
+        _in_two_processes(lambda: (tmp_path / "parent.txt").write_text("drawn"), second)
+    assert (tmp_path / "parent.txt").read_text() == "drawn"
+    assert (tmp_path / "child.txt").read_text() == "drawn"

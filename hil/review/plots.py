@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -634,7 +634,9 @@ def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
     """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
 
     Drawn on :class:`matplotlib.figure.Figure` objects saved with the Agg renderer (no
-    pyplot, no backend selected: nothing global changes for importers), with fixed margins
+    pyplot, no backend selected: nothing global changes for importers), the time series in
+    this process and the other two at the same time in a forked child where there are two
+    cores (:func:`_in_two_processes`), with fixed margins
     (a layout engine would measure every label again per figure) and every legend outside
     the data, to the right of its panel. Panels with no data say so.
 
@@ -663,10 +665,65 @@ def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     label = data.label()
     written = [out_dir / name for name in PLOT_FILES]
-    _timeseries_plot(data, label, written[0])
-    _timing_plot(data, label, written[1])
-    _psd_plot(data, label, written[2])
+
+    def timing_and_spectra() -> None:
+        _timing_plot(data, label, written[1])
+        _psd_plot(data, label, written[2])
+
+    _in_two_processes(lambda: _timeseries_plot(data, label, written[0]), timing_and_spectra)
     return written
+
+
+def _in_two_processes(first: Callable[[], object], second: Callable[[], object]) -> None:
+    """Run ``first`` here and ``second`` in a forked child, at once, where that can help.
+
+    The three figures are independent: the time series (about 60 % of the drawing) here,
+    the timing and spectra in a child forked after the data is gathered (it shares the data
+    copy-on-write and only writes its two files). On two free cores the plots take the
+    time series' time instead of the sum (``bench/plot_speed.py``). Serial where fork does
+    not exist, on one core, or with Python threads running (a fork copies only the calling
+    thread; a lock another thread held would stay held in the child). The child leaves by
+    ``os._exit`` (no finalizers or exit handlers of the parent run twice); its failure is
+    raised here with its traceback's last line.
+    """
+    import os  # noqa: PLC0415
+    import threading  # noqa: PLC0415
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    if not hasattr(os, "fork") or cores < 2 or threading.active_count() > 1:
+        first()
+        second()
+        return
+    import traceback  # noqa: PLC0415
+
+    import matplotlib.figure  # noqa: F401, PLC0415 - imported once, before the fork
+
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: draw, report, leave without the parent's exit machinery
+        code = 0
+        try:
+            os.close(read_fd)
+            second()
+        except BaseException:
+            code = 1
+            os.write(write_fd, traceback.format_exc().encode(errors="replace")[-4000:])
+        finally:
+            os._exit(code)
+    os.close(write_fd)
+    try:
+        first()
+    finally:
+        chunks = []
+        while chunk := os.read(read_fd, 65536):
+            chunks.append(chunk)
+        os.close(read_fd)
+        _, status = os.waitpid(pid, 0)
+    if os.waitstatus_to_exitcode(status) != 0:
+        lines = b"".join(chunks).decode(errors="replace").strip().splitlines()
+        raise RuntimeError(
+            f"drawing the timing and spectra plots failed: {lines[-1] if lines else status}"
+        )
 
 
 def _figure(width_in: float, height_in: float, rows: int, **margins: float) -> tuple[Any, Any]:
