@@ -228,3 +228,42 @@ def test_modes_are_json_serialisable_and_damped(modes: dict[str, Mode]) -> None:
     for m in modes.values():
         assert 0.0 < m.damping_ratio < 0.5
         assert m.eigenvalue[0] < 0.0
+
+
+@pytest.mark.parametrize(
+    ("preset", "wind_m_s"),
+    [
+        ("iea15mw_volturnus", 0.0),
+        ("iea15mw_volturnus", 8.0),
+        ("iea15mw_volturnus", 15.0),
+        ("nrel5mw_oc3_hywind", 9.5),  # the root 19.26 m lies beside the mooring table's 19 m knot
+        ("nrel5mw_oc3_hywind", 18.0),
+    ],
+)
+def test_newton_equilibrium_is_fsolves(preset: str, wind_m_s: float) -> None:
+    """The static equilibrium by the module's Newton iterations (no scipy.optimize import at
+    a run's start) equals scipy's fsolve (with the surge bracket where fsolve stalls) to
+    1e-9 m and 1e-12 rad; both leave a residual below 1e-9."""
+    from scipy.optimize import fsolve
+
+    from plant import modes
+    from plant.platform import load_floating
+
+    params = load_floating(preset)
+    op = modes.operating_point(params, wind_m_s)
+    q_newton = np.array(op.state[:4])
+    omega, theta, torque = op.state[8], op.state[9], op.state[10]
+    nr = params.n_radiation
+
+    def residual(q: np.ndarray) -> np.ndarray:
+        x = (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, omega, theta, torque, *([0.0] * nr))
+        dx = modes.f(0.0, x, op.inputs, params)
+        return np.array(dx[4:8]) * np.array([1.0, 1.0, modes.PITCH_LENGTH_M, 1.0])
+
+    q_f, _, ier, msg = fsolve(residual, np.zeros(4), full_output=True, xtol=1e-12)
+    if ier != 1 and float(np.max(np.abs(residual(q_f)))) > 1e-9:
+        q_f = modes._bracketed_equilibrium(residual, q_f, wind_m_s, msg)
+    assert float(np.max(np.abs(residual(q_newton)))) < 1e-9
+    assert float(np.max(np.abs(residual(q_f)))) < 1e-9
+    np.testing.assert_allclose(q_newton[[0, 1, 3]], q_f[[0, 1, 3]], rtol=0, atol=1e-9)
+    assert abs(q_newton[2] - q_f[2]) < 1e-12
