@@ -72,22 +72,9 @@ def _steady_still(name: str, wind_m_s: float, duration_s: float, trim: bool = Tr
 
 
 def _rotor_series(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
-    """(t s, rotor speed rad/s) of an in-process run of ``scenario``."""
-    # as fowt run: a trimmed run's core starts at the operating point (trimmed_state)
-    runtime = ControllerRuntime(
-        scenario, paced=False, operating_point=functools.partial(operating_point, scenario)
-    )
-    rows: list[tuple[float, float]] = []
-
-    def publish(mt: object, msg: Any) -> None:
-        if mt is TRUTH:
-            rows.append((msg.sample_time_ns * 1e-9, msg.rotor_speed_rad_s))
-        elif mt is WAVE_PREVIEW_PERFECT:
-            runtime.handle_preview(msg)
-
-    run_inprocess(scenario, publish, publishing_step(runtime, publish), runtime=runtime)  # type: ignore[arg-type]
-    a = np.array(rows)
-    return a[:, 0], a[:, 1]
+    """(t s, rotor speed rad/s) of an in-process run of ``scenario`` (as fowt run)."""
+    s = _truth_series(scenario, "rotor_speed_rad_s")
+    return s["t"], s["rotor_speed_rad_s"]
 
 
 def test_below_rated_trim_is_the_baseline_minimum_speed_and_minimum_pitch() -> None:
