@@ -7,7 +7,6 @@ sample. Seeded random records; tolerances stated per check.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -226,57 +225,77 @@ def test_plots_gathered_in_the_review_pass_equal_a_second_pass(tmp_path: Path) -
         np.testing.assert_allclose(p1, p2, rtol=1e-12)
 
 
-def test_plots_drawn_in_two_processes_equal_the_serial_ones(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+#: Run in a fresh interpreter (no thread of another test can make the drawing serial):
+#: the review's plots drawn in two processes (fork counted) and serially, and a failing
+#: child figure; prints what the tests check as JSON.
+_FORK_CHECK = r"""
+import json, os, sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[2])
+from test_review_long_run import write_log
+from hil.review import core, plots
+
+tmp = Path(sys.argv[1])
+path = tmp / "run.mcap"
+write_log(path, 300.0)
+forks = []
+real_fork = os.fork
+def counted_fork():
+    forks.append(1)
+    return real_fork()
+os.fork = counted_fork
+core.review(path, tmp / "two", plots=True)
+os.fork = real_fork
+two_processes = plots._in_two_processes
+def serial(first, second):
+    first()
+    second()
+plots._in_two_processes = serial
+core.review(path, tmp / "one", plots=True)
+same = {n: (tmp / "one" / n).read_bytes() == (tmp / "two" / n).read_bytes()
+        for n in plots.PLOT_FILES}
+def second():
+    (tmp / "child.txt").write_text("drawn")
+    raise ValueError("a figure the child could not draw")
+try:
+    two_processes(lambda: (tmp / "parent.txt").write_text("drawn"), second)
+    error = None
+except RuntimeError as exc:
+    error = str(exc)
+print(json.dumps({"forks": len(forks), "same": same, "error": error,
+                  "parent": (tmp / "parent.txt").read_text(),
+                  "child": (tmp / "child.txt").read_text()}))
+"""
+
+
+def test_plots_drawn_in_two_processes_equal_the_serial_ones_and_fail_loudly(
+    tmp_path: Path,
 ) -> None:
-    """The timing and spectra figures drawn in a forked child are the same files, byte for
-    byte, as drawn in the calling process (the serial path, forced here)."""
+    """In a fresh process on two cores the review draws the timing and spectra figures in
+    a forked child (one fork), and they are the same files, byte for byte, as drawn in the
+    calling process; a child figure that raises reaches the caller as one line with its
+    type and message, and what both sides wrote is there."""
+    import json
     import os
-    import threading
+    import subprocess
+    import sys
 
-    if threading.active_count() > 1 or not hasattr(os, "fork"):
-        pytest.skip("this process runs threads (or has no fork): the drawing is serial here")
-    path = tmp_path / "run.mcap"
-    write_log(path, 300.0)
-    forks = []
-    real_fork = os.fork
-
-    def counted_fork() -> int:
-        forks.append(1)
-        return real_fork()
-
-    monkeypatch.setattr(os, "fork", counted_fork)
-    two = core.review(path, tmp_path / "two", plots=True)
-    assert forks == [1]  # the timing and spectra were drawn in a child
-    monkeypatch.setattr(os, "fork", real_fork)
-
-    def serial(first: Callable[[], object], second: Callable[[], object]) -> None:
-        first()
-        second()
-
-    monkeypatch.setattr(plots, "_in_two_processes", serial)
-    core.review(path, tmp_path / "one", plots=True)
-    for name in plots.PLOT_FILES:
-        a = (tmp_path / "one" / name).read_bytes()
-        assert a == (tmp_path / "two" / name).read_bytes(), name
-    assert two["run"]["source"] == str(path)
-
-
-def test_a_failing_child_figure_is_raised_in_the_calling_process(tmp_path: Path) -> None:
-    """The child's exception reaches the caller as one line (its type and message); what
-    both sides wrote is there."""
-    import threading
-
-    from hil.review.plots import _in_two_processes
-
-    if threading.active_count() > 1 or not hasattr(__import__("os"), "fork"):
-        pytest.skip("this process runs threads: the drawing is serial here")
-
-    def second() -> None:
-        (tmp_path / "child.txt").write_text("drawn")
-        raise ValueError("a figure the child could not draw")
-
-    with pytest.raises(RuntimeError, match=r"ValueError: a figure the child could not draw"):
-        _in_two_processes(lambda: (tmp_path / "parent.txt").write_text("drawn"), second)
-    assert (tmp_path / "parent.txt").read_text() == "drawn"
-    assert (tmp_path / "child.txt").read_text() == "drawn"
+    if not hasattr(os, "fork") or len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("no fork or one core: the drawing is serial by design")
+    here = Path(__file__).resolve().parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}
+    proc = subprocess.run(
+        [sys.executable, "-c", _FORK_CHECK, str(tmp_path), str(here)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["forks"] == 1
+    assert got["same"] == {name: True for name in plots.PLOT_FILES}
+    assert got["error"] is not None
+    assert "ValueError: a figure the child could not draw" in got["error"]
+    assert (got["parent"], got["child"]) == ("drawn", "drawn")
