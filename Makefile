@@ -81,6 +81,7 @@ bench-speed: setup
 	$(BIN)/python bench/startup_floor.py
 	$(BIN)/python bench/soak_memory.py --soak
 	$(BIN)/python bench/review_speed.py
+	$(BIN)/python bench/plot_speed.py
 	$(BIN)/python bench/review_memory.py
 	$(BIN)/python bench/advanced_controller.py --realtime-priority $(RTPRIO)
 	$(BIN)/python bench/soak.py --realtime-priority $(RTPRIO)
