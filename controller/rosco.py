@@ -750,7 +750,11 @@ class RoscoController:
         torque: float = q0 / n if given is None else given
         q_trim = n * torque  # the model's torque offset to the trim point: Q(ω0, θ0) = N T
         n_calls = max(1, math.ceil(WARMUP_S / dt - 1e-9))
-        off = operating_point.measurement_offset
+        offsets = dict(operating_point.measurement_offsets)  # looked up once per channel
+
+        def off(field: str) -> float:
+            return offsets.get(field, 0.0)
+
         period_ns = round(dt * 1e9)
         state = self.initial_state()
 
