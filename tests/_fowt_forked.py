@@ -21,7 +21,6 @@ import traceback
 
 #: Modules the validation paths import lazily (measured: sys.modules after a case).
 PRELOAD = (
-    "typer._adapters",
     "hil.launch",
     "hil.review.core",
     "hil.runlog.mcap_io",
@@ -63,8 +62,8 @@ def main() -> None:
     os.environ["COLUMNS"] = str(spec["columns"])  # before rich's consoles are made
     from hil.cli.fowt import main as entry
 
-    # what the commands import on their first call (typer's coercion imports pydantic; the
-    # run, review and CAN paths their modules): imported once here, not in every child
+    # what the commands import on their first call (the run, review and CAN paths'
+    # modules): imported once here, not in every child
     for name in PRELOAD:
         importlib.import_module(name)
 

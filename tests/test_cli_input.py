@@ -281,7 +281,7 @@ CASES: list[tuple[str, list[str], list[str]]] = [
     (
         "run-duration-text",
         ["run", "nrel5mw-ramp", "--duration", "abc", *RUN[1:]],
-        ["'--duration'", "number"],
+        ["'--duration'", "not a valid"],
     ),
     (
         "run-speed-zero",
