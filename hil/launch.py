@@ -1067,9 +1067,15 @@ def _start_nodes(
     if req.live_port is not None:  # the live view: a process of its own (hil.live.node)
         from hil.live.node import LIVE_JSON, live_node_command  # noqa: PLC0415
 
+        # fed by the recorder on a link of their own (hil.nodes.live_feed): no third subscriber
+        # of the frames and commands that pace the run
+        live_ep = free_tcp_endpoint()
+        while live_ep in endpoints:
+            live_ep = free_tcp_endpoint()
         (out / LIVE_JSON).unlink(missing_ok=True)
+        cmds["recorder"] = [*cmds["recorder"], "--connect", live_ep, "--live-forward"]
         cmds["live"] = live_node_command(
-            scenario, duration_s, endpoints, key_path, req.live_port, out / LIVE_JSON
+            scenario, duration_s, live_ep, endpoints[0], key_path, req.live_port, out / LIVE_JSON
         )
     try:
         _supervise(

@@ -825,6 +825,15 @@ def record(
     can_fd: CanFdOpt = None,
     key_file: KeyFileOpt = None,
     insecure: InsecureOpt = False,
+    live_forward: Annotated[
+        bool,
+        typer.Option(
+            "--live-forward",
+            help="Also put what is written on fowt/<turbine>/recorder/live for the live view"
+            " (fowt run --live; hil.nodes.live_feed).",
+            hidden=True,
+        ),
+    ] = False,
 ) -> None:
     """Record every fowt/<turbine>/** message to an MCAP file until the run ends.
 
@@ -853,6 +862,7 @@ def record(
             run_info=info,
             scenario_toml=text,
             can=can,
+            live_forward=live_forward,
         )
     except OSError as exc:  # disk full, file too large: the file is readable up to it
         fail(f"recorder: writing failed: {os_error_text(exc, out)}", code=ExitCode.FAILED)

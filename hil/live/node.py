@@ -1,30 +1,29 @@
-"""The live view's process: subscribes on the run's bus, serves it to Foxglove.
+"""The live view's process: takes the recorder's live batches, serves them to Foxglove.
 
-``fowt run --live [PORT]`` starts it beside the recorder (``fowt live-node``, with the
-recorder's endpoints and the run's key): it opens its Zenoh session as the recorder does
-(:class:`hil.nodes.bus.Bus` from the same command-line helper), subscribes to
-``fowt/<turbine>/**``, checks every sample's tag with the run's key (:func:`bus_schemas.auth.
-verify`: a sample that fails is counted under ``rejected`` as ``<suffix>:auth`` and never
-shown), splits the nodes' log batches (:func:`hil.nodes.bus.split_batch`) and decodes each
-message as the recorder does, then hands it to the :class:`~hil.live.server.LiveServer`.
+``fowt run --live [PORT]`` starts it before the recorder (``fowt live-node``): it listens on
+an endpoint of its own, which the recorder (``fowt record --live-forward``) connects to,
+and connects to the plant's endpoint for the plant's liveliness token only. It subscribes
+to one key, ``fowt/<turbine>/recorder/live`` (:mod:`hil.nodes.live_feed`): what the recorder
+has written, a batch per 20 ms drain, signed with the run's key. It subscribes to none of
+the run's own keys, so the sensor frames and commands that pace the run go to no extra
+session and wake nothing here, and no key of the controller's can take it for the recorder
+(a controller started with ``--await-recorder`` waits for the recorder's signed answer).
 
-Never in the run's way: the subscriber's callback (in Zenoh's thread) only appends the raw
-sample to a bounded queue (:data:`RAW_CAPACITY`; full: dropped and counted), so Zenoh's
-receive never waits for this process's Python side or for a viewer, and the publishers'
-``BLOCK`` congestion control (:mod:`hil.nodes.bus`) is never reached through it. Everything
-after it (checking, decoding, encoding, the sdk's per-client outbox) can only lose messages
-for the viewers, counted in ``live.json`` (:class:`~hil.live.server.LiveStats`) and in the
-run summary's ``run.live_view``; the recorder, which subscribes on its own, is unaffected.
+Each batch's tag is checked with the run's key (:func:`bus_schemas.auth.verify`: a batch
+that fails is counted under ``rejected`` as ``recorder/live:auth`` and never shown), split
+(:func:`hil.nodes.live_feed.open_live_batch`), and each message decoded as the recorder
+decoded it and handed to the :class:`~hil.live.server.LiveServer`.
 
-Never in the run's gates either: a controller started with ``--await-recorder`` announces
-itself once a subscriber of its status key is reachable (:func:`hil.nodes.bus.wait_matched`),
-which must be the recorder, not this process. So the controller's status keys
-(``controller/batch``, ``controller/status``) are subscribed only while the controller's
-liveliness token is there (it is declared after that wait), and dropped when it goes (a
-restarted controller waits for the recorder again); the other keys from the start.
+Never in the run's way: the recorder puts the batches with congestion control ``DROP``;
+the subscriber's callback (in Zenoh's thread) only appends the raw batch to a bounded
+queue (:data:`RAW_CAPACITY`; full: dropped). A batch lost either way is seen in the gap of
+the batches' message indices and its messages are counted as ``dropped`` for the viewers,
+with what the server and the sdk's per-client outbox drop (``live.json``,
+:class:`~hil.live.server.LiveStats`, and the run summary's ``run.live_view``); the run log
+is the recorder's and is unaffected.
 
 It ends once the plant's final timing summary and both reports have come (or the plant's
-liveliness token went) and :data:`END_IDLE_S` passed without a sample, or on SIGTERM/SIGINT.
+liveliness token went) and :data:`END_IDLE_S` passed without a batch, or on SIGTERM/SIGINT.
 """
 
 from __future__ import annotations
@@ -44,30 +43,24 @@ import zenoh
 from bus_schemas import DecodeError, TimingSummary
 from bus_schemas.auth import verify
 from bus_schemas.messages import ControllerReport, PlantReport
-from bus_schemas.registry import BY_SUFFIX, CONTROLLER_STATUS, KEY_PREFIX, MESSAGES
+from bus_schemas.registry import KEY_PREFIX
 from hil.live.scene import geometry_of
 from hil.live.server import LiveServer, LiveStats
-from hil.nodes.bus import (
-    BATCH_SUFFIXES,
-    CONTROLLER_BATCH_SUFFIX,
-    PLANT_BATCH_SUFFIX,
-    Bus,
-    BusConfig,
-    split_batch,
-)
+from hil.nodes.bus import Bus, BusConfig
+from hil.nodes.live_feed import LIVE_SUFFIX, open_live_batch
 from hil.scenario.schema import Scenario
 
-#: Raw samples held between two takes of the main thread (about 2 s of the fastest
-#: lock-step); more are dropped for the viewers and counted.
-RAW_CAPACITY = 8192
-#: Wall seconds without a sample after the run's end before the node exits.
+#: Live batches held between two takes of the main thread (a batch per recorder drain,
+#: 20 ms: about 40 s); more are dropped for the viewers and counted.
+RAW_CAPACITY = 2048
+#: Wall seconds without a batch after the run's end before the node exits.
 END_IDLE_S = 1.0
 #: File name of the node's counts in the run folder.
 LIVE_JSON = "live.json"
 
 
 class LiveFeed:
-    """Bus samples to :meth:`LiveServer.offer`: bounded raw queue, tag check, decode.
+    """Live batches to :meth:`LiveServer.offer`: bounded raw queue, tag check, decode.
 
     Parameters
     ----------
@@ -81,101 +74,85 @@ class LiveFeed:
         self.server = server
         self.auth_key = auth_key
         self.prefix = f"{KEY_PREFIX}/{server.turbine}/"
-        self.raw: collections.deque[tuple[str, bytes]] = collections.deque()
-        self.raw_dropped = 0
+        self.key = self.prefix + LIVE_SUFFIX
+        self.raw: collections.deque[bytes] = collections.deque()
+        #: Messages never shown: in batches dropped here or lost on the way (index gaps).
+        self.lost = 0
+        self.next_index = 0
         self.rejected: collections.Counter[str] = collections.Counter()
         self.final_seen = False
         self.reports: set[str] = set()
         self.last_sample = time.monotonic()
 
     def on_sample(self, sample: zenoh.Sample) -> None:
-        """Zenoh's callback: queue the raw sample, or count it dropped (never blocks)."""
+        """Zenoh's callback: queue the raw batch, or drop it (never blocks; the index gap
+        counts its messages when the next batch comes)."""
         self.last_sample = time.monotonic()
-        if len(self.raw) >= RAW_CAPACITY:
-            self.raw_dropped += 1
-            return
-        self.raw.append((str(sample.key_expr), sample.payload.to_bytes()))
+        if len(self.raw) < RAW_CAPACITY:
+            self.raw.append(sample.payload.to_bytes())
 
     def take(self) -> int:
-        """Check, decode and offer every queued sample; returns how many."""
+        """Check, split, decode and offer every queued batch; returns how many batches."""
         n = 0
         raw = self.raw
         while raw:
-            key, payload = raw.popleft()
+            self._batch(raw.popleft())
             n += 1
-            self._one(key, payload)
         return n
 
-    def _one(self, key: str, payload: bytes) -> None:
-        suffix = key.removeprefix(self.prefix)
-        batch = suffix in BATCH_SUFFIXES
-        mt = None if batch else BY_SUFFIX.get(suffix)
-        if mt is None and not batch:
-            return  # liveliness, unknown keys: the recorder counts those
+    def _batch(self, payload: bytes) -> None:
         if self.auth_key is not None:
             try:
-                payload = verify(self.auth_key, key, payload)
+                payload = verify(self.auth_key, self.key, payload)
             except DecodeError as exc:
-                self.rejected[f"{suffix}:{exc.reason}"] += 1
+                self.rejected[f"{LIVE_SUFFIX}:{exc.reason}"] += 1
                 return
-        if mt is None:
-            try:
-                parts = split_batch(payload)
-            except DecodeError as exc:
-                self.rejected[f"{suffix}:{exc.reason}"] += 1
-                return
-            for pmt, part in parts:
-                self._decoded(self.prefix + pmt.key_suffix, pmt.key_suffix, pmt, part)
-            return
-        self._decoded(key, suffix, mt, payload)
-
-    def _decoded(self, key: str, suffix: str, mt: Any, payload: Any) -> None:
         try:
-            msg = mt.codec.decode(payload)
+            batch = open_live_batch(payload)
         except DecodeError as exc:
-            self.rejected[f"{suffix}:{exc.reason}"] += 1
+            self.rejected[f"{LIVE_SUFFIX}:{exc.reason}"] += 1
             return
-        if isinstance(msg, TimingSummary) and msg.final:
-            self.final_seen = True
-        elif isinstance(msg, PlantReport | ControllerReport):
-            self.reports.add(type(msg).__name__)
-        self.server.offer(key, msg)
+        if batch.first_index < self.next_index:  # a batch already shown, or out of order
+            self.rejected[f"{LIVE_SUFFIX}:duplicate"] += 1
+            return
+        self.lost += batch.first_index - self.next_index
+        self.next_index = batch.first_index + len(batch.parts)
+        for mt, part in batch.parts:
+            suffix = mt.key_suffix
+            try:
+                msg = mt.codec.decode(part)
+            except DecodeError as exc:
+                self.rejected[f"{suffix}:{exc.reason}"] += 1
+                continue
+            if isinstance(msg, TimingSummary) and msg.final:
+                self.final_seen = True
+            elif isinstance(msg, PlantReport | ControllerReport):
+                self.reports.add(type(msg).__name__)
+            self.server.offer(self.prefix + suffix, msg)
 
     def stats(self) -> LiveStats:
-        """The server's counts plus this feed's drops and rejections."""
+        """The server's counts plus this feed's losses and rejections."""
         s = self.server.stats
-        return dataclasses.replace(
-            s, dropped=s.dropped + self.raw_dropped, rejected=dict(self.rejected)
-        )
-
-
-def _gated(tid: str) -> tuple[str, ...]:
-    """The keys of the controller's statuses: subscribed only once it announced itself."""
-    return (f"{KEY_PREFIX}/{tid}/{CONTROLLER_BATCH_SUFFIX}", CONTROLLER_STATUS.key(tid))
-
-
-def _open_keys(tid: str) -> list[str]:
-    """Every other key of the run's messages (and the plant's log batches)."""
-    keys = [mt.key(tid) for mt in MESSAGES] + [f"{KEY_PREFIX}/{tid}/{PLANT_BATCH_SUFFIX}"]
-    return [k for k in keys if k not in _gated(tid)]
+        return dataclasses.replace(s, dropped=s.dropped + self.lost, rejected=dict(self.rejected))
 
 
 def live_node_command(
     scenario: str,
     duration_s: float,
-    endpoints: tuple[str, str],
+    listen: str,
+    plant_endpoint: str,
     key_file: Path,
     port: int,
     summary: Path,
 ) -> list[str]:
     """The command line of the live view's process in a launched run (``fowt live-node``):
-    the recorder's endpoints (plant, controller) and the run's key file."""
+    its own endpoint (the recorder connects to it), the plant's (for the plant's liveliness)
+    and the run's key file."""
     import sys  # noqa: PLC0415
 
-    plant_ep, ctrl_ep = endpoints
     return [
         sys.executable, "-m", "hil", "live-node", scenario, "--duration", repr(duration_s),
-        "--connect", plant_ep, "--connect", ctrl_ep, "--key-file", str(key_file),
+        "--listen", listen, "--connect", plant_endpoint, "--key-file", str(key_file),
         "--port", str(port), "--summary", str(summary),
     ]  # fmt: skip
 
@@ -209,41 +186,20 @@ def run_live_node(
         if sample.kind == zenoh.SampleKind.DELETE:
             plant_gone.set()
 
-    controller_up = threading.Event()
-
-    def on_controller(sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.DELETE:
-            controller_up.clear()
-        else:
-            controller_up.set()
-
     subs: list[Any] = []
-    gated: list[Any] = []
     try:
-        for key in _open_keys(tid):
-            subs.append(bus.session.declare_subscriber(key, feed.on_sample))
-        liveliness = bus.session.liveliness()
-        subs.append(liveliness.declare_subscriber(f"fowt/{tid}/alive/plant", on_plant))
+        subs.append(bus.session.declare_subscriber(feed.key, feed.on_sample))
         subs.append(
-            liveliness.declare_subscriber(
-                f"fowt/{tid}/alive/controller", on_controller, history=True
-            )
+            bus.session.liveliness().declare_subscriber(f"fowt/{tid}/alive/plant", on_plant)
         )
         while not stop.is_set():
-            # The controller's status keys only while its token is there (module docstring).
-            if controller_up.is_set() and not gated:
-                gated = [bus.session.declare_subscriber(k, feed.on_sample) for k in _gated(tid)]
-            elif not controller_up.is_set() and gated:
-                for sub in gated:
-                    sub.undeclare()
-                gated = []
             feed.take()
             ended = plant_gone.is_set() or (feed.final_seen and len(feed.reports) == 2)
             if ended and time.monotonic() - feed.last_sample >= END_IDLE_S:
                 break
             stop.wait(0.02)
         feed.take()
-        for sub in gated + subs:
+        for sub in subs:
             sub.undeclare()
     finally:
         bus.close()

@@ -48,6 +48,12 @@ channel exactly as if it had been put alone (same channel, schema and payload; t
 publish time is the batch's receive time). A batch that does not split is counted under
 ``rejected`` as ``<batch suffix>:<reason>``.
 
+The live view (``fowt run --live``, ``--live-forward`` here): every message written is
+also handed to :class:`hil.nodes.live_feed.LiveForward`, which puts each drain's messages as
+one signed batch on ``fowt/<turbine>/recorder/live`` with congestion control ``DROP`` (a
+live view that falls behind loses batches, counted on its side; the recording never waits
+for it).
+
 Authentication: in an authenticated run (the run's secret, ``--key-file``) every sample's
 tag is checked before anything else (:mod:`bus_schemas.auth`); a sample that fails is
 counted under ``rejected`` as ``<suffix>:auth`` and not written, so the command channel of
@@ -110,7 +116,7 @@ from bus_schemas import (
     SensorFrame,
     TimingSummary,
 )
-from bus_schemas.auth import verify
+from bus_schemas.auth import sign, verify
 from bus_schemas.messages import ControllerReport, PlantReport
 from bus_schemas.registry import BY_SUFFIX, COMMAND, KEY_PREFIX, SENSORS, MessageType
 from hil.nodes.bus import (
@@ -123,6 +129,7 @@ from hil.nodes.bus import (
     sample_time_limit_ns,
     split_batch,
 )
+from hil.nodes.live_feed import LIVE_SUFFIX, LiveForward
 from hil.runlog.completeness import (
     CONTROLLER_TOPICS,
     PLANT_TOPICS,
@@ -325,6 +332,8 @@ class Recorder:
         self.newest_cycle: dict[str, int] = {}
         #: Puts a controller's hello nonce back on ``recorder/ready`` (None: no answer).
         self.answer_hello: Callable[[bytes], None] | None = None
+        #: The live view's feed (``fowt run --live``): every message written is handed to it.
+        self.live: LiveForward | None = None
         self.queue: queue.SimpleQueue[tuple[str, Any, int]] = queue.SimpleQueue()
         self.rejected: Counter[str] = Counter()
         self.unknown_keys: Counter[str] = Counter()
@@ -353,6 +362,8 @@ class Recorder:
         suffix = key.removeprefix(self.prefix)
         if suffix in (HELLO_SUFFIX, READY_SUFFIX):  # the readiness handshake, not run data
             self._on_hello(key, suffix, payload)
+            return
+        if suffix == LIVE_SUFFIX:  # the live view's feed (its own puts), not run data
             return
         self.samples[suffix] += 1
         batch = suffix in BATCH_SUFFIXES
@@ -443,6 +454,7 @@ class Recorder:
             return 0
         counts = self.counts
         prefix = self.prefix
+        live = self.live
         while True:
             key, msg, recv = item
             try:
@@ -451,7 +463,10 @@ class Recorder:
                 self.rejected[f"{key.removeprefix(prefix)}:range"] += 1
                 msg = None
             if msg is not None:
-                counts[key.removeprefix(prefix)] += 1
+                suffix = key.removeprefix(prefix)
+                counts[suffix] += 1
+                if live is not None and (mt := BY_SUFFIX.get(suffix)) is not None:
+                    live.add(mt, msg)
                 if isinstance(msg, PlantReport):
                     self.plant_report = msgspec.structs.asdict(msg)
                 elif isinstance(msg, ControllerReport):
@@ -464,6 +479,8 @@ class Recorder:
             try:
                 item = self.queue.get_nowait()
             except queue.Empty:
+                if live is not None:
+                    live.flush()
                 return n
 
     def expected(self) -> dict[str, int]:
@@ -575,6 +592,7 @@ def run_recorder_node(
     log: Callable[[str], None] = print,
     can: CanBusConfig | None = None,
     end_idle_s: float = END_IDLE_S,
+    live_forward: bool = False,
 ) -> int:
     """Record until the run's messages are all in (module docstring, "No silent loss").
 
@@ -616,6 +634,8 @@ def run_recorder_node(
     bus = Bus(bus_config)
     ready_key = f"{KEY_PREFIX}/{scenario.turbine_id}/{READY_SUFFIX}"
     recorder.answer_hello = lambda nonce: bus.put(ready_key, nonce)
+    if live_forward:
+        recorder.live = _live_forward(bus, scenario.turbine_id)
     written = 0
     # The samples wait in the subscriber's FIFO channel and the main thread takes them every
     # 20 ms: no Python thread wakes per sample (a callback subscriber hands each one to a
@@ -698,6 +718,9 @@ def run_recorder_node(
         with contextlib.suppress(Exception):  # a session failing at its start: nothing to take
             take(math.inf)
             sub.undeclare()
+        if recorder.live is not None:  # the live view gets the last messages while it can
+            written += recorder.drain(0.0)
+            recorder.live = None
         bus.close()
         meta = {
             "messages": str(run_log.count),
@@ -734,6 +757,22 @@ def run_recorder_node(
     if can_bus is not None and tap is not None:
         log(f"recorder CAN: {tap.frames} frames, rejected {dict(can_bus.rejected)}")
     return written
+
+
+def _live_forward(bus: Bus, turbine: str) -> LiveForward:
+    """The live view's feed (:mod:`hil.nodes.live_feed`): signed puts with ``DROP`` congestion
+    control, to other sessions only, so a live view that does not keep up never holds the
+    recorder back."""
+    key = f"{KEY_PREFIX}/{turbine}/{LIVE_SUFFIX}"
+    pub = bus.session.declare_publisher(
+        key,
+        congestion_control=zenoh.CongestionControl.DROP,
+        allowed_destination=zenoh.Locality.REMOTE,
+    )
+    secret = bus.config.auth_key
+    if secret is None:
+        return LiveForward(pub.put)
+    return LiveForward(lambda payload: pub.put(sign(secret, key, payload)))
 
 
 def _record_to_the_end(
