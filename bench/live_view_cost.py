@@ -8,7 +8,10 @@ and their order swaps each round). Per run the summary's command latency p50/p99
 deadline misses; per kind their medians over the rounds; for the live runs the live view's
 counts (``run.live_view``: published, dropped, outbox overflows) and what the viewer got.
 
-    python bench/live_view_cost.py [--duration 20] [--rounds 3]
+    python bench/live_view_cost.py [--duration 20] [--rounds 3] [--hogs 2]
+
+With ``--hogs N`` N CPU hogs (``python -c 'while True: pass'``) run through all the runs
+and the result is saved as ``live_view_cost_hogsN``.
 """
 
 from __future__ import annotations
@@ -144,14 +147,21 @@ def main() -> None:
     ap.add_argument("--scenario", default="default")
     ap.add_argument("--duration", type=float, default=20.0)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--hogs", type=int, default=0, help="CPU hogs beside every run")
     args = ap.parse_args()
     runs: list[dict[str, Any]] = []
-    for r in range(args.rounds):
-        order = (False, True) if r % 2 == 0 else (True, False)
-        for live in order:
-            row = _one(args.scenario, args.duration, live)
-            print(json.dumps(row))
-            runs.append(row)
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.hogs)]
+    try:
+        for r in range(args.rounds):
+            order = (False, True) if r % 2 == 0 else (True, False)
+            for live in order:
+                row = _one(args.scenario, args.duration, live)
+                print(json.dumps(row))
+                runs.append(row)
+    finally:
+        for h in hogs:
+            h.kill()
+            h.wait()
 
     def med(live: bool, key: str) -> float | None:
         values = [x[key] for x in runs if x["live"] is live and x[key] is not None]
@@ -163,12 +173,13 @@ def main() -> None:
         "mode": "realtime",
         "duration_s": args.duration,
         "rounds": args.rounds,
+        "hogs": args.hogs,
         "note": "medians over the rounds; latency_p99_us over the runs where it is defined",
         "without_viewer": {k: med(False, k) for k in keys},
         "with_viewer": {k: med(True, k) for k in keys},
         "runs": runs,
     }
-    save("live_view_cost", result)
+    save("live_view_cost" + (f"_hogs{args.hogs}" if args.hogs else ""), result)
 
 
 if __name__ == "__main__":
