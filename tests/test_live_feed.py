@@ -113,6 +113,15 @@ def test_a_lost_batch_is_counted_with_every_message_it_held() -> None:
     assert feed.stats().dropped == 4
 
 
+def test_a_restarted_recorders_stream_is_shown_from_its_first_batch() -> None:
+    first, again = _batches(2, 3), _batches(2, 3)  # two recorder processes, one after the other
+    feed, server = _feed()
+    for b in (*first, *again):
+        feed._batch(b)
+    assert [m.seq for _, m in server.offered] == [*range(6), *range(6)]
+    assert feed.stats().dropped == 0 and feed.stats().rejected == {}
+
+
 def test_forged_cut_and_repeated_batches_are_counted_and_never_shown() -> None:
     batches = _batches(2, 3)
     feed, server = _feed()
@@ -146,4 +155,4 @@ def test_live_forward_refuses_an_empty_batch_size() -> None:
     with pytest.raises(ValueError, match="max_messages >= 1"):
         LiveForward(lambda p: None, max_messages=0)
     with pytest.raises(DecodeError):
-        open_live_batch(b"\x01" * 16 + b"\xff\xff\xff\xff")  # no such message
+        open_live_batch(b"\x01" * 24 + b"\xff\xff\xff\xff")  # no such message

@@ -17,7 +17,8 @@ decoded it and handed to the :class:`~hil.live.server.LiveServer`.
 Never in the run's way: the recorder puts the batches with congestion control ``DROP``;
 the subscriber's callback (in Zenoh's thread) only appends the raw batch to a bounded
 queue (:data:`RAW_CAPACITY`; full: dropped). A batch lost either way is seen in the gap of
-the batches' message indices and its messages are counted as ``dropped`` for the viewers,
+the batches' message indices (per recorder process: a restarted recorder starts a new
+stream) and its messages are counted as ``dropped`` for the viewers,
 with what the server and the sdk's per-client outbox drop (``live.json``,
 :class:`~hil.live.server.LiveStats`, and the run summary's ``run.live_view``); the run log
 is the recorder's and is unaffected.
@@ -78,6 +79,7 @@ class LiveFeed:
         self.raw: collections.deque[bytes] = collections.deque()
         #: Messages never shown: in batches dropped here or lost on the way (index gaps).
         self.lost = 0
+        self.stream: int | None = None
         self.next_index = 0
         self.rejected: collections.Counter[str] = collections.Counter()
         self.final_seen = False
@@ -112,6 +114,9 @@ class LiveFeed:
         except DecodeError as exc:
             self.rejected[f"{LIVE_SUFFIX}:{exc.reason}"] += 1
             return
+        if batch.stream != self.stream:  # the first batch, or a restarted recorder's
+            self.stream = batch.stream
+            self.next_index = batch.first_index
         if batch.first_index < self.next_index:  # a batch already shown, or out of order
             self.rejected[f"{LIVE_SUFFIX}:duplicate"] += 1
             return

@@ -9,11 +9,12 @@ what it has just written (its 20 ms drains) to :class:`LiveForward`, which puts 
 run's key like every payload of the run, with congestion control ``DROP``: a live view that
 does not keep up loses batches, never slows the recorder.
 
-A live batch is a 16-byte header, the batch number and the run-wide index of its first
-message (two little-endian unsigned 64-bit integers), followed by the messages in the
-log batch format (:func:`hil.nodes.bus.split_batch`: encoded messages back to back). The
-receiver (:func:`open_live_batch`) counts what a dropped batch held from the gap in the
-indices, so the live view's counts say how many messages its viewers never got.
+A live batch is a 24-byte header, the stream (a random number drawn by each recorder
+process: a restarted recorder starts a new stream), the batch number and the stream-wide
+index of its first message (three little-endian unsigned 64-bit integers), followed by the
+messages in the log batch format (:func:`hil.nodes.bus.split_batch`: encoded messages back
+to back). The receiver (:func:`open_live_batch`) counts what a dropped batch held from the
+gap in the indices, so the live view's counts say how many messages its viewers never got.
 
 Hand-written because it is the bench's own framing of its own codec's messages; it does not
 import the Foxglove sdk (the recorder loads it).
@@ -21,6 +22,7 @@ import the Foxglove sdk (the recorder loads it).
 
 from __future__ import annotations
 
+import os
 import struct
 from collections.abc import Callable
 from typing import Any
@@ -40,7 +42,7 @@ __all__ = [
 LIVE_SUFFIX = "recorder/live"
 #: Messages per live batch at most (a lock-step run's 20 ms can hold thousands).
 MAX_MESSAGES = 512
-_HEADER = struct.Struct("<QQ")
+_HEADER = struct.Struct("<QQQ")
 
 
 class LiveForward:
@@ -60,7 +62,9 @@ class LiveForward:
         self._put = put
         self.max_messages = max_messages
         self._parts: list[bytes] = []
-        self._first = 0  # run-wide index of the first message held
+        self._first = 0  # stream-wide index of the first message held
+        #: This process's stream (module docstring).
+        self.stream = int.from_bytes(os.urandom(8), "little")
         #: Batches put so far.
         self.batches = 0
         #: Messages put so far.
@@ -77,7 +81,7 @@ class LiveForward:
         if not self._parts:
             return
         n = len(self._parts)
-        payload = _HEADER.pack(self.batches, self._first) + b"".join(self._parts)
+        payload = _HEADER.pack(self.stream, self.batches, self._first) + b"".join(self._parts)
         self._parts.clear()
         self._first += n
         self.batches += 1
@@ -86,21 +90,26 @@ class LiveForward:
 
 
 class LiveBatch:
-    """One received live batch: its number, first message index and messages.
+    """One received live batch: its stream, number, first message index and messages.
 
     Attributes
     ----------
+    stream : int
+        The sending recorder process's stream.
     number : int
         Batch number (0, 1, ...).
     first_index : int
-        Run-wide index of its first message.
+        Stream-wide index of its first message.
     parts : list of (MessageType, memoryview)
         Its encoded messages, each with its registered type (not yet decoded).
     """
 
-    __slots__ = ("first_index", "number", "parts")
+    __slots__ = ("first_index", "number", "parts", "stream")
 
-    def __init__(self, number: int, first_index: int, parts: list[tuple[MessageType, Any]]):
+    def __init__(
+        self, stream: int, number: int, first_index: int, parts: list[tuple[MessageType, Any]]
+    ) -> None:
+        self.stream = stream
         self.number = number
         self.first_index = first_index
         self.parts = parts
@@ -118,5 +127,5 @@ def open_live_batch(payload: bytes | memoryview) -> LiveBatch:
     view = memoryview(payload)
     if len(view) < _HEADER.size:
         raise TruncatedError(f"live batch: {len(view)} bytes, the header alone is {_HEADER.size}")
-    number, first = _HEADER.unpack_from(view)
-    return LiveBatch(number, first, split_batch(view[_HEADER.size :]))
+    stream, number, first = _HEADER.unpack_from(view)
+    return LiveBatch(stream, number, first, split_batch(view[_HEADER.size :]))
