@@ -128,6 +128,7 @@ bench-studies: setup
 	$(BIN)/python bench/casanovas_table52.py --sensitivity --duration 300 --settle 100
 	$(BIN)/python bench/trimmed_start.py
 	$(BIN)/python bench/trimmed_start.py --table
+	$(BIN)/python bench/trimmed_start.py --noise --kinds baseline,lqri_ff --winds 15
 	$(BIN)/python bench/tsr_opt_sensitivity.py
 	$(BIN)/python bench/casanovas_forecast_vaf.py
 	$(BIN)/python bench/iea15_schedule.py

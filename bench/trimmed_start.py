@@ -45,6 +45,17 @@ of it (the whole table is 30 runs; ``--merge`` keeps the saved table's other row
     python bench/trimmed_start.py --table --kinds baseline --turbines iea15mw --winds 5,8,11
 
 Saves ``bench/results/trimmed_start_table.json``.
+
+Sixth, ``--noise``: which sensor's noise moves the blades, per controller kind at one wind
+(``--winds``, first value; IEA 15 MW, as ``--table``): the same 600 s run with every
+channel's noise, with none, and with the noise of one channel only (the others quiet, as
+the trim's settling run makes them), each reporting the largest rotor-speed deviation from
+the trim over the whole run [%], the blade-pitch and surge standard deviations over
+400-600 s [deg, m]::
+
+    python bench/trimmed_start.py --noise --kinds baseline,lqri_ff --winds 15
+
+Saves ``bench/results/trimmed_start_noise.json``.
 """
 
 from __future__ import annotations
@@ -69,7 +80,7 @@ from hil.inprocess.trim import (
     settling_scenario,
 )
 from hil.nodes.controller_node import ControllerRuntime, publishing_step
-from hil.scenario.schema import Scenario, load_scenario, parse_scenario
+from hil.scenario.schema import SENSOR_CHANNELS, Scenario, load_scenario, parse_scenario
 
 #: Steady winds [m/s]: 5 (the 5 rpm minimum speed), al-2019 LC2 and LC3's means, 15 (above).
 STEADY_WINDS = (5.0, 7.1, 10.3, 15.0)
@@ -218,6 +229,65 @@ def table(args: argparse.Namespace) -> None:
     )
 
 
+def noise(args: argparse.Namespace) -> None:
+    """``--noise`` (module docstring)."""
+    t0 = time.perf_counter()
+    wind = float(args.winds.split(",")[0])
+    rows: dict[str, Any] = {}
+    for kind in args.kinds.split(","):
+        case = TABLE_CASES[(kind, "iea15mw")]
+        assert case is not None
+        tb, platform, preset = case
+        sc = parse_scenario(
+            TABLE_SCENARIO.format(
+                kind=kind, turbine=tb, platform=platform, preset=preset, wind=wind,
+                duration=args.duration,
+            )
+        )  # fmt: skip
+        ic = initial_condition(sc)
+        assert ic.rotor_speed_rad_s is not None
+        variants = [("all", SENSOR_CHANNELS), ("none", ())]
+        variants += [(c, (c,)) for c in SENSOR_CHANNELS]
+        for name, noisy in variants:
+            s = truth_series(_quiet_except(sc, set(noisy)))
+            late = (s["t"] >= 400.0) & (s["t"] < 600.0)
+            rows[f"{kind}/{name}"] = {
+                "rotor_max_dev_percent": round(
+                    float(np.max(np.abs(s["rotor_speed_rad_s"] / ic.rotor_speed_rad_s - 1.0)))
+                    * 100.0,
+                    3,
+                ),
+                "blade_pitch_std_400_600_s_deg": round(
+                    float(np.degrees(np.std(s["blade_pitch_rad"][late]))), 4
+                ),
+                "surge_std_400_600_s_m": round(float(np.std(s["platform_surge_m"][late])), 4),
+            }
+            print(kind, name, rows[f"{kind}/{name}"], flush=True)
+    save(
+        "trimmed_start_noise",
+        {
+            "command": f"python bench/trimmed_start.py --noise --kinds {args.kinds}"
+            f" --winds {wind:g}",
+            "wind_m_s": wind,
+            "duration_s": args.duration,
+            "rows": rows,
+            "wall_s": round(time.perf_counter() - t0, 1),
+        },
+    )
+
+
+def _quiet_except(scenario: Scenario, noisy: set[str]) -> Scenario:
+    """``scenario`` with every sensor channel but ``noisy`` without noise, quantisation or
+    dropouts (biases and delays kept, as the trim's settling run)."""
+    d = msgspec.to_builtins(scenario)
+    channels = d.setdefault("sensors", {}).setdefault("channels", {})
+    for name in SENSOR_CHANNELS:
+        if name not in noisy:
+            quiet = {"std": 0.0, "resolution": 0.0, "dropout_probability": 0.0}
+            channels[name] = {**channels.get(name, {}), **quiet}
+    return msgspec.convert(d, Scenario)
+
+
 def steady(wind: float, trim: bool, *, duration: float) -> Scenario:
     """IEA 15 MW, steady ``wind`` m/s, still water, baseline controller."""
     return parse_scenario(STEADY.format(wind=wind, duration=duration, trim=str(trim).lower()))
@@ -323,6 +393,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--quick", action="store_true", help="steady cases only, no load cases")
     ap.add_argument("--table", action="store_true", help="the per-kind start table only")
+    ap.add_argument("--noise", action="store_true", help="which sensor's noise moves the blades")
     ap.add_argument("--kinds", default="baseline,lqri_ff,rosco")
     ap.add_argument("--turbines", default="iea15mw,nrel5mw")
     ap.add_argument("--winds", default=",".join(f"{w:g}" for w in TABLE_WINDS))
@@ -332,6 +403,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.table:
         table(args)
+        return
+    if args.noise:
+        noise(args)
         return
     t0 = time.perf_counter()
     cases: dict[str, Any] = {}
