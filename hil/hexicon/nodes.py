@@ -101,6 +101,7 @@ from hil.hexicon.model import (
 )
 from hil.nodes.bus import LINK_TIMEOUT_S, Bus, BusConfig, wait_matched
 from hil.nodes.rt import set_realtime_priority
+from hil.nodes.signals import on_stop_signals
 from hil.runlog.mcap_io import RunLog, read_run
 from plant.hexicon.environment import SampledWind
 from plant.hexicon.model import outputs, step_rk4, torque_law_nm
@@ -641,7 +642,7 @@ def _stop_on_sigterm() -> threading.Event:
     """An event set by SIGTERM (the launcher stopping the run), in the main thread only."""
     stop = threading.Event()
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+        on_stop_signals(lambda _signum: stop.set(), (signal.SIGTERM,))
     return stop
 
 

@@ -32,7 +32,6 @@ from __future__ import annotations
 import collections
 import dataclasses
 import json
-import signal
 import threading
 import time
 from collections.abc import Callable
@@ -49,6 +48,7 @@ from hil.live.scene import geometry_of
 from hil.live.server import LiveServer, LiveStats
 from hil.nodes.bus import Bus, BusConfig
 from hil.nodes.live_feed import LIVE_SUFFIX, open_live_batch
+from hil.nodes.signals import on_stop_signals
 from hil.scenario.schema import Scenario
 
 #: Live batches held between two takes of the main thread (a batch per recorder drain,
@@ -175,11 +175,7 @@ def run_live_node(
     """
     stop = threading.Event()
 
-    def on_signal(_signum: int, _frame: Any) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())  # from a thread (hil.nodes.signals)
     tid = scenario.turbine_id
     server = LiveServer(tid, geometry_of(scenario.turbine, scenario.platform), port)
     log(f"live view: ws://127.0.0.1:{server.port} (Foxglove: Open connection)")

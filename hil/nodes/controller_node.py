@@ -156,6 +156,7 @@ from hil.nodes.controller_fault import (
     write_fault,
 )
 from hil.nodes.rt import freeze_heap
+from hil.nodes.signals import on_stop_signals
 from hil.scenario.schema import Scenario
 
 #: Float fields of a sensor frame (checked finite before a frame may reach the core).
@@ -1071,13 +1072,12 @@ def run_controller_node(
 
     signalled = threading.Event()  # a signal, also one after the run's end
 
-    def on_signal(signum: int, _frame: Any) -> None:
+    def on_signal(signum: int) -> None:  # from a thread, never in a handler (hil.nodes.signals)
         reason[0] = f"signal {signal.Signals(signum).name}"
         done.set()
         signalled.set()
 
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(on_signal)
 
     def on_preview(_key: str, payload: bytes) -> None:
         with lock:

@@ -70,7 +70,7 @@ import time
 from collections import Counter, deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import msgspec
 import numpy as np
@@ -106,6 +106,7 @@ from hil.nodes.bus import (
     wait_for_recorder,
 )
 from hil.nodes.rt import freeze_heap
+from hil.nodes.signals import on_stop_signals
 from hil.nodes.timing import LatencyHistogram, Pacer, wait_until
 from hil.scenario.schema import (
     InitialSection,
@@ -1279,13 +1280,12 @@ def run_plant_node(
 
     signalled = threading.Event()  # a signal, also one after the run's end
 
-    def on_signal(signum: int, _frame: Any) -> None:
+    def on_signal(signum: int) -> None:  # from a thread, never in a handler (hil.nodes.signals)
         received.append(signum)
         stop.set()
         signalled.set()
 
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(on_signal)
     # The plant is built, and its kernels loaded (warm_up: their first call must not fall
     # into a paced cycle), before the liveliness token says it is ready; it becomes the run's
     # loop once the peers are there (a run that never starts publishes no summary).

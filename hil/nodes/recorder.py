@@ -96,7 +96,6 @@ import contextlib
 import json
 import math
 import queue
-import signal
 import threading
 import time
 from collections import Counter
@@ -130,6 +129,7 @@ from hil.nodes.bus import (
     split_batch,
 )
 from hil.nodes.live_feed import LIVE_SUFFIX, LiveForward
+from hil.nodes.signals import on_stop_signals
 from hil.runlog.completeness import (
     CONTROLLER_TOPICS,
     PLANT_TOPICS,
@@ -607,11 +607,7 @@ def run_recorder_node(
     # complete (possibly empty) MCAP file instead of the default SIGTERM death.
     stop = threading.Event()
 
-    def on_signal(signum: int, _frame: Any) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    on_stop_signals(lambda _signum: stop.set())  # from a thread (hil.nodes.signals)
     can_bus: CanBus | None = None
     if can is not None:  # imported here: a Zenoh-only recorder does not load python-can
         from hil.nodes.can_bus import CanBus  # noqa: PLC0415

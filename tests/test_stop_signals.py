@@ -1,0 +1,59 @@
+"""Stop signals reach a node's callback from a thread (hil.nodes.signals), never inside a handler.
+
+The case that hung a controller: a signal arriving while the main thread holds the lock of
+the event the stop callback sets (inside ``Event.wait``/``Event.set``, or a first signal's
+handler still setting it). Here the main thread of a child process holds that lock when it
+signals itself, twice: a handler that set the event in the main thread would deadlock at
+once; the callback must run once the lock is free, for each signal, and the child exit 0.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+from _helpers import REPO
+
+CHILD = textwrap.dedent(
+    """
+    import os, signal, threading, time
+    from hil.nodes.signals import on_stop_signals
+
+    done = threading.Event()
+    seen = []
+    main = threading.main_thread()
+
+    def on_signal(signum):
+        assert threading.current_thread() is not main
+        seen.append(signum)
+        done.set()
+
+    on_stop_signals(on_signal)
+    with done._cond:  # the event's own lock, held by the main thread
+        os.kill(os.getpid(), signal.SIGTERM)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.3)  # a handler taking this lock here would never return
+        assert not done.is_set()
+    assert done.wait(30.0)
+    deadline = time.monotonic() + 30.0
+    while len(seen) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert sorted(seen) == [signal.SIGINT, signal.SIGTERM], seen
+    print("ok")
+    """
+)
+
+
+def test_a_signal_while_the_main_thread_holds_the_events_lock_still_stops_the_node() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,  # a bound on a hung child, not a timing assertion
+        cwd=REPO,
+        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.strip() == "ok"
