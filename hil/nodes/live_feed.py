@@ -25,7 +25,7 @@ from __future__ import annotations
 import os
 import struct
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 from bus_schemas.codec import TruncatedError
 from bus_schemas.registry import MessageType
@@ -65,10 +65,8 @@ class LiveForward:
         self._first = 0  # stream-wide index of the first message held
         #: This process's stream (module docstring).
         self.stream = int.from_bytes(os.urandom(8), "little")
-        #: Batches put so far.
+        #: Batches put so far (the next batch's number).
         self.batches = 0
-        #: Messages put so far.
-        self.messages = 0
 
     def add(self, mt: MessageType, msg: Any) -> None:
         """Hold one written message (encoded again: the recorder keeps decoded ones)."""
@@ -85,11 +83,10 @@ class LiveForward:
         self._parts.clear()
         self._first += n
         self.batches += 1
-        self.messages += n
         self._put(payload)
 
 
-class LiveBatch:
+class LiveBatch(NamedTuple):
     """One received live batch: its stream, number, first message index and messages.
 
     Attributes
@@ -104,15 +101,10 @@ class LiveBatch:
         Its encoded messages, each with its registered type (not yet decoded).
     """
 
-    __slots__ = ("first_index", "number", "parts", "stream")
-
-    def __init__(
-        self, stream: int, number: int, first_index: int, parts: list[tuple[MessageType, Any]]
-    ) -> None:
-        self.stream = stream
-        self.number = number
-        self.first_index = first_index
-        self.parts = parts
+    stream: int
+    number: int
+    first_index: int
+    parts: list[tuple[MessageType, Any]]
 
 
 def open_live_batch(payload: bytes | memoryview) -> LiveBatch:
