@@ -259,14 +259,24 @@ def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> 
     -------
     dict
         ``{"wind_m_s", "modes": [{name, period_s, damping_ratio, eigenvalue}],
-        "rotor_pole_1_s", "open_loop_poles": [[re, im]...],
+        "closed_loop_modes": [...], "rotor_pole_1_s", "open_loop_poles": [[re, im]...],
         "closed_loop_poles_z": [[re, im]...], "closed_loop_poles_s": [[re, im]...],
         "closed_loop_spectral_radius"}`` (continuous poles in 1/s; discrete z at T_s).
+        ``closed_loop_modes`` are the surge, pitch and tower modes of the LQRI design model
+        with its gains (full state feedback, no observer), found as the open-loop ones
+        (:func:`plant.modes.identify_modes`) in the continuous equivalent
+        :math:`\\log(A_i - B_i K)/T_s` of the discrete closed loop.
     """
     import numpy as np  # noqa: PLC0415
+    import scipy.linalg as sla  # noqa: PLC0415
 
     from controller.design.linear import linear_model, reduce_radiation  # noqa: PLC0415
-    from controller.design.lqri import LqriSettings, closed_loop_poles, gains_at  # noqa: PLC0415
+    from controller.design.lqri import (  # noqa: PLC0415
+        LqriSettings,
+        closed_loop_matrix,
+        closed_loop_poles,
+        gains_at,
+    )
     from plant.modes import PITCH_LENGTH_M, identify_modes  # noqa: PLC0415
     from plant.platform import DOF_NAMES, load_floating  # noqa: PLC0415
 
@@ -283,9 +293,20 @@ def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> 
     k_x, k_i, radius = gains_at(model, s)
     z = closed_loop_poles(model, k_x, k_i, s.control_period_s)
     sp = np.log(z.astype(np.complex128)) / s.control_period_s
+    closed = closed_loop_matrix(model, k_x, k_i, s.control_period_s)
+    # the continuous equivalent of the discrete closed loop: same eigenvectors, poles log(z)/T_s
+    a_cl = np.real(sla.logm(closed)) / s.control_period_s
+    cl_modes = identify_modes(
+        a_cl,
+        range(3),
+        range(3, 6),
+        ("surge", "pitch", "tower_fore_aft"),
+        (1.0, PITCH_LENGTH_M, 1.0),
+    )
     return {
         "wind_m_s": float(wind_m_s),
         "modes": [m.as_dict() for m in modes],
+        "closed_loop_modes": [m.as_dict() for m in cl_modes],
         "rotor_pole_1_s": rotor.real,
         "open_loop_poles": [[float(v.real), float(v.imag)] for v in lam],
         "closed_loop_poles_z": [[float(v.real), float(v.imag)] for v in z],

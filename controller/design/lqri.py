@@ -50,6 +50,7 @@ __all__ = [
     "LQRI_STATE_NAMES",
     "LqriGains",
     "LqriSettings",
+    "closed_loop_matrix",
     "closed_loop_poles",
     "design_lqri",
     "lqri_design_model",
@@ -205,13 +206,23 @@ def gains_at(model: LinearModel, settings: LqriSettings) -> tuple[FloatArray, fl
     return k[0, :-1].copy(), float(k[0, -1]), radius
 
 
+def closed_loop_matrix(model: LinearModel, k_x: FloatArray, k_i: float, ts: float) -> FloatArray:
+    """Discrete closed loop A_i − B_i K of the augmented design model with the given gains
+    (states :data:`LQRI_STATE_NAMES`, then the integrator)."""
+    ai, bi, _, _ = _discrete_augmented(model, ts)
+    k = np.concatenate([k_x, [k_i]])[None, :]
+    out: FloatArray = ai - bi @ k
+    return out
+
+
 def closed_loop_poles(
     model: LinearModel, k_x: FloatArray, k_i: float, ts: float
 ) -> npt.NDArray[np.complex128]:
     """Discrete closed-loop poles z of the augmented design model with the given gains."""
-    ai, bi, _, _ = _discrete_augmented(model, ts)
-    k = np.concatenate([k_x, [k_i]])[None, :]
-    return np.linalg.eigvals(ai - bi @ k)
+    poles: npt.NDArray[np.complex128] = np.linalg.eigvals(
+        closed_loop_matrix(model, k_x, k_i, ts)
+    ).astype(np.complex128)
+    return poles
 
 
 def design_lqri(models: list[LinearModel], settings: LqriSettings) -> LqriGains:

@@ -1432,7 +1432,7 @@ def analyze_linear(
     wind: WindOpt = 15.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
-    """Design-model poles (with their modes) and the LQRI closed-loop poles at --wind."""
+    """Design-model modes and poles, open loop and with the LQRI's gains, at --wind."""
     from controller.design import linear_report
 
     report = _analysis(linear_report, preset, wind)
@@ -1443,9 +1443,23 @@ def analyze_linear(
     table.add_column("mode")
     table.add_column(escape("damped period [s]"), justify="right")
     table.add_column(escape("damping ratio [-]"), justify="right")
+    table.add_column(escape("with LQRI: period [s]"), justify="right")
+    table.add_column(escape("with LQRI: damping [-]"), justify="right")
+    closed = {m["name"]: m for m in report["closed_loop_modes"]}  # type: ignore[attr-defined]
     for m in report["modes"]:  # type: ignore[attr-defined]
-        table.add_row(str(m["name"]), f"{m['period_s']:.2f}", f"{m['damping_ratio']:.4f}")
+        c = closed.get(m["name"])
+        table.add_row(
+            str(m["name"]),
+            f"{m['period_s']:.2f}",
+            f"{m['damping_ratio']:.4f}",
+            f"{c['period_s']:.2f}" if c else "-",
+            f"{c['damping_ratio']:.4f}" if c else "-",
+        )
     console.print(table)
+    console.print(
+        "with LQRI: the design model with the LQRI's gains at this wind (full state feedback,"
+        " no observer); heave is not in the LQRI's model"
+    )
     console.print(
         f"closed-loop spectral radius (z): {report['closed_loop_spectral_radius']:.5f}; "
         f"rotor pole {report['rotor_pole_1_s']:.4f} 1/s"
