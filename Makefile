@@ -106,6 +106,7 @@ bench-speed: setup
 	$(BIN)/python bench/session_auth_cost.py --links 20 --count 2000 --rounds 4
 	$(BIN)/python bench/live_view_cost.py --duration 20 --rounds 3
 	$(BIN)/python bench/live_view_cost.py --duration 20 --rounds 3 --hogs 2
+	$(BIN)/python bench/peak_shaving_surge.py
 	$(BIN)/python bench/bus_congestion.py
 	$(BIN)/python bench/multihost_transport.py --runs 6
 	$(BIN)/python bench/multihost_transport.py --runs 12 --only lowlatency

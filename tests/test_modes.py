@@ -267,3 +267,47 @@ def test_newton_equilibrium_is_fsolves(preset: str, wind_m_s: float) -> None:
     assert float(np.max(np.abs(residual(q_f)))) < 1e-9
     np.testing.assert_allclose(q_newton[[0, 1, 3]], q_f[[0, 1, 3]], rtol=0, atol=1e-9)
     assert abs(q_newton[2] - q_f[2]) < 1e-12
+
+
+def test_an_equilibrium_on_a_mooring_table_knot_is_found() -> None:
+    """A rotor point whose thrust puts the platform on a knot of the mooring table.
+
+    The IEA 15 MW at 11 m/s held at 7.508 rpm and 2.29° pitch (a baseline without peak
+    shaving settles there): the table's heave/pitch slope changes at its 21 m knot, so the
+    surge force steps there and the surge residual changes sign without a zero. The
+    equilibrium is the knot (1e-6 m) with heave, pitch and tower solved (residual < 1e-9) and
+    the surge residual no larger than the step; its surge lies between those of the
+    neighbouring pitch angles' equilibria (3.23° and 1.5°: less and more thrust).
+    """
+    import math
+
+    from plant import modes
+    from plant import turbine as turbine_model
+    from plant.platform import load_floating
+
+    params = load_floating("iea15mw_volturnus")
+    omega = 7.508 * math.pi / 30.0
+
+    def held(theta_deg: float) -> modes.OperatingPoint:
+        theta = math.radians(theta_deg)
+
+        def rotor(u_n: float) -> tuple[float, float, float]:
+            out = turbine_model.outputs(0.0, (omega, theta, 0.0), (theta, 0.0, u_n), params.turbine)
+            return omega, theta, max(0.0, out.aero_torque_nm / params.turbine.gearbox_ratio)
+
+        return modes.operating_point(params, 11.0, rotor=rotor)
+
+    op = held(2.29)
+    assert abs(op.state[0] - 21.0) < 1e-6
+    nr = params.n_radiation
+
+    def residual(q: np.ndarray) -> np.ndarray:
+        x = (*(float(v) for v in q), 0.0, 0.0, 0.0, 0.0, *op.state[8:11], *([0.0] * nr))
+        dx = modes.f(0.0, x, op.inputs, params)
+        return np.array(dx[4:8]) * np.array([1.0, 1.0, modes.PITCH_LENGTH_M, 1.0])
+
+    q = np.array(op.state[:4])
+    r = residual(q)
+    assert float(np.max(np.abs(r[1:]))) < 1e-9
+    assert 0.0 < abs(float(r[0])) < 1e-4  # the step: tens of newtons on a 2e7 kg platform
+    assert held(3.23).state[0] < op.state[0] < held(1.5).state[0]
