@@ -37,33 +37,13 @@ from typing import Any
 
 import numpy as np
 from _common import save
+from trimmed_start import TABLE_SCENARIO
 
 from bus_schemas.registry import TRUTH
 from hil.inprocess.run import run_inprocess
 from hil.inprocess.trim import initial_condition, operating_point
 from hil.nodes.controller_node import ControllerRuntime, publishing_step
 from hil.scenario.schema import parse_scenario
-
-SCENARIO = """
-name = "peak-shaving-surge-{variant}"
-turbine = "iea15mw"
-platform = "iea15mw_volturnus"
-duration_s = {duration}
-[wind]
-kind = "steady"
-speed_m_s = {wind}
-[waves]
-kind = "still"
-[timing]
-control_period_s = 0.025
-plant_step_s = 0.0125
-[sensors.channels.generator_speed_measured_rad_s]
-std = 0.002        # the direct-drive encoder of the shipped iea15mw-* scenarios
-resolution = 0.001
-[controller]
-kind = "baseline"
-preset = "{preset}"
-"""
 
 _SCHEDULE = re.compile(r"min_pitch_schedule_rad = \[[^\]]*\]", re.S)
 
@@ -94,9 +74,13 @@ def _windows(duration: float) -> list[tuple[float, float]]:
 
 def run(variant: str, preset: str, wind: float, duration: float) -> dict[str, Any]:
     """One variant's run: its trim and the windows' statistics."""
+    # --table's steady, still, trimmed case of bench/trimmed_start.py, with this preset
     sc = parse_scenario(
-        SCENARIO.format(variant=variant, preset=preset, wind=wind, duration=duration)
-    )
+        TABLE_SCENARIO.format(
+            kind="baseline", turbine="iea15mw", platform="iea15mw_volturnus", preset=preset,
+            wind=wind, duration=duration,
+        )
+    )  # fmt: skip
     ic = initial_condition(sc)
     runtime = ControllerRuntime(
         sc, paced=False, operating_point=functools.partial(operating_point, sc)
