@@ -372,8 +372,6 @@ def _bracketed_equilibrium(
     # little. The bracket then closes on the knot, and the equilibrium is the knot, to
     # within that step, when heave, pitch and tower are solved there.
     below, above = g(x - 1e-9 * (1.0 + abs(x))), g(x + 1e-9 * (1.0 + abs(x)))
-    q = np.array([x, *solve_rest(x)])
-    r = residual(q)
     step = abs(below - above)
     solved_rest = float(np.max(np.abs(r[1:]))) <= 1e-9
     if below * above <= 0.0 and solved_rest and abs(float(r[0])) <= step:
