@@ -134,6 +134,7 @@ from hil.scenario.schema import ProcessFault, Scenario, load_scenario, scenario_
 
 if TYPE_CHECKING:
     from hil.nodes.can_bus import CanBusConfig
+    from hil.review.plot_worker import PlotWorker
 
 #: Set in the environment of a launcher re-executed in a fresh network namespace.
 _NETNS_ENV = "FOWT_NETNS_CHILD"
@@ -390,8 +391,14 @@ def ensure_designs(scenario: Scenario, console: Console | None = None) -> Path |
         raise RunFailedError(str(exc)) from exc
 
 
-def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
+def launch(
+    req: RunRequest, console: Console | None = None, worker: PlotWorker | None = None
+) -> dict[str, Any]:
     """Run a scenario end to end and review it; returns the summary (also in summary.json).
+
+    ``worker``: a drawing process the caller started with the command
+    (:class:`hil.review.plot_worker.PlotWorker`, ``fowt run``'s first step), where a
+    single-turbine run's plots are drawn; None: drawn in this process. The caller closes it.
 
     The advanced controller's design artefacts for the scenario's control period are
     designed first when missing (:func:`ensure_designs`), and the controller (process or
@@ -415,10 +422,12 @@ def launch(req: RunRequest, console: Console | None = None) -> dict[str, Any]:
     with AbortSignals() as abort:
         if family is not TURBINE:
             return _launch_family(req, family, console, abort)
-        return _launch(req, console, abort)
+        return _launch(req, console, abort, worker)
 
 
-def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str, Any]:
+def _launch(
+    req: RunRequest, console: Console, abort: AbortSignals, worker: PlotWorker | None = None
+) -> dict[str, Any]:
     """:func:`launch` with the run's signal handlers in place."""
     scenario = load_scenario(req.scenario).with_duration(req.duration_s)
     process_faults = check_process_faults(scenario, req.mode)
@@ -501,7 +510,7 @@ def _launch(req: RunRequest, console: Console, abort: AbortSignals) -> dict[str,
         raise
     wall = time.monotonic() - t0
     phases.setdefault("log_end", time.monotonic())
-    summary = review(mcap_path, out, plots=req.plots)
+    summary = review(mcap_path, out, plots=req.plots, worker=worker)
     if req.live_port is not None:
         _live_summary(summary, out, console)
     phases["review_end"] = time.monotonic()

@@ -299,3 +299,100 @@ def test_plots_drawn_in_two_processes_equal_the_serial_ones_and_fail_loudly(
     assert got["error"] is not None
     assert "ValueError: a figure the child could not draw" in got["error"]
     assert (got["parent"], got["child"]) == ("drawn", "drawn")
+
+
+#: Run in a fresh interpreter (one thread: the worker forks): the review's plots drawn by a
+#: PlotWorker and here; a drawing that raises OSError; an unused worker closed; a worker
+#: whose parent leaves without closing it. Prints what the test checks as JSON.
+_WORKER_CHECK = r"""
+import errno, json, os, signal, subprocess, sys, time
+from pathlib import Path
+sys.path.insert(0, sys.argv[2])
+from test_review_long_run import write_log
+from hil.review import core, plots
+from hil.review.plot_worker import PlotWorker
+
+tmp = Path(sys.argv[1])
+path = tmp / "run.mcap"
+write_log(path, 300.0)
+out = {}
+worker = PlotWorker.start()
+out["started"] = worker is not None
+written = []
+core.review(path, tmp / "worker", plots=True, written=written, worker=worker)
+worker.close()
+core.review(path, tmp / "here", plots=True)
+out["written"] = [p.name for p in written]
+out["same"] = {n: (tmp / "here" / n).read_bytes() == (tmp / "worker" / n).read_bytes()
+               for n in plots.PLOT_FILES}
+# a drawing that fails in the child: the parent raises the child's exception
+real = plots.write_plots
+def full(data, out_dir):
+    raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "timeseries.png"))
+plots.write_plots = full
+failing = PlotWorker.start()  # the child has the failing drawing
+plots.write_plots = real
+try:
+    core.review(path, tmp / "full", plots=True, worker=failing)
+    out["error"] = None
+except OSError as exc:
+    out["error"] = [type(exc).__name__, exc.errno, exc.filename]
+failing.close()
+# a worker given nothing: killed and reaped at close
+unused = PlotWorker.start()
+unused.close()
+out["unused_status"] = unused._status
+out["unused_gone"] = not os.path.exists(f"/proc/{unused._pid}")
+# a parent that leaves without closing: its worker sees end-of-file and leaves too
+code = ("import sys; sys.path[:0] = " + repr(sys.path[:3]) + "\n"
+        "import os\nfrom hil.review.plot_worker import PlotWorker\n"
+        "w = PlotWorker.start(); print(w._pid, flush=True); os._exit(0)")
+pid = int(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip())
+def alive(p):
+    try:
+        return Path(f"/proc/{p}/stat").read_text().split(")")[1].split()[0] != "Z"
+    except OSError:
+        return False
+deadline = time.monotonic() + 60.0
+while alive(pid) and time.monotonic() < deadline:
+    time.sleep(0.05)
+out["orphan_left"] = not alive(pid)
+print(json.dumps(out))
+"""
+
+
+def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -> None:
+    """The drawing process ``fowt run`` and ``fowt review`` start first
+    (:class:`hil.review.plot_worker.PlotWorker`) writes the same three files, byte for byte,
+    as the review drawing them itself; a drawing that raises there (a full disk) is raised
+    by the review as the same ``OSError`` (errno and file kept), so the commands' one-line
+    exit 1 holds; a worker given nothing is killed and reaped at close (SIGKILL); a worker
+    whose parent leaves without closing it leaves too (end-of-file on its pipe)."""
+    import errno
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    if not hasattr(os, "fork") or len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("no fork or one core: the review draws in its own process by design")
+    here = Path(__file__).resolve().parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}
+    proc = subprocess.run(
+        [sys.executable, "-c", _WORKER_CHECK, str(tmp_path), str(here)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["started"]
+    assert got["written"] == ["summary.json", *plots.PLOT_FILES]
+    assert got["same"] == {name: True for name in plots.PLOT_FILES}
+    assert got["error"] == ["OSError", errno.ENOSPC, str(tmp_path / "full" / "timeseries.png")]
+    assert got["unused_status"] == -signal.SIGKILL and got["unused_gone"]
+    assert got["orphan_left"]

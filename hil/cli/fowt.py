@@ -44,6 +44,7 @@ from hil.scenario.schema import (
 
 if TYPE_CHECKING:
     from hil.nodes.can_bus import CanBusConfig
+    from hil.review.plot_worker import PlotWorker
 
 app = typer.Typer(
     help="fowt-hil: floating-wind controller-in-the-loop bench.",
@@ -505,75 +506,80 @@ def run(
     Paths in a scenario file (presets, platform, library, parameter file) are taken
     from the scenario file's folder.
     """
-    from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
+    from hil.review.plot_worker import PlotWorker
 
-    hexicon_given = (
-        controller is not None or noise is not None or identified is not None or experiment > 0
-    )
-    options: HexiconOptions | None = None  # a turbine scenario takes no family options
-    try:
-        family = resolve(scenario)
-        if family is not TURBINE:
-            options = HexiconOptions(
-                controller=controller or ("prbs" if experiment else "mpc"),
-                noise=True if noise is None else noise,
-                identified=identified,
-                experiment=experiment,
-                seed=seed,
-            )
-            if identified is not None:
-                text_file(identified)
-        elif hexicon_given or seed:
-            raise RunRequestError(
-                "--controller/--no-noise/--identified/--experiment/--seed: only for a Hexicon "
-                "scenario (hexicon-<name>, 'fowt scenarios'); a turbine scenario names its "
-                "controller and sensors in its TOML"
-            )
-    except RunRequestError as exc:
-        fail(str(exc))
-    except typer.BadParameter as exc:
-        fail(f"--identified: {exc.message}")
-    from hil.launch import RunRequest, default_out_dir
+    # first, so that matplotlib is imported on the other core while the run starts
+    worker = PlotWorker.start() if plots else None
+    with contextlib.closing(worker) if worker is not None else contextlib.nullcontext():
+        from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
 
-    if options is not None:
-        can = _family_can(transport, can_interface, can_channel, can_fd, options.platform)
-        _check_can_runs_here(can)
-    else:
-        sc = _scenario(scenario, duration)  # validate before launching anything
-        can = _can_config(sc, transport, can_interface, can_channel, can_fd)
-        if can is not None and mode == "inprocess":
-            fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
-        _check_can_runs_here(can)
-        if loop != "auto" and mode != "inprocess":
-            fail(f"--loop {loop}: only with --mode inprocess")
-        folder = out
-        if out is None:
-            folder = default_out_dir(sc)
-            try:
-                writable("folder")(folder)
-            except typer.BadParameter as exc:
-                fail(f"default output folder: {exc.message} (give --out)")
-        _check_run_files(folder)
-    if live is not None:
-        _check_live(live, options is not None, mode, transport)
-    # The same launcher, review and exit codes for every family; the family checks the
-    # options that are its own (hil.families).
-    req = RunRequest(
-        scenario=scenario,
-        mode=mode,  # type: ignore[arg-type]  # checked by its callback
-        speed=speed,
-        duration_s=duration,
-        transport=transport,
-        out_dir=out,
-        plots=plots,
-        can=can,
-        realtime_priority=realtime_priority,
-        inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
-        hexicon=options,
-        keep_key=keep_key,
-        live_port=live,
-    )
-    _launch_and_exit(req)
+        hexicon_given = (
+            controller is not None or noise is not None or identified is not None or experiment > 0
+        )
+        options: HexiconOptions | None = None  # a turbine scenario takes no family options
+        try:
+            family = resolve(scenario)
+            if family is not TURBINE:
+                options = HexiconOptions(
+                    controller=controller or ("prbs" if experiment else "mpc"),
+                    noise=True if noise is None else noise,
+                    identified=identified,
+                    experiment=experiment,
+                    seed=seed,
+                )
+                if identified is not None:
+                    text_file(identified)
+            elif hexicon_given or seed:
+                raise RunRequestError(
+                    "--controller/--no-noise/--identified/--experiment/--seed: only for a Hexicon "
+                    "scenario (hexicon-<name>, 'fowt scenarios'); a turbine scenario names its "
+                    "controller and sensors in its TOML"
+                )
+        except RunRequestError as exc:
+            fail(str(exc))
+        except typer.BadParameter as exc:
+            fail(f"--identified: {exc.message}")
+        from hil.launch import RunRequest, default_out_dir
+
+        if options is not None:
+            can = _family_can(transport, can_interface, can_channel, can_fd, options.platform)
+            _check_can_runs_here(can)
+        else:
+            sc = _scenario(scenario, duration)  # validate before launching anything
+            can = _can_config(sc, transport, can_interface, can_channel, can_fd)
+            if can is not None and mode == "inprocess":
+                fail("--mode inprocess has no bus: use lockstep or realtime with --transport can")
+            _check_can_runs_here(can)
+            if loop != "auto" and mode != "inprocess":
+                fail(f"--loop {loop}: only with --mode inprocess")
+            folder = out
+            if out is None:
+                folder = default_out_dir(sc)
+                try:
+                    writable("folder")(folder)
+                except typer.BadParameter as exc:
+                    fail(f"default output folder: {exc.message} (give --out)")
+            _check_run_files(folder)
+        if live is not None:
+            _check_live(live, options is not None, mode, transport)
+        # The same launcher, review and exit codes for every family; the family checks the
+        # options that are its own (hil.families).
+        req = RunRequest(
+            scenario=scenario,
+            mode=mode,  # type: ignore[arg-type]  # checked by its callback
+            speed=speed,
+            duration_s=duration,
+            transport=transport,
+            out_dir=out,
+            plots=plots,
+            can=can,
+            realtime_priority=realtime_priority,
+            inprocess_loop=loop,  # type: ignore[arg-type]  # checked by its callback
+            hexicon=options,
+            keep_key=keep_key,
+            live_port=live,
+        )
+        _launch_and_exit(req, worker if options is None else None)
 
 
 def _check_run_files(folder: Path | None) -> None:
@@ -605,13 +611,14 @@ def _check_live(port: int, hexicon: bool, mode: str, transport: str) -> None:
                 fail(f"--live {port}: 127.0.0.1:{port} is not free ({exc.strerror or exc})")
 
 
-def _launch_and_exit(req: Any) -> None:
-    """``fowt run``'s launch (:func:`hil.launch.launch`) and exit code, any family."""
+def _launch_and_exit(req: Any, worker: PlotWorker | None = None) -> None:
+    """``fowt run``'s launch (:func:`hil.launch.launch`, drawing in ``worker``) and exit
+    code, any family."""
     from hil.families import RunRequestError
     from hil.launch import ProcessFaultError, RunAbortedError, RunFailedError, launch
 
     try:
-        summary = launch(req, console)
+        summary = launch(req, console, worker)
     except RunRequestError as exc:  # an option the scenario's family does not take
         fail(str(exc), code=ExitCode.USAGE)
     except RunAbortedError as exc:  # stopped before anything was recorded
@@ -1030,6 +1037,7 @@ def review_cmd(
         truncation_note,
     )
     from hil.review.outcome import outcome_line, record_outcome, run_outcome
+    from hil.review.plot_worker import PlotWorker
     from hil.runlog.mcap_io import NotMcapError
 
     if not mcap.is_file():
@@ -1047,14 +1055,18 @@ def review_cmd(
                 if k in _LAUNCHER_RUN_KEYS
             }
     written: list[Path] = []
+    draw = (not as_json) if plots is None else plots
+    # matplotlib imported on the other core while the file is read (hil.review.plot_worker)
+    worker = PlotWorker.start() if draw else None
     try:
-        summary = review(
-            mcap, out, plots=(not as_json) if plots is None else plots, written=written
-        )
+        summary = review(mcap, out, plots=draw, written=written, worker=worker)
     except (NotMcapError, NotRunLogError) as exc:
         fail(str(exc))
     except OSError as exc:
         fail(os_error_text(exc, mcap))
+    finally:
+        if worker is not None:
+            worker.close()
     for key, value in launched.items():
         summary["run"].setdefault(key, value)
     if launched:

@@ -140,6 +140,8 @@ from hil.scenario.schema import ReviewSection, watchdog_rule
 if TYPE_CHECKING:
     from rich.console import Console
 
+    from hil.review.plot_worker import PlotWorker
+
 FloatArray = npt.NDArray[np.float64]
 
 #: Wöhler exponent used for the shaft (and thrust) DEL in the summary (the bench's one value).
@@ -1156,6 +1158,7 @@ def review(
     plots: bool = True,
     write_summary: bool = True,
     written: list[Path] | None = None,
+    worker: PlotWorker | None = None,
 ) -> dict[str, Any]:
     """Read a run log, write ``summary.json`` (and plots) and return the summary.
 
@@ -1175,6 +1178,10 @@ def review(
         Write ``summary.json`` (False: only return the summary).
     written : list of Path, optional
         Gets the path of every file written, in order (all inside ``out_dir``).
+    worker : PlotWorker, optional
+        A drawing process started with the command
+        (:class:`hil.review.plot_worker.PlotWorker`): the turbine plots are drawn there,
+        matplotlib already imported. None: drawn here.
     """
     mcap_path = Path(mcap_path)
     out = Path(out_dir) if out_dir is not None else mcap_path.parent
@@ -1229,7 +1236,9 @@ def review(
             from hil.review import plots as plots_mod  # noqa: PLC0415
 
             data.finish(summary)
-            files += plots_mod.write_plots(data, out)
+            files += (
+                worker.draw(data, out) if worker is not None else plots_mod.write_plots(data, out)
+            )
         else:  # a second pass over the file, chunk by chunk, knowing the summary
             files += write_plots_of_file(mcap_path, reader.info, summary, out)
     if written is not None:

@@ -474,6 +474,16 @@ class PlotData:
         if self._psd_window is not None:
             self._psd_window.finish()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """What a pickle keeps (a finished PlotData drawn in another process,
+        :mod:`hil.review.plot_worker`): all but the spectra's window, which only feeds them
+        and is done once :meth:`finish` has run."""
+        if not self.summary:
+            raise ValueError("PlotData: finish() it (the run's summary) before sending it")
+        state = self.__dict__.copy()
+        state["_psd_window"] = None
+        return state
+
     # ------------------------------------------------------------------ feeding
     def feed(self, batch: ColumnBatch) -> None:
         """Take a batch of the first topic of its suffix (other turbines are not drawn)."""
