@@ -169,6 +169,11 @@ class OperatingPoint:
     generator_torque_nm : float or None
         Generator torque [N m, high-speed shaft]; None: not known to the runner (the core
         derives it, e.g. from its own torque law or its estimator's aerodynamic model).
+    platform_surge_m, platform_pitch_rad : float or None
+        Where the trimmed platform stands: mean surge [m] and pitch [rad] at the point, in
+        the plant's frame as its sensors report them (without their offsets); None: not
+        known or no platform (a core with platform observers then starts them from its
+        first frame).
     measurement_offsets : tuple of (str, float)
         The instruments' constant offsets (biases) as (:class:`SensorFrame` field, offset
         in that field's unit) pairs: what the steady plant's frames read on average beyond
@@ -183,6 +188,8 @@ class OperatingPoint:
     blade_pitch_rad: float
     generator_torque_nm: float | None = None
     measurement_offsets: tuple[tuple[str, float], ...] = ()
+    platform_surge_m: float | None = None
+    platform_pitch_rad: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("wind_m_s", "rotor_speed_rad_s", "blade_pitch_rad"):
@@ -194,9 +201,10 @@ class OperatingPoint:
                 "OperatingPoint: wind_m_s [m/s] and rotor_speed_rad_s [rad/s] must be >= 0, "
                 f"got {self.wind_m_s!r} and {self.rotor_speed_rad_s!r}"
             )
-        tq = self.generator_torque_nm
-        if tq is not None and not (isinstance(tq, int | float) and math.isfinite(tq)):
-            raise ValueError(f"OperatingPoint.generator_torque_nm must be finite, got {tq!r}")
+        for name in ("generator_torque_nm", "platform_surge_m", "platform_pitch_rad"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, int | float) and math.isfinite(v)):
+                raise ValueError(f"OperatingPoint.{name} must be finite or None, got {v!r}")
         fields = set(SensorFrame.__struct_fields__)
         for entry in self.measurement_offsets:
             if not (

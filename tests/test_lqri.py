@@ -48,7 +48,7 @@ def test_above_rated_limits_and_hysteresis(ctrl: LqriController) -> None:
         assert out.blade_pitch_commanded_rad - prev <= d.pitch_rate_max_rad_s * 0.025 + 1e-12
         assert d.pitch_min_rad <= out.blade_pitch_commanded_rad <= d.pitch_max_rad
         prev = out.blade_pitch_commanded_rad
-    # Anti-windup: the integrator follows the applied command, so it recovers at once.
+    # Anti-windup: the integrator held while the rate limit acted, so it recovers at once.
     st, out = ctrl.step(st, _meas(18.0, d.rated_rotor_speed_rad_s, prev), 0.025)
     assert abs(out.blade_pitch_commanded_rad - prev) <= d.pitch_rate_max_rad_s * 0.025 + 1e-12
     # Inside the hysteresis band the regime holds.
@@ -177,3 +177,41 @@ def test_lqri_integrator_back_calculated_at_fine_pitch(ctrl: LqriController) -> 
         pitches.append(out.blade_pitch_commanded_rad)
     assert math.isfinite(z_sat)
     assert pitches[-1] > d.pitch_min_rad, pitches
+
+
+def test_lqri_integrator_holds_while_only_the_rate_limit_acts(ctrl: LqriController) -> None:
+    """Conditional integration: at the rated point, a 2 % overspeed asks for more pitch than
+    the rate limit gives in one cycle; while the command rides the rate limit the
+    integrator keeps its value (it neither integrates the overspeed nor is reset to follow
+    the command, which made it follow every noisy estimate), and once the command reaches
+    the law's it integrates again."""
+    d = ctrl.design
+    i = d.wind_m_s.index(15.0)
+    x = d.x_op[i]
+
+    def meas(omega: float, pitch: float) -> LqriMeasurement:
+        return LqriMeasurement(
+            wind_speed_estimate_m_s=15.0,
+            rotor_speed_rad_s=omega,
+            blade_pitch_rad=pitch,
+            platform_surge_m=x[0],
+            platform_pitch_rad=x[1],
+            tower_top_deflection_m=x[2],
+        )
+
+    st = ctrl.initial_state()
+    for _ in range(200):
+        st, out = ctrl.step(st, meas(d.rated_rotor_speed_rad_s, d.theta_op[i]), 0.025)
+    z0, prev = st.integrator_rad, out.blade_pitch_commanded_rad
+    step = d.pitch_rate_max_rad_s * 0.025
+    limited = 0
+    for _ in range(80):
+        z_before = st.integrator_rad
+        st, out = ctrl.step(st, meas(1.02 * d.rated_rotor_speed_rad_s, prev), 0.025)
+        rate_limited = out.blade_pitch_commanded_rad - prev == pytest.approx(step, rel=1e-9)
+        if rate_limited:
+            limited += 1
+            assert st.integrator_rad == z_before  # held: not integrated, not reset
+        prev = out.blade_pitch_commanded_rad
+    assert limited >= 3  # the case happened
+    assert st.integrator_rad > z0  # integrating again once the command caught up

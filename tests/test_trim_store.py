@@ -40,11 +40,12 @@ class _Compute:
     """A settling run's stand-in that counts its calls (the store's logic, not the physics)."""
 
     def __init__(
-        self, values: tuple[float, float, float] = (0.5629347521144487, 0.0123, 1.25e7)
+        self,
+        values: tuple[float, ...] = (0.5629347521144487, 0.0123, 1.25e7, 14.57, 0.0377),
     ) -> None:
         self.values, self.calls = values, 0
 
-    def __call__(self, _encoded: bytes) -> tuple[float, float, float]:
+    def __call__(self, _encoded: bytes) -> tuple[float, ...]:
         self.calls += 1
         return self.values
 
@@ -143,15 +144,19 @@ def test_stored_then_read_without_computing(store: Path) -> None:
     [
         "{not json",
         "",
-        '{"format": 2, "key": "another", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
-        '"generator_torque_nm": 1.0}',
-        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": NaN, "blade_pitch_rad": 0.0, '
-        '"generator_torque_nm": 1.0}',
-        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": "0.5", "blade_pitch_rad": 0.0, '
-        '"generator_torque_nm": 1.0}',
+        '{"format": 3, "key": "another", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0, "platform_surge_m": 14.0, "platform_pitch_rad": 0.03}',
+        '{"format": 3, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0, "platform_surge_m": NaN, "platform_pitch_rad": 0.03}',
+        '{"format": 3, "key": "KEY", "rotor_speed_rad_s": "0.5", "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0, "platform_surge_m": 14.0, "platform_pitch_rad": 0.03}',
         '{"format": 1, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
-        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0}',
-        '{"format": 2, "key": "KEY"}',
+        # the format before the platform's surge and pitch were kept
+        '{"format": 2, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0}',
+        '{"format": 3, "key": "KEY", "rotor_speed_rad_s": 0.5, "blade_pitch_rad": 0.0, '
+        '"generator_torque_nm": 1.0}',
+        '{"format": 3, "key": "KEY"}',
         "[1, 2]",
     ],
 )
@@ -165,11 +170,7 @@ def test_a_bad_entry_is_recomputed_and_replaced(store: Path, content: str) -> No
     assert trim_store.settled_cached(encoded, "lc2", compute) == compute.values
     assert compute.calls == 1
     entry = json.loads((store / f"{key}.json").read_text())
-    assert (
-        entry["rotor_speed_rad_s"],
-        entry["blade_pitch_rad"],
-        entry["generator_torque_nm"],
-    ) == compute.values
+    assert tuple(entry[name] for name in trim_store.VALUES) == compute.values
 
 
 def test_a_preset_given_by_path_is_not_stored(store: Path, tmp_path: Path) -> None:

@@ -89,6 +89,7 @@ __all__ = [
     "initial_condition",
     "mean_wind_m_s",
     "operating_point",
+    "settle_platform",
     "settle_point",
     "settle_rotor",
 ]
@@ -153,15 +154,16 @@ def settling_scenario(scenario: Scenario, duration_s: float = SETTLE_S) -> Scena
 
 
 @functools.lru_cache(maxsize=64)
-def _settled(encoded: bytes) -> tuple[float, float, float]:
-    """(ω rad/s, θ rad, T_g N m) averaged over the settling run's last :data:`AVERAGE_S`."""
+def _settled(encoded: bytes) -> tuple[float, float, float, float, float]:
+    """(ω rad/s, θ rad, T_g N m, platform surge m, platform pitch rad) averaged over the
+    settling run's last :data:`AVERAGE_S` (surge and pitch 0 without a platform)."""
     from bus_schemas.registry import TRUTH, WAVE_PREVIEW_PERFECT  # noqa: PLC0415
     from hil.inprocess.run import run_inprocess  # noqa: PLC0415
     from hil.nodes.controller_node import ControllerRuntime, publishing_step  # noqa: PLC0415
 
     scenario = msgspec.json.decode(encoded, type=Scenario)
     start_ns = round((scenario.duration_s - AVERAGE_S) * 1e9)
-    sums = [0.0, 0.0, 0.0, 0]  # ω, θ, T_g and the count
+    sums = [0.0, 0.0, 0.0, 0.0, 0.0, 0]  # ω, θ, T_g, surge, platform pitch and the count
 
     with tempfile.TemporaryDirectory(prefix="fowt-trim-") as run_dir:
         runtime = ControllerRuntime(scenario, run_dir=run_dir, paced=False, phase="trim")
@@ -172,7 +174,9 @@ def _settled(encoded: bytes) -> tuple[float, float, float]:
                     sums[0] += msg.rotor_speed_rad_s  # type: ignore[attr-defined]
                     sums[1] += msg.blade_pitch_rad  # type: ignore[attr-defined]
                     sums[2] += msg.generator_torque_nm  # type: ignore[attr-defined]
-                    sums[3] += 1
+                    sums[3] += msg.platform_surge_m  # type: ignore[attr-defined]
+                    sums[4] += msg.platform_pitch_rad  # type: ignore[attr-defined]
+                    sums[5] += 1
             elif mt is WAVE_PREVIEW_PERFECT:
                 runtime.handle_preview(msg)
 
@@ -184,16 +188,20 @@ def _settled(encoded: bytes) -> tuple[float, float, float]:
             late = truth[truth["sample_time_ns"] >= start_ns]
             if late.size:
                 # sums in publish order, as the Structs' path adds them (same bits)
-                omegas, thetas, torques = (
-                    late["rotor_speed_rad_s"].tolist(),
-                    late["blade_pitch_rad"].tolist(),
-                    late["generator_torque_nm"].tolist(),
-                )
-                for omega, theta, torque in zip(omegas, thetas, torques, strict=True):
-                    sums[0] += omega
-                    sums[1] += theta
-                    sums[2] += torque
-                sums[3] += int(late.size)
+                columns = [
+                    late[name].tolist()
+                    for name in (
+                        "rotor_speed_rad_s",
+                        "blade_pitch_rad",
+                        "generator_torque_nm",
+                        "platform_surge_m",
+                        "platform_pitch_rad",
+                    )
+                ]
+                for row in zip(*columns, strict=True):
+                    for k, value in enumerate(row):
+                        sums[k] += value
+                sums[5] += int(late.size)
 
         result = run_inprocess(
             scenario,
@@ -208,14 +216,14 @@ def _settled(encoded: bytes) -> tuple[float, float, float]:
             close()
     if runtime.fault is not None:  # the controller's fault, not the plant's: said so
         raise ControllerFaultError(runtime.fault)
-    n = int(sums[3])
+    n = int(sums[5])
     if n == 0 or result.aborted:
         raise RuntimeError(f"trim of {scenario.name!r}: the settling run did not complete")
-    return sums[0] / n, sums[1] / n, sums[2] / n
+    return sums[0] / n, sums[1] / n, sums[2] / n, sums[3] / n, sums[4] / n
 
 
 @functools.lru_cache(maxsize=64)
-def _settled_stored(encoded: bytes, name: str) -> tuple[float, float, float]:
+def _settled_stored(encoded: bytes, name: str) -> tuple[float, ...]:
     """:func:`_settled` through the on-disk store (:mod:`hil.inprocess.trim_store`)."""
     from hil.inprocess.trim_store import settled_cached  # noqa: PLC0415
 
@@ -234,8 +242,23 @@ def settle_rotor(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[floa
 
 def settle_point(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[float, float, float]:
     """:func:`settle_rotor` and the settled generator torque [N m, HSS]: (ω, θ, T_g)."""
+    omega, theta, torque, _surge, _pitch = _settled_point(scenario, duration_s)
+    return omega, theta, torque
+
+
+def settle_platform(scenario: Scenario, duration_s: float = SETTLE_S) -> tuple[float, float]:
+    """The platform's mean surge [m] and pitch [rad] at the settled point (0, 0 without a
+    platform): where the trimmed plant stands, for a core's observers to start at."""
+    _omega, _theta, _torque, surge, pitch = _settled_point(scenario, duration_s)
+    return surge, pitch
+
+
+def _settled_point(
+    scenario: Scenario, duration_s: float
+) -> tuple[float, float, float, float, float]:
     sc = settling_scenario(scenario, duration_s)
-    return _settled_stored(msgspec.json.encode(sc), scenario.name)
+    omega, theta, torque, surge, pitch = _settled_stored(msgspec.json.encode(sc), scenario.name)
+    return omega, theta, torque, surge, pitch
 
 
 def operating_point(scenario: Scenario) -> OperatingPoint | None:
@@ -268,11 +291,25 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
     ):  # the settled point itself: its torque too
         torque = settle_point(scenario)[2]
     channels = sensor_channels(plant_spec(scenario)) or {}
+    # where the platform stands: the settled point's, unless [initial] moved the rotor
+    # point (then the plant's equilibrium is another's) or the platform itself
+    surge: float | None = None
+    pitch: float | None = None
+    moved = initial_overrides(scenario.initial)
+    if scenario.platform is not None and all(
+        getattr(moved, k) is None
+        for k in ("rotor_speed_rad_s", "blade_pitch_rad", "generator_torque_nm")
+    ):
+        surge, pitch = settle_platform(scenario)
+        surge = surge if moved.platform_surge_m is None else moved.platform_surge_m
+        pitch = pitch if moved.platform_pitch_rad is None else moved.platform_pitch_rad
     return OperatingPoint(
         wind_m_s=mean_wind_m_s(scenario.wind),
         rotor_speed_rad_s=ic.rotor_speed_rad_s,
         blade_pitch_rad=ic.blade_pitch_rad,
         generator_torque_nm=torque,
+        platform_surge_m=surge,
+        platform_pitch_rad=pitch,
         measurement_offsets=tuple(
             (name, float(c.bias)) for name, c in sorted(channels.items()) if c.bias != 0.0
         ),

@@ -4,7 +4,8 @@ A trim (:mod:`hil.inprocess.trim`) is a 300 s settling run of the real plant and
 core: 0.1-0.3 s in the compiled loop, 1.5 s with ROSCO's DISCON library (the Python loop;
 20 s at load average 30), paid by every process that starts a trimmed run: each run of a
 campaign, the plant process of every bus run (which then also has to load the controller
-core). Its result, the rotor speed and blade pitch, is a function of the settling scenario
+core). Its result (:data:`VALUES`: the rotor speed, blade pitch and generator torque, and
+the platform's surge and pitch there) is a function of the settling scenario
 and of the code and data that compute it, so it is kept here and read back by any later
 process.
 
@@ -37,7 +38,7 @@ directory that cannot be written costs the recomputation, never the run.
 
 Location: ``$FOWT_CACHE_DIR/trim``; without that variable ``$XDG_CACHE_HOME/fowt-hil/trim``
 (``~/.cache/fowt-hil/trim``). ``FOWT_CACHE_DIR=off`` turns the store off. ``fowt cache``
-shows it, ``fowt cache --clear`` empties it. Written by hand: a two-float memo whose key is
+shows it, ``fowt cache --clear`` empties it. Written by hand: a five-float memo whose key is
 the whole point; a general cache library (joblib's Memory, diskcache) would key on the
 call's arguments, not on the code and data behind them.
 """
@@ -63,6 +64,7 @@ from hil.scenario.schema import Scenario
 __all__ = [
     "FORMAT",
     "PACKAGES",
+    "VALUES",
     "cache_root",
     "clear",
     "code_fingerprint",
@@ -72,7 +74,7 @@ __all__ = [
 ]
 
 #: Version of the entries' layout and of what the key covers; a change is a new key.
-FORMAT = 2
+FORMAT = 3
 #: The packages whose files (code and data) compute a trim.
 PACKAGES = ("plant", "controller", "sensors", "bus_schemas", "hil")
 
@@ -196,14 +198,20 @@ def store_key(encoded: bytes) -> str | None:
     return h.hexdigest()
 
 
-def _read(path: Path, key: str) -> tuple[float, float, float] | None:
+#: The settled point's entries, in the order :func:`settled_cached` returns them.
+VALUES = (
+    "rotor_speed_rad_s",
+    "blade_pitch_rad",
+    "generator_torque_nm",
+    "platform_surge_m",
+    "platform_pitch_rad",
+)
+
+
+def _read(path: Path, key: str) -> tuple[float, ...] | None:
     try:
         entry = json.loads(path.read_text())
-        values = (
-            entry["rotor_speed_rad_s"],
-            entry["blade_pitch_rad"],
-            entry["generator_torque_nm"],
-        )
+        values = tuple(entry[name] for name in VALUES)
         ok = entry["format"] == FORMAT and entry["key"] == key
     except (OSError, ValueError, KeyError, TypeError):
         return None
@@ -212,14 +220,14 @@ def _read(path: Path, key: str) -> tuple[float, float, float] | None:
     return values
 
 
-def _write(path: Path, key: str, name: str, values: tuple[float, float, float]) -> None:
+def _write(path: Path, key: str, name: str, values: tuple[float, ...]) -> None:
+    if len(values) != len(VALUES):
+        raise ValueError(f"trim store: expected {len(VALUES)} values ({VALUES}), got {values!r}")
     entry = {
         "format": FORMAT,
         "key": key,
         "scenario": name,
-        "rotor_speed_rad_s": values[0],
-        "blade_pitch_rad": values[1],
-        "generator_torque_nm": values[2],
+        **dict(zip(VALUES, values, strict=True)),
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=path.parent)
@@ -235,9 +243,9 @@ def _write(path: Path, key: str, name: str, values: tuple[float, float, float]) 
 def settled_cached(
     encoded: bytes,
     name: str,
-    compute: Callable[[bytes], tuple[float, float, float]],
+    compute: Callable[[bytes], tuple[float, ...]],
     log: Callable[[str], None] | None = None,
-) -> tuple[float, float, float]:
+) -> tuple[float, ...]:
     """``compute(encoded)``, read from the store when it holds the key, else stored.
 
     ``name`` (the scenario's) goes into the entry for a reader of the directory; ``log``
