@@ -178,3 +178,64 @@ def test_closed_loop_modes_are_poles_of_the_closed_loop() -> None:
         # the same mode: its period moves by less than a tenth
         for name in ("surge", "pitch"):
             assert abs(closed[name]["period_s"] / opened[name]["period_s"] - 1.0) < 0.1
+
+
+def test_baseline_closed_loop_modes_are_poles_of_its_closed_loop() -> None:
+    """The baseline's closed-loop modes of ``fowt analyze linear`` (``linear_report``'s
+    ``baseline_closed_loop_modes``) are eigenvalues of the discrete closed loop of plant and
+    baseline step (log(z)/T_s, to 1e-9 relative) at 11, 15 and 20 m/s, on the branch of the
+    law active there: the minimum pitch at 11 m/s (the blades on the schedule, the torque PI
+    below rated torque), the pitch PI above it. The steady state reproduces the trim's
+    (bench/results/peak_shaving_surge.json: 3.231 deg at 11 m/s) to 0.02 deg."""
+    from controller.design.baseline_linear import baseline_closed_loop
+
+    branches = {11.0: "min_pitch", 15.0: "pitch_pi", 20.0: "pitch_pi"}
+    for wind, branch in branches.items():
+        rep = linear_report("iea15mw_volturnus", wind)
+        loop = baseline_closed_loop("iea15mw_volturnus", wind)
+        assert loop.branch == branch
+        assert str(rep["baseline_closed_loop_case"]).startswith("iea15mw_baseline: ")
+        z = np.linalg.eigvals(loop.matrix).astype(np.complex128)
+        poles = np.log(z) / loop.control_period_s
+        modes = {m["name"]: m for m in rep["baseline_closed_loop_modes"]}
+        assert set(modes) >= {"surge", "pitch", "tower_fore_aft"}
+        for m in modes.values():
+            ev = complex(*m["eigenvalue"])
+            assert np.min(np.abs(poles - ev)) <= 1e-9 * abs(ev)
+        # the same surge mode as the open loop's: its period moves by less than a tenth
+        opened = {m["name"]: m for m in rep["modes"]}
+        assert abs(modes["surge"]["period_s"] / opened["surge"]["period_s"] - 1.0) < 0.1
+        if wind == 11.0:
+            assert abs(np.degrees(loop.blade_pitch_rad) - 3.231) < 0.02
+            assert loop.blade_pitch_rad == pytest.approx(loop.min_pitch_rad, abs=1e-9)
+            assert loop.generator_torque_nm < 0.99 * 1.97868e7
+        else:
+            assert loop.blade_pitch_rad > loop.min_pitch_rad + 0.02
+
+
+def test_peak_shaving_takes_surge_damping_at_11_m_s() -> None:
+    """At 11 m/s, where the minimum pitch holds the blades, the schedule's slope (1.30 deg
+    per m/s of the filtered wind estimate) lowers the linear closed loop's surge damping
+    ratio: the same loop with the minimum pitch flat at its steady value (the estimate's
+    path to the blades cut) damps surge more by at least 0.02 (0.045 against 0.011), for
+    each linearisation of the one-sided platform-pitch-rate feedback at the clamp (half,
+    full or no gain). The damping stays positive in this noise-free linear loop: the
+    schedule alone does not make surge unstable here. Same surge mode: periods within 5 %.
+    """
+    from controller.design.baseline_linear import MinPitch, RateFeedback, baseline_closed_loop
+
+    feedbacks: tuple[RateFeedback, ...] = ("average", "on", "off")
+    variants: tuple[MinPitch, ...] = ("schedule", "flat")
+    for feedback in feedbacks:
+        zeta = {}
+        period = {}
+        for variant in variants:
+            loop = baseline_closed_loop(
+                "iea15mw_volturnus", 11.0, min_pitch=variant, pitch_rate_feedback=feedback
+            )
+            assert loop.branch == "min_pitch"
+            surge = {m.name: m for m in loop.modes()}["surge"]
+            zeta[variant], period[variant] = surge.damping_ratio, surge.period_s
+        assert zeta["schedule"] < zeta["flat"] - 0.02, (feedback, zeta)
+        assert zeta["schedule"] > 0.0, (feedback, zeta)
+        assert abs(period["schedule"] / period["flat"] - 1.0) < 0.05

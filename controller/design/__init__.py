@@ -33,6 +33,10 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from plant.platform import FloatingParams
 
 __all__ = [
     "BLAS_SINGLE_THREAD_ENV",
@@ -252,8 +256,24 @@ def design_all(
     return final
 
 
-def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> dict[str, object]:
-    """Design-model poles (with their modes) and the LQRI closed-loop poles at one wind.
+def linear_report(
+    preset: str = "iea15mw_volturnus",
+    wind_m_s: float = 15.0,
+    baseline_preset: str | None = None,
+) -> dict[str, object]:
+    """Design-model poles (with their modes), the LQRI's and the baseline's closed-loop modes.
+
+    Parameters
+    ----------
+    preset : str
+        Floating preset name or preset TOML path.
+    wind_m_s : float
+        Steady hub-height wind U [m/s].
+    baseline_preset : str, optional
+        Baseline controller preset of ``baseline_closed_loop_modes``
+        (:func:`controller.baseline.load_baseline`), used if its rated generator speed and
+        gearbox ratio are the plant's (within 0.1 %). Default: the first shipped one of
+        ``<preset>_baseline``, ``iea15mw_baseline``, ``nrel5mw_baseline`` that is.
 
     Returns
     -------
@@ -266,6 +286,13 @@ def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> 
         with its gains (full state feedback, no observer), found as the open-loop ones
         (:func:`plant.modes.identify_modes`) in the continuous equivalent
         :math:`\\log(A_i - B_i K)/T_s` of the discrete closed loop.
+        ``baseline_closed_loop_modes`` (same dicts) are the surge, heave, pitch and tower
+        modes of the plant with the baseline controller at its own steady state at U: the
+        discrete closed loop of the ZOH plant and the controller's step linearised about it
+        (:func:`controller.design.baseline_linear.baseline_closed_loop`, T_s 0.025 s, the
+        branch of the law active there); ``baseline_closed_loop_case`` says which branch, or
+        why the list is empty (below rated, where only the above-rated branches are
+        linearised; a baseline preset of another turbine).
     """
     import numpy as np  # noqa: PLC0415
     import scipy.linalg as sla  # noqa: PLC0415
@@ -302,13 +329,56 @@ def linear_report(preset: str = "iea15mw_volturnus", wind_m_s: float = 15.0) -> 
         ("surge", "pitch", "tower_fore_aft"),
         (1.0, PITCH_LENGTH_M, 1.0),
     )
+    baseline_modes, baseline_case = _baseline_modes(
+        params, preset, float(wind_m_s), baseline_preset
+    )
     return {
         "wind_m_s": float(wind_m_s),
         "modes": [m.as_dict() for m in modes],
         "closed_loop_modes": [m.as_dict() for m in cl_modes],
+        "baseline_closed_loop_modes": baseline_modes,
+        "baseline_closed_loop_case": baseline_case,
         "rotor_pole_1_s": rotor.real,
         "open_loop_poles": [[float(v.real), float(v.imag)] for v in lam],
         "closed_loop_poles_z": [[float(v.real), float(v.imag)] for v in z],
         "closed_loop_poles_s": [[float(v.real), float(v.imag)] for v in sp],
         "closed_loop_spectral_radius": radius,
     }
+
+
+def _baseline_modes(
+    params: FloatingParams, preset: str, wind_m_s: float, baseline_preset: str | None
+) -> tuple[list[dict[str, object]], str]:
+    """The baseline's closed-loop modes for :func:`linear_report` and the case in words
+    (empty list and the reason where they are not computed)."""
+    import numpy as np  # noqa: PLC0415
+
+    from controller.baseline import available_presets, load_baseline  # noqa: PLC0415
+    from controller.design.baseline_linear import baseline_closed_loop  # noqa: PLC0415
+
+    tp = params.turbine
+
+    def fits(name: str) -> bool:
+        bp = load_baseline(name)
+        omega = bp.pitch_reference_generator_speed_rad_s / bp.gearbox_ratio
+        return (
+            bp.gearbox_ratio == tp.gearbox_ratio
+            and abs(omega - tp.rated_rotor_speed_rad_s) <= 1e-3 * tp.rated_rotor_speed_rad_s
+        )
+
+    if baseline_preset is None:
+        shipped = available_presets()
+        names = (f"{Path(str(preset)).stem}_baseline", "iea15mw_baseline", "nrel5mw_baseline")
+        found = [n for n in names if n in shipped and fits(n)]
+        if not found:
+            return [], "not computed: no shipped baseline preset for this turbine"
+        baseline_preset = found[0]
+    elif not fits(baseline_preset):
+        return [], f"not computed: baseline preset {baseline_preset!r} is for another turbine"
+    try:
+        loop = baseline_closed_loop(params, wind_m_s, baseline_preset)
+    except ValueError as exc:
+        return [], f"not computed: {exc}"
+    modes = [m.as_dict() for m in loop.modes()]
+    radius = float(np.max(np.abs(loop.poles_z())))
+    return modes, f"{baseline_preset}: {loop.description}; spectral radius (z) {radius:.6f}"

@@ -1436,7 +1436,9 @@ def design_cmd(
     console.print(f"designed in {time.perf_counter() - t0:.1f} s")
 
 
-@analyze_app.command("linear", short_help="Design-model poles and LQRI closed-loop poles.")
+@analyze_app.command(
+    "linear", short_help="Design-model poles, LQRI and baseline closed-loop modes."
+)
 def analyze_linear(
     preset: Annotated[
         str, typer.Argument(help="Floating preset name or preset .toml path.", callback=_preset_ref)
@@ -1444,7 +1446,8 @@ def analyze_linear(
     wind: WindOpt = 15.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
 ) -> None:
-    """Design-model modes and poles, open loop and with the LQRI's gains, at --wind."""
+    """Design-model modes and poles, open loop, with the LQRI's gains and with the baseline
+    controller, at --wind."""
     from controller.design import linear_report
 
     report = _analysis(linear_report, preset, wind)
@@ -1457,15 +1460,21 @@ def analyze_linear(
     table.add_column(escape("damping ratio [-]"), justify="right")
     table.add_column(escape("with LQRI: period [s]"), justify="right")
     table.add_column(escape("with LQRI: damping [-]"), justify="right")
+    table.add_column(escape("baseline: period [s]"), justify="right")
+    table.add_column(escape("baseline: damping [-]"), justify="right")
     closed = {m["name"]: m for m in report["closed_loop_modes"]}  # type: ignore[attr-defined]
+    base = {m["name"]: m for m in report["baseline_closed_loop_modes"]}  # type: ignore[attr-defined]
     for m in report["modes"]:  # type: ignore[attr-defined]
         c = closed.get(m["name"])
+        b = base.get(m["name"])
         table.add_row(
             str(m["name"]),
             f"{m['period_s']:.2f}",
             f"{m['damping_ratio']:.4f}",
             f"{c['period_s']:.2f}" if c else "-",
             f"{c['damping_ratio']:.4f}" if c else "-",
+            f"{b['period_s']:.2f}" if b else "-",
+            f"{b['damping_ratio']:.4f}" if b else "-",
         )
     console.print(table)
     console.print(
@@ -1475,6 +1484,11 @@ def analyze_linear(
     console.print(
         f"closed-loop spectral radius (z): {report['closed_loop_spectral_radius']:.5f}; "
         f"rotor pole {report['rotor_pole_1_s']:.4f} 1/s"
+    )
+    console.print(
+        "baseline: the plant with the baseline controller's own step linearised about their"
+        " steady state (discrete at 0.025 s, no sensor noise); "
+        + escape(str(report["baseline_closed_loop_case"]))
     )
 
 
