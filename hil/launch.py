@@ -486,12 +486,9 @@ def _launch(
                 abort,
                 phases,
                 progress=lambda line: console.print(line, markup=False),
-                on_loop_start=worker.prepare if worker is not None else None,
             )
             console.print(f"in-process loop: {loop_ran}")
         else:
-            if worker is not None:  # the launcher waits on its nodes from here on
-                worker.prepare()
             if process_faults:
                 driver = ProcessFaultDriver(process_faults, scenario.timing.control_period_s)
             _run_processes(req, scenario, out, mcap_path, info, console, design_dir, driver, abort)
@@ -706,14 +703,11 @@ def _run_inprocess(
     abort: AbortSignals | None = None,
     phases: dict[str, float] | None = None,
     progress: Callable[[str], None] | None = None,
-    on_loop_start: Callable[[], None] | None = None,
 ) -> str:
     """Run in process into ``mcap_path``; return which loop ran (``compiled``, ``python``).
 
     ``progress`` gets a line on how far a long run is every ten seconds of wall time
-    (:class:`hil.inprocess.run.Progress`). ``on_loop_start`` is called once the log writer
-    is ready, just before the first cycle (the plot worker's cue,
-    :meth:`hil.review.plot_worker.PlotWorker.prepare`).
+    (:class:`hil.inprocess.run.Progress`).
 
     ``phases`` gets the monotonic times [s] the loop started (``loop_start``) and ended
     (``loop_end``) and the log was closed (``log_end``), for :func:`speed_line`.
@@ -762,8 +756,6 @@ def _run_inprocess(
 
     def before_loop() -> None:
         log.wait_ready()
-        if on_loop_start is not None:
-            on_loop_start()
         # What start-up built (imports, kernels, tables) stays for the run: out of the
         # collector's reach, full collections in the run walk only what is new (given back
         # after the run: a process that launches again must be able to free this run).

@@ -318,8 +318,6 @@ write_log(path, 300.0)
 out = {}
 worker = PlotWorker.start()
 out["started"] = worker is not None
-worker.prepare()
-worker.prepare()  # once is enough; twice is harmless
 written = []
 core.review(path, tmp / "worker", plots=True, written=written, worker=worker)
 worker.close()

@@ -508,8 +508,7 @@ def run(
     """
     from hil.review.plot_worker import PlotWorker
 
-    # first (no thread runs yet); it imports matplotlib on the other core when the launcher
-    # says the start-up is done with it (hil.review.plot_worker)
+    # first, so that matplotlib is imported on the other core while the run starts
     worker = PlotWorker.start() if plots else None
     with contextlib.closing(worker) if worker is not None else contextlib.nullcontext():
         from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
@@ -1059,8 +1058,6 @@ def review_cmd(
     draw = (not as_json) if plots is None else plots
     # matplotlib imported on the other core while the file is read (hil.review.plot_worker)
     worker = PlotWorker.start() if draw else None
-    if worker is not None:
-        worker.prepare()  # nothing else wants the other core
     try:
         summary = review(mcap, out, plots=draw, written=written, worker=worker)
     except (NotMcapError, NotRunLogError) as exc:

@@ -2,16 +2,14 @@
 
 Importing matplotlib costs about half a second of one core and drawing the three figures
 about as much again: in a default ``fowt run`` they were a third of the whole command.
-:meth:`PlotWorker.start` forks, at the command's start, a child that waits on a pipe; told
-to (:meth:`PlotWorker.prepare`, when the start-up no longer needs the other core: in
-process once the run's log writer, a child process whose own start-up takes that core, is
-ready and the loop starts; at once for a bus run) it imports the drawing code
-(:mod:`hil.review.plots` and matplotlib's figure) while the run goes. The review gathers
-the plots' data in its own pass over the run log as before and hands it to the child
-(:meth:`PlotWorker.draw`, one pickle of a few MB), which draws the three figures (the time
-series itself, the other two in its own forked child: :func:`plots.write_plots`) and answers
-with the files written or the exception the drawing raised, which the review raises as it
-would have drawing itself (an ``OSError`` of a full disk stays one).
+:meth:`PlotWorker.start` forks, at the command's start, a child that imports the drawing
+code (:mod:`hil.review.plots` and matplotlib's figure) on the core the start-up leaves free
+(the model, the numba cache and the run itself take one) and then waits on a pipe. The
+review gathers the plots' data in its own pass over the run log as before and hands it to
+the child (:meth:`PlotWorker.draw`, one pickle of a few MB), which draws the three figures
+(the time series itself, the other two in its own forked child: :func:`plots.write_plots`)
+and answers with the files written or the exception the drawing raised, which the review
+raises as it would have drawing itself (an ``OSError`` of a full disk stays one).
 
 Why a hand-written fork and not :mod:`multiprocessing` or :mod:`concurrent.futures`: the
 child must exist *before* the start-up does its work (a pool's worker is started at its
@@ -45,9 +43,6 @@ if TYPE_CHECKING:
 __all__ = ["PlotWorker"]
 
 _LEN = struct.Struct("<Q")
-#: What the parent writes: import now (:meth:`PlotWorker.prepare`), or a job (its length and
-#: pickle follow).
-_IMPORT, _JOB = b"I", b"J"
 
 
 class PlotWorker:
@@ -76,15 +71,6 @@ class PlotWorker:
         os.close(res_w)
         return cls(pid, job_w, res_r)
 
-    def prepare(self) -> None:
-        """Let the child import the drawing code now (once; a later :meth:`draw` does it
-        anyway): called when the command's start-up no longer needs the other core."""
-        if self._prepared or self._closed:
-            return
-        self._prepared = True
-        with contextlib.suppress(BrokenPipeError):
-            _write_all(self._to_child, _IMPORT)
-
     def draw(self, data: PlotData, out_dir: Path) -> list[Path]:
         """Have the child draw ``data`` into ``out_dir``; the files written.
 
@@ -98,7 +84,7 @@ class PlotWorker:
         blob = pickle.dumps((data, Path(out_dir)), protocol=pickle.HIGHEST_PROTOCOL)
         self._sent = True
         try:
-            _write_all(self._to_child, _JOB + _LEN.pack(len(blob)) + blob)
+            _write_all(self._to_child, _LEN.pack(len(blob)) + blob)
         except BrokenPipeError:
             reply = b""
         else:
@@ -127,7 +113,6 @@ class PlotWorker:
 
     _status: int | str = "not reaped"
     _sent = False
-    _prepared = False
 
     def __enter__(self) -> PlotWorker:
         return self
@@ -149,14 +134,11 @@ def _serve(job_r: int, res_w: int) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         for sig in (signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_DFL)
-        kind = _read_exact(job_r, 1)
-        if kind == _IMPORT:  # told when: the other core is free of the start-up's work then
-            kind = _read_exact(job_r, 1)
         import matplotlib.figure  # noqa: F401, PLC0415 - the cost moved off the critical path
 
         from hil.review import plots  # noqa: PLC0415
 
-        head = _read_exact(job_r, _LEN.size) if kind == _JOB else None
+        head = _read_exact(job_r, _LEN.size)
         if head is not None:
             blob = _read_exact(job_r, _LEN.unpack(head)[0])
             if blob is not None:
