@@ -8,6 +8,7 @@ sample. Seeded random records; tolerances stated per check.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -225,12 +226,36 @@ def test_plots_gathered_in_the_review_pass_equal_a_second_pass(tmp_path: Path) -
         np.testing.assert_allclose(p1, p2, rtol=1e-12)
 
 
+def _in_fresh_interpreter(script: str, tmp_path: Path) -> dict[str, Any]:
+    """Run ``script`` (argv: ``tmp_path``, this folder) in a fresh interpreter, one thread,
+    and return the JSON object its last line prints."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    here = Path(__file__).resolve().parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}
+    proc = subprocess.run(
+        [sys.executable, "-c", script, str(tmp_path), str(here)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out
+
+
 #: Run in a fresh interpreter (no thread of another test can make the drawing serial):
 #: the review's plots drawn in two processes (fork counted) and serially, and a failing
 #: child figure; prints what the tests check as JSON.
 _FORK_CHECK = r"""
 import json, os, sys
 from pathlib import Path
+from typing import Any
 sys.path.insert(0, sys.argv[2])
 from test_review_long_run import write_log
 from hil.review import core, plots
@@ -275,25 +300,11 @@ def test_plots_drawn_in_two_processes_equal_the_serial_ones_and_fail_loudly(
     a forked child (one fork), and they are the same files, byte for byte, as drawn in the
     calling process; a child figure that raises reaches the caller as one line with its
     type and message, and what both sides wrote is there."""
-    import json
     import os
-    import subprocess
-    import sys
 
     if not hasattr(os, "fork") or len(os.sched_getaffinity(0)) < 2:
         pytest.skip("no fork or one core: the drawing is serial by design")
-    here = Path(__file__).resolve().parent
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}
-    proc = subprocess.run(
-        [sys.executable, "-c", _FORK_CHECK, str(tmp_path), str(here)],
-        capture_output=True,
-        text=True,
-        check=False,
-        env=env,
-        timeout=300,
-    )
-    assert proc.returncode == 0, proc.stderr
-    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    got = _in_fresh_interpreter(_FORK_CHECK, tmp_path)
     assert got["forks"] == 1
     assert got["same"] == {name: True for name in plots.PLOT_FILES}
     assert got["error"] is not None
@@ -307,6 +318,7 @@ def test_plots_drawn_in_two_processes_equal_the_serial_ones_and_fail_loudly(
 _WORKER_CHECK = r"""
 import errno, json, os, signal, subprocess, sys, time
 from pathlib import Path
+from typing import Any
 sys.path.insert(0, sys.argv[2])
 from test_review_long_run import write_log
 from hil.review import core, plots
@@ -370,26 +382,12 @@ def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -
     exit 1 holds; a worker given nothing is killed and reaped at close (SIGKILL); a worker
     whose parent leaves without closing it leaves too (end-of-file on its pipe)."""
     import errno
-    import json
     import os
     import signal
-    import subprocess
-    import sys
 
     if not hasattr(os, "fork") or len(os.sched_getaffinity(0)) < 2:
         pytest.skip("no fork or one core: the review draws in its own process by design")
-    here = Path(__file__).resolve().parent
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here.parent), str(here)])}
-    proc = subprocess.run(
-        [sys.executable, "-c", _WORKER_CHECK, str(tmp_path), str(here)],
-        capture_output=True,
-        text=True,
-        check=False,
-        env=env,
-        timeout=300,
-    )
-    assert proc.returncode == 0, proc.stderr
-    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    got = _in_fresh_interpreter(_WORKER_CHECK, tmp_path)
     assert got["started"]
     assert got["written"] == ["summary.json", *plots.PLOT_FILES]
     assert got["same"] == {name: True for name in plots.PLOT_FILES}
