@@ -350,6 +350,37 @@ try:
 except OSError as exc:
     out["error"] = [type(exc).__name__, exc.errno, exc.filename]
 failing.close()
+# its name; the signals a terminal sends the whole group do not end it (the launcher still
+# wants its plots); killed from outside, the review draws in its own process instead
+def alive(p):
+    try:
+        return Path(f"/proc/{p}/stat").read_text().split(")")[1].split()[0] != "Z"
+    except OSError:
+        return False
+def comm(pid):
+    try:
+        return Path(f"/proc/{pid}/comm").read_text().strip()
+    except OSError:
+        return None
+hardy = PlotWorker.start()
+deadline = time.monotonic() + 60.0  # named once its signal handlers are set
+while comm(hardy._pid) != "fowt-plots" and time.monotonic() < deadline:
+    time.sleep(0.01)
+out["name"] = comm(hardy._pid)
+for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+    os.kill(hardy._pid, sig)
+time.sleep(0.5)
+out["hardy_alive"] = alive(hardy._pid)
+written = []
+core.review(path, tmp / "hardy", plots=True, written=written, worker=hardy)
+out["hardy_drew"] = [p.name for p in written]
+killed = PlotWorker.start()
+os.kill(killed._pid, signal.SIGKILL)
+written = []
+core.review(path, tmp / "killed", plots=True, written=written, worker=killed)
+out["killed_same"] = all((tmp / "here" / n).read_bytes() == (tmp / "killed" / n).read_bytes()
+                         for n in plots.PLOT_FILES)
+out["killed_written"] = [p.name for p in written]
 # a worker given nothing: killed and reaped at close
 unused = PlotWorker.start()
 unused.close()
@@ -361,11 +392,6 @@ code = ("import sys; sys.path[:0] = " + repr(sys.path[:3]) + "\n"
         "w = PlotWorker.start(); print(w._pid, flush=True); os._exit(0)")
 pid = int(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip())
-def alive(p):
-    try:
-        return Path(f"/proc/{p}/stat").read_text().split(")")[1].split()[0] != "Z"
-    except OSError:
-        return False
 deadline = time.monotonic() + 60.0
 while alive(pid) and time.monotonic() < deadline:
     time.sleep(0.05)
@@ -379,8 +405,11 @@ def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -
     (:class:`hil.review.plot_worker.PlotWorker`) writes the same three files, byte for byte,
     as the review drawing them itself; a drawing that raises there (a full disk) is raised
     by the review as the same ``OSError`` (errno and file kept), so the commands' one-line
-    exit 1 holds; a worker given nothing is killed and reaped at close (SIGKILL); a worker
-    whose parent leaves without closing it leaves too (end-of-file on its pipe)."""
+    exit 1 holds; it is named ``fowt-plots`` and outlives the SIGINT, SIGTERM and SIGHUP a
+    terminal sends the whole process group (the launcher reviews an aborted run with its
+    plots); a worker killed from outside leaves the review to draw the same files itself; a
+    worker given nothing is killed and reaped at close (SIGKILL); a worker whose parent
+    leaves without closing it leaves too (end-of-file on its pipe)."""
     import errno
     import os
     import signal
@@ -393,4 +422,7 @@ def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -
     assert got["same"] == {name: True for name in plots.PLOT_FILES}
     assert got["error"] == ["OSError", errno.ENOSPC, str(tmp_path / "full" / "timeseries.png")]
     assert got["unused_status"] == -signal.SIGKILL and got["unused_gone"]
+    assert got["name"] == "fowt-plots" and got["hardy_alive"]
+    assert got["hardy_drew"] == ["summary.json", *plots.PLOT_FILES]
+    assert got["killed_written"] == ["summary.json", *plots.PLOT_FILES] and got["killed_same"]
     assert got["orphan_left"]

@@ -33,6 +33,7 @@ import pytest
 from _mcap_conformance import check_complete_mcap
 
 from hil.review.outcome import ExitCode
+from hil.review.plot_worker import PROCESS_NAME
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,6 +56,15 @@ def _children(pid: int) -> dict[int, str]:
                     (d / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
                 )
     return found
+
+
+def _kind(pid: int, cmd: str) -> str:
+    """What a child of the launcher is: a node (``python -m hil <kind>``), the plot worker
+    (process name ``fowt-plots``, :mod:`hil.review.plot_worker`), or its command line."""
+    with contextlib.suppress(OSError):
+        if Path(f"/proc/{pid}/comm").read_text().strip() == PROCESS_NAME.decode():
+            return "plots"
+    return cmd.split(" -m hil ")[1].split(maxsplit=1)[0] if " -m hil " in cmd else cmd
 
 
 def _alive(pid: int) -> bool:
@@ -168,8 +178,9 @@ def test_signal_stops_every_child_and_the_run_is_reviewed_as_aborted(
 
     _wait_for("the plant running and a file growing", running, proc, 180)
     children = _children(proc.pid)
-    kinds = {c.split(" -m hil ")[1].split()[0] for c in children.values() if " -m hil " in c}
-    assert kinds == {"record", "controller", "plant"}, children
+    kinds = {_kind(pid, cmd) for pid, cmd in children.items()}
+    # the nodes, and the plot worker (a fork of the launcher: its own process name)
+    assert kinds == {"record", "controller", "plant", "plots"}, children
     proc.send_signal(sig)
     summary = _check_aborted(out, proc, sig, total_s)
     gone = {pid: cmd for pid, cmd in children.items() if _alive(pid)}

@@ -97,6 +97,7 @@ Summary keys (all numbers, ``null`` where a channel was missing)
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from collections import Counter
@@ -1233,17 +1234,25 @@ def review(
 
             files += hexicon_review.write_plots(run, out)
         elif data is not None:  # gathered in the review's pass
-            from hil.review import plots as plots_mod  # noqa: PLC0415
-
             data.finish(summary)
-            files += (
-                worker.draw(data, out) if worker is not None else plots_mod.write_plots(data, out)
-            )
+            files += _draw(data, out, worker)
         else:  # a second pass over the file, chunk by chunk, knowing the summary
             files += write_plots_of_file(mcap_path, reader.info, summary, out)
     if written is not None:
         written.extend(files)
     return summary
+
+
+def _draw(data: Any, out: Path, worker: PlotWorker | None) -> list[Path]:
+    """The plots of ``data`` into ``out``: by ``worker`` when there is one and it answers,
+    else here (:func:`hil.review.plots.write_plots`)."""
+    from hil.review import plots as plots_mod  # noqa: PLC0415
+    from hil.review.plot_worker import PlotWorkerGoneError  # noqa: PLC0415
+
+    if worker is not None:
+        with contextlib.suppress(PlotWorkerGoneError):
+            return worker.draw(data, out)
+    return plots_mod.write_plots(data, out)
 
 
 def run_family(info: RunInfo) -> str:

@@ -15,9 +15,11 @@ Why a hand-written fork and not :mod:`multiprocessing` or :mod:`concurrent.futur
 child must exist *before* the start-up does its work (a pool's worker is started at its
 first task, and a ``spawn`` or ``forkserver`` worker starts a fresh interpreter that imports
 the bench again: the cost this removes), it serves exactly one job, and it must never run
-the parent's exit handlers or signal handlers (it leaves by ``os._exit``; SIGINT, SIGTERM
-and SIGHUP go to the launcher, which stops the run and closes the pipe: the child reads
-end-of-file and leaves). A parent that dies closes the pipe too.
+the parent's exit handlers or signal handlers (it leaves by ``os._exit``; it ignores SIGINT,
+SIGTERM and SIGHUP, which the launcher handles by stopping the run, reviewing it and closing
+the pipe: the child reads end-of-file and leaves). A parent that dies closes the pipe too. A
+worker that ended without answering (killed from outside) raises :class:`PlotWorkerGoneError` and
+the review draws in its own process. Its process name is ``fowt-plots``.
 
 Nothing is forked where fork does not exist, on one core (nothing to overlap), or with
 other Python threads running (a fork copies only the calling thread: a lock another thread
@@ -40,7 +42,16 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from hil.review.plots import PlotData
 
-__all__ = ["PlotWorker"]
+__all__ = ["PlotWorker", "PlotWorkerGoneError"]
+
+#: The worker's process name (``/proc/<pid>/comm``, what ``ps`` and ``top`` show): its command
+#: line is its parent's, as a fork's is.
+PROCESS_NAME = b"fowt-plots"
+
+
+class PlotWorkerGoneError(RuntimeError):
+    """The worker ended before answering (killed from outside): draw in this process."""
+
 
 _LEN = struct.Struct("<Q")
 
@@ -93,7 +104,7 @@ class PlotWorker:
         if reply.startswith(b"error\n"):
             raise pickle.loads(reply[6:])  # the drawing's own exception (an OSError: disk full)
         if not reply.startswith(b"ok\n"):
-            raise RuntimeError(f"drawing the plots failed: the plot worker ended ({self._status})")
+            raise PlotWorkerGoneError(f"the plot worker ended before answering ({self._status})")
         return [Path(p) for p in reply[3:].decode().splitlines()]
 
     def close(self) -> None:
@@ -130,10 +141,12 @@ def _serve(job_r: int, res_w: int) -> None:
     """The child's whole life: import, wait for one job, draw it, answer, leave."""
     code = 0
     try:
-        # the launcher handles these and closes the pipe; the child must not act on them
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        for sig in (signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, signal.SIG_DFL)
+        # the launcher handles these (a terminal's Ctrl-C or hang-up reaches the whole
+        # process group) and then still wants its plots; it closes the pipe when done, and a
+        # launcher that dies closes it too: end-of-file is this child's only way out
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_IGN)
+        _name_process(PROCESS_NAME)
         import matplotlib.figure  # noqa: F401, PLC0415 - the cost moved off the critical path
 
         from hil.review import plots  # noqa: PLC0415
@@ -152,6 +165,15 @@ def _serve(job_r: int, res_w: int) -> None:
         code = 1
     finally:
         os._exit(code)
+
+
+def _name_process(name: bytes) -> None:
+    """Set this process's name (Linux ``prctl(PR_SET_NAME)``; elsewhere nothing)."""
+    with contextlib.suppress(Exception):  # a name is a courtesy: never fail the drawing
+        import ctypes  # noqa: PLC0415
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(15, ctypes.c_char_p(name[:15]), 0, 0, 0)  # 15: PR_SET_NAME
 
 
 def _picklable(exc: Exception) -> bytes:
