@@ -952,8 +952,7 @@ class AdvancedController:
         measurement its rotor speed with the encoder's offset; the state stays where the
         model balances them."""
         n = self.settings.gearbox_ratio
-        off = dict(op.measurement_offsets).get("generator_speed_measured_rad_s", 0.0)
-        z = op.rotor_speed_rad_s + off / n
+        z = op.rotor_speed_rad_s + op.measurement_offset("generator_speed_measured_rad_s") / n
         u = (op.blade_pitch_rad, torque_nm)
         x = (float(values[0]), float(values[1]), float(values[2]))
         p6 = tuple(float(v) for v in values[3:9])
@@ -997,14 +996,14 @@ class AdvancedController:
         kf = self.kfs[i]
         n, p = self._n, self._p
         xo, (w_op, th_op) = self._x_op_f[i], self._u_op[i]
-        off = dict(op.measurement_offsets)
+        off = op.measurement_offset
         u = np.array([op.rotor_speed_rad_s - w_op, op.blade_pitch_rad - th_op])
         z = np.array(
             [
-                off.get("nacelle_acc_fore_aft_measured_m_s2", 0.0),
-                off.get("platform_pitch_rate_measured_rad_s", 0.0),
-                pitch_rad + off.get("platform_pitch_measured_rad", 0.0) - xo[1],
-                surge_m + off.get("platform_surge_measured_m", 0.0) - xo[0],
+                off("nacelle_acc_fore_aft_measured_m_s2"),
+                off("platform_pitch_rate_measured_rad_s"),
+                pitch_rad + off("platform_pitch_measured_rad") - xo[1],
+                surge_m + off("platform_surge_measured_m") - xo[0],
             ]
         )
         kst = PlatformKFState(

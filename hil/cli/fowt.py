@@ -510,7 +510,7 @@ def run(
 
     # first, so that matplotlib is imported on the other core while the run starts
     worker = PlotWorker.start() if plots else None
-    with contextlib.closing(worker) if worker is not None else contextlib.nullcontext():
+    with worker if worker is not None else contextlib.nullcontext():
         from hil.families import TURBINE, HexiconOptions, RunRequestError, resolve
 
         hexicon_given = (

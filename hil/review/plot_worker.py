@@ -64,6 +64,8 @@ class PlotWorker:
         self._to_child = to_child
         self._from_child = from_child
         self._closed = False
+        self._sent = False  # a job was written (else close() kills the child at once)
+        self._status: int | str = "not reaped"
 
     @classmethod
     def start(cls) -> PlotWorker | None:
@@ -87,8 +89,11 @@ class PlotWorker:
 
         Raises
         ------
-        RuntimeError
-            When the child failed or is gone (its last line or exit status said).
+        PlotWorkerGoneError
+            When the child ended before answering (the caller draws itself).
+        Exception
+            What the drawing raised in the child, raised again here (an ``OSError`` of a
+            full disk stays one).
         """
         if self._closed:
             raise RuntimeError("the plot worker was closed")
@@ -121,9 +126,6 @@ class PlotWorker:
         os.close(self._from_child)
         _, status = os.waitpid(self._pid, 0)
         self._status = os.waitstatus_to_exitcode(status)
-
-    _status: int | str = "not reaped"
-    _sent = False
 
     def __enter__(self) -> PlotWorker:
         return self
