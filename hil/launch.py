@@ -127,6 +127,7 @@ from hil.nodes.recorder import (
     scenario_recording_metadata,
     scenario_truth_every,
 )
+from hil.nodes.rt import steady_gc
 from hil.review.core import render_summary, review
 from hil.review.outcome import outcome_line, record_outcome
 from hil.runlog.writer import BackgroundRunLog, LogWriteError
@@ -760,6 +761,7 @@ def _run_inprocess(
         # collector's reach, full collections in the run walk only what is new (given back
         # after the run: a process that launches again must be able to free this run).
         gc.freeze()
+        steady_gc()
         marks["loop_start"] = time.monotonic()
 
     try:

@@ -50,3 +50,51 @@ def test_fifo_is_set_or_refused_with_the_reason() -> None:
     else:
         assert lines[0] == "SCHED_FIFO priority 10"
         assert lines[1] == "True 10"
+
+
+def test_startup_collects_rarely_and_the_loop_gets_the_default_collector_back() -> None:
+    """``startup_gc`` raises the young-generation threshold to STARTUP_GC_THRESHOLD; both
+    ``steady_gc`` and ``freeze_heap`` (a node's last set-up step) put back the thresholds it
+    found, and ``freeze_heap`` leaves the set-up's objects frozen."""
+    code = (
+        "import gc\n"
+        "from hil.nodes import rt\n"
+        "default = gc.get_threshold()\n"
+        "rt.steady_gc()\n"  # before startup_gc: nothing to put back
+        "assert gc.get_threshold() == default, gc.get_threshold()\n"
+        "rt.startup_gc()\n"
+        "assert gc.get_threshold() == (rt.STARTUP_GC_THRESHOLD, *default[1:]), gc.get_threshold()\n"
+        "rt.startup_gc()\n"  # twice: still the first thresholds to go back to
+        "rt.steady_gc()\n"
+        "assert gc.get_threshold() == default, gc.get_threshold()\n"
+        "rt.startup_gc()\n"
+        "assert rt.freeze_heap() > 1000\n"
+        "assert gc.get_threshold() == default, gc.get_threshold()\n"
+        "print('ok')\n"
+    )
+    proc = _child(code)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "ok"
+
+
+def test_the_fowt_command_starts_with_the_start_up_threshold() -> None:
+    """``fowt``'s entry point calls ``startup_gc`` before any command runs (measured in the
+    command's own process through a command that prints the collector's threshold)."""
+    code = (
+        "import gc, sys\n"
+        "from hil.cli import fowt\n"
+        "from hil.nodes import rt\n"
+        "seen = []\n"
+        "def app(*a, **k):\n"
+        "    seen.append(gc.get_threshold()[0])\n"
+        "fowt.app = app\n"
+        "try:\n"
+        "    fowt.main(['scenarios'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "assert seen == [rt.STARTUP_GC_THRESHOLD], seen\n"
+        "print('ok')\n"
+    )
+    proc = _child(code)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "ok"

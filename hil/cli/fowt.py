@@ -33,6 +33,7 @@ from rich.text import Text
 from hil.cli.common import choice, fail, number, os_error_text, stderr, text_file, writable
 from hil.cli.hexicon import app as hexicon_app
 from hil.nodes.bus import BusOpenError
+from hil.nodes.rt import startup_gc
 from hil.review.outcome import ExitCode
 from hil.scenario.schema import (
     MAX_DURATION_S,
@@ -1788,6 +1789,7 @@ def main(argv: list[str] | None = None) -> None:
     # every command's exit, measured. Frozen objects are skipped (files are closed by the
     # commands themselves, not by finalizers).
     atexit.register(gc.freeze)
+    startup_gc()  # until the command's steady work (hil.nodes.rt.steady_gc)
     usage_error = _click_base("UsageError")
     click_error = _click_base("ClickException")
     try:
