@@ -39,8 +39,9 @@ one): the largest rotor-speed deviation from the trim over the first 60 s [%] (t
 <= 0.5 %), the same over 400-600 s (the steady run's own swing), the same over a 60 s run
 with the sensors quiet (no noise or quantisation, as the trim's settling run: the start
 itself without the noise's response), and the surge standard deviation over 0-60 s against
-400-600 s (target: within 20 %) and over 0-60 s with the sensors quiet. ``--kinds``, ``--turbines`` and ``--winds`` select part
-of it (the whole table is 30 runs; ``--merge`` keeps the saved table's other rows)::
+400-600 s (target: within 20 %) and over 0-60 s with the sensors quiet. ``--kinds``,
+``--turbines`` and ``--winds`` select part of it (the whole table is 30 runs; ``--merge``
+keeps the saved table's other rows)::
 
     python bench/trimmed_start.py --table --kinds baseline --turbines iea15mw --winds 5,8,11
 

@@ -52,7 +52,10 @@ def startup_gc() -> None:
     measured in ``fowt run iea15mw-lc2-lqri-ff --mode inprocess``, 295 young, 27 middle and
     2 full collections before the loop, 0.15 s of a 3.5 s command. With 100 000 it collects
     four times (0.06 s). Until :func:`steady_gc` the young generation holds at most that
-    many objects, a few megabytes of unreclaimed cycles at worst.
+    many objects, a few megabytes of unreclaimed cycles at worst. The loops a deadline
+    paces put the default back (the plant and controller nodes through
+    :func:`freeze_heap`, the in-process loop); the processes that only log, show or route
+    (recorder, live view, router) keep the start-up's threshold, bounded as above.
     """
     global _steady_threshold  # noqa: PLW0603 - one process-wide setting, like gc's own
     if _steady_threshold is None:
