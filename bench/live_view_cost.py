@@ -269,9 +269,7 @@ def main() -> None:
 
     def med(live: bool, key: str) -> float | None:
         values = [x[key] for x in runs if x["live"] is live and x[key] is not None]
-        if not values:
-            return None
-        return round(statistics.median(values), 1)
+        return round(statistics.median(values), 1) if values else None
 
     keys = ("latency_p50_us", "latency_p99_us", "plant_latency_p50_us", "plant_latency_p99_us")
     result = {

@@ -157,7 +157,6 @@ def _serve(job_r: int, res_w: int) -> None:
         # One job, then os._exit: what the imports made is never garbage and the drawing's
         # few cycles die with the process, so the collector has nothing to do here (its
         # passes over the imported modules cost the drawing tens of milliseconds).
-        gc.freeze()
         gc.disable()
         head = _read_exact(job_r, _LEN.size)
         if head is not None:
