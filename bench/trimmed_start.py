@@ -156,8 +156,11 @@ preset = "{preset}"
 """
 
 
-def table_row(kind: str, turbine: str, wind: float, duration: float) -> dict[str, Any]:
-    """One --table case: first-60-s rotor deviation and the surge std windows."""
+def table_row(
+    kind: str, turbine: str, wind: float, duration: float, seeds: int = 1
+) -> dict[str, Any]:
+    """One --table case: first-60-s rotor deviation and the surge std windows (``seeds`` > 1:
+    also their means over that many sensor seeds, :func:`surge_ensemble`)."""
     case = TABLE_CASES[(kind, turbine)]
     if case is None:
         return {"error": "no controller preset of this kind for this turbine"}
@@ -188,6 +191,7 @@ def table_row(kind: str, turbine: str, wind: float, duration: float) -> dict[str
     q = truth_series(quiet)
     dev_quiet = float(np.max(np.abs(q["rotor_speed_rad_s"] / ic.rotor_speed_rad_s - 1.0)) * 100.0)
     s0_quiet = float(np.std(q["platform_surge_m"][q["t"] < 60.0]))
+    ens = surge_ensemble(sc, seeds, (t, x)) if seeds > 1 else {}
     return {
         "trim_rotor_rpm": round(ic.rotor_speed_rad_s * 30.0 / math.pi, 4),
         "rotor_max_dev_0_60_s_percent": round(dev, 3),
@@ -198,6 +202,39 @@ def table_row(kind: str, turbine: str, wind: float, duration: float) -> dict[str
         "surge_std_400_600_s_m": round(s1, 4),
         "surge_std_ratio": round(s0 / s1, 3) if s1 > 0 else None,
         "trimmed_state": bool(s["has_trimmed_state"][0]),
+        **ens,
+    }
+
+
+#: --seeds: the late 60 s windows set beside 0-60 s (the same length: a window's std of a
+#: ~100 s surge swing depends on how much of one period it holds).
+LATE_WINDOWS = ((400.0, 460.0), (460.0, 520.0), (520.0, 580.0))
+
+
+def surge_ensemble(
+    scenario: Scenario, seeds: int, first: tuple[np.ndarray, np.ndarray]
+) -> dict[str, Any]:
+    """The surge std over 0-60 s and over the late 60 s windows, means over ``seeds`` sensor
+    seeds (the scenario's own seed first, ``first`` its run's time and surge; then seeds
+    2, 3, ...): one seed's 0-60 s window holds less than one surge period of the noise's
+    response, so its std scatters by a factor of several between seeds."""
+    runs = [first]
+    for k in range(2, seeds + 1):
+        d = msgspec.to_builtins(scenario)
+        d.setdefault("sensors", {})["seed"] = k
+        s = truth_series(msgspec.convert(d, Scenario))
+        runs.append((s["t"], s["platform_surge_m"]))
+    early = [float(np.std(x[t < 60.0])) for t, x in runs]
+    late = [
+        float(np.mean([np.std(x[(t >= a) & (t < b)]) for a, b in LATE_WINDOWS])) for t, x in runs
+    ]
+    e, lt = float(np.mean(early)), float(np.mean(late))
+    return {
+        "seeds": seeds,
+        "surge_std_0_60_s_seeds_m": round(e, 5),
+        "surge_std_0_60_s_seeds_range_m": [round(min(early), 5), round(max(early), 5)],
+        "surge_std_60_s_windows_400_580_s_seeds_m": round(lt, 5),
+        "surge_std_ratio_seeds": round(e / lt, 3) if lt > 0 else None,
     }
 
 
@@ -214,7 +251,7 @@ def table(args: argparse.Namespace) -> None:
             for wind in (float(v) for v in args.winds.split(",")):
                 key = f"{kind}/{turbine}/{wind:g}"
                 try:
-                    rows[key] = table_row(kind, turbine, wind, args.duration)
+                    rows[key] = table_row(kind, turbine, wind, args.duration, args.seeds)
                 except Exception as exc:  # a case that cannot run here is said, not hidden
                     rows[key] = {"error": f"{type(exc).__name__}: {exc}"}
                 print(key, rows[key], flush=True)
@@ -224,6 +261,7 @@ def table(args: argparse.Namespace) -> None:
             "command": "python bench/trimmed_start.py --table"
             f" --kinds {args.kinds} --turbines {args.turbines} --winds {args.winds}"
             + (" --merge" if args.merge else "")
+            + (f" --seeds {args.seeds}" if args.seeds > 1 else "")
             + (f" --duration {args.duration:g}" if args.duration != 600.0 else ""),
             "duration_s": args.duration,
             "rows": rows,
@@ -402,6 +440,9 @@ def main() -> None:
     ap.add_argument("--winds", default=",".join(f"{w:g}" for w in TABLE_WINDS))
     ap.add_argument(
         "--merge", action="store_true", help="--table: keep the saved table's other rows"
+    )
+    ap.add_argument(
+        "--seeds", type=int, default=1, help="--table: surge std means over this many seeds"
     )
     args = ap.parse_args()
     if args.table:

@@ -1044,14 +1044,20 @@ class BaselineController:
     def trimmed_state(self, operating_point: OperatingPoint) -> BaselineState:
         """State before the first call of a run started at ``operating_point`` (trimmed).
 
-        The filters, integrators and commands initialise from the first measurement as in
-        :meth:`initial_state` (a trimmed plant measures the operating point). The TSR law's
-        wind EKF does not start from the anemometer (behind the rotor it reads low: 6.8
-        m/s in an 8 m/s wind, and the estimate's recovery kicked the torque by 24 %) but
-        converged at the point: started at the mean wind and stepped for
+        The TSR law's wind EKF does not start from the anemometer (behind the rotor it reads
+        low: 6.8 m/s in an 8 m/s wind, and the estimate's recovery kicked the torque by
+        24 %) but converged at the point: started at the mean wind and stepped for
         :data:`TRIM_EKF_S` on the point's rotor speed, pitch and generator torque (given,
         else the EKF model's own balance at the mean wind); the wind filter at its estimate.
-        The K omega^2 law has nothing more to trim.
+        Then one step on the point's steady frame (:meth:`OperatingPoint.steady_frame`:
+        no noise or quantisation, the instruments' offsets) initialises what a first call
+        takes from its measurement: the speed filter, the last commands, the pitch and
+        torque integrators, the platform-pitch-rate high pass. Taken from the run's first
+        noisy frame instead, the blade-pitch encoder's noise and 14-bit step moved the pitch
+        integrator by up to 0.02° and the NREL 5 MW OC3 spar's surge by twice the steady
+        noise's level over the first 60 s above rated (``bench/trimmed_start.py --table
+        --seeds``). Without a torque at the point the law's own: the step's torque command
+        on a first frame at zero torque.
 
         Parameters
         ----------
@@ -1059,29 +1065,46 @@ class BaselineController:
             Mean wind [m/s], rotor speed [rad/s], pitch [rad], generator torque [N m] or
             None.
         """
+        state, frame = self.trimmed_estimator_state(operating_point)
+        return self.step(state, frame, TRIM_EKF_DT_S)[0]
+
+    def trimmed_estimator_state(
+        self, operating_point: OperatingPoint
+    ) -> tuple[BaselineState, SensorFrame]:
+        """:meth:`trimmed_state` before its step: the first-call state with the wind EKF
+        converged at the point (the initial state for a law without it), and the steady
+        frame the step takes."""
         state = self.initial_state()
-        ekf = self.ekf
-        if ekf is None:
-            return state
         p = self.params
         op = operating_point
-        wind = min(max(op.wind_m_s, p.wind_estimate_min_m_s, 3.0), p.wind_estimate_max_m_s)
-        omega, theta = op.rotor_speed_rad_s, op.blade_pitch_rad
         torque = op.generator_torque_nm
-        if torque is None:
-            torque = ekf.aero_torque(omega, wind, theta)[0] / p.gearbox_ratio
-        es = ekf.initial_state(omega, theta, torque, wind)
-        m = WindEKFMeasurement(omega, theta, torque, True)
-        for _ in range(round(TRIM_EKF_S / TRIM_EKF_DT_S)):
-            es, _ = ekf.step(es, m, TRIM_EKF_DT_S)
-        v = es.x[1] + es.x[2]
-        values = state.values.copy()
-        values[7] = v  # the wind filter
-        values[10:13] = es.x
-        values[13:19] = es.p
-        values[27] = v  # the last good estimate
-        values[28] = 1.0  # trimmed start
-        return BaselineState(values, True)
+        ekf = self.ekf
+        if ekf is not None:
+            wind = min(max(op.wind_m_s, p.wind_estimate_min_m_s, 3.0), p.wind_estimate_max_m_s)
+            omega, theta = op.rotor_speed_rad_s, op.blade_pitch_rad
+            if torque is None:
+                torque = ekf.aero_torque(omega, wind, theta)[0] / p.gearbox_ratio
+            es = ekf.initial_state(omega, theta, torque, wind)
+            m = WindEKFMeasurement(omega, theta, torque, True)
+            for _ in range(round(TRIM_EKF_S / TRIM_EKF_DT_S)):
+                es, _ = ekf.step(es, m, TRIM_EKF_DT_S)
+            v = es.x[1] + es.x[2]
+            values = state.values.copy()
+            values[7] = v  # the wind filter
+            values[10:13] = es.x
+            values[13:19] = es.p
+            values[27] = v  # the last good estimate
+            values[28] = 1.0  # trimmed start
+            state = BaselineState(values, True)
+        if torque is None:  # the law's own torque at the point (K omega^2, the region-2.5 PI)
+            zero = op.steady_frame(gearbox_ratio=p.gearbox_ratio, generator_torque_nm=0.0)
+            torque = self.step(state, zero, TRIM_EKF_DT_S)[1].generator_torque_commanded_nm
+        frame = op.steady_frame(
+            gearbox_ratio=p.gearbox_ratio,
+            generator_torque_nm=torque,
+            generator_efficiency=p.generator_efficiency_percent / 100.0,
+        )
+        return state, frame
 
     def actuator_limits(self) -> ActuatorLimits:
         """The preset's pitch range [rad] and pitch [rad/s] and torque [N m/s] rate limits."""

@@ -55,7 +55,7 @@ from typing import Protocol, TypeVar
 
 import msgspec
 
-from bus_schemas.messages import SensorFrame
+from bus_schemas.messages import VALID_BITS, SensorFrame
 
 __all__ = [
     "REGIME_REGION_1",
@@ -225,6 +225,62 @@ class OperatingPoint:
             if name == field:
                 return float(value)
         return 0.0
+
+    def steady_frame(
+        self,
+        *,
+        gearbox_ratio: float,
+        generator_torque_nm: float,
+        generator_efficiency: float = 1.0,
+        sample_time_ns: int = 0,
+    ) -> SensorFrame:
+        """The frame a steady plant at this point gives on average: no noise or
+        quantisation, each channel with its instrument's offset (a core's warm-up frame).
+
+        Generator speed N ω, electrical power η T_g N ω, the anemometer at the mean wind;
+        the platform's channels (and the wave gauge: still water) valid only where the point
+        says where the platform stands (``platform_surge_m`` or ``platform_pitch_rad`` set),
+        there at rest.
+
+        Parameters
+        ----------
+        gearbox_ratio : float
+            N [-] of the core's drivetrain (the generator speed is N ω).
+        generator_torque_nm : float
+            T_g [N m, high-speed shaft] the core holds at the point (``generator_torque_nm``
+            where known, else the core's own).
+        generator_efficiency : float
+            η [-] for the electrical power.
+        sample_time_ns : int
+            The frame's sample time [ns].
+        """
+        off = self.measurement_offset
+        w, n = self.rotor_speed_rad_s, gearbox_ratio
+        power = generator_efficiency * generator_torque_nm * n * w
+        floating = self.platform_surge_m is not None or self.platform_pitch_rad is not None
+        mask = 0
+        for name, bit in VALID_BITS.items():
+            if floating or not name.startswith(("platform_", "wave_")):
+                mask |= bit
+        return SensorFrame(
+            seq=0,
+            sample_time_ns=sample_time_ns,
+            publish_time_ns=0,
+            valid_mask=mask,
+            generator_speed_measured_rad_s=n * w + off("generator_speed_measured_rad_s"),
+            rotor_speed_measured_rad_s=w + off("rotor_speed_measured_rad_s"),
+            blade_pitch_measured_rad=self.blade_pitch_rad + off("blade_pitch_measured_rad"),
+            generator_torque_measured_nm=generator_torque_nm + off("generator_torque_measured_nm"),
+            electrical_power_measured_w=power + off("electrical_power_measured_w"),
+            wind_speed_measured_m_s=self.wind_m_s + off("wind_speed_measured_m_s"),
+            nacelle_acc_fore_aft_measured_m_s2=off("nacelle_acc_fore_aft_measured_m_s2"),
+            platform_pitch_measured_rad=(self.platform_pitch_rad or 0.0)
+            + off("platform_pitch_measured_rad"),
+            platform_pitch_rate_measured_rad_s=off("platform_pitch_rate_measured_rad_s"),
+            platform_surge_measured_m=(self.platform_surge_m or 0.0)
+            + off("platform_surge_measured_m"),
+            wave_elevation_gauge_measured_m=off("wave_elevation_gauge_measured_m"),
+        )
 
 
 @dataclass(frozen=True)

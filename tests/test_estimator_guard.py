@@ -126,16 +126,17 @@ def test_a_diverging_estimate_is_a_fault_and_the_kernel_equals_the_oracle() -> N
 
 
 def test_trimmed_state_starts_the_ekf_at_the_mean_wind_as_the_oracle() -> None:
-    """trimmed_state: the kernel's trimmed first step equals the oracle's, and the estimate
-    starts at the mean wind (not the anemometer's 6.8 m/s) and stays there."""
+    """trimmed_state: the kernel's trimmed start (the converged EKF, then one step on the
+    point's steady frame) and its steps equal the oracle's, and the estimate starts at the
+    mean wind (not the anemometer's 6.8 m/s) and stays there."""
     ctrl = BaselineController(load_baseline("iea15mw_baseline"))
     p = ctrl.params
     omega = 5.65 * math.pi / 30.0
     op = OperatingPoint(wind_m_s=8.0, rotor_speed_rad_s=omega, blade_pitch_rad=0.0)
-    bstate = ctrl.trimmed_state(op)
-    assert bstate.first_call and bstate.trimmed
-    assert bstate.wind_filtered_m_s == pytest.approx(8.0, abs=0.05)
-    v = bstate.values
+    start, warm = ctrl.trimmed_estimator_state(op)
+    assert start.first_call and start.trimmed
+    assert start.wind_filtered_m_s == pytest.approx(8.0, abs=0.05)
+    v = start.values
     state = msgspec.structs.replace(
         ORACLE_INITIAL,
         wind_filtered_m_s=float(v[7]),
@@ -145,6 +146,11 @@ def test_trimmed_state_starts_the_ekf_at_the_mean_wind_as_the_oracle() -> None:
     )
     assert ctrl.ekf is not None
     torque = ctrl.ekf.aero_torque(omega, 8.0, 0.0)[0] / p.gearbox_ratio
+    # trimmed_state: that state after one step on the point's steady frame
+    assert warm.generator_torque_measured_nm == pytest.approx(torque, rel=1e-12)
+    state, _ = oracle_step(ctrl, state, warm, 0.025)
+    bstate = ctrl.trimmed_state(op)
+    assert not bstate.first_call
     for k in range(400):
         frame = msgspec.structs.replace(
             sensor_frame(omega * p.gearbox_ratio, 0.0, torque), wind_speed_measured_m_s=6.8
