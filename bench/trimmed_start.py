@@ -39,9 +39,11 @@ one): the largest rotor-speed deviation from the trim over the first 60 s [%] (t
 <= 0.5 %), the same over 400-600 s (the steady run's own swing), the same over a 60 s run
 with the sensors quiet (no noise or quantisation, as the trim's settling run: the start
 itself without the noise's response), and the surge standard deviation over 0-60 s against
-400-600 s (target: within 20 %) and over 0-60 s with the sensors quiet. ``--kinds``,
-``--turbines`` and ``--winds`` select part of it (the whole table is 30 runs; ``--merge``
-keeps the saved table's other rows)::
+400-600 s (target: within 20 %) and over 0-60 s with the sensors quiet; ``--seeds N``
+adds the surge std over 0-60 s and over the 60 s windows 400-580 s, and over every 60 s
+window of the run, each the mean over N sensor seeds (one seed's 60 s window scatters by a
+factor of several). ``--kinds``, ``--turbines`` and ``--winds`` select part of it (the
+whole table is 30 runs; ``--merge`` keeps the saved table's other rows)::
 
     python bench/trimmed_start.py --table --kinds baseline --turbines iea15mw --winds 5,8,11
 
@@ -217,7 +219,8 @@ def surge_ensemble(
     """The surge std over 0-60 s and over the late 60 s windows, means over ``seeds`` sensor
     seeds (the scenario's own seed first, ``first`` its run's time and surge; then seeds
     2, 3, ...): one seed's 0-60 s window holds less than one surge period of the noise's
-    response, so its std scatters by a factor of several between seeds."""
+    response, so its std scatters by a factor of several between seeds. Also every 60 s
+    window's std over the run, the means over the seeds (0-60, 60-120, ... s)."""
     runs = [first]
     for k in range(2, seeds + 1):
         d = msgspec.to_builtins(scenario)
@@ -229,12 +232,20 @@ def surge_ensemble(
         float(np.mean([np.std(x[(t >= a) & (t < b)]) for a, b in LATE_WINDOWS])) for t, x in runs
     ]
     e, lt = float(np.mean(early)), float(np.mean(late))
+    # every 60 s window of the run, the means over the seeds: is 0-60 s one of them?
+    t_end = min(float(t[-1]) for t, _ in runs)
+    starts = np.arange(0.0, t_end - 59.0, 60.0)
+    windows = [
+        round(float(np.mean([np.std(x[(t >= a) & (t < a + 60.0)]) for t, x in runs])), 5)
+        for a in starts
+    ]
     return {
         "seeds": seeds,
         "surge_std_0_60_s_seeds_m": round(e, 5),
         "surge_std_0_60_s_seeds_range_m": [round(min(early), 5), round(max(early), 5)],
         "surge_std_60_s_windows_400_580_s_seeds_m": round(lt, 5),
         "surge_std_ratio_seeds": round(e / lt, 3) if lt > 0 else None,
+        "surge_std_60_s_windows_seeds_m": windows,
     }
 
 
