@@ -91,8 +91,8 @@ rotor speed ω0, pitch θ0, the plant's generator torque T0 when known):
 :meth:`RoscoController.trimmed_state` loads the instance and warms the library up on the
 trimmed plant before cycle 0, so that its filters, wind-speed estimator, setpoint smoother
 and PI integrators hold their steady values when the run starts. The first call (status 0,
-made in the calling thread) and :data:`WARMUP_S` = 120 s of calls (status 1) at the
-control period, on frames at sample times -120 s .. -dt: anemometer U, platform at rest,
+made in the calling thread) and :data:`WARMUP_S` = 600 s of calls (status 1) at the
+control period, on frames at sample times -600 s .. -dt: anemometer U, platform at rest,
 blade pitch and generator torque the library's previous demands (ideal actuators, as
 ServoDyn feeds back its torque demand), rotor speed and generator speed N ω of a rigid
 rotor :math:`J\\dot\\omega = Q(\\omega, \\theta) - N T_g` started at ω0 (J =
@@ -107,8 +107,12 @@ or from an unbiased warm-up, the run's first sample (the gyro's 1e-3 rad/s bias,
 noise) stayed in ROSCO's integrated platform rate for its high pass's 100 s and pitched the
 IEA 15 MW's blades by 0.3° at 8 m/s (a 10 cm surge transient). The warm-up is
 not the run: nothing of it is published or recorded, the run's first frame is the
-library's next call (status 1) and the start-up hold does not apply. It costs 4800
-library calls at 40 Hz (about 0.3 s). Without the warm-up the library's first call came on
+library's next call (status 1) and the start-up hold does not apply. It costs 24 000
+library calls at 40 Hz (about 0.6 s idle). With 120 s of warm-up a slow state of the
+library was still moving when the run started: on the NREL 5 MW OC3 spar the rotor crept
+from 9.081 to 9.085 rpm over 800 s at 8 m/s and the blades by 0.01° at 11 m/s, and the
+quiet start's surge std over the first 60 s was 1.4 and 4.6 mm; with 300 s 0.4 and
+1.6 mm, with 600 s 0.04 and 0.25 mm. Without the warm-up the library's first call came on
 cycle 0 and its torque demand (8.99 MN m at 5 m/s on the IEA 15 MW against the rotor's
 2.75) moved the rotor 17.6 % in the first 60 s; with it 0.13 %
 (``bench/trimmed_start.py --table``). ROSCO's debug files (``LoggingLevel`` >= 1) hold
@@ -202,9 +206,10 @@ _NAMES_LOCK = threading.Lock()
 #: Start-up phase [s]: how long the actuators are held while the first call runs.
 STARTUP_HOLD_S = 1.0
 #: A trimmed start's warm-up [s] of simulated time on the trimmed plant before cycle 0
-#: (:meth:`RoscoController.trimmed_state`): ROSCO's slowest internal state, the wind-speed
-#: EKF's mean-wind state and its setpoint smoother, settle in about 60 s from the first call.
-WARMUP_S = 120.0
+#: (:meth:`RoscoController.trimmed_state`): the wind-speed EKF's mean-wind state and the
+#: setpoint smoother settle in about 60 s from the first call, but a slower state of the
+#: library still moved the rotor by 0.004 rpm over the next 800 s (module docstring).
+WARMUP_S = 600.0
 
 #: ROSCO ``VS_State`` -> bench regime code (module docstring).
 VS_STATE_REGIME = {
