@@ -20,9 +20,10 @@ plant and the real controller core in process:
    trimmed at that point (steps 3 and the controller's ``trimmed_state`` below) and
    averaged the same way (:data:`SETTLE_PASSES`). The first run's start is far from the
    steady state; a lightly damped surge (ζ 0.01 with the baseline at 11 m/s) still rings
-   at its end, so its average missed the point by up to 0.4 m of surge and 0.01° of pitch
-   (ROSCO on the NREL 5 MW OC3 spar at 11 m/s), and a run started there rang again
-   (9-13 mm of surge std over its first 60 s, sensors quiet). The second run starts at
+   at its end, so its average missed the point (by 0.39 m of surge and 0.006° of pitch
+   with ROSCO on the NREL 5 MW OC3 spar at 11 m/s), and a run started there rang again
+   (9-13 mm of surge std over its first 60 s with the baseline and ROSCO on the IEA 15 MW
+   at 11 m/s, sensors quiet; 0.5 and 0.3 mm now). The second run starts at
    rest near the point; a third moves it by less than 2 mm of surge and 1e-4 rpm
    (``bench/trimmed_start.py --table``);
 3. the plant is handed that rotor point (:class:`plant.initial.InitialCondition`); it
