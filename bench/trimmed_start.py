@@ -219,8 +219,10 @@ def surge_ensemble(
     """The surge std over 0-60 s and over the late 60 s windows, means over ``seeds`` sensor
     seeds (the scenario's own seed first, ``first`` its run's time and surge; then seeds
     2, 3, ...): one seed's 0-60 s window holds less than one surge period of the noise's
-    response, so its std scatters by a factor of several between seeds. Also every 60 s
-    window's std over the run, the means over the seeds (0-60, 60-120, ... s)."""
+    response, so its std scatters by a factor of several between seeds. Also the ratio's
+    standard error (first order, from the two means' own over the seeds), each seed's
+    0-60 s figure, and every 60 s window's std over the run, the means over the seeds
+    (0-60, 60-120, ... s)."""
     runs = [first]
     for k in range(2, seeds + 1):
         d = msgspec.to_builtins(scenario)
@@ -232,6 +234,11 @@ def surge_ensemble(
         float(np.mean([np.std(x[(t >= a) & (t < b)]) for a, b in LATE_WINDOWS])) for t, x in runs
     ]
     e, lt = float(np.mean(early)), float(np.mean(late))
+    # the ratio's standard error from the two means' own (first order; the seeds independent)
+    n = len(runs)
+    se_e = float(np.std(early, ddof=1)) / math.sqrt(n) if n > 1 else math.nan
+    se_l = float(np.std(late, ddof=1)) / math.sqrt(n) if n > 1 else math.nan
+    ratio_se = (e / lt) * math.hypot(se_e / e, se_l / lt) if e > 0 and lt > 0 else math.nan
     # every 60 s window of the run, the means over the seeds: is 0-60 s one of them?
     t_end = min(float(t[-1]) for t, _ in runs)
     starts = np.arange(0.0, t_end - 59.0, 60.0)
@@ -245,6 +252,10 @@ def surge_ensemble(
         "surge_std_0_60_s_seeds_range_m": [round(min(early), 5), round(max(early), 5)],
         "surge_std_60_s_windows_400_580_s_seeds_m": round(lt, 5),
         "surge_std_ratio_seeds": round(e / lt, 3) if lt > 0 else None,
+        "surge_std_ratio_seeds_standard_error": round(ratio_se, 3)
+        if math.isfinite(ratio_se)
+        else None,
+        "surge_std_0_60_s_per_seed_m": [round(v, 5) for v in early],
         "surge_std_60_s_windows_seeds_m": windows,
     }
 
