@@ -1052,12 +1052,15 @@ class BaselineController:
         Then one step on the point's steady frame (:meth:`OperatingPoint.steady_frame`:
         no noise or quantisation, the instruments' offsets) initialises what a first call
         takes from its measurement: the speed filter, the last commands, the pitch and
-        torque integrators, the platform-pitch-rate high pass. Taken from the run's first
-        noisy frame instead, the blade-pitch encoder's noise and 14-bit step moved the pitch
-        integrator by up to 0.02° and the NREL 5 MW OC3 spar's surge by twice the steady
-        noise's level over the first 60 s above rated (``bench/trimmed_start.py --table
-        --seeds``). Without a torque at the point the law's own: the step's torque command
-        on a first frame at zero torque.
+        torque integrators, the platform-pitch-rate high pass; at the run's control period
+        (``operating_point.control_period_s``, else :data:`TRIM_EKF_DT_S`), since the
+        speed filter's steady state depends on it (stepped at 0.025 s for a 0.01 s run, its
+        output jumped on the first cycle and the torque law kicked the rotor 20 % at 4 m/s).
+        Taken from the run's first noisy frame instead, the blade-pitch encoder's noise and
+        14-bit step moved the pitch integrator by up to 0.02° and the NREL 5 MW OC3 spar's
+        surge by twice the steady noise's level over the first 60 s above rated
+        (``bench/trimmed_start.py --table --seeds``). Without a torque at the point the
+        law's own: the step's torque command on a first frame at zero torque.
 
         Parameters
         ----------
@@ -1066,7 +1069,7 @@ class BaselineController:
             None.
         """
         state, frame = self.trimmed_estimator_state(operating_point)
-        return self.step(state, frame, TRIM_EKF_DT_S)[0]
+        return self.step(state, frame, operating_point.control_period_s or TRIM_EKF_DT_S)[0]
 
     def trimmed_estimator_state(
         self, operating_point: OperatingPoint
@@ -1098,7 +1101,8 @@ class BaselineController:
             state = BaselineState(values, True)
         if torque is None:  # the law's own torque at the point (K omega^2, the region-2.5 PI)
             zero = op.steady_frame(gearbox_ratio=p.gearbox_ratio, generator_torque_nm=0.0)
-            torque = self.step(state, zero, TRIM_EKF_DT_S)[1].generator_torque_commanded_nm
+            h = op.control_period_s or TRIM_EKF_DT_S
+            torque = self.step(state, zero, h)[1].generator_torque_commanded_nm
         frame = op.steady_frame(
             gearbox_ratio=p.gearbox_ratio,
             generator_torque_nm=torque,

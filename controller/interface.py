@@ -181,6 +181,10 @@ class OperatingPoint:
         warms up on model frames adds them, as a controller running for hours has seen
         them (e.g. a high-pass filter then starts at its steady state for the biased
         reading). Empty: none known.
+    control_period_s : float or None
+        The period [s] the run steps the core at: a core that steps itself on steady frames
+        before the run (``trimmed_state``) steps at it, so that its discrete filters hold
+        their steady state at the run's period. None: not known (the core's own default).
     """
 
     wind_m_s: float
@@ -190,6 +194,7 @@ class OperatingPoint:
     measurement_offsets: tuple[tuple[str, float], ...] = ()
     platform_surge_m: float | None = None
     platform_pitch_rad: float | None = None
+    control_period_s: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("wind_m_s", "rotor_speed_rad_s", "blade_pitch_rad"):
@@ -205,6 +210,11 @@ class OperatingPoint:
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int | float) and math.isfinite(v)):
                 raise ValueError(f"OperatingPoint.{name} must be finite or None, got {v!r}")
+        h = self.control_period_s
+        if h is not None and not (isinstance(h, int | float) and math.isfinite(h) and h > 0.0):
+            raise ValueError(
+                f"OperatingPoint.control_period_s [s] must be a positive number or None, got {h!r}"
+            )
         fields = set(SensorFrame.__struct_fields__)
         for entry in self.measurement_offsets:
             if not (

@@ -17,6 +17,7 @@ Checked against analytic answers on the plant's own aerodynamics and stiffness:
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from typing import Any
@@ -453,3 +454,38 @@ def test_a_quiet_trimmed_start_just_above_rated_holds_the_platform_still() -> No
     s = _truth_series(sc, "platform_surge_m")
     assert s["t"][-1] == pytest.approx(60.0, abs=0.05)
     assert float(np.std(s["platform_surge_m"])) < 0.002
+
+
+def test_the_baselines_trimmed_start_steps_at_the_runs_control_period() -> None:
+    """The speed filter's steady state depends on the period it is stepped at (its
+    transposed direct form II states), so ``trimmed_state`` steps at the run's period
+    (``OperatingPoint.control_period_s``): the run's first step on the steady frame at
+    0.01 s then keep the torque command at the point's (IEA 15 MW bottom-fixed, 4 m/s, at
+    its 5 rpm minimum speed). Warmed at 0.025 s instead, the filtered speed jumps on the
+    first step and the torque law runs off (the rotor was kicked 20 % in a 0.01 s run)."""
+    sc = parse_scenario(
+        'name = "steady-4"\nturbine = "iea15mw"\nduration_s = 10.0\n'
+        '[wind]\nkind = "steady"\nspeed_m_s = 4.0\n'
+        '[controller]\nkind = "baseline"\npreset = "iea15mw_baseline"\n'
+    )
+    assert sc.timing.control_period_s == pytest.approx(0.01)
+    op = operating_point(sc)
+    assert op is not None and op.control_period_s == pytest.approx(0.01)
+    assert op.generator_torque_nm is not None
+    ctrl = ControllerRuntime(sc, paced=False).controller
+    frame = op.steady_frame(
+        gearbox_ratio=ctrl.params.gearbox_ratio, generator_torque_nm=op.generator_torque_nm
+    )
+
+    def torque_swing(point: Any) -> float:
+        """Largest relative torque change over 2 s of steps on the steady frame at 0.01 s."""
+        state, worst = ctrl.trimmed_state(point), 0.0
+        for _ in range(200):
+            state, out = ctrl.step(state, frame, 0.01)
+            worst = max(worst, abs(out.generator_torque_commanded_nm / torque - 1.0))
+        return worst
+
+    torque = op.generator_torque_nm
+    assert torque_swing(op) < 1e-3
+    at_default = dataclasses.replace(op, control_period_s=None)  # warmed at 0.025 s
+    assert torque_swing(at_default) > 0.1

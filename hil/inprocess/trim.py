@@ -205,6 +205,7 @@ def _settling_pass(
             platform_surge_m=surge if floating else None,
             platform_pitch_rad=pitch if floating else None,
             measurement_offsets=_measurement_offsets(scenario),
+            control_period_s=scenario.timing.control_period_s,
         )
 
     with tempfile.TemporaryDirectory(prefix="fowt-trim-") as run_dir:
@@ -358,6 +359,7 @@ def operating_point(scenario: Scenario) -> OperatingPoint | None:
         platform_surge_m=surge,
         platform_pitch_rad=pitch,
         measurement_offsets=_measurement_offsets(scenario),
+        control_period_s=scenario.timing.control_period_s,
     )
 
 
