@@ -459,8 +459,8 @@ def test_a_quiet_trimmed_start_just_above_rated_holds_the_platform_still() -> No
 def test_the_baselines_trimmed_start_steps_at_the_runs_control_period() -> None:
     """The speed filter's steady state depends on the period it is stepped at (its
     transposed direct form II states), so ``trimmed_state`` steps at the run's period
-    (``OperatingPoint.control_period_s``): the run's first step on the steady frame at
-    0.01 s then keep the torque command at the point's (IEA 15 MW bottom-fixed, 4 m/s, at
+    (``OperatingPoint.control_period_s``): the run's steps on the steady frame at 0.01 s
+    then keep the torque command at the point's (IEA 15 MW bottom-fixed, 4 m/s, at
     its 5 rpm minimum speed). Warmed at 0.025 s instead, the filtered speed jumps on the
     first step and the torque law runs off (the rotor was kicked 20 % in a 0.01 s run)."""
     sc = parse_scenario(
