@@ -337,6 +337,57 @@ core.review(path, tmp / "here", plots=True)
 out["written"] = [p.name for p in written]
 out["same"] = {n: (tmp / "here" / n).read_bytes() == (tmp / "worker" / n).read_bytes()
                for n in plots.PLOT_FILES}
+# a worker that has imported the drawing code reads the file itself, beside the review's
+# pass, and draws once the summary comes: the same files
+def ready(w):
+    deadline = time.monotonic() + 120.0
+    while not w.ready() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return w.ready()
+gatherer = PlotWorker.start()
+out["gatherer_ready"] = ready(gatherer)
+written = []
+core.review(path, tmp / "gathered", plots=True, written=written, worker=gatherer)
+out["gathered_written"] = [p.name for p in written]
+out["gathered_same"] = all((tmp / "here" / n).read_bytes() == (tmp / "gathered" / n).read_bytes()
+                           for n in plots.PLOT_FILES)
+out["gatherer_status"] = gatherer._status
+# a file the review refuses: the worker that read it too writes nothing and is killed
+robot = tmp / "robot.mcap"
+from mcap.writer import Writer
+with open(robot, "wb") as fh:
+    w = Writer(fh)
+    w.start(profile="", library="robot-logger")
+    cid = w.register_channel("/robot/pose", "json", w.register_schema("Pose", "jsonschema", b"{}"))
+    for k in range(50):
+        w.add_message(cid, log_time=k * 10**7, publish_time=k * 10**7, data=b"{}")
+    w.finish()
+refused = PlotWorker.start()
+ready(refused)
+try:
+    core.review(robot, tmp / "refused", plots=True, worker=refused)
+    out["refused"] = None
+except core.NotRunLogError as exc:
+    out["refused"] = type(exc).__name__
+refused.close()
+time.sleep(0.5)
+out["refused_status"] = refused._status
+out["refused_wrote"] = sorted(p.name for p in (tmp / "refused").glob("*"))
+# a worker killed while it reads the file: the review reads it again and draws here
+doomed = PlotWorker.start()
+ready(doomed)
+real_gather = core.ColumnReader
+def gather_then_kill(*a, **k):  # the review's own pass starts after the worker's job was sent
+    core.ColumnReader = real_gather
+    os.kill(doomed._pid, signal.SIGKILL)
+    return real_gather(*a, **k)
+core.ColumnReader = gather_then_kill
+written = []
+core.review(path, tmp / "doomed", plots=True, written=written, worker=doomed)
+core.ColumnReader = real_gather
+out["doomed_written"] = [p.name for p in written]
+out["doomed_same"] = all((tmp / "here" / n).read_bytes() == (tmp / "doomed" / n).read_bytes()
+                         for n in plots.PLOT_FILES)
 # a drawing that fails in the child: the parent raises the child's exception
 real = plots.write_plots
 def full(data, out_dir):
@@ -349,6 +400,16 @@ try:
     out["error"] = None
 except OSError as exc:
     out["error"] = [type(exc).__name__, exc.errno, exc.filename]
+failing.close()
+plots.write_plots = full
+failing = PlotWorker.start()  # the same, where it read the file itself
+plots.write_plots = real
+ready(failing)
+try:
+    core.review(path, tmp / "full", plots=True, worker=failing)
+    out["gathered_error"] = None
+except OSError as exc:
+    out["gathered_error"] = [type(exc).__name__, exc.errno, exc.filename]
 failing.close()
 # its name; the signals a terminal sends the whole group do not end it (the launcher still
 # wants its plots); killed from outside, the review draws in its own process instead
@@ -407,7 +468,10 @@ def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -
     by the review as the same ``OSError`` (errno and file kept), so the commands' one-line
     exit 1 holds; it is named ``fowt-plots`` and outlives the SIGINT, SIGTERM and SIGHUP a
     terminal sends the whole process group (the launcher reviews an aborted run with its
-    plots); a worker killed from outside leaves the review to draw the same files itself; a
+    plots); a worker that is ready when the review starts reads the file itself and draws
+    the same files (the same error where the drawing fails; nothing written for a file the
+    review refuses; the review draws itself where it is killed while reading); a worker
+    killed from outside leaves the review to draw the same files itself; a
     worker given nothing is killed and reaped at close (SIGKILL); a worker whose parent
     leaves without closing it leaves too (end-of-file on its pipe)."""
     import errno
@@ -421,6 +485,14 @@ def test_plots_drawn_by_the_plot_worker_equal_those_drawn_here(tmp_path: Path) -
     assert got["written"] == ["summary.json", *plots.PLOT_FILES]
     assert got["same"] == {name: True for name in plots.PLOT_FILES}
     assert got["error"] == ["OSError", errno.ENOSPC, str(tmp_path / "full" / "timeseries.png")]
+    # ready before the review: it read the file itself, and drew the same files
+    assert got["gatherer_ready"] and got["gatherer_status"] == 0
+    assert got["gathered_written"] == ["summary.json", *plots.PLOT_FILES]
+    assert got["gathered_same"]
+    assert got["gathered_error"] == got["error"]
+    assert got["refused"] == "NotRunLogError" and got["refused_wrote"] == []
+    assert got["refused_status"] == -signal.SIGKILL
+    assert got["doomed_written"] == ["summary.json", *plots.PLOT_FILES] and got["doomed_same"]
     assert got["unused_status"] == -signal.SIGKILL and got["unused_gone"]
     assert got["name"] == "fowt-plots" and got["hardy_alive"]
     assert got["hardy_drew"] == ["summary.json", *plots.PLOT_FILES]

@@ -1190,13 +1190,18 @@ def review(
     # it (a second pass for a file cut short); memory does not grow with the run. A platform
     # recording (small) is read whole.
     data = None
+    gathering = False  # the plot worker reads the file for the plots' data meanwhile
     if plots:
         from hil.review import plots as plots_mod  # noqa: PLC0415 - plots import this module
 
         # A complete file says how many messages each topic has (its summary section): the
-        # plots' data is gathered in the review's own pass. Else a second pass draws them.
+        # plots' data is gathered beside the review's pass, by the plot worker in a pass of
+        # its own when it is ready (hil.review.plot_worker), else in this one. Else a second
+        # pass draws them once the summary is known.
         counts = plots_mod.logged_counts(mcap_path)
-        if counts is not None:
+        if counts is not None and worker is not None and worker.ready():
+            gathering = worker.gather(mcap_path, counts)
+        if counts is not None and not gathering:
             reader = ColumnReader(mcap_path, plots_mod.with_plot_fields(rs.FIELDS))
             data = plots_mod.PlotData(counts, None, reader.info.metadata)
     if data is None:
@@ -1233,6 +1238,9 @@ def review(
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
             files += hexicon_review.write_plots(run, out)
+        elif gathering:  # by the plot worker, in its own pass
+            assert worker is not None
+            files += _finish(worker, summary, out, mcap_path, reader.info)
         elif data is not None:  # gathered in the review's pass
             data.finish(summary)
             files += _draw(data, out, worker)
@@ -1241,6 +1249,18 @@ def review(
     if written is not None:
         written.extend(files)
     return summary
+
+
+def _finish(
+    worker: PlotWorker, summary: Mapping[str, Any], out: Path, mcap_path: Path, info: RunInfo
+) -> list[Path]:
+    """The plots the worker gathered, drawn into ``out`` once it has ``summary``; where it
+    is gone (killed from outside), read again and drawn here."""
+    from hil.review.plot_worker import PlotWorkerGoneError  # noqa: PLC0415
+
+    with contextlib.suppress(PlotWorkerGoneError):
+        return worker.finish(summary, out)
+    return write_plots_of_file(mcap_path, info, summary, out)
 
 
 def _draw(data: Any, out: Path, worker: PlotWorker | None) -> list[Path]:

@@ -4,12 +4,27 @@ Importing matplotlib costs about half a second of one core and drawing the three
 about as much again: in a default ``fowt run`` they were a third of the whole command.
 :meth:`PlotWorker.start` forks, at the command's start, a child that imports the drawing
 code (:mod:`hil.review.plots` and matplotlib's figure) on the core the start-up leaves free
-(the model, the numba cache and the run itself take one) and then waits on a pipe. The
-review gathers the plots' data in its own pass over the run log as before and hands it to
-the child (:meth:`PlotWorker.draw`, one pickle of a few MB), which draws the three figures
-(the time series itself, the other two in its own forked child: :func:`plots.write_plots`)
-and answers with the files written or the exception the drawing raised, which the review
-raises as it would have drawing itself (an ``OSError`` of a full disk stays one).
+(the model, the numba cache and the run itself take one), says it is ready and waits on a
+pipe for one job, which comes in one of two ways:
+
+* **It reads the file too** (:meth:`PlotWorker.gather`, then :meth:`PlotWorker.finish`):
+  when the child is ready by the time the review starts (a ``fowt run``: the run took
+  longer than the import), the review hands it the run log's path and goes on with its own
+  pass over the file for the summary, which then leaves the plots' fields out; the child
+  gathers the plots' data (:func:`hil.review.plots.gather_file`) in a pass of its own on
+  the other core at the same time, then waits for the summary (the KPI window and the
+  latency percentiles drawn with the samples: nothing is written before it comes, so a file
+  the review refuses gets no plots), and draws. The two passes overlap instead of following
+  each other, and no gathered data is pickled across.
+* **It is handed the data** (:meth:`PlotWorker.draw`): when the child is still importing
+  (a ``fowt review`` of a file: the import is the longer), the review gathers the plots'
+  data in its own pass as well and hands it over (one pickle of a few MB) when the summary
+  is known, while the import goes on.
+
+Either way the child draws the three figures (the time series itself, the other two in its
+own forked child: :func:`plots.write_plots`) and answers with the files written or the
+exception the drawing raised, which the review raises as it would have drawing itself (an
+``OSError`` of a full disk stays one).
 
 Why a hand-written fork and not :mod:`multiprocessing` or :mod:`concurrent.futures`: the
 child must exist *before* the start-up does its work (a pool's worker is started at its
@@ -33,14 +48,17 @@ import contextlib
 import gc
 import os
 import pickle
+import select
 import signal
 import struct
 import threading
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from hil.review.plots import PlotData
 
 __all__ = ["PlotWorker", "PlotWorkerGoneError"]
@@ -55,6 +73,8 @@ class PlotWorkerGoneError(RuntimeError):
 
 
 _LEN = struct.Struct("<Q")
+#: What the child writes once it has imported the drawing code (:meth:`PlotWorker.ready`).
+_READY = b"R"
 
 
 class PlotWorker:
@@ -65,7 +85,9 @@ class PlotWorker:
         self._to_child = to_child
         self._from_child = from_child
         self._closed = False
-        self._sent = False  # a job was written (else close() kills the child at once)
+        self._ready = False  # the child's ready byte was read
+        self._sent = False  # a whole job was written (else close() kills the child at once)
+        self._gathering = False  # the child was given a file to read (finish() follows)
         self._status: int | str = "not reaped"
 
     @classmethod
@@ -85,8 +107,37 @@ class PlotWorker:
         os.close(res_w)
         return cls(pid, job_w, res_r)
 
+    def ready(self) -> bool:
+        """Whether the child has imported the drawing code (it said so), without waiting."""
+        if not self._ready and not self._closed:
+            waiting, _, _ = select.select([self._from_child], [], [], 0.0)
+            if waiting and os.read(self._from_child, len(_READY)) == _READY:
+                self._ready = True
+        return self._ready
+
+    def gather(self, mcap_path: Path, counts: Mapping[str, int]) -> bool:
+        """Have the child read the plots' data from the complete run log ``mcap_path``
+        (``counts``: messages per topic suffix, :func:`hil.review.plots.logged_counts`) while
+        the caller reads it for the summary; :meth:`finish` follows. False when the child is
+        gone (the caller gathers the data itself)."""
+        if self._closed or self._sent or self._gathering:
+            raise RuntimeError("the plot worker has its job already")
+        try:
+            _send(self._to_child, ("gather", Path(mcap_path), dict(counts)))
+        except BrokenPipeError:
+            return False
+        self._gathering = True
+        return True
+
+    def finish(self, summary: Mapping[str, Any], out_dir: Path) -> list[Path]:
+        """After :meth:`gather`: hand the child the run's summary and have it draw into
+        ``out_dir``; the files written (raises as :meth:`draw` does)."""
+        if not self._gathering:
+            raise RuntimeError("the plot worker was given no file to read")
+        return self._job(("summary", dict(summary), Path(out_dir)))
+
     def draw(self, data: PlotData, out_dir: Path) -> list[Path]:
-        """Have the child draw ``data`` into ``out_dir``; the files written.
+        """Have the child draw ``data`` (gathered here) into ``out_dir``; the files written.
 
         Raises
         ------
@@ -96,16 +147,21 @@ class PlotWorker:
             What the drawing raised in the child, raised again here (an ``OSError`` of a
             full disk stays one).
         """
+        if self._gathering:
+            raise RuntimeError("the plot worker reads the file itself: finish() it")
+        return self._job(("draw", data, Path(out_dir)))
+
+    def _job(self, message: tuple[Any, ...]) -> list[Path]:
+        """Send the job's last message, read the answer, close."""
         if self._closed:
             raise RuntimeError("the plot worker was closed")
-        blob = pickle.dumps((data, Path(out_dir)), protocol=pickle.HIGHEST_PROTOCOL)
         self._sent = True
-        try:
-            _write_all(self._to_child, _LEN.pack(len(blob)) + blob)
-        except BrokenPipeError:
-            reply = b""
-        else:
-            reply = _read_all(self._from_child)
+        # a child that left: an answer it wrote before (an error) is still in the pipe
+        with contextlib.suppress(BrokenPipeError):
+            _send(self._to_child, message)
+        reply = _read_all(self._from_child)
+        if not self._ready and reply.startswith(_READY):
+            reply = reply[len(_READY) :]
         self.close()
         if reply.startswith(b"error\n"):
             raise pickle.loads(reply[6:])  # the drawing's own exception (an OSError: disk full)
@@ -115,8 +171,9 @@ class PlotWorker:
 
     def close(self) -> None:
         """Close the pipe and reap the child: it leaves at end-of-file, or at once (SIGKILL)
-        when it was given nothing to draw (a run that failed first, a family whose plots are
-        drawn elsewhere): its import is of no use then, and an error is not kept waiting."""
+        when it was given no whole job (a run that failed first, a file the review refused,
+        a family whose plots are drawn elsewhere): its work is of no use then, and an error
+        is not kept waiting."""
         if self._closed:
             return
         self._closed = True
@@ -141,7 +198,7 @@ class PlotWorker:
 
 
 def _serve(job_r: int, res_w: int) -> None:
-    """The child's whole life: import, wait for one job, draw it, answer, leave."""
+    """The child's whole life: import, say so, take one job, draw it, answer, leave."""
     code = 0
     try:
         # the launcher handles these (a terminal's Ctrl-C or hang-up reaches the whole
@@ -158,20 +215,60 @@ def _serve(job_r: int, res_w: int) -> None:
         # few cycles die with the process, so the collector has nothing to do here (its
         # passes over the imported modules cost the drawing tens of milliseconds).
         gc.disable()
-        head = _read_exact(job_r, _LEN.size)
-        if head is not None:
-            blob = _read_exact(job_r, _LEN.unpack(head)[0])
-            if blob is not None:
-                data, out_dir = pickle.loads(blob)  # our own parent's pickle
-                try:
-                    files = plots.write_plots(data, out_dir)
-                    _write_all(res_w, b"ok\n" + "\n".join(str(f) for f in files).encode())
-                except Exception as exc:  # raised again in the parent, as it was here
-                    _write_all(res_w, b"error\n" + _picklable(exc))
+        _write_all(res_w, _READY)
+        job = _job_of(plots, _receive(job_r), job_r)
+        if isinstance(job, Exception):
+            _write_all(res_w, b"error\n" + _picklable(job))
+        elif job is not None:
+            data, out_dir = job
+            try:
+                files = plots.write_plots(data, out_dir)
+                _write_all(res_w, b"ok\n" + "\n".join(str(f) for f in files).encode())
+            except Exception as exc:  # raised again in the parent, as it was here
+                _write_all(res_w, b"error\n" + _picklable(exc))
     except BaseException:  # the parent sees the exit status
         code = 1
     finally:
         os._exit(code)
+
+
+def _job_of(plots: Any, message: tuple[Any, ...] | None, job_r: int) -> Any:
+    """The data to draw and the folder, from the parent's message(s); None: nothing to do
+    (end-of-file: the parent stopped); an exception: reading the file failed (answered once
+    the summary comes, as the drawing's own error would be)."""
+    if message is None:
+        return None
+    if message[0] == "draw":
+        return message[1], message[2]
+    _, mcap_path, counts = message  # "gather": read the file now, draw once the summary comes
+    try:
+        data = plots.gather_file(mcap_path, counts)
+    except Exception as exc:  # the parent raises it after its own pass
+        failed: Exception | None = exc
+    else:
+        failed = None
+    summary = _receive(job_r)
+    if summary is None:  # the review refused the file or stopped: nothing is written
+        return None
+    if failed is not None:
+        return failed
+    data.finish(summary[1])
+    return data, summary[2]
+
+
+def _send(fd: int, message: tuple[Any, ...]) -> None:
+    """One message: its length, then its pickle."""
+    blob = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    _write_all(fd, _LEN.pack(len(blob)) + blob)
+
+
+def _receive(fd: int) -> tuple[Any, ...] | None:
+    """One message (:func:`_send`) from our own parent; None at end-of-file."""
+    head = _read_exact(fd, _LEN.size)
+    if head is None:
+        return None
+    blob = _read_exact(fd, _LEN.unpack(head)[0])
+    return None if blob is None else pickle.loads(blob)  # our own parent's pickle
 
 
 def _name_process(name: bytes) -> None:

@@ -44,7 +44,7 @@ import numpy.typing as npt
 
 from bus_schemas.messages import EST_FEEDFORWARD, EST_WAVE_FORECAST, VALID_BITS
 from hil.review.core import _scenario_of, scenario_period_s
-from hil.runlog.columns import ColumnBatch, suffix_of
+from hil.runlog.columns import ColumnBatch, ColumnReader, suffix_of
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -633,6 +633,18 @@ def collect(
         by_suffix.setdefault(suffix_of(topic), n)
     data = PlotData(by_suffix, summary, metadata)
     for batch in batches:
+        data.feed(batch)
+    return data
+
+
+def gather_file(mcap_path: Path, counts: Mapping[str, int]) -> PlotData:
+    """The plots' data of a complete run log, read chunk by chunk in a pass of its own (the
+    plot worker's, beside the review's pass for the summary: :mod:`hil.review.plot_worker`);
+    ``counts`` per topic suffix (:func:`logged_counts`). The KPI window of the spectra is
+    found as the review finds it; :meth:`PlotData.finish` takes the summary before drawing."""
+    reader = ColumnReader(mcap_path, PLOT_FIELDS)
+    data = PlotData(counts, None, reader.info.metadata)
+    for batch in reader.batches():
         data.feed(batch)
     return data
 
