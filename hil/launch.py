@@ -68,6 +68,7 @@ import gc
 import json
 import math
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -217,28 +218,44 @@ ABORT_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 class AbortSignals:
     """Context manager catching :data:`ABORT_SIGNALS` while a run goes on.
 
-    The handler only records the signal and sets :attr:`event`; the launcher's loops look
-    at it and stop the run in order (children first, then the file, then the review). The
-    handlers are installed in the main thread only (Python's rule): elsewhere, e.g. a
-    campaign's worker thread, this does nothing. The previous handlers come back on exit.
+    The handler only records the signal and writes a byte to a pipe of its own; the
+    launcher's loops look at it (:meth:`is_set`, :meth:`wait`) and stop the run in order
+    (children first, then the file, then the review). The handler takes no lock: a Python
+    handler runs in the main thread between two bytecodes, wherever that thread is, so one
+    that set a :class:`threading.Event` would wait for ever on the event's lock when the
+    main thread held it (inside ``Event.wait``, or inside a first handler when a second
+    signal comes), as :mod:`hil.nodes.signals` explains for the nodes. The handlers are
+    installed in the main thread only (Python's rule): elsewhere, e.g. a campaign's worker
+    thread, this does nothing. The previous handlers come back on exit.
 
     Attributes
     ----------
-    event : threading.Event
-        Set by the first signal.
     signum : int or None
         The first signal received.
     """
 
     def __init__(self) -> None:
-        self.event = threading.Event()
         self.signum: int | None = None
         self._previous: dict[int, Any] = {}
+        self._read, self._write = os.pipe()
+        os.set_blocking(self._write, False)  # a handler must never block on a full pipe
 
     def _on_signal(self, signum: int, _frame: Any) -> None:
         if self.signum is None:
             self.signum = signum
-        self.event.set()
+        with contextlib.suppress(OSError):  # full: a byte is waiting already
+            os.write(self._write, b"\0")
+
+    def is_set(self) -> bool:
+        """Whether a signal came (the in-process loop's stop test)."""
+        return self.signum is not None
+
+    def wait(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for a signal (woken at once by one); whether one came."""
+        if self.signum is None:
+            with contextlib.suppress(InterruptedError):
+                select.select([self._read], [], [], timeout_s)
+        return self.signum is not None
 
     def __enter__(self) -> AbortSignals:
         if threading.current_thread() is threading.main_thread():
@@ -250,6 +267,8 @@ class AbortSignals:
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
         self._previous.clear()
+        os.close(self._read)
+        os.close(self._write)
 
     def check(self, sim_s: float | None = None, started: bool = True) -> None:
         """Raise :class:`RunAbortedError` if a signal came."""
@@ -775,7 +794,7 @@ def _run_inprocess(
                 loop=loop,
                 publish_block=log.publish_block,
                 published=log.published,  # the plant's report follows its final summary
-                stop=abort.event if abort is not None else None,
+                stop=abort,
                 progress=progress,
             )
             marks["loop_end"] = time.monotonic()
@@ -947,7 +966,7 @@ def _launch_in_netns(
     try:
         passed_on = False
         while child.poll() is None:
-            if abort is not None and abort.event.wait(0.2) and not passed_on:
+            if abort is not None and abort.wait(0.2) and not passed_on:
                 child.send_signal(signal.SIGTERM)  # `exec` made the launcher unshare's pid
                 passed_on = True
             elif abort is None:
@@ -1437,7 +1456,7 @@ def _follow(
                 if driver is not None:
                     driver.due.wait(driver.wait_s(0.1))
                 elif abort is not None:
-                    abort.event.wait(0.1)
+                    abort.wait(0.1)
                 else:
                     time.sleep(0.1)
             # The plant's last running summary may precede its end by up to a second: a

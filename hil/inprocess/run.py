@@ -9,10 +9,9 @@ not depend on the compiled in-process loop (and the loop only on the node's plan
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable, Mapping
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
@@ -70,6 +69,15 @@ class Progress:
         )
 
 
+class StopFlag(Protocol):
+    """What ends a run early when set: a :class:`threading.Event`, or the launcher's
+    :class:`hil.launch.AbortSignals` (set by a signal handler that takes no lock)."""
+
+    def is_set(self) -> bool:
+        """Whether the run should stop before its next cycle."""
+        ...
+
+
 def run_inprocess(
     scenario: Scenario,
     publish: Publish,
@@ -81,7 +89,7 @@ def run_inprocess(
     loop: Literal["auto", "compiled", "python"] = "auto",
     publish_block: Callable[[np.ndarray, dict[int, np.ndarray]], None] | None = None,
     published: Callable[[], Mapping[str, int]] | None = None,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
     initial: InitialCondition | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> PlantRunResult:
