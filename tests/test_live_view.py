@@ -217,7 +217,7 @@ def test_lockstep_run_live_view_equals_the_run_log(tmp_path: Path) -> None:
     # Read-only: no capability (client publishing, services, parameters) announced.
     assert client.server_info["capabilities"] == []
     topics = {ch["topic"]: ch for ch in client.channels.values()}
-    assert topics["/tf"]["schemaName"] == "foxglove.FrameTransform"
+    assert topics["/tf"]["schemaName"] == "foxglove.FrameTransforms"
     assert topics["/scene"]["schemaName"] == "foxglove.SceneUpdate"
     assert client.received.get("/tf") and client.received.get("/scene")
 

@@ -161,27 +161,30 @@ def transforms(
     heave_m: float,
     pitch_rad: float,
     azimuth_rad: float,
-) -> list[Any]:
-    """The ``world -> platform`` and ``platform -> rotor`` ``foxglove.FrameTransform``\\ s."""
-    from foxglove.messages import FrameTransform, Vector3  # noqa: PLC0415
+) -> Any:
+    """The ``world -> platform`` and ``platform -> rotor`` transforms of one sample, one
+    ``foxglove.FrameTransforms`` message."""
+    from foxglove.messages import FrameTransform, FrameTransforms, Vector3  # noqa: PLC0415
 
     ts = _stamp(unix_ns)
-    return [
-        FrameTransform(
-            timestamp=ts,
-            parent_frame_id="world",
-            child_frame_id="platform",
-            translation=Vector3(x=surge_m, y=0.0, z=heave_m),
-            rotation=_quat_y(pitch_rad),
-        ),
-        FrameTransform(
-            timestamp=ts,
-            parent_frame_id="platform",
-            child_frame_id="rotor",
-            translation=Vector3(x=0.0, y=0.0, z=geometry.hub_height_m),
-            rotation=_quat_x(azimuth_rad),
-        ),
-    ]
+    return FrameTransforms(
+        transforms=[
+            FrameTransform(
+                timestamp=ts,
+                parent_frame_id="world",
+                child_frame_id="platform",
+                translation=Vector3(x=surge_m, y=0.0, z=heave_m),
+                rotation=_quat_y(pitch_rad),
+            ),
+            FrameTransform(
+                timestamp=ts,
+                parent_frame_id="platform",
+                child_frame_id="rotor",
+                translation=Vector3(x=0.0, y=0.0, z=geometry.hub_height_m),
+                rotation=_quat_x(azimuth_rad),
+            ),
+        ]
+    )
 
 
 def scene(geometry: TurbineGeometry, unix_ns: int) -> Any:

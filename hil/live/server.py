@@ -4,10 +4,12 @@ Channels: one per registered message (:data:`bus_schemas.registry.MESSAGES`), to
 and encoding exactly as in the run log (:meth:`hil.runlog.mcap_io.RunLog.add_channel`: the
 ``ros2msg`` definition of :func:`bus_schemas.ros2.msgdef` named :func:`bus_schemas.ros2.
 schema_name`, ``cdr`` payloads of :func:`bus_schemas.ros2.encode_rows`), so a Foxglove layout
-works on the live view and on the file alike; plus ``/tf`` (``foxglove.FrameTransform``:
-:func:`hil.live.scene.transforms`, one pair per truth message) and ``/scene``
-(``foxglove.SceneUpdate``, :func:`hil.live.scene.scene`, sent to each client as it subscribes
-and once a second).
+works on the live view and on the file alike; plus ``/tf`` (``foxglove.FrameTransforms``:
+:func:`hil.live.scene.transforms`, the pair ``world -> platform`` and ``platform -> rotor`` in
+one message per truth message, so ``/tf`` runs at the control rate: a viewer such as
+Lichtblick warns of topics above 60 Hz) and ``/scene`` (``foxglove.SceneUpdate``,
+:func:`hil.live.scene.scene`, from the first transform on: sent to each client as it
+subscribes and once a second; its entities sit in frames only ``/tf`` places).
 
 Read-only: no capability is announced (no client publishing, services, parameters, time or
 playback control), and the server binds to 127.0.0.1 only.
@@ -111,7 +113,7 @@ class LiveServer:
         schemas: dict[str, tuple[str, str]] | None = None,
     ) -> None:
         import foxglove  # noqa: PLC0415
-        from foxglove.channels import FrameTransformChannel, SceneUpdateChannel  # noqa: PLC0415
+        from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel  # noqa: PLC0415
         from foxglove.websocket import ServerListener  # noqa: PLC0415
 
         self.turbine = turbine
@@ -128,7 +130,7 @@ class LiveServer:
                 topic, schema=schema, message_encoding="cdr", context=self._context, metadata=meta
             )
             self._channels[topic] = (ch, mt)
-        self._tf = FrameTransformChannel("/tf", context=self._context)
+        self._tf = FrameTransformsChannel("/tf", context=self._context)
         self._scene = SceneUpdateChannel("/scene", context=self._context)
         self._truth_topic = f"fowt/{turbine}/truth"
         self._azimuth = Azimuth()
@@ -138,6 +140,7 @@ class LiveServer:
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._last_scene = 0.0
+        self._placed = False  # a transform was published (the scene may follow)
         self._outbox = _OutboxCounter()
         outbox_log = logging.getLogger(_OUTBOX_LOGGER)
         outbox_log.addHandler(self._outbox)
@@ -148,7 +151,7 @@ class LiveServer:
             def on_subscribe(self, client: Any, channel: Any) -> None:
                 server_self._clients.add(int(client.id))
                 server_self.stats.clients = len(server_self._clients)
-                if channel.topic == "/scene":
+                if channel.topic == "/scene" and server_self._placed:
                     server_self._send_scene()
 
         self._clients: set[int] = set()
@@ -218,8 +221,10 @@ class LiveServer:
         self, unix_ns: int, sample_ns: int, omega: float, surge: float, heave: float, pitch: float
     ) -> None:
         azimuth = self._azimuth.update(sample_ns, omega)
-        for tf in transforms(self.geometry, unix_ns, surge, heave, pitch, azimuth):
-            self._tf.log(tf, log_time=unix_ns)
+        self._tf.log(
+            transforms(self.geometry, unix_ns, surge, heave, pitch, azimuth), log_time=unix_ns
+        )
+        self._placed = True
 
     def _send_scene(self) -> None:
         with self._lock:
@@ -227,7 +232,7 @@ class LiveServer:
             self._last_scene = time.monotonic()
 
     def _maybe_scene(self) -> None:
-        if time.monotonic() - self._last_scene >= SCENE_PERIOD_S:
+        if self._placed and time.monotonic() - self._last_scene >= SCENE_PERIOD_S:
             self._send_scene()
 
     def _run(self) -> None:
