@@ -392,25 +392,18 @@ out["doomed_same"] = all((tmp / "here" / n).read_bytes() == (tmp / "doomed" / n)
 real = plots.write_plots
 def full(data, out_dir):
     raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "timeseries.png"))
-plots.write_plots = full
-failing = PlotWorker.start()  # the child has the failing drawing
-plots.write_plots = real
-try:
-    core.review(path, tmp / "full", plots=True, worker=failing)
-    out["error"] = None
-except OSError as exc:
-    out["error"] = [type(exc).__name__, exc.errno, exc.filename]
-failing.close()
-plots.write_plots = full
-failing = PlotWorker.start()  # the same, where it read the file itself
-plots.write_plots = real
-ready(failing)
-try:
-    core.review(path, tmp / "full", plots=True, worker=failing)
-    out["gathered_error"] = None
-except OSError as exc:
-    out["gathered_error"] = [type(exc).__name__, exc.errno, exc.filename]
-failing.close()
+for key, wait in (("error", False), ("gathered_error", True)):  # handed the data; read the file
+    plots.write_plots = full
+    failing = PlotWorker.start()  # the child has the failing drawing
+    plots.write_plots = real
+    if wait:
+        ready(failing)
+    try:
+        core.review(path, tmp / "full", plots=True, worker=failing)
+        out[key] = None
+    except OSError as exc:
+        out[key] = [type(exc).__name__, exc.errno, exc.filename]
+    failing.close()
 # its name; the signals a terminal sends the whole group do not end it (the launcher still
 # wants its plots); killed from outside, the review draws in its own process instead
 def alive(p):

@@ -45,18 +45,23 @@ CHILD = textwrap.dedent(
 )
 
 
-def test_a_signal_while_the_main_thread_holds_the_events_lock_still_stops_the_node() -> None:
+def _child(code: str) -> str:
+    """What ``code`` printed, run in a fresh interpreter that must exit 0."""
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD],
+        [sys.executable, "-c", code],
         check=False,
         capture_output=True,
         text=True,
-        timeout=120,  # a bound on a hung child, not a timing assertion
+        timeout=240,  # a bound on a hung child, not a timing assertion
         cwd=REPO,
         env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert proc.stdout.strip() == "ok"
+    return proc.stdout
+
+
+def test_a_signal_while_the_main_thread_holds_the_events_lock_still_stops_the_node() -> None:
+    assert _child(CHILD).strip() == "ok"
 
 
 LAUNCHER = textwrap.dedent(
@@ -95,14 +100,4 @@ def test_the_launchers_abort_signals_keep_the_first_and_wake_its_waits() -> None
     """The launcher's :class:`hil.launch.AbortSignals`: two signals while the main thread
     holds a lock are both handled (the first one kept), ``wait`` returns at a signal from
     another process (not at its 600 s timeout), and the previous handlers come back."""
-    proc = subprocess.run(
-        [sys.executable, "-c", LAUNCHER],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=240,  # a bound on a hung child, not a timing assertion
-        cwd=REPO,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
-    )
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert proc.stdout.split() == ["RunAbortedError", "True", "True", "True", "ok"]
+    assert _child(LAUNCHER).split() == ["RunAbortedError", "True", "True", "True", "ok"]
