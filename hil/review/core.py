@@ -1238,8 +1238,7 @@ def review(
             from hil.hexicon import review as hexicon_review  # noqa: PLC0415
 
             files += hexicon_review.write_plots(run, out)
-        elif gathering:  # by the plot worker, in its own pass
-            assert worker is not None
+        elif gathering and worker is not None:  # by the plot worker, in its own pass
             files += _finish(worker, summary, out, mcap_path, reader.info)
         elif data is not None:  # gathered in the review's pass
             data.finish(summary)
