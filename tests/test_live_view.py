@@ -237,7 +237,9 @@ def test_lockstep_run_live_view_equals_the_run_log(tmp_path: Path) -> None:
     # The controller's statuses too (subscribed once the controller announced itself).
     assert len(got["fowt/t1/controller/status"]) > 0.5 * cycles
     live = json.loads((out / "live.json").read_text())
-    assert summary["run"]["live_view"] == live
+    in_summary = dict(summary["run"]["live_view"])
+    never = in_summary.pop("never_received")  # the log's messages the live view never got
+    assert in_summary == {**live, "dropped": live["dropped"] + never}
     assert live["dropped"] == 0 and live["rejected"] == {}
 
 
@@ -417,3 +419,37 @@ def test_shipped_layout_plots_fields_the_live_view_serves() -> None:
     (three_d,) = [c for k, c in layout["configById"].items() if k.startswith("3D!")]
     assert three_d["topics"]["/scene"]["visible"]
     assert set(three_d["transforms"]) == {"frame:world", "frame:platform", "frame:rotor"}
+
+
+def test_messages_that_never_reached_the_live_view_are_counted(tmp_path: Path) -> None:
+    """The recorder's last live batch, put as its session closes, has no batch after it to
+    show it missing: the launcher counts the run log's messages the live view neither offered
+    nor counted in a gap (``never_received``) among the viewers' drops."""
+    from rich.console import Console
+
+    from hil.launch import _live_summary
+
+    live = {"port": 1, "offered": 90, "published": 90, "dropped": 7, "lost_in_feed": 5,
+            "outbox_full": 0, "clients": 1, "rejected": {}, "stop_waited": False}  # fmt: skip
+    (tmp_path / "live.json").write_text(json.dumps(live))
+    topics = {"truth": {"recorded": 60, "expected": 60}, "command": {"recorded": 40}}
+    summary: dict[str, Any] = {"recording": {"topics": topics}}
+    console = Console(record=True, width=200)
+    _live_summary(summary, tmp_path, console)
+    got = summary["run"]["live_view"]
+    assert got["never_received"] == 100 - 90 - 5
+    assert got["dropped"] == 7 + 5
+    assert "12 dropped for the viewers" in console.export_text()
+    # every message accounted for: nothing more
+    live.update(offered=95)
+    (tmp_path / "live.json").write_text(json.dumps(live))
+    summary = {"recording": {"topics": topics}}
+    _live_summary(summary, tmp_path, console)
+    assert summary["run"]["live_view"]["never_received"] == 0
+    assert summary["run"]["live_view"]["dropped"] == 7
+    # no live.json: said so, nothing computed
+    (tmp_path / "live.json").unlink()
+    summary = {"recording": {"topics": topics}}
+    _live_summary(summary, tmp_path, console)
+    assert "error" in summary["run"]["live_view"]
+    assert "never_received" not in summary["run"]["live_view"]

@@ -138,7 +138,9 @@ class LiveFeed:
     def stats(self) -> LiveStats:
         """The server's counts plus this feed's losses and rejections."""
         s = self.server.stats
-        return dataclasses.replace(s, dropped=s.dropped + self.lost, rejected=dict(self.rejected))
+        return dataclasses.replace(
+            s, dropped=s.dropped + self.lost, rejected=dict(self.rejected), lost_in_feed=self.lost
+        )
 
 
 def live_node_command(

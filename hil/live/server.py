@@ -78,6 +78,8 @@ class LiveStats:
     rejected: dict[str, int] = field(default_factory=dict)
     #: The server had not stopped after STOP_WAIT_S (a viewer held its socket open).
     stop_waited: bool = False
+    #: Of ``dropped``: messages of batches lost on the way from the recorder (index gaps).
+    lost_in_feed: int = 0
 
 
 class LiveServer:
