@@ -826,6 +826,12 @@ TRIM_EKF_DT_S = 0.025
 _WARM_FRAME = SensorFrame(0, 0, 0, 0, *(0.0,) * len(SensorFrame.__struct_fields__[4:]))
 
 
+def _warm_step_s(operating_point: OperatingPoint) -> float:
+    """The period [s] of a step on the point's steady frame: the run's control period
+    (the speed filter's steady state depends on it), else :data:`TRIM_EKF_DT_S`."""
+    return operating_point.control_period_s or TRIM_EKF_DT_S
+
+
 class BaselineController:
     """NREL-style baseline torque + gain-scheduled collective-pitch PI controller.
 
@@ -1069,7 +1075,7 @@ class BaselineController:
             None.
         """
         state, frame = self.trimmed_estimator_state(operating_point)
-        return self.step(state, frame, operating_point.control_period_s or TRIM_EKF_DT_S)[0]
+        return self.step(state, frame, _warm_step_s(operating_point))[0]
 
     def trimmed_estimator_state(
         self, operating_point: OperatingPoint
@@ -1101,8 +1107,7 @@ class BaselineController:
             state = BaselineState(values, True)
         if torque is None:  # the law's own torque at the point (K omega^2, the region-2.5 PI)
             zero = op.steady_frame(gearbox_ratio=p.gearbox_ratio, generator_torque_nm=0.0)
-            h = op.control_period_s or TRIM_EKF_DT_S
-            torque = self.step(state, zero, h)[1].generator_torque_commanded_nm
+            torque = self.step(state, zero, _warm_step_s(op))[1].generator_torque_commanded_nm
         frame = op.steady_frame(
             gearbox_ratio=p.gearbox_ratio,
             generator_torque_nm=torque,

@@ -216,7 +216,7 @@ def _serve(job_r: int, res_w: int) -> None:
         # passes over the imported modules cost the drawing tens of milliseconds).
         gc.disable()
         _write_all(res_w, _READY)
-        job = _job_of(plots, _receive(job_r), job_r)
+        job = _job_of(_receive(job_r), job_r)
         if isinstance(job, Exception):
             _write_all(res_w, b"error\n" + _picklable(job))
         elif job is not None:
@@ -232,7 +232,7 @@ def _serve(job_r: int, res_w: int) -> None:
         os._exit(code)
 
 
-def _job_of(plots: Any, message: tuple[Any, ...] | None, job_r: int) -> Any:
+def _job_of(message: tuple[Any, ...] | None, job_r: int) -> Any:
     """The data to draw and the folder, from the parent's message(s); None: nothing to do
     (end-of-file: the parent stopped); an exception: reading the file failed (answered once
     the summary comes, as the drawing's own error would be)."""
@@ -240,6 +240,8 @@ def _job_of(plots: Any, message: tuple[Any, ...] | None, job_r: int) -> Any:
         return None
     if message[0] == "draw":
         return message[1], message[2]
+    from hil.review import plots  # noqa: PLC0415 - imported by the child already (_serve)
+
     _, mcap_path, counts = message  # "gather": read the file now, draw once the summary comes
     try:
         data = plots.gather_file(mcap_path, counts)
