@@ -1,5 +1,5 @@
 """``python -m hil``: the ``fowt`` command."""
 
-from hil.cli.fowt import main
+from hil.cli.fowt import entry
 
-main()
+entry()

@@ -390,7 +390,7 @@ out["doomed_same"] = all((tmp / "here" / n).read_bytes() == (tmp / "doomed" / n)
                          for n in plots.PLOT_FILES)
 # a drawing that fails in the child: the parent raises the child's exception
 real = plots.write_plots
-def full(data, out_dir):
+def full(data, out_dir, blank=None):
     raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "timeseries.png"))
 for key, wait in (("error", False), ("gathered_error", True)):  # handed the data; read the file
     plots.write_plots = full

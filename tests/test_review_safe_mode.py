@@ -206,10 +206,11 @@ def test_timeseries_marks_both_windows_and_the_feedforward(tmp_path: Path) -> No
     original = plt.Figure.savefig
 
     def spy(fig: Any, fname: Any, *args: Any, **kwargs: Any) -> None:
-        if Path(fname).name == "timeseries.png":
-            seen["labels"] = [
+        if Path(fname).name == "timeseries.png":  # legends drawn as plain figure texts
+            seen["labels"] = [t.get_text() for t in fig.texts] + [
                 t.get_text() for a in fig.axes if a.get_legend() for t in a.get_legend().texts
             ]
+            seen["hatched keys"] = [getattr(a, "get_hatch", str)() for a in fig.artists]
         original(fig, fname, *args, **kwargs)
 
     plt.Figure.savefig = spy  # type: ignore[method-assign]
@@ -221,3 +222,5 @@ def test_timeseries_marks_both_windows_and_the_feedforward(tmp_path: Path) -> No
     assert labels.count("plant safe state") == 1
     assert labels.count("controller safe mode") == 1
     assert labels.count("feedforward on (t = 6.0 s)") == 1
+    hatched = [h for h in seen["hatched keys"] if h]
+    assert hatched == ["//"]  # the safe mode's key is hatched as its windows

@@ -216,13 +216,14 @@ def _serve(job_r: int, res_w: int) -> None:
         # passes over the imported modules cost the drawing tens of milliseconds).
         gc.disable()
         _write_all(res_w, _READY)
+        blank = plots.blank_figures()  # while the run goes (a job waits in the pipe)
         job = _job_of(_receive(job_r), job_r)
         if isinstance(job, Exception):
             _write_all(res_w, b"error\n" + _picklable(job))
         elif job is not None:
             data, out_dir = job
             try:
-                files = plots.write_plots(data, out_dir)
+                files = plots.write_plots(data, out_dir, blank)
                 _write_all(res_w, b"ok\n" + "\n".join(str(f) for f in files).encode())
             except Exception as exc:  # raised again in the parent, as it was here
                 _write_all(res_w, b"error\n" + _picklable(exc))

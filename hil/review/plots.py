@@ -37,7 +37,7 @@ import itertools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -50,6 +50,7 @@ FloatArray = npt.NDArray[np.float64]
 
 __all__ = [
     "DRAW_COLUMNS",
+    "LAYOUTS",
     "MAX_POINTS",
     "PLOT_FIELDS",
     "PLOT_FILES",
@@ -57,6 +58,7 @@ __all__ = [
     "PlotData",
     "Spans",
     "StreamingWelch",
+    "blank_figures",
     "platform_periods_s",
     "psd_segment",
     "spectral_marks",
@@ -116,6 +118,18 @@ _SPECTRA: tuple[tuple[str, str, float, str], ...] = (
     ("platform pitch", "platform_pitch_rad", 180.0 / math.pi, "deg²/Hz"),
     ("tower-base fore-aft moment", "tower_base_moment_nm", 1e-6, "(MN m)²/Hz"),
 )
+#: Each figure's size [in], panels (stacked) and margins [figure fractions]: fixed, so the
+#: empty figures can be made before the data comes (:func:`blank_figures`).
+LAYOUTS: dict[str, tuple[float, float, int, tuple[tuple[str, float], ...]]] = {
+    "timeseries": (13, 18, len(_PANELS), (("left", 0.075), ("right", 0.8), ("top", 0.965),
+                                          ("bottom", 0.035), ("hspace", 0.12))),
+    "timing": (12, 8, 2, (("left", 0.08), ("right", 0.72), ("top", 0.94), ("bottom", 0.08),
+                          ("hspace", 0.35))),
+    "psd": (12, 12, len(_SPECTRA), (("left", 0.09), ("right", 0.75), ("top", 0.92),
+                                    ("bottom", 0.05))),
+}  # fmt: skip
+#: A figure and its panels (matplotlib's Figure and an array of Axes).
+Blank: TypeAlias = tuple[Any, Any]
 _TRUTH_FIELDS = (
     *(p[1] for p in _PANELS),
     "wave_elevation_gauge_m",
@@ -652,8 +666,11 @@ def gather_file(mcap_path: Path, counts: Mapping[str, int]) -> PlotData:
 # --------------------------------------------------------------------------- drawing
 
 
-def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
-    """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``.
+def write_plots(
+    data: PlotData, out_dir: Path, blank: Mapping[str, Blank] | None = None
+) -> list[Path]:
+    """Write ``timeseries.png``, ``timing.png`` and ``psd.png`` into ``out_dir``, on the
+    empty figures ``blank`` (:func:`blank_figures`, made ahead) where given.
 
     Drawn on :class:`matplotlib.figure.Figure` objects saved with the Agg renderer (no
     pyplot, no backend selected: nothing global changes for importers), the time series in
@@ -688,11 +705,19 @@ def write_plots(data: PlotData, out_dir: Path) -> list[Path]:
     label = data.label()
     written = [out_dir / name for name in PLOT_FILES]
 
-    def timing_and_spectra() -> None:
-        _timing_plot(data, label, written[1])
-        _psd_plot(data, label, written[2])
+    ready = dict(blank or {})
 
-    _in_two_processes(lambda: _timeseries_plot(data, label, written[0]), timing_and_spectra)
+    def figure(name: str) -> Blank:
+        return ready.pop(name, None) or _figure(name)
+
+    def timing_and_spectra() -> None:
+        _timing_plot(data, label, written[1], figure("timing"))
+        _psd_plot(data, label, written[2], figure("psd"))
+
+    _in_two_processes(
+        lambda: _timeseries_plot(data, label, written[0], figure("timeseries")),
+        timing_and_spectra,
+    )
     return written
 
 
@@ -748,13 +773,24 @@ def _in_two_processes(first: Callable[[], object], second: Callable[[], object])
         )
 
 
-def _figure(width_in: float, height_in: float, rows: int, **margins: float) -> tuple[Any, Any]:
-    """A figure of ``rows`` panels sharing nothing, with fixed margins (fractions)."""
+def blank_figures() -> dict[str, Blank]:
+    """The three figures, empty (:data:`LAYOUTS`), for :func:`write_plots`.
+
+    Their panels are about a tenth of the drawing (0.03 s of the time series'); the plot
+    worker (:mod:`hil.review.plot_worker`) makes them while the run goes, before its data
+    comes. Each is drawn on once.
+    """
+    return {name: _figure(name) for name in LAYOUTS}
+
+
+def _figure(name: str) -> Blank:
+    """The empty figure ``name`` of :data:`LAYOUTS`: its panels stacked, sharing nothing."""
     # Lazy: matplotlib is imported only by a review that draws.
     from matplotlib.figure import Figure  # noqa: PLC0415
 
+    width_in, height_in, rows, margins = LAYOUTS[name]
     fig = Figure(figsize=(width_in, height_in))
-    axes = fig.subplots(rows, 1, squeeze=False, gridspec_kw=margins)[:, 0]
+    axes = fig.subplots(rows, 1, squeeze=False, gridspec_kw=dict(margins))[:, 0]
     return fig, axes
 
 
@@ -899,18 +935,95 @@ def _few_ticks(axes: Sequence[Any]) -> None:
         a.yaxis.set_major_locator(MaxNLocator(nbins=5))
 
 
-def _legend_outside(ax: Any, **kw: Any) -> None:
-    """The panel's legend to its right, in the figure's right margin (never over data)."""
-    ax.legend(
-        loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize="small", **kw
-    )
+#: The plain legend's geometry [font sizes] (matplotlib's legend defaults): the key's
+#: length, the gap from key to text, a row's height (a line and the spacing between rows),
+#: the space above the first row, and the key's half-height of a shaded span.
+_KEY_EM, _KEY_GAP_EM, _ROW_EM, _TOP_EM, _SPAN_EM = 2.0, 0.8, 1.5, 0.4, 0.35
+
+
+def _legend_outside(ax: Any, title: str | None = None) -> None:
+    """The panel's legend to its right, in the figure's right margin (never over data).
+
+    Drawn as plain figure artists, a key and a text per entry placed from the panel's
+    top-right corner, where every entry is a line (a plotted line, a step line, marks, a
+    collection of lines) or a shaded span: matplotlib's legend lays its entries out as
+    nested boxes and measures each of their texts again at every draw, a sixth of the time
+    series' drawing (eight legends). The margin holds no data, so there is no frame. Any
+    other entry (a histogram's filled steps) gets matplotlib's legend, placed the same way.
+    """
+    from matplotlib.collections import LineCollection, PolyCollection  # noqa: PLC0415
+    from matplotlib.lines import Line2D  # noqa: PLC0415 - drawing only
+
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return
+    if not all(isinstance(h, Line2D | LineCollection | PolyCollection) for h in handles):
+        ax.legend(
+            loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize="small",
+            title=title,
+        )  # fmt: skip
+        return
+    fig = ax.figure
+    em = _font_pt("small") / 72.0  # [in]
+    box = ax.get_position()
+    x0 = (box.x1 + 0.01 * box.width) * fig.get_figwidth()  # [in], as bbox_to_anchor 1.01
+    y = box.y1 * fig.get_figheight() - _TOP_EM * em
+    rows = ([(None, title)] if title else []) + list(zip(handles, labels, strict=True))
+    for handle, text in rows:
+        y -= 0.5 * _ROW_EM * em
+        if handle is None:  # the title, over the keys
+            fig.text(x0, y, text, transform=fig.dpi_scale_trans, fontsize="small", va="center")
+        else:
+            for key in _legend_keys(handle, x0, x0 + _KEY_EM * em, y, _SPAN_EM * em):
+                key.set_transform(fig.dpi_scale_trans)
+                fig.add_artist(key)
+            fig.text(x0 + (_KEY_EM + _KEY_GAP_EM) * em, y, text, transform=fig.dpi_scale_trans,
+                     fontsize="small", va="center")  # fmt: skip
+        y -= 0.5 * _ROW_EM * em
+
+
+def _legend_keys(handle: Any, x0: float, x1: float, y: float, half: float) -> list[Any]:
+    """The key artists of a legend entry for ``handle`` between ``x0`` and ``x1`` at height
+    ``y`` [in] (a span's key ``half`` high): its line, its mark at the middle, or its shade."""
+    import matplotlib as mpl  # noqa: PLC0415 - drawing only
+    from matplotlib.collections import LineCollection  # noqa: PLC0415
+    from matplotlib.lines import Line2D  # noqa: PLC0415
+    from matplotlib.patches import Rectangle  # noqa: PLC0415
+
+    if isinstance(handle, Line2D):
+        keys = []
+        if handle.get_linestyle() not in ("None", " ", ""):
+            keys.append(Line2D([x0, x1], [y, y], color=handle.get_color(),
+                               linestyle=handle.get_linestyle(), alpha=handle.get_alpha(),
+                               linewidth=handle.get_linewidth()))  # fmt: skip
+        if handle.get_marker() not in (None, "None", " ", ""):
+            keys.append(Line2D([0.5 * (x0 + x1)], [y], linestyle="None", marker=handle.get_marker(),
+                               markersize=handle.get_markersize(), color=handle.get_color(),
+                               markerfacecolor=handle.get_markerfacecolor(),
+                               markeredgecolor=handle.get_markeredgecolor(),
+                               alpha=handle.get_alpha()))  # fmt: skip
+        return keys
+    if isinstance(handle, LineCollection):
+        lines: Any = handle  # its getters return per-line arrays (the stubs say otherwise)
+        width = float(lines.get_linewidths()[0])
+        offset, dashes = lines.get_linestyles()[0]
+        if dashes is not None and mpl.rcParams["lines.scale_dashes"] and width > 0:
+            dashes = [d / width for d in dashes]  # the collection's are scaled by its width
+        style: Any = "solid" if dashes is None else (offset, dashes)
+        return [Line2D([x0, x1], [y, y], color=lines.get_colors()[0], linewidth=width,
+                       linestyle=style, alpha=lines.get_alpha())]  # fmt: skip
+    face, edge = handle.get_facecolor(), handle.get_edgecolor()  # a PolyCollection
+    return [Rectangle((x0, y - half), x1 - x0, 2.0 * half,
+                      facecolor=face[0] if len(face) else "none",
+                      edgecolor=edge[0] if len(edge) else "none",
+                      hatch=handle.get_hatch(), linewidth=0.0)]  # fmt: skip
 
 
 def _no_data(ax: Any, text: str = "no data") -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
-def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
+def _timeseries_plot(data: PlotData, label: str, path: Path, blank: Blank) -> None:
     truth, sensors, command = (data.series[k] for k in ("truth", "sensors", "command"))
     has = {k: k in data.seen for k in ("truth", "sensors", "command")}
     tt, ts, tc = truth.get("t"), sensors.get("t"), command.get("t")
@@ -918,9 +1031,7 @@ def _timeseries_plot(data: PlotData, label: str, path: Path) -> None:
     behind = {"lw": 0.7, "alpha": 0.6, "zorder": 1, "color": "0.45"}
     front = {"lw": 1.3, "zorder": 3}
     cmd_style = {"where": "post", "lw": 1.0, "ls": "--", "zorder": 4}
-    fig, axes = _figure(
-        13, 18, len(_PANELS), left=0.075, right=0.8, top=0.965, bottom=0.035, hspace=0.12
-    )
+    fig, axes = blank
     _few_ticks(axes)
     commanded = {
         "blade_pitch_rad": ("blade_pitch_commanded_rad", 180.0 / math.pi),
@@ -1052,7 +1163,7 @@ def _mark_safe_state_cycles(data: PlotData, timing: Mapping[str, Any], ax: Any) 
     _spans(ax, windows, label, color="tab:purple", alpha=0.18, zorder=0)
 
 
-def _timing_plot(data: PlotData, label: str, path: Path) -> None:
+def _timing_plot(data: PlotData, label: str, path: Path, blank: Blank) -> None:
     timing = data.summary.get("timing") or {}
     pct = timing.get("latency_us") or {}
     deadline = timing.get("deadline_us")
@@ -1060,7 +1171,7 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     unanswered = sum(int(u.size) for u in data.unanswered)
     late = np.concatenate(data.late) if data.late else np.zeros((0, 2))
     n_cycles = data.lat_n + unanswered
-    fig, (a0, a1) = _figure(12, 8, 2, left=0.08, right=0.72, top=0.94, bottom=0.08, hspace=0.35)
+    fig, (a0, a1) = blank
     mode = data.metadata.get("run", {}).get("mode", "")
     enforced = mode not in ("lockstep", "inprocess")
     dl_label = f"deadline {deadline:.0f} us" + ("" if enforced else f" (not enforced in {mode})")
@@ -1154,8 +1265,8 @@ def _timing_plot(data: PlotData, label: str, path: Path) -> None:
     _save(fig, path)
 
 
-def _psd_plot(data: PlotData, label: str, path: Path) -> None:
-    fig, axes = _figure(12, 12, len(_SPECTRA), left=0.09, right=0.75, top=0.92, bottom=0.05)
+def _psd_plot(data: PlotData, label: str, path: Path, blank: Blank) -> None:
+    fig, axes = blank
     title = f"{label}: power spectral densities"
     n = next(iter(data.welch.values())).n if data.welch else 0
     marks = spectral_marks(data.summary, data.metadata)
