@@ -199,6 +199,21 @@ class Code:
         """What the result records of it: its commit (paths are scrubbed by :func:`save`)."""
         return {"python": self.python, "root": str(self.root), "commit": commit(self.root)}
 
+    def write_bytecode(self) -> None:
+        """Write the checkout's bytecode, as its set-up does (``make setup``'s warm-up).
+
+        A fresh worktree has none, and where ``PYTHONDONTWRITEBYTECODE`` is set no command
+        writes it: each command would compile the bench's sources again, 0.2-0.3 s that a
+        set-up checkout never spends. Scripts that time whole commands call this first for
+        every side.
+        """
+        dirs = [str(self.root / p) for p in PACKAGES if (self.root / p).is_dir()]
+        subprocess.run([self.python, "-m", "compileall", "-q", *dirs], check=True,
+                       capture_output=True)  # fmt: skip
+
+
+#: The bench's own packages (what ``make setup`` writes the bytecode of).
+PACKAGES = ("bus_schemas", "plant", "sensors", "controller", "hil")
 
 #: This checkout, run by this interpreter.
 THIS = Code(sys.executable, ROOT)
