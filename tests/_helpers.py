@@ -41,6 +41,22 @@ speed_m_s = 10.0
 """
 
 
+def python_child(
+    code: str, *args: str, check: bool = False, timeout: float = 300.0
+) -> subprocess.CompletedProcess[str]:
+    """``python -c code args`` in a fresh interpreter on the repository, its output as text
+    (a clean environment: the repository on ``PYTHONPATH``, the system's ``PATH``)."""
+    return subprocess.run(
+        [sys.executable, "-c", code, *args],
+        check=check,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=REPO,
+        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin", "COLUMNS": "120"},
+    )
+
+
 def fowt(
     *args: str,
     timeout: float | None = 180.0,

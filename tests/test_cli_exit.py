@@ -9,12 +9,10 @@ with the interpreter's own exit is the reference.
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
-from _helpers import REPO
+from _helpers import python_child
 
 #: A child that sets a probe up, then runs ``fowt <argv>`` through ``how`` (entry or main).
 CHILD = textwrap.dedent(
@@ -53,15 +51,7 @@ def _fowt(tmp: Path, how: str, *argv: str, thread: bool = False) -> tuple[int, s
     """Exit code, stdout, stderr and the probes that ran, of ``fowt argv`` through ``how``."""
     probe = tmp / how
     probe.mkdir()
-    proc = subprocess.run(
-        [sys.executable, "-c", CHILD, how, str(probe), "thread" if thread else "-", *argv],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=REPO,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin", "COLUMNS": "120"},
-    )
+    proc = python_child(CHILD, how, str(probe), "thread" if thread else "-", *argv)
     ran = {p.name for p in probe.iterdir()}
     return proc.returncode, proc.stdout, proc.stderr, ran
 
@@ -94,14 +84,6 @@ def test_a_thread_still_running_is_waited_for(tmp_path: Path) -> None:
 
 def test_an_exit_with_a_message_is_the_interpreters(tmp_path: Path) -> None:
     child = "from hil.cli.fowt import _leave\n_leave(SystemExit('stopped: a message'))\n"
-    proc = subprocess.run(
-        [sys.executable, "-c", child],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=REPO,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
-    )
+    proc = python_child(child)
     assert proc.returncode == 1
     assert proc.stderr.strip().endswith("stopped: a message")

@@ -8,11 +8,9 @@ them, and a real use still gets the whole module.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import textwrap
 
-from _helpers import REPO
+from _helpers import python_child
 
 CHILD = textwrap.dedent(
     """
@@ -33,15 +31,7 @@ CHILD = textwrap.dedent(
 
 
 def test_numpys_unused_submodules_run_only_when_used() -> None:
-    proc = subprocess.run(
-        [sys.executable, "-c", CHILD],
-        check=True,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=REPO,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
-    )
+    proc = python_child(CHILD, check=True)
     got = json.loads(proc.stdout)
     assert got["executed_before_use"] == {"numpy.f2py": False, "numpy.testing": False}
     assert got["testing_loaded"]
