@@ -29,6 +29,11 @@ or from a first pass; the KPI window and the latency percentiles from the run's 
 (:func:`hil.review.core.summarize_batches`). A review of a complete file gathers the plots'
 data in its own pass (:meth:`PlotData.finish` takes the summary at the end; the spectra's
 window is then found as the review finds it), a file cut short in a second pass.
+
+Drawn with matplotlib's Agg renderer, but for two things written here because matplotlib's
+own are most of the drawing time of eight stacked panels: the ticks (:func:`_plain_ticks`)
+and the legends of lines and shaded spans (:func:`_legend_outside`), each a few plain
+artists instead of objects built and measured again at every draw.
 """
 
 from __future__ import annotations
