@@ -199,21 +199,42 @@ class Code:
         """What the result records of it: its commit (paths are scrubbed by :func:`save`)."""
         return {"python": self.python, "root": str(self.root), "commit": commit(self.root)}
 
-    def write_bytecode(self) -> None:
-        """Write the checkout's bytecode, as its set-up does (``make setup``'s warm-up).
+    def write_bytecode(self) -> bool:
+        """Write the checkout's bytecode with its own set-up's code (``make setup``'s
+        warm-up, ``hil.warmup.compile_bytecode``); False for a checkout whose set-up writes
+        none (left as its users have it).
 
         A fresh worktree has none, and where ``PYTHONDONTWRITEBYTECODE`` is set no command
         writes it: each command would compile the bench's sources again, 0.2-0.3 s that a
         set-up checkout never spends. Scripts that time whole commands call this first for
         every side.
         """
-        dirs = [str(self.root / p) for p in PACKAGES if (self.root / p).is_dir()]
-        subprocess.run([self.python, "-m", "compileall", "-q", *dirs], check=True,
-                       capture_output=True)  # fmt: skip
+        proc = subprocess.run(
+            [self.python, "-c", _WRITE_BYTECODE],
+            cwd=self.root,
+            env={**os.environ, "PYTHONPATH": str(self.root)},
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if proc.returncode == _NO_BYTECODE_STEP:
+            return False
+        if proc.returncode != 0:
+            raise SystemExit(f"writing {self.root}'s bytecode failed:\n{proc.stderr[-3000:]}")
+        return True
 
 
-#: The bench's own packages (what ``make setup`` writes the bytecode of).
-PACKAGES = ("bus_schemas", "plant", "sensors", "controller", "hil")
+#: Exit code of :data:`_WRITE_BYTECODE` for a checkout without the warm-up's bytecode step.
+_NO_BYTECODE_STEP = 3
+#: Run on a checkout (its root on ``PYTHONPATH``): its own set-up's bytecode step.
+_WRITE_BYTECODE = f"""
+import sys
+try:
+    from hil.warmup import compile_bytecode
+except ImportError as exc:
+    sys.exit({_NO_BYTECODE_STEP} if exc.name == "hil.warmup" else 1)
+sys.exit(0 if compile_bytecode() else 1)
+"""
 
 #: This checkout, run by this interpreter.
 THIS = Code(sys.executable, ROOT)

@@ -24,9 +24,10 @@ an older commit's worktree) the runs of the two alternate (ABBA, :func:`_common.
 and each side's medians and the ratio this / other of each median are saved: a ratio from one
 run on the same machine, whatever its load did meanwhile.
 
-Every side's bytecode is written first (:meth:`_common.Code.write_bytecode`), as each
-checkout's ``make setup`` does: a fresh worktree has none, and on a machine that sets
-``PYTHONDONTWRITEBYTECODE`` every command would otherwise compile the sources again.
+Every side's bytecode is written first by its own set-up's code
+(:meth:`_common.Code.write_bytecode`), as each checkout's ``make setup`` does: a fresh
+worktree has none, and on a machine that sets ``PYTHONDONTWRITEBYTECODE`` every command
+would otherwise compile the sources again. The result says which sides had it written.
 """
 
 from __future__ import annotations
@@ -108,9 +109,8 @@ def main() -> None:
     }
     if len(sides) > 1:
         result["code"] = {name: code.info() for name, code in sides.items()}
-    for code in sides.values():
-        code.write_bytecode()
-    result["bytecode"] = "written first on every side, as its make setup does"
+    # as each side's make setup does (a side whose set-up writes none is left so)
+    result["bytecode_written"] = {name: code.write_bytecode() for name, code in sides.items()}
     conditions = [("as_is", 0)] + ([(f"with_{args.hogs}_hogs", args.hogs)] if args.hogs else [])
     for label, hogs in conditions:
         procs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(hogs)]
